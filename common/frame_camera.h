@@ -1,0 +1,65 @@
+// The orthographic camera that bakes one atlas frame, and the pixel
+// rectangle (tile) it covers in the atlas. Everything a consumer needs to
+// rebuild a frame's camera is in the manifest's `views` list; this file is
+// the one place that derives those values.
+//
+// Camera of a frame with direction d (unit, sphere centre -> camera):
+//   up     = the world up (+Y) made orthogonal to d; for views within ~0.01
+//            degrees of straight up or down, up = -Z (looking down) or +Z
+//            (looking up).
+//   right  = cross(up, d)
+//   It sits at centre + d * radius looking at the centre; its view square is
+//   the sphere's diameter on a side, near plane at distance 0, far at 2r.
+// A point p lands at
+//   s = dot(p - c, right) / r, t = dot(p - c, up) / r   (both in [-1, 1])
+//   pixel x = tile.x + (s + 1) / 2 * tile.w
+//   pixel y = tile.y + (1 - t) / 2 * tile.h            (row 0 = camera up)
+//   depth   = (1 - dot(p - c, d) / r) / 2               (0 nearest, 1 farthest)
+#ifndef IMPOSTOR_COMMON_FRAME_CAMERA_H_
+#define IMPOSTOR_COMMON_FRAME_CAMERA_H_
+
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "common/atlas_layout.h"
+
+namespace impostor {
+
+struct BoundingSphere {
+  glm::vec3 center{0.0f};
+  float radius = 0.0f;
+};
+
+struct TileRect {
+  int x = 0, y = 0, width = 0, height = 0;  // pixels, y = 0 at the top row
+};
+
+struct FrameCamera {
+  int index = 0;          // row * frames + col
+  FrameCoord frame;
+  glm::vec3 direction{0.0f, 0.0f, 1.0f};
+  glm::vec3 up{0.0f, 1.0f, 0.0f};
+  glm::vec3 right{1.0f, 0.0f, 0.0f};
+  TileRect tile;
+};
+
+// Up vector for a view direction, by the rule above.
+glm::vec3 CameraUpFor(glm::vec3 direction);
+
+// Side of one tile: resolution / frames, rounded down. Tiles start at the
+// top-left corner; the remainder (resolution % frames) is unused border.
+int TileSize(int resolution, int frames);
+
+// All frames of an atlas, index order.
+std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution);
+
+// Vulkan clip-space transform (x right, y down, depth 0..1) for one frame's
+// camera: clip = ViewProjection * vec4(p, 1) gives x = s, y = -t,
+// z = depth as defined above, w = 1.
+glm::mat4 FrameViewProjection(const FrameCamera& camera, const BoundingSphere& sphere);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_COMMON_FRAME_CAMERA_H_

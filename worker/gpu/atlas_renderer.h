@@ -1,0 +1,82 @@
+// Headless Vulkan renderer that bakes a Scene into the three impostor atlas
+// maps. The only part of the worker that sees Vulkan: callers hand in plain
+// data (Scene, FrameCamera list) and get plain pixels back.
+//
+// Thread-safety: one AtlasRenderer per thread; the object owns its VkDevice
+// and queue. Creating one picks a device (discrete GPU > integrated > virtual
+// > CPU/lavapipe) and logs, one line each, the device chosen and why every
+// other device was passed over.
+#ifndef IMPOSTOR_WORKER_GPU_ATLAS_RENDERER_H_
+#define IMPOSTOR_WORKER_GPU_ATLAS_RENDERER_H_
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "common/frame_camera.h"
+#include "worker/scene/scene.h"
+
+namespace impostor {
+
+// CPU copy of the baked atlas maps. All images are `width` x `height`,
+// rows top to bottom, tightly packed, 4 channels.
+struct AtlasImages {
+  int width = 0;
+  int height = 0;
+  // R,G,B = base colour x factor (sRGB-encoded, unlit), A = coverage
+  // (0 empty, 255 covered). Empty texels are 0,0,0,0.
+  std::vector<uint8_t> albedo_alpha;
+  // R,G,B = scene-space unit normal (normal map applied) * 0.5 + 0.5,
+  // A = depth along the view direction normalised to the bounding sphere:
+  // 0 = nearest point of the sphere to the camera, 1 = farthest
+  // (see common/frame_camera.h). Empty texels: normal 0.5,0.5,0.5, depth 1.
+  std::vector<uint16_t> normal_depth;
+  // R = occlusion, G = roughness, B = metalness, A = coverage (as albedo).
+  std::vector<uint8_t> orm;
+};
+
+struct RenderTimings {
+  double upload_seconds = 0;    // scene buffers + textures to the device
+  double render_seconds = 0;    // command recording + GPU execution
+  double readback_seconds = 0;  // device -> host copy of the three maps
+};
+
+struct DeviceInfo {
+  std::string name;         // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
+  std::string type;         // "discrete", "integrated", "virtual", "cpu", "other"
+  uint32_t api_version = 0;
+  std::string driver;       // driverName / driverInfo
+};
+
+class AtlasRenderer {
+ public:
+  // Creates the Vulkan 1.3 instance and device (no window system, no
+  // surface). `preferred_device` (substring of a device name; empty = any)
+  // lets an operator pin a GPU. UNAVAILABLE when no device supports
+  // Vulkan 1.3 with dynamic rendering; every failed VkResult becomes a status
+  // naming the call.
+  static absl::StatusOr<std::unique_ptr<AtlasRenderer>> Create(
+      const std::string& preferred_device = "");
+  virtual ~AtlasRenderer() = default;
+
+  virtual const DeviceInfo& device() const = 0;
+
+  // Renders every camera's view of `scene` into its tile of an atlas of
+  // `atlas_size` x `atlas_size` pixels and reads the three maps back.
+  // The scene is framed by `sphere`. `progress` (may be empty) is called with
+  // the fraction of frames rendered, 0..1, from the calling thread.
+  // INVALID_ARGUMENT if a tile lies outside the atlas or the atlas exceeds
+  // the device's maxImageDimension2D (the message names both numbers);
+  // RESOURCE_EXHAUSTED if device memory runs out.
+  virtual absl::StatusOr<AtlasImages> Render(
+      const Scene& scene, const BoundingSphere& sphere,
+      const std::vector<FrameCamera>& cameras, int atlas_size,
+      const std::function<void(double)>& progress, RenderTimings* timings) = 0;
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_GPU_ATLAS_RENDERER_H_
