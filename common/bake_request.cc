@@ -1,0 +1,150 @@
+#include "common/bake_request.h"
+
+#include <algorithm>
+#include <set>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "common/sha256.h"
+
+namespace impostor {
+namespace {
+
+bool EndsWithIgnoreCase(std::string_view s, std::string_view suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (size_t i = 0; i < suffix.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i]) {
+      return false;
+    }
+  }
+  return true;
+}
+
+absl::Status CheckRange(std::string_view field, uint32_t value, uint32_t lo, uint32_t hi) {
+  if (value < lo || value > hi) {
+    return absl::InvalidArgumentError(absl::StrCat(std::string(field), ": ", value,
+                                                   " is out of range ", lo, "..", hi));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateInputFile(std::string_view field, const v1::InputFile& file) {
+  if (auto s = ValidateRelativePath(absl::StrCat(std::string(field), ".path"), file.path()); !s.ok()) {
+    return s;
+  }
+  if (!file.has_digest()) {
+    return absl::InvalidArgumentError(absl::StrCat(std::string(field), ".digest: required"));
+  }
+  return ValidateDigest(absl::StrCat(std::string(field), ".digest"), file.digest().hash(),
+                        file.digest().size_bytes());
+}
+
+}  // namespace
+
+std::string_view BakerVersion() { return IMPOSTOR_BAKER_VERSION; }
+
+absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters& in) {
+  v1::BakeParameters out = in;
+  switch (in.layout()) {
+    case v1::LAYOUT_UNSPECIFIED: out.set_layout(v1::LAYOUT_OCTAHEDRAL); break;
+    case v1::LAYOUT_OCTAHEDRAL:
+    case v1::LAYOUT_HEMI_OCTAHEDRAL: break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "parameters.layout: unknown value ", static_cast<int>(in.layout()),
+          "; expected LAYOUT_OCTAHEDRAL (1) or LAYOUT_HEMI_OCTAHEDRAL (2)"));
+  }
+  if (out.frames() == 0) out.set_frames(kDefaultFrames);
+  if (out.resolution() == 0) out.set_resolution(kDefaultResolution);
+  if (auto s = CheckRange("parameters.frames", out.frames(), kMinFrames, kMaxFrames); !s.ok()) return s;
+  if (auto s = CheckRange("parameters.resolution", out.resolution(), kMinResolution, kMaxResolution);
+      !s.ok()) {
+    return s;
+  }
+  if (out.resolution() / out.frames() < kMinTilePixels) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "parameters.resolution: ", out.resolution(), " px for ", out.frames(), "x", out.frames(),
+        " frames leaves ", out.resolution() / out.frames(), " px per frame; at least ",
+        kMinTilePixels, " are needed (resolution >= ", kMinTilePixels * out.frames(), ")"));
+  }
+  return out;
+}
+
+absl::Status ValidateRelativePath(std::string_view field, std::string_view path) {
+  const std::string f(field);
+  if (path.empty()) return absl::InvalidArgumentError(f + ": required");
+  if (path.size() > kMaxPathBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(f, ": ", path.size(), " bytes is longer than the limit of ", kMaxPathBytes));
+  }
+  if (path.front() == '/') return absl::InvalidArgumentError(f + ": must be relative, got \"" + std::string(path) + "\"");
+  for (char c : path) {
+    if (c == '\\' || c == '\0') {
+      return absl::InvalidArgumentError(f + ": must use '/' separators and no NUL, got \"" + std::string(path) + "\"");
+    }
+  }
+  size_t start = 0;
+  while (start <= path.size()) {
+    size_t end = path.find('/', start);
+    if (end == std::string_view::npos) end = path.size();
+    const std::string_view part = path.substr(start, end - start);
+    start = end + 1;
+    if (part.empty() || part == "." || part == "..") {
+      return absl::InvalidArgumentError(
+          f + ": must not contain empty, \".\" or \"..\" components, got \"" + std::string(path) + "\"");
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateMeshInput(const v1::MeshInput& mesh) {
+  if (!mesh.has_entry()) return absl::InvalidArgumentError("mesh.entry: required");
+  if (auto s = ValidateInputFile("mesh.entry", mesh.entry()); !s.ok()) return s;
+  const std::string& entry = mesh.entry().path();
+  if (!EndsWithIgnoreCase(entry, ".glb") && !EndsWithIgnoreCase(entry, ".gltf")) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mesh.entry.path: \"", entry, "\" is neither a .glb nor a .gltf file"));
+  }
+  if (mesh.files_size() > kMaxInputFiles) {
+    return absl::InvalidArgumentError(absl::StrCat("mesh.files: ", mesh.files_size(),
+                                                   " files is more than the limit of ", kMaxInputFiles));
+  }
+  std::set<std::string> seen;
+  for (int i = 0; i < mesh.files_size(); ++i) {
+    const std::string field = absl::StrCat("mesh.files[", i, "]");
+    if (auto s = ValidateInputFile(field, mesh.files(i)); !s.ok()) return s;
+    if (!seen.insert(mesh.files(i).path()).second) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".path: \"", mesh.files(i).path(), "\" appears twice"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters& p) {
+  // Every variable string is length-prefixed so no two different requests
+  // can produce the same byte stream.
+  std::vector<const v1::InputFile*> files;
+  for (const auto& f : mesh.files()) files.push_back(&f);
+  std::sort(files.begin(), files.end(),
+            [](const v1::InputFile* a, const v1::InputFile* b) { return a->path() < b->path(); });
+  Sha256 h;
+  auto put = [&h](std::string_view s) {
+    h.Update(absl::StrCat(s.size(), ":"));
+    h.Update(s);
+    h.Update("\n");
+  };
+  put("impostor.v1 bake");
+  put(BakerVersion());
+  put(absl::StrCat("entry ", mesh.entry().digest().hash(), " ", mesh.entry().digest().size_bytes()));
+  for (const v1::InputFile* f : files) {
+    put(f->path());
+    put(absl::StrCat(f->digest().hash(), " ", f->digest().size_bytes()));
+  }
+  put(absl::StrCat("layout ", static_cast<int>(p.layout())));
+  put(absl::StrCat("frames ", p.frames()));
+  put(absl::StrCat("resolution ", p.resolution()));
+  return h.FinishHex();
+}
+
+}  // namespace impostor

@@ -1,0 +1,69 @@
+#include "absl/strings/str_cat.h"
+#include "server/grpc_status.h"
+#include "server/services.h"
+
+namespace impostor {
+namespace {
+
+constexpr int kMaxFindMissing = 10'000;
+constexpr size_t kReadChunkBytes = 1 << 20;
+
+BlobDigest ToDigest(const v1::Digest& d) { return {d.hash(), d.size_bytes()}; }
+
+}  // namespace
+
+grpc::Status AssetServiceImpl::FindMissingBlobs(grpc::ServerContext*, const v1::FindMissingBlobsRequest* request,
+                                                v1::FindMissingBlobsResponse* response) {
+  if (request->digests_size() > kMaxFindMissing) {
+    return ToGrpc(absl::InvalidArgumentError(
+        absl::StrCat("digests: ", request->digests_size(), " digests is over the limit of ", kMaxFindMissing)));
+  }
+  for (int i = 0; i < request->digests_size(); ++i) {
+    const v1::Digest& d = request->digests(i);
+    if (auto s = ValidateDigest(absl::StrCat("digests[", i, "]"), d.hash(), d.size_bytes()); !s.ok()) return ToGrpc(s);
+    if (!blobs_->Contains(ToDigest(d))) *response->add_missing() = d;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status AssetServiceImpl::UploadBlob(grpc::ServerContext*, grpc::ServerReader<v1::UploadBlobRequest>* reader,
+                                          v1::UploadBlobResponse* response) {
+  v1::UploadBlobRequest chunk;
+  if (!reader->Read(&chunk)) return ToGrpc(absl::InvalidArgumentError("digest: the stream carried no message"));
+  if (!chunk.has_digest()) return ToGrpc(absl::InvalidArgumentError("digest: required in the first message"));
+  const BlobDigest digest = ToDigest(chunk.digest());
+  auto writer = blobs_->NewWriter(digest);
+  if (!writer.ok()) return ToGrpc(writer.status());
+  do {
+    if (auto s = (*writer)->Append(chunk.data()); !s.ok()) return ToGrpc(s);
+  } while (reader->Read(&chunk));
+  auto present = (*writer)->Commit();
+  if (!present.ok()) return ToGrpc(present.status());
+  response->mutable_digest()->set_hash(digest.hash);
+  response->mutable_digest()->set_size_bytes(digest.size_bytes);
+  response->set_already_present(*present);
+  return grpc::Status::OK;
+}
+
+grpc::Status AssetServiceImpl::ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
+                                        grpc::ServerWriter<v1::ReadBlobResponse>* writer) {
+  v1::ReadBlobResponse out;
+  const absl::Status s = blobs_->Read(ToDigest(request->digest()), request->offset(), request->limit(),
+                                      kReadChunkBytes, [&](std::string_view data, int64_t offset) {
+                                        if (context->IsCancelled()) return false;
+                                        out.set_offset(offset);
+                                        out.set_data(data.data(), data.size());
+                                        return writer->Write(out);
+                                      });
+  return ToGrpc(s);
+}
+
+grpc::Status AssetServiceImpl::GetResult(grpc::ServerContext*, const v1::GetResultRequest* request,
+                                         v1::Manifest* response) {
+  auto m = scheduler_->GetResult(request->cache_key());
+  if (!m.ok()) return ToGrpc(m.status());
+  *response = std::move(*m);
+  return grpc::Status::OK;
+}
+
+}  // namespace impostor

@@ -1,0 +1,358 @@
+#include "server/bake_scheduler.h"
+
+#include <openssl/rand.h>
+
+#include <array>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/bake_request.h"
+
+namespace impostor {
+namespace {
+
+bool IsTerminal(v1::JobState s) {
+  return s == v1::JOB_STATE_SUCCEEDED || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+BlobDigest ToDigest(const v1::Digest& d) { return {d.hash(), d.size_bytes()}; }
+
+int64_t SystemNowMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+std::string NewId(std::string_view prefix) {
+  std::array<unsigned char, 16> bytes{};
+  RAND_bytes(bytes.data(), static_cast<int>(bytes.size()));
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string id(prefix);
+  for (unsigned char b : bytes) {
+    id.push_back(kHex[b >> 4]);
+    id.push_back(kHex[b & 0xf]);
+  }
+  return id;
+}
+
+BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions options)
+    : jobs_(jobs), blobs_(blobs), options_([&] {
+        if (!options.now_ms) options.now_ms = SystemNowMs;
+        return options;
+      }()) {}
+
+absl::Status BakeScheduler::Save(JobRecord& record) {
+  record.job.set_updated_ms(options_.now_ms());
+  if (auto s = jobs_->Update(record); !s.ok()) return s;
+  ++changes_;
+  changed_.notify_all();
+  return absl::OkStatus();
+}
+
+absl::StatusOr<JobRecord> BakeScheduler::LoadJob(const std::string& job_id) {
+  if (job_id.empty()) return absl::InvalidArgumentError("job_id: required");
+  auto r = jobs_->Get(job_id);
+  if (!r.ok()) return r.status();
+  if (!r->has_value()) return absl::NotFoundError(absl::StrCat("job_id: no job \"", job_id.substr(0, 100), "\""));
+  return std::move(**r);
+}
+
+v1::Job BakeScheduler::WithResult(const JobRecord& record) {
+  v1::Job job = record.job;
+  if (job.state() == v1::JOB_STATE_SUCCEEDED) {
+    auto result = jobs_->GetResult(job.cache_key());
+    if (result.ok() && result->has_value()) *job.mutable_result() = std::move(**result);
+  }
+  return job;
+}
+
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
+  auto result = jobs_->GetResult(key);
+  if (!result.ok() || !result->has_value()) return result;
+  const v1::Manifest& m = **result;
+  bool intact = blobs_->Contains(ToDigest(m.manifest_json()));
+  for (const auto& map : m.maps()) intact = intact && blobs_->Contains(ToDigest(map.digest()));
+  if (intact) return result;
+  spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
+  if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
+  return std::optional<v1::Manifest>();
+}
+
+absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBakeRequest& request) {
+  if (auto s = ValidateMeshInput(request.mesh()); !s.ok()) return s;
+  auto params = NormalizeParameters(request.parameters());
+  if (!params.ok()) return params.status();
+
+  auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
+    if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
+    return absl::FailedPreconditionError(absl::StrCat(field, " (\"", f.path(), "\"): blob ", f.digest().hash(), "/",
+                                                      f.digest().size_bytes(), " is not in the store; upload it first"));
+  };
+  if (auto s = require_blob("mesh.entry", request.mesh().entry()); !s.ok()) return s;
+  for (int i = 0; i < request.mesh().files_size(); ++i) {
+    if (auto s = require_blob(absl::StrCat("mesh.files[", i, "]"), request.mesh().files(i)); !s.ok()) return s;
+  }
+  const std::string key = ComputeCacheKey(request.mesh(), *params);
+
+  std::lock_guard lock(mu_);
+  const int64_t now = options_.now_ms();
+  v1::SubmitBakeResponse response;
+  response.set_cache_key(key);
+
+  auto cached = IntactResult(key);
+  if (!cached.ok()) return cached.status();
+  JobRecord record;
+  record.mesh = request.mesh();
+  record.parameters = *params;
+  record.job.set_job_id(NewId("job-"));
+  record.job.set_cache_key(key);
+  record.job.set_created_ms(now);
+  record.job.set_updated_ms(now);
+  if (cached->has_value()) {
+    // A job record even for a hit, so GetJob/WatchJob work on every id.
+    record.job.set_state(v1::JOB_STATE_SUCCEEDED);
+    record.job.set_progress(1.0f);
+    record.job.set_stage("cached");
+    record.job.set_cached(true);
+    if (auto s = jobs_->Insert(record); !s.ok()) return s;
+    response.set_job_id(record.job.job_id());
+    response.set_cached(true);
+    *response.mutable_job() = record.job;
+    *response.mutable_job()->mutable_result() = std::move(**cached);
+    spdlog::info("event=submit job={} cache_key={} outcome=cache_hit", record.job.job_id(), key);
+    return response;
+  }
+
+  auto active = jobs_->ActiveWithKey(key);
+  if (!active.ok()) return active.status();
+  if (active->has_value()) {
+    response.set_job_id((*active)->job.job_id());
+    *response.mutable_job() = (*active)->job;
+    spdlog::info("event=submit job={} cache_key={} outcome=joined_in_flight", (*active)->job.job_id(), key);
+    return response;
+  }
+
+  record.job.set_state(v1::JOB_STATE_QUEUED);
+  record.job.set_stage("queued");
+  if (auto s = jobs_->Insert(record); !s.ok()) return s;
+  ++changes_;
+  changed_.notify_all();
+  response.set_job_id(record.job.job_id());
+  *response.mutable_job() = record.job;
+  spdlog::info("event=submit job={} cache_key={} outcome=queued layout={} frames={} resolution={}",
+               record.job.job_id(), key, static_cast<int>(params->layout()), params->frames(), params->resolution());
+  return response;
+}
+
+absl::StatusOr<v1::Job> BakeScheduler::GetJob(const std::string& job_id) {
+  std::lock_guard lock(mu_);
+  auto r = LoadJob(job_id);
+  if (!r.ok()) return r.status();
+  return WithResult(*r);
+}
+
+absl::StatusOr<v1::Job> BakeScheduler::CancelJob(const std::string& job_id) {
+  std::lock_guard lock(mu_);
+  auto r = LoadJob(job_id);
+  if (!r.ok()) return r.status();
+  if (IsTerminal(r->job.state())) return WithResult(*r);
+  r->job.set_state(v1::JOB_STATE_CANCELLED);
+  r->job.set_stage("cancelled");
+  r->job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
+  r->job.mutable_error()->set_message("cancelled by CancelJob");
+  // The lease id stays so the worker's next report hears about the cancel.
+  if (auto s = Save(*r); !s.ok()) return s;
+  spdlog::info("event=cancel job={}", job_id);
+  return r->job;
+}
+
+absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_key) {
+  if (!IsSha256Hex(cache_key)) {
+    return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
+                                                    cache_key.substr(0, 80), "\""));
+  }
+  std::lock_guard lock(mu_);
+  auto r = IntactResult(cache_key);
+  if (!r.ok()) return r.status();
+  if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
+  return std::move(**r);
+}
+
+uint64_t BakeScheduler::change_count() {
+  std::lock_guard lock(mu_);
+  return changes_;
+}
+
+uint64_t BakeScheduler::WaitForChange(uint64_t seen, Deadline deadline) {
+  std::unique_lock lock(mu_);
+  changed_.wait_until(lock, deadline, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return shutdown_ || changes_ != seen; });
+  return changes_;
+}
+
+void BakeScheduler::Shutdown() {
+  std::lock_guard lock(mu_);
+  shutdown_ = true;
+  changed_.notify_all();
+}
+
+absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::LeaseJobRequest& request,
+                                                                   Deadline deadline,
+                                                                   const std::function<bool()>& caller_gone) {
+  if (request.worker_id().empty()) return absl::InvalidArgumentError("worker_id: required");
+  if (request.wait_seconds() > 60) {
+    return absl::InvalidArgumentError(absl::StrCat("wait_seconds: ", request.wait_seconds(), " is over the limit of 60"));
+  }
+  std::unique_lock lock(mu_);
+  while (true) {
+    auto next = jobs_->OldestQueued();
+    if (!next.ok()) return next.status();
+    if (next->has_value()) {
+      JobRecord& r = **next;
+      const int64_t now = options_.now_ms();
+      r.job.set_state(v1::JOB_STATE_RUNNING);
+      r.job.set_attempts(r.job.attempts() + 1);
+      r.job.set_progress(0.0f);
+      r.job.set_stage("leased");
+      r.lease_id = NewId("lease-");
+      r.lease_deadline_ms = now + options_.lease_timeout_ms;
+      r.worker_id = request.worker_id();
+      if (auto s = Save(r); !s.ok()) return s;
+      v1::LeasedJob leased;
+      leased.set_job_id(r.job.job_id());
+      leased.set_lease_id(r.lease_id);
+      leased.set_cache_key(r.job.cache_key());
+      *leased.mutable_mesh() = r.mesh;
+      *leased.mutable_parameters() = r.parameters;
+      leased.set_lease_deadline_ms(r.lease_deadline_ms);
+      leased.set_attempt(r.job.attempts());
+      spdlog::info("event=lease job={} worker={} attempt={}", r.job.job_id(), request.worker_id(), r.job.attempts());
+      return std::optional<v1::LeasedJob>(std::move(leased));
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (shutdown_ || now >= deadline || (caller_gone && caller_gone())) return std::optional<v1::LeasedJob>();
+    const uint64_t seen = changes_;
+    changed_.wait_until(lock, std::min(deadline, now + std::chrono::seconds(1)),
+                        [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return shutdown_ || changes_ != seen; });
+  }
+}
+
+absl::StatusOr<JobRecord> BakeScheduler::HeldLease(const std::string& job_id, const std::string& lease_id) {
+  if (lease_id.empty()) return absl::InvalidArgumentError("lease_id: required");
+  auto r = LoadJob(job_id);
+  if (!r.ok()) return r.status();
+  if (r->lease_id != lease_id) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("lease_id: job ", job_id, " is not leased under ", lease_id.substr(0, 80),
+                     " (the lease expired or moved to another worker)"));
+  }
+  return r;
+}
+
+absl::StatusOr<v1::ReportProgressResponse> BakeScheduler::ReportProgress(const v1::ReportProgressRequest& request) {
+  if (!(request.progress() >= 0.0f && request.progress() <= 1.0f)) {
+    return absl::InvalidArgumentError(absl::StrCat("progress: ", request.progress(), " is out of range 0..1"));
+  }
+  std::lock_guard lock(mu_);
+  auto r = HeldLease(request.job_id(), request.lease_id());
+  if (!r.ok()) return r.status();
+  v1::ReportProgressResponse response;
+  if (r->job.state() == v1::JOB_STATE_CANCELLED) {
+    response.set_cancel_requested(true);
+    return response;
+  }
+  if (r->job.state() != v1::JOB_STATE_RUNNING) {
+    return absl::FailedPreconditionError(absl::StrCat("job ", request.job_id(), " is no longer running"));
+  }
+  r->lease_deadline_ms = options_.now_ms() + options_.lease_timeout_ms;
+  r->job.set_progress(request.progress());
+  if (!request.stage().empty()) r->job.set_stage(request.stage().substr(0, 64));
+  if (auto s = Save(*r); !s.ok()) return s;
+  response.set_lease_deadline_ms(r->lease_deadline_ms);
+  return response;
+}
+
+absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
+  std::lock_guard lock(mu_);
+  auto r = HeldLease(request.job_id(), request.lease_id());
+  if (!r.ok()) return r.status();
+  const v1::Manifest& m = request.result();
+  if (m.cache_key() != r->job.cache_key()) {
+    return absl::InvalidArgumentError(absl::StrCat("result.cache_key: ", m.cache_key().substr(0, 80),
+                                                   " differs from the job's ", r->job.cache_key()));
+  }
+  if (m.maps_size() == 0) return absl::InvalidArgumentError("result.maps: empty");
+  if (!blobs_->Contains(ToDigest(m.manifest_json()))) {
+    return absl::FailedPreconditionError("result.manifest_json: blob is not in the store; upload it first");
+  }
+  for (int i = 0; i < m.maps_size(); ++i) {
+    if (!blobs_->Contains(ToDigest(m.maps(i).digest()))) {
+      return absl::FailedPreconditionError(absl::StrCat("result.maps[", i, "] (", m.maps(i).file(),
+                                                        "): blob is not in the store; upload it first"));
+    }
+  }
+  // Even a cancelled job's result is good: keep it for the next request.
+  if (auto s = jobs_->PutResult(m); !s.ok()) return s;
+  if (r->job.state() == v1::JOB_STATE_RUNNING) {
+    r->job.set_state(v1::JOB_STATE_SUCCEEDED);
+    r->job.set_progress(1.0f);
+    r->job.set_stage("done");
+  }
+  r->lease_id.clear();
+  if (auto s = Save(*r); !s.ok()) return s;
+  spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
+               r->worker_id, m.timings().total_seconds());
+  return absl::OkStatus();
+}
+
+absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
+  std::lock_guard lock(mu_);
+  auto r = HeldLease(request.job_id(), request.lease_id());
+  if (!r.ok()) return r.status();
+  r->lease_id.clear();
+  if (r->job.state() == v1::JOB_STATE_RUNNING) {
+    const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
+    if (retry) {
+      r->job.set_state(v1::JOB_STATE_QUEUED);
+      r->job.set_stage("queued");
+    } else {
+      r->job.set_state(v1::JOB_STATE_FAILED);
+      r->job.set_stage("failed");
+      *r->job.mutable_error() = request.error();
+      if (request.retryable()) {
+        r->job.mutable_error()->set_message(absl::StrCat("failed after ", r->job.attempts(),
+                                                         " attempts; last error: ", request.error().message()));
+      }
+    }
+    spdlog::info("event=fail job={} worker={} retry={} code={} error=\"{}\"", r->job.job_id(), r->worker_id, retry,
+                 request.error().code(), request.error().message());
+  }
+  return Save(*r);
+}
+
+absl::Status BakeScheduler::ExpireLeases() {
+  std::lock_guard lock(mu_);
+  auto expired = jobs_->ExpiredLeases(options_.now_ms());
+  if (!expired.ok()) return expired.status();
+  for (JobRecord& r : *expired) {
+    const std::string worker = r.worker_id;
+    r.lease_id.clear();
+    if (r.job.attempts() >= options_.max_attempts) {
+      r.job.set_state(v1::JOB_STATE_FAILED);
+      r.job.set_stage("failed");
+      r.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kUnavailable));
+      r.job.mutable_error()->set_message(absl::StrCat("failed after ", r.job.attempts(), " attempts; last error: worker ",
+                                                      worker, " stopped reporting and its lease expired"));
+    } else {
+      r.job.set_state(v1::JOB_STATE_QUEUED);
+      r.job.set_stage("queued");
+    }
+    spdlog::warn("event=lease_expired job={} worker={} attempts={} requeued={}", r.job.job_id(), worker,
+                 r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED);
+    if (auto s = Save(r); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace impostor

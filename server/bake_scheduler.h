@@ -1,0 +1,105 @@
+// The bake farm's job logic: accepts bakes, answers from the result cache,
+// shares identical in-flight bakes, leases jobs to workers, renews and
+// expires leases, retries what a dead worker dropped, and records results.
+// No gRPC here: the service adapters translate requests and statuses.
+//
+// State is durable in JobStore; blobs are checked in BlobStore. Every public
+// method may be called from any thread: one mutex serialises them and a
+// condition variable wakes long polls (LeaseJob) and watchers (WatchJob).
+#ifndef IMPOSTOR_SERVER_BAKE_SCHEDULER_H_
+#define IMPOSTOR_SERVER_BAKE_SCHEDULER_H_
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "impostor/v1/bake_service.pb.h"
+#include "impostor/v1/worker_service.pb.h"
+#include "server/blob_store.h"
+#include "server/job_store.h"
+
+namespace impostor {
+
+struct SchedulerOptions {
+  // A lease not renewed for this long expires and its job is queued again.
+  // Default 30 s; range 1 s .. 1 h.
+  int64_t lease_timeout_ms = 30'000;
+  // Leases a job gets before it fails for good. Default 3; range 1..100.
+  uint32_t max_attempts = 3;
+  // Wall clock in Unix epoch milliseconds; tests substitute a fake.
+  std::function<int64_t()> now_ms;
+};
+
+class BakeScheduler {
+ public:
+  using Deadline = std::chrono::steady_clock::time_point;
+
+  // `jobs` and `blobs` must outlive the scheduler.
+  BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions options);
+
+  // See BakeService.SubmitBake for outcomes and codes.
+  absl::StatusOr<v1::SubmitBakeResponse> Submit(const v1::SubmitBakeRequest& request);
+  // NOT_FOUND for an unknown job; INVALID_ARGUMENT for an empty id.
+  absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
+  absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
+  // NOT_FOUND when nothing is baked under the key (or its blobs are gone).
+  absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
+
+  // Counter bumped on every job change.
+  uint64_t change_count();
+  // Blocks until the counter differs from `seen`, `deadline` passes or
+  // Shutdown is called; returns the counter.
+  uint64_t WaitForChange(uint64_t seen, Deadline deadline);
+
+  // Leases the oldest queued job, waiting until `deadline` for one.
+  // `caller_gone` is polled about once a second; when it turns true the
+  // wait ends with no job.
+  absl::StatusOr<std::optional<v1::LeasedJob>> Lease(const v1::LeaseJobRequest& request, Deadline deadline,
+                                                     const std::function<bool()>& caller_gone);
+  absl::StatusOr<v1::ReportProgressResponse> ReportProgress(const v1::ReportProgressRequest& request);
+  absl::Status Complete(const v1::CompleteJobRequest& request);
+  absl::Status Fail(const v1::FailJobRequest& request);
+
+  // Queues again (or fails, when out of attempts) every job whose lease
+  // deadline has passed. Called periodically by the server.
+  absl::Status ExpireLeases();
+
+  // Wakes every waiter; later waits return at once.
+  void Shutdown();
+
+  const SchedulerOptions& options() const { return options_; }
+
+ private:
+  absl::StatusOr<JobRecord> LoadJob(const std::string& job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The result for `key` if present with all of its blobs; a result whose
+  // blobs are gone is dropped so the key bakes again.
+  absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::StatusOr<JobRecord> HeldLease(const std::string& job_id, const std::string& lease_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::Status Save(JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  v1::Job WithResult(const JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
+  JobStore* const jobs_;
+  BlobStore* const blobs_;
+  const SchedulerOptions options_;
+
+  std::mutex mu_;
+  std::condition_variable changed_;
+  uint64_t changes_ ABSL_GUARDED_BY(mu_) = 0;
+  bool shutdown_ ABSL_GUARDED_BY(mu_) = false;
+};
+
+// Random identifier: prefix + 32 hex characters.
+std::string NewId(std::string_view prefix);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_BAKE_SCHEDULER_H_

@@ -1,0 +1,62 @@
+#include <cmath>
+
+#include "server/grpc_status.h"
+#include "server/services.h"
+
+namespace impostor {
+namespace {
+
+bool IsTerminal(v1::JobState s) {
+  return s == v1::JOB_STATE_SUCCEEDED || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+// Watchers hear about state and stage changes, and progress in 1% steps.
+bool WorthSending(const v1::Job& last, const v1::Job& now) {
+  return last.state() != now.state() || last.stage() != now.stage() ||
+         std::abs(last.progress() - now.progress()) >= 0.01f;
+}
+
+}  // namespace
+
+grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext*, const v1::SubmitBakeRequest* request,
+                                         v1::SubmitBakeResponse* response) {
+  auto r = scheduler_->Submit(*request);
+  if (!r.ok()) return ToGrpc(r.status());
+  *response = std::move(*r);
+  return grpc::Status::OK;
+}
+
+grpc::Status BakeServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                                       grpc::ServerWriter<v1::Job>* writer) {
+  std::optional<v1::Job> last;
+  while (!context->IsCancelled()) {
+    const uint64_t seen = scheduler_->change_count();
+    auto job = scheduler_->GetJob(request->job_id());
+    if (!job.ok()) return ToGrpc(job.status());
+    if (!last || WorthSending(*last, *job)) {
+      if (!writer->Write(*job)) return grpc::Status::OK;  // the client went away
+      last = *job;
+    }
+    if (IsTerminal(job->state())) return grpc::Status::OK;
+    // Wake at least once a second to notice a cancelled call.
+    scheduler_->WaitForChange(seen, std::chrono::steady_clock::now() + std::chrono::seconds(1));
+  }
+  return grpc::Status(grpc::StatusCode::CANCELLED, "WatchJob: the client cancelled the call");
+}
+
+grpc::Status BakeServiceImpl::GetJob(grpc::ServerContext*, const v1::GetJobRequest* request, v1::Job* response) {
+  auto r = scheduler_->GetJob(request->job_id());
+  if (!r.ok()) return ToGrpc(r.status());
+  *response = std::move(*r);
+  return grpc::Status::OK;
+}
+
+grpc::Status BakeServiceImpl::CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request,
+                                        v1::Job* response) {
+  auto r = scheduler_->CancelJob(request->job_id());
+  if (!r.ok()) return ToGrpc(r.status());
+  *response = std::move(*r);
+  return grpc::Status::OK;
+}
+
+}  // namespace impostor

@@ -1,0 +1,203 @@
+#include "server/blob_store.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor {
+namespace fs = std::filesystem;
+namespace {
+
+absl::Status ErrnoError(std::string_view what, const fs::path& path) {
+  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(errno)));
+}
+
+absl::Status SyncDirectory(const fs::path& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+  if (fd < 0) return ErrnoError("open directory", dir);
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) return ErrnoError("fsync directory", dir);
+  return absl::OkStatus();
+}
+
+std::string UniqueSuffix() {
+  static std::atomic<uint64_t> counter{0};
+  return absl::StrCat(::getpid(), "-", counter.fetch_add(1));
+}
+
+class FileWriter final : public BlobStore::Writer {
+ public:
+  FileWriter(BlobDigest digest, fs::path tmp_path, fs::path final_path, int fd)
+      : digest_(std::move(digest)), tmp_path_(std::move(tmp_path)), final_path_(std::move(final_path)), fd_(fd) {}
+
+  ~FileWriter() override {
+    if (fd_ >= 0) ::close(fd_);
+    if (!committed_) {
+      std::error_code ec;
+      fs::remove(tmp_path_, ec);
+    }
+  }
+
+  absl::Status Append(std::string_view data) override {
+    if (written_ + static_cast<int64_t>(data.size()) > digest_.size_bytes) {
+      return absl::InvalidArgumentError(absl::StrCat("blob ", digest_.hash, ": received more than the ",
+                                                     digest_.size_bytes, " bytes its digest declares"));
+    }
+    hash_.Update(data);
+    while (!data.empty()) {
+      const ssize_t n = ::write(fd_, data.data(), data.size());
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        return ErrnoError("write", tmp_path_);
+      }
+      data.remove_prefix(static_cast<size_t>(n));
+      written_ += n;
+    }
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<bool> Commit() override {
+    if (written_ != digest_.size_bytes) {
+      return absl::InvalidArgumentError(absl::StrCat("blob ", digest_.hash, ": size mismatch: digest says ",
+                                                     digest_.size_bytes, " bytes, received ", written_));
+    }
+    const std::string actual = hash_.FinishHex();
+    if (actual != digest_.hash) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("blob hash mismatch: digest says ", digest_.hash, ", content hashes to ", actual));
+    }
+    if (::fsync(fd_) != 0) return ErrnoError("fsync", tmp_path_);
+    ::close(fd_);
+    fd_ = -1;
+    std::error_code ec;
+    if (fs::exists(final_path_, ec)) return true;
+    fs::create_directories(final_path_.parent_path(), ec);
+    if (::rename(tmp_path_.c_str(), final_path_.c_str()) != 0) return ErrnoError("rename into", final_path_);
+    committed_ = true;
+    if (auto s = SyncDirectory(final_path_.parent_path()); !s.ok()) return s;
+    return false;
+  }
+
+ private:
+  const BlobDigest digest_;
+  const fs::path tmp_path_;
+  const fs::path final_path_;
+  int fd_;
+  Sha256 hash_;
+  int64_t written_ = 0;
+  bool committed_ = false;
+};
+
+}  // namespace
+
+BlobStore::BlobStore(fs::path root, int64_t max_blob_bytes)
+    : root_(std::move(root)), cas_dir_(root_ / "cas"), tmp_dir_(root_ / "tmp"), max_blob_bytes_(max_blob_bytes) {}
+
+absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root, int64_t max_blob_bytes) {
+  std::unique_ptr<BlobStore> store(new BlobStore(root, max_blob_bytes));
+  std::error_code ec;
+  fs::create_directories(store->cas_dir_, ec);
+  if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->cas_dir_.string(), ": ", ec.message()));
+  // Leftovers of uploads a crash interrupted: never visible, safe to drop.
+  fs::remove_all(store->tmp_dir_, ec);
+  fs::create_directories(store->tmp_dir_, ec);
+  if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->tmp_dir_.string(), ": ", ec.message()));
+  return store;
+}
+
+fs::path BlobStore::PathFor(const BlobDigest& digest) const {
+  return cas_dir_ / digest.hash.substr(0, 2) / digest.hash;
+}
+
+absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const BlobDigest& digest) {
+  if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
+  if (digest.size_bytes > max_blob_bytes_) {
+    return absl::InvalidArgumentError(absl::StrCat("digest.size_bytes: ", digest.size_bytes,
+                                                   " is over the blob size limit of ", max_blob_bytes_));
+  }
+  const fs::path tmp = tmp_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix(), ".tmp");
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) return ErrnoError("create", tmp);
+  return std::make_unique<FileWriter>(digest, tmp, PathFor(digest), fd);
+}
+
+absl::StatusOr<bool> BlobStore::Put(const BlobDigest& digest, std::string_view bytes) {
+  auto writer = NewWriter(digest);
+  if (!writer.ok()) return writer.status();
+  if (auto s = (*writer)->Append(bytes); !s.ok()) return s;
+  return (*writer)->Commit();
+}
+
+bool BlobStore::Contains(const BlobDigest& digest) const {
+  if (!IsSha256Hex(digest.hash)) return false;
+  struct stat st {};
+  if (::stat(PathFor(digest).c_str(), &st) != 0) return false;
+  return st.st_size == digest.size_bytes;
+}
+
+absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t limit, size_t chunk_bytes,
+                             const std::function<bool(std::string_view, int64_t)>& sink) const {
+  if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
+  if (offset < 0 || limit < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("offset and limit must be >= 0, got ", offset, " and ", limit));
+  }
+  if (offset > digest.size_bytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("offset: ", offset, " is past the end of the blob (", digest.size_bytes, " bytes)"));
+  }
+  const fs::path path = PathFor(digest);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    if (errno == ENOENT) return absl::NotFoundError(absl::StrCat("blob ", digest.ToString(), " not found"));
+    return ErrnoError("open", path);
+  }
+  struct stat st {};
+  ::fstat(fd, &st);
+  if (st.st_size != digest.size_bytes) {
+    ::close(fd);
+    return absl::DataLossError(absl::StrCat("blob ", digest.hash, " is ", st.st_size,
+                                            " bytes on disk, its digest says ", digest.size_bytes));
+  }
+  int64_t end = digest.size_bytes;
+  if (limit > 0 && offset + limit < end) end = offset + limit;
+  std::vector<char> buf(std::max<size_t>(chunk_bytes, 1));
+  int64_t pos = offset;
+  absl::Status status;
+  while (pos < end) {
+    const size_t want = static_cast<size_t>(std::min<int64_t>(end - pos, static_cast<int64_t>(buf.size())));
+    const ssize_t n = ::pread(fd, buf.data(), want, pos);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      status = n < 0 ? ErrnoError("read", path) : absl::DataLossError(absl::StrCat("blob ", digest.hash, " is truncated"));
+      break;
+    }
+    if (!sink(std::string_view(buf.data(), static_cast<size_t>(n)), pos)) break;
+    pos += n;
+  }
+  ::close(fd);
+  return status;
+}
+
+absl::StatusOr<std::string> BlobStore::ReadAll(const BlobDigest& digest) const {
+  std::string out;
+  out.reserve(static_cast<size_t>(std::max<int64_t>(digest.size_bytes, 0)));
+  auto s = Read(digest, 0, 0, 1 << 20, [&out](std::string_view chunk, int64_t) {
+    out.append(chunk);
+    return true;
+  });
+  if (!s.ok()) return s;
+  if (Sha256Hex(out) != digest.hash) {
+    return absl::DataLossError(absl::StrCat("blob ", digest.hash, ": stored bytes no longer match the digest"));
+  }
+  return out;
+}
+
+}  // namespace impostor

@@ -1,0 +1,227 @@
+#include "server/job_store.h"
+
+#include <sqlite3.h>
+
+#include "absl/strings/str_cat.h"
+#include "impostor/v1/bake_service.pb.h"
+
+namespace impostor {
+namespace {
+
+constexpr const char* kSchema = R"sql(
+PRAGMA journal_mode = WAL;
+PRAGMA synchronous = FULL;
+CREATE TABLE IF NOT EXISTS jobs (
+  job_id            TEXT PRIMARY KEY,
+  cache_key         TEXT NOT NULL,
+  state             INTEGER NOT NULL,
+  created_ms        INTEGER NOT NULL,
+  lease_id          TEXT NOT NULL DEFAULT '',
+  lease_deadline_ms INTEGER NOT NULL DEFAULT 0,
+  worker_id         TEXT NOT NULL DEFAULT '',
+  job               BLOB NOT NULL,  -- impostor.v1.Job without `result`
+  request           BLOB NOT NULL   -- impostor.v1.SubmitBakeRequest, parameters normalised
+);
+CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state, created_ms);
+CREATE INDEX IF NOT EXISTS jobs_by_key ON jobs (cache_key, state);
+CREATE TABLE IF NOT EXISTS results (
+  cache_key  TEXT PRIMARY KEY,
+  manifest   BLOB NOT NULL,  -- impostor.v1.Manifest
+  created_ms INTEGER NOT NULL
+);
+)sql";
+
+constexpr const char* kJobColumns = "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request";
+
+// RAII prepared statement.
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql) : db_(db) { rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr); }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  absl::Status prepared() const { return rc_ == SQLITE_OK ? absl::OkStatus() : Error("prepare"); }
+  void Bind(int i, const std::string& v) { sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
+  void BindBlob(int i, const std::string& v) { sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
+  void Bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
+  // SQLITE_ROW, SQLITE_DONE, or an error code.
+  int Step() { return rc_ = sqlite3_step(stmt_); }
+  std::string Text(int col) const {
+    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, col));
+    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
+  }
+  std::string Blob(int col) const {
+    const auto* p = static_cast<const char*>(sqlite3_column_blob(stmt_, col));
+    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
+  }
+  int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
+  absl::Status Error(std::string_view what) const {
+    return absl::InternalError(absl::StrCat("sqlite ", std::string(what), ": ", sqlite3_errmsg(db_)));
+  }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  int rc_ = SQLITE_OK;
+};
+
+absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
+  JobRecord r;
+  v1::SubmitBakeRequest request;
+  if (!r.job.ParseFromString(st.Blob(7)) || !request.ParseFromString(st.Blob(8))) {
+    return absl::DataLossError(absl::StrCat("job ", st.Text(0), ": stored record does not parse"));
+  }
+  r.mesh = request.mesh();
+  r.parameters = request.parameters();
+  r.lease_id = st.Text(4);
+  r.lease_deadline_ms = st.Int(5);
+  r.worker_id = st.Text(6);
+  return r;
+}
+
+absl::StatusOr<std::optional<JobRecord>> QueryOne(sqlite3* db, const std::string& sql,
+                                                  const std::function<void(Statement&)>& bind) {
+  Statement st(db, sql.c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  bind(st);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::optional<JobRecord>();
+  if (rc != SQLITE_ROW) return st.Error("query");
+  auto r = ReadJob(st);
+  if (!r.ok()) return r.status();
+  return std::optional<JobRecord>(std::move(*r));
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
+      SQLITE_OK) {
+    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
+  }
+  sqlite3_busy_timeout(db, 5000);
+  char* err = nullptr;
+  if (sqlite3_exec(db, kSchema, nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    sqlite3_close(db);
+    return absl::InternalError(absl::StrCat("cannot initialise ", file.string(), ": ", msg));
+  }
+  return std::unique_ptr<JobStore>(new JobStore(db));
+}
+
+JobStore::~JobStore() { sqlite3_close(db_); }
+
+namespace {
+
+void BindJob(Statement& st, const JobRecord& r) {
+  v1::Job job = r.job;
+  job.clear_result();  // results live in their own table, once per key
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = r.mesh;
+  *request.mutable_parameters() = r.parameters;
+  st.Bind(1, r.job.job_id());
+  st.Bind(2, r.job.cache_key());
+  st.Bind(3, static_cast<int64_t>(r.job.state()));
+  st.Bind(4, r.job.created_ms());
+  st.Bind(5, r.lease_id);
+  st.Bind(6, r.lease_deadline_ms);
+  st.Bind(7, r.worker_id);
+  st.BindBlob(8, job.SerializeAsString());
+  st.BindBlob(9, request.SerializeAsString());
+}
+
+}  // namespace
+
+absl::Status JobStore::Insert(const JobRecord& record) {
+  Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
+                    "worker_id, job, request) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  BindJob(st, record);
+  if (st.Step() != SQLITE_DONE) return st.Error("insert job");
+  return absl::OkStatus();
+}
+
+absl::Status JobStore::Update(const JobRecord& record) {
+  Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
+                    "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9 WHERE job_id = ?1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  BindJob(st, record);
+  if (st.Step() != SQLITE_DONE) return st.Error("update job");
+  if (sqlite3_changes(db_) == 0) return absl::NotFoundError(absl::StrCat("job ", record.job.job_id(), " not found"));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::optional<JobRecord>> JobStore::Get(const std::string& job_id) {
+  return QueryOne(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE job_id = ?1"),
+                  [&](Statement& st) { st.Bind(1, job_id); });
+}
+
+absl::StatusOr<std::optional<JobRecord>> JobStore::OldestQueued() {
+  return QueryOne(db_,
+                  absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 ORDER BY created_ms, rowid LIMIT 1"),
+                  [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
+}
+
+absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::string& cache_key) {
+  return QueryOne(db_,
+                  absl::StrCat("SELECT ", kJobColumns,
+                               " FROM jobs WHERE cache_key = ?1 AND state IN (?2, ?3) ORDER BY created_ms LIMIT 1"),
+                  [&](Statement& st) {
+                    st.Bind(1, cache_key);
+                    st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+                    st.Bind(3, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                  });
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {
+  Statement st(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND lease_deadline_ms < ?2").c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  st.Bind(2, now_ms);
+  std::vector<JobRecord> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    auto r = ReadJob(st);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("query expired leases");
+  return out;
+}
+
+absl::Status JobStore::PutResult(const v1::Manifest& manifest) {
+  Statement st(db_, "INSERT OR REPLACE INTO results (cache_key, manifest, created_ms) VALUES (?1, ?2, "
+                    "CAST(strftime('%s','now') AS INTEGER) * 1000)");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, manifest.cache_key());
+  st.BindBlob(2, manifest.SerializeAsString());
+  if (st.Step() != SQLITE_DONE) return st.Error("insert result");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::optional<v1::Manifest>> JobStore::GetResult(const std::string& cache_key) {
+  Statement st(db_, "SELECT manifest FROM results WHERE cache_key = ?1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::optional<v1::Manifest>();
+  if (rc != SQLITE_ROW) return st.Error("query result");
+  v1::Manifest m;
+  if (!m.ParseFromString(st.Blob(0))) return absl::DataLossError("result " + cache_key + ": stored manifest does not parse");
+  return std::optional<v1::Manifest>(std::move(m));
+}
+
+absl::Status JobStore::DeleteResult(const std::string& cache_key) {
+  Statement st(db_, "DELETE FROM results WHERE cache_key = ?1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  if (st.Step() != SQLITE_DONE) return st.Error("delete result");
+  return absl::OkStatus();
+}
+
+}  // namespace impostor

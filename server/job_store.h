@@ -1,0 +1,65 @@
+// Durable job and result records in an embedded SQLite database
+// (DIR/jobs.sqlite3, WAL journal, synchronous=FULL), so a server restart
+// loses no accepted job and no baked result.
+//
+// Plain persistence: no scheduling policy lives here (see BakeScheduler).
+// Thread-safety: not thread-safe; the owner serialises calls (BakeScheduler
+// holds its mutex around every call).
+#ifndef IMPOSTOR_SERVER_JOB_STORE_H_
+#define IMPOSTOR_SERVER_JOB_STORE_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "impostor/v1/types.pb.h"
+#include "impostor/v1/worker_service.pb.h"
+
+struct sqlite3;
+
+namespace impostor {
+
+// One job row.
+struct JobRecord {
+  v1::Job job;                 // state, progress, stage, error, attempts, times
+  v1::MeshInput mesh;          // what to bake
+  v1::BakeParameters parameters;  // normalised
+  std::string lease_id;        // empty unless RUNNING
+  int64_t lease_deadline_ms = 0;
+  std::string worker_id;
+};
+
+class JobStore {
+ public:
+  // Opens or creates the database. INTERNAL with SQLite's message on failure.
+  static absl::StatusOr<std::unique_ptr<JobStore>> Open(const std::filesystem::path& file);
+  ~JobStore();
+
+  absl::Status Insert(const JobRecord& record);
+  // Writes every field of an existing job. NOT_FOUND if absent.
+  absl::Status Update(const JobRecord& record);
+  absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id);
+  // The oldest QUEUED job.
+  absl::StatusOr<std::optional<JobRecord>> OldestQueued();
+  // A QUEUED or RUNNING job with this cache key.
+  absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key);
+  // RUNNING jobs whose lease deadline is before `now_ms`.
+  absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms);
+
+  absl::Status PutResult(const v1::Manifest& manifest);
+  absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key);
+  absl::Status DeleteResult(const std::string& cache_key);
+
+ private:
+  explicit JobStore(sqlite3* db) : db_(db) {}
+  sqlite3* db_;
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_JOB_STORE_H_

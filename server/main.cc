@@ -1,0 +1,148 @@
+// impostor-server: the bake farm's gRPC server. Wires the blob store, the
+// job database, the scheduler and the services together; see README.md.
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <spdlog/spdlog.h>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "common/bake_request.h"
+#include "server/bake_scheduler.h"
+#include "server/blob_store.h"
+#include "server/job_store.h"
+#include "server/services.h"
+#include "server/worker_supervisor.h"
+
+ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
+ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
+ABSL_FLAG(int, local_workers, 0, "Number of impostor-worker processes to run and keep alive (0..64)");
+ABSL_FLAG(std::string, worker_binary, "", "Worker executable for --local-workers (default: next to this binary)");
+ABSL_FLAG(int, lease_timeout_s, 30, "Seconds without a worker report before its job is queued again (1..3600)");
+ABSL_FLAG(int, max_attempts, 3, "Leases a job gets before it fails for good (1..100)");
+ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
+ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "impostor-server: %s\n", message.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
+  absl::ParseCommandLine(argc, argv);
+  spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
+
+  const std::string data = absl::GetFlag(FLAGS_data);
+  if (data.empty()) return Fail("--data: required (directory for blobs and the job database)");
+  const int local_workers = absl::GetFlag(FLAGS_local_workers);
+  if (local_workers < 0 || local_workers > 64) return Fail("--local-workers: must be in 0..64");
+  const int lease_timeout_s = absl::GetFlag(FLAGS_lease_timeout_s);
+  if (lease_timeout_s < 1 || lease_timeout_s > 3600) return Fail("--lease-timeout-s: must be in 1..3600");
+  const int max_attempts = absl::GetFlag(FLAGS_max_attempts);
+  if (max_attempts < 1 || max_attempts > 100) return Fail("--max-attempts: must be in 1..100");
+
+  std::error_code ec;
+  std::filesystem::create_directories(data, ec);
+  auto blobs = impostor::BlobStore::Open(data);
+  if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
+  auto jobs = impostor::JobStore::Open(std::filesystem::path(data) / "jobs.sqlite3");
+  if (!jobs.ok()) return Fail(std::string(jobs.status().message()));
+  impostor::BakeScheduler scheduler(
+      jobs->get(), blobs->get(),
+      {.lease_timeout_ms = int64_t{lease_timeout_s} * 1000, .max_attempts = static_cast<uint32_t>(max_attempts)});
+
+  impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
+  impostor::BakeServiceImpl bake_service(&scheduler);
+  impostor::WorkerServiceImpl worker_service(&scheduler);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
+  builder.SetMaxReceiveMessageSize(16 << 20);
+  builder.RegisterService(&asset_service);
+  builder.RegisterService(&bake_service);
+  builder.RegisterService(&worker_service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) return Fail("--listen: cannot listen on " + absl::GetFlag(FLAGS_listen));
+
+  const std::string listen = absl::GetFlag(FLAGS_listen);
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
+               impostor::BakerVersion());
+  std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
+  std::fflush(stdout);
+  if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {
+    const std::string tmp = port_file + ".tmp";
+    if (FILE* f = std::fopen(tmp.c_str(), "w")) {
+      std::fprintf(f, "%d\n", port);
+      std::fclose(f);
+      std::filesystem::rename(tmp, port_file, ec);
+    }
+  }
+
+  std::unique_ptr<impostor::WorkerSupervisor> supervisor;
+  if (local_workers > 0) {
+    std::filesystem::path worker_binary = absl::GetFlag(FLAGS_worker_binary);
+    if (worker_binary.empty()) {
+      worker_binary = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path() / "impostor-worker";
+    }
+    const std::string connect_host = (host == "0.0.0.0" || host == "[::]" || host.empty()) ? "127.0.0.1" : host;
+    supervisor = std::make_unique<impostor::WorkerSupervisor>(worker_binary, connect_host + ":" + std::to_string(port),
+                                                              local_workers);
+    if (auto s = supervisor->Start(); !s.ok()) return Fail(std::string(s.message()));
+  }
+
+  // SIGINT/SIGTERM end the server; a watcher thread turns the signal into a
+  // graceful shutdown (signal handlers may not call into gRPC).
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  std::thread signal_thread([&] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    spdlog::info("event=shutdown signal={}", sig);
+    g_stop = true;
+    scheduler.Shutdown();
+    server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  });
+
+  // Lease expiry runs once a second.
+  std::thread reaper([&] {
+    uint64_t seen = scheduler.change_count();
+    while (!g_stop) {
+      if (auto s = scheduler.ExpireLeases(); !s.ok()) spdlog::error("event=expire_leases_failed error=\"{}\"", s.ToString());
+      seen = scheduler.WaitForChange(seen, std::chrono::steady_clock::now() + std::chrono::seconds(1));
+    }
+  });
+
+  server->Wait();
+  if (supervisor) supervisor->Stop();
+  reaper.join();
+  signal_thread.join();
+  spdlog::info("event=stopped");
+  return 0;
+}

@@ -1,0 +1,124 @@
+#include "server/worker_supervisor.h"
+
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstring>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor {
+
+WorkerSupervisor::WorkerSupervisor(std::filesystem::path worker_binary, std::string server_address, int count,
+                                   std::vector<std::string> extra_args)
+    : worker_binary_(std::move(worker_binary)),
+      server_address_(std::move(server_address)),
+      count_(count),
+      extra_args_(std::move(extra_args)) {}
+
+WorkerSupervisor::~WorkerSupervisor() { Stop(); }
+
+absl::Status WorkerSupervisor::Start() {
+  if (::access(worker_binary_.c_str(), X_OK) != 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("--local-workers: worker binary ", worker_binary_.string(), " is missing or not executable"));
+  }
+  {
+    std::lock_guard lock(mu_);
+    slots_.resize(static_cast<size_t>(count_));
+    for (int i = 0; i < count_; ++i) slots_[i].pid = Spawn(i);
+  }
+  thread_ = std::thread([this] { Run(); });
+  return absl::OkStatus();
+}
+
+pid_t WorkerSupervisor::Spawn(int index) {
+  std::vector<std::string> args = {worker_binary_.string(), "--server", server_address_, "--name",
+                                   absl::StrCat("local-", index)};
+  args.insert(args.end(), extra_args_.begin(), extra_args_.end());
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    // Only async-signal-safe calls between fork and exec.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) ::_exit(1);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  if (pid < 0) {
+    spdlog::error("event=worker_spawn_failed index={} error=\"{}\"", index, std::strerror(errno));
+    return -1;
+  }
+  slots_[index].started = std::chrono::steady_clock::now();
+  spdlog::info("event=worker_started index={} pid={}", index, pid);
+  return pid;
+}
+
+void WorkerSupervisor::Run() {
+  while (true) {
+    int status = 0;
+    // Reap whichever child exits; WNOHANG keeps the loop responsive to Stop.
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    std::unique_lock lock(mu_);
+    if (pid > 0) {
+      for (size_t i = 0; i < slots_.size(); ++i) {
+        Slot& slot = slots_[i];
+        if (slot.pid != pid) continue;
+        slot.pid = -1;
+        if (stopping_) break;
+        const auto now = std::chrono::steady_clock::now();
+        const bool died_young = now - slot.started < std::chrono::seconds(10);
+        slot.backoff = died_young ? std::min(slot.backoff * 2, std::chrono::seconds(30)) : std::chrono::seconds(1);
+        slot.restart_at = now + slot.backoff;
+        const std::string how = WIFSIGNALED(status) ? absl::StrCat("signal ", WTERMSIG(status))
+                                                    : absl::StrCat("exit ", WEXITSTATUS(status));
+        spdlog::warn("event=worker_exited index={} pid={} how=\"{}\" restart_in_s={}", i, pid, how,
+                     slot.backoff.count());
+      }
+      continue;
+    }
+    if (stopping_) {
+      bool any = false;
+      for (const Slot& s : slots_) any = any || s.pid > 0;
+      if (!any) return;
+      // A worker busy in a long draw call may not get to its SIGTERM handler.
+      if (std::chrono::steady_clock::now() - stop_requested_ > std::chrono::seconds(5)) {
+        for (const Slot& s : slots_) {
+          if (s.pid > 0) ::kill(s.pid, SIGKILL);
+        }
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < slots_.size() && !stopping_; ++i) {
+      if (slots_[i].pid < 0 && now >= slots_[i].restart_at) {
+        ++slots_[i].restarts;
+        slots_[i].pid = Spawn(static_cast<int>(i));
+      }
+    }
+    // Children are polled every 200 ms; Stop wakes the wait at once.
+    wake_.wait_for(lock, std::chrono::milliseconds(200));
+  }
+}
+
+void WorkerSupervisor::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    if (stopping_ && !thread_.joinable()) return;
+    stopping_ = true;
+    stop_requested_ = std::chrono::steady_clock::now();
+    for (const Slot& s : slots_) {
+      if (s.pid > 0) ::kill(s.pid, SIGTERM);
+    }
+    wake_.notify_all();
+  }
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace impostor

@@ -1,0 +1,115 @@
+#include "common/bake_request.h"
+
+#include <gtest/gtest.h>
+
+#include "common/sha256.h"
+
+namespace impostor {
+namespace {
+
+v1::InputFile File(const std::string& path, const std::string& content) {
+  v1::InputFile f;
+  f.set_path(path);
+  f.mutable_digest()->set_hash(Sha256Hex(content));
+  f.mutable_digest()->set_size_bytes(static_cast<int64_t>(content.size()));
+  return f;
+}
+
+v1::MeshInput Gltf() {
+  v1::MeshInput m;
+  *m.mutable_entry() = File("tree.gltf", "{json}");
+  *m.add_files() = File("tree.bin", "binary");
+  *m.add_files() = File("textures/leaf.png", "png");
+  return m;
+}
+
+TEST(BakeRequest, DefaultsAreFilledIn) {
+  auto p = NormalizeParameters({});
+  ASSERT_TRUE(p.ok());
+  EXPECT_EQ(p->layout(), v1::LAYOUT_OCTAHEDRAL);
+  EXPECT_EQ(p->frames(), 12u);
+  EXPECT_EQ(p->resolution(), 2048u);
+}
+
+TEST(BakeRequest, OutOfRangeParametersNameTheFieldAndLimit) {
+  struct Case {
+    const char* name;
+    uint32_t frames, resolution;
+    int layout;
+    const char* expect;
+  } cases[] = {
+      {"one frame", 1, 0, 0, "parameters.frames: 1 is out of range 2..64"},
+      {"too many frames", 65, 0, 0, "parameters.frames: 65 is out of range 2..64"},
+      {"tiny atlas", 0, 32, 0, "parameters.resolution: 32 is out of range 64..8192"},
+      {"huge atlas", 0, 16384, 0, "parameters.resolution: 16384 is out of range 64..8192"},
+      {"tiles too small", 64, 256, 0, "at least 8 are needed (resolution >= 512)"},
+      {"unknown layout", 0, 0, 9, "parameters.layout: unknown value 9"},
+  };
+  for (const Case& c : cases) {
+    v1::BakeParameters in;
+    in.set_frames(c.frames);
+    in.set_resolution(c.resolution);
+    in.set_layout(static_cast<v1::Layout>(c.layout));
+    auto p = NormalizeParameters(in);
+    ASSERT_FALSE(p.ok()) << c.name;
+    EXPECT_EQ(p.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(p.status().message().find(c.expect), std::string::npos) << c.name << ": " << p.status();
+  }
+}
+
+TEST(BakeRequest, UnsafePathsAreRefused) {
+  const char* bad[] = {"/etc/passwd", "../secret.bin", "a/../../b", "a//b", "./a", "a\\b", ""};
+  for (const char* path : bad) {
+    v1::MeshInput m = Gltf();
+    m.mutable_files(0)->set_path(path);
+    const absl::Status s = ValidateMeshInput(m);
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << "path \"" << path << "\"";
+    EXPECT_NE(s.message().find("mesh.files[0].path"), std::string::npos) << s;
+  }
+  v1::MeshInput dup = Gltf();
+  *dup.add_files() = File("tree.bin", "again");
+  EXPECT_NE(ValidateMeshInput(dup).message().find("appears twice"), std::string::npos);
+  v1::MeshInput obj = Gltf();
+  obj.mutable_entry()->set_path("tree.obj");
+  EXPECT_NE(ValidateMeshInput(obj).message().find("neither a .glb nor a .gltf"), std::string::npos);
+  v1::MeshInput bad_digest = Gltf();
+  bad_digest.mutable_files(1)->mutable_digest()->set_hash("xyz");
+  EXPECT_NE(ValidateMeshInput(bad_digest).message().find("mesh.files[1].digest.hash"), std::string::npos);
+  EXPECT_TRUE(ValidateMeshInput(Gltf()).ok());
+}
+
+TEST(BakeRequest, CacheKeyDependsOnContentNotOnNamesOrOrder) {
+  const v1::BakeParameters params = *NormalizeParameters({});
+  const std::string key = ComputeCacheKey(Gltf(), params);
+  EXPECT_EQ(key.size(), 64u);
+
+  v1::MeshInput renamed = Gltf();
+  renamed.mutable_entry()->set_path("copy_of_tree.gltf");
+  EXPECT_EQ(ComputeCacheKey(renamed, params), key) << "entry file name must not matter";
+
+  v1::MeshInput reordered = Gltf();
+  reordered.mutable_files()->SwapElements(0, 1);
+  EXPECT_EQ(ComputeCacheKey(reordered, params), key) << "file order must not matter";
+
+  v1::MeshInput other_content = Gltf();
+  *other_content.mutable_files(0) = File("tree.bin", "different binary");
+  EXPECT_NE(ComputeCacheKey(other_content, params), key);
+
+  v1::MeshInput moved = Gltf();
+  moved.mutable_files(1)->set_path("tex/leaf.png");  // the .gltf refers to files by path
+  EXPECT_NE(ComputeCacheKey(moved, params), key);
+
+  v1::BakeParameters explicit_defaults;
+  explicit_defaults.set_layout(v1::LAYOUT_OCTAHEDRAL);
+  explicit_defaults.set_frames(12);
+  explicit_defaults.set_resolution(2048);
+  EXPECT_EQ(ComputeCacheKey(Gltf(), *NormalizeParameters(explicit_defaults)), key)
+      << "explicit defaults must bake once with omitted ones";
+
+  v1::BakeParameters hemi = params;
+  hemi.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  EXPECT_NE(ComputeCacheKey(Gltf(), hemi), key);
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,288 @@
+#include "server/bake_scheduler.h"
+
+#include <filesystem>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "common/bake_request.h"
+#include "common/sha256.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Scheduler over a real SQLite file and blob directory, with a fake clock.
+class BakeSchedulerTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("scheduler_test_" + std::to_string(::getpid()) + "_" +
+                                        testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    Reopen();
+  }
+  void TearDown() override {
+    scheduler_.reset();
+    fs::remove_all(dir_);
+  }
+  // Simulates a server restart: everything rebuilt from disk.
+  void Reopen() {
+    scheduler_.reset();
+    jobs_.reset();
+    blobs_.reset();
+    blobs_ = *BlobStore::Open(dir_ / "blobs");
+    jobs_ = *JobStore::Open(dir_ / "jobs.sqlite3");
+    scheduler_ = std::make_unique<BakeScheduler>(
+        jobs_.get(), blobs_.get(), SchedulerOptions{.lease_timeout_ms = 30'000, .max_attempts = 3, .now_ms = [this] {
+                                                      return now_ms_;
+                                                    }});
+  }
+
+  v1::Digest Store(const std::string& bytes) {
+    v1::Digest d;
+    d.set_hash(Sha256Hex(bytes));
+    d.set_size_bytes(static_cast<int64_t>(bytes.size()));
+    EXPECT_TRUE(blobs_->Put({d.hash(), d.size_bytes()}, bytes).ok());
+    return d;
+  }
+
+  v1::SubmitBakeRequest Request(const std::string& content = "glb bytes") {
+    v1::SubmitBakeRequest r;
+    r.mutable_mesh()->mutable_entry()->set_path("model.glb");
+    *r.mutable_mesh()->mutable_entry()->mutable_digest() = Store(content);
+    return r;
+  }
+
+  v1::LeasedJob Lease(const std::string& worker = "w1") {
+    v1::LeaseJobRequest r;
+    r.set_worker_id(worker);
+    auto job = scheduler_->Lease(r, std::chrono::steady_clock::now(), nullptr);
+    EXPECT_TRUE(job.ok() && job->has_value()) << "expected a job to lease";
+    return job.ok() && job->has_value() ? **job : v1::LeasedJob();
+  }
+
+  bool NothingToLease() {
+    v1::LeaseJobRequest r;
+    r.set_worker_id("idle");
+    auto job = scheduler_->Lease(r, std::chrono::steady_clock::now(), nullptr);
+    return job.ok() && !job->has_value();
+  }
+
+  v1::CompleteJobRequest Result(const v1::LeasedJob& job) {
+    v1::CompleteJobRequest r;
+    r.set_job_id(job.job_id());
+    r.set_lease_id(job.lease_id());
+    r.mutable_result()->set_cache_key(job.cache_key());
+    *r.mutable_result()->mutable_manifest_json() = Store("{\"manifest\": true}");
+    v1::MapFile* map = r.mutable_result()->add_maps();
+    map->set_file("albedo_alpha.png");
+    *map->mutable_digest() = Store("png " + job.cache_key());
+    return r;
+  }
+
+  fs::path dir_;
+  int64_t now_ms_ = 1'000'000;
+  std::unique_ptr<BlobStore> blobs_;
+  std::unique_ptr<JobStore> jobs_;
+  std::unique_ptr<BakeScheduler> scheduler_;
+};
+
+TEST_F(BakeSchedulerTest, SecondIdenticalRequestIsACacheHit) {
+  auto first = scheduler_->Submit(Request());
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_FALSE(first->cached());
+  EXPECT_EQ(first->job().state(), v1::JOB_STATE_QUEUED);
+  const v1::LeasedJob job = Lease();
+  ASSERT_TRUE(scheduler_->Complete(Result(job)).ok());
+
+  auto second = scheduler_->Submit(Request());
+  ASSERT_TRUE(second.ok());
+  EXPECT_TRUE(second->cached());
+  EXPECT_EQ(second->cache_key(), first->cache_key());
+  EXPECT_EQ(second->job().state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(second->job().result().maps(0).file(), "albedo_alpha.png");
+  EXPECT_TRUE(NothingToLease()) << "a cache hit must not reach the queue";
+}
+
+TEST_F(BakeSchedulerTest, IdenticalInFlightRequestsShareOneJob) {
+  auto a = scheduler_->Submit(Request());
+  auto b = scheduler_->Submit(Request());
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->job_id(), b->job_id());
+  Lease();
+  EXPECT_TRUE(NothingToLease());
+  // Still shared while running.
+  auto c = scheduler_->Submit(Request());
+  EXPECT_EQ(c->job_id(), a->job_id());
+}
+
+TEST_F(BakeSchedulerTest, MissingInputBlobIsAFailedPrecondition) {
+  v1::SubmitBakeRequest r = Request();
+  r.mutable_mesh()->mutable_entry()->mutable_digest()->set_hash(std::string(64, 'e'));
+  auto s = scheduler_->Submit(r);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.status().message().find("mesh.entry"), std::string::npos) << s.status();
+}
+
+TEST_F(BakeSchedulerTest, ExpiredLeaseRequeuesAndStaleWorkerIsRefused) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::LeasedJob first = Lease("dead-worker");
+  now_ms_ += 29'000;
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  EXPECT_TRUE(NothingToLease()) << "lease has not expired yet";
+  now_ms_ += 2'000;
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  const v1::LeasedJob second = Lease("live-worker");
+  EXPECT_EQ(second.job_id(), first.job_id());
+  EXPECT_EQ(second.attempt(), 2u);
+  const absl::Status stale = scheduler_->Complete(Result(first));
+  EXPECT_EQ(stale.code(), absl::StatusCode::kFailedPrecondition) << stale;
+  EXPECT_TRUE(scheduler_->Complete(Result(second)).ok());
+  EXPECT_EQ(scheduler_->GetJob(first.job_id())->state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(BakeSchedulerTest, HeartbeatsKeepTheLease) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::LeasedJob job = Lease();
+  for (int i = 0; i < 5; ++i) {
+    now_ms_ += 20'000;
+    v1::ReportProgressRequest p;
+    p.set_job_id(job.job_id());
+    p.set_lease_id(job.lease_id());
+    p.set_progress(0.1f * i);
+    p.set_stage("render");
+    ASSERT_TRUE(scheduler_->ReportProgress(p).ok());
+    ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  }
+  auto j = scheduler_->GetJob(job.job_id());
+  EXPECT_EQ(j->state(), v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(j->stage(), "render");
+}
+
+TEST_F(BakeSchedulerTest, RunsOutOfAttemptsAndSaysSo) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  std::string job_id;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    const v1::LeasedJob job = Lease();
+    job_id = job.job_id();
+    v1::FailJobRequest f;
+    f.set_job_id(job.job_id());
+    f.set_lease_id(job.lease_id());
+    f.set_retryable(true);
+    f.mutable_error()->set_code(13);
+    f.mutable_error()->set_message("device lost");
+    ASSERT_TRUE(scheduler_->Fail(f).ok());
+  }
+  auto j = scheduler_->GetJob(job_id);
+  EXPECT_EQ(j->state(), v1::JOB_STATE_FAILED);
+  EXPECT_NE(j->error().message().find("failed after 3 attempts"), std::string::npos) << j->error().message();
+  EXPECT_NE(j->error().message().find("device lost"), std::string::npos);
+  EXPECT_TRUE(NothingToLease());
+}
+
+TEST_F(BakeSchedulerTest, BadInputFailsAtOnce) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::LeasedJob job = Lease();
+  v1::FailJobRequest f;
+  f.set_job_id(job.job_id());
+  f.set_lease_id(job.lease_id());
+  f.set_retryable(false);
+  f.mutable_error()->set_code(3);
+  f.mutable_error()->set_message("glTF: invalid JSON");
+  ASSERT_TRUE(scheduler_->Fail(f).ok());
+  auto j = scheduler_->GetJob(job.job_id());
+  EXPECT_EQ(j->state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(j->error().code(), 3);
+  EXPECT_EQ(j->error().message(), "glTF: invalid JSON");
+}
+
+TEST_F(BakeSchedulerTest, CancelReachesTheWorkerThroughItsNextReport) {
+  auto s = scheduler_->Submit(Request());
+  const v1::LeasedJob job = Lease();
+  auto cancelled = scheduler_->CancelJob(s->job_id());
+  ASSERT_TRUE(cancelled.ok());
+  EXPECT_EQ(cancelled->state(), v1::JOB_STATE_CANCELLED);
+  v1::ReportProgressRequest p;
+  p.set_job_id(job.job_id());
+  p.set_lease_id(job.lease_id());
+  auto r = scheduler_->ReportProgress(p);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->cancel_requested());
+}
+
+TEST_F(BakeSchedulerTest, AcceptedJobsSurviveARestart) {
+  auto queued = scheduler_->Submit(Request("one"));
+  auto running = scheduler_->Submit(Request("two"));
+  const v1::LeasedJob lease = Lease();
+  Reopen();
+  auto q = scheduler_->GetJob(queued->job_id());
+  ASSERT_TRUE(q.ok()) << q.status();
+  EXPECT_EQ(q->state(), v1::JOB_STATE_RUNNING) << "the first job submitted was leased before the restart";
+  EXPECT_EQ(scheduler_->GetJob(running->job_id())->state(), v1::JOB_STATE_QUEUED);
+  EXPECT_TRUE(scheduler_->Complete(Result(lease)).ok()) << "a lease survives the restart";
+  const v1::LeasedJob next = Lease();
+  EXPECT_EQ(next.job_id(), running->job_id());
+}
+
+TEST_F(BakeSchedulerTest, CachedResultWithMissingBlobIsRebaked) {
+  auto s = scheduler_->Submit(Request());
+  const v1::LeasedJob job = Lease();
+  const v1::CompleteJobRequest result = Result(job);
+  ASSERT_TRUE(scheduler_->Complete(result).ok());
+  const auto& map = result.result().maps(0).digest();
+  fs::remove(blobs_->PathFor({map.hash(), map.size_bytes()}));
+  auto again = scheduler_->Submit(Request());
+  ASSERT_TRUE(again.ok());
+  EXPECT_FALSE(again->cached());
+  EXPECT_EQ(again->job().state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(scheduler_->GetResult(s->cache_key()).status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST_F(BakeSchedulerTest, CompleteChecksTheResult) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::LeasedJob job = Lease();
+  v1::CompleteJobRequest wrong_key = Result(job);
+  wrong_key.mutable_result()->set_cache_key(std::string(64, '0'));
+  EXPECT_EQ(scheduler_->Complete(wrong_key).code(), absl::StatusCode::kInvalidArgument);
+  v1::CompleteJobRequest missing_blob = Result(job);
+  missing_blob.mutable_result()->mutable_maps(0)->mutable_digest()->set_hash(std::string(64, 'b'));
+  EXPECT_EQ(scheduler_->Complete(missing_blob).code(), absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_F(BakeSchedulerTest, LongPollWakesWhenAJobArrives) {
+  std::optional<v1::LeasedJob> got;
+  std::thread worker([&] {
+    v1::LeaseJobRequest r;
+    r.set_worker_id("poller");
+    auto job = scheduler_->Lease(r, std::chrono::steady_clock::now() + std::chrono::seconds(30), nullptr);
+    if (job.ok()) got = *job;
+  });
+  // The worker is (or soon will be) waiting; a submit must wake it well
+  // before its 30 s deadline. join() is the synchronisation.
+  auto s = scheduler_->Submit(Request());
+  const auto start = std::chrono::steady_clock::now();
+  worker.join();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->job_id(), s->job_id());
+}
+
+TEST_F(BakeSchedulerTest, RejectsMalformedWorkerRequests) {
+  v1::LeaseJobRequest no_id;
+  EXPECT_EQ(scheduler_->Lease(no_id, std::chrono::steady_clock::now(), nullptr).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  v1::LeaseJobRequest long_wait;
+  long_wait.set_worker_id("w");
+  long_wait.set_wait_seconds(3600);
+  EXPECT_EQ(scheduler_->Lease(long_wait, std::chrono::steady_clock::now(), nullptr).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(scheduler_->GetJob("").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(scheduler_->GetJob("job-nope").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(scheduler_->GetResult("not-a-key").status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,145 @@
+#include "server/blob_store.h"
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+
+class BlobStoreTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("blob_store_test_" + std::to_string(::getpid()) + "_" +
+                                        testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    auto store = BlobStore::Open(dir_, /*max_blob_bytes=*/1 << 20);
+    ASSERT_TRUE(store.ok()) << store.status();
+    store_ = std::move(*store);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  static BlobDigest DigestOf(std::string_view bytes) { return {Sha256Hex(bytes), static_cast<int64_t>(bytes.size())}; }
+
+  fs::path dir_;
+  std::unique_ptr<BlobStore> store_;
+};
+
+TEST_F(BlobStoreTest, StoresAndReadsBackByDigest) {
+  const std::string bytes = "hello impostor";
+  const BlobDigest d = DigestOf(bytes);
+  EXPECT_FALSE(store_->Contains(d));
+  auto put = store_->Put(d, bytes);
+  ASSERT_TRUE(put.ok()) << put.status();
+  EXPECT_FALSE(*put);
+  EXPECT_TRUE(store_->Contains(d));
+  EXPECT_EQ(*store_->ReadAll(d), bytes);
+  // A second upload of the same content is accepted and reported as present.
+  EXPECT_TRUE(*store_->Put(d, bytes));
+}
+
+TEST_F(BlobStoreTest, RefusesHashAndSizeMismatches) {
+  const std::string bytes = "the real bytes";
+  BlobDigest wrong_hash = DigestOf("other bytes!!!");
+  wrong_hash.size_bytes = static_cast<int64_t>(bytes.size());
+  auto r = store_->Put(wrong_hash, bytes);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("hash mismatch"), std::string::npos) << r.status();
+  EXPECT_FALSE(store_->Contains(wrong_hash));
+
+  BlobDigest short_size = DigestOf(bytes);
+  short_size.size_bytes = 3;
+  r = store_->Put(short_size, bytes);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+
+  BlobDigest long_size = DigestOf(bytes);
+  long_size.size_bytes += 10;
+  r = store_->Put(long_size, bytes);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
+  // Nothing half-written is left behind or visible.
+  EXPECT_TRUE(fs::is_empty(dir_ / "tmp"));
+}
+
+TEST_F(BlobStoreTest, RefusesMalformedAndOversizedDigests) {
+  struct Case {
+    const char* name;
+    BlobDigest digest;
+  } cases[] = {
+      {"short hash", {"abc", 3}},
+      {"uppercase hash", {std::string(64, 'A'), 3}},
+      {"negative size", {std::string(64, 'a'), -1}},
+      {"over the limit", {std::string(64, 'a'), (1 << 20) + 1}},
+  };
+  for (const Case& c : cases) {
+    auto w = store_->NewWriter(c.digest);
+    ASSERT_FALSE(w.ok()) << c.name;
+    EXPECT_EQ(w.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+  }
+}
+
+TEST_F(BlobStoreTest, ReadsRangesForResumedDownloads) {
+  std::string bytes(10000, '\0');
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<char>(i * 7);
+  const BlobDigest d = DigestOf(bytes);
+  ASSERT_TRUE(store_->Put(d, bytes).ok());
+  std::string got;
+  std::vector<int64_t> offsets;
+  ASSERT_TRUE(store_->Read(d, 4000, 3000, 1024, [&](std::string_view chunk, int64_t offset) {
+                      got.append(chunk);
+                      offsets.push_back(offset);
+                      return true;
+                    }).ok());
+  EXPECT_EQ(got, bytes.substr(4000, 3000));
+  EXPECT_EQ(offsets.front(), 4000);
+  EXPECT_EQ(offsets.size(), 3u);  // 1024 + 1024 + 952
+  EXPECT_EQ(store_->Read(d, 10001, 0, 1024, [](std::string_view, int64_t) { return true; }).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(store_->Read(DigestOf("absent"), 0, 0, 1024, [](std::string_view, int64_t) { return true; }).code(),
+            absl::StatusCode::kNotFound);
+}
+
+TEST_F(BlobStoreTest, DetectsBytesThatNoLongerMatchTheirDigest) {
+  const std::string bytes = "precious baked atlas";
+  const BlobDigest d = DigestOf(bytes);
+  ASSERT_TRUE(store_->Put(d, bytes).ok());
+  {
+    std::fstream f(store_->PathFor(d), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(3);
+    f.put('X');
+  }
+  auto r = store_->ReadAll(d);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kDataLoss);
+}
+
+TEST_F(BlobStoreTest, OpeningRemovesLeftoverTemporaryFiles) {
+  std::ofstream(dir_ / "tmp" / "abandoned.tmp") << "half an upload";
+  auto reopened = BlobStore::Open(dir_);
+  ASSERT_TRUE(reopened.ok());
+  EXPECT_TRUE(fs::is_empty(dir_ / "tmp"));
+}
+
+TEST_F(BlobStoreTest, ConcurrentUploadsOfOneBlobAllSucceed) {
+  const std::string bytes(200000, 'z');
+  const BlobDigest d = DigestOf(bytes);
+  std::vector<std::thread> threads;
+  std::atomic<int> ok{0};
+  for (int i = 0; i < 4; ++i) {
+    threads.emplace_back([&] {
+      if (store_->Put(d, bytes).ok()) ++ok;
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(ok.load(), 4);
+  EXPECT_EQ(*store_->ReadAll(d), bytes);
+}
+
+}  // namespace
+}  // namespace impostor
