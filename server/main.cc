@@ -20,6 +20,7 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "common/bake_request.h"
+#include "common/flag_names.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
@@ -48,6 +49,7 @@ int Fail(const std::string& message) {
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
+  impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");

@@ -1,0 +1,87 @@
+#include "client/blob_download.h"
+
+#include <memory>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/atomic_file.h"
+#include "client/retry.h"
+#include "common/sha256.h"
+
+namespace impostor::sdk {
+
+absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
+                          const std::function<absl::Status(std::string_view)>& sink) {
+  if (absl::Status s = ValidateDigest("digest", digest.hash(), digest.size_bytes()); !s.ok()) return s;
+  const std::string name = absl::StrCat(digest.hash(), "/", digest.size_bytes());
+  const int max_attempts = transport.options().max_attempts;
+  Sha256 hash;
+  int64_t received = 0;
+  // Counts tries in a row that brought nothing; progress starts it over, so
+  // a slow but moving download on a flaky link is never given up.
+  int fruitless = 0;
+  while (true) {
+    const int64_t start = received;
+    absl::Status status = transport.ReadBlob(digest, received, [&](const v1::ReadBlobResponse& msg) {
+      if (msg.offset() != received) {
+        return absl::DataLossError(absl::StrCat("ReadBlob ", name, ": chunk at offset ", msg.offset(),
+                                                ", expected ", received));
+      }
+      if (static_cast<int64_t>(msg.data().size()) > digest.size_bytes() - received) {
+        return absl::DataLossError(
+            absl::StrCat("ReadBlob ", name, ": server sent more than the blob's ", digest.size_bytes(), " bytes"));
+      }
+      hash.Update(msg.data());
+      received += static_cast<int64_t>(msg.data().size());
+      return sink(msg.data());
+    });
+    if (status.ok() && received == digest.size_bytes()) break;
+    // A stream that ended OK but short is treated like a broken one.
+    if (!status.ok() && !IsRetryable(status.code())) return status;
+    fruitless = received > start ? 1 : fruitless + 1;
+    if (fruitless >= max_attempts) {
+      if (status.ok()) {
+        return absl::DataLossError(absl::StrCat("ReadBlob ", name, ": stream ended after ", received, " of ",
+                                                digest.size_bytes(), " bytes"));
+      }
+      return status;
+    }
+    spdlog::debug("download of {} interrupted at byte {} ({}); resuming", name, received, status.ToString());
+    SleepBeforeRetry(fruitless);
+  }
+  const std::string actual = hash.FinishHex();
+  if (actual != digest.hash()) {
+    return absl::DataLossError(absl::StrCat("ReadBlob ", name, ": received bytes hash to ", actual));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, const std::filesystem::path& path) {
+  absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
+  if (!writer.ok()) return writer.status();
+  absl::Status status =
+      DownloadBlob(transport, digest, [&](std::string_view data) { return (*writer)->Append(data); });
+  if (!status.ok()) {
+    (*writer)->Abort();
+    // Name the file for local verification failures; an RPC's error already
+    // names the RPC and server and keeps its details.
+    if (status.code() == absl::StatusCode::kDataLoss && !GetRpcErrorInfo(status).has_value()) {
+      return absl::DataLossError(absl::StrCat(path.string(), ": ", status.message()));
+    }
+    return status;
+  }
+  return (*writer)->Commit();
+}
+
+absl::StatusOr<std::string> DownloadBlobToString(Transport& transport, const v1::Digest& digest) {
+  std::string out;
+  absl::Status status = DownloadBlob(transport, digest, [&](std::string_view data) {
+    out.append(data);
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  return out;
+}
+
+}  // namespace impostor::sdk

@@ -1,0 +1,38 @@
+// Downloads one blob through AssetService.ReadBlob, resuming from the bytes
+// already received when the stream breaks, and verifying size and SHA-256 as
+// the bytes arrive. Runs on the caller's thread.
+#ifndef IMPOSTOR_CLIENT_BLOB_DOWNLOAD_H_
+#define IMPOSTOR_CLIENT_BLOB_DOWNLOAD_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "client/transport.h"
+#include "impostor/v1/types.pb.h"
+
+namespace impostor::sdk {
+
+// Feeds the blob's bytes, in order and each once, to `sink`. A broken stream
+// (UNAVAILABLE, DEADLINE_EXCEEDED, or an early end) is resumed at the next
+// offset, up to max_attempts tries in a row that bring no bytes. DATA_LOSS
+// when the server sends more bytes than the digest's size, a wrong offset, or
+// bytes whose SHA-256 differs (the sink has then seen bad bytes: the caller
+// must discard them). A non-OK status from `sink` is returned as is.
+absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
+                          const std::function<absl::Status(std::string_view)>& sink);
+
+// DownloadBlob into `path` through an AtomicFileWriter: on any error the
+// temporary file is removed and `path` is left untouched.
+absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, const std::filesystem::path& path);
+
+// DownloadBlob into memory.
+absl::StatusOr<std::string> DownloadBlobToString(Transport& transport, const v1::Digest& digest);
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_BLOB_DOWNLOAD_H_

@@ -1,0 +1,146 @@
+// impostor bake: upload, submit, watch, fetch.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include <nlohmann/json.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "client/cli/commands.h"
+#include "client/cli/output.h"
+#include "client/cli/progress_printer.h"
+#include "impostor/client.h"
+
+namespace impostor::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Collects the --json report and prints it exactly once, whatever the outcome.
+class BakeReport {
+ public:
+  BakeReport(const CliArgs& args) : args_(args), start_(std::chrono::steady_clock::now()) {
+    json_ = {{"model", args.target}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
+             {"out_dir", args.out},  {"manifest", nullptr},  {"files", nlohmann::json::array()},
+             {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"error", nullptr}};
+  }
+  nlohmann::json& json() { return json_; }
+
+  int Fail(int exit_code, const std::string& reason) {
+    json_["error"] = reason;
+    Print();
+    return cli::Fail(exit_code, reason);
+  }
+  int Succeed() {
+    Print();
+    return kExitOk;
+  }
+
+ private:
+  void Print() {
+    if (!args_.json) return;
+    json_["wall_seconds"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    PrintJson(json_);
+  }
+
+  const CliArgs& args_;
+  std::chrono::steady_clock::time_point start_;
+  nlohmann::json json_;
+};
+
+}  // namespace
+
+int RunBake(const CliArgs& args) {
+  BakeReport report(args);
+  const auto start = std::chrono::steady_clock::now();
+
+  // Local problems first, so they are reported without needing a server.
+  std::error_code ec;
+  if (!fs::exists(args.target, ec)) return report.Fail(kExitLocalIo, absl::StrCat("model ", args.target, " not found"));
+  fs::create_directories(args.out, ec);
+  if (ec || !fs::is_directory(args.out)) {
+    return report.Fail(kExitLocalIo, absl::StrCat("cannot create output directory ", args.out, ": ",
+                                                  ec ? ec.message() : std::string("not a directory")));
+  }
+
+  sdk::ClientOptions options;
+  options.server = args.server;
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
+
+  sdk::BakeSettings settings;
+  settings.layout = args.layout;
+  settings.frames = args.frames;
+  settings.resolution = args.resolution;
+  absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
+  if (!submitted.ok()) {
+    const absl::Status& s = submitted.status();
+    const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(s);
+    // The server judged the request itself (e.g. frames out of range): that
+    // is the bake failing, not the transport.
+    if (rpc.has_value() && rpc->rpc == "SubmitBake" && s.code() == absl::StatusCode::kInvalidArgument) {
+      return report.Fail(kExitBakeFailed, absl::StrCat("bake failed: INVALID_ARGUMENT: ", rpc->server_message));
+    }
+    return report.Fail(ExitCodeFor(s), Describe(s));
+  }
+  report.json()["cache_key"] = submitted->cache_key;
+  report.json()["job_id"] = submitted->job_id;
+  report.json()["cached"] = submitted->cached;
+  report.json()["uploaded_bytes"] = submitted->upload.bytes_uploaded;
+  if (!args.quiet) {
+    std::fprintf(stderr, "submitted %s: job %s, %d files, uploaded %d (%s)%s\n", args.target.c_str(),
+                 submitted->job_id.c_str(), submitted->upload.files, submitted->upload.uploaded,
+                 HumanBytes(submitted->upload.bytes_uploaded).c_str(), submitted->cached ? ", cached" : "");
+  }
+
+  if (!submitted->cached) {
+    ProgressPrinter printer(stderr, isatty(STDERR_FILENO) == 1);
+    absl::StatusOr<sdk::JobUpdate> final_state = (*client)->WatchJob(submitted->job_id, [&](const sdk::JobUpdate& u) {
+      if (!args.quiet) printer.Update(u);
+    });
+    printer.Finish();
+    if (!final_state.ok()) return report.Fail(ExitCodeFor(final_state.status()), Describe(final_state.status()));
+    report.json()["cached"] = final_state->cached;
+    if (final_state->state == sdk::JobState::kFailed) {
+      return report.Fail(kExitBakeFailed,
+                         absl::StrCat("bake failed: ",
+                                      absl::StatusCodeToString(static_cast<absl::StatusCode>(final_state->error_code)),
+                                      ": ", final_state->error_message));
+    }
+    if (final_state->state == sdk::JobState::kCancelled) {
+      std::string reason = "bake was cancelled";
+      if (!final_state->error_message.empty()) absl::StrAppend(&reason, ": ", final_state->error_message);
+      return report.Fail(kExitBakeFailed, reason);
+    }
+    if (final_state->state != sdk::JobState::kSucceeded) {
+      return report.Fail(kExitServer, absl::StrCat("job ", submitted->job_id, " ended in state ",
+                                                   std::string(sdk::JobStateName(final_state->state))));
+    }
+  }
+
+  absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(submitted->cache_key, args.out);
+  if (!fetched.ok()) return report.Fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));
+  report.json()["manifest"] = fetched->manifest_path.string();
+  for (const fs::path& f : fetched->files) report.json()["files"].push_back(f.string());
+
+  if (!args.json) {
+    std::printf("%s\n", fetched->manifest_path.string().c_str());
+    for (const fs::path& f : fetched->files) {
+      if (f != fetched->manifest_path) std::printf("%s\n", f.string().c_str());
+    }
+    std::fflush(stdout);
+  }
+  if (!args.quiet) {
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::fprintf(stderr, "baked %s -> %s (key %s%s), downloaded %s, %.1f s\n", args.target.c_str(),
+                 args.out.c_str(), submitted->cache_key.c_str(), submitted->cached ? ", cached" : "",
+                 HumanBytes(fetched->bytes_downloaded).c_str(), wall);
+  }
+  return report.Succeed();
+}
+
+}  // namespace impostor::cli

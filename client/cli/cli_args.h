@@ -1,0 +1,54 @@
+// Command-line parsing of the `impostor` tool, kept apart from the tool so
+// that tests can drive it. Pure functions; thread-safe.
+#ifndef IMPOSTOR_CLIENT_CLI_CLI_ARGS_H_
+#define IMPOSTOR_CLIENT_CLI_CLI_ARGS_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace impostor::cli {
+
+// Process exit codes; documented in UsageText().
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitBakeFailed = 1,   // the bake failed or was cancelled, or the server refused it
+  kExitUsage = 2,        // bad command line
+  kExitServer = 3,       // cannot reach the server, or an RPC failed
+  kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
+};
+
+enum class Command { kHelp, kVersion, kBake, kFetch, kStatus, kCancel };
+
+inline constexpr char kDefaultServer[] = "localhost:50051";
+
+struct CliArgs {
+  Command command = Command::kHelp;
+  // The positional argument: MODEL (bake), KEY (fetch) or JOB_ID.
+  std::string target;
+  std::string out;
+  // --server, else $IMPOSTOR_SERVER, else kDefaultServer.
+  std::string server = kDefaultServer;
+  std::string layout = "octahedral";
+  // 0 = not given (the server's default). Other values go to the server
+  // unchecked: it owns the ranges.
+  uint32_t frames = 0;
+  uint32_t resolution = 0;
+  bool json = false;
+  bool quiet = false;
+};
+
+// Parses argv without argv[0]. `env_server` is $IMPOSTOR_SERVER (nullptr or
+// empty when unset). INVALID_ARGUMENT is a usage error; its message names the
+// flag or argument at fault. "--help"/"-h" anywhere, or "help", gives
+// Command::kHelp.
+absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const char* env_server);
+
+// The text of `impostor --help`.
+std::string UsageText();
+
+}  // namespace impostor::cli
+
+#endif  // IMPOSTOR_CLIENT_CLI_CLI_ARGS_H_

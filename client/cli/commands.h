@@ -1,0 +1,17 @@
+// The `impostor` subcommands. Each returns the process exit code (see
+// ExitCode in cli_args.h) and has printed its one failure line, if any.
+#ifndef IMPOSTOR_CLIENT_CLI_COMMANDS_H_
+#define IMPOSTOR_CLIENT_CLI_COMMANDS_H_
+
+#include "client/cli/cli_args.h"
+
+namespace impostor::cli {
+
+int RunBake(const CliArgs& args);
+int RunFetch(const CliArgs& args);
+int RunStatus(const CliArgs& args);
+int RunCancel(const CliArgs& args);
+
+}  // namespace impostor::cli
+
+#endif  // IMPOSTOR_CLIENT_CLI_COMMANDS_H_

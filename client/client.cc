@@ -1,0 +1,138 @@
+// Client: the public SDK facade. Each method composes the private pieces
+// (mesh_files, mesh_upload, result_fetch, transport) on the caller's thread.
+#include "impostor/client.h"
+
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/blob_download.h"
+#include "client/job_convert.h"
+#include "client/mesh_files.h"
+#include "client/mesh_upload.h"
+#include "client/result_fetch.h"
+#include "client/retry.h"
+#include "client/transport.h"
+
+namespace impostor::sdk {
+namespace {
+
+bool SameSnapshot(const JobUpdate& a, const JobUpdate& b) {
+  return a.state == b.state && a.stage == b.stage && a.progress == b.progress && a.error_code == b.error_code &&
+         a.error_message == b.error_message && a.cache_key == b.cache_key;
+}
+
+}  // namespace
+
+// Owns the transport; stateless otherwise, hence thread-safe.
+class Client::Impl {
+ public:
+  explicit Impl(std::unique_ptr<Transport> transport) : transport_(std::move(transport)) {}
+  Transport& transport() { return *transport_; }
+
+ private:
+  std::unique_ptr<Transport> transport_;
+};
+
+Client::Client(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Client::~Client() = default;
+
+absl::StatusOr<std::unique_ptr<Client>> Client::Connect(const ClientOptions& options) {
+  absl::StatusOr<std::unique_ptr<Transport>> transport = Transport::Connect(options);
+  if (!transport.ok()) return transport.status();
+  return std::unique_ptr<Client>(new Client(std::make_unique<Impl>(std::move(*transport))));
+}
+
+const std::string& Client::server() const { return impl_->transport().server(); }
+
+absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& model, const BakeSettings& settings) {
+  // Everything checkable locally is checked before the first RPC.
+  absl::StatusOr<v1::BakeParameters> parameters = ToBakeParameters(settings);
+  if (!parameters.ok()) return parameters.status();
+  absl::StatusOr<MeshFiles> files = CollectMeshFiles(model);
+  if (!files.ok()) return files.status();
+
+  absl::StatusOr<UploadedMesh> uploaded = UploadMesh(impl_->transport(), *files);
+  if (!uploaded.ok()) return uploaded.status();
+  spdlog::debug("{}: {} files, {} uploaded ({} bytes)", model.string(), uploaded->stats.files,
+                uploaded->stats.uploaded, uploaded->stats.bytes_uploaded);
+
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = std::move(uploaded->mesh);
+  *request.mutable_parameters() = *parameters;
+  absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
+  if (!response.ok()) return response.status();
+
+  SubmitResult result;
+  result.job_id = response->job_id();
+  result.cache_key = response->cache_key();
+  result.cached = response->cached();
+  result.upload = uploaded->stats;
+  return result;
+}
+
+absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
+                                           const std::function<void(const JobUpdate&)>& on_update) {
+  Transport& transport = impl_->transport();
+  std::optional<JobUpdate> last;
+  // Reports only changes: a resumed stream repeats the current state.
+  auto emit = [&](const JobUpdate& update) {
+    if (last.has_value() && SameSnapshot(*last, update)) return;
+    last = update;
+    if (on_update) on_update(update);
+  };
+  int fruitless = 0;
+  while (true) {
+    bool got_any = false;
+    absl::Status status = transport.WatchJob(job_id, [&](const v1::Job& job) {
+      got_any = true;
+      emit(ToJobUpdate(job));
+      return !IsTerminal(last->state);
+    });
+    if (last.has_value() && IsTerminal(last->state)) return *last;
+    if (!status.ok() && !IsRetryable(status.code())) return status;
+    // The stream broke, or ended before a terminal state (a server shutting
+    // down): resume.
+    fruitless = got_any ? 1 : fruitless + 1;
+    if (fruitless >= transport.options().max_attempts) {
+      if (!status.ok()) return status;
+      return absl::UnavailableError(absl::StrCat("WatchJob (server ", transport.server(), "): stream for job ",
+                                                 job_id, " ended before the job finished"));
+    }
+    spdlog::debug("WatchJob {} interrupted ({}); resuming", job_id, status.ToString());
+    SleepBeforeRetry(fruitless);
+    absl::StatusOr<v1::Job> job = transport.GetJob(job_id);
+    if (!job.ok()) return job.status();
+    emit(ToJobUpdate(*job));
+    if (IsTerminal(last->state)) return *last;
+  }
+}
+
+absl::StatusOr<JobUpdate> Client::GetJob(const std::string& job_id) {
+  absl::StatusOr<v1::Job> job = impl_->transport().GetJob(job_id);
+  if (!job.ok()) return job.status();
+  return ToJobUpdate(*job);
+}
+
+absl::StatusOr<JobUpdate> Client::CancelJob(const std::string& job_id) {
+  absl::StatusOr<v1::Job> job = impl_->transport().CancelJob(job_id);
+  if (!job.ok()) return job.status();
+  return ToJobUpdate(*job);
+}
+
+absl::StatusOr<FetchResult> Client::Fetch(const std::string& cache_key, const std::filesystem::path& out_dir) {
+  return FetchResultFiles(impl_->transport(), cache_key, out_dir);
+}
+
+absl::StatusOr<std::string> Client::GetManifestJson(const std::string& cache_key) {
+  absl::StatusOr<v1::Manifest> manifest = impl_->transport().GetResult(cache_key);
+  if (!manifest.ok()) return manifest.status();
+  if (absl::Status s = CheckManifestFiles(*manifest); !s.ok()) {
+    return absl::InternalError(absl::StrCat("server ", server(), " sent a bad result for ", cache_key, ": ",
+                                            s.message()));
+  }
+  return DownloadBlobToString(impl_->transport(), manifest->manifest_json());
+}
+
+}  // namespace impostor::sdk

@@ -1,0 +1,220 @@
+// The impostor bake farm client SDK: upload a glTF model, bake it into an
+// impostor atlas, follow the job and download the result.
+//
+// This header is the whole public API. It deliberately exposes no gRPC or
+// protobuf type, so applications link against it without generated code and
+// the wire protocol (impostor.v1) can evolve behind it.
+//
+// Typical use:
+//
+//   impostor::sdk::ClientOptions options;
+//   options.server = "bake.example.com:50051";
+//   auto client = impostor::sdk::Client::Connect(options);
+//   if (!client.ok()) return client.status();
+//   auto submitted = (*client)->SubmitBake("tree/scene.gltf", {});
+//   if (!submitted.ok()) return submitted.status();
+//   auto done = (*client)->WatchJob(submitted->job_id, [](const auto& u) {});
+//   if (!done.ok()) return done.status();
+//   if (done->state != impostor::sdk::JobState::kSucceeded) { ... done->error_message ... }
+//   auto fetched = (*client)->Fetch(done->cache_key, "out/tree");
+#ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CLIENT_H_
+#define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CLIENT_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace impostor::sdk {
+
+// How a Client talks to the server.
+struct ClientOptions {
+  // Address of the bake server as "host:port" (any gRPC target string works,
+  // e.g. "dns:///bake.example.com:50051" or "unix:/run/impostor.sock").
+  // The connection is plaintext (no TLS).
+  // Default: "localhost:50051".
+  std::string server = "localhost:50051";
+
+  // Deadline of every unary RPC (FindMissingBlobs, SubmitBake, GetJob,
+  // CancelJob, GetResult), in seconds. Streams scale it: an upload or a
+  // download gets this much plus one second per 256 KiB of blob; WatchJob
+  // has no deadline (a bake may take long) but resumes when the stream breaks.
+  // Default: 30. Range: > 0.
+  double rpc_timeout_seconds = 30;
+
+  // How often a call is tried in all before its error is returned. A call is
+  // retried when it fails with UNAVAILABLE or DEADLINE_EXCEEDED (every RPC of
+  // impostor.v1 is idempotent), after an exponential backoff of 100 ms,
+  // 200 ms, 400 ms, ... capped at 5 s. A download that breaks midway resumes
+  // where it stopped; its attempt count starts over whenever bytes arrived.
+  // Default: 5. Range: >= 1 (1 = never retry).
+  int max_attempts = 5;
+
+  // How long Connect waits for the channel to become ready, in seconds.
+  // Default: 10. Range: > 0.
+  double connect_timeout_seconds = 10;
+};
+
+// What to bake. Zero and empty values mean "the server's default", which the
+// server fills in before computing the cache key, so an explicit default and
+// an omitted one share a cached result.
+struct BakeSettings {
+  // Arrangement of view directions in the atlas: "octahedral" (the full
+  // sphere) or "hemi-octahedral" (the upper hemisphere, glTF +Y up).
+  // Default: "octahedral". Any other name is INVALID_ARGUMENT.
+  std::string layout = "octahedral";
+
+  // Frames per atlas axis: the atlas holds frames x frames views.
+  // Default: 0 = the server's default (12). Range checked by the server: 2..64.
+  uint32_t frames = 0;
+
+  // Atlas side in pixels.
+  // Default: 0 = the server's default (2048). Range checked by the server:
+  // 64..8192 and at least 8 * frames.
+  uint32_t resolution = 0;
+};
+
+// What SubmitBake sent to the store.
+struct UploadStats {
+  int files = 0;               // files of the model, the entry file included
+  int uploaded = 0;            // files the server lacked and that were uploaded
+  int64_t bytes_total = 0;     // size of all files of the model
+  int64_t bytes_uploaded = 0;  // size of the uploaded files
+};
+
+struct SubmitResult {
+  std::string job_id;
+  // 64 hex characters; names the result for Fetch.
+  std::string cache_key;
+  // The result was already baked: the job is SUCCEEDED and Fetch works now.
+  bool cached = false;
+  UploadStats upload;
+};
+
+enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled, kUnknown };
+
+// "queued", "running", "succeeded", "failed", "cancelled" or "unknown".
+std::string_view JobStateName(JobState state);
+
+// True for kSucceeded, kFailed and kCancelled: the job will not change again.
+bool IsTerminal(JobState state);
+
+// A snapshot of a job.
+struct JobUpdate {
+  std::string job_id;
+  std::string cache_key;
+  JobState state = JobState::kUnknown;
+  // Fraction done, 0..1 (1 once succeeded).
+  double progress = 0;
+  // While running: "download", "load", "render", "encode" or "upload".
+  std::string stage;
+  // When failed or cancelled: a canonical status code (absl::StatusCode and
+  // grpc::StatusCode agree, e.g. 3 = INVALID_ARGUMENT) and a one-line reason.
+  int error_code = 0;
+  std::string error_message;
+  // The result came from the cache without a new bake.
+  bool cached = false;
+};
+
+// What Fetch left on disk.
+struct FetchResult {
+  // The output directory and its manifest.json.
+  std::filesystem::path dir;
+  std::filesystem::path manifest_path;
+  // Every map image (albedo_alpha.png, ...) in manifest order, then
+  // manifest.json.
+  std::vector<std::filesystem::path> files;
+  // Bytes received from the server, and bytes of files already present in
+  // `dir` with the right digest (kept, not downloaded again).
+  int64_t bytes_downloaded = 0;
+  int64_t bytes_reused = 0;
+  // Wall time of the whole fetch.
+  double seconds = 0;
+};
+
+// Details of a Status that came from an RPC (see GetRpcErrorInfo).
+struct RpcErrorInfo {
+  std::string rpc;             // e.g. "SubmitBake"
+  std::string server;          // the ClientOptions::server address
+  std::string server_message;  // the server's own message, unchanged
+};
+
+// Every Status a Client returns for a failed RPC carries the RPC's status
+// code and a message naming the RPC and the server address; this returns its
+// details. std::nullopt for local failures (a missing model file, a bad
+// argument, a full disk), which lets callers tell the two apart.
+std::optional<RpcErrorInfo> GetRpcErrorInfo(const absl::Status& status);
+
+// A connection to one bake server.
+//
+// Thread-safety: every method may be called from any thread, concurrently;
+// the client holds no per-call state. Ownership: the caller owns the Client;
+// it owns its channel, which closes when the Client is destroyed.
+class Client {
+ public:
+  // Opens a channel to options.server and waits up to
+  // options.connect_timeout_seconds for it to become ready. UNAVAILABLE naming
+  // the address when it does not; INVALID_ARGUMENT for out-of-range options.
+  static absl::StatusOr<std::unique_ptr<Client>> Connect(const ClientOptions& options);
+
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  // Uploads what the server lacks of `model` (a .gltf or .glb file and every
+  // file its buffers and images refer to by relative URI) and submits a bake.
+  // Errors: INVALID_ARGUMENT (unknown layout, not a .gltf/.glb, malformed
+  // glTF, a URI that is absolute or leaves the model's directory), NOT_FOUND
+  // (the model or a file it refers to is missing), or an RPC's error.
+  absl::StatusOr<SubmitResult> SubmitBake(const std::filesystem::path& model,
+                                          const BakeSettings& settings);
+
+  // Follows a job until it reaches a terminal state and returns that state; a
+  // failed or cancelled bake is an OK StatusOr whose state says so.
+  // `on_update` (may be empty) is called on the calling thread for each
+  // change, the terminal one included. When the stream breaks (UNAVAILABLE,
+  // e.g. a server restart) it resumes: GetJob, then a new stream, up to
+  // max_attempts times in a row without news.
+  absl::StatusOr<JobUpdate> WatchJob(const std::string& job_id,
+                                     const std::function<void(const JobUpdate&)>& on_update);
+
+  // The job's current state.
+  absl::StatusOr<JobUpdate> GetJob(const std::string& job_id);
+
+  // Cancels a queued or running job; returns its state afterwards (a job that
+  // already finished is returned unchanged).
+  absl::StatusOr<JobUpdate> CancelJob(const std::string& job_id);
+
+  // Downloads the result baked under `cache_key` into `out_dir` (created if
+  // needed): every map image and manifest.json (written last, so a
+  // manifest.json on disk means its maps are complete). Each file is written
+  // to a temporary file in out_dir, verified against its SHA-256 and size,
+  // then renamed into place; files already there with the right digest are
+  // kept. Errors: NOT_FOUND (nothing baked under that key), DATA_LOSS (a
+  // download did not match its digest), INTERNAL (cannot write out_dir), or
+  // an RPC's error.
+  absl::StatusOr<FetchResult> Fetch(const std::string& cache_key,
+                                    const std::filesystem::path& out_dir);
+
+  // The text of the result's manifest.json, verified against its digest.
+  absl::StatusOr<std::string> GetManifestJson(const std::string& cache_key);
+
+  // The address this client talks to (ClientOptions::server).
+  const std::string& server() const;
+
+ private:
+  class Impl;
+  explicit Client(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CLIENT_H_

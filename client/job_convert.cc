@@ -1,0 +1,68 @@
+#include "client/job_convert.h"
+
+#include <string>
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor::sdk {
+
+std::string_view JobStateName(JobState state) {
+  switch (state) {
+    case JobState::kQueued: return "queued";
+    case JobState::kRunning: return "running";
+    case JobState::kSucceeded: return "succeeded";
+    case JobState::kFailed: return "failed";
+    case JobState::kCancelled: return "cancelled";
+    case JobState::kUnknown: break;
+  }
+  return "unknown";
+}
+
+bool IsTerminal(JobState state) {
+  return state == JobState::kSucceeded || state == JobState::kFailed || state == JobState::kCancelled;
+}
+
+JobState ToJobState(v1::JobState state) {
+  switch (state) {
+    case v1::JOB_STATE_QUEUED: return JobState::kQueued;
+    case v1::JOB_STATE_RUNNING: return JobState::kRunning;
+    case v1::JOB_STATE_SUCCEEDED: return JobState::kSucceeded;
+    case v1::JOB_STATE_FAILED: return JobState::kFailed;
+    case v1::JOB_STATE_CANCELLED: return JobState::kCancelled;
+    default: return JobState::kUnknown;
+  }
+}
+
+JobUpdate ToJobUpdate(const v1::Job& job) {
+  JobUpdate u;
+  u.job_id = job.job_id();
+  u.cache_key = job.cache_key();
+  u.state = ToJobState(job.state());
+  u.progress = job.progress();
+  u.stage = job.stage();
+  if (job.has_error()) {
+    u.error_code = job.error().code();
+    u.error_message = job.error().message();
+  }
+  u.cached = job.cached();
+  return u;
+}
+
+absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings) {
+  v1::BakeParameters p;
+  if (settings.layout.empty()) {
+    p.set_layout(v1::LAYOUT_UNSPECIFIED);  // the server's default
+  } else if (settings.layout == "octahedral") {
+    p.set_layout(v1::LAYOUT_OCTAHEDRAL);
+  } else if (settings.layout == "hemi-octahedral") {
+    p.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  } else {
+    return absl::InvalidArgumentError(absl::StrCat("layout: unknown layout \"", settings.layout,
+                                                   "\"; expected \"octahedral\" or \"hemi-octahedral\""));
+  }
+  p.set_frames(settings.frames);
+  p.set_resolution(settings.resolution);
+  return p;
+}
+
+}  // namespace impostor::sdk

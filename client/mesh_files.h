@@ -1,0 +1,49 @@
+// Which files make up a glTF model: the entry file (.gltf or .glb) and every
+// file its buffers and images refer to by relative URI. Only the JSON is
+// read; geometry and images are not parsed. Thread-safe (no shared state).
+#ifndef IMPOSTOR_CLIENT_MESH_FILES_H_
+#define IMPOSTOR_CLIENT_MESH_FILES_H_
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace impostor::sdk {
+
+struct MeshFile {
+  // '/'-separated path relative to the entry's directory, percent-decoded and
+  // without "." components; what MeshInput.files[].path carries.
+  std::string relative_path;
+  // Where the file is on this machine.
+  std::filesystem::path local_path;
+};
+
+struct MeshFiles {
+  std::filesystem::path entry;  // the model file as given
+  std::string entry_name;       // its bare file name
+  // External files, in first-use order (buffers, then images), each once.
+  std::vector<MeshFile> files;
+};
+
+// Reads `model` and lists its files. Errors:
+//   NOT_FOUND         the model, or a file it refers to (naming the file and
+//                     the buffer/image that uses it);
+//   INVALID_ARGUMENT  not .gltf/.glb, a corrupt GLB header, invalid JSON, a
+//                     URI that is absolute, has a scheme, contains "..", or a
+//                     bad percent escape (naming the URI);
+//   INTERNAL          a read error.
+absl::StatusOr<MeshFiles> CollectMeshFiles(const std::filesystem::path& model);
+
+// The JSON chunk of a GLB file's bytes (only the header and the first chunk
+// need be present). INVALID_ARGUMENT naming what is wrong with the header.
+absl::StatusOr<std::string> GlbJsonChunk(std::string_view glb_prefix, std::string_view name);
+
+// Decodes %XX escapes. INVALID_ARGUMENT on a truncated or non-hex escape.
+absl::StatusOr<std::string> PercentDecode(std::string_view uri);
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_MESH_FILES_H_

@@ -1,0 +1,101 @@
+#include "client/mesh_upload.h"
+
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/retry.h"
+#include "common/sha256.h"
+
+namespace impostor::sdk {
+namespace {
+
+struct LocalBlob {
+  std::filesystem::path path;
+  v1::Digest digest;
+};
+
+absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
+  absl::StatusOr<BlobDigest> digest = DigestFile(path);
+  if (!digest.ok()) return digest.status();
+  v1::Digest out;
+  out.set_hash(digest->hash);
+  out.set_size_bytes(digest->size_bytes);
+  return out;
+}
+
+// One attempt: streams the file from its first byte.
+absl::Status UploadOnce(Transport& transport, const LocalBlob& blob) {
+  std::ifstream in(blob.path, std::ios::binary);
+  if (!in) {
+    return absl::InternalError(absl::StrCat("cannot open ", blob.path.string(), ": ", std::strerror(errno)));
+  }
+  Transport::ChunkSource next = [&](std::string* data) -> absl::StatusOr<bool> {
+    data->resize(kUploadChunkBytes);
+    in.read(data->data(), static_cast<std::streamsize>(data->size()));
+    if (in.bad()) return absl::InternalError(absl::StrCat("read error on ", blob.path.string()));
+    data->resize(static_cast<size_t>(in.gcount()));
+    return !data->empty();
+  };
+  absl::StatusOr<v1::UploadBlobResponse> response = transport.UploadBlob(blob.digest, next);
+  if (!response.ok()) return response.status();
+  if (response->already_present()) spdlog::debug("{} was already in the store", blob.path.string());
+  return absl::OkStatus();
+}
+
+absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
+  const int max_attempts = transport.options().max_attempts;
+  for (int attempt = 1;; ++attempt) {
+    absl::Status status = UploadOnce(transport, blob);
+    if (status.ok() || !IsRetryable(status.code()) || attempt >= max_attempts) return status;
+    spdlog::debug("upload of {} failed (attempt {} of {}): {}; retrying", blob.path.string(), attempt,
+                  max_attempts, status.ToString());
+    SleepBeforeRetry(attempt);
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files) {
+  UploadedMesh out;
+  std::vector<LocalBlob> blobs;
+  auto add = [&](const std::filesystem::path& path, v1::InputFile* input, const std::string& name)
+      -> absl::Status {
+    absl::StatusOr<v1::Digest> digest = HashFile(path);
+    if (!digest.ok()) return digest.status();
+    input->set_path(name);
+    *input->mutable_digest() = *digest;
+    blobs.push_back(LocalBlob{path, *digest});
+    ++out.stats.files;
+    out.stats.bytes_total += digest->size_bytes();
+    return absl::OkStatus();
+  };
+  if (absl::Status s = add(files.entry, out.mesh.mutable_entry(), files.entry_name); !s.ok()) return s;
+  for (const MeshFile& file : files.files) {
+    if (absl::Status s = add(file.local_path, out.mesh.add_files(), file.relative_path); !s.ok()) return s;
+  }
+
+  v1::FindMissingBlobsRequest request;
+  for (const LocalBlob& blob : blobs) *request.add_digests() = blob.digest;
+  absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request);
+  if (!missing.ok()) return missing.status();
+
+  std::set<std::string> missing_keys;
+  for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
+  // Two files with the same content are one blob: upload it once.
+  std::set<std::string> done;
+  for (const LocalBlob& blob : blobs) {
+    const std::string key = absl::StrCat(blob.digest.hash(), "/", blob.digest.size_bytes());
+    if (!missing_keys.contains(key) || !done.insert(key).second) continue;
+    if (absl::Status s = UploadWithRetry(transport, blob); !s.ok()) return s;
+    ++out.stats.uploaded;
+    out.stats.bytes_uploaded += blob.digest.size_bytes();
+  }
+  return out;
+}
+
+}  // namespace impostor::sdk

@@ -1,0 +1,27 @@
+// Puts a model's files into the server's blob store: hashes every file, asks
+// once which blobs the server lacks and uploads only those. Called by
+// Client::SubmitBake on the caller's thread.
+#ifndef IMPOSTOR_CLIENT_MESH_UPLOAD_H_
+#define IMPOSTOR_CLIENT_MESH_UPLOAD_H_
+
+#include "absl/status/statusor.h"
+#include "client/mesh_files.h"
+#include "client/transport.h"
+#include "impostor/client.h"
+#include "impostor/v1/types.pb.h"
+
+namespace impostor::sdk {
+
+struct UploadedMesh {
+  v1::MeshInput mesh;  // entry and files with their digests, ready to submit
+  UploadStats stats;
+};
+
+// Upload chunk size: well under the server's 4 MiB message limit.
+inline constexpr size_t kUploadChunkBytes = 1 << 20;
+
+absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files);
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_MESH_UPLOAD_H_

@@ -1,0 +1,232 @@
+#include "client/transport.h"
+
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include <grpcpp/grpcpp.h>
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/retry.h"
+#include "client/rpc_error.h"
+#include "impostor/v1/asset_service.grpc.pb.h"
+#include "impostor/v1/bake_service.grpc.pb.h"
+
+namespace impostor::sdk {
+namespace {
+
+// ReadBlob sends at most 1 MiB per message and a manifest with 64 x 64
+// views is well under 1 MiB; the margin is for future fields.
+constexpr int kMaxReceiveBytes = 64 << 20;
+// Keepalive pings find a silently dead server during a long WatchJob. Kept
+// above the server default minimum ping interval (5 min) so that a default
+// server never answers GOAWAY "too_many_pings".
+constexpr int kKeepaliveTimeMs = 310 * 1000;
+constexpr int kKeepaliveTimeoutMs = 20 * 1000;
+// A stream's deadline grows by one second per this many bytes.
+constexpr double kStreamBytesPerSecond = 256 * 1024;
+
+std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
+  return std::chrono::system_clock::now() +
+         std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(seconds));
+}
+
+absl::Status ToStatus(const grpc::Status& status, std::string_view rpc, const std::string& server) {
+  if (status.ok()) return absl::OkStatus();
+  return MakeRpcError(static_cast<absl::StatusCode>(static_cast<int>(status.error_code())), rpc, server,
+                      status.error_message());
+}
+
+absl::Status ValidateOptions(const ClientOptions& o) {
+  // !(x > 0) also catches NaN.
+  if (o.server.empty()) return absl::InvalidArgumentError("ClientOptions.server: required");
+  if (!(o.rpc_timeout_seconds > 0) || std::isinf(o.rpc_timeout_seconds)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ClientOptions.rpc_timeout_seconds: must be > 0, got ", o.rpc_timeout_seconds));
+  }
+  if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ClientOptions.connect_timeout_seconds: must be > 0, got ", o.connect_timeout_seconds));
+  }
+  if (o.max_attempts < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("ClientOptions.max_attempts: must be >= 1, got ", o.max_attempts));
+  }
+  return absl::OkStatus();
+}
+
+const char* StateName(grpc_connectivity_state state) {
+  switch (state) {
+    case GRPC_CHANNEL_IDLE: return "IDLE";
+    case GRPC_CHANNEL_CONNECTING: return "CONNECTING";
+    case GRPC_CHANNEL_READY: return "READY";
+    case GRPC_CHANNEL_TRANSIENT_FAILURE: return "TRANSIENT_FAILURE";
+    case GRPC_CHANNEL_SHUTDOWN: return "SHUTDOWN";
+  }
+  return "?";
+}
+
+}  // namespace
+
+struct Transport::Stubs {
+  std::shared_ptr<grpc::Channel> channel;
+  std::unique_ptr<v1::BakeService::Stub> bake;
+  std::unique_ptr<v1::AssetService::Stub> asset;
+};
+
+Transport::Transport(ClientOptions options, std::unique_ptr<Stubs> stubs)
+    : options_(std::move(options)), stubs_(std::move(stubs)) {}
+
+Transport::~Transport() = default;
+
+absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options) {
+  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kKeepaliveTimeMs);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
+  auto stubs = std::make_unique<Stubs>();
+  stubs->channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  if (!stubs->channel->WaitForConnected(DeadlineAfter(options.connect_timeout_seconds))) {
+    return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server,
+                        absl::StrCat("no impostor server answered within ",
+                                     options.connect_timeout_seconds, " s (channel ",
+                                     StateName(stubs->channel->GetState(false)), ")"));
+  }
+  stubs->bake = v1::BakeService::NewStub(stubs->channel);
+  stubs->asset = v1::AssetService::NewStub(stubs->channel);
+  spdlog::debug("connected to impostor server at {}", options.server);
+  return std::unique_ptr<Transport>(new Transport(options, std::move(stubs)));
+}
+
+namespace {
+
+// Runs a unary call with a fresh context per attempt.
+template <typename Response, typename Call>
+absl::StatusOr<Response> CallUnary(const ClientOptions& options, std::string_view rpc, Call call) {
+  for (int attempt = 1;; ++attempt) {
+    grpc::ClientContext context;
+    context.set_deadline(DeadlineAfter(options.rpc_timeout_seconds));
+    Response response;
+    const grpc::Status status = call(&context, &response);
+    if (status.ok()) return response;
+    absl::Status error = ToStatus(status, rpc, options.server);
+    if (!IsRetryable(error.code()) || attempt >= options.max_attempts) return error;
+    spdlog::debug("{} failed (attempt {} of {}): {}; retrying", std::string(rpc), attempt, options.max_attempts,
+                  error.ToString());
+    SleepBeforeRetry(attempt);
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<v1::FindMissingBlobsResponse> Transport::FindMissingBlobs(
+    const v1::FindMissingBlobsRequest& request) {
+  return CallUnary<v1::FindMissingBlobsResponse>(options_, "FindMissingBlobs", [&](auto* ctx, auto* resp) {
+    return stubs_->asset->FindMissingBlobs(ctx, request, resp);
+  });
+}
+
+absl::StatusOr<v1::SubmitBakeResponse> Transport::SubmitBake(const v1::SubmitBakeRequest& request) {
+  return CallUnary<v1::SubmitBakeResponse>(options_, "SubmitBake", [&](auto* ctx, auto* resp) {
+    return stubs_->bake->SubmitBake(ctx, request, resp);
+  });
+}
+
+absl::StatusOr<v1::Job> Transport::GetJob(const std::string& job_id) {
+  v1::GetJobRequest request;
+  request.set_job_id(job_id);
+  return CallUnary<v1::Job>(options_, "GetJob",
+                            [&](auto* ctx, auto* resp) { return stubs_->bake->GetJob(ctx, request, resp); });
+}
+
+absl::StatusOr<v1::Job> Transport::CancelJob(const std::string& job_id) {
+  v1::CancelJobRequest request;
+  request.set_job_id(job_id);
+  return CallUnary<v1::Job>(options_, "CancelJob",
+                            [&](auto* ctx, auto* resp) { return stubs_->bake->CancelJob(ctx, request, resp); });
+}
+
+absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) {
+  v1::GetResultRequest request;
+  request.set_cache_key(cache_key);
+  return CallUnary<v1::Manifest>(options_, "GetResult",
+                                 [&](auto* ctx, auto* resp) { return stubs_->asset->GetResult(ctx, request, resp); });
+}
+
+absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& digest,
+                                                             const ChunkSource& next_chunk) {
+  grpc::ClientContext context;
+  context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds +
+                                     static_cast<double>(digest.size_bytes()) / kStreamBytesPerSecond));
+  v1::UploadBlobResponse response;
+  std::unique_ptr<grpc::ClientWriter<v1::UploadBlobRequest>> writer =
+      stubs_->asset->UploadBlob(&context, &response);
+  v1::UploadBlobRequest message;
+  *message.mutable_digest() = digest;
+  absl::Status local_error;
+  bool first = true;
+  while (true) {
+    std::string* data = message.mutable_data();
+    data->clear();
+    absl::StatusOr<bool> more = next_chunk(data);
+    if (!more.ok()) {
+      local_error = more.status();
+      break;
+    }
+    // An empty blob still needs one message carrying the digest.
+    if (!*more && !first) break;
+    if (!writer->Write(message)) break;  // the stream broke; Finish says why
+    first = false;
+    message.clear_digest();
+    if (!*more) break;
+  }
+  if (!local_error.ok()) {
+    context.TryCancel();
+    writer->Finish();
+    return local_error;
+  }
+  writer->WritesDone();
+  const grpc::Status status = writer->Finish();
+  if (!status.ok()) return ToStatus(status, "UploadBlob", options_.server);
+  return response;
+}
+
+absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
+                                 const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk) {
+  grpc::ClientContext context;
+  const double remaining = static_cast<double>(digest.size_bytes() - offset);
+  context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds + std::max(0.0, remaining) / kStreamBytesPerSecond));
+  v1::ReadBlobRequest request;
+  *request.mutable_digest() = digest;
+  request.set_offset(offset);
+  std::unique_ptr<grpc::ClientReader<v1::ReadBlobResponse>> reader = stubs_->asset->ReadBlob(&context, request);
+  v1::ReadBlobResponse message;
+  while (reader->Read(&message)) {
+    if (absl::Status s = on_chunk(message); !s.ok()) {
+      context.TryCancel();
+      reader->Finish();
+      return s;
+    }
+  }
+  return ToStatus(reader->Finish(), "ReadBlob", options_.server);
+}
+
+absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {
+  grpc::ClientContext context;
+  v1::WatchJobRequest request;
+  request.set_job_id(job_id);
+  std::unique_ptr<grpc::ClientReader<v1::Job>> reader = stubs_->bake->WatchJob(&context, request);
+  v1::Job job;
+  while (reader->Read(&job)) {
+    if (!on_job(job)) {
+      // We have what we came for; do not wait for the server to close.
+      context.TryCancel();
+      reader->Finish();
+      return absl::OkStatus();
+    }
+  }
+  return ToStatus(reader->Finish(), "WatchJob", options_.server);
+}
+
+}  // namespace impostor::sdk

@@ -1,0 +1,74 @@
+// The only file pair of the client that touches gRPC: one channel to the
+// server, the BakeService and AssetService stubs, deadlines, retries of unary
+// calls, and the translation of grpc::Status into absl::Status (see
+// rpc_error.h). Everything above it speaks protobuf messages and absl::Status.
+//
+// Thread-safety: all methods may be called concurrently (gRPC channels and
+// stubs are thread-safe; every call has its own ClientContext).
+#ifndef IMPOSTOR_CLIENT_TRANSPORT_H_
+#define IMPOSTOR_CLIENT_TRANSPORT_H_
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "impostor/client.h"
+#include "impostor/v1/asset_service.pb.h"
+#include "impostor/v1/bake_service.pb.h"
+#include "impostor/v1/types.pb.h"
+
+namespace impostor::sdk {
+
+class Transport {
+ public:
+  // Validates `options`, opens the channel and waits until it is ready (see
+  // Client::Connect).
+  static absl::StatusOr<std::unique_ptr<Transport>> Connect(const ClientOptions& options);
+  ~Transport();
+  Transport(const Transport&) = delete;
+  Transport& operator=(const Transport&) = delete;
+
+  const ClientOptions& options() const { return options_; }
+  const std::string& server() const { return options_.server; }
+
+  // Unary RPCs: deadline rpc_timeout_seconds, retried with backoff while
+  // IsRetryable, up to max_attempts.
+  absl::StatusOr<v1::FindMissingBlobsResponse> FindMissingBlobs(const v1::FindMissingBlobsRequest& request);
+  absl::StatusOr<v1::SubmitBakeResponse> SubmitBake(const v1::SubmitBakeRequest& request);
+  absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
+  absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
+  absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
+
+  // Fills `data` (cleared before each call) with the next bytes to send and
+  // returns true, or returns false once there are none left. A non-OK status
+  // aborts the upload and is returned as is.
+  using ChunkSource = std::function<absl::StatusOr<bool>(std::string* data)>;
+
+  // One UploadBlob stream, not retried (the caller restarts from byte 0: the
+  // server only keeps complete blobs). Deadline: rpc_timeout_seconds plus one
+  // second per 256 KiB.
+  absl::StatusOr<v1::UploadBlobResponse> UploadBlob(const v1::Digest& digest, const ChunkSource& next_chunk);
+
+  // One ReadBlob stream from `offset` to the end, not retried (the caller
+  // resumes from what it got). `on_chunk` sees every message in order; a
+  // non-OK status from it cancels the stream and is returned as is.
+  absl::Status ReadBlob(const v1::Digest& digest, int64_t offset,
+                        const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk);
+
+  // One WatchJob stream, without deadline. `on_job` sees every message; the
+  // stream is closed early once it returns false.
+  absl::Status WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job);
+
+ private:
+  struct Stubs;
+  Transport(ClientOptions options, std::unique_ptr<Stubs> stubs);
+
+  ClientOptions options_;
+  std::unique_ptr<Stubs> stubs_;
+};
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_TRANSPORT_H_

@@ -1,0 +1,25 @@
+// Lets the server and worker accept GNU-style dashed flags (--local-workers)
+// as well as Abseil's underscored names (--local_workers), which is what
+// absl::ParseCommandLine understands. Rewrites the name part of every
+// "--name[=value]" argument in place, stopping at a bare "--".
+#ifndef IMPOSTOR_COMMON_FLAG_NAMES_H_
+#define IMPOSTOR_COMMON_FLAG_NAMES_H_
+
+#include <cstring>
+
+namespace impostor {
+
+inline void UnderscoreFlagNames(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    char* arg = argv[i];
+    if (std::strcmp(arg, "--") == 0) break;
+    if (arg[0] != '-' || arg[1] != '-') continue;
+    for (char* c = arg + 2; *c != '\0' && *c != '='; ++c) {
+      if (*c == '-') *c = '_';
+    }
+  }
+}
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_COMMON_FLAG_NAMES_H_

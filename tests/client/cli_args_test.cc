@@ -1,0 +1,107 @@
+#include "client/cli/cli_args.h"
+
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace impostor::cli {
+namespace {
+
+TEST(ParseCliArgs, FullBakeCommand) {
+  absl::StatusOr<CliArgs> a = ParseCliArgs({"bake", "tree.gltf", "--layout", "hemi-octahedral", "--frames=16",
+                                            "--resolution", "1024", "--out", "out/tree", "--server", "h:1", "--json",
+                                            "--quiet"},
+                                           nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->command, Command::kBake);
+  EXPECT_EQ(a->target, "tree.gltf");
+  EXPECT_EQ(a->layout, "hemi-octahedral");
+  EXPECT_EQ(a->frames, 16u);
+  EXPECT_EQ(a->resolution, 1024u);
+  EXPECT_EQ(a->out, "out/tree");
+  EXPECT_EQ(a->server, "h:1");
+  EXPECT_TRUE(a->json);
+  EXPECT_TRUE(a->quiet);
+}
+
+TEST(ParseCliArgs, Defaults) {
+  absl::StatusOr<CliArgs> a = ParseCliArgs({"bake", "m.glb", "--out", "o"}, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->server, "localhost:50051");
+  EXPECT_EQ(a->layout, "octahedral");
+  EXPECT_EQ(a->frames, 0u);
+  EXPECT_EQ(a->resolution, 0u);
+  EXPECT_FALSE(a->json);
+}
+
+TEST(ParseCliArgs, ServerFromEnvironmentUnlessFlagGiven) {
+  EXPECT_EQ(ParseCliArgs({"status", "j1"}, "env:7")->server, "env:7");
+  EXPECT_EQ(ParseCliArgs({"status", "j1", "--server", "flag:8"}, "env:7")->server, "flag:8");
+  EXPECT_EQ(ParseCliArgs({"status", "j1"}, "")->server, "localhost:50051");
+}
+
+TEST(ParseCliArgs, NumbersPassThroughUnchecked) {
+  // Ranges are the server's to judge; 0 means "the server's default".
+  EXPECT_EQ(ParseCliArgs({"bake", "m.glb", "--out", "o", "--frames", "0"}, nullptr)->frames, 0u);
+  EXPECT_EQ(ParseCliArgs({"bake", "m.glb", "--out", "o", "--frames", "1000"}, nullptr)->frames, 1000u);
+}
+
+TEST(ParseCliArgs, HelpVersionAndOtherCommands) {
+  EXPECT_EQ(ParseCliArgs({"--help"}, nullptr)->command, Command::kHelp);
+  EXPECT_EQ(ParseCliArgs({"help"}, nullptr)->command, Command::kHelp);
+  EXPECT_EQ(ParseCliArgs({"bake", "--bogus", "-h"}, nullptr)->command, Command::kHelp);
+  EXPECT_EQ(ParseCliArgs({"version"}, nullptr)->command, Command::kVersion);
+  absl::StatusOr<CliArgs> f = ParseCliArgs({"fetch", "abc", "--out", "d"}, nullptr);
+  ASSERT_TRUE(f.ok()) << f.status();
+  EXPECT_EQ(f->command, Command::kFetch);
+  EXPECT_EQ(f->target, "abc");
+  EXPECT_EQ(ParseCliArgs({"cancel", "j9"}, nullptr)->command, Command::kCancel);
+  // "--" ends the flags: a model may start with a dash.
+  EXPECT_EQ(ParseCliArgs({"bake", "--out", "o", "--", "-odd.glb"}, nullptr)->target, "-odd.glb");
+}
+
+struct UsageCase {
+  std::string name;
+  std::vector<std::string> args;
+  std::string message_part;
+};
+
+TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
+  const std::vector<UsageCase> cases = {
+      {"no_command", {}, "missing command"},
+      {"unknown_command", {"bakee"}, "unknown command \"bakee\""},
+      {"unknown_flag", {"bake", "m.glb", "--out", "o", "--colour", "red"}, "unknown flag --colour"},
+      {"flag_of_other_command", {"status", "j1", "--out", "o"}, "unknown flag --out"},
+      {"missing_out", {"bake", "m.glb"}, "--out"},
+      {"missing_out_value", {"bake", "m.glb", "--out"}, "--out: missing value"},
+      {"out_value_is_a_flag", {"bake", "m.glb", "--out", "--json"}, "--out: missing value"},
+      {"frames_not_a_number", {"bake", "m.glb", "--out", "o", "--frames", "abc"}, "--frames"},
+      {"frames_negative", {"bake", "m.glb", "--out", "o", "--frames", "-4"}, "--frames"},
+      {"frames_trailing_junk", {"bake", "m.glb", "--out", "o", "--frames=12x"}, "--frames"},
+      {"resolution_overflow", {"bake", "m.glb", "--out", "o", "--resolution", "99999999999"}, "--resolution"},
+      {"unknown_layout", {"bake", "m.glb", "--out", "o", "--layout", "cube"}, "--layout"},
+      {"missing_model", {"bake", "--out", "o"}, "MODEL"},
+      {"two_models", {"bake", "a.glb", "b.glb", "--out", "o"}, "unexpected argument \"b.glb\""},
+      {"bool_flag_with_value", {"bake", "m.glb", "--out", "o", "--json=yes"}, "--json takes no value"},
+      {"missing_job_id", {"status"}, "JOB_ID"},
+  };
+  for (const UsageCase& c : cases) {
+    absl::StatusOr<CliArgs> a = ParseCliArgs(c.args, nullptr);
+    ASSERT_FALSE(a.ok()) << c.name << ": accepted";
+    EXPECT_EQ(a.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(a.status().message().find(c.message_part), std::string::npos)
+        << c.name << ": message \"" << a.status().message() << "\" lacks \"" << c.message_part << "\"";
+  }
+}
+
+TEST(UsageText, DocumentsEveryExitCode) {
+  const std::string text = UsageText();
+  for (const char* code : {"0  success", "1  the bake failed", "2  usage error", "3  cannot reach the server",
+                           "4  local I/O error"}) {
+    EXPECT_NE(text.find(code), std::string::npos) << code;
+  }
+}
+
+}  // namespace
+}  // namespace impostor::cli

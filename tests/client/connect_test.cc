@@ -1,0 +1,65 @@
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "impostor/client.h"
+
+namespace impostor::sdk {
+namespace {
+
+// A localhost port on which nothing listens: bound by the kernel's choice,
+// then closed.
+int UnusedPort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  EXPECT_GE(fd, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  EXPECT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  socklen_t len = sizeof(addr);
+  EXPECT_EQ(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+TEST(Connect, NothingListeningIsUnavailableNamingTheAddress) {
+  ClientOptions options;
+  options.server = "127.0.0.1:" + std::to_string(UnusedPort());
+  options.connect_timeout_seconds = 0.5;
+  const auto start = std::chrono::steady_clock::now();
+  absl::StatusOr<std::unique_ptr<Client>> client = Client::Connect(options);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_FALSE(client.ok());
+  EXPECT_EQ(client.status().code(), absl::StatusCode::kUnavailable) << client.status();
+  EXPECT_NE(client.status().message().find(options.server), std::string::npos) << client.status();
+  EXPECT_LT(seconds, 5.0);
+  std::optional<RpcErrorInfo> info = GetRpcErrorInfo(client.status());
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->server, options.server);
+}
+
+TEST(Connect, RejectsBadOptions) {
+  ClientOptions options;
+  options.max_attempts = 0;
+  EXPECT_EQ(Client::Connect(options).status().code(), absl::StatusCode::kInvalidArgument);
+  options = ClientOptions();
+  options.rpc_timeout_seconds = -1;
+  EXPECT_EQ(Client::Connect(options).status().code(), absl::StatusCode::kInvalidArgument);
+  options = ClientOptions();
+  options.server = "";
+  EXPECT_EQ(Client::Connect(options).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(GetRpcErrorInfo, LocalErrorsHaveNone) {
+  EXPECT_FALSE(GetRpcErrorInfo(absl::NotFoundError("model x not found")).has_value());
+  EXPECT_FALSE(GetRpcErrorInfo(absl::OkStatus()).has_value());
+}
+
+}  // namespace
+}  // namespace impostor::sdk

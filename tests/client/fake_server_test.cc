@@ -1,0 +1,480 @@
+// The SDK against an in-process fake of the impostor.v1 services: an
+// in-memory blob store that can break streams and corrupt bytes on demand.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "common/sha256.h"
+#include "impostor/client.h"
+#include "impostor/v1/asset_service.grpc.pb.h"
+#include "impostor/v1/bake_service.grpc.pb.h"
+
+namespace impostor::sdk {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kAssets = IMPOSTOR_ASSETS_DIR;
+
+v1::Digest DigestOf(const std::string& bytes) {
+  v1::Digest d;
+  d.set_hash(Sha256Hex(bytes));
+  d.set_size_bytes(static_cast<int64_t>(bytes.size()));
+  return d;
+}
+
+std::string ReadAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class FakeServer final : public v1::AssetService::Service, public v1::BakeService::Service {
+ public:
+  // Test knobs and observations; guarded by mu.
+  std::mutex mu;
+  std::map<std::string, std::string> blobs;  // hash -> bytes
+  std::map<std::string, v1::Manifest> results;
+  std::vector<std::string> uploaded;           // hashes, in order
+  std::vector<int64_t> read_offsets;           // every ReadBlob request's offset
+  std::set<std::string> break_once;            // hashes whose first ReadBlob breaks midway
+  std::set<std::string> corrupt;               // hashes served with a flipped byte
+  size_t chunk = 1000;                         // ReadBlob chunk size
+  v1::SubmitBakeRequest last_submit;
+  std::vector<std::vector<v1::Job>> watch_scripts;  // one per WatchJob call; UNAVAILABLE after a script
+  int watch_calls = 0;
+  v1::Job get_job;                             // GetJob's answer
+
+  grpc::Status FindMissingBlobs(grpc::ServerContext*, const v1::FindMissingBlobsRequest* req,
+                                v1::FindMissingBlobsResponse* resp) override {
+    std::lock_guard lock(mu);
+    for (const auto& d : req->digests()) {
+      if (!blobs.contains(d.hash())) *resp->add_missing() = d;
+    }
+    return grpc::Status::OK;
+  }
+
+  grpc::Status UploadBlob(grpc::ServerContext*, grpc::ServerReader<v1::UploadBlobRequest>* reader,
+                          v1::UploadBlobResponse* resp) override {
+    v1::UploadBlobRequest msg;
+    v1::Digest digest;
+    std::string data;
+    bool first = true;
+    while (reader->Read(&msg)) {
+      if (first) digest = msg.digest();
+      first = false;
+      if (msg.data().size() > (4u << 20)) return {grpc::StatusCode::INVALID_ARGUMENT, "chunk too large"};
+      data += msg.data();
+    }
+    if (first) return {grpc::StatusCode::INVALID_ARGUMENT, "no digest"};
+    if (Sha256Hex(data) != digest.hash() || static_cast<int64_t>(data.size()) != digest.size_bytes()) {
+      return {grpc::StatusCode::INVALID_ARGUMENT, "hash mismatch"};
+    }
+    std::lock_guard lock(mu);
+    resp->set_already_present(blobs.contains(digest.hash()));
+    blobs[digest.hash()] = data;
+    uploaded.push_back(digest.hash());
+    *resp->mutable_digest() = digest;
+    return grpc::Status::OK;
+  }
+
+  grpc::Status ReadBlob(grpc::ServerContext*, const v1::ReadBlobRequest* req,
+                        grpc::ServerWriter<v1::ReadBlobResponse>* writer) override {
+    std::string bytes;
+    bool breaks = false;
+    size_t chunk_size;
+    {
+      std::lock_guard lock(mu);
+      read_offsets.push_back(req->offset());
+      auto it = blobs.find(req->digest().hash());
+      if (it == blobs.end()) return {grpc::StatusCode::NOT_FOUND, "no such blob"};
+      bytes = it->second;
+      if (corrupt.contains(req->digest().hash())) bytes[bytes.size() / 2] ^= 0x5a;
+      breaks = break_once.erase(req->digest().hash()) > 0;
+      chunk_size = chunk;
+    }
+    if (req->offset() < 0 || req->offset() > static_cast<int64_t>(bytes.size())) {
+      return {grpc::StatusCode::INVALID_ARGUMENT, "offset beyond the end"};
+    }
+    int sent = 0;
+    for (size_t off = static_cast<size_t>(req->offset()); off < bytes.size(); off += chunk_size) {
+      if (breaks && sent == 2) return {grpc::StatusCode::UNAVAILABLE, "connection reset (test)"};
+      v1::ReadBlobResponse msg;
+      msg.set_offset(static_cast<int64_t>(off));
+      msg.set_data(bytes.substr(off, chunk_size));
+      if (!writer->Write(msg)) return grpc::Status::CANCELLED;
+      ++sent;
+    }
+    return grpc::Status::OK;
+  }
+
+  grpc::Status GetResult(grpc::ServerContext*, const v1::GetResultRequest* req, v1::Manifest* resp) override {
+    std::lock_guard lock(mu);
+    auto it = results.find(req->cache_key());
+    if (it == results.end()) return {grpc::StatusCode::NOT_FOUND, "nothing baked under that key"};
+    *resp = it->second;
+    return grpc::Status::OK;
+  }
+
+  grpc::Status SubmitBake(grpc::ServerContext*, const v1::SubmitBakeRequest* req,
+                          v1::SubmitBakeResponse* resp) override {
+    std::lock_guard lock(mu);
+    last_submit = *req;
+    if (req->parameters().frames() > 64) {
+      return {grpc::StatusCode::INVALID_ARGUMENT, "parameters.frames: 80 is out of range 2..64"};
+    }
+    for (const auto* f : {&req->mesh().entry()}) {
+      if (!blobs.contains(f->digest().hash())) return {grpc::StatusCode::FAILED_PRECONDITION, f->path()};
+    }
+    for (const auto& f : req->mesh().files()) {
+      if (!blobs.contains(f.digest().hash())) return {grpc::StatusCode::FAILED_PRECONDITION, f.path()};
+    }
+    resp->set_job_id("job-1");
+    resp->set_cache_key(std::string(64, 'a'));
+    return grpc::Status::OK;
+  }
+
+  grpc::Status WatchJob(grpc::ServerContext*, const v1::WatchJobRequest*,
+                        grpc::ServerWriter<v1::Job>* writer) override {
+    std::vector<v1::Job> script;
+    bool last_script;
+    {
+      std::lock_guard lock(mu);
+      if (watch_calls >= static_cast<int>(watch_scripts.size())) return {grpc::StatusCode::NOT_FOUND, "no job"};
+      script = watch_scripts[watch_calls++];
+      last_script = watch_calls == static_cast<int>(watch_scripts.size());
+    }
+    for (const v1::Job& job : script) writer->Write(job);
+    if (!last_script) return {grpc::StatusCode::UNAVAILABLE, "server restarting (test)"};
+    return grpc::Status::OK;
+  }
+
+  grpc::Status GetJob(grpc::ServerContext*, const v1::GetJobRequest*, v1::Job* resp) override {
+    std::lock_guard lock(mu);
+    *resp = get_job;
+    return grpc::Status::OK;
+  }
+};
+
+class FakeServerTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    grpc::ServerBuilder builder;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
+    builder.RegisterService(static_cast<v1::AssetService::Service*>(&fake_));
+    builder.RegisterService(static_cast<v1::BakeService::Service*>(&fake_));
+    server_ = builder.BuildAndStart();
+    ASSERT_NE(server_, nullptr);
+    ClientOptions options;
+    options.server = "127.0.0.1:" + std::to_string(port_);
+    options.connect_timeout_seconds = 5;
+    auto client = Client::Connect(options);
+    ASSERT_TRUE(client.ok()) << client.status();
+    client_ = std::move(*client);
+    dir_ = fs::temp_directory_path() / ("impostor_fake_server_" + std::to_string(::getpid()) + "_" +
+                                        testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+  }
+  void TearDown() override {
+    client_.reset();
+    server_->Shutdown();
+    fs::remove_all(dir_);
+  }
+
+  // Stores a result with two maps and its manifest.json; returns the key.
+  std::string AddResult(const std::string& key = std::string(64, 'b')) {
+    std::string albedo(5000, '\0'), normal(3500, '\0');
+    for (size_t i = 0; i < albedo.size(); ++i) albedo[i] = static_cast<char>(i * 7);
+    for (size_t i = 0; i < normal.size(); ++i) normal[i] = static_cast<char>(i * 13);
+    const std::string manifest_json = "{\"format_version\": 1}\n";
+    v1::Manifest m;
+    m.set_cache_key(key);
+    auto* a = m.add_maps();
+    a->set_semantic("albedo_alpha");
+    a->set_file("albedo_alpha.png");
+    *a->mutable_digest() = DigestOf(albedo);
+    auto* n = m.add_maps();
+    n->set_semantic("normal_depth");
+    n->set_file("normal_depth.png");
+    *n->mutable_digest() = DigestOf(normal);
+    *m.mutable_manifest_json() = DigestOf(manifest_json);
+    std::lock_guard lock(fake_.mu);
+    for (const std::string& b : {albedo, normal, manifest_json}) fake_.blobs[Sha256Hex(b)] = b;
+    fake_.results[key] = m;
+    contents_ = {{"albedo_alpha.png", albedo}, {"normal_depth.png", normal}, {"manifest.json", manifest_json}};
+    return key;
+  }
+
+  FakeServer fake_;
+  int port_ = 0;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<Client> client_;
+  fs::path dir_;
+  std::map<std::string, std::string> contents_;
+};
+
+TEST_F(FakeServerTest, SubmitUploadsOnlyMissingFiles) {
+  const fs::path model = kAssets / "props_pbr/WaterBottle/glTF/WaterBottle.gltf";
+  const std::string bin = ReadAll(model.parent_path() / "WaterBottle.bin");
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.blobs[Sha256Hex(bin)] = bin;
+  }
+  absl::StatusOr<SubmitResult> r = client_->SubmitBake(model, BakeSettings{"hemi-octahedral", 8, 512});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->job_id, "job-1");
+  EXPECT_EQ(r->upload.files, 6);
+  EXPECT_EQ(r->upload.uploaded, 5);
+  EXPECT_EQ(r->upload.bytes_total - r->upload.bytes_uploaded, static_cast<int64_t>(bin.size()));
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.uploaded.size(), 5u);
+  EXPECT_EQ(std::count(fake_.uploaded.begin(), fake_.uploaded.end(), Sha256Hex(bin)), 0);
+  const v1::SubmitBakeRequest& req = fake_.last_submit;
+  EXPECT_EQ(req.mesh().entry().path(), "WaterBottle.gltf");
+  EXPECT_EQ(req.mesh().files_size(), 5);
+  EXPECT_EQ(req.parameters().layout(), v1::LAYOUT_HEMI_OCTAHEDRAL);
+  EXPECT_EQ(req.parameters().frames(), 8u);
+  EXPECT_EQ(req.parameters().resolution(), 512u);
+}
+
+TEST_F(FakeServerTest, SecondSubmitUploadsNothing) {
+  const fs::path model = kAssets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+  ASSERT_TRUE(client_->SubmitBake(model, {}).ok());
+  absl::StatusOr<SubmitResult> again = client_->SubmitBake(model, {});
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->upload.uploaded, 0);
+  EXPECT_EQ(again->upload.bytes_uploaded, 0);
+}
+
+TEST_F(FakeServerTest, UnknownLayoutFailsBeforeAnyRpc) {
+  absl::StatusOr<SubmitResult> r =
+      client_->SubmitBake(kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"cube", 0, 0});
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("hemi-octahedral"), std::string::npos) << r.status();
+  std::lock_guard lock(fake_.mu);
+  EXPECT_TRUE(fake_.uploaded.empty());
+}
+
+TEST_F(FakeServerTest, ServerRejectionKeepsCodeAndNamesRpcAndServer) {
+  absl::StatusOr<SubmitResult> r =
+      client_->SubmitBake(kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"octahedral", 80, 0});
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
+  EXPECT_NE(r.status().message().find("SubmitBake"), std::string::npos) << r.status();
+  EXPECT_NE(r.status().message().find("127.0.0.1:" + std::to_string(port_)), std::string::npos) << r.status();
+  std::optional<RpcErrorInfo> info = GetRpcErrorInfo(r.status());
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->rpc, "SubmitBake");
+  EXPECT_EQ(info->server_message, "parameters.frames: 80 is out of range 2..64");
+}
+
+TEST_F(FakeServerTest, FetchWritesVerifiedFilesThenReusesThem) {
+  const std::string key = AddResult();
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->manifest_path, dir_ / "manifest.json");
+  ASSERT_EQ(r->files.size(), 3u);
+  EXPECT_EQ(r->files.back(), dir_ / "manifest.json");
+  for (const auto& [name, bytes] : contents_) EXPECT_EQ(ReadAll(dir_ / name), bytes) << name;
+  EXPECT_EQ(r->bytes_downloaded, 5000 + 3500 + static_cast<int64_t>(contents_["manifest.json"].size()));
+  EXPECT_EQ(r->bytes_reused, 0);
+
+  absl::StatusOr<FetchResult> again = client_->Fetch(key, dir_);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->bytes_downloaded, 0);
+  EXPECT_EQ(again->bytes_reused, r->bytes_downloaded);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 3);
+}
+
+TEST_F(FakeServerTest, FetchReplacesAStaleFile) {
+  const std::string key = AddResult();
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "albedo_alpha.png") << "stale";
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), contents_["albedo_alpha.png"]);
+}
+
+TEST_F(FakeServerTest, BrokenDownloadResumesFromOffset) {
+  const std::string key = AddResult();
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.break_once.insert(Sha256Hex(contents_["albedo_alpha.png"]));
+  }
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), contents_["albedo_alpha.png"]);
+  std::lock_guard lock(fake_.mu);
+  // The first stream sent two 1000-byte chunks before breaking.
+  EXPECT_EQ(std::count(fake_.read_offsets.begin(), fake_.read_offsets.end(), 2000), 1);
+}
+
+TEST_F(FakeServerTest, CorruptDownloadIsDataLossAndLeavesNothing) {
+  const std::string key = AddResult();
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.corrupt.insert(Sha256Hex(contents_["normal_depth.png"]));
+  }
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kDataLoss) << r.status();
+  EXPECT_NE(r.status().message().find("normal_depth.png"), std::string::npos) << r.status();
+  EXPECT_FALSE(fs::exists(dir_ / "normal_depth.png"));
+  EXPECT_FALSE(fs::exists(dir_ / "manifest.json"));
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    EXPECT_EQ(entry.path().filename(), "albedo_alpha.png") << "left behind: " << entry.path();
+  }
+}
+
+TEST_F(FakeServerTest, UnknownKeyIsNotFound) {
+  absl::StatusOr<FetchResult> r = client_->Fetch(std::string(64, 'c'), dir_);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kNotFound) << r.status();
+}
+
+TEST_F(FakeServerTest, ManifestNamingAPathOutsideIsRefused) {
+  const std::string key = AddResult();
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.results[key].mutable_maps(0)->set_file("../evil.png");
+  }
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_ / "sub");
+  EXPECT_FALSE(r.ok());
+  EXPECT_FALSE(fs::exists(dir_ / "evil.png"));
+}
+
+TEST_F(FakeServerTest, GetManifestJson) {
+  const std::string key = AddResult();
+  absl::StatusOr<std::string> text = client_->GetManifestJson(key);
+  ASSERT_TRUE(text.ok()) << text.status();
+  EXPECT_EQ(*text, contents_["manifest.json"]);
+}
+
+v1::Job MakeJob(v1::JobState state, float progress, const std::string& stage) {
+  v1::Job j;
+  j.set_job_id("job-1");
+  j.set_cache_key(std::string(64, 'a'));
+  j.set_state(state);
+  j.set_progress(progress);
+  j.set_stage(stage);
+  return j;
+}
+
+TEST_F(FakeServerTest, WatchResumesAfterBrokenStream) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {
+        {MakeJob(v1::JOB_STATE_QUEUED, 0, ""), MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")},
+        {MakeJob(v1::JOB_STATE_RUNNING, 0.5f, "render"), MakeJob(v1::JOB_STATE_SUCCEEDED, 1, "")},
+    };
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.5f, "render");
+  }
+  std::vector<JobUpdate> seen;
+  absl::StatusOr<JobUpdate> done = client_->WatchJob("job-1", [&](const JobUpdate& u) { seen.push_back(u); });
+  ASSERT_TRUE(done.ok()) << done.status();
+  EXPECT_EQ(done->state, JobState::kSucceeded);
+  // queued, running 10%, running 50% (from GetJob; the new stream's repeat is
+  // dropped), succeeded.
+  ASSERT_EQ(seen.size(), 4u);
+  EXPECT_EQ(seen[0].state, JobState::kQueued);
+  EXPECT_EQ(seen[2].progress, 0.5);
+  EXPECT_EQ(seen[3].state, JobState::kSucceeded);
+}
+
+TEST_F(FakeServerTest, WatchReportsFailedBakeAsState) {
+  v1::Job failed = MakeJob(v1::JOB_STATE_FAILED, 0.2f, "load");
+  failed.mutable_error()->set_code(3);
+  failed.mutable_error()->set_message("mesh: no triangles");
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{failed}};
+  }
+  absl::StatusOr<JobUpdate> done = client_->WatchJob("job-1", nullptr);
+  ASSERT_TRUE(done.ok()) << done.status();
+  EXPECT_EQ(done->state, JobState::kFailed);
+  EXPECT_EQ(done->error_code, 3);
+  EXPECT_EQ(done->error_message, "mesh: no triangles");
+}
+
+TEST_F(FakeServerTest, WatchUnknownJobIsNotFound) {
+  absl::StatusOr<JobUpdate> done = client_->WatchJob("nope", nullptr);
+  EXPECT_EQ(done.status().code(), absl::StatusCode::kNotFound) << done.status();
+}
+
+struct CliRun {
+  int exit_code;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+// Runs the `impostor` tool against the fake server.
+CliRun RunCli(const std::string& args, const fs::path& scratch) {
+  fs::create_directories(scratch);
+  const fs::path out = scratch / "cli.stdout", err = scratch / "cli.stderr";
+  const std::string command = std::string(IMPOSTOR_CLI_PATH) + " " + args + " >" + out.string() + " 2>" + err.string();
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadAll(out), ReadAll(err)};
+}
+
+TEST_F(FakeServerTest, CliBakeUploadsWatchesFetchesAndPrintsJson) {
+  AddResult(std::string(64, 'a'));  // the key the fake's SubmitBake answers
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{MakeJob(v1::JOB_STATE_QUEUED, 0, ""), MakeJob(v1::JOB_STATE_RUNNING, 0.42f, "render"),
+                            MakeJob(v1::JOB_STATE_SUCCEEDED, 1, "")}};
+  }
+  const fs::path out_dir = dir_ / "atlas";
+  CliRun run = RunCli("bake " + (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string() + " --out " +
+                          out_dir.string() + " --server 127.0.0.1:" + std::to_string(port_) + " --json",
+                      dir_ / "io");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  nlohmann::json j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["job_id"], "job-1");
+  EXPECT_EQ(j["cache_key"], std::string(64, 'a'));
+  EXPECT_EQ(j["manifest"], (out_dir / "manifest.json").string());
+  EXPECT_EQ(j["files"].size(), 3u);
+  EXPECT_TRUE(j["error"].is_null());
+  EXPECT_GT(j["uploaded_bytes"].get<int64_t>(), 0);
+  EXPECT_NE(run.err.find("[running  42%] render"), std::string::npos) << run.err;
+  EXPECT_EQ(ReadAll(out_dir / "albedo_alpha.png"), contents_["albedo_alpha.png"]);
+}
+
+TEST_F(FakeServerTest, CliBakeRefusedByServerExitsOneWithOneLine) {
+  CliRun run = RunCli("bake " + (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string() + " --out " +
+                          (dir_ / "atlas").string() + " --frames 80 --server 127.0.0.1:" + std::to_string(port_),
+                      dir_ / "io");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err, "impostor: bake failed: INVALID_ARGUMENT: parameters.frames: 80 is out of range 2..64\n");
+}
+
+TEST_F(FakeServerTest, CliFailedBakeExitsOneWithServerReason) {
+  v1::Job failed = MakeJob(v1::JOB_STATE_FAILED, 0.2f, "load");
+  failed.mutable_error()->set_code(3);
+  failed.mutable_error()->set_message("mesh: no triangles");
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{failed}};
+  }
+  CliRun run = RunCli("bake " + (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string() + " --out " +
+                          (dir_ / "atlas").string() + " --quiet --server 127.0.0.1:" + std::to_string(port_),
+                      dir_ / "io");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err, "impostor: bake failed: INVALID_ARGUMENT: mesh: no triangles\n");
+  EXPECT_EQ(run.out, "");
+}
+
+}  // namespace
+}  // namespace impostor::sdk

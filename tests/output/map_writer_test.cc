@@ -1,0 +1,79 @@
+#include "worker/output/map_writer.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path Scratch(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("impostor_output_test_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+std::string Bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(MapWriterTest, Rgba8RoundTripKeepsColourUnderZeroAlpha) {
+  const int w = 37, h = 11;
+  std::vector<uint8_t> pixels(w * h * 4);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint8_t>(i * 31 + 7);
+  for (size_t i = 3; i < pixels.size(); i += 16) pixels[i] = 0;  // dilated texels
+  const fs::path path = Scratch("albedo.png");
+  ASSERT_TRUE(WritePngRgba8(path, pixels, w, h).ok());
+  const absl::StatusOr<PngImage> read = ReadPng(path);
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(read->width, w);
+  EXPECT_EQ(read->height, h);
+  EXPECT_EQ(read->channels, 4);
+  EXPECT_EQ(read->bit_depth, 8);
+  EXPECT_EQ(read->pixels8, pixels);
+  // Same input, same bytes (outputs are content-addressed).
+  const std::string first = Bytes(path);
+  ASSERT_TRUE(WritePngRgba8(path, pixels, w, h).ok());
+  EXPECT_EQ(Bytes(path), first);
+}
+
+TEST(MapWriterTest, Rgba16RoundTripKeepsFullPrecision) {
+  const int w = 19, h = 23;
+  std::vector<uint16_t> pixels(w * h * 4);
+  for (size_t i = 0; i < pixels.size(); ++i)
+    pixels[i] = static_cast<uint16_t>(i * 2654435761u >> 7);
+  for (size_t i = 3; i < pixels.size(); i += 12) pixels[i] = 0;
+  const fs::path path = Scratch("normal_depth.png");
+  ASSERT_TRUE(WritePngRgba16(path, pixels, w, h).ok());
+  const absl::StatusOr<PngImage> read = ReadPng(path);
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(read->bit_depth, 16);
+  EXPECT_EQ(read->channels, 4);
+  EXPECT_EQ(read->pixels16, pixels);
+}
+
+TEST(MapWriterTest, ErrorsAreStatuses) {
+  std::vector<uint8_t> pixels(4 * 4 * 4, 0);
+  const absl::Status bad_dir = WritePngRgba8("/nonexistent_dir_xyz/out.png", pixels, 4, 4);
+  EXPECT_FALSE(bad_dir.ok());
+  EXPECT_FALSE(bad_dir.message().empty());
+  EXPECT_EQ(WritePngRgba8(Scratch("x.png"), pixels, 5, 4).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ReadPng(Scratch("does_not_exist.png")).status().code(), absl::StatusCode::kNotFound);
+  const fs::path junk = Scratch("junk.png");
+  std::ofstream(junk) << "not a png";
+  EXPECT_FALSE(ReadPng(junk).ok());
+}
+
+}  // namespace
+}  // namespace impostor

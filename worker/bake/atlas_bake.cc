@@ -1,0 +1,174 @@
+#include "worker/bake/atlas_bake.h"
+
+#include <chrono>
+#include <fstream>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/atlas_layout.h"
+#include "common/bake_request.h"
+#include "common/frame_camera.h"
+#include "common/manifest_json.h"
+#include "common/sha256.h"
+#include "worker/output/atlas_dilation.h"
+#include "worker/output/map_writer.h"
+#include "worker/scene/bounding_sphere.h"
+#include "worker/scene/gltf_loader.h"
+
+namespace impostor {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Progress fractions at which each stage starts.
+constexpr double kLoadStart = 0.05, kRenderStart = 0.15, kEncodeStart = 0.80, kEncodeEnd = 0.95;
+
+// How each map's channels are encoded; written into the manifest.
+const std::vector<std::string> kAlbedoChannels = {
+    "R: base colour red (texture x factor, unlit), sRGB", "G: base colour green, sRGB",
+    "B: base colour blue, sRGB", "A: coverage, 0 = empty, 255 = mesh (MASK cut at alphaCutoff)"};
+const std::vector<std::string> kNormalDepthChannels = {
+    "R: scene-space normal x * 0.5 + 0.5 (normal map applied)", "G: normal y * 0.5 + 0.5",
+    "B: normal z * 0.5 + 0.5",
+    "A: depth along the view direction, (1 - dot(p - centre, direction) / radius) / 2: 0 = nearest point of "
+    "the bounding sphere, 1 = farthest; 16-bit because 8 bits quantise depth to radius/128"};
+const std::vector<std::string> kOrmChannels = {
+    "R: ambient occlusion (1 + strength * (texture.r - 1)), linear", "G: roughness (factor x texture.g), linear",
+    "B: metalness (factor x texture.b), linear", "A: coverage, as albedo_alpha.A"};
+
+LayoutKind ToLayoutKind(v1::Layout layout) {
+  return layout == v1::LAYOUT_HEMI_OCTAHEDRAL ? LayoutKind::kHemiOctahedral : LayoutKind::kOctahedral;
+}
+
+absl::StatusOr<v1::Digest> WriteFile(const std::filesystem::path& path, std::string_view bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.close();
+  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
+  v1::Digest d;
+  d.set_hash(Sha256Hex(bytes));
+  d.set_size_bytes(static_cast<int64_t>(bytes.size()));
+  return d;
+}
+
+absl::Status AddMap(const std::filesystem::path& dir, const std::string& semantic, const std::string& format,
+                    const std::vector<std::string>& channels, int size, v1::Manifest* manifest) {
+  const std::string file = semantic + ".png";
+  auto digest = DigestFile(dir / file);
+  if (!digest.ok()) return digest.status();
+  v1::MapFile* map = manifest->add_maps();
+  map->set_semantic(semantic);
+  map->set_file(file);
+  map->mutable_digest()->set_hash(digest->hash);
+  map->mutable_digest()->set_size_bytes(digest->size_bytes);
+  map->set_width(static_cast<uint32_t>(size));
+  map->set_height(static_cast<uint32_t>(size));
+  map->set_format(format);
+  for (const auto& c : channels) map->add_channels(c);
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, AtlasRenderer& renderer,
+                                          const BakeProgress& progress, const std::atomic<bool>& cancelled) {
+  const auto start = Clock::now();
+  const v1::BakeParameters& p = request.parameters;
+  const LayoutKind layout = ToLayoutKind(p.layout());
+  const int frames = static_cast<int>(p.frames());
+  const int resolution = static_cast<int>(p.resolution());
+  v1::Manifest manifest;
+  v1::BakeTimings* timings = manifest.mutable_timings();
+
+  // Load.
+  progress("load", kLoadStart);
+  auto t = Clock::now();
+  auto scene = LoadGltfScene(request.entry_file);
+  if (!scene.ok()) return scene.status();
+  timings->set_load_seconds(SecondsSince(t));
+  if (cancelled) return absl::CancelledError("cancelled after loading");
+
+  // Prepare.
+  const BoundingSphere sphere = ComputeBoundingSphere(*scene);
+  if (!(sphere.radius > 0.0f) || !std::isfinite(sphere.radius)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mesh: its bounding sphere has radius ", sphere.radius, "; a mesh needs extent to be baked"));
+  }
+  const std::vector<FrameCamera> cameras = AtlasCameras(layout, frames, resolution);
+
+  // Render.
+  progress("render", kRenderStart);
+  RenderTimings render_timings;
+  auto atlas = renderer.Render(
+      *scene, sphere, cameras, resolution,
+      [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
+  if (!atlas.ok()) return atlas.status();
+  timings->set_render_seconds(render_timings.upload_seconds + render_timings.render_seconds);
+  timings->set_readback_seconds(render_timings.readback_seconds);
+  if (cancelled) return absl::CancelledError("cancelled after rendering");
+
+  // Post-process and write.
+  progress("encode", kEncodeStart);
+  t = Clock::now();
+  std::vector<TileRect> tiles;
+  for (const FrameCamera& c : cameras) tiles.push_back(c.tile);
+  // Dilation fills empty texels' colour from the silhouette so mipmaps and
+  // bilinear filtering never pull in black; coverage stays untouched.
+  const int w = atlas->width, h = atlas->height;
+  if (auto s = DilateRgba16(atlas->normal_depth, atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
+  if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
+  if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok()) return s;
+  const std::filesystem::path& dir = request.output_dir;
+  if (auto s = WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h); !s.ok()) return s;
+  if (auto s = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h); !s.ok()) return s;
+  if (auto s = WritePngRgba8(dir / "orm.png", atlas->orm, w, h); !s.ok()) return s;
+  timings->set_encode_seconds(SecondsSince(t));
+  progress("encode", kEncodeEnd);
+
+  // Manifest.
+  manifest.set_format_version(kManifestFormatVersion);
+  manifest.set_cache_key(request.cache_key);
+  manifest.set_baker_version(std::string(BakerVersion()));
+  manifest.set_layout(p.layout());
+  manifest.set_frames(p.frames());
+  manifest.set_resolution(p.resolution());
+  manifest.set_tile_size(static_cast<uint32_t>(TileSize(resolution, frames)));
+  for (int i = 0; i < 3; ++i) manifest.mutable_bounding_sphere()->add_center(sphere.center[i]);
+  manifest.mutable_bounding_sphere()->set_radius(sphere.radius);
+  if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest); !s.ok()) return s;
+  if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest); !s.ok()) {
+    return s;
+  }
+  if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
+  for (const FrameCamera& c : cameras) {
+    v1::View* v = manifest.add_views();
+    v->set_index(static_cast<uint32_t>(c.index));
+    for (int i = 0; i < 3; ++i) v->add_direction(c.direction[i]);
+    for (int i = 0; i < 3; ++i) v->add_up(c.up[i]);
+    v->mutable_tile()->set_x(static_cast<uint32_t>(c.tile.x));
+    v->mutable_tile()->set_y(static_cast<uint32_t>(c.tile.y));
+    v->mutable_tile()->set_width(static_cast<uint32_t>(c.tile.width));
+    v->mutable_tile()->set_height(static_cast<uint32_t>(c.tile.height));
+    v->set_same_view_as(static_cast<uint32_t>(FrameIndex(frames, CanonicalFrame(layout, frames, c.frame))));
+  }
+  manifest.mutable_mesh()->set_triangles(scene->TriangleCount());
+  manifest.mutable_mesh()->set_materials(static_cast<uint32_t>(scene->materials.size()));
+  manifest.mutable_mesh()->set_textures(static_cast<uint32_t>(scene->textures.size()));
+  manifest.set_device(renderer.device().name);
+  timings->set_total_seconds(SecondsSince(start));
+
+  AtlasBakeOutput out;
+  out.manifest_path = dir / "manifest.json";
+  auto json_digest = WriteFile(out.manifest_path, ManifestToJson(manifest));
+  if (!json_digest.ok()) return json_digest.status();
+  *manifest.mutable_manifest_json() = *json_digest;
+  out.manifest = std::move(manifest);
+  spdlog::debug("event=bake_done cache_key={} triangles={} seconds={:.2f}", request.cache_key,
+                scene->TriangleCount(), SecondsSince(start));
+  return out;
+}
+
+}  // namespace impostor

@@ -1,0 +1,48 @@
+// The worker's bake pipeline for atlas impostors, by stage:
+//   load (glTF -> Scene) -> prepare (bounding sphere, frame cameras)
+//   -> render (GPU, all frames) -> post-process (dilation per tile)
+//   -> write (PNG maps + manifest.json into an output directory).
+// It knows nothing of gRPC or of where inputs came from: the worker loop
+// hands it a local entry file and uploads what it writes.
+//
+// Thread-safety: one bake per AtlasRenderer at a time.
+#ifndef IMPOSTOR_WORKER_BAKE_ATLAS_BAKE_H_
+#define IMPOSTOR_WORKER_BAKE_ATLAS_BAKE_H_
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "impostor/v1/types.pb.h"
+#include "worker/gpu/atlas_renderer.h"
+
+namespace impostor {
+
+struct AtlasBakeRequest {
+  std::filesystem::path entry_file;  // .glb / .gltf with its files beside it
+  v1::BakeParameters parameters;     // normalised
+  std::string cache_key;
+  std::filesystem::path output_dir;  // exists and is empty
+};
+
+struct AtlasBakeOutput {
+  // Complete manifest, maps' digests filled; manifest_json set to the digest
+  // of output_dir/manifest.json.
+  v1::Manifest manifest;
+  std::filesystem::path manifest_path;
+};
+
+// Stage name ("load", "render", "encode"...) and fraction of the whole bake.
+using BakeProgress = std::function<void(std::string_view stage, double fraction)>;
+
+// Runs the pipeline. INVALID_ARGUMENT for a mesh that cannot be baked (the
+// message says why); CANCELLED when `cancelled` turns true between stages;
+// other codes for infrastructure failures (worth a retry elsewhere).
+absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, AtlasRenderer& renderer,
+                                          const BakeProgress& progress, const std::atomic<bool>& cancelled);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_BAKE_ATLAS_BAKE_H_

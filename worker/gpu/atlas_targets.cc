@@ -1,0 +1,176 @@
+#include "worker/gpu/atlas_targets.h"
+
+#include <array>
+#include <cstring>
+
+#include "worker/gpu/barriers.h"
+#include "worker/gpu/device_selection.h"
+#include "worker/gpu/vk_check.h"
+
+namespace impostor::gpu {
+namespace {
+
+constexpr VkPipelineStageFlags2 kColorStage = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
+constexpr VkAccessFlags2 kColorAccess =
+    VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+constexpr VkPipelineStageFlags2 kDepthStage =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+constexpr VkAccessFlags2 kDepthAccess =
+    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+
+absl::StatusOr<GpuImage> CreateTarget(const VulkanContext& ctx, uint32_t size, VkFormat format,
+                                      VkImageUsageFlags usage, VkImageAspectFlags aspect,
+                                      const char* name) {
+  ImageSpec spec;
+  spec.width = size;
+  spec.height = size;
+  spec.format = format;
+  spec.usage = usage;
+  spec.aspect = aspect;
+  return GpuImage::Create(ctx, spec, name);
+}
+
+absl::StatusOr<GpuBuffer> CreateReadback(const VulkanContext& ctx, VkDeviceSize bytes,
+                                         const char* name) {
+  // HOST_CACHED makes the CPU's read of a multi-megabyte map fast; uncached
+  // write-combined memory is read at a fraction of the speed.
+  return GpuBuffer::Create(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                           VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
+                           name);
+}
+
+}  // namespace
+
+absl::StatusOr<AtlasTargets> AtlasTargets::Create(const VulkanContext& ctx, uint32_t size) {
+  AtlasTargets t;
+  t.size_ = size;
+  constexpr VkImageUsageFlags kColorUsage =
+      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_, CreateTarget(ctx, size, kAlbedoFormat, kColorUsage,
+                                                        VK_IMAGE_ASPECT_COLOR_BIT, "atlas albedo"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.normal_depth_,
+                                CreateTarget(ctx, size, kNormalDepthFormat, kColorUsage,
+                                             VK_IMAGE_ASPECT_COLOR_BIT, "atlas normal_depth"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_, CreateTarget(ctx, size, kOrmFormat, kColorUsage,
+                                                     VK_IMAGE_ASPECT_COLOR_BIT, "atlas orm"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      t.depth_, CreateTarget(ctx, size, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                             VK_IMAGE_ASPECT_DEPTH_BIT, "atlas depth"));
+  const VkDeviceSize texels = VkDeviceSize{size} * size;
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_readback_,
+                                CreateReadback(ctx, texels * 4, "albedo readback"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.normal_depth_readback_,
+                                CreateReadback(ctx, texels * 8, "normal_depth readback"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_readback_, CreateReadback(ctx, texels * 4, "orm readback"));
+  return t;
+}
+
+void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
+  if (first_use) {
+    std::array<ImageTransition, 4> init{};
+    const std::array<VkImage, 3> colors = {albedo_.image(), normal_depth_.image(), orm_.image()};
+    for (size_t i = 0; i < colors.size(); ++i) {
+      init[i].image = colors[i];
+      init[i].old_layout = VK_IMAGE_LAYOUT_UNDEFINED;
+      init[i].new_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      init[i].dst_stage = kColorStage;
+      init[i].dst_access = kColorAccess;
+    }
+    init[3].image = depth_.image();
+    init[3].aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
+    init[3].old_layout = VK_IMAGE_LAYOUT_UNDEFINED;
+    init[3].new_layout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    init[3].dst_stage = kDepthStage;
+    init[3].dst_access = kDepthAccess;
+    TransitionImages(cmd, init.data(), static_cast<uint32_t>(init.size()));
+  } else {
+    // The previous chunk was a separate submission; its attachment writes
+    // must be complete and visible before this chunk loads them.
+    MemoryBarrier(
+        cmd, kColorStage | kDepthStage,
+        VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+        kColorStage | kDepthStage, kColorAccess | kDepthAccess);
+  }
+
+  const VkAttachmentLoadOp load =
+      first_use ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  // Clear values are the "empty texel" encodings of atlas_renderer.h.
+  std::array<VkRenderingAttachmentInfo, 3> colors{};
+  const std::array<VkImageView, 3> views = {albedo_.view(), normal_depth_.view(), orm_.view()};
+  const std::array<VkClearColorValue, 3> clears = {{
+      {{0.0f, 0.0f, 0.0f, 0.0f}},
+      {{0.5f, 0.5f, 0.5f, 1.0f}},
+      {{0.0f, 0.0f, 0.0f, 0.0f}},
+  }};
+  for (size_t i = 0; i < colors.size(); ++i) {
+    colors[i].sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    colors[i].imageView = views[i];
+    colors[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colors[i].loadOp = load;
+    colors[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    colors[i].clearValue.color = clears[i];
+  }
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = depth_.view();
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = load;
+  // Later chunks never touch earlier tiles, but they do load the image.
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, {size_, size_}};
+  info.layerCount = 1;
+  info.colorAttachmentCount = static_cast<uint32_t>(colors.size());
+  info.pColorAttachments = colors.data();
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &info);
+}
+
+void AtlasTargets::RecordReadback(VkCommandBuffer cmd) const {
+  const std::array<const GpuImage*, 3> images = {&albedo_, &normal_depth_, &orm_};
+  const std::array<const GpuBuffer*, 3> buffers = {&albedo_readback_, &normal_depth_readback_,
+                                                   &orm_readback_};
+  std::array<ImageTransition, 3> to_src{};
+  for (size_t i = 0; i < images.size(); ++i) {
+    to_src[i].image = images[i]->image();
+    to_src[i].old_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    to_src[i].new_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    to_src[i].src_stage = kColorStage;
+    to_src[i].src_access = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    to_src[i].dst_stage = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+    to_src[i].dst_access = VK_ACCESS_2_TRANSFER_READ_BIT;
+  }
+  TransitionImages(cmd, to_src.data(), static_cast<uint32_t>(to_src.size()));
+  for (size_t i = 0; i < images.size(); ++i) {
+    // bufferRowLength 0 = tightly packed; image row 0 (clip y = -1, the
+    // camera's up side) lands first, as AtlasImages wants.
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {size_, size_, 1};
+    vkCmdCopyImageToBuffer(cmd, images[i]->image(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           buffers[i]->buffer(), 1, &region);
+  }
+  MemoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+absl::Status AtlasTargets::CopyToHost(AtlasImages* out) const {
+  const size_t texels = static_cast<size_t>(size_) * size_;
+  out->width = static_cast<int>(size_);
+  out->height = static_cast<int>(size_);
+  IMPOSTOR_GPU_RETURN_IF_ERROR(albedo_readback_.InvalidateForHostRead());
+  IMPOSTOR_GPU_RETURN_IF_ERROR(normal_depth_readback_.InvalidateForHostRead());
+  IMPOSTOR_GPU_RETURN_IF_ERROR(orm_readback_.InvalidateForHostRead());
+  out->albedo_alpha.resize(texels * 4);
+  out->normal_depth.resize(texels * 4);
+  out->orm.resize(texels * 4);
+  std::memcpy(out->albedo_alpha.data(), albedo_readback_.mapped(), texels * 4);
+  std::memcpy(out->normal_depth.data(), normal_depth_readback_.mapped(), texels * 8);
+  std::memcpy(out->orm.data(), orm_readback_.mapped(), texels * 4);
+  return absl::OkStatus();
+}
+
+}  // namespace impostor::gpu

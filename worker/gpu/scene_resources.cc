@@ -1,0 +1,151 @@
+#include "worker/gpu/scene_resources.h"
+
+#include <spdlog/spdlog.h>
+
+#include <array>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "worker/gpu/vk_check.h"
+
+namespace impostor::gpu {
+namespace {
+
+VkSamplerAddressMode AddressMode(int gltf_wrap) {
+  switch (gltf_wrap) {
+    case 33071:
+      return VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    case 33648:
+      return VK_SAMPLER_ADDRESS_MODE_MIRRORED_REPEAT;
+    default:  // 10497 REPEAT, and glTF's default for anything unknown
+      return VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<VkSampler> SceneResources::SamplerFor(const VulkanContext& ctx, int wrap_s,
+                                                     int wrap_t) {
+  auto it = samplers_.find({wrap_s, wrap_t});
+  if (it != samplers_.end()) return it->second.get();
+  VkSamplerCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  // Trilinear (+ anisotropic where available): atlas tiles nearly always
+  // show textures minified.
+  info.magFilter = VK_FILTER_LINEAR;
+  info.minFilter = VK_FILTER_LINEAR;
+  info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+  info.addressModeU = AddressMode(wrap_s);
+  info.addressModeV = AddressMode(wrap_t);
+  info.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  info.anisotropyEnable = ctx.max_anisotropy() > 1.0f ? VK_TRUE : VK_FALSE;
+  info.maxAnisotropy = ctx.max_anisotropy() > 1.0f ? ctx.max_anisotropy() : 1.0f;
+  info.minLod = 0.0f;
+  info.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler sampler = VK_NULL_HANDLE;
+  IMPOSTOR_VK_RETURN_IF_ERROR(vkCreateSampler(ctx.device(), &info, nullptr, &sampler));
+  samplers_.emplace(std::make_pair(wrap_s, wrap_t), UniqueSampler(ctx.device(), sampler));
+  return sampler;
+}
+
+absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const VulkanContext& ctx,
+                                                                       CommandRunner& runner,
+                                                                       const BakePipeline& pipeline,
+                                                                       const Scene& scene) {
+  std::unique_ptr<SceneResources> res(new SceneResources());
+  StagingUploader uploader(ctx, runner);
+
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      res->vertices_,
+      uploader.UploadBuffer(scene.vertices.data(), scene.vertices.size() * sizeof(SceneVertex),
+                            VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, "scene vertices"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      res->indices_,
+      uploader.UploadBuffer(scene.indices.data(), scene.indices.size() * sizeof(uint32_t),
+                            VK_BUFFER_USAGE_INDEX_BUFFER_BIT, "scene indices"));
+
+  const uint8_t white[4] = {255, 255, 255, 255};
+  const uint8_t flat_normal[4] = {128, 128, 255, 255};
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(res->white_,
+                                uploader.UploadTexture(white, 1, 1, false, "default white"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      res->flat_normal_, uploader.UploadTexture(flat_normal, 1, 1, false, "default flat normal"));
+
+  res->textures_.reserve(scene.textures.size());
+  for (size_t i = 0; i < scene.textures.size(); ++i) {
+    const SceneTexture& t = scene.textures[i];
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+        UploadedTexture uploaded,
+        uploader.UploadTexture(t.rgba8.data(), static_cast<uint32_t>(t.width),
+                               static_cast<uint32_t>(t.height), t.srgb,
+                               absl::StrCat("texture ", i, " ", t.name)));
+    res->textures_.push_back(std::move(uploaded));
+  }
+  IMPOSTOR_GPU_RETURN_IF_ERROR(uploader.Finish());
+  res->uploaded_bytes_ = uploader.uploaded_bytes();
+
+  const uint32_t material_count = static_cast<uint32_t>(scene.materials.size());
+  const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                       material_count * kMaterialTextureCount};
+  VkDescriptorPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool_info.maxSets = material_count;
+  pool_info.poolSizeCount = 1;
+  pool_info.pPoolSizes = &pool_size;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  IMPOSTOR_VK_RETURN_IF_ERROR(vkCreateDescriptorPool(ctx.device(), &pool_info, nullptr, &pool));
+  res->descriptor_pool_ = UniqueDescriptorPool(ctx.device(), pool);
+
+  const std::vector<VkDescriptorSetLayout> layouts(material_count, pipeline.set_layout());
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = pool;
+  alloc.descriptorSetCount = material_count;
+  alloc.pSetLayouts = layouts.data();
+  res->material_sets_.resize(material_count);
+  IMPOSTOR_VK_RETURN_IF_ERROR(
+      vkAllocateDescriptorSets(ctx.device(), &alloc, res->material_sets_.data()));
+
+  for (uint32_t m = 0; m < material_count; ++m) {
+    const SceneMaterial& material = scene.materials[m];
+    // Slot order matches the bindings in shaders/bake.frag.
+    const std::array<int, kMaterialTextureCount> texture_of = {
+        material.base_color_texture, material.metallic_roughness_texture, material.normal_texture,
+        material.occlusion_texture};
+    std::array<VkDescriptorImageInfo, kMaterialTextureCount> images{};
+    for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
+      const int t = texture_of[slot];
+      const bool color = slot == 0;
+      if (t < 0) {
+        const UploadedTexture& fallback = slot == 2 ? res->flat_normal_ : res->white_;
+        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler, res->SamplerFor(ctx, 10497, 10497));
+        images[slot].imageView = fallback.unorm_view;
+      } else {
+        const SceneTexture& source = scene.textures[t];
+        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler,
+                                      res->SamplerFor(ctx, source.wrap_s, source.wrap_t));
+        // Base colour decodes sRGB to linear in the sampler; the other maps
+        // are data and read raw.
+        images[slot].imageView = color ? res->textures_[t].srgb_view : res->textures_[t].unorm_view;
+      }
+      images[slot].imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    }
+    std::array<VkWriteDescriptorSet, kMaterialTextureCount> writes{};
+    for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
+      writes[slot].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      writes[slot].dstSet = res->material_sets_[m];
+      writes[slot].dstBinding = slot;
+      writes[slot].descriptorCount = 1;
+      writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+      writes[slot].pImageInfo = &images[slot];
+    }
+    vkUpdateDescriptorSets(ctx.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
+                           nullptr);
+  }
+  spdlog::debug("gpu: uploaded {} vertices, {} triangles, {} textures ({} bytes staged)",
+                scene.vertices.size(), scene.TriangleCount(), scene.textures.size(),
+                res->uploaded_bytes_);
+  return res;
+}
+
+}  // namespace impostor::gpu

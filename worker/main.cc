@@ -1,0 +1,83 @@
+// impostor-worker: pulls bake jobs from impostor-server and renders them
+// with headless Vulkan (lavapipe when there is no GPU).
+#include <signal.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_cat.h"
+#include "common/flag_names.h"
+#include "worker/gpu/atlas_renderer.h"
+#include "worker/worker_loop.h"
+
+ABSL_FLAG(std::string, server, "localhost:50051", "HOST:PORT of impostor-server");
+ABSL_FLAG(std::string, name, "", "Worker name for logs and leases (default: host-pid)");
+ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (default: best available)");
+ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
+ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
+ABSL_FLAG(int, heartbeat_s, 5, "Seconds between lease renewals while baking (1..60)");
+ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
+  impostor::UnderscoreFlagNames(argc, argv);
+  absl::ParseCommandLine(argc, argv);
+  spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
+
+  char host[256] = {};
+  ::gethostname(host, sizeof(host) - 1);
+  std::string name = absl::GetFlag(FLAGS_name);
+  const std::string worker_id = absl::StrCat(name.empty() ? host : name, "-", ::getpid());
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ worker " + worker_id + " %v");
+  const int heartbeat = absl::GetFlag(FLAGS_heartbeat_s);
+  if (heartbeat < 1 || heartbeat > 60) {
+    std::fprintf(stderr, "impostor-worker: --heartbeat-s must be in 1..60\n");
+    return 2;
+  }
+
+  auto renderer = impostor::AtlasRenderer::Create(absl::GetFlag(FLAGS_device));
+  if (!renderer.ok()) {
+    std::fprintf(stderr, "impostor-worker: no usable Vulkan device: %s\n", renderer.status().ToString().c_str());
+    return 3;
+  }
+
+  std::filesystem::path scratch = absl::GetFlag(FLAGS_scratch);
+  if (scratch.empty()) scratch = std::filesystem::temp_directory_path() / absl::StrCat("impostor-worker-", ::getpid());
+  std::error_code ec;
+  std::filesystem::create_directories(scratch, ec);
+
+  impostor::WorkerLoop loop({.server = absl::GetFlag(FLAGS_server),
+                             .worker_id = worker_id,
+                             .scratch_dir = scratch,
+                             .heartbeat_seconds = heartbeat,
+                             .max_jobs = absl::GetFlag(FLAGS_max_jobs)},
+                            std::move(*renderer));
+
+  // SIGTERM/SIGINT: finish the current job's bookkeeping and leave.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  std::thread([&] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    spdlog::info("event=stopping signal={}", sig);
+    loop.Stop();
+    // A second signal (or a long bake) should not keep the process alive.
+    sigwait(&signals, &sig);
+    std::_Exit(1);
+  }).detach();
+
+  spdlog::info("event=worker_ready server={}", absl::GetFlag(FLAGS_server));
+  const auto status = loop.Run();
+  std::filesystem::remove_all(scratch, ec);
+  return status.ok() ? 0 : 1;
+}

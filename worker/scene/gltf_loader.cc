@@ -1,0 +1,216 @@
+#include "worker/scene/gltf_loader.h"
+
+#include <spdlog/spdlog.h>
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <optional>
+#include <set>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "worker/scene/gltf_sandbox.h"
+#include "worker/scene/gltf_scene_builder.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using gltf_internal::Sandbox;
+
+// tinygltf converts JSON `extras`/`extensions` to its Value type
+// recursively; 256 levels is far beyond any real asset and far below what
+// a worker thread's stack takes.
+constexpr int kMaxJsonNesting = 256;
+
+// extensionsRequired entries the bake can honour. Material extensions only
+// change lighting terms the unlit albedo/normal/ORM bake does not use;
+// KHR_texture_transform is applied (base colour transform, see
+// gltf_materials.cc); KHR_mesh_quantization is read by gltf_accessor.cc.
+const std::set<std::string>& SupportedRequiredExtensions() {
+  static const std::set<std::string> kSupported = {
+      "KHR_mesh_quantization",      "KHR_texture_transform",
+      "KHR_materials_unlit",        "KHR_materials_emissive_strength",
+      "KHR_materials_ior",          "KHR_materials_specular",
+      "KHR_materials_clearcoat",    "KHR_materials_sheen",
+      "KHR_materials_transmission", "KHR_materials_volume",
+      "KHR_materials_iridescence",  "KHR_materials_anisotropy",
+      "KHR_materials_dispersion",   "KHR_lights_punctual",
+      "EXT_mesh_gpu_instancing",
+  };
+  return kSupported;
+}
+
+// tinygltf's multi-line error text as one log-friendly line.
+std::string OneLine(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\n' || c == '\r') {
+      if (!out.empty() && out.back() != ' ') out += "; ";
+    } else {
+      out.push_back(c);
+    }
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  constexpr size_t kMax = 600;
+  if (out.size() > kMax) out = out.substr(0, kMax) + "...";
+  return out;
+}
+
+absl::Status CheckLimits(const GltfLoadLimits& limits) {
+  if (limits.max_triangles < 1 || limits.max_triangles > (uint64_t{1} << 31) / 3 ||
+      limits.max_texture_dimension < 1 || limits.max_texture_dimension > 65535 ||
+      limits.max_node_depth < 1 || limits.max_node_depth > 100000) {
+    return absl::InvalidArgumentError(absl::StrCat("GltfLoadLimits out of range: max_triangles ",
+                                                   limits.max_triangles, ", max_texture_dimension ",
+                                                   limits.max_texture_dimension,
+                                                   ", max_node_depth ", limits.max_node_depth));
+  }
+  return absl::OkStatus();
+}
+
+// Image loader for tinygltf that keeps the encoded bytes: images are decoded
+// later, only if the default scene uses them, after their header was checked
+// against the limits (gltf_materials.cc).
+struct ImageLoaderContext {
+  const tinygltf::Model* model = nullptr;
+};
+
+bool KeepEncodedImage(tinygltf::Image* image, const int image_idx, std::string* err, std::string*,
+                      int, int, const unsigned char* bytes, int size, void* user_data) {
+  const auto* ctx = static_cast<const ImageLoaderContext*>(user_data);
+  if (image->bufferView != -1) {
+    // tinygltf 2.7 hands over &buffer.data[bufferView.byteOffset] with
+    // bufferView.byteLength without checking either against the buffer.
+    const tinygltf::BufferView& view = ctx->model->bufferViews[image->bufferView];
+    const std::vector<unsigned char>& data = ctx->model->buffers[view.buffer].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset ||
+        size < 0 || static_cast<size_t>(size) != view.byteLength) {
+      if (err) {
+        *err += absl::StrCat("image[", image_idx, "] bufferView ", image->bufferView,
+                             " (byteOffset ", view.byteOffset, ", byteLength ", view.byteLength,
+                             ") exceeds buffer ", view.buffer, " of ", data.size(), " bytes\n");
+      }
+      return false;
+    }
+  }
+  if (size > 0) image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+struct EntryFile {
+  bool is_glb = false;
+  std::optional<std::string> json;  // the JSON text, when it could be located
+};
+
+// Reads what the pre-checks need: the magic bytes and the JSON text.
+absl::StatusOr<EntryFile> ReadEntry(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    return absl::NotFoundError(absl::StrCat("glTF file '", path.string(), "' does not exist"));
+  }
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec) return absl::NotFoundError(absl::StrCat("cannot stat '", path.string(), "'"));
+  if (size == 0) {
+    return absl::InvalidArgumentError(absl::StrCat("'", path.filename().string(), "' is empty"));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat("cannot open '", path.string(), "'"));
+  EntryFile entry;
+  char header[20] = {};
+  in.read(header, static_cast<std::streamsize>(std::min<uintmax_t>(size, sizeof(header))));
+  entry.is_glb = size >= 4 && std::memcmp(header, "glTF", 4) == 0;
+  if (entry.is_glb) {
+    if (size < 20) return entry;  // tinygltf names the problem
+    std::vector<uint8_t> head(header, header + 20);
+    uint32_t chunk_length;
+    std::memcpy(&chunk_length, header + 12, 4);
+    if (uint64_t{20} + chunk_length > size) return entry;
+    head.resize(20 + chunk_length);
+    in.read(reinterpret_cast<char*>(head.data() + 20), chunk_length);
+    if (std::optional<std::string_view> json = gltf_internal::GlbJsonChunk(head)) {
+      entry.json = std::string(*json);
+    }
+    return entry;
+  }
+  std::string text(static_cast<size_t>(size), '\0');
+  in.seekg(0);
+  in.read(text.data(), static_cast<std::streamsize>(size));
+  entry.json = std::move(text);
+  return entry;
+}
+
+absl::Status CheckRequiredExtensions(const tinygltf::Model& model) {
+  for (const std::string& ext : model.extensionsRequired) {
+    if (!SupportedRequiredExtensions().count(ext)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("extensionsRequired: ", ext, " is not supported"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLimits& limits) {
+  const auto start = std::chrono::steady_clock::now();
+  if (absl::Status s = CheckLimits(limits); !s.ok()) return s;
+  std::error_code ec;
+  const fs::path path = fs::absolute(entry_file, ec);
+  if (ec) return absl::NotFoundError(absl::StrCat("bad path '", entry_file.string(), "'"));
+  absl::StatusOr<EntryFile> entry = ReadEntry(path);
+  if (!entry.ok()) return entry.status();
+
+  const Sandbox sandbox(path.parent_path());
+  if (entry->json) {
+    if (absl::Status s = gltf_internal::CheckJsonNesting(*entry->json, kMaxJsonNesting); !s.ok()) {
+      return s;
+    }
+    if (absl::Status s =
+            gltf_internal::PrecheckJson(sandbox, *entry->json, SupportedRequiredExtensions());
+        !s.ok()) {
+      return s;
+    }
+  }
+
+  tinygltf::Model model;
+  ImageLoaderContext image_ctx{&model};
+  tinygltf::TinyGLTF gltf;
+  gltf.SetFsCallbacks(sandbox.FsCallbacks());
+  gltf.SetImageLoader(&KeepEncodedImage, &image_ctx);
+  std::string err, warn;
+  const bool ok = entry->is_glb ? gltf.LoadBinaryFromFile(&model, &err, &warn, path.string())
+                                : gltf.LoadASCIIFromFile(&model, &err, &warn, path.string());
+  if (!ok) {
+    std::string message = OneLine(err.empty() ? warn : err);
+    if (message.empty()) message = "tinygltf rejected the file without a message";
+    if (!entry->is_glb && path.extension() == ".glb") {
+      message += " (named .glb but has no GLB magic bytes)";
+    }
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot parse '", path.filename().string(), "': ", message));
+  }
+  if (!warn.empty())
+    spdlog::debug("gltf: {}: tinygltf: {}", path.filename().string(), OneLine(warn));
+  if (absl::Status s = CheckRequiredExtensions(model); !s.ok()) return s;
+
+  absl::StatusOr<Scene> scene = gltf_internal::BuildScene(model, limits);
+  if (scene.ok()) {
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    spdlog::debug(
+        "gltf: loaded {}: {} triangles, {} vertices, {} batches, {} materials, {} "
+        "textures in {:.1f} ms",
+        path.filename().string(), scene->TriangleCount(), scene->vertices.size(),
+        scene->batches.size(), scene->materials.size(), scene->textures.size(), ms);
+  }
+  return scene;
+}
+
+}  // namespace impostor

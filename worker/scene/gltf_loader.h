@@ -1,0 +1,65 @@
+// Loads an uploaded glTF 2.0 asset (.glb, or .gltf with its external
+// buffers and images) into a bake-ready Scene: the default scene's triangles
+// with node transforms applied, the materials they use and their decoded
+// textures.
+//
+// The input is untrusted. Every failure is a status naming what is wrong;
+// nothing outside the entry file's directory is ever read (see
+// gltf_sandbox.h), and the limits below bound the memory a hostile file can
+// make the worker allocate.
+//
+// Thread-safety: LoadGltfScene is reentrant; calls share no state.
+#ifndef IMPOSTOR_WORKER_SCENE_GLTF_LOADER_H_
+#define IMPOSTOR_WORKER_SCENE_GLTF_LOADER_H_
+
+#include <cstdint>
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "worker/scene/scene.h"
+
+namespace impostor {
+
+// Resource limits for one load. Exceeding one is RESOURCE_EXHAUSTED and the
+// message names the limit and the offending value.
+struct GltfLoadLimits {
+  // Triangles in the flattened default scene (a mesh drawn by two nodes
+  // counts twice). Default 20,000,000; range 1 .. 2^31 / 3 (indices are
+  // 32-bit). Also bounds vertices at 3 per allowed triangle.
+  uint64_t max_triangles = 20'000'000;
+  // Largest width or height of a decoded texture, pixels. Default 16,384
+  // (the usual GPU maxImageDimension2D); range 1 .. 65,535.
+  int max_texture_dimension = 16384;
+  // Sum of width * height * 4 over all decoded textures. Default 2 GiB;
+  // any value >= 0 (0 refuses every textured asset).
+  uint64_t max_texture_bytes = uint64_t{2} << 30;
+  // Deepest node nesting below a scene root (a root is depth 0). Deeper
+  // hierarchies are INVALID_ARGUMENT. Default 1,024; range 1 .. 100,000.
+  int max_node_depth = 1024;
+};
+
+// Loads `entry_file` (a .glb or .gltf; the format is decided by the file's
+// magic bytes, not its name) and returns the default scene (model.scene,
+// else scene 0, else every root node).
+//
+// Errors:
+//   NOT_FOUND         `entry_file` does not exist or is not a regular file.
+//   INVALID_ARGUMENT  malformed container/JSON (tinygltf's message, one line),
+//                     an external uri that is absolute, has a scheme or
+//                     leaves the entry file's directory, a missing external
+//                     file (names the file and the buffer/image using it),
+//                     an unsupported entry in extensionsRequired, any
+//                     out-of-range index or accessor/bufferView bound (names
+//                     mesh, primitive and accessor), non-finite transforms,
+//                     node cycles, nodes deeper than max_node_depth, an
+//                     undecodable PNG/JPEG image, or no triangles in the
+//                     default scene. (Images in formats the loader cannot
+//                     decode -- KTX2, WebP, DDS -- are dropped with a
+//                     warning and the material's factors are used.)
+//   RESOURCE_EXHAUSTED a GltfLoadLimits limit is exceeded.
+absl::StatusOr<Scene> LoadGltfScene(const std::filesystem::path& entry_file,
+                                    const GltfLoadLimits& limits = {});
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_SCENE_GLTF_LOADER_H_

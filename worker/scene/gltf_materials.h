@@ -1,0 +1,63 @@
+// Converts the glTF materials a scene uses into SceneMaterials and decodes
+// the images they reference (each image once, only when used). Internal to
+// the glTF loader.
+#ifndef IMPOSTOR_WORKER_SCENE_GLTF_MATERIALS_H_
+#define IMPOSTOR_WORKER_SCENE_GLTF_MATERIALS_H_
+
+#include <tiny_gltf.h>
+
+#include <glm/mat3x3.hpp>
+#include <map>
+#include <optional>
+#include <tuple>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "worker/scene/gltf_loader.h"
+#include "worker/scene/scene.h"
+
+namespace impostor::gltf_internal {
+
+// Builds Scene::materials and Scene::textures on demand, in first-use order.
+class MaterialTable {
+ public:
+  // `model` and `scene` must outlive the table; materials/textures are
+  // appended to `scene`.
+  MaterialTable(const tinygltf::Model& model, const GltfLoadLimits& limits, Scene* scene);
+
+  // Index into scene->materials for glTF material `gltf_index` (-1 = the
+  // glTF default material: white, metallic 1, roughness 1), converting it
+  // and decoding its textures on first use. INVALID_ARGUMENT for an
+  // out-of-range material/texture/image/sampler index, a non-finite factor,
+  // a missing or undecodable image; RESOURCE_EXHAUSTED when a texture limit
+  // is hit. Images in formats stb_image cannot read (KTX2, WebP, DDS) are
+  // dropped with a warning: the material keeps its factors.
+  absl::StatusOr<int> Use(int gltf_index);
+
+  // UV transform (KHR_texture_transform of the base colour texture) to apply
+  // to TEXCOORD_0 of primitives drawn with scene material `scene_index`;
+  // nullopt for none.
+  const std::optional<glm::mat3>& UvTransform(int scene_index) const {
+    return uv_transforms_[scene_index];
+  }
+
+ private:
+  absl::StatusOr<int> Convert(int gltf_index);
+  absl::StatusOr<int> UseTexture(const tinygltf::TextureInfo& info, bool srgb, int material);
+  absl::StatusOr<int> UseTexture(int texture, int tex_coord, bool srgb, int material,
+                                 const char* slot);
+
+  const tinygltf::Model& model_;
+  const GltfLoadLimits& limits_;
+  Scene* scene_;
+  std::map<int, int> materials_;  // glTF material (-1 = default) -> scene index
+  std::vector<std::optional<glm::mat3>> uv_transforms_;  // by scene material
+  // (image, wrap_s, wrap_t, srgb) -> scene texture
+  std::map<std::tuple<int, int, int, bool>, int> textures_;
+  std::map<int, int> decoded_;  // image -> a scene texture holding its pixels
+  uint64_t texture_bytes_ = 0;
+};
+
+}  // namespace impostor::gltf_internal
+
+#endif  // IMPOSTOR_WORKER_SCENE_GLTF_MATERIALS_H_

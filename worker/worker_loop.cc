@@ -1,0 +1,255 @@
+#include "worker/worker_loop.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/bake_request.h"
+#include "common/sha256.h"
+#include "worker/bake/atlas_bake.h"
+
+namespace impostor {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+absl::Status FromGrpc(const grpc::Status& s, std::string_view rpc) {
+  if (s.ok()) return absl::OkStatus();
+  return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
+                      absl::StrCat(std::string(rpc), ": ", s.error_message()));
+}
+
+std::unique_ptr<grpc::ClientContext> ContextWithDeadline(std::chrono::seconds timeout) {
+  auto ctx = std::make_unique<grpc::ClientContext>();
+  ctx->set_deadline(std::chrono::system_clock::now() + timeout);
+  return ctx;
+}
+
+// Downloads one blob to `path`, verifying its digest as it goes.
+absl::Status DownloadBlob(v1::AssetService::Stub& assets, const v1::Digest& digest, const fs::path& path) {
+  fs::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return absl::InternalError(absl::StrCat("cannot create ", path.string()));
+  v1::ReadBlobRequest request;
+  *request.mutable_digest() = digest;
+  auto ctx = ContextWithDeadline(std::chrono::seconds(600));
+  auto reader = assets.ReadBlob(ctx.get(), request);
+  v1::ReadBlobResponse chunk;
+  Sha256 hash;
+  int64_t received = 0;
+  while (reader->Read(&chunk)) {
+    hash.Update(chunk.data());
+    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
+    received += static_cast<int64_t>(chunk.data().size());
+  }
+  if (auto s = FromGrpc(reader->Finish(), "ReadBlob"); !s.ok()) return s;
+  out.close();
+  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
+  if (received != digest.size_bytes() || hash.FinishHex() != digest.hash()) {
+    return absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " arrived corrupt"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, const v1::Digest& digest) {
+  auto ctx = ContextWithDeadline(std::chrono::seconds(600));
+  v1::UploadBlobResponse response;
+  auto writer = assets.UploadBlob(ctx.get(), &response);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::InternalError(absl::StrCat("cannot open ", path.string()));
+  v1::UploadBlobRequest chunk;
+  *chunk.mutable_digest() = digest;
+  std::string buf(1 << 20, '\0');
+  bool first = true;
+  while (in || first) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    chunk.set_data(buf.data(), static_cast<size_t>(in.gcount()));
+    if (!writer->Write(chunk)) break;
+    chunk.clear_digest();
+    first = false;
+  }
+  writer->WritesDone();
+  return FromGrpc(writer->Finish(), "UploadBlob");
+}
+
+// Bad input fails the job for good; anything else may succeed elsewhere.
+bool IsRetryable(absl::StatusCode code) {
+  return code != absl::StatusCode::kInvalidArgument && code != absl::StatusCode::kCancelled &&
+         code != absl::StatusCode::kResourceExhausted && code != absl::StatusCode::kUnimplemented;
+}
+
+}  // namespace
+
+WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> renderer)
+    : options_(std::move(options)), renderer_(std::move(renderer)) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(64 << 20);
+  channel_ = grpc::CreateCustomChannel(options_.server, grpc::InsecureChannelCredentials(), args);
+  workers_ = v1::WorkerService::NewStub(channel_);
+  assets_ = v1::AssetService::NewStub(channel_);
+}
+
+absl::Status WorkerLoop::Run() {
+  int jobs_done = 0;
+  auto backoff = std::chrono::milliseconds(200);
+  while (!stop_) {
+    v1::LeaseJobRequest request;
+    request.set_worker_id(options_.worker_id);
+    request.set_device(renderer_->device().name);
+    request.set_wait_seconds(5);  // short polls so Stop() is honoured quickly
+    v1::LeaseJobResponse response;
+    auto ctx = ContextWithDeadline(std::chrono::seconds(15));
+    const grpc::Status s = workers_->LeaseJob(ctx.get(), request, &response);
+    if (!s.ok()) {
+      spdlog::warn("event=lease_failed server={} code={} error=\"{}\" retry_ms={}", options_.server,
+                   static_cast<int>(s.error_code()), s.error_message(), backoff.count());
+      // Wait for the channel to come back (or the backoff to pass) rather
+      // than spinning on a dead server.
+      channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
+      backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+      continue;
+    }
+    backoff = std::chrono::milliseconds(200);
+    if (!response.has_job()) continue;
+    ProcessJob(response.job());
+    if (options_.max_jobs > 0 && ++jobs_done >= options_.max_jobs) break;
+  }
+  return absl::OkStatus();
+}
+
+void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
+  const auto start = Clock::now();
+  spdlog::info("event=job_start job={} cache_key={} attempt={}", job.job_id(), job.cache_key(), job.attempt());
+  std::atomic<bool> cancelled{false};
+  std::atomic<bool> lease_lost{false};
+
+  // Latest progress, sent by the heartbeat thread (and on stage changes).
+  std::mutex mu;
+  std::condition_variable wake;
+  std::string stage = "download";
+  double fraction = 0.0;
+  bool stage_changed = true;
+  bool done = false;
+
+  auto report = [&](const std::string& st, double f) {
+    v1::ReportProgressRequest r;
+    r.set_job_id(job.job_id());
+    r.set_lease_id(job.lease_id());
+    r.set_progress(static_cast<float>(std::clamp(f, 0.0, 1.0)));
+    r.set_stage(st);
+    v1::ReportProgressResponse resp;
+    auto ctx = ContextWithDeadline(std::chrono::seconds(10));
+    const grpc::Status s = workers_->ReportProgress(ctx.get(), r, &resp);
+    if (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
+      spdlog::warn("event=lease_lost job={} error=\"{}\"", job.job_id(), s.error_message());
+      lease_lost = true;
+      cancelled = true;
+    } else if (s.ok() && resp.cancel_requested()) {
+      spdlog::info("event=job_cancel_requested job={}", job.job_id());
+      cancelled = true;
+    }
+  };
+  std::thread heartbeat([&] {
+    std::unique_lock lock(mu);
+    while (!done) {
+      wake.wait_for(lock, std::chrono::seconds(options_.heartbeat_seconds), [&] { return done || stage_changed; });
+      if (done) break;
+      const std::string st = stage;
+      const double f = fraction;
+      stage_changed = false;
+      lock.unlock();
+      report(st, f);
+      lock.lock();
+    }
+  });
+  auto progress = [&](std::string_view st, double f) {
+    std::lock_guard lock(mu);
+    if (st != stage) stage_changed = true;
+    stage = std::string(st);
+    fraction = f;
+    if (stage_changed) wake.notify_all();
+  };
+
+  const fs::path job_dir = options_.scratch_dir / job.job_id();
+  const fs::path input_dir = job_dir / "input";
+  const fs::path output_dir = job_dir / "output";
+  std::error_code ec;
+  fs::remove_all(job_dir, ec);
+  fs::create_directories(input_dir, ec);
+  fs::create_directories(output_dir, ec);
+
+  absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
+    if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
+    // Inputs: the entry under its own name, the rest under their relative
+    // paths (validated above: no absolute paths, no "..").
+    const fs::path entry = input_dir / fs::path(job.mesh().entry().path()).filename();
+    const auto t = Clock::now();
+    if (auto s = DownloadBlob(*assets_, job.mesh().entry().digest(), entry); !s.ok()) return s;
+    for (const auto& f : job.mesh().files()) {
+      if (cancelled) return absl::CancelledError("cancelled while downloading");
+      if (auto s = DownloadBlob(*assets_, f.digest(), input_dir / f.path()); !s.ok()) return s;
+    }
+    const double download_seconds = std::chrono::duration<double>(Clock::now() - t).count();
+    AtlasBakeRequest request{.entry_file = entry,
+                             .parameters = job.parameters(),
+                             .cache_key = job.cache_key(),
+                             .output_dir = output_dir};
+    auto out = BakeAtlas(request, *renderer_, progress, cancelled);
+    if (!out.ok()) return out;
+    out->manifest.mutable_timings()->set_download_seconds(download_seconds);
+    return out;
+  }();
+
+  absl::Status outcome = result.status();
+  if (result.ok() && !lease_lost) {
+    progress("upload", 0.96);
+    const auto t = Clock::now();
+    for (const auto& map : result->manifest.maps()) {
+      if (outcome = UploadFile(*assets_, output_dir / map.file(), map.digest()); !outcome.ok()) break;
+    }
+    if (outcome.ok()) outcome = UploadFile(*assets_, result->manifest_path, result->manifest.manifest_json());
+    result->manifest.mutable_timings()->set_store_seconds(std::chrono::duration<double>(Clock::now() - t).count());
+  }
+  {
+    std::lock_guard lock(mu);
+    done = true;
+    wake.notify_all();
+  }
+  heartbeat.join();
+
+  if (lease_lost) {
+    spdlog::warn("event=job_dropped job={} reason=lease_lost", job.job_id());
+  } else if (outcome.ok()) {
+    v1::CompleteJobRequest r;
+    r.set_job_id(job.job_id());
+    r.set_lease_id(job.lease_id());
+    *r.mutable_result() = result->manifest;
+    v1::CompleteJobResponse resp;
+    auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+    const grpc::Status s = workers_->CompleteJob(ctx.get(), r, &resp);
+    spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
+                 std::chrono::duration<double>(Clock::now() - start).count(),
+                 s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
+  } else {
+    v1::FailJobRequest r;
+    r.set_job_id(job.job_id());
+    r.set_lease_id(job.lease_id());
+    r.mutable_error()->set_code(static_cast<int>(outcome.code()));
+    r.mutable_error()->set_message(std::string(outcome.message()));
+    r.set_retryable(IsRetryable(outcome.code()));
+    v1::FailJobResponse resp;
+    auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+    const grpc::Status s = workers_->FailJob(ctx.get(), r, &resp);
+    spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
+                 static_cast<int>(outcome.code()), r.retryable(), std::string(outcome.message()), s.ok());
+  }
+  fs::remove_all(job_dir, ec);
+}
+
+}  // namespace impostor

@@ -1,0 +1,58 @@
+// The worker process's main loop: lease a job from the server, fetch its
+// input blobs into a private directory, bake, upload the outputs, complete
+// or fail the job, repeat. A heartbeat thread renews the lease while a bake
+// runs and notices cancellation.
+//
+// Thread-safety: Run() on one thread; Stop() from any thread (e.g. a signal
+// watcher) makes Run return after the current job.
+#ifndef IMPOSTOR_WORKER_WORKER_LOOP_H_
+#define IMPOSTOR_WORKER_WORKER_LOOP_H_
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+
+#include "absl/status/status.h"
+#include "impostor/v1/asset_service.grpc.pb.h"
+#include "impostor/v1/worker_service.grpc.pb.h"
+#include "worker/gpu/atlas_renderer.h"
+
+namespace impostor {
+
+struct WorkerOptions {
+  std::string server = "localhost:50051";  // HOST:PORT of impostor-server
+  std::string worker_id;                   // unique per process
+  std::filesystem::path scratch_dir;       // per-job folders go here
+  // Seconds between lease renewals while baking; well under the server's
+  // lease timeout (default 30 s). Range 1..60.
+  int heartbeat_seconds = 5;
+  // Stop after this many jobs (0 = never): used by tests and one-shot runs.
+  int max_jobs = 0;
+};
+
+class WorkerLoop {
+ public:
+  WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> renderer);
+
+  // Serves until Stop() or max_jobs. Returns OK on a clean stop;
+  // connection trouble is retried with backoff, never fatal.
+  absl::Status Run();
+  void Stop() { stop_ = true; }
+
+ private:
+  void ProcessJob(const v1::LeasedJob& job);
+
+  const WorkerOptions options_;
+  std::unique_ptr<AtlasRenderer> renderer_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::WorkerService::Stub> workers_;
+  std::unique_ptr<v1::AssetService::Stub> assets_;
+  std::atomic<bool> stop_{false};
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_WORKER_LOOP_H_
