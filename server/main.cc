@@ -14,6 +14,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "absl/flags/flag.h"
@@ -51,6 +52,10 @@ int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
+  // Logs go to stderr: stdout carries only the "listening on" line, and a
+  // closed stdout must not take the process down.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
+  ::signal(SIGPIPE, SIG_IGN);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
 

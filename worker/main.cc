@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <thread>
 
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "absl/flags/flag.h"
@@ -29,6 +30,10 @@ int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
+  // Logs go to stderr: stdout carries only the "listening on" line, and a
+  // closed stdout must not take the process down.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
+  ::signal(SIGPIPE, SIG_IGN);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
 
   char host[256] = {};

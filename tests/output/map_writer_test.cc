@@ -22,12 +22,18 @@ fs::path Scratch(const std::string& name) {
   return dir / name;
 }
 
+// Removes the scratch directory after each test.
+class MapWriterTest : public ::testing::Test {
+ protected:
+  void TearDown() override { fs::remove_all(Scratch("").parent_path()); }
+};
+
 std::string Bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-TEST(MapWriterTest, Rgba8RoundTripKeepsColourUnderZeroAlpha) {
+TEST_F(MapWriterTest, Rgba8RoundTripKeepsColourUnderZeroAlpha) {
   const int w = 37, h = 11;
   std::vector<uint8_t> pixels(w * h * 4);
   for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint8_t>(i * 31 + 7);
@@ -47,7 +53,7 @@ TEST(MapWriterTest, Rgba8RoundTripKeepsColourUnderZeroAlpha) {
   EXPECT_EQ(Bytes(path), first);
 }
 
-TEST(MapWriterTest, Rgba16RoundTripKeepsFullPrecision) {
+TEST_F(MapWriterTest, Rgba16RoundTripKeepsFullPrecision) {
   const int w = 19, h = 23;
   std::vector<uint16_t> pixels(w * h * 4);
   for (size_t i = 0; i < pixels.size(); ++i)
@@ -62,7 +68,7 @@ TEST(MapWriterTest, Rgba16RoundTripKeepsFullPrecision) {
   EXPECT_EQ(read->pixels16, pixels);
 }
 
-TEST(MapWriterTest, ErrorsAreStatuses) {
+TEST_F(MapWriterTest, ErrorsAreStatuses) {
   std::vector<uint8_t> pixels(4 * 4 * 4, 0);
   const absl::Status bad_dir = WritePngRgba8("/nonexistent_dir_xyz/out.png", pixels, 4, 4);
   EXPECT_FALSE(bad_dir.ok());

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <future>
 
 #include <spdlog/spdlog.h>
 
@@ -116,15 +117,24 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   std::vector<TileRect> tiles;
   for (const FrameCamera& c : cameras) tiles.push_back(c.tile);
   // Dilation fills empty texels' colour from the silhouette so mipmaps and
-  // bilinear filtering never pull in black; coverage stays untouched.
+  // bilinear filtering never pull in black; coverage stays untouched. The
+  // three maps are independent (normal_depth only reads albedo's alpha,
+  // which dilation never writes), so they are processed in parallel.
   const int w = atlas->width, h = atlas->height;
-  if (auto s = DilateRgba16(atlas->normal_depth, atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
-  if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
-  if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok()) return s;
   const std::filesystem::path& dir = request.output_dir;
-  if (auto s = WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h); !s.ok()) return s;
-  if (auto s = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h); !s.ok()) return s;
-  if (auto s = WritePngRgba8(dir / "orm.png", atlas->orm, w, h); !s.ok()) return s;
+  auto albedo = std::async(std::launch::async, [&]() -> absl::Status {
+    if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
+    return WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h);
+  });
+  auto orm = std::async(std::launch::async, [&]() -> absl::Status {
+    if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok()) return s;
+    return WritePngRgba8(dir / "orm.png", atlas->orm, w, h);
+  });
+  absl::Status normal = DilateRgba16(atlas->normal_depth, atlas->albedo_alpha, w, h, tiles);
+  if (normal.ok()) normal = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
+  for (absl::Status s : {albedo.get(), orm.get(), normal}) {
+    if (!s.ok()) return s;
+  }
   timings->set_encode_seconds(SecondsSince(t));
   progress("encode", kEncodeEnd);
 

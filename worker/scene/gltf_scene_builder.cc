@@ -290,8 +290,12 @@ class Builder {
                                   std::make_tuple("SCALE", TINYGLTF_TYPE_VEC3, &s)}) {
       const tinygltf::Value& accessor = attributes.Get(key);
       if (!accessor.IsNumber()) continue;
+      // A double outside int range would make GetNumberAsInt undefined.
+      const double number = accessor.GetNumberAsDouble();
+      const int accessor_index =
+          number >= 0.0 && number <= 2147483647.0 ? static_cast<int>(number) : -1;
       absl::StatusOr<std::vector<float>> values = ReadFloatAccessor(
-          model_, accessor.GetNumberAsInt(), type, max_vertices_, absl::StrCat(what, " ", key));
+          model_, accessor_index, type, max_vertices_, absl::StrCat(what, " ", key));
       if (!values.ok()) return values.status();
       const size_t n = values->size() / (type == TINYGLTF_TYPE_VEC4 ? 4 : 3);
       if (any && n != count) {
