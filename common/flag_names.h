@@ -7,6 +7,8 @@
 
 #include <cstring>
 
+#include "absl/flags/usage_config.h"
+
 namespace impostor {
 
 inline void UnderscoreFlagNames(int argc, char** argv) {
@@ -18,6 +20,15 @@ inline void UnderscoreFlagNames(int argc, char** argv) {
       if (*c == '-') *c = '_';
     }
   }
+}
+
+// --help lists every flag of the binary (Abseil's default shows only flags
+// defined in a file named after the program).
+inline void ShowAllFlagsInHelp() {
+  absl::FlagsUsageConfig config;
+  config.contains_helpshort_flags = [](absl::string_view) { return true; };
+  config.contains_help_flags = [](absl::string_view) { return true; };
+  absl::SetFlagsUsageConfig(config);
 }
 
 }  // namespace impostor

@@ -50,6 +50,7 @@ int Fail(const std::string& message) {
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
+  impostor::ShowAllFlagsInHelp();
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   // Logs go to stderr: stdout carries only the "listening on" line, and a

@@ -28,6 +28,7 @@ ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
+  impostor::ShowAllFlagsInHelp();
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   // Logs go to stderr: stdout carries only the "listening on" line, and a
