@@ -1,5 +1,5 @@
 // manifest.json: the on-disk form of a baked result (v1::Manifest).
-// Format: docs/manifest.md. The worker writes it, stores it as a blob and the
+// Format: common/manifest_format.md. The worker writes it, stores it as a blob and the
 // client installs it next to the maps; ManifestFromJson reads it back.
 #ifndef IMPOSTOR_COMMON_MANIFEST_JSON_H_
 #define IMPOSTOR_COMMON_MANIFEST_JSON_H_
