@@ -87,11 +87,33 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
   auto stubs = std::make_unique<Stubs>();
   stubs->channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
-  if (!stubs->channel->WaitForConnected(DeadlineAfter(options.connect_timeout_seconds))) {
+  // Wait for READY, but give up early when the connection is refused
+  // outright: a CI job or a game should hear "nobody there" in about a
+  // second, not after the whole timeout. gRPC keeps the channel in
+  // TRANSIENT_FAILURE while it retries, so after the first refusal allow one
+  // more second (a server that is just starting) and then stop.
+  const auto deadline = DeadlineAfter(options.connect_timeout_seconds);
+  bool refused = false;
+  grpc_connectivity_state state = stubs->channel->GetState(/*try_to_connect=*/true);
+  while (state != GRPC_CHANNEL_READY) {
+    auto wait_until = deadline;
+    if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) {
+      if (refused) break;
+      refused = true;
+      wait_until = std::min(deadline, DeadlineAfter(1.0));
+    }
+    if (!stubs->channel->WaitForStateChange(state, wait_until)) {
+      if (std::chrono::system_clock::now() >= deadline || state == GRPC_CHANNEL_TRANSIENT_FAILURE) break;
+      continue;
+    }
+    state = stubs->channel->GetState(/*try_to_connect=*/true);
+  }
+  if (state != GRPC_CHANNEL_READY) {
     return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server,
-                        absl::StrCat("no impostor server answered within ",
-                                     options.connect_timeout_seconds, " s (channel ",
-                                     StateName(stubs->channel->GetState(false)), ")"));
+                        refused ? std::string("connection refused; is impostor-server running there?")
+                                     : absl::StrCat("no impostor server answered within ",
+                                                    options.connect_timeout_seconds, " s (channel ",
+                                                    StateName(state), ")"));
   }
   stubs->bake = v1::BakeService::NewStub(stubs->channel);
   stubs->asset = v1::AssetService::NewStub(stubs->channel);

@@ -48,6 +48,19 @@ int ChildProcess::Terminate() {
   return status;
 }
 
+int ChildProcess::Wait(std::string* rest_of_stdout) {
+  std::string out = buffer_;
+  buffer_.clear();
+  char chunk[4096];
+  ssize_t n;
+  while ((n = ::read(stdout_fd_, chunk, sizeof(chunk))) > 0) out.append(chunk, static_cast<size_t>(n));
+  if (rest_of_stdout) *rest_of_stdout = out;
+  int status = 0;
+  ::waitpid(pid_, &status, 0);
+  pid_ = -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
 std::string ChildProcess::ReadLineContaining(const std::string& needle) {
   while (true) {
     size_t nl;

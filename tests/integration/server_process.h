@@ -33,6 +33,9 @@ class ChildProcess {
   pid_t pid() const { return pid_; }
   // SIGTERM then wait; returns the exit status as waitpid reports it.
   int Terminate();
+  // Waits for the process to exit by itself; returns its exit code (or 128 +
+  // signal), and everything it wrote to stdout not yet read.
+  int Wait(std::string* rest_of_stdout = nullptr);
 
  private:
   pid_t pid_ = -1;

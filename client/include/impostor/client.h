@@ -58,7 +58,8 @@ struct ClientOptions {
   int max_attempts = 5;
 
   // How long Connect waits for the channel to become ready, in seconds.
-  // Default: 10. Range: > 0.
+  // A refused connection (nothing listening) ends the wait after about one
+  // second instead. Default: 10. Range: > 0.
   double connect_timeout_seconds = 10;
 };
 
@@ -160,8 +161,9 @@ std::optional<RpcErrorInfo> GetRpcErrorInfo(const absl::Status& status);
 class Client {
  public:
   // Opens a channel to options.server and waits up to
-  // options.connect_timeout_seconds for it to become ready. UNAVAILABLE naming
-  // the address when it does not; INVALID_ARGUMENT for out-of-range options.
+  // options.connect_timeout_seconds for it to become ready (about a second
+  // when the connection is refused). UNAVAILABLE naming the address when it
+  // does not; INVALID_ARGUMENT for out-of-range options.
   static absl::StatusOr<std::unique_ptr<Client>> Connect(const ClientOptions& options);
 
   ~Client();
