@@ -146,6 +146,22 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   return response;
 }
 
+absl::StatusOr<v1::LookupBakeResponse> BakeScheduler::Lookup(const v1::SubmitBakeRequest& request) {
+  if (auto s = ValidateMeshInput(request.mesh()); !s.ok()) return s;
+  auto params = NormalizeParameters(request.parameters());
+  if (!params.ok()) return params.status();
+  v1::LookupBakeResponse response;
+  response.set_cache_key(ComputeCacheKey(request.mesh(), *params));
+  std::lock_guard lock(mu_);
+  auto cached = IntactResult(response.cache_key());
+  if (!cached.ok()) return cached.status();
+  if (cached->has_value()) {
+    response.set_found(true);
+    *response.mutable_result() = std::move(**cached);
+  }
+  return response;
+}
+
 absl::StatusOr<v1::Job> BakeScheduler::GetJob(const std::string& job_id) {
   std::lock_guard lock(mu_);
   auto r = LoadJob(job_id);

@@ -46,6 +46,8 @@ class BakeScheduler {
 
   // See BakeService.SubmitBake for outcomes and codes.
   absl::StatusOr<v1::SubmitBakeResponse> Submit(const v1::SubmitBakeRequest& request);
+  // See BakeService.LookupBake.
+  absl::StatusOr<v1::LookupBakeResponse> Lookup(const v1::SubmitBakeRequest& request);
   // NOT_FOUND for an unknown job; INVALID_ARGUMENT for an empty id.
   absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);

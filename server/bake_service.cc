@@ -26,6 +26,14 @@ grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext*, const v1::SubmitB
   return grpc::Status::OK;
 }
 
+grpc::Status BakeServiceImpl::LookupBake(grpc::ServerContext*, const v1::SubmitBakeRequest* request,
+                                         v1::LookupBakeResponse* response) {
+  auto r = scheduler_->Lookup(*request);
+  if (!r.ok()) return ToGrpc(r.status());
+  *response = std::move(*r);
+  return grpc::Status::OK;
+}
+
 grpc::Status BakeServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                        grpc::ServerWriter<v1::Job>* writer) {
   std::optional<v1::Job> last;

@@ -37,6 +37,8 @@ class BakeServiceImpl final : public v1::BakeService::Service {
 
   grpc::Status SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                           v1::SubmitBakeResponse* response) override;
+  grpc::Status LookupBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
+                          v1::LookupBakeResponse* response) override;
   grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                         grpc::ServerWriter<v1::Job>* writer) override;
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::Job* response) override;

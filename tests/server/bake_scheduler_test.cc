@@ -106,6 +106,23 @@ TEST_F(BakeSchedulerTest, SecondIdenticalRequestIsACacheHit) {
   EXPECT_TRUE(NothingToLease()) << "a cache hit must not reach the queue";
 }
 
+TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
+  v1::SubmitBakeRequest request = Request();
+  auto miss = scheduler_->Lookup(request);
+  ASSERT_TRUE(miss.ok()) << miss.status();
+  EXPECT_FALSE(miss->found());
+  ASSERT_TRUE(scheduler_->Submit(request).ok());
+  EXPECT_FALSE(scheduler_->Lookup(request)->found()) << "queued is not baked";
+  ASSERT_TRUE(scheduler_->Complete(Result(Lease())).ok());
+  auto hit = scheduler_->Lookup(request);
+  EXPECT_TRUE(hit->found());
+  EXPECT_EQ(hit->cache_key(), miss->cache_key());
+  EXPECT_EQ(hit->result().maps(0).file(), "albedo_alpha.png");
+  EXPECT_TRUE(NothingToLease()) << "a lookup never queues a bake";
+  request.mutable_parameters()->set_frames(100);
+  EXPECT_EQ(scheduler_->Lookup(request).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
 TEST_F(BakeSchedulerTest, IdenticalInFlightRequestsShareOneJob) {
   auto a = scheduler_->Submit(Request());
   auto b = scheduler_->Submit(Request());
