@@ -13,11 +13,20 @@ namespace impostor::sdk {
 
 absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
                           const std::function<absl::Status(std::string_view)>& sink) {
+  Sha256 hash;
+  return ResumeBlobDownload(transport, digest, 0, hash, sink);
+}
+
+absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                const std::function<absl::Status(std::string_view)>& sink) {
   if (absl::Status s = ValidateDigest("digest", digest.hash(), digest.size_bytes()); !s.ok()) return s;
   const std::string name = absl::StrCat(digest.hash(), "/", digest.size_bytes());
+  if (offset < 0 || offset > digest.size_bytes()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ReadBlob ", name, ": resume offset ", offset, " is outside 0..", digest.size_bytes()));
+  }
   const int max_attempts = transport.options().max_attempts;
-  Sha256 hash;
-  int64_t received = 0;
+  int64_t received = offset;
   // Counts tries in a row that brought nothing; progress starts it over, so
   // a slow but moving download on a flaky link is never given up.
   int fruitless = 0;

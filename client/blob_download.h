@@ -13,6 +13,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "client/transport.h"
+#include "common/sha256.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor::sdk {
@@ -25,6 +26,13 @@ namespace impostor::sdk {
 // must discard them). A non-OK status from `sink` is returned as is.
 absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
                           const std::function<absl::Status(std::string_view)>& sink);
+
+// DownloadBlob from byte `offset` on, for a caller that already holds bytes
+// [0, offset) and has fed them to `hash`: only the rest is requested and fed
+// to `sink` and `hash`, and the SHA-256 of the whole blob is checked at the
+// end. INVALID_ARGUMENT when offset is outside 0..size_bytes.
+absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                const std::function<absl::Status(std::string_view)>& sink);
 
 // DownloadBlob into `path` through an AtomicFileWriter: on any error the
 // temporary file is removed and `path` is left untouched.

@@ -62,6 +62,18 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
   }
   p.set_frames(settings.frames);
   p.set_resolution(settings.resolution);
+  if (settings.product.empty() || settings.product == "atlas") {
+    // PRODUCT_UNSPECIFIED: the server's default, the atlas.
+  } else if (settings.product == "surfels") {
+    p.set_product(v1::PRODUCT_SURFELS);
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("product: unknown product \"", settings.product, "\"; expected \"atlas\" or \"surfels\""));
+  }
+  // Preset and budget go to the server as given: it owns their meaning and
+  // refuses them with product atlas.
+  p.set_preset(settings.preset);
+  if (settings.point_budget.has_value()) p.set_point_budget(*settings.point_budget);
   return p;
 }
 

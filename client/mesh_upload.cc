@@ -60,6 +60,22 @@ absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
 
 }  // namespace
 
+absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files) {
+  v1::MeshInput mesh;
+  auto add = [](const std::filesystem::path& path, v1::InputFile* input, const std::string& name) -> absl::Status {
+    absl::StatusOr<v1::Digest> digest = HashFile(path);
+    if (!digest.ok()) return digest.status();
+    input->set_path(name);
+    *input->mutable_digest() = *digest;
+    return absl::OkStatus();
+  };
+  if (absl::Status s = add(files.entry, mesh.mutable_entry(), files.entry_name); !s.ok()) return s;
+  for (const MeshFile& file : files.files) {
+    if (absl::Status s = add(file.local_path, mesh.add_files(), file.relative_path); !s.ok()) return s;
+  }
+  return mesh;
+}
+
 absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files) {
   UploadedMesh out;
   std::vector<LocalBlob> blobs;

@@ -22,6 +22,11 @@ inline constexpr size_t kUploadChunkBytes = 1 << 20;
 
 absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files);
 
+// The MeshInput naming `files` with their digests, hashed locally and
+// uploaded nowhere: what LookupBake needs. NOT_FOUND / INTERNAL naming the
+// file on read errors.
+absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files);
+
 }  // namespace impostor::sdk
 
 #endif  // IMPOSTOR_CLIENT_MESH_UPLOAD_H_

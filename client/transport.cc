@@ -3,8 +3,11 @@
 #include <chrono>
 #include <cmath>
 #include <utility>
+#include <vector>
 
+#include <grpcpp/create_channel.h>
 #include <grpcpp/grpcpp.h>
+#include <grpcpp/support/client_interceptor.h>
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
@@ -66,9 +69,39 @@ const char* StateName(grpc_connectivity_state state) {
   return "?";
 }
 
+// Reports every RPC to TransportHooks::on_rpc as its first message leaves.
+class RpcObserver : public grpc::experimental::Interceptor {
+ public:
+  RpcObserver(const TransportHooks* hooks, std::string method) : hooks_(hooks), method_(std::move(method)) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(
+            grpc::experimental::InterceptionHookPoints::PRE_SEND_INITIAL_METADATA)) {
+      hooks_->on_rpc(method_);
+    }
+    methods->Proceed();
+  }
+
+ private:
+  const TransportHooks* hooks_;
+  std::string method_;
+};
+
+class RpcObserverFactory : public grpc::experimental::ClientInterceptorFactoryInterface {
+ public:
+  explicit RpcObserverFactory(const TransportHooks* hooks) : hooks_(hooks) {}
+  grpc::experimental::Interceptor* CreateClientInterceptor(grpc::experimental::ClientRpcInfo* info) override {
+    return new RpcObserver(hooks_, info->method());
+  }
+
+ private:
+  const TransportHooks* hooks_;
+};
+
 }  // namespace
 
 struct Transport::Stubs {
+  // Outlives the channel's interceptors, which point at it.
+  TransportHooks hooks;
   std::shared_ptr<grpc::Channel> channel;
   std::unique_ptr<v1::BakeService::Stub> bake;
   std::unique_ptr<v1::AssetService::Stub> asset;
@@ -79,14 +112,23 @@ Transport::Transport(ClientOptions options, std::unique_ptr<Stubs> stubs)
 
 Transport::~Transport() = default;
 
-absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options) {
+absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options,
+                                                              const TransportHooks& hooks) {
   if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kKeepaliveTimeMs);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
   auto stubs = std::make_unique<Stubs>();
-  stubs->channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  stubs->hooks = hooks;
+  if (stubs->hooks.on_rpc) {
+    std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+    interceptors.push_back(std::make_unique<RpcObserverFactory>(&stubs->hooks));
+    stubs->channel = grpc::experimental::CreateCustomChannelWithInterceptors(
+        options.server, grpc::InsecureChannelCredentials(), args, std::move(interceptors));
+  } else {
+    stubs->channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  }
   // Wait for READY, but give up early when the connection is refused
   // outright: a CI job or a game should hear "nobody there" in about a
   // second, not after the whole timeout. gRPC keeps the channel in
@@ -174,6 +216,12 @@ absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) 
   request.set_cache_key(cache_key);
   return CallUnary<v1::Manifest>(options_, "GetResult",
                                  [&](auto* ctx, auto* resp) { return stubs_->asset->GetResult(ctx, request, resp); });
+}
+
+absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {
+  return CallUnary<v1::LookupBakeResponse>(options_, "LookupBake", [&](auto* ctx, auto* resp) {
+    return stubs_->bake->LookupBake(ctx, request, resp);
+  });
 }
 
 absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& digest,

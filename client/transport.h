@@ -21,11 +21,20 @@
 
 namespace impostor::sdk {
 
+// Observers for tests and diagnostics; empty members are skipped.
+struct TransportHooks {
+  // Called as each RPC starts on the wire (every retry and every resumed
+  // stream too) with its full method name, e.g.
+  // "/impostor.v1.AssetService/ReadBlob". Runs on the calling thread.
+  std::function<void(const std::string& method)> on_rpc;
+};
+
 class Transport {
  public:
   // Validates `options`, opens the channel and waits until it is ready (see
   // Client::Connect).
-  static absl::StatusOr<std::unique_ptr<Transport>> Connect(const ClientOptions& options);
+  static absl::StatusOr<std::unique_ptr<Transport>> Connect(const ClientOptions& options,
+                                                            const TransportHooks& hooks = {});
   ~Transport();
   Transport(const Transport&) = delete;
   Transport& operator=(const Transport&) = delete;
@@ -40,6 +49,7 @@ class Transport {
   absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
   absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
+  absl::StatusOr<v1::LookupBakeResponse> LookupBake(const v1::SubmitBakeRequest& request);
 
   // Fills `data` (cleared before each call) with the next bytes to send and
   // returns true, or returns false once there are none left. A non-OK status

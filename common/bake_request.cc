@@ -45,6 +45,42 @@ std::string_view BakerVersion() { return IMPOSTOR_BAKER_VERSION; }
 
 absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters& in) {
   v1::BakeParameters out = in;
+  switch (in.product()) {
+    case v1::PRODUCT_UNSPECIFIED: out.set_product(v1::PRODUCT_ATLAS); break;
+    case v1::PRODUCT_ATLAS:
+    case v1::PRODUCT_SURFELS: break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "parameters.product: unknown value ", static_cast<int>(in.product()),
+          "; expected PRODUCT_ATLAS (1) or PRODUCT_SURFELS (2)"));
+  }
+  if (out.product() == v1::PRODUCT_ATLAS) {
+    if (!in.preset().empty()) {
+      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: \"", in.preset(),
+                                                     "\" is only for product PRODUCT_SURFELS"));
+    }
+    if (in.has_point_budget()) {
+      return absl::InvalidArgumentError("parameters.point_budget: only for product PRODUCT_SURFELS");
+    }
+  } else {
+    const std::string name = in.preset().empty() ? std::string(kDefaultSurfelPreset) : in.preset();
+    const SurfelPreset* preset = nullptr;
+    for (const SurfelPreset& p : kSurfelPresets) {
+      if (name == p.name) preset = &p;
+    }
+    if (preset == nullptr) {
+      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: unknown preset \"", name,
+                                                     "\"; expected prop, building, vegetation or hero"));
+    }
+    if (!out.has_point_budget()) out.set_point_budget(preset->point_budget);
+    if (out.frames() == 0) out.set_frames(preset->frames);
+    if (out.resolution() == 0) out.set_resolution(preset->resolution);
+    out.clear_preset();
+    if (auto s = CheckRange("parameters.point_budget", out.point_budget(), kMinPointBudget, kMaxPointBudget);
+        !s.ok()) {
+      return s;
+    }
+  }
   switch (in.layout()) {
     case v1::LAYOUT_UNSPECIFIED: out.set_layout(v1::LAYOUT_OCTAHEDRAL); break;
     case v1::LAYOUT_OCTAHEDRAL:
@@ -144,6 +180,12 @@ std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters&
   put(absl::StrCat("layout ", static_cast<int>(p.layout())));
   put(absl::StrCat("frames ", p.frames()));
   put(absl::StrCat("resolution ", p.resolution()));
+  // Atlas keys predate products and stay as they were; other products add
+  // their own lines.
+  if (p.product() != v1::PRODUCT_ATLAS && p.product() != v1::PRODUCT_UNSPECIFIED) {
+    put(absl::StrCat("product ", static_cast<int>(p.product())));
+    put(absl::StrCat("point_budget ", p.point_budget()));
+  }
   return h.FinishHex();
 }
 

@@ -25,10 +25,34 @@ inline constexpr uint32_t kMinResolution = 64;
 inline constexpr uint32_t kMaxResolution = 8192;
 inline constexpr uint32_t kMinTilePixels = 8;
 inline constexpr int kMaxInputFiles = 4096;
+// PRODUCT_SURFELS: the point budget's range. 4 Mi points (192 MiB of
+// buffer) is far beyond what a distant LOD needs; more is a mistake.
+inline constexpr uint32_t kMinPointBudget = 1;
+inline constexpr uint32_t kMaxPointBudget = 4u << 20;
+
+// A named set of surfel capture defaults (the engine documentation's table
+// of recommended budgets).
+struct SurfelPreset {
+  const char* name;
+  uint32_t point_budget;
+  uint32_t frames;
+  uint32_t resolution;
+};
+inline constexpr SurfelPreset kSurfelPresets[] = {
+    {"prop", 2048, 12, 512},
+    {"building", 16384, 16, 1024},
+    {"vegetation", 32768, 24, 2048},
+    {"hero", 65536, 32, 2048},
+};
+// The preset used when a surfel request names none.
+inline constexpr char kDefaultSurfelPreset[] = "vegetation";
 inline constexpr size_t kMaxPathBytes = 1024;
 
 // Fills every default in and checks every range. INVALID_ARGUMENT naming the
 // field and its limit, e.g. "parameters.frames: 80 is out of range 2..64".
+// The output's product is never UNSPECIFIED. For PRODUCT_SURFELS the preset
+// is resolved into point_budget, frames and resolution (explicit fields
+// win) and cleared; preset and point_budget with PRODUCT_ATLAS are refused.
 absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters& in);
 
 // INVALID_ARGUMENT unless `path` is a safe relative path (see InputFile.path).

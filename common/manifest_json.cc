@@ -60,7 +60,80 @@ class Reader {
   std::string error_;
 };
 
+json SurfelsJson(const v1::SurfelCloud& s) {
+  const v1::SurfelQuality& q = s.quality();
+  return {{"file", s.file()},
+          {"digest", DigestJson(s.digest())},
+          {"ply_file", s.ply_file()},
+          {"ply_digest", DigestJson(s.ply_digest())},
+          {"point_count", s.point_count()},
+          {"point_budget", s.point_budget()},
+          {"budget_fill", s.budget_fill()},
+          {"voxel_size", s.voxel_size()},
+          {"point_diameter", s.point_diameter()},
+          {"bounds_min", Vec(s.bounds_min())},
+          {"bounds_max", Vec(s.bounds_max())},
+          {"stride_bytes", s.stride_bytes()},
+          {"sample_count", s.sample_count()},
+          {"capture", {{"layout", std::string(LayoutJsonName(s.capture_layout()))},
+                       {"frames", s.capture_frames()},
+                       {"resolution", s.capture_resolution()}}},
+          {"quality", {{"views", q.views()},
+                       {"view_pixels", q.view_pixels()},
+                       {"silhouette_iou_mean", q.silhouette_iou_mean()},
+                       {"silhouette_iou_min", q.silhouette_iou_min()},
+                       {"albedo_psnr_db", q.albedo_psnr_db()}}}};
+}
+
+v1::Layout LayoutFromJsonName(const std::string& name) {
+  if (name == "octahedral") return v1::LAYOUT_OCTAHEDRAL;
+  if (name == "hemi-octahedral") return v1::LAYOUT_HEMI_OCTAHEDRAL;
+  return v1::LAYOUT_UNSPECIFIED;
+}
+
+// Reads the `surfels` block (required fields: the files, their digests and
+// the numbers a renderer needs; quality is informative and optional).
+void ReadSurfels(Reader& r, const json& j, v1::SurfelCloud* s) {
+  const std::string path = "surfels.";
+  s->set_file(r.Get<std::string>(j, "file", path));
+  r.Digest(j, path, s->mutable_digest());
+  s->set_ply_file(r.Get<std::string>(j, "ply_file", path));
+  const json& ply = r.Obj(j, "ply_digest", path);
+  s->mutable_ply_digest()->set_hash(r.Get<std::string>(ply, "hash", path + "ply_digest."));
+  s->mutable_ply_digest()->set_size_bytes(r.Get<int64_t>(ply, "size_bytes", path + "ply_digest."));
+  s->set_point_count(r.Get<uint32_t>(j, "point_count", path));
+  s->set_point_budget(r.Get<uint32_t>(j, "point_budget", path));
+  s->set_budget_fill(r.Get<float>(j, "budget_fill", path));
+  s->set_voxel_size(r.Get<float>(j, "voxel_size", path));
+  s->set_point_diameter(r.Get<float>(j, "point_diameter", path));
+  r.Floats(j, "bounds_min", path, 3, s->mutable_bounds_min());
+  r.Floats(j, "bounds_max", path, 3, s->mutable_bounds_max());
+  s->set_stride_bytes(r.Get<uint32_t>(j, "stride_bytes", path));
+  s->set_sample_count(r.Get<uint64_t>(j, "sample_count", path));
+  const json& capture = r.Obj(j, "capture", path);
+  s->set_capture_layout(LayoutFromJsonName(r.Get<std::string>(capture, "layout", path + "capture.")));
+  s->set_capture_frames(r.Get<uint32_t>(capture, "frames", path + "capture."));
+  s->set_capture_resolution(r.Get<uint32_t>(capture, "resolution", path + "capture."));
+  if (auto it = j.find("quality"); it != j.end() && it->is_object()) {
+    v1::SurfelQuality* q = s->mutable_quality();
+    q->set_views(it->value("views", 0u));
+    q->set_view_pixels(it->value("view_pixels", 0u));
+    q->set_silhouette_iou_mean(it->value("silhouette_iou_mean", 0.0f));
+    q->set_silhouette_iou_min(it->value("silhouette_iou_min", 0.0f));
+    q->set_albedo_psnr_db(it->value("albedo_psnr_db", 0.0f));
+  }
+}
+
 }  // namespace
+
+std::string_view ProductJsonName(v1::Product product) {
+  switch (product) {
+    case v1::PRODUCT_UNSPECIFIED:
+    case v1::PRODUCT_ATLAS: return "atlas";
+    case v1::PRODUCT_SURFELS: return "surfels";
+    default: return "unknown";
+  }
+}
 
 std::string_view LayoutJsonName(v1::Layout layout) {
   switch (layout) {
@@ -75,6 +148,7 @@ std::string ManifestToJson(const v1::Manifest& m) {
   j["format_version"] = m.format_version();
   j["cache_key"] = m.cache_key();
   j["baker_version"] = m.baker_version();
+  j["product"] = std::string(ProductJsonName(m.product()));
   j["layout"] = std::string(LayoutJsonName(m.layout()));
   j["frames"] = m.frames();
   j["resolution"] = m.resolution();
@@ -110,6 +184,7 @@ std::string ManifestToJson(const v1::Manifest& m) {
                           {"encode", t.encode_seconds()},     {"store", t.store_seconds()},
                           {"total", t.total_seconds()}};
   j["device"] = m.device();
+  if (m.product() == v1::PRODUCT_SURFELS) j["surfels"] = SurfelsJson(m.surfels());
   return j.dump(2) + "\n";
 }
 
@@ -124,6 +199,13 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
   if (r.error().empty() && m.format_version() != kManifestFormatVersion) {
     return absl::InvalidArgumentError(absl::StrCat("manifest.json: format_version ", m.format_version(),
                                                    " is not supported (expected ", kManifestFormatVersion, ")"));
+  }
+  // "product" is absent from manifests written before products existed.
+  if (auto it = j.find("product"); it != j.end()) {
+    const std::string product = it->is_string() ? it->get<std::string>() : std::string();
+    if (product == "atlas") m.set_product(v1::PRODUCT_ATLAS);
+    else if (product == "surfels") m.set_product(v1::PRODUCT_SURFELS);
+    else return absl::InvalidArgumentError("manifest.json: product: unknown \"" + product + "\"");
   }
   m.set_cache_key(r.Get<std::string>(j, "cache_key", ""));
   m.set_baker_version(r.Get<std::string>(j, "baker_version", ""));
@@ -166,6 +248,7 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
     }
     v->set_same_view_as(r.Get<uint32_t>(views[i], "same_view_as", path));
   }
+  if (m.product() == v1::PRODUCT_SURFELS) ReadSurfels(r, r.Obj(j, "surfels", ""), m.mutable_surfels());
   if (!r.error().empty()) return absl::InvalidArgumentError("manifest.json: " + r.error());
   if (auto it = j.find("device"); it != j.end() && it->is_string()) m.set_device(it->get<std::string>());
   if (auto it = j.find("mesh"); it != j.end() && it->is_object()) {

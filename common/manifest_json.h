@@ -22,6 +22,8 @@ std::string ManifestToJson(const v1::Manifest& manifest);
 absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view json);
 
 std::string_view LayoutJsonName(v1::Layout layout);
+// "atlas" (also for PRODUCT_UNSPECIFIED) or "surfels".
+std::string_view ProductJsonName(v1::Product product);
 
 }  // namespace impostor
 

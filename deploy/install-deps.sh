@@ -19,6 +19,8 @@ packages=(
   libspdlog-dev libfmt-dev libabsl-dev libssl-dev libsqlite3-dev
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
+  clang-14 libclang-rt-14-dev
 )
 
 export DEBIAN_FRONTEND=noninteractive

@@ -9,3 +9,6 @@ bash deploy/build.sh
 BUILD_DIR=${BUILD_DIR:-build}
 cd "$BUILD_DIR"
 ctest --output-on-failure --timeout 900 -j 2
+cd - >/dev/null
+# The glTF loader under libFuzzer with ASan+UBSan, for FUZZ_SECONDS (60).
+bash fuzz/run.sh

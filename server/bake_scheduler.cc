@@ -59,8 +59,27 @@ absl::StatusOr<JobRecord> BakeScheduler::LoadJob(const std::string& job_id) {
   return std::move(**r);
 }
 
-v1::Job BakeScheduler::WithResult(const JobRecord& record) {
+v1::Job BakeScheduler::View(const JobRecord& record) {
   v1::Job job = record.job;
+  if (!record.leader_job_id.empty() && !IsTerminal(job.state())) {
+    // A follower shows its leader's bake.
+    auto leader = jobs_->Get(record.leader_job_id);
+    if (leader.ok() && leader->has_value()) {
+      const v1::Job& l = (*leader)->job;
+      job.set_state(l.state());
+      job.set_progress(l.progress());
+      job.set_stage(l.stage());
+      job.set_attempts(l.attempts());
+      if (l.has_error()) *job.mutable_error() = l.error();
+      job.set_updated_ms(std::max(job.updated_ms(), l.updated_ms()));
+    }
+  }
+  if (record.requester_cancelled) {
+    job.set_state(v1::JOB_STATE_CANCELLED);
+    job.set_stage("cancelled");
+    job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
+    job.mutable_error()->set_message("cancelled by CancelJob");
+  }
   if (job.state() == v1::JOB_STATE_SUCCEEDED) {
     auto result = jobs_->GetResult(job.cache_key());
     if (result.ok() && result->has_value()) *job.mutable_result() = std::move(**result);
@@ -68,19 +87,50 @@ v1::Job BakeScheduler::WithResult(const JobRecord& record) {
   return job;
 }
 
+absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader) {
+  if (!IsTerminal(leader.job.state())) return absl::OkStatus();
+  auto followers = jobs_->ActiveFollowers(leader.job.job_id());
+  if (!followers.ok()) return followers.status();
+  for (JobRecord& f : *followers) {
+    f.job.set_state(leader.job.state());
+    f.job.set_progress(leader.job.progress());
+    f.job.set_stage(leader.job.stage());
+    f.job.set_attempts(leader.job.attempts());
+    if (leader.job.has_error()) *f.job.mutable_error() = leader.job.error();
+    if (auto s = Save(f); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
+  if (IsTerminal(leader.job.state()) || !leader.requester_cancelled) return absl::OkStatus();
+  auto followers = jobs_->ActiveFollowers(leader.job.job_id());
+  if (!followers.ok()) return followers.status();
+  if (!followers->empty()) return absl::OkStatus();
+  leader.job.set_state(v1::JOB_STATE_CANCELLED);
+  leader.job.set_stage("cancelled");
+  leader.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
+  leader.job.mutable_error()->set_message("cancelled by CancelJob");
+  // The lease id stays so the worker's next report hears about the cancel.
+  spdlog::info("event=bake_cancelled job={} cache_key={}", leader.job.job_id(), leader.job.cache_key());
+  return Save(leader);
+}
+
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
   auto result = jobs_->GetResult(key);
   if (!result.ok() || !result->has_value()) return result;
   const v1::Manifest& m = **result;
-  bool intact = blobs_->Contains(ToDigest(m.manifest_json()));
-  for (const auto& map : m.maps()) intact = intact && blobs_->Contains(ToDigest(map.digest()));
+  // Verified, not just present: a result whose bytes rotted is a miss.
+  bool intact = blobs_->Verify(ToDigest(m.manifest_json())).ok();
+  for (const auto& map : m.maps()) intact = intact && blobs_->Verify(ToDigest(map.digest())).ok();
   if (intact) return result;
   spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
   if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
   return std::optional<v1::Manifest>();
 }
 
-absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBakeRequest& request) {
+absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBakeRequest& request,
+                                                             const std::string& client_id) {
   if (auto s = ValidateMeshInput(request.mesh()); !s.ok()) return s;
   auto params = NormalizeParameters(request.parameters());
   if (!params.ok()) return params.status();
@@ -110,6 +160,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   record.job.set_cache_key(key);
   record.job.set_created_ms(now);
   record.job.set_updated_ms(now);
+  record.client_id = client_id.substr(0, 128);
   if (cached->has_value()) {
     // A job record even for a hit, so GetJob/WatchJob work on every id.
     record.job.set_state(v1::JOB_STATE_SUCCEEDED);
@@ -125,12 +176,38 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     return response;
   }
 
+  // Backpressure: refuse new work past the pending limits (a cache hit above
+  // costs nothing and is always answered).
+  auto pending = jobs_->CountPending("");
+  if (!pending.ok()) return pending.status();
+  if (*pending >= options_.max_pending_jobs) {
+    return absl::ResourceExhaustedError(absl::StrCat("pending jobs: ", *pending, " queued or running, the limit is ",
+                                                     options_.max_pending_jobs, "; retry later"));
+  }
+  if (!record.client_id.empty()) {
+    auto mine = jobs_->CountPending(record.client_id);
+    if (!mine.ok()) return mine.status();
+    if (*mine >= options_.max_pending_per_client) {
+      return absl::ResourceExhaustedError(absl::StrCat("pending jobs of client \"", record.client_id, "\": ", *mine,
+                                                       ", the limit per client is ", options_.max_pending_per_client,
+                                                       "; retry later"));
+    }
+  }
+
   auto active = jobs_->ActiveWithKey(key);
   if (!active.ok()) return active.status();
   if (active->has_value()) {
-    response.set_job_id((*active)->job.job_id());
-    *response.mutable_job() = (*active)->job;
-    spdlog::info("event=submit job={} cache_key={} outcome=joined_in_flight", (*active)->job.job_id(), key);
+    // Identical request in flight: follow its bake instead of baking again.
+    record.leader_job_id = (*active)->job.job_id();
+    record.job.set_state(v1::JOB_STATE_QUEUED);
+    record.job.set_stage("queued");
+    if (auto s = jobs_->Insert(record); !s.ok()) return s;
+    ++changes_;
+    changed_.notify_all();
+    response.set_job_id(record.job.job_id());
+    *response.mutable_job() = View(record);
+    spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
+                 record.leader_job_id);
     return response;
   }
 
@@ -166,22 +243,31 @@ absl::StatusOr<v1::Job> BakeScheduler::GetJob(const std::string& job_id) {
   std::lock_guard lock(mu_);
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
-  return WithResult(*r);
+  return View(*r);
 }
 
 absl::StatusOr<v1::Job> BakeScheduler::CancelJob(const std::string& job_id) {
   std::lock_guard lock(mu_);
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
-  if (IsTerminal(r->job.state())) return WithResult(*r);
-  r->job.set_state(v1::JOB_STATE_CANCELLED);
-  r->job.set_stage("cancelled");
-  r->job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
-  r->job.mutable_error()->set_message("cancelled by CancelJob");
-  // The lease id stays so the worker's next report hears about the cancel.
-  if (auto s = Save(*r); !s.ok()) return s;
+  if (IsTerminal(View(*r).state())) return View(*r);
   spdlog::info("event=cancel job={}", job_id);
-  return r->job;
+  if (!r->leader_job_id.empty()) {
+    // A follower leaves; the bake goes on for whoever else wants it.
+    r->job.set_state(v1::JOB_STATE_CANCELLED);
+    r->job.set_stage("cancelled");
+    r->job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
+    r->job.mutable_error()->set_message("cancelled by CancelJob");
+    if (auto s = Save(*r); !s.ok()) return s;
+    auto leader = LoadJob(r->leader_job_id);
+    if (!leader.ok()) return leader.status();
+    if (auto s = CancelBakeIfUnwanted(*leader); !s.ok()) return s;
+    return View(*r);
+  }
+  r->requester_cancelled = true;
+  if (auto s = Save(*r); !s.ok()) return s;
+  if (auto s = CancelBakeIfUnwanted(*r); !s.ok()) return s;
+  return View(*r);
 }
 
 absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_key) {
@@ -317,6 +403,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   }
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
+  if (auto s = SettleFollowers(*r); !s.ok()) return s;
   spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
                r->worker_id, m.timings().total_seconds());
   return absl::OkStatus();
@@ -344,7 +431,8 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
     spdlog::info("event=fail job={} worker={} retry={} code={} error=\"{}\"", r->job.job_id(), r->worker_id, retry,
                  request.error().code(), request.error().message());
   }
-  return Save(*r);
+  if (auto s = Save(*r); !s.ok()) return s;
+  return SettleFollowers(*r);
 }
 
 absl::Status BakeScheduler::ExpireLeases() {
@@ -367,6 +455,7 @@ absl::Status BakeScheduler::ExpireLeases() {
     spdlog::warn("event=lease_expired job={} worker={} attempts={} requeued={}", r.job.job_id(), worker,
                  r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED);
     if (auto s = Save(r); !s.ok()) return s;
+    if (auto s = SettleFollowers(r); !s.ok()) return s;
   }
   return absl::OkStatus();
 }

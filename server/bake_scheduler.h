@@ -33,6 +33,12 @@ struct SchedulerOptions {
   int64_t lease_timeout_ms = 30'000;
   // Leases a job gets before it fails for good. Default 3; range 1..100.
   uint32_t max_attempts = 3;
+  // QUEUED or RUNNING requests accepted from everyone together, and from one
+  // client (SubmitBake's client_id); beyond them SubmitBake answers
+  // RESOURCE_EXHAUSTED. Cache hits never count. Defaults 100,000 and 10,000;
+  // range >= 1.
+  int64_t max_pending_jobs = 100'000;
+  int64_t max_pending_per_client = 10'000;
   // Wall clock in Unix epoch milliseconds; tests substitute a fake.
   std::function<int64_t()> now_ms;
 };
@@ -44,8 +50,10 @@ class BakeScheduler {
   // `jobs` and `blobs` must outlive the scheduler.
   BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions options);
 
-  // See BakeService.SubmitBake for outcomes and codes.
-  absl::StatusOr<v1::SubmitBakeResponse> Submit(const v1::SubmitBakeRequest& request);
+  // See BakeService.SubmitBake for outcomes and codes. `client_id` names the
+  // requester for per-client limits (may be empty).
+  absl::StatusOr<v1::SubmitBakeResponse> Submit(const v1::SubmitBakeRequest& request,
+                                                const std::string& client_id = "");
   // See BakeService.LookupBake.
   absl::StatusOr<v1::LookupBakeResponse> Lookup(const v1::SubmitBakeRequest& request);
   // NOT_FOUND for an unknown job; INVALID_ARGUMENT for an empty id.
@@ -87,7 +95,15 @@ class BakeScheduler {
   absl::StatusOr<JobRecord> HeldLease(const std::string& job_id, const std::string& lease_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::Status Save(JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  v1::Job WithResult(const JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // What the requester of `record` sees: its own state, a follower's
+  // leader's progress, CANCELLED for a cancelled requester, the result once
+  // SUCCEEDED.
+  v1::Job View(const JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Copies a leader's terminal state to its followers still waiting.
+  absl::Status SettleFollowers(const JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Cancels the leader's bake when neither its requester nor any follower
+  // wants it any more.
+  absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   JobStore* const jobs_;
   BlobStore* const blobs_;

@@ -16,11 +16,26 @@ bool WorthSending(const v1::Job& last, const v1::Job& now) {
          std::abs(last.progress() - now.progress()) >= 0.01f;
 }
 
+// Who is asking, for per-client limits: the "impostor-client-id" metadata a
+// client may send (a CI job names itself), else the peer's address without
+// its port.
+std::string ClientId(const grpc::ServerContext& context) {
+  const auto& metadata = context.client_metadata();
+  if (auto it = metadata.find("impostor-client-id"); it != metadata.end()) {
+    return std::string(it->second.data(), std::min<size_t>(it->second.size(), 128));
+  }
+  std::string peer = context.peer();
+  if (const size_t colon = peer.rfind(':'); colon != std::string::npos && colon > peer.find(':')) {
+    peer.resize(colon);
+  }
+  return peer;
+}
+
 }  // namespace
 
-grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext*, const v1::SubmitBakeRequest* request,
+grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                                          v1::SubmitBakeResponse* response) {
-  auto r = scheduler_->Submit(*request);
+  auto r = scheduler_->Submit(*request, ClientId(*context));
   if (!r.ok()) return ToGrpc(r.status());
   *response = std::move(*r);
   return grpc::Status::OK;

@@ -99,7 +99,11 @@ class FileWriter final : public BlobStore::Writer {
 }  // namespace
 
 BlobStore::BlobStore(fs::path root, int64_t max_blob_bytes)
-    : root_(std::move(root)), cas_dir_(root_ / "cas"), tmp_dir_(root_ / "tmp"), max_blob_bytes_(max_blob_bytes) {}
+    : root_(std::move(root)),
+      cas_dir_(root_ / "cas"),
+      tmp_dir_(root_ / "tmp"),
+      quarantine_dir_(root_ / "quarantine"),
+      max_blob_bytes_(max_blob_bytes) {}
 
 absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root, int64_t max_blob_bytes) {
   std::unique_ptr<BlobStore> store(new BlobStore(root, max_blob_bytes));
@@ -143,6 +147,39 @@ bool BlobStore::Contains(const BlobDigest& digest) const {
   return st.st_size == digest.size_bytes;
 }
 
+absl::Status BlobStore::Verify(const BlobDigest& digest) const {
+  if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
+  const fs::path path = PathFor(digest);
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    return absl::NotFoundError(absl::StrCat("blob ", digest.ToString(), " not found"));
+  }
+  const int64_t mtime_ns = int64_t{st.st_mtim.tv_sec} * 1'000'000'000 + st.st_mtim.tv_nsec;
+  {
+    std::lock_guard lock(verified_mu_);
+    auto it = verified_.find(digest.hash);
+    if (it != verified_.end() && it->second == mtime_ns && st.st_size == digest.size_bytes) return absl::OkStatus();
+  }
+  auto digest_on_disk = DigestFile(path);
+  if (!digest_on_disk.ok()) return digest_on_disk.status();
+  if (digest_on_disk->hash == digest.hash && digest_on_disk->size_bytes == digest.size_bytes) {
+    std::lock_guard lock(verified_mu_);
+    verified_[digest.hash] = mtime_ns;
+    return absl::OkStatus();
+  }
+  // Keep the evidence out of the store: a later upload or bake restores it.
+  std::error_code ec;
+  fs::create_directories(quarantine_dir_, ec);
+  fs::rename(path, quarantine_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix()), ec);
+  {
+    std::lock_guard lock(verified_mu_);
+    verified_.erase(digest.hash);
+  }
+  return absl::DataLossError(absl::StrCat("blob ", digest.hash, ": stored bytes no longer match the digest (",
+                                          digest_on_disk->size_bytes, " bytes hashing to ", digest_on_disk->hash,
+                                          "); quarantined"));
+}
+
 absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t limit, size_t chunk_bytes,
                              const std::function<bool(std::string_view, int64_t)>& sink) const {
   if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
@@ -153,6 +190,7 @@ absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t l
     return absl::InvalidArgumentError(
         absl::StrCat("offset: ", offset, " is past the end of the blob (", digest.size_bytes, " bytes)"));
   }
+  if (auto s = Verify(digest); !s.ok()) return s;
   const fs::path path = PathFor(digest);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) {

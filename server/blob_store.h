@@ -18,10 +18,13 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "common/sha256.h"
@@ -57,14 +60,20 @@ class BlobStore {
   // Writes a whole blob; same outcomes as NewWriter + Append + Commit.
   absl::StatusOr<bool> Put(const BlobDigest& digest, std::string_view bytes);
 
-  // True when the blob is present with the right size.
+  // True when the blob is present with the right size (a stat; no hashing).
   bool Contains(const BlobDigest& digest) const;
+
+  // Re-hashes the blob unless it was verified since its file last changed.
+  // A blob whose bytes no longer match its digest is moved to quarantine/
+  // (never served again) and DATA_LOSS is returned; NOT_FOUND when absent.
+  absl::Status Verify(const BlobDigest& digest) const;
 
   // Calls `sink` with consecutive chunks (at most `chunk_bytes` each) of the
   // blob from `offset`, at most `limit` bytes (0 = to the end); stops early
-  // when `sink` returns false. NOT_FOUND when absent; INVALID_ARGUMENT for an
-  // offset past the end or a negative offset/limit; DATA_LOSS when the file's
-  // size no longer matches the digest.
+  // when `sink` returns false. The blob is verified first (see Verify), so no
+  // corrupt byte is ever passed on. NOT_FOUND when absent; INVALID_ARGUMENT
+  // for an offset past the end or a negative offset/limit; DATA_LOSS when the
+  // stored bytes no longer match the digest.
   absl::Status Read(const BlobDigest& digest, int64_t offset, int64_t limit, size_t chunk_bytes,
                     const std::function<bool(std::string_view chunk, int64_t offset)>& sink) const;
 
@@ -81,7 +90,13 @@ class BlobStore {
   const std::filesystem::path root_;
   const std::filesystem::path cas_dir_;
   const std::filesystem::path tmp_dir_;
+  const std::filesystem::path quarantine_dir_;
   const int64_t max_blob_bytes_;
+
+  // hash -> modification time (ns) of the file when its content last hashed
+  // to the digest. Lets reads skip re-hashing an unchanged blob.
+  mutable std::mutex verified_mu_;
+  mutable std::map<std::string, int64_t> verified_ ABSL_GUARDED_BY(verified_mu_);
 };
 
 }  // namespace impostor

@@ -20,10 +20,15 @@ CREATE TABLE IF NOT EXISTS jobs (
   lease_deadline_ms INTEGER NOT NULL DEFAULT 0,
   worker_id         TEXT NOT NULL DEFAULT '',
   job               BLOB NOT NULL,  -- impostor.v1.Job without `result`
-  request           BLOB NOT NULL   -- impostor.v1.SubmitBakeRequest, parameters normalised
+  request           BLOB NOT NULL,  -- impostor.v1.SubmitBakeRequest, parameters normalised
+  leader_job_id     TEXT NOT NULL DEFAULT '',  -- '' for leaders (leased units of work)
+  requester_cancelled INTEGER NOT NULL DEFAULT 0,
+  client_id         TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state, created_ms);
 CREATE INDEX IF NOT EXISTS jobs_by_key ON jobs (cache_key, state);
+CREATE INDEX IF NOT EXISTS jobs_by_leader ON jobs (leader_job_id, state);
+CREATE INDEX IF NOT EXISTS jobs_by_client ON jobs (client_id, state);
 CREATE TABLE IF NOT EXISTS results (
   cache_key  TEXT PRIMARY KEY,
   manifest   BLOB NOT NULL,  -- impostor.v1.Manifest
@@ -31,7 +36,9 @@ CREATE TABLE IF NOT EXISTS results (
 );
 )sql";
 
-constexpr const char* kJobColumns = "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request";
+constexpr const char* kJobColumns =
+    "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
+    "requester_cancelled, client_id";
 
 // RAII prepared statement.
 class Statement {
@@ -77,6 +84,9 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
   r.lease_id = st.Text(4);
   r.lease_deadline_ms = st.Int(5);
   r.worker_id = st.Text(6);
+  r.leader_job_id = st.Text(9);
+  r.requester_cancelled = st.Int(10) != 0;
+  r.client_id = st.Text(11);
   return r;
 }
 
@@ -133,13 +143,17 @@ void BindJob(Statement& st, const JobRecord& r) {
   st.Bind(7, r.worker_id);
   st.BindBlob(8, job.SerializeAsString());
   st.BindBlob(9, request.SerializeAsString());
+  st.Bind(10, r.leader_job_id);
+  st.Bind(11, int64_t{r.requester_cancelled ? 1 : 0});
+  st.Bind(12, r.client_id);
 }
 
 }  // namespace
 
 absl::Status JobStore::Insert(const JobRecord& record) {
   Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
-                    "worker_id, job, request) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+                    "worker_id, job, request, leader_job_id, requester_cancelled, client_id) "
+                    "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("insert job");
@@ -148,7 +162,8 @@ absl::Status JobStore::Insert(const JobRecord& record) {
 
 absl::Status JobStore::Update(const JobRecord& record) {
   Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
-                    "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9 WHERE job_id = ?1");
+                    "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9, leader_job_id = ?10, "
+                    "requester_cancelled = ?11, client_id = ?12 WHERE job_id = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("update job");
@@ -163,19 +178,51 @@ absl::StatusOr<std::optional<JobRecord>> JobStore::Get(const std::string& job_id
 
 absl::StatusOr<std::optional<JobRecord>> JobStore::OldestQueued() {
   return QueryOne(db_,
-                  absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 ORDER BY created_ms, rowid LIMIT 1"),
+                  absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND leader_job_id = '' ORDER BY created_ms, rowid LIMIT 1"),
                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
 }
 
 absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns,
-                               " FROM jobs WHERE cache_key = ?1 AND state IN (?2, ?3) ORDER BY created_ms LIMIT 1"),
+                               " FROM jobs WHERE cache_key = ?1 AND state IN (?2, ?3) AND leader_job_id = '' "
+                               "ORDER BY created_ms LIMIT 1"),
                   [&](Statement& st) {
                     st.Bind(1, cache_key);
                     st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
                     st.Bind(3, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
                   });
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::ActiveFollowers(const std::string& leader_job_id) {
+  Statement st(db_, absl::StrCat("SELECT ", kJobColumns,
+                                 " FROM jobs WHERE leader_job_id = ?1 AND state IN (?2, ?3)").c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, leader_job_id);
+  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+  st.Bind(3, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  std::vector<JobRecord> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    auto r = ReadJob(st);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("query followers");
+  return out;
+}
+
+absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
+  Statement st(db_, client_id.empty()
+                        ? "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0"
+                        : "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0 "
+                          "AND client_id = ?3");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  if (!client_id.empty()) st.Bind(3, client_id);
+  if (st.Step() != SQLITE_ROW) return st.Error("count pending");
+  return st.Int(0);
 }
 
 absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {

@@ -24,14 +24,23 @@ struct sqlite3;
 
 namespace impostor {
 
-// One job row.
+// One job row. Every SubmitBake that is not a cache hit gets its own row.
+// The first request for a cache key is the *leader*: its row is the unit of
+// work that workers lease. Identical requests that arrive while it is queued
+// or running become *followers* (leader_job_id set): they are never leased
+// and mirror the leader's progress, so one bake serves them all.
 struct JobRecord {
   v1::Job job;                 // state, progress, stage, error, attempts, times
   v1::MeshInput mesh;          // what to bake
   v1::BakeParameters parameters;  // normalised
-  std::string lease_id;        // empty unless RUNNING
+  std::string lease_id;        // empty unless RUNNING (kept on cancel, see BakeScheduler)
   int64_t lease_deadline_ms = 0;
   std::string worker_id;
+  std::string leader_job_id;   // empty for leaders
+  // A leader's requester cancelled, but followers still want the bake: the
+  // row keeps baking and reports CANCELLED to its own requester only.
+  bool requester_cancelled = false;
+  std::string client_id;       // who submitted it, for per-client limits
 };
 
 class JobStore {
@@ -44,10 +53,14 @@ class JobStore {
   // Writes every field of an existing job. NOT_FOUND if absent.
   absl::Status Update(const JobRecord& record);
   absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id);
-  // The oldest QUEUED job.
+  // The oldest QUEUED leader.
   absl::StatusOr<std::optional<JobRecord>> OldestQueued();
-  // A QUEUED or RUNNING job with this cache key.
+  // A QUEUED or RUNNING leader with this cache key.
   absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key);
+  // Followers of `leader_job_id` that are still QUEUED or RUNNING.
+  absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id);
+  // QUEUED or RUNNING rows, of one client or (client_id empty) of everyone.
+  absl::StatusOr<int64_t> CountPending(const std::string& client_id);
   // RUNNING jobs whose lease deadline is before `now_ms`.
   absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms);
 

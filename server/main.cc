@@ -34,6 +34,9 @@ ABSL_FLAG(int, local_workers, 0, "Number of impostor-worker processes to run and
 ABSL_FLAG(std::string, worker_binary, "", "Worker executable for --local-workers (default: next to this binary)");
 ABSL_FLAG(int, lease_timeout_s, 30, "Seconds without a worker report before its job is queued again (1..3600)");
 ABSL_FLAG(int, max_attempts, 3, "Leases a job gets before it fails for good (1..100)");
+ABSL_FLAG(int64_t, max_pending_jobs, 100000, "Queued or running jobs accepted in total (>= 1)");
+ABSL_FLAG(int64_t, max_pending_per_client, 10000, "Queued or running jobs accepted per client (>= 1)");
+ABSL_FLAG(int64_t, max_blob_bytes, int64_t{2} << 30, "Largest blob (upload or output) accepted, bytes (>= 1)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
@@ -69,15 +72,25 @@ int main(int argc, char** argv) {
   const int max_attempts = absl::GetFlag(FLAGS_max_attempts);
   if (max_attempts < 1 || max_attempts > 100) return Fail("--max-attempts: must be in 1..100");
 
+  const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
+  const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);
+  const int64_t max_blob_bytes = absl::GetFlag(FLAGS_max_blob_bytes);
+  if (max_pending_jobs < 1 || max_pending_per_client < 1 || max_blob_bytes < 1) {
+    return Fail("--max-pending-jobs, --max-pending-per-client and --max-blob-bytes must be >= 1");
+  }
+
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
-  auto blobs = impostor::BlobStore::Open(data);
+  auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
   if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
   auto jobs = impostor::JobStore::Open(std::filesystem::path(data) / "jobs.sqlite3");
   if (!jobs.ok()) return Fail(std::string(jobs.status().message()));
   impostor::BakeScheduler scheduler(
       jobs->get(), blobs->get(),
-      {.lease_timeout_ms = int64_t{lease_timeout_s} * 1000, .max_attempts = static_cast<uint32_t>(max_attempts)});
+      {.lease_timeout_ms = int64_t{lease_timeout_s} * 1000,
+       .max_attempts = static_cast<uint32_t>(max_attempts),
+       .max_pending_jobs = max_pending_jobs,
+       .max_pending_per_client = max_pending_per_client});
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <thread>
 
@@ -23,7 +24,7 @@ ABSL_FLAG(std::string, name, "", "Worker name for logs and leases (default: host
 ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (default: best available)");
 ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
 ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
-ABSL_FLAG(int, heartbeat_s, 5, "Seconds between lease renewals while baking (1..60)");
+ABSL_FLAG(int, heartbeat_s, 1, "Seconds between lease renewals and cancel checks while baking (1..60)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
 int main(int argc, char** argv) {
@@ -63,7 +64,11 @@ int main(int argc, char** argv) {
                              .worker_id = worker_id,
                              .scratch_dir = scratch,
                              .heartbeat_seconds = heartbeat,
-                             .max_jobs = absl::GetFlag(FLAGS_max_jobs)},
+                             .max_jobs = absl::GetFlag(FLAGS_max_jobs),
+                             .test_pause_file = [] {
+                               const char* f = std::getenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
+                               return std::filesystem::path(f ? f : "");
+                             }()},
                             std::move(*renderer));
 
   // SIGTERM/SIGINT: finish the current job's bookkeeping and leave.

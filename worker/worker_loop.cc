@@ -12,6 +12,7 @@
 #include "common/bake_request.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
+#include "worker/bake/surfel_bake.h"
 
 namespace impostor {
 namespace fs = std::filesystem;
@@ -90,6 +91,11 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
     : options_(std::move(options)), renderer_(std::move(renderer)) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(64 << 20);
+  // Reconnect to a restarted server within seconds, not gRPC's default of up
+  // to two minutes.
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 200);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 200);
   channel_ = grpc::CreateCustomChannel(options_.server, grpc::InsecureChannelCredentials(), args);
   workers_ = v1::WorkerService::NewStub(channel_);
   assets_ = v1::AssetService::NewStub(channel_);
@@ -169,11 +175,20 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     }
   });
   auto progress = [&](std::string_view st, double f) {
-    std::lock_guard lock(mu);
-    if (st != stage) stage_changed = true;
-    stage = std::string(st);
-    fraction = f;
-    if (stage_changed) wake.notify_all();
+    bool entered_stage = false;
+    {
+      std::lock_guard lock(mu);
+      if (st != stage) stage_changed = entered_stage = true;
+      stage = std::string(st);
+      fraction = f;
+      if (stage_changed) wake.notify_all();
+    }
+    if (entered_stage && st == "render" && !options_.test_pause_file.empty()) {
+      std::error_code ec;
+      while (!cancelled && fs::exists(options_.test_pause_file, ec)) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
   };
 
   const fs::path job_dir = options_.scratch_dir / job.job_id();
@@ -200,7 +215,9 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                              .parameters = job.parameters(),
                              .cache_key = job.cache_key(),
                              .output_dir = output_dir};
-    auto out = BakeAtlas(request, *renderer_, progress, cancelled);
+    auto out = job.parameters().product() == v1::PRODUCT_SURFELS
+                   ? BakeSurfels(request, *renderer_, progress, cancelled)
+                   : BakeAtlas(request, *renderer_, progress, cancelled);
     if (!out.ok()) return out;
     out->manifest.mutable_timings()->set_download_seconds(download_seconds);
     return out;

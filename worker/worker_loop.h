@@ -27,10 +27,16 @@ struct WorkerOptions {
   std::string worker_id;                   // unique per process
   std::filesystem::path scratch_dir;       // per-job folders go here
   // Seconds between lease renewals while baking; well under the server's
-  // lease timeout (default 30 s). Range 1..60.
-  int heartbeat_seconds = 5;
+  // lease timeout (default 30 s). Each renewal also tells the worker whether
+  // the job was cancelled, so this bounds how long a cancelled bake runs on.
+  // Default 1; range 1..60.
+  int heartbeat_seconds = 1;
   // Stop after this many jobs (0 = never): used by tests and one-shot runs.
   int max_jobs = 0;
+  // Test hook: while this file exists, a bake pauses when it reaches its
+  // render stage (heartbeats continue). Lets tests kill processes at a known
+  // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
+  std::filesystem::path test_pause_file;
 };
 
 class WorkerLoop {

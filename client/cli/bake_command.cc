@@ -76,6 +76,9 @@ int RunBake(const CliArgs& args) {
   settings.layout = args.layout;
   settings.frames = args.frames;
   settings.resolution = args.resolution;
+  settings.product = args.product;
+  settings.preset = args.preset;
+  settings.point_budget = args.point_budget;
   absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
   if (!submitted.ok()) {
     const absl::Status& s = submitted.status();

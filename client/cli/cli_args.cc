@@ -22,11 +22,15 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--layout", "--frames", "--resolution", "--out", "--server"}, {"--json", "--quiet"}, true,
+       {Command::kBake, {"--layout", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget"}, {"--json", "--quiet"}, true,
         "MODEL"}},
       {"fetch", {Command::kFetch, {"--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
       {"status", {Command::kStatus, {"--server"}, {"--json"}, false, "JOB_ID"}},
       {"cancel", {Command::kCancel, {"--server"}, {"--json"}, false, "JOB_ID"}},
+      // "cache VERB": the local result cache; no target = no positional.
+      {"cache get", {Command::kCacheGet, {"--server", "--cache-dir"}, {"--json", "--quiet"}, false, "KEY"}},
+      {"cache ls", {Command::kCacheLs, {"--cache-dir"}, {"--json"}, false, nullptr}},
+      {"cache gc", {Command::kCacheGc, {"--cache-dir", "--max-bytes"}, {"--json", "--verify"}, false, nullptr}},
   };
   return *commands;
 }
@@ -62,10 +66,18 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
     out.command = Command::kVersion;
     return out;
   }
-  auto it = Commands().find(name);
+  // "cache" takes a verb: the command is the pair.
+  std::string command_name = name;
+  size_t first_arg = 1;
+  if (name == "cache") {
+    if (args.size() < 2 || args[1].rfind("-", 0) == 0) return Usage("'cache' needs a subcommand: get, ls or gc");
+    command_name = "cache " + args[1];
+    first_arg = 2;
+  }
+  auto it = Commands().find(command_name);
   if (it == Commands().end()) {
     if (name.rfind("-", 0) == 0) return Usage(absl::StrCat("unknown flag ", name, " before the command"));
-    return Usage(absl::StrCat("unknown command \"", name, "\""));
+    return Usage(absl::StrCat("unknown command \"", command_name, "\""));
   }
   const CommandSpec& spec = it->second;
   out.command = spec.command;
@@ -73,7 +85,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   std::vector<std::string> positional;
   bool flags_done = false;
   bool out_given = false;
-  for (size_t i = 1; i < args.size(); ++i) {
+  for (size_t i = first_arg; i < args.size(); ++i) {
     const std::string& arg = args[i];
     if (flags_done || arg.size() < 2 || arg[0] != '-') {
       positional.push_back(arg);
@@ -94,6 +106,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (value.has_value()) return Usage(absl::StrCat(flag, " takes no value"));
       if (flag == "--json") out.json = true;
       if (flag == "--quiet") out.quiet = true;
+      if (flag == "--verify") out.verify = true;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -106,7 +119,18 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       }
       value = args[++i];
     }
-    if (flag == "--out") {
+    if (flag == "--cache-dir") {
+      if (value->empty()) return Usage("--cache-dir: missing value");
+      out.cache_dir = *value;
+    } else if (flag == "--max-bytes") {
+      int64_t n = 0;
+      const char* end = value->data() + value->size();
+      auto [ptr, ec] = std::from_chars(value->data(), end, n);
+      if (value->empty() || ec != std::errc() || ptr != end || n < 0) {
+        return Usage(absl::StrCat("--max-bytes: expected a whole number of bytes >= 0, got \"", *value, "\""));
+      }
+      out.max_bytes = n;
+    } else if (flag == "--out") {
       if (value->empty()) return Usage("--out: missing value");
       out.out = *value;
       out_given = true;
@@ -119,13 +143,31 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
                                   "\"; expected octahedral or hemi-octahedral"));
       }
       out.layout = *value;
+    } else if (flag == "--product") {
+      if (*value != "atlas" && *value != "surfels") {
+        return Usage(absl::StrCat("--product: unknown product \"", *value, "\"; expected atlas or surfels"));
+      }
+      out.product = *value;
+    } else if (flag == "--preset") {
+      if (value->empty()) return Usage("--preset: missing value");
+      out.preset = *value;
+    } else if (flag == "--point-budget") {
+      absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
+      if (!n.ok()) return n.status();
+      out.point_budget = *n;
     } else if (flag == "--frames" || flag == "--resolution") {
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
       (flag == "--frames" ? out.frames : out.resolution) = *n;
     }
   }
-  if (positional.empty()) return Usage(absl::StrCat("'", name, "' needs ", spec.target_name));
+  if (spec.target_name == nullptr) {
+    if (!positional.empty()) {
+      return Usage(absl::StrCat("unexpected argument \"", positional[0], "\" for '", command_name, "'"));
+    }
+    return out;
+  }
+  if (positional.empty()) return Usage(absl::StrCat("'", command_name, "' needs ", spec.target_name));
   if (positional.size() > 1) {
     return Usage(absl::StrCat("unexpected argument \"", positional[1], "\" for '", name, "'"));
   }
@@ -141,6 +183,7 @@ std::string UsageText() {
 Usage:
   impostor bake MODEL --out DIR [--layout octahedral|hemi-octahedral]
                 [--frames N] [--resolution R] [--server HOST:PORT] [--json] [--quiet]
+                [--product atlas|surfels] [--preset NAME] [--point-budget N]
       Uploads MODEL (.gltf or .glb, with the files it refers to; only what the
       server lacks), bakes it, shows progress on stderr, and downloads the
       atlas into DIR (manifest.json, albedo_alpha.png, normal_depth.png,
@@ -150,6 +193,14 @@ Usage:
         --frames N    frames per atlas axis (server default 12, range 2..64)
         --resolution R atlas side in pixels (server default 2048, range
                       64..8192 and at least 8 * frames)
+        --product P   atlas (default) or surfels: a point cloud for foliage at
+                      extreme distance (surfels.bin: 12 float32 per point,
+                      surfels.ply), read from a capture of --frames and
+                      --resolution
+        --preset NAME surfels: prop (2048 points, 12 frames, 512 px), building
+                      (16384, 16, 1024), vegetation (32768, 24, 2048, the
+                      default) or hero (65536, 32, 2048); explicit flags win
+        --point-budget N surfels: most points in the cloud (range 1..4194304)
         --quiet       no progress output
   impostor fetch KEY --out DIR [--server HOST:PORT] [--json] [--quiet]
       Downloads the result baked under cache key KEY into DIR. Files already
@@ -158,6 +209,17 @@ Usage:
       Shows a job's state.
   impostor cancel JOB_ID [--server HOST:PORT] [--json]
       Cancels a queued or running job.
+  impostor cache get KEY [--cache-dir DIR] [--server HOST:PORT] [--json] [--quiet]
+      Puts the result KEY in the local cache (downloaded only when not there
+      yet, verified, installed atomically) and prints its files' paths.
+  impostor cache ls [--cache-dir DIR] [--json]
+      Lists the cached results, most recently used first.
+  impostor cache gc [--cache-dir DIR] [--max-bytes N] [--verify] [--json]
+      Evicts least recently used results down to N bytes (default: the
+      cache's 2 GiB cap), removes partial downloads not in use and, with
+      --verify, re-hashes every result and drops damaged ones.
+      --cache-dir DIR defaults to $IMPOSTOR_CACHE_DIR, else
+      $XDG_CACHE_HOME/impostor, else ~/.cache/impostor.
   impostor help | --help | -h
   impostor version
 
@@ -178,6 +240,7 @@ Every failure prints exactly one line "impostor: <reason>" on stderr.
 
 Environment:
   IMPOSTOR_SERVER     default for --server
+  IMPOSTOR_CACHE_DIR  default for --cache-dir
   IMPOSTOR_LOG        spdlog level for diagnostics on stderr (e.g. debug; default off)
 )";
 }

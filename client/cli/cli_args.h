@@ -4,6 +4,7 @@
 #define IMPOSTOR_CLIENT_CLI_CLI_ARGS_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,7 +21,7 @@ enum ExitCode : int {
   kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
 };
 
-enum class Command { kHelp, kVersion, kBake, kFetch, kStatus, kCancel };
+enum class Command { kHelp, kVersion, kBake, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc };
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
@@ -36,8 +37,20 @@ struct CliArgs {
   // unchecked: it owns the ranges.
   uint32_t frames = 0;
   uint32_t resolution = 0;
+  // --product: "atlas" or "surfels" (checked here).
+  std::string product = "atlas";
+  // --preset and --point-budget (surfels): passed to the server unchecked;
+  // unset = not given.
+  std::string preset;
+  std::optional<uint32_t> point_budget;
   bool json = false;
   bool quiet = false;
+  // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else
+  // $XDG_CACHE_HOME/impostor, else ~/.cache/impostor; see cache_commands.cc),
+  // --max-bytes (unset = the cache's default cap), gc --verify.
+  std::string cache_dir;
+  std::optional<int64_t> max_bytes;
+  bool verify = false;
 };
 
 // Parses argv without argv[0]. `env_server` is $IMPOSTOR_SERVER (nullptr or

@@ -11,6 +11,10 @@ int RunBake(const CliArgs& args);
 int RunFetch(const CliArgs& args);
 int RunStatus(const CliArgs& args);
 int RunCancel(const CliArgs& args);
+// impostor cache get / ls / gc (cache_commands.cc).
+int RunCacheGet(const CliArgs& args);
+int RunCacheLs(const CliArgs& args);
+int RunCacheGc(const CliArgs& args);
 
 }  // namespace impostor::cli
 

@@ -44,6 +44,9 @@ int main(int argc, char** argv) {
     case Command::kFetch: return RunFetch(*parsed);
     case Command::kStatus: return RunStatus(*parsed);
     case Command::kCancel: return RunCancel(*parsed);
+    case Command::kCacheGet: return RunCacheGet(*parsed);
+    case Command::kCacheLs: return RunCacheLs(*parsed);
+    case Command::kCacheGc: return RunCacheGc(*parsed);
   }
   return kExitUsage;
 }

@@ -182,7 +182,8 @@ TEST(EndToEnd, IdenticalConcurrentSubmissionsShareOneBake) {
   auto a = std::async(std::launch::async, [&] { return Submit(server, mesh, params); });
   auto b = std::async(std::launch::async, [&] { return Submit(server, mesh, params); });
   const v1::Job ja = a.get(), jb = b.get();
-  EXPECT_EQ(ja.job_id(), jb.job_id());
+  EXPECT_NE(ja.job_id(), jb.job_id()) << "each requester has its own job";
+  EXPECT_EQ(ja.cache_key(), jb.cache_key());
 
   // One worker bakes it once; both requesters see the result.
   testing::ChildProcess worker({(testing::BinaryDir() / "impostor-worker").string(), "--server=" + server.address(),
@@ -190,6 +191,9 @@ TEST(EndToEnd, IdenticalConcurrentSubmissionsShareOneBake) {
   const v1::Job done = testing::WatchToEnd(server.bake(), ja.job_id());
   ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
   EXPECT_EQ(done.attempts(), 1u);
+  const v1::Job other = testing::WatchToEnd(server.bake(), jb.job_id());
+  ASSERT_EQ(other.state(), v1::JOB_STATE_SUCCEEDED) << other.error().message();
+  EXPECT_EQ(other.result().maps(0).digest().hash(), done.result().maps(0).digest().hash());
   int status = 0;
   ASSERT_EQ(::waitpid(worker.pid(), &status, 0), worker.pid());
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);

@@ -89,8 +89,18 @@ std::filesystem::path NewTempDir(const std::string& name) {
 ServerProcess::ServerProcess(int local_workers, std::vector<std::string> extra_args) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   data_dir_ = NewTempDir(std::string(info->test_suite_name()) + "_" + info->name());
+  Start(local_workers, "127.0.0.1:0", extra_args);
+}
+
+ServerProcess::ServerProcess(int local_workers, std::filesystem::path data_dir, const std::string& listen,
+                             std::vector<std::string> extra_args)
+    : data_dir_(std::move(data_dir)) {
+  Start(local_workers, listen, extra_args);
+}
+
+void ServerProcess::Start(int local_workers, const std::string& listen, const std::vector<std::string>& extra_args) {
   std::vector<std::string> argv = {(BinaryDir() / "impostor-server").string(),
-                                   "--listen=127.0.0.1:0",
+                                   "--listen=" + listen,
                                    "--data=" + data_dir_.string(),
                                    "--local-workers=" + std::to_string(local_workers),
                                    "--log-level=warn"};

@@ -51,6 +51,10 @@ std::filesystem::path NewTempDir(const std::string& name);
 class ServerProcess {
  public:
   explicit ServerProcess(int local_workers, std::vector<std::string> extra_args = {});
+  // A server on a given data directory and listen address ("127.0.0.1:PORT"),
+  // e.g. to restart one where a killed one was, with its blobs and results.
+  ServerProcess(int local_workers, std::filesystem::path data_dir, const std::string& listen,
+                std::vector<std::string> extra_args = {});
   const std::string& address() const { return address_; }
   const std::filesystem::path& data_dir() const { return data_dir_; }
   std::shared_ptr<grpc::Channel> channel() const { return channel_; }
@@ -60,6 +64,8 @@ class ServerProcess {
   ChildProcess& process() { return *process_; }
 
  private:
+  void Start(int local_workers, const std::string& listen, const std::vector<std::string>& extra_args);
+
   std::filesystem::path data_dir_;
   std::unique_ptr<ChildProcess> process_;
   std::string address_;

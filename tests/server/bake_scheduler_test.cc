@@ -1,6 +1,7 @@
 #include "server/bake_scheduler.h"
 
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -123,16 +124,85 @@ TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
   EXPECT_EQ(scheduler_->Lookup(request).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
-TEST_F(BakeSchedulerTest, IdenticalInFlightRequestsShareOneJob) {
+TEST_F(BakeSchedulerTest, IdenticalInFlightRequestsShareOneBake) {
   auto a = scheduler_->Submit(Request());
   auto b = scheduler_->Submit(Request());
   ASSERT_TRUE(a.ok() && b.ok());
-  EXPECT_EQ(a->job_id(), b->job_id());
-  Lease();
-  EXPECT_TRUE(NothingToLease());
-  // Still shared while running.
+  EXPECT_NE(a->job_id(), b->job_id()) << "every requester gets its own job";
+  EXPECT_EQ(a->cache_key(), b->cache_key());
+  const v1::LeasedJob job = Lease();
+  EXPECT_EQ(job.job_id(), a->job_id());
+  EXPECT_TRUE(NothingToLease()) << "one bake for both";
+  // A third requester joins while it runs, and sees its progress.
   auto c = scheduler_->Submit(Request());
-  EXPECT_EQ(c->job_id(), a->job_id());
+  v1::ReportProgressRequest p;
+  p.set_job_id(job.job_id());
+  p.set_lease_id(job.lease_id());
+  p.set_progress(0.5f);
+  p.set_stage("render");
+  ASSERT_TRUE(scheduler_->ReportProgress(p).ok());
+  auto seen = scheduler_->GetJob(c->job_id());
+  EXPECT_EQ(seen->state(), v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(seen->stage(), "render");
+  ASSERT_TRUE(scheduler_->Complete(Result(job)).ok());
+  for (const auto& id : {a->job_id(), b->job_id(), c->job_id()}) {
+    auto done = scheduler_->GetJob(id);
+    EXPECT_EQ(done->state(), v1::JOB_STATE_SUCCEEDED) << id;
+    EXPECT_EQ(done->result().maps(0).file(), "albedo_alpha.png") << id;
+  }
+}
+
+TEST_F(BakeSchedulerTest, CancellingOneSharerKeepsTheBakeForTheOthers) {
+  auto leader = scheduler_->Submit(Request());
+  auto follower = scheduler_->Submit(Request());
+  const v1::LeasedJob job = Lease();
+  // The first requester gives up; the second still wants the bake.
+  EXPECT_EQ(scheduler_->CancelJob(leader->job_id())->state(), v1::JOB_STATE_CANCELLED);
+  v1::ReportProgressRequest p;
+  p.set_job_id(job.job_id());
+  p.set_lease_id(job.lease_id());
+  EXPECT_FALSE(scheduler_->ReportProgress(p)->cancel_requested()) << "someone still wants it";
+  ASSERT_TRUE(scheduler_->Complete(Result(job)).ok());
+  EXPECT_EQ(scheduler_->GetJob(follower->job_id())->state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(scheduler_->GetJob(leader->job_id())->state(), v1::JOB_STATE_CANCELLED);
+}
+
+TEST_F(BakeSchedulerTest, TheBakeStopsWhenNobodyWantsIt) {
+  auto a = scheduler_->Submit(Request());
+  auto b = scheduler_->Submit(Request());
+  const v1::LeasedJob job = Lease();
+  v1::ReportProgressRequest p;
+  p.set_job_id(job.job_id());
+  p.set_lease_id(job.lease_id());
+  ASSERT_TRUE(scheduler_->CancelJob(b->job_id()).ok());
+  EXPECT_FALSE(scheduler_->ReportProgress(p)->cancel_requested());
+  ASSERT_TRUE(scheduler_->CancelJob(a->job_id()).ok());
+  EXPECT_TRUE(scheduler_->ReportProgress(p)->cancel_requested()) << "last requester gone: stop the worker";
+  EXPECT_EQ(scheduler_->GetJob(a->job_id())->state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(scheduler_->GetJob(b->job_id())->state(), v1::JOB_STATE_CANCELLED);
+  // A new request for the same key starts a fresh bake.
+  auto fresh = scheduler_->Submit(Request());
+  EXPECT_EQ(fresh->job().state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(Lease().job_id(), fresh->job_id());
+}
+
+TEST_F(BakeSchedulerTest, PendingLimitsAnswerResourceExhausted) {
+  scheduler_.reset();
+  scheduler_ = std::make_unique<BakeScheduler>(
+      jobs_.get(), blobs_.get(),
+      SchedulerOptions{.max_pending_jobs = 3, .max_pending_per_client = 2, .now_ms = [this] { return now_ms_; }});
+  ASSERT_TRUE(scheduler_->Submit(Request("a"), "ci").ok());
+  ASSERT_TRUE(scheduler_->Submit(Request("b"), "ci").ok());
+  auto third = scheduler_->Submit(Request("c"), "ci");
+  ASSERT_EQ(third.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(third.status().message().find("limit per client is 2"), std::string::npos) << third.status();
+  ASSERT_TRUE(scheduler_->Submit(Request("c"), "artist").ok()) << "another client is not starved";
+  auto fourth = scheduler_->Submit(Request("d"), "artist");
+  ASSERT_EQ(fourth.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(fourth.status().message().find("the limit is 3"), std::string::npos) << fourth.status();
+  // Finishing work frees room.
+  ASSERT_TRUE(scheduler_->Complete(Result(Lease())).ok());
+  EXPECT_TRUE(scheduler_->Submit(Request("d"), "artist").ok());
 }
 
 TEST_F(BakeSchedulerTest, MissingInputBlobIsAFailedPrecondition) {
@@ -242,6 +312,21 @@ TEST_F(BakeSchedulerTest, AcceptedJobsSurviveARestart) {
   EXPECT_TRUE(scheduler_->Complete(Result(lease)).ok()) << "a lease survives the restart";
   const v1::LeasedJob next = Lease();
   EXPECT_EQ(next.job_id(), running->job_id());
+}
+
+TEST_F(BakeSchedulerTest, CachedResultWithCorruptBlobIsRebaked) {
+  auto s = scheduler_->Submit(Request());
+  const v1::CompleteJobRequest result = Result(Lease());
+  ASSERT_TRUE(scheduler_->Complete(result).ok());
+  const auto& map = result.result().maps(0).digest();
+  {
+    std::ofstream f(blobs_->PathFor({map.hash(), map.size_bytes()}), std::ios::binary | std::ios::trunc);
+    f << std::string(static_cast<size_t>(map.size_bytes()), 'X');  // same size, wrong bytes
+  }
+  auto again = scheduler_->Submit(Request());
+  ASSERT_TRUE(again.ok());
+  EXPECT_FALSE(again->cached()) << "rotten bytes must never be served";
+  EXPECT_FALSE(blobs_->Contains({map.hash(), map.size_bytes()})) << "the corrupt blob is quarantined";
 }
 
 TEST_F(BakeSchedulerTest, CachedResultWithMissingBlobIsRebaked) {

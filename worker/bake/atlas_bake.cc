@@ -102,10 +102,13 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
 
   // Render.
   progress("render", kRenderStart);
+  if (cancelled) return absl::CancelledError("cancelled before rendering");
   RenderTimings render_timings;
+  renderer.set_cancel_flag(&cancelled);
   auto atlas = renderer.Render(
       *scene, sphere, cameras, resolution,
       [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
+  renderer.set_cancel_flag(nullptr);
   if (!atlas.ok()) return atlas.status();
   timings->set_render_seconds(render_timings.upload_seconds + render_timings.render_seconds);
   timings->set_readback_seconds(render_timings.readback_seconds);

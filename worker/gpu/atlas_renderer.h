@@ -9,6 +9,7 @@
 #ifndef IMPOSTOR_WORKER_GPU_ATLAS_RENDERER_H_
 #define IMPOSTOR_WORKER_GPU_ATLAS_RENDERER_H_
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -75,6 +76,18 @@ class AtlasRenderer {
       const Scene& scene, const BoundingSphere& sphere,
       const std::vector<FrameCamera>& cameras, int atlas_size,
       const std::function<void(double)>& progress, RenderTimings* timings) = 0;
+
+  // While set, Render checks `*flag` after each submitted chunk of frames
+  // (well under a second of work on lavapipe for typical meshes) and returns
+  // CANCELLED once it is true. The flag must outlive the Render calls; pass
+  // nullptr to clear.
+  void set_cancel_flag(const std::atomic<bool>* flag) { cancel_flag_ = flag; }
+
+ protected:
+  bool cancel_requested() const { return cancel_flag_ != nullptr && cancel_flag_->load(); }
+
+ private:
+  const std::atomic<bool>* cancel_flag_ = nullptr;
 };
 
 }  // namespace impostor

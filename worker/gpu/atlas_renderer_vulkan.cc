@@ -193,6 +193,9 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
     vkCmdEndRendering(cmd);
     IMPOSTOR_GPU_RETURN_IF_ERROR(runner_.SubmitAndWait());
     if (progress) progress(static_cast<double>(last) / frame_count);
+    if (cancel_requested()) {
+      return absl::CancelledError(absl::StrCat("render cancelled after ", last, " of ", frame_count, " frames"));
+    }
   }
   times.render_seconds = SecondsSince(phase_start);
 

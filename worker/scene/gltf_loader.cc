@@ -7,8 +7,10 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -156,24 +158,29 @@ absl::Status CheckRequiredExtensions(const tinygltf::Model& model) {
   return absl::OkStatus();
 }
 
-}  // namespace
+// What is known about an entry before tinygltf parses it.
+struct ParseInput {
+  std::string name;                // file name, for messages
+  bool is_glb = false;             // GLB magic bytes present
+  bool named_glb = false;          // the name ends in .glb
+  const std::optional<std::string>* json = nullptr;  // for the pre-checks
+  const Sandbox* sandbox = nullptr;                  // null: from memory
+};
 
-absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLimits& limits) {
+// Pre-checks, tinygltf (through `parse`, which reads the entry from wherever
+// it is) and the scene builder: the part LoadGltfScene and
+// LoadGltfSceneFromMemory share.
+template <typename Parse>
+absl::StatusOr<Scene> ParseAndBuild(const ParseInput& in, const GltfLoadLimits& limits,
+                                    Parse parse) {
   const auto start = std::chrono::steady_clock::now();
-  if (absl::Status s = CheckLimits(limits); !s.ok()) return s;
-  std::error_code ec;
-  const fs::path path = fs::absolute(entry_file, ec);
-  if (ec) return absl::NotFoundError(absl::StrCat("bad path '", entry_file.string(), "'"));
-  absl::StatusOr<EntryFile> entry = ReadEntry(path);
-  if (!entry.ok()) return entry.status();
-
-  const Sandbox sandbox(path.parent_path());
-  if (entry->json) {
-    if (absl::Status s = gltf_internal::CheckJsonNesting(*entry->json, kMaxJsonNesting); !s.ok()) {
+  if (in.json->has_value()) {
+    const std::string& json = **in.json;
+    if (absl::Status s = gltf_internal::CheckJsonNesting(json, kMaxJsonNesting); !s.ok()) {
       return s;
     }
     if (absl::Status s =
-            gltf_internal::PrecheckJson(sandbox, *entry->json, SupportedRequiredExtensions());
+            gltf_internal::PrecheckJson(in.sandbox, json, SupportedRequiredExtensions());
         !s.ok()) {
       return s;
     }
@@ -182,22 +189,17 @@ absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLi
   tinygltf::Model model;
   ImageLoaderContext image_ctx{&model};
   tinygltf::TinyGLTF gltf;
-  gltf.SetFsCallbacks(sandbox.FsCallbacks());
+  gltf.SetFsCallbacks(in.sandbox ? in.sandbox->FsCallbacks()
+                                 : gltf_internal::NoFileSystemCallbacks());
   gltf.SetImageLoader(&KeepEncodedImage, &image_ctx);
   std::string err, warn;
-  const bool ok = entry->is_glb ? gltf.LoadBinaryFromFile(&model, &err, &warn, path.string())
-                                : gltf.LoadASCIIFromFile(&model, &err, &warn, path.string());
-  if (!ok) {
+  if (!parse(gltf, &model, &err, &warn)) {
     std::string message = OneLine(err.empty() ? warn : err);
     if (message.empty()) message = "tinygltf rejected the file without a message";
-    if (!entry->is_glb && path.extension() == ".glb") {
-      message += " (named .glb but has no GLB magic bytes)";
-    }
-    return absl::InvalidArgumentError(
-        absl::StrCat("cannot parse '", path.filename().string(), "': ", message));
+    if (!in.is_glb && in.named_glb) message += " (named .glb but has no GLB magic bytes)";
+    return absl::InvalidArgumentError(absl::StrCat("cannot parse '", in.name, "': ", message));
   }
-  if (!warn.empty())
-    spdlog::debug("gltf: {}: tinygltf: {}", path.filename().string(), OneLine(warn));
+  if (!warn.empty()) spdlog::debug("gltf: {}: tinygltf: {}", in.name, OneLine(warn));
   if (absl::Status s = CheckRequiredExtensions(model); !s.ok()) return s;
 
   absl::StatusOr<Scene> scene = gltf_internal::BuildScene(model, limits);
@@ -207,10 +209,73 @@ absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLi
     spdlog::debug(
         "gltf: loaded {}: {} triangles, {} vertices, {} batches, {} materials, {} "
         "textures in {:.1f} ms",
-        path.filename().string(), scene->TriangleCount(), scene->vertices.size(),
-        scene->batches.size(), scene->materials.size(), scene->textures.size(), ms);
+        in.name, scene->TriangleCount(), scene->vertices.size(), scene->batches.size(),
+        scene->materials.size(), scene->textures.size(), ms);
   }
   return scene;
+}
+
+}  // namespace
+
+absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLimits& limits) {
+  if (absl::Status s = CheckLimits(limits); !s.ok()) return s;
+  std::error_code ec;
+  const fs::path path = fs::absolute(entry_file, ec);
+  if (ec) return absl::NotFoundError(absl::StrCat("bad path '", entry_file.string(), "'"));
+  absl::StatusOr<EntryFile> entry = ReadEntry(path);
+  if (!entry.ok()) return entry.status();
+
+  const Sandbox sandbox(path.parent_path());
+  const ParseInput in{.name = path.filename().string(),
+                      .is_glb = entry->is_glb,
+                      .named_glb = path.extension() == ".glb",
+                      .json = &entry->json,
+                      .sandbox = &sandbox};
+  return ParseAndBuild(in, limits,
+                       [&](tinygltf::TinyGLTF& gltf, tinygltf::Model* model, std::string* err,
+                           std::string* warn) {
+                         return entry->is_glb
+                                    ? gltf.LoadBinaryFromFile(model, err, warn, path.string())
+                                    : gltf.LoadASCIIFromFile(model, err, warn, path.string());
+                       });
+}
+
+absl::StatusOr<Scene> LoadGltfSceneFromMemory(std::string_view bytes, std::string_view name,
+                                              const GltfLoadLimits& limits) {
+  if (absl::Status s = CheckLimits(limits); !s.ok()) return s;
+  const std::string display_name(name);
+  if (bytes.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("'", display_name, "' is empty"));
+  }
+  // tinygltf takes the length as unsigned int.
+  if (bytes.size() > std::numeric_limits<unsigned int>::max()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", display_name, "' is ", bytes.size(), " bytes, over 4 GiB"));
+  }
+  const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+  const bool is_glb = bytes.size() >= 4 && std::memcmp(data, "glTF", 4) == 0;
+  std::optional<std::string> json;
+  if (!is_glb) {
+    json = std::string(bytes);
+  } else if (std::optional<std::string_view> chunk =
+                 gltf_internal::GlbJsonChunk(std::span<const uint8_t>(data, bytes.size()))) {
+    json = std::string(*chunk);
+  }
+  const bool named_glb = name.size() >= 4 && name.substr(name.size() - 4) == ".glb";
+  const ParseInput in{.name = display_name,
+                      .is_glb = is_glb,
+                      .named_glb = named_glb,
+                      .json = &json,
+                      .sandbox = nullptr};
+  return ParseAndBuild(in, limits,
+                       [&](tinygltf::TinyGLTF& gltf, tinygltf::Model* model, std::string* err,
+                           std::string* warn) {
+                         const auto size = static_cast<unsigned int>(bytes.size());
+                         return is_glb ? gltf.LoadBinaryFromMemory(model, err, warn, data, size,
+                                                                   /*base_dir=*/"")
+                                       : gltf.LoadASCIIFromString(model, err, warn, bytes.data(),
+                                                                  size, /*base_dir=*/"");
+                       });
 }
 
 }  // namespace impostor

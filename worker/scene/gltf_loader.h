@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string_view>
 
 #include "absl/status/statusor.h"
 #include "worker/scene/scene.h"
@@ -59,6 +60,17 @@ struct GltfLoadLimits {
 //   RESOURCE_EXHAUSTED a GltfLoadLimits limit is exceeded.
 absl::StatusOr<Scene> LoadGltfScene(const std::filesystem::path& entry_file,
                                     const GltfLoadLimits& limits = {});
+
+// Loads a .glb or .gltf held in memory (format by magic bytes, as above),
+// with the same checks and limits as LoadGltfScene but no file system: every
+// buffer and image must be embedded (GLB binary chunk or data: uri). `name`
+// only labels messages. What the fuzzer drives.
+//
+// Errors: as LoadGltfScene, except that there is no NOT_FOUND; an external
+// (non-data:) uri is INVALID_ARGUMENT naming the buffer/image and the uri.
+absl::StatusOr<Scene> LoadGltfSceneFromMemory(std::string_view bytes,
+                                              std::string_view name = "memory.gltf",
+                                              const GltfLoadLimits& limits = {});
 
 }  // namespace impostor
 

@@ -85,8 +85,12 @@ std::string Describe(std::string_view kind, size_t index, const nlohmann::json& 
   return s;
 }
 
-absl::Status CheckUri(const Sandbox& sandbox, const std::string& what, const std::string& uri) {
+absl::Status CheckUri(const Sandbox* sandbox, const std::string& what, const std::string& uri) {
   if (IsDataUri(uri)) return absl::OkStatus();
+  if (sandbox == nullptr) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        what, ": uri '", uri, "' names an external file; a glTF loaded from memory may only use data: uris"));
+  }
   const std::optional<std::string> decoded = PercentDecode(uri);
   if (!decoded) {
     return absl::InvalidArgumentError(
@@ -103,8 +107,8 @@ absl::Status CheckUri(const Sandbox& sandbox, const std::string& what, const std
     return absl::InvalidArgumentError(absl::StrCat(
         what, ": uri '", uri, "' has a scheme; only relative paths and data: uris are allowed"));
   }
-  const fs::path resolved = sandbox.root() / fs::path(*decoded);
-  if (!sandbox.Contains(resolved)) {
+  const fs::path resolved = sandbox->root() / fs::path(*decoded);
+  if (!sandbox->Contains(resolved)) {
     return absl::InvalidArgumentError(
         absl::StrCat(what, ": uri '", uri, "' resolves outside the asset directory"));
   }
@@ -145,6 +149,20 @@ tinygltf::FsCallbacks Sandbox::FsCallbacks() const {
   callbacks.ReadWholeFile = &ReadWholeFileCallback;
   callbacks.WriteWholeFile = &WriteWholeFileCallback;
   callbacks.user_data = const_cast<Sandbox*>(this);
+  return callbacks;
+}
+
+tinygltf::FsCallbacks NoFileSystemCallbacks() {
+  tinygltf::FsCallbacks callbacks;
+  callbacks.FileExists = [](const std::string&, void*) { return false; };
+  callbacks.ExpandFilePath = &ExpandFilePathCallback;
+  callbacks.ReadWholeFile = [](std::vector<unsigned char>*, std::string* err, const std::string& filepath,
+                               void*) {
+    if (err) *err += "refused: '" + filepath + "': a glTF loaded from memory has no external files";
+    return false;
+  };
+  callbacks.WriteWholeFile = &WriteWholeFileCallback;
+  callbacks.user_data = nullptr;
   return callbacks;
 }
 
@@ -214,7 +232,7 @@ std::optional<std::string_view> GlbJsonChunk(std::span<const uint8_t> glb) {
   return std::string_view(reinterpret_cast<const char*>(glb.data() + 20), chunk_length);
 }
 
-absl::Status PrecheckJson(const Sandbox& sandbox, std::string_view json,
+absl::Status PrecheckJson(const Sandbox* sandbox, std::string_view json,
                           const std::set<std::string>& supported_required) {
   const nlohmann::json doc = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded() || !doc.is_object()) return absl::OkStatus();
@@ -224,6 +242,17 @@ absl::Status PrecheckJson(const Sandbox& sandbox, std::string_view json,
       if (ext.is_string() && !supported_required.count(ext.get<std::string>())) {
         return absl::InvalidArgumentError(
             absl::StrCat("extensionsRequired: ", ext.get<std::string>(), " is not supported"));
+      }
+    }
+  }
+  // tinygltf 2.7 fails on a skin without `joints` (required by the spec)
+  // without saying why.
+  if (auto skins = doc.find("skins"); skins != doc.end() && skins->is_array()) {
+    for (size_t i = 0; i < skins->size(); ++i) {
+      const nlohmann::json& skin = (*skins)[i];
+      if (skin.is_object() && !skin.contains("joints")) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(Describe("skin", i, skin), ": required property 'joints' is missing"));
       }
     }
   }

@@ -49,6 +49,10 @@ class Sandbox {
   std::filesystem::path root_;
 };
 
+// Callbacks for a load from memory: no file exists and none can be read or
+// written, so an external uri that slips past PrecheckJson still fails.
+tinygltf::FsCallbacks NoFileSystemCallbacks();
+
 // %XX-decodes a uri as RFC 3986 says. nullopt on a malformed escape or an
 // escaped NUL.
 std::optional<std::string> PercentDecode(std::string_view uri);
@@ -69,9 +73,12 @@ std::optional<std::string_view> GlbJsonChunk(std::span<const uint8_t> glb);
 //  * every `buffers[i].uri` and `images[i].uri` that is not a data: uri must
 //    be relative, scheme-less, resolve inside the sandbox and name an
 //    existing file, else INVALID_ARGUMENT naming buffer/image index, name
-//    and uri.
+//    and uri. With no sandbox (a load from memory) every such uri is
+//    INVALID_ARGUMENT: there are no files to read.
+//  * a skin without `joints` is INVALID_ARGUMENT naming the skin (tinygltf
+//    refuses it without a message).
 // JSON this function cannot parse is left to tinygltf (OK is returned).
-absl::Status PrecheckJson(const Sandbox& sandbox, std::string_view json,
+absl::Status PrecheckJson(const Sandbox* sandbox, std::string_view json,
                           const std::set<std::string>& supported_required);
 
 }  // namespace impostor::gltf_internal

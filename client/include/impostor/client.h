@@ -80,6 +80,25 @@ struct BakeSettings {
   // Default: 0 = the server's default (2048). Range checked by the server:
   // 64..8192 and at least 8 * frames.
   uint32_t resolution = 0;
+
+  // What to bake: "atlas" (the three atlas maps) or "surfels" (a point
+  // cloud for dense foliage at extreme distance: a buffer of 12 float32 per
+  // point, surfels.bin, ready to upload as an instance buffer, and the same
+  // points as surfels.ply). For surfels, frames and resolution describe the
+  // multi-view capture the points are read from.
+  // Default: "atlas" (empty is the same). Any other name is INVALID_ARGUMENT.
+  std::string product = "atlas";
+
+  // Surfels only: "prop" (2048 points, 12 frames, 512 px), "building"
+  // (16384, 16, 1024), "vegetation" (32768, 24, 2048) or "hero" (65536, 32,
+  // 2048); frames, resolution and point_budget given explicitly override it.
+  // Default: empty = "vegetation". Checked by the server.
+  std::string preset;
+
+  // Surfels only: the most points the cloud may have; the bake gets as close
+  // as the capture allows without exceeding it.
+  // Default: unset = from the preset. Range checked by the server: 1..4194304.
+  std::optional<uint32_t> point_budget;
 };
 
 // What SubmitBake sent to the store.
@@ -130,7 +149,10 @@ struct FetchResult {
   std::filesystem::path dir;
   std::filesystem::path manifest_path;
   // Every map image (albedo_alpha.png, ...) in manifest order, then
-  // manifest.json.
+  // manifest.json. For a surfel result: surfels.bin (the point buffer, 48
+  // bytes per point, ready to upload as an instance buffer unchanged; see
+  // the manifest's "surfels" block for count and splat size), surfels.ply,
+  // then manifest.json.
   std::vector<std::filesystem::path> files;
   // Bytes received from the server, and bytes of files already present in
   // `dir` with the right digest (kept, not downloaded again).

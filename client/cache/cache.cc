@@ -1,0 +1,606 @@
+// Cache: the public facade. Wires the pieces together: the on-disk layout
+// and index (cache_layout), LRU accounting (lru_index), pins (entry_lock),
+// single-flight downloads (download_coordinator), atomic installs
+// (result_install) and the lazily opened connection (lazy_transport).
+#include "impostor/cache.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <system_error>
+#include <unordered_map>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "client/cache/cache_layout.h"
+#include "client/cache/cache_testing.h"
+#include "client/cache/cached_result_rep.h"
+#include "client/cache/download_coordinator.h"
+#include "client/cache/entry_lock.h"
+#include "client/cache/lazy_transport.h"
+#include "client/cache/lru_index.h"
+#include "client/cache/result_install.h"
+#include "client/cache/work_queue.h"
+#include "client/job_convert.h"
+#include "client/mesh_files.h"
+#include "client/mesh_upload.h"
+#include "client/result_fetch.h"
+
+namespace impostor::sdk {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Staging leftovers younger than this may belong to an install running in
+// another process.
+constexpr int64_t kStagingMaxAgeSeconds = 3600;
+
+int64_t NowUnixSeconds() {
+  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+absl::Status ValidateOptions(const CacheOptions& o) {
+  auto bad = [](std::string_view field, auto value, std::string_view range) {
+    return absl::InvalidArgumentError(absl::StrCat("CacheOptions.", std::string(field), ": must be ",
+                                                   std::string(range), ", got ", value));
+  };
+  if (o.server.empty()) return absl::InvalidArgumentError("CacheOptions.server: required");
+  if (o.dir.empty()) return absl::InvalidArgumentError("CacheOptions.dir: required");
+  if (o.max_bytes < 0) return bad("max_bytes", o.max_bytes, ">= 0");
+  if (o.max_parallel_downloads < 1 || o.max_parallel_downloads > 64) {
+    return bad("max_parallel_downloads", o.max_parallel_downloads, "in 1..64");
+  }
+  if (o.max_parallel_prefetches < 1 || o.max_parallel_prefetches > o.max_parallel_downloads) {
+    return bad("max_parallel_prefetches", o.max_parallel_prefetches, "in 1..max_parallel_downloads");
+  }
+  if (o.io_threads < 1 || o.io_threads > 64) return bad("io_threads", o.io_threads, "in 1..64");
+  if (!(o.rpc_timeout_seconds > 0) || std::isinf(o.rpc_timeout_seconds)) {
+    return bad("rpc_timeout_seconds", o.rpc_timeout_seconds, "> 0");
+  }
+  if (o.max_attempts < 1) return bad("max_attempts", o.max_attempts, ">= 1");
+  if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
+    return bad("connect_timeout_seconds", o.connect_timeout_seconds, "> 0");
+  }
+  if (!(o.offline_retry_seconds >= 0)) return bad("offline_retry_seconds", o.offline_retry_seconds, ">= 0");
+  if (!(o.partial_max_age_seconds >= 0)) return bad("partial_max_age_seconds", o.partial_max_age_seconds, ">= 0");
+  return absl::OkStatus();
+}
+
+ClientOptions TransportOptions(const CacheOptions& o) {
+  ClientOptions c;
+  c.server = o.server;
+  c.rpc_timeout_seconds = o.rpc_timeout_seconds;
+  c.max_attempts = o.max_attempts;
+  c.connect_timeout_seconds = o.connect_timeout_seconds;
+  return c;
+}
+
+absl::Status InvalidKey(const std::string& key) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("cache key \"", key.substr(0, 80), "\": expected 64 lowercase hex characters"));
+}
+
+absl::StatusOr<std::string> ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot open"));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+int64_t AgeSeconds(const fs::path& path) {
+  struct stat st;
+  if (::lstat(path.c_str(), &st) != 0) return 0;
+  return NowUnixSeconds() - static_cast<int64_t>(st.st_mtim.tv_sec);
+}
+
+}  // namespace
+
+class Cache::Impl {
+ public:
+  Impl(const CacheOptions& options, const CacheTestHooks& hooks)
+      : options_(options),
+        layout_(options.dir),
+        hooks_(hooks),
+        transport_(TransportOptions(options), hooks.transport, options.offline_retry_seconds) {}
+
+  ~Impl() {
+    cancel_.store(true);
+    if (downloads_ != nullptr) downloads_->Shutdown();
+    if (io_ != nullptr) io_->Drain();
+  }
+
+  absl::Status Start() {
+    if (absl::Status s = layout_.Init(); !s.ok()) return s;
+    LoadNewEntries();
+    RemoveStaleFiles(options_.partial_max_age_seconds, nullptr);
+    Trim(options_.max_bytes, nullptr);
+    downloads_ = std::make_unique<DownloadCoordinator>(options_.max_parallel_downloads,
+                                                       options_.max_parallel_prefetches,
+                                                       [this](const std::string& key) { return Download(key); });
+    io_ = std::make_unique<WorkQueue>(options_.io_threads);
+    return absl::OkStatus();
+  }
+
+  const CacheOptions& options() const { return options_; }
+
+  absl::StatusOr<CachedResult> Get(const std::string& key) {
+    if (!IsCacheKey(key)) return InvalidKey(key);
+    absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
+    if (!local.ok()) return local.status();
+    if (local->has_value()) {
+      Count(&CacheStats::hits);
+      return **local;
+    }
+    Count(&CacheStats::misses);
+    std::promise<absl::StatusOr<CachedResult>> promise;
+    std::future<absl::StatusOr<CachedResult>> future = promise.get_future();
+    downloads_->Join(key, /*urgent=*/true, [&promise](const DownloadCoordinator::Result& r) { promise.set_value(r); });
+    return future.get();
+  }
+
+  void GetAsync(const std::string& key, GetCallback done) {
+    if (!IsCacheKey(key)) {
+      io_->Post([done = std::move(done), status = InvalidKey(key)] { done(status); });
+      return;
+    }
+    io_->Post([this, key, done = std::move(done)]() mutable {
+      absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
+      if (!local.ok()) return done(local.status());
+      if (local->has_value()) {
+        Count(&CacheStats::hits);
+        return done(std::move(**local));
+      }
+      Count(&CacheStats::misses);
+      downloads_->Join(key, /*urgent=*/true,
+                       [done = std::move(done)](const DownloadCoordinator::Result& r) { done(r); });
+    });
+  }
+
+  void Prefetch(const std::vector<std::string>& keys, const PrefetchCallback& done) {
+    for (const std::string& key : keys) {
+      if (!IsCacheKey(key)) {
+        if (done) io_->Post([done, key] { done(key, InvalidKey(key)); });
+        continue;
+      }
+      bool known;
+      {
+        std::lock_guard lock(mu_);
+        known = nodes_.contains(key);
+      }
+      if (known) {
+        if (done) io_->Post([done, key] { done(key, absl::OkStatus()); });
+        continue;
+      }
+      downloads_->Join(key, /*urgent=*/false, [done, key](const DownloadCoordinator::Result& r) {
+        if (done) done(key, r.status());
+      });
+    }
+  }
+
+  absl::StatusOr<LookupResult> Lookup(const fs::path& model, const BakeSettings& settings) {
+    absl::StatusOr<v1::BakeParameters> parameters = ToBakeParameters(settings);
+    if (!parameters.ok()) return parameters.status();
+    absl::StatusOr<MeshFiles> files = CollectMeshFiles(model);
+    if (!files.ok()) return files.status();
+    absl::StatusOr<v1::MeshInput> mesh = HashMesh(*files);
+    if (!mesh.ok()) return mesh.status();
+    absl::StatusOr<Transport*> transport = transport_.Get();
+    if (!transport.ok()) return transport.status();
+    v1::SubmitBakeRequest request;
+    *request.mutable_mesh() = std::move(*mesh);
+    *request.mutable_parameters() = *parameters;
+    absl::StatusOr<v1::LookupBakeResponse> response = (*transport)->LookupBake(request);
+    if (!response.ok()) return response.status();
+    return LookupResult{response->cache_key(), response->found()};
+  }
+
+  std::vector<CacheEntryInfo> List() {
+    LoadNewEntries();
+    std::lock_guard lock(mu_);
+    std::vector<CacheEntryInfo> out;
+    for (const LruIndex::Item& item : lru_.Items()) {
+      auto it = nodes_.find(item.key);
+      out.push_back(CacheEntryInfo{item.key, layout_.EntryDir(item.key), item.size_bytes, item.last_used,
+                                   it != nodes_.end() && !it->second.pin.expired()});
+    }
+    return out;
+  }
+
+  absl::StatusOr<GarbageReport> CollectGarbage(int64_t max_bytes, bool verify) {
+    GarbageReport report;
+    LoadNewEntries();
+    if (verify) VerifyAll(&report);
+    Trim(max_bytes < 0 ? options_.max_bytes : max_bytes, &report);
+    RemoveStaleFiles(options_.partial_max_age_seconds, &report);
+    return report;
+  }
+
+  CacheStats Stats() {
+    std::lock_guard lock(mu_);
+    CacheStats stats = stats_;
+    stats.entries = static_cast<int64_t>(lru_.size());
+    stats.bytes = lru_.total_bytes();
+    stats.pinned_entries = 0;
+    for (const auto& [key, node] : nodes_) stats.pinned_entries += node.pin.expired() ? 0 : 1;
+    return stats;
+  }
+
+ private:
+  // What this process knows of one installed entry.
+  struct Node {
+    EntryRecord record;                     // identities updated as hits re-check them
+    std::shared_ptr<const EntryView> view;  // built on first hit
+    std::weak_ptr<EntryPin> pin;            // alive while handles are
+    bool verified = false;                  // digests checked by this process
+    int64_t persisted_touch = 0;            // last use written to disk, Unix seconds
+  };
+
+  void Count(int64_t CacheStats::*counter, int64_t n = 1) {
+    std::lock_guard lock(mu_);
+    stats_.*counter += n;
+  }
+
+  // Adds entries present on disk but not in the index (installed by another
+  // process, or before this object opened); drops unreadable ones.
+  void LoadNewEntries() {
+    std::vector<std::string> unknown;
+    {
+      std::vector<std::string> keys = layout_.ListEntryKeys();
+      std::lock_guard lock(mu_);
+      for (std::string& key : keys) {
+        if (!nodes_.contains(key)) unknown.push_back(std::move(key));
+      }
+    }
+    struct Loaded {
+      EntryRecord record;
+      int64_t last_used;
+    };
+    std::vector<Loaded> loaded;
+    for (const std::string& key : unknown) {
+      const fs::path dir = layout_.EntryDir(key);
+      absl::StatusOr<EntryRecord> record = ReadEntryRecord(dir);
+      if (!record.ok() || record->key != key) {
+        if (record.ok() || record.status().code() != absl::StatusCode::kNotFound || fs::exists(dir)) {
+          spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(),
+                       record.ok() ? std::string("key mismatch") : record.status().ToString());
+          (void)RemoveEntryDir(layout_, dir);
+        }
+        continue;
+      }
+      loaded.push_back({std::move(*record), EntryLastUsed(dir)});
+    }
+    std::sort(loaded.begin(), loaded.end(), [](const Loaded& a, const Loaded& b) { return a.last_used < b.last_used; });
+    std::lock_guard lock(mu_);
+    for (Loaded& l : loaded) {
+      if (nodes_.contains(l.record.key)) continue;
+      const std::string key = l.record.key;
+      lru_.Insert(key, l.record.TotalBytes(), l.last_used);
+      Node& node = nodes_[key];
+      node.record = std::move(l.record);
+      node.persisted_touch = l.last_used;
+    }
+  }
+
+  // Forgets `key` in memory (the caller deals with its files).
+  void Forget(const std::string& key) {
+    std::lock_guard lock(mu_);
+    nodes_.erase(key);
+    lru_.Erase(key);
+  }
+
+  // The pinned, checked local copy of `key`, or nullopt when there is none
+  // (a damaged one is removed first). Errors only for unexpected local I/O.
+  absl::StatusOr<std::optional<CachedResult>> TryLocal(const std::string& key, bool downloaded = false) {
+    const fs::path dir = layout_.EntryDir(key);
+    bool known;
+    {
+      std::lock_guard lock(mu_);
+      known = nodes_.contains(key);
+    }
+    if (!known) {
+      // Perhaps installed by another process since we looked.
+      absl::StatusOr<EntryRecord> record = ReadEntryRecord(dir);
+      if (!record.ok()) {
+        if (record.status().code() != absl::StatusCode::kNotFound) {
+          spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(), record.status().ToString());
+          (void)RemoveEntryDir(layout_, dir);
+        }
+        return std::nullopt;
+      }
+      std::lock_guard lock(mu_);
+      if (!nodes_.contains(key)) {
+        lru_.Insert(key, record->TotalBytes(), EntryLastUsed(dir));
+        nodes_[key].record = std::move(*record);
+      }
+    }
+
+    std::shared_ptr<EntryPin> pin;
+    {
+      std::lock_guard lock(mu_);
+      auto it = nodes_.find(key);
+      if (it == nodes_.end()) return std::nullopt;  // evicted meanwhile
+      pin = it->second.pin.lock();
+    }
+    if (pin == nullptr) {
+      absl::StatusOr<std::unique_ptr<EntryLock>> lock = EntryLock::Shared(dir);
+      if (!lock.ok()) {  // evicted by another process
+        Forget(key);
+        return std::nullopt;
+      }
+      auto fresh = std::make_shared<EntryPin>();
+      fresh->lock = std::move(*lock);
+      std::lock_guard guard(mu_);
+      auto it = nodes_.find(key);
+      if (it == nodes_.end()) return std::nullopt;
+      pin = it->second.pin.lock();  // another thread may have pinned it first
+      if (pin == nullptr) {
+        pin = fresh;
+        it->second.pin = pin;
+      }
+    }
+
+    EntryRecord record;
+    bool digest;
+    std::shared_ptr<const EntryView> view;
+    {
+      std::lock_guard lock(mu_);
+      auto it = nodes_.find(key);
+      if (it == nodes_.end()) return std::nullopt;
+      record = it->second.record;
+      digest = options_.hit_verification == HitVerification::kDigestEveryGet ||
+               (options_.hit_verification == HitVerification::kDigestOncePerProcess && !it->second.verified);
+      view = it->second.view;
+    }
+    absl::Status check = CheckEntryFiles(dir, record, digest ? FileCheck::kDigest : FileCheck::kMetadata);
+    if (check.code() == absl::StatusCode::kNotFound || check.code() == absl::StatusCode::kDataLoss) {
+      if (check.code() == absl::StatusCode::kDataLoss) {
+        spdlog::warn("cache: {} is damaged ({}); fetching it again", key, check.ToString());
+        Count(&CacheStats::corrupt_entries);
+      }
+      Forget(key);
+      // Damaged files are useless to every holder, pinned or not.
+      (void)RemoveEntryDir(layout_, dir);
+      return std::nullopt;
+    }
+    if (!check.ok()) return check;
+    if (view == nullptr) {
+      absl::StatusOr<std::shared_ptr<const EntryView>> built = BuildView(dir, record);
+      if (!built.ok()) return built.status();
+      view = *built;
+    }
+
+    const int64_t now = NowUnixSeconds();
+    bool persist = false;
+    {
+      std::lock_guard lock(mu_);
+      auto it = nodes_.find(key);
+      if (it != nodes_.end()) {
+        it->second.record = std::move(record);
+        it->second.verified = it->second.verified || digest;
+        it->second.view = view;
+        // Last use reaches the disk at most once a second per entry: LRU
+        // order across restarts needs no finer grain, and hits stay cheap.
+        persist = it->second.persisted_touch != now;
+        it->second.persisted_touch = now;
+      }
+      lru_.Touch(key, now);
+    }
+    if (persist) TouchEntry(dir);
+    auto rep = std::make_shared<CachedResult::Rep>();
+    rep->view = std::move(view);
+    rep->pin = std::move(pin);
+    rep->downloaded = downloaded;
+    return std::optional<CachedResult>(CachedResult(std::move(rep)));
+  }
+
+  static absl::StatusOr<std::shared_ptr<const EntryView>> BuildView(const fs::path& dir, const EntryRecord& record) {
+    auto view = std::make_shared<EntryView>();
+    view->key = record.key;
+    view->dir = dir;
+    view->manifest_path = dir / kManifestFileName;
+    view->layout = record.layout;
+    view->frames = record.frames;
+    view->resolution = record.resolution;
+    for (const EntryFile& f : record.files) {
+      view->files.push_back(
+          CachedFile{f.semantic, dir / f.name, f.sha256, f.size_bytes, f.width, f.height, f.format});
+      view->size_bytes += f.size_bytes;
+    }
+    absl::StatusOr<std::string> text = ReadText(view->manifest_path);
+    if (!text.ok()) return text.status();
+    view->manifest_json = std::move(*text);
+    return std::shared_ptr<const EntryView>(std::move(view));
+  }
+
+  // A flight's work: local copy if one appeared, else download and install.
+  DownloadCoordinator::Result Download(const std::string& key) {
+    if (cancel_.load()) return absl::CancelledError("the cache is shutting down");
+    absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
+    if (!local.ok()) return local.status();
+    if (local->has_value()) return **local;
+    absl::StatusOr<Transport*> transport = transport_.Get();
+    if (!transport.ok()) return transport.status();
+    absl::StatusOr<InstallOutcome> installed =
+        DownloadAndInstall(**transport, layout_, key, hooks_.download, &cancel_);
+    if (!installed.ok()) return installed.status();
+    {
+      std::lock_guard lock(mu_);
+      stats_.downloads += 1;
+      stats_.bytes_downloaded += installed->bytes_downloaded;
+      stats_.bytes_resumed += installed->bytes_resumed;
+      if (!nodes_.contains(key)) {  // else another thread found the entry first and knows it
+        lru_.Insert(key, installed->record.TotalBytes(), NowUnixSeconds());
+        Node& node = nodes_[key];
+        node.record = std::move(installed->record);
+        // Every byte was just hashed on its way in.
+        node.verified = !installed->raced;
+      }
+    }
+    absl::StatusOr<std::optional<CachedResult>> result = TryLocal(key, /*downloaded=*/true);
+    if (!result.ok()) return result.status();
+    if (!result->has_value()) {
+      return absl::InternalError(absl::StrCat("cache: ", key, " vanished right after its install"));
+    }
+    Trim(options_.max_bytes, nullptr);  // the new entry is pinned by `result`
+    return **result;
+  }
+
+  // Evicts least recently used entries that no one uses until the total is
+  // at most `cap`.
+  void Trim(int64_t cap, GarbageReport* report) {
+    std::vector<std::string> victims;
+    {
+      std::lock_guard lock(mu_);
+      victims = lru_.Victims(cap, [&](const std::string& key) {
+        auto it = nodes_.find(key);
+        return it != nodes_.end() && !it->second.pin.expired();
+      });
+    }
+    for (const std::string& key : victims) {
+      const fs::path dir = layout_.EntryDir(key);
+      // Fails while any process holds a pin, or when the entry is gone.
+      std::unique_ptr<EntryLock> exclusive = EntryLock::TryExclusive(dir);
+      if (exclusive == nullptr) {
+        if (!fs::exists(dir / kEntryRecordName)) Forget(key);
+        continue;
+      }
+      int64_t size = 0;
+      {
+        std::lock_guard lock(mu_);
+        auto it = nodes_.find(key);
+        if (it == nodes_.end() || !it->second.pin.expired()) continue;  // a Get pinned it meanwhile
+        size = it->second.record.TotalBytes();
+        nodes_.erase(it);
+        lru_.Erase(key);
+        stats_.evicted_entries += 1;
+      }
+      if (absl::Status s = RemoveEntryDir(layout_, dir); !s.ok()) spdlog::warn("cache: {}", s.ToString());
+      spdlog::debug("cache: evicted {} ({} bytes)", key, size);
+      if (report != nullptr) {
+        report->evicted_entries += 1;
+        report->evicted_bytes += size;
+      }
+    }
+  }
+
+  void VerifyAll(GarbageReport* report) {
+    std::vector<std::pair<std::string, EntryRecord>> unpinned;
+    {
+      std::lock_guard lock(mu_);
+      for (const auto& [key, node] : nodes_) {
+        if (node.pin.expired()) unpinned.emplace_back(key, node.record);
+      }
+    }
+    for (auto& [key, record] : unpinned) {
+      const fs::path dir = layout_.EntryDir(key);
+      absl::Status s = CheckEntryFiles(dir, record, FileCheck::kDigest);
+      if (s.ok() || (s.code() != absl::StatusCode::kDataLoss && s.code() != absl::StatusCode::kNotFound)) continue;
+      spdlog::warn("cache: {} fails verification: {}", key, s.ToString());
+      Forget(key);
+      (void)RemoveEntryDir(layout_, dir);
+      report->broken_entries += 1;
+    }
+  }
+
+  // Partial downloads untouched for `max_age` seconds and not being written
+  // (their lock is free), and staging leftovers of crashed installs.
+  void RemoveStaleFiles(double max_age, GarbageReport* report) {
+    std::error_code ec;
+    for (fs::directory_iterator it(layout_.PartialDir(), ec), end; !ec && it != end; it.increment(ec)) {
+      const fs::path path = it->path();
+      if (AgeSeconds(path) < max_age) continue;
+      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+      if (fd < 0) continue;
+      if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
+        struct stat st;
+        const int64_t size = ::fstat(fd, &st) == 0 ? st.st_size : 0;
+        std::error_code rm;
+        if (fs::remove(path, rm) && report != nullptr) {
+          report->removed_partials += 1;
+          report->removed_partial_bytes += size;
+        }
+      }
+      ::close(fd);
+    }
+    for (fs::directory_iterator it(layout_.StagingDir(), ec), end; !ec && it != end; it.increment(ec)) {
+      const fs::path path = it->path();
+      const bool trash = path.filename().string().rfind("trash-", 0) == 0;
+      if (!trash && AgeSeconds(path) < kStagingMaxAgeSeconds) continue;
+      std::error_code rm;
+      if (fs::remove_all(path, rm) > 0 && report != nullptr) report->removed_partials += 1;
+    }
+  }
+
+  const CacheOptions options_;
+  const CacheLayout layout_;
+  const CacheTestHooks hooks_;
+  LazyTransport transport_;
+  std::atomic<bool> cancel_{false};
+
+  std::mutex mu_;
+  std::unordered_map<std::string, Node> nodes_ ABSL_GUARDED_BY(mu_);
+  LruIndex lru_ ABSL_GUARDED_BY(mu_);
+  CacheStats stats_ ABSL_GUARDED_BY(mu_);
+
+  // Destroyed first (see ~Impl): their threads call into the members above.
+  std::unique_ptr<DownloadCoordinator> downloads_;
+  std::unique_ptr<WorkQueue> io_;
+};
+
+Cache::Cache(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Cache::~Cache() = default;
+
+absl::StatusOr<std::unique_ptr<Cache>> CacheFactory::Open(const CacheOptions& options, const CacheTestHooks& hooks) {
+  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  auto impl = std::make_unique<Cache::Impl>(options, hooks);
+  if (absl::Status s = impl->Start(); !s.ok()) return s;
+  return std::unique_ptr<Cache>(new Cache(std::move(impl)));
+}
+
+absl::StatusOr<std::unique_ptr<Cache>> Cache::Open(const CacheOptions& options) {
+  return CacheFactory::Open(options, {});
+}
+
+absl::StatusOr<CachedResult> Cache::Get(const std::string& cache_key) { return impl_->Get(cache_key); }
+
+void Cache::GetAsync(const std::string& cache_key, GetCallback done) { impl_->GetAsync(cache_key, std::move(done)); }
+
+std::future<absl::StatusOr<CachedResult>> Cache::GetAsync(const std::string& cache_key) {
+  auto promise = std::make_shared<std::promise<absl::StatusOr<CachedResult>>>();
+  std::future<absl::StatusOr<CachedResult>> future = promise->get_future();
+  impl_->GetAsync(cache_key, [promise](absl::StatusOr<CachedResult> r) { promise->set_value(std::move(r)); });
+  return future;
+}
+
+absl::StatusOr<LookupResult> Cache::Lookup(const std::filesystem::path& model, const BakeSettings& settings) {
+  return impl_->Lookup(model, settings);
+}
+
+void Cache::Prefetch(const std::vector<std::string>& cache_keys, PrefetchCallback done) {
+  impl_->Prefetch(cache_keys, done);
+}
+
+std::vector<CacheEntryInfo> Cache::List() { return impl_->List(); }
+
+absl::StatusOr<GarbageReport> Cache::CollectGarbage(int64_t max_bytes, bool verify) {
+  return impl_->CollectGarbage(max_bytes, verify);
+}
+
+CacheStats Cache::Stats() { return impl_->Stats(); }
+
+const CacheOptions& Cache::options() const { return impl_->options(); }
+
+}  // namespace impostor::sdk

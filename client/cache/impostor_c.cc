@@ -1,0 +1,187 @@
+// The C API (impostor/impostor_c.h): a thin shim over impostor::sdk::Cache.
+// Every C object wraps its C++ counterpart; strings handed out are owned by
+// the result object. Errors are also kept per thread for impostor_last_error.
+#include "impostor/impostor_c.h"
+
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "impostor/cache.h"
+
+struct impostor_cache {
+  std::unique_ptr<impostor::sdk::Cache> cache;
+};
+
+struct impostor_result {
+  impostor::sdk::CachedResult result;
+  // C strings of the paths (std::filesystem::path::c_str() is char on Linux,
+  // but these copies keep the API independent of that).
+  std::string dir;
+  std::string manifest_path;
+  std::vector<std::string> file_paths;
+};
+
+namespace {
+
+thread_local std::string last_error;
+
+impostor_status Report(const absl::Status& status) {
+  last_error = status.ok() ? std::string() : std::string(status.message());
+  return static_cast<impostor_status>(static_cast<int>(status.code()));
+}
+
+impostor_result* Wrap(impostor::sdk::CachedResult result) {
+  auto* r = new impostor_result();
+  r->dir = result.dir().string();
+  r->manifest_path = result.manifest_path().string();
+  for (const auto& f : result.files()) r->file_paths.push_back(f.path.string());
+  r->result = std::move(result);
+  return r;
+}
+
+}  // namespace
+
+extern "C" {
+
+void impostor_cache_options_init(impostor_cache_options* options) {
+  if (options == nullptr) return;
+  static const impostor::sdk::CacheOptions defaults;
+  std::memset(options, 0, sizeof(*options));
+  options->server = "localhost:50051";
+  options->dir = nullptr;
+  options->max_bytes = defaults.max_bytes;
+  options->max_parallel_downloads = defaults.max_parallel_downloads;
+  options->max_parallel_prefetches = defaults.max_parallel_prefetches;
+  options->connect_timeout_seconds = defaults.connect_timeout_seconds;
+  options->rpc_timeout_seconds = defaults.rpc_timeout_seconds;
+  options->max_attempts = defaults.max_attempts;
+}
+
+impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out) {
+  if (options == nullptr || out == nullptr) {
+    return Report(absl::InvalidArgumentError("impostor_cache_open: options and out are required"));
+  }
+  *out = nullptr;
+  impostor::sdk::CacheOptions o;
+  if (options->server != nullptr) o.server = options->server;
+  if (options->dir != nullptr) o.dir = options->dir;
+  o.max_bytes = options->max_bytes;
+  o.max_parallel_downloads = options->max_parallel_downloads;
+  o.max_parallel_prefetches = options->max_parallel_prefetches;
+  o.connect_timeout_seconds = options->connect_timeout_seconds;
+  o.rpc_timeout_seconds = options->rpc_timeout_seconds;
+  o.max_attempts = options->max_attempts;
+  auto cache = impostor::sdk::Cache::Open(o);
+  if (!cache.ok()) return Report(cache.status());
+  *out = new impostor_cache{std::move(*cache)};
+  return Report(absl::OkStatus());
+}
+
+void impostor_cache_close(impostor_cache* cache) { delete cache; }
+
+impostor_status impostor_cache_get(impostor_cache* cache, const char* key, impostor_result** out) {
+  if (cache == nullptr || key == nullptr || out == nullptr) {
+    return Report(absl::InvalidArgumentError("impostor_cache_get: cache, key and out are required"));
+  }
+  *out = nullptr;
+  auto result = cache->cache->Get(key);
+  if (!result.ok()) return Report(result.status());
+  *out = Wrap(std::move(*result));
+  return Report(absl::OkStatus());
+}
+
+void impostor_cache_get_async(impostor_cache* cache, const char* key, impostor_get_callback done, void* user_data) {
+  if (done == nullptr) return;
+  if (cache == nullptr || key == nullptr) {
+    done(Report(absl::InvalidArgumentError("impostor_cache_get_async: cache and key are required")), nullptr,
+         user_data);
+    return;
+  }
+  cache->cache->GetAsync(key, [done, user_data](absl::StatusOr<impostor::sdk::CachedResult> result) {
+    if (!result.ok()) {
+      done(Report(result.status()), nullptr, user_data);
+      return;
+    }
+    impostor_result* wrapped = Wrap(std::move(*result));
+    done(Report(absl::OkStatus()), wrapped, user_data);
+  });
+}
+
+void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count) {
+  if (cache == nullptr || keys == nullptr) return;
+  std::vector<std::string> list;
+  for (size_t i = 0; i < count; ++i) {
+    if (keys[i] != nullptr) list.emplace_back(keys[i]);
+  }
+  cache->cache->Prefetch(list);
+}
+
+impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
+                                      uint32_t frames, uint32_t resolution, char key_out[65], int* found) {
+  if (cache == nullptr || model_path == nullptr || key_out == nullptr || found == nullptr) {
+    return Report(absl::InvalidArgumentError("impostor_cache_lookup: cache, model_path, key_out, found required"));
+  }
+  impostor::sdk::BakeSettings settings;
+  if (layout != nullptr) settings.layout = layout;
+  settings.frames = frames;
+  settings.resolution = resolution;
+  auto looked = cache->cache->Lookup(model_path, settings);
+  if (!looked.ok()) return Report(looked.status());
+  std::snprintf(key_out, 65, "%s", looked->cache_key.c_str());
+  *found = looked->found ? 1 : 0;
+  return Report(absl::OkStatus());
+}
+
+const char* impostor_result_key(const impostor_result* r) { return r ? r->result.key().c_str() : nullptr; }
+const char* impostor_result_dir(const impostor_result* r) { return r ? r->dir.c_str() : nullptr; }
+const char* impostor_result_manifest_path(const impostor_result* r) { return r ? r->manifest_path.c_str() : nullptr; }
+size_t impostor_result_file_count(const impostor_result* r) { return r ? r->file_paths.size() : 0; }
+
+const char* impostor_result_file_path(const impostor_result* r, size_t index) {
+  return r && index < r->file_paths.size() ? r->file_paths[index].c_str() : nullptr;
+}
+
+const char* impostor_result_file_semantic(const impostor_result* r, size_t index) {
+  return r && index < r->result.files().size() ? r->result.files()[index].semantic.c_str() : nullptr;
+}
+
+const char* impostor_result_map_path(const impostor_result* r, const char* semantic) {
+  if (r == nullptr || semantic == nullptr) return nullptr;
+  const auto& files = r->result.files();
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (files[i].semantic == semantic && files[i].semantic != "manifest") return r->file_paths[i].c_str();
+  }
+  return nullptr;
+}
+
+int64_t impostor_result_size_bytes(const impostor_result* r) { return r ? r->result.size_bytes() : 0; }
+int impostor_result_downloaded(const impostor_result* r) { return r && r->result.downloaded() ? 1 : 0; }
+void impostor_result_release(impostor_result* r) { delete r; }
+
+const char* impostor_status_name(impostor_status status) {
+  switch (static_cast<int>(status)) {
+    case 0: return "OK";
+    case 1: return "CANCELLED";
+    case 2: return "UNKNOWN";
+    case 3: return "INVALID_ARGUMENT";
+    case 4: return "DEADLINE_EXCEEDED";
+    case 5: return "NOT_FOUND";
+    case 6: return "ALREADY_EXISTS";
+    case 7: return "PERMISSION_DENIED";
+    case 8: return "RESOURCE_EXHAUSTED";
+    case 9: return "FAILED_PRECONDITION";
+    case 10: return "ABORTED";
+    case 11: return "OUT_OF_RANGE";
+    case 12: return "UNIMPLEMENTED";
+    case 13: return "INTERNAL";
+    case 14: return "UNAVAILABLE";
+    case 15: return "DATA_LOSS";
+    case 16: return "UNAUTHENTICATED";
+  }
+  return "UNKNOWN_CODE";
+}
+
+const char* impostor_last_error(void) { return last_error.c_str(); }
+
+}  // extern "C"

@@ -1,0 +1,301 @@
+// The game-client side of the bake farm: impostors fetched on demand through
+// a local content-addressed cache. The first Get of a cache key downloads the
+// result (every file checked against its SHA-256 and size, then installed
+// atomically); every later Get is answered from disk without network traffic.
+//
+// Like client.h, this header exposes no gRPC or protobuf type.
+//
+// Typical use in an engine:
+//
+//   impostor::sdk::CacheOptions options;
+//   options.server = "bake.example.com:50051";
+//   options.dir = "/home/me/.cache/impostor";
+//   auto cache = impostor::sdk::Cache::Open(options);
+//   if (!cache.ok()) return cache.status();
+//   // On a loader thread (blocks until local or downloaded):
+//   auto result = (*cache)->Get(key);
+//   // Or from the game thread (never blocks it):
+//   (*cache)->GetAsync(key, [](absl::StatusOr<impostor::sdk::CachedResult> r) { ... });
+//   // Keep `result` alive while its files are in use: eviction skips it.
+//
+// A plain C API over the same cache is in impostor_c.h.
+#ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CACHE_H_
+#define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CACHE_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <future>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "impostor/client.h"
+
+namespace impostor::sdk {
+
+class CacheFactory;
+
+// How much a local hit checks before it is trusted.
+enum class HitVerification {
+  // Each file's size, inode and modification time must equal what was
+  // recorded when it was installed. Catches truncation, replacement and
+  // (almost always) rewrites; costs a few stat() calls.
+  kMetadata,
+  // kMetadata, plus a full SHA-256 of every file the first time a result is
+  // handed out by this Cache object (about 50 ms for a 2048² three-map
+  // result); later hits in the same process check metadata only.
+  kDigestOncePerProcess,
+  // A full SHA-256 of every file on every Get. For tools, not for games.
+  kDigestEveryGet,
+};
+
+// How a Cache is set up. Checked by Cache::Open (INVALID_ARGUMENT naming the
+// field when out of range).
+struct CacheOptions {
+  // Address of the bake server as "host:port" (any gRPC target string).
+  // Nothing connects to it until a Get misses or Lookup is called, so a
+  // cache opens (and serves local hits) with the server down.
+  // Default: "localhost:50051". Must not be empty.
+  std::string server = "localhost:50051";
+
+  // Directory of the cache; created if missing. Several Cache objects, in
+  // this process or others, may share it (installs are atomic renames and
+  // in-use results are locked against eviction), but one per process is the
+  // efficient way. Layout: client/cache/cache_layout.md.
+  // Default: none. Required.
+  std::filesystem::path dir;
+
+  // Total size of installed results, in bytes, above which the least
+  // recently used results are deleted. A result with a live CachedResult
+  // handle is never deleted, so the total may exceed the cap while handles
+  // pin more than it; a single result larger than the cap is still installed
+  // and returned. The cap is enforced when the cache opens, after every
+  // install and by CollectGarbage; a result released in between goes at the
+  // next of those. Partial downloads kept for resuming are not counted (see
+  // partial_max_age_seconds).
+  // Default: 2 GiB. Range: >= 0 (0 keeps nothing that is not in use).
+  int64_t max_bytes = int64_t{2} << 30;
+
+  // Results downloaded at once. Concurrent Gets of the same key always share
+  // one download. Default: 4. Range: 1..64.
+  int max_parallel_downloads = 4;
+
+  // Of those, how many Prefetch may occupy, so that a long prefetch list
+  // never delays a Get the game is waiting for (Gets also jump the queue).
+  // Default: 2. Range: 1..max_parallel_downloads.
+  int max_parallel_prefetches = 2;
+
+  // Threads that answer GetAsync from disk (hit checks, including hashing
+  // under kDigestOncePerProcess). Default: 2. Range: 1..64.
+  int io_threads = 2;
+
+  // What a local hit checks; see HitVerification.
+  // Default: kDigestOncePerProcess.
+  HitVerification hit_verification = HitVerification::kDigestOncePerProcess;
+
+  // Deadline of each unary RPC, in seconds; streams add one second per
+  // 256 KiB (as ClientOptions::rpc_timeout_seconds). Default: 30. Range: > 0.
+  double rpc_timeout_seconds = 30;
+
+  // Tries per RPC while the server answers UNAVAILABLE or DEADLINE_EXCEEDED,
+  // with exponential backoff from 100 ms; a download's count starts over
+  // whenever bytes arrive (as ClientOptions::max_attempts).
+  // Default: 3. Range: >= 1.
+  int max_attempts = 3;
+
+  // How long the first connection may take, in seconds; a refused
+  // connection fails in about one second. After a failure, further network
+  // calls within `offline_retry_seconds` fail at once with the same
+  // UNAVAILABLE instead of trying again. Default: 5. Range: > 0.
+  double connect_timeout_seconds = 5;
+  // Default: 1. Range: >= 0.
+  double offline_retry_seconds = 1;
+
+  // Partial downloads (kept so that a broken transfer resumes where it
+  // stopped, also after a restart) untouched for longer than this are
+  // deleted when the cache opens and by Cache::CollectGarbage.
+  // Default: 7 days. Range: >= 0.
+  double partial_max_age_seconds = 7 * 24 * 3600;
+};
+
+// One file of a cached result.
+struct CachedFile {
+  // "albedo_alpha", "normal_depth", "orm", or "manifest" for manifest.json.
+  std::string semantic;
+  std::filesystem::path path;
+  std::string sha256;  // lowercase hex
+  int64_t size_bytes = 0;
+  // Map images only: pixels and "png_rgba8" / "png_rgba16".
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::string format;
+};
+
+// A result in the cache, pinned: while any copy of this handle is alive the
+// result's files are not deleted by eviction (in this process or, through a
+// shared file lock, any other using the same directory).
+//
+// Copyable and cheap (a shared pointer); copies share one pin. Thread-safe
+// to read and copy from any thread. It may outlive its Cache.
+class CachedResult {
+ public:
+  CachedResult();
+  ~CachedResult();
+  CachedResult(const CachedResult&);
+  CachedResult& operator=(const CachedResult&);
+  CachedResult(CachedResult&&) noexcept;
+  CachedResult& operator=(CachedResult&&) noexcept;
+
+  // False for a default-constructed handle.
+  bool valid() const;
+
+  const std::string& key() const;
+  // The directory holding the result's files.
+  const std::filesystem::path& dir() const;
+  // manifest.json (format: common/manifest_format.md) and its text.
+  const std::filesystem::path& manifest_path() const;
+  const std::string& manifest_json() const;
+  // Every map image in manifest order, then manifest.json.
+  const std::vector<CachedFile>& files() const;
+  // The map with `semantic`, or nullptr.
+  const CachedFile* map(const std::string& semantic) const;
+  // Sum of the files' sizes.
+  int64_t size_bytes() const;
+  // "octahedral" or "hemi-octahedral", frames per axis, atlas side (pixels).
+  const std::string& layout() const;
+  uint32_t frames() const;
+  uint32_t resolution() const;
+  // True when this Get (or the download it joined) fetched the result over
+  // the network; false when it was already on disk.
+  bool downloaded() const;
+
+  struct Rep;  // private
+  explicit CachedResult(std::shared_ptr<const Rep> rep);
+
+ private:
+  std::shared_ptr<const Rep> rep_;
+};
+
+// Answer of Cache::Lookup.
+struct LookupResult {
+  // The cache key the mesh and settings map to (64 hex chars), found or not.
+  std::string cache_key;
+  // True when the server has a result baked under cache_key; Get(cache_key)
+  // then succeeds.
+  bool found = false;
+};
+
+// One installed result, as Cache::List reports it.
+struct CacheEntryInfo {
+  std::string key;
+  std::filesystem::path dir;
+  int64_t size_bytes = 0;
+  // Last time a Get returned it (or it was installed), Unix seconds.
+  int64_t last_used_unix_seconds = 0;
+  // Handles of this process pin it.
+  bool in_use = false;
+};
+
+// Counters since the Cache was opened, and the current footprint.
+struct CacheStats {
+  int64_t entries = 0;
+  int64_t bytes = 0;           // installed results
+  int64_t pinned_entries = 0;  // with live handles in this process
+  int64_t hits = 0;            // Gets answered from disk
+  int64_t misses = 0;          // Gets that needed the network (shared or not)
+  int64_t downloads = 0;       // results downloaded and installed
+  int64_t bytes_downloaded = 0;
+  int64_t bytes_resumed = 0;   // bytes a download did not fetch again because a partial file had them
+  int64_t corrupt_entries = 0; // local results found damaged and dropped
+  int64_t evicted_entries = 0;
+};
+
+// What Cache::CollectGarbage removed.
+struct GarbageReport {
+  int64_t evicted_entries = 0;
+  int64_t evicted_bytes = 0;
+  int64_t broken_entries = 0;    // failed verification (with verify) or unreadable
+  int64_t removed_partials = 0;  // stale partial downloads and staging leftovers
+  int64_t removed_partial_bytes = 0;
+};
+
+// The cache. Owns a pool of download threads and a pool of I/O threads, and
+// a lazily opened connection to the server.
+//
+// Thread-safety: every method may be called from any thread, concurrently.
+// Callbacks run on the cache's own threads; they may call the cache again,
+// but must not block for long (they hold up the pool). Destroying the Cache
+// cancels queued and running downloads (their callbacks get CANCELLED, with
+// partial files kept for resuming) and waits for running callbacks; handles
+// stay valid.
+class Cache {
+ public:
+  // Validates `options`, creates options.dir, loads the index of installed
+  // results and trims it to max_bytes. Does not contact the server.
+  // INVALID_ARGUMENT (bad option), INTERNAL (the directory is unusable, or
+  // was written by an incompatible version).
+  static absl::StatusOr<std::unique_ptr<Cache>> Open(const CacheOptions& options);
+
+  ~Cache();
+  Cache(const Cache&) = delete;
+  Cache& operator=(const Cache&) = delete;
+
+  // The result under `cache_key`: from disk when present and intact (no
+  // network traffic), else downloaded, verified, installed and returned.
+  // Blocks the caller until then. A damaged local copy is dropped and
+  // downloaded again. Concurrent Gets of one key share one download.
+  // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars), NOT_FOUND
+  // (nothing baked under that key), UNAVAILABLE (not cached and the server
+  // cannot be reached; fast, see connect_timeout_seconds), DATA_LOSS (the
+  // server's bytes do not match their digests), INTERNAL (local disk),
+  // CANCELLED (the Cache is being destroyed), or an RPC's error.
+  absl::StatusOr<CachedResult> Get(const std::string& cache_key);
+
+  // Get without blocking the caller: `done` is called exactly once, on a
+  // cache thread, with what Get would return.
+  using GetCallback = std::function<void(absl::StatusOr<CachedResult>)>;
+  void GetAsync(const std::string& cache_key, GetCallback done);
+  // The same as a future.
+  std::future<absl::StatusOr<CachedResult>> GetAsync(const std::string& cache_key);
+
+  // The cache key a bake of `model` with `settings` would have, and whether
+  // the server has it baked, without baking or uploading: the model's files
+  // are hashed locally and the server asked (BakeService.LookupBake).
+  // Errors: as Client::SubmitBake for the model and settings, UNAVAILABLE
+  // when the server is unreachable, or an RPC's error.
+  absl::StatusOr<LookupResult> Lookup(const std::filesystem::path& model, const BakeSettings& settings);
+
+  // Downloads `cache_keys` in the background, at most
+  // max_parallel_prefetches at a time; keys already on disk are skipped
+  // without network traffic. `done` (may be empty) is called once per key on
+  // a cache thread with the outcome. Does not pin: a prefetched result may be
+  // evicted again if the cap is too small to hold it.
+  using PrefetchCallback = std::function<void(const std::string& cache_key, const absl::Status& status)>;
+  void Prefetch(const std::vector<std::string>& cache_keys, PrefetchCallback done = {});
+
+  // Installed results, most recently used first.
+  std::vector<CacheEntryInfo> List();
+
+  // Trims to `max_bytes` (< 0: options.max_bytes) by evicting least
+  // recently used results not in use, removes stale partial downloads and
+  // staging leftovers, and with `verify` re-hashes every result not in use
+  // and drops those that do not match.
+  absl::StatusOr<GarbageReport> CollectGarbage(int64_t max_bytes = -1, bool verify = false);
+
+  CacheStats Stats();
+  const CacheOptions& options() const;
+
+  class Impl;  // private
+
+ private:
+  friend class CacheFactory;  // opens with test hooks (client/cache/cache_testing.h)
+  explicit Cache(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CACHE_H_

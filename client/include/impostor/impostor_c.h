@@ -1,0 +1,127 @@
+/* A plain C API over the impostor result cache (impostor/cache.h), for
+ * engines and tools written in other languages (C#, Rust, Python through
+ * ctypes). Opaque handles, status codes, no callbacks across threads other
+ * than impostor_cache_get_async's.
+ *
+ * Status codes are the canonical ones (absl::StatusCode = grpc::StatusCode):
+ * IMPOSTOR_OK 0, IMPOSTOR_CANCELLED 1, IMPOSTOR_INVALID_ARGUMENT 3,
+ * IMPOSTOR_NOT_FOUND 5, IMPOSTOR_INTERNAL 13, IMPOSTOR_UNAVAILABLE 14,
+ * IMPOSTOR_DATA_LOSS 15, ...; impostor_last_error() gives the message of the
+ * last failure on the calling thread.
+ *
+ * Thread-safety: a cache may be used from any thread concurrently. A result
+ * handle may be read from any thread and must be released exactly once; the
+ * strings it returns live as long as it does. Releasing a result unpins it
+ * (it may then be evicted); it may outlive its cache.
+ *
+ *   impostor_cache_options o;
+ *   impostor_cache_options_init(&o);
+ *   o.server = "bake.example.com:50051";
+ *   o.dir = "/home/me/.cache/impostor";
+ *   impostor_cache* cache;
+ *   if (impostor_cache_open(&o, &cache) != IMPOSTOR_OK) { puts(impostor_last_error()); ... }
+ *   impostor_result* r;
+ *   if (impostor_cache_get(cache, key, &r) == IMPOSTOR_OK) {
+ *     load_texture(impostor_result_map_path(r, "albedo_alpha"));
+ *     impostor_result_release(r);
+ *   }
+ *   impostor_cache_close(cache);
+ */
+#ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_IMPOSTOR_C_H_
+#define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_IMPOSTOR_C_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum impostor_status {
+  IMPOSTOR_OK = 0,
+  IMPOSTOR_CANCELLED = 1,
+  IMPOSTOR_UNKNOWN = 2,
+  IMPOSTOR_INVALID_ARGUMENT = 3,
+  IMPOSTOR_DEADLINE_EXCEEDED = 4,
+  IMPOSTOR_NOT_FOUND = 5,
+  IMPOSTOR_FAILED_PRECONDITION = 9,
+  IMPOSTOR_INTERNAL = 13,
+  IMPOSTOR_UNAVAILABLE = 14,
+  IMPOSTOR_DATA_LOSS = 15
+  /* Other canonical codes may appear; treat unknown values as errors. */
+} impostor_status;
+
+typedef struct impostor_cache impostor_cache;
+typedef struct impostor_result impostor_result;
+
+/* Mirrors impostor::sdk::CacheOptions (see impostor/cache.h for each
+ * field's meaning, default and range). Always fill it with
+ * impostor_cache_options_init first, then change what you need. Strings are
+ * copied by impostor_cache_open. */
+typedef struct impostor_cache_options {
+  const char* server;             /* default "localhost:50051" */
+  const char* dir;                /* required */
+  int64_t max_bytes;              /* default 2 GiB; >= 0 */
+  int32_t max_parallel_downloads; /* default 4; 1..64 */
+  int32_t max_parallel_prefetches;/* default 2; 1..max_parallel_downloads */
+  double connect_timeout_seconds; /* default 5; > 0 */
+  double rpc_timeout_seconds;     /* default 30; > 0 */
+  int32_t max_attempts;           /* default 3; >= 1 */
+} impostor_cache_options;
+
+void impostor_cache_options_init(impostor_cache_options* options);
+
+/* Opens (creates) the cache directory; does not contact the server. On
+ * success *out must be closed with impostor_cache_close. */
+impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out);
+
+/* Cancels pending downloads and frees the cache. NULL is a no-op. */
+void impostor_cache_close(impostor_cache* cache);
+
+/* Blocking Get: the result under the 64-hex-character key, from disk or
+ * downloaded. On success *out must be released with impostor_result_release. */
+impostor_status impostor_cache_get(impostor_cache* cache, const char* key, impostor_result** out);
+
+/* Non-blocking Get: `done` is called once, on a cache thread, with the
+ * status, the result (NULL unless IMPOSTOR_OK; the callee owns it and must
+ * release it) and `user_data`. The error message is available through
+ * impostor_last_error() inside the callback. */
+typedef void (*impostor_get_callback)(impostor_status status, impostor_result* result, void* user_data);
+void impostor_cache_get_async(impostor_cache* cache, const char* key, impostor_get_callback done, void* user_data);
+
+/* Background download of `count` keys; keys already cached are skipped. */
+void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count);
+
+/* The key of an already-baked result for a model and settings, without
+ * baking: `layout` "octahedral" / "hemi-octahedral" (NULL = default),
+ * `frames` and `resolution` 0 = server default. Writes 64 hex characters and
+ * a NUL into key_out (65 bytes) and whether it is baked into *found. */
+impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
+                                      uint32_t frames, uint32_t resolution, char key_out[65], int* found);
+
+/* Accessors; valid until impostor_result_release. */
+const char* impostor_result_key(const impostor_result* result);
+const char* impostor_result_dir(const impostor_result* result);
+const char* impostor_result_manifest_path(const impostor_result* result);
+/* Map images then manifest.json. */
+size_t impostor_result_file_count(const impostor_result* result);
+const char* impostor_result_file_path(const impostor_result* result, size_t index);
+const char* impostor_result_file_semantic(const impostor_result* result, size_t index);
+/* The path of the map with `semantic` ("albedo_alpha", "normal_depth",
+ * "orm"), or NULL. */
+const char* impostor_result_map_path(const impostor_result* result, const char* semantic);
+int64_t impostor_result_size_bytes(const impostor_result* result);
+/* 1 when this Get downloaded it, 0 when it came from disk. */
+int impostor_result_downloaded(const impostor_result* result);
+void impostor_result_release(impostor_result* result);
+
+/* "OK", "NOT_FOUND", ... for a status code. */
+const char* impostor_status_name(impostor_status status);
+/* The message of the last failed call on this thread ("" if none). */
+const char* impostor_last_error(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_IMPOSTOR_C_H_ */

@@ -1,0 +1,116 @@
+// Pure pieces of the cache: LRU accounting, the `.entry` record format and
+// its bad inputs, and the single-flight coordinator.
+#include <atomic>
+#include <latch>
+#include <mutex>
+
+#include <gtest/gtest.h>
+
+#include "client/cache/cache_layout.h"
+#include "client/cache/download_coordinator.h"
+#include "client/cache/lru_index.h"
+
+namespace impostor::sdk {
+namespace {
+
+TEST(LruIndex, VictimsAreLeastRecentlyUsedFirstAndSkipPinned) {
+  LruIndex lru;
+  lru.Insert("a", 10, 1);
+  lru.Insert("b", 10, 2);
+  lru.Insert("c", 10, 3);
+  lru.Touch("a", 4);  // order now c, b... newest first: a, c, b
+  EXPECT_EQ(lru.total_bytes(), 30);
+  EXPECT_EQ(lru.Victims(20, nullptr), (std::vector<std::string>{"b"}));
+  EXPECT_EQ(lru.Victims(5, nullptr), (std::vector<std::string>{"b", "c", "a"}));
+  EXPECT_EQ(lru.Victims(5, [](const std::string& k) { return k == "c"; }), (std::vector<std::string>{"b", "a"}));
+  EXPECT_TRUE(lru.Victims(30, nullptr).empty());
+  lru.Erase("b");
+  EXPECT_EQ(lru.total_bytes(), 20);
+  lru.Insert("a", 15, 5);  // re-insert replaces the size
+  EXPECT_EQ(lru.total_bytes(), 25);
+  ASSERT_EQ(lru.Items().size(), 2u);
+  EXPECT_EQ(lru.Items()[0].key, "a");
+}
+
+EntryRecord SampleRecord() {
+  EntryRecord r;
+  r.key = std::string(64, 'a');
+  r.layout = "octahedral";
+  r.frames = 12;
+  r.resolution = 2048;
+  r.files.push_back({"albedo_alpha", "albedo_alpha.png", std::string(64, 'b'), 100, 2048, 2048, "png_rgba8", 7, 9});
+  r.files.push_back({"manifest", "manifest.json", std::string(64, 'c'), 10, 0, 0, "json", 8, 10});
+  return r;
+}
+
+TEST(EntryRecord, RoundTripsThroughJson) {
+  const EntryRecord r = SampleRecord();
+  auto back = EntryRecordFromJson(EntryRecordToJson(r));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->key, r.key);
+  ASSERT_EQ(back->files.size(), 2u);
+  EXPECT_EQ(back->files[0].inode, 7u);
+  EXPECT_EQ(back->files[1].mtime_ns, 10);
+  EXPECT_EQ(back->TotalBytes(), 110);
+}
+
+TEST(EntryRecord, BadRecordsAreRefusedByName) {
+  struct Case {
+    const char* name;
+    std::function<void(EntryRecord&)> change;
+    std::string raw;  // used instead when set
+  };
+  const Case cases[] = {
+      {"not json", nullptr, "{nope"},
+      {"not an object", nullptr, "[1,2]"},
+      {"missing files", nullptr, R"({"format":1,"key":")" + std::string(64, 'a') + R"(","layout":"x","frames":1,"resolution":1})"},
+      {"key not hex", [](EntryRecord& r) { r.key = "zz"; }, ""},
+      {"file name with a directory", [](EntryRecord& r) { r.files[0].name = "../evil.png"; }, ""},
+      {"file named .entry", [](EntryRecord& r) { r.files[0].name = ".entry"; }, ""},
+      {"bad digest", [](EntryRecord& r) { r.files[0].sha256 = "xyz"; }, ""},
+      {"negative size", [](EntryRecord& r) { r.files[0].size_bytes = -1; }, ""},
+      {"no files", [](EntryRecord& r) { r.files.clear(); }, ""},
+  };
+  for (const Case& c : cases) {
+    std::string json = c.raw;
+    if (json.empty()) {
+      EntryRecord r = SampleRecord();
+      c.change(r);
+      json = EntryRecordToJson(r);
+    }
+    EXPECT_EQ(EntryRecordFromJson(json).status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+  }
+}
+
+TEST(DownloadCoordinator, JoinersOfOneKeyShareOneRunAndDifferentKeysRunInParallel) {
+  std::atomic<int> runs{0};
+  std::latch both_running(2);  // proves two keys run at the same time
+  DownloadCoordinator coordinator(2, 1, [&](const std::string& key) -> DownloadCoordinator::Result {
+    ++runs;
+    both_running.arrive_and_wait();
+    return absl::NotFoundError(key);
+  });
+  std::mutex mu;
+  std::vector<std::string> answers;
+  std::latch done(4);
+  auto record = [&](const DownloadCoordinator::Result& r) {
+    std::lock_guard lock(mu);
+    answers.push_back(std::string(r.status().message()));
+    done.count_down();
+  };
+  coordinator.Join("x", true, record);
+  coordinator.Join("x", true, record);
+  coordinator.Join("x", false, record);
+  coordinator.Join("y", true, record);
+  done.wait();
+  EXPECT_EQ(runs.load(), 2);
+  std::sort(answers.begin(), answers.end());
+  EXPECT_EQ(answers, (std::vector<std::string>{"x", "x", "x", "y"}));
+  coordinator.Shutdown();
+  absl::StatusCode after = absl::StatusCode::kOk;
+  coordinator.Join("z", true, [&](const DownloadCoordinator::Result& r) { after = r.status().code(); });
+  EXPECT_EQ(after, absl::StatusCode::kCancelled);
+}
+
+}  // namespace
+}  // namespace impostor::sdk

@@ -1,0 +1,38 @@
+// Test helper: puts a baked result into a real impostor-server without a
+// GPU. It submits a bake of a tiny unique "model", leases the job through
+// WorkerService like a worker would, uploads map blobs of chosen sizes (random
+// bytes: the cache never decodes them) and a manifest.json, and completes
+// the job. The server then serves the result under its cache key exactly as
+// it would a real bake.
+#ifndef IMPOSTOR_TESTS_CACHE_PUBLISHED_RESULT_H_
+#define IMPOSTOR_TESTS_CACHE_PUBLISHED_RESULT_H_
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor::testing {
+
+struct PublishedResult {
+  std::string key;
+  // File name -> bytes, the three maps and manifest.json.
+  std::map<std::string, std::string> files;
+  int64_t total_bytes = 0;
+};
+
+// Maps "albedo_alpha.png", "normal_depth.png", "orm.png" with the given
+// sizes. `seed` makes the bytes (and the model, hence the key) unique.
+PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed);
+
+// Completes the next queued job as PublishResult does (for a job submitted
+// by the caller). Returns the job's cache key.
+PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed);
+
+std::string RandomBytes(int64_t size, uint32_t seed);
+
+}  // namespace impostor::testing
+
+#endif  // IMPOSTOR_TESTS_CACHE_PUBLISHED_RESULT_H_

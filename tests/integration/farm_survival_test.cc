@@ -1,0 +1,213 @@
+// The farm never loses a job: real server and worker processes, killed with
+// SIGKILL at known points of a bake (workers pause at their render stage
+// while a test-controlled file exists), restarted, and checked on the jobs'
+// final states and the bytes fetched.
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "common/sha256.h"
+#include "impostor/client.h"
+#include "tests/integration/server_process.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::AssetsDir;
+using testing::ChildProcess;
+
+int FreeLoopbackPort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
+  socklen_t len = sizeof(addr);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+std::unique_ptr<ChildProcess> StartServer(int port, const fs::path& data, std::vector<std::string> extra = {}) {
+  std::vector<std::string> argv = {(testing::BinaryDir() / "impostor-server").string(),
+                                   "--listen=127.0.0.1:" + std::to_string(port), "--data=" + data.string(),
+                                   "--log-level=warn"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  auto server = std::make_unique<ChildProcess>(argv);
+  EXPECT_FALSE(server->ReadLineContaining("listening on").empty()) << "impostor-server did not start";
+  return server;
+}
+
+// A worker that pauses at the render stage of every bake while `pause_file`
+// exists.
+std::unique_ptr<ChildProcess> StartWorker(const std::string& address, const fs::path& pause_file) {
+  ::setenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE", pause_file.c_str(), 1);
+  auto worker = std::make_unique<ChildProcess>(std::vector<std::string>{
+      (testing::BinaryDir() / "impostor-worker").string(), "--server=" + address, "--log-level=warn"});
+  ::unsetenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
+  return worker;
+}
+
+void Touch(const fs::path& p) { std::ofstream(p) << "pause"; }
+
+void Kill9(ChildProcess& process) {
+  ::kill(process.pid(), SIGKILL);
+  process.Terminate();  // reaps it
+}
+
+v1::SubmitBakeResponse Submit(v1::BakeService::Stub& bake, const v1::MeshInput& mesh, int frames, int resolution) {
+  grpc::ClientContext ctx;
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = mesh;
+  request.mutable_parameters()->set_frames(static_cast<uint32_t>(frames));
+  request.mutable_parameters()->set_resolution(static_cast<uint32_t>(resolution));
+  v1::SubmitBakeResponse response;
+  const grpc::Status s = bake.SubmitBake(&ctx, request, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  return response;
+}
+
+// Follows WatchJob until `done(job)` holds; returns that job.
+v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
+                   const std::function<bool(const v1::Job&)>& done) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(3));
+  v1::WatchJobRequest request;
+  request.set_job_id(job_id);
+  auto reader = bake.WatchJob(&ctx, request);
+  v1::Job job;
+  while (reader->Read(&job)) {
+    if (done(job)) {
+      ctx.TryCancel();
+      break;
+    }
+  }
+  reader->Finish();
+  return job;
+}
+
+bool PausedAtRender(const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING && j.stage() == "render"; }
+
+TEST(FarmSurvival, AJobWhoseWorkerIsKilledMidBakeIsBakedByAnother) {
+  testing::ServerProcess server(/*local_workers=*/0, {"--lease-timeout-s=2"});
+  const fs::path pause = testing::NewTempDir("pause_worker_death") / "pause";
+  Touch(pause);
+  auto doomed = StartWorker(server.address(), pause);
+  const v1::MeshInput mesh =
+      testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  const v1::SubmitBakeResponse job = Submit(server.bake(), mesh, 2, 64);
+  ASSERT_TRUE(PausedAtRender(WatchUntil(server.bake(), job.job_id(), PausedAtRender)));
+  Kill9(*doomed);
+  fs::remove(pause);
+  auto rescuer = StartWorker(server.address(), pause);
+  const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.attempts(), 2u) << "the second lease, after the first worker's expired";
+  std::printf("farm survival: 1 job submitted, 1 worker killed mid-bake, %d completed (attempt %u)\n",
+              done.state() == v1::JOB_STATE_SUCCEEDED ? 1 : 0, done.attempts());
+}
+
+TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
+  const int port = FreeLoopbackPort();
+  const std::string address = "127.0.0.1:" + std::to_string(port);
+  const fs::path data = testing::NewTempDir("server_death_data");
+  const fs::path pause = testing::NewTempDir("server_death_pause") / "pause";
+  auto server = StartServer(port, data);
+  Touch(pause);
+  auto worker = StartWorker(address, pause);
+
+  auto client = sdk::Client::Connect({.server = address});
+  ASSERT_TRUE(client.ok()) << client.status();
+  const char* assets[] = {"props_pbr/Box/glTF-Binary/Box.glb", "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb",
+                          "props_pbr/Duck/glTF-Binary/Duck.glb"};
+  std::vector<sdk::SubmitResult> jobs;
+  for (const char* asset : assets) {
+    auto r = (*client)->SubmitBake(AssetsDir() / asset, {.frames = 2, .resolution = 64});
+    ASSERT_TRUE(r.ok()) << asset << ": " << r.status();
+    jobs.push_back(*r);
+  }
+  // Watchers that are streaming when the server dies.
+  std::vector<absl::StatusOr<sdk::JobUpdate>> finals(jobs.size(), absl::UnknownError("not watched"));
+  std::vector<std::thread> watchers;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    watchers.emplace_back([&, i] { finals[i] = (*client)->WatchJob(jobs[i].job_id, [](const sdk::JobUpdate&) {}); });
+  }
+  {
+    auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+    auto bake = v1::BakeService::NewStub(channel);
+    ASSERT_TRUE(PausedAtRender(WatchUntil(*bake, jobs[0].job_id, PausedAtRender)));
+  }
+  Kill9(*server);
+  server = StartServer(port, data);
+  fs::remove(pause);
+  for (auto& t : watchers) t.join();
+
+  int completed = 0;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    ASSERT_TRUE(finals[i].ok()) << assets[i] << ": " << finals[i].status();
+    EXPECT_EQ(finals[i]->state, sdk::JobState::kSucceeded) << assets[i] << ": " << finals[i]->error_message;
+    const fs::path out = testing::NewTempDir("server_death_fetch_" + std::to_string(i));
+    auto fetched = (*client)->Fetch(jobs[i].cache_key, out);  // verifies every digest
+    ASSERT_TRUE(fetched.ok()) << assets[i] << ": " << fetched.status();
+    completed += finals[i]->state == sdk::JobState::kSucceeded;
+  }
+  EXPECT_EQ(::waitpid(worker->pid(), nullptr, WNOHANG), 0) << "the worker outlived the server's death";
+  std::printf("farm survival: %zu jobs submitted, server killed mid-bake (1 running, %zu queued), %d completed\n",
+              jobs.size(), jobs.size() - 1, completed);
+}
+
+TEST(FarmSurvival, CancelStopsTheRunningBakeAndFreesTheWorker) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  const fs::path pause = testing::NewTempDir("pause_cancel") / "pause";
+  Touch(pause);
+  auto worker = StartWorker(server.address(), pause);
+  const v1::MeshInput helmet =
+      testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
+  const v1::SubmitBakeResponse big = Submit(server.bake(), helmet, 12, 2048);
+  ASSERT_TRUE(PausedAtRender(WatchUntil(server.bake(), big.job_id(), PausedAtRender)));
+
+  const v1::MeshInput box = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  const v1::SubmitBakeResponse next = Submit(server.bake(), box, 2, 64);
+  const auto cancel_time = std::chrono::steady_clock::now();
+  {
+    grpc::ClientContext ctx;
+    v1::CancelJobRequest cancel;
+    cancel.set_job_id(big.job_id());
+    v1::Job cancelled;
+    ASSERT_TRUE(server.bake().CancelJob(&ctx, cancel, &cancelled).ok());
+    EXPECT_EQ(cancelled.state(), v1::JOB_STATE_CANCELLED);
+  }
+  // The only worker leaves the cancelled bake and takes the next job.
+  const v1::Job leased = WatchUntil(server.bake(), next.job_id(),
+                                    [](const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING; });
+  const double freed_after = std::chrono::duration<double>(std::chrono::steady_clock::now() - cancel_time).count();
+  EXPECT_EQ(leased.state(), v1::JOB_STATE_RUNNING);
+  EXPECT_LT(freed_after, 5.0) << "the worker should hear of the cancel within about a second";
+  fs::remove(pause);
+  EXPECT_EQ(testing::WatchToEnd(server.bake(), next.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
+
+  grpc::ClientContext ctx;
+  v1::SubmitBakeRequest lookup;
+  *lookup.mutable_mesh() = helmet;
+  lookup.mutable_parameters()->set_frames(12);
+  lookup.mutable_parameters()->set_resolution(2048);
+  v1::LookupBakeResponse found;
+  ASSERT_TRUE(server.bake().LookupBake(&ctx, lookup, &found).ok());
+  EXPECT_FALSE(found.found()) << "the cancelled bake must not have run to the end";
+  std::printf("farm survival: cancelled bake released its worker after %.2f s\n", freed_after);
+}
+
+}  // namespace
+}  // namespace impostor
