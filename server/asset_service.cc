@@ -67,3 +67,12 @@ grpc::Status AssetServiceImpl::GetResult(grpc::ServerContext*, const v1::GetResu
 }
 
 }  // namespace impostor
+
+namespace impostor {
+
+grpc::Status AssetServiceImpl::PinResult(grpc::ServerContext*, const v1::PinResultRequest* request,
+                                         v1::PinResultResponse*) {
+  return ToGrpc(scheduler_->PinResult(request->cache_key(), request->pinned()));
+}
+
+}  // namespace impostor

@@ -2,7 +2,10 @@
 
 #include <openssl/rand.h>
 
+#include <algorithm>
 #include <array>
+#include <map>
+#include <set>
 
 #include <spdlog/spdlog.h>
 
@@ -162,6 +165,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   record.job.set_updated_ms(now);
   record.client_id = client_id.substr(0, 128);
   if (cached->has_value()) {
+    if (auto s = jobs_->TouchResult(key, now); !s.ok()) return s;
     // A job record even for a hit, so GetJob/WatchJob work on every id.
     record.job.set_state(v1::JOB_STATE_SUCCEEDED);
     record.job.set_progress(1.0f);
@@ -234,6 +238,7 @@ absl::StatusOr<v1::LookupBakeResponse> BakeScheduler::Lookup(const v1::SubmitBak
   if (!cached.ok()) return cached.status();
   if (cached->has_value()) {
     response.set_found(true);
+    if (auto s = jobs_->TouchResult(response.cache_key(), options_.now_ms()); !s.ok()) return s;
     *response.mutable_result() = std::move(**cached);
   }
   return response;
@@ -279,7 +284,84 @@ absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_k
   auto r = IntactResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
+  if (auto s = jobs_->TouchResult(cache_key, options_.now_ms()); !s.ok()) return s;
   return std::move(**r);
+}
+
+absl::Status BakeScheduler::PinResult(const std::string& cache_key, bool pinned) {
+  if (!IsSha256Hex(cache_key)) {
+    return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
+                                                    cache_key.substr(0, 80), "\""));
+  }
+  std::lock_guard lock(mu_);
+  auto found = jobs_->PinResult(cache_key, pinned);
+  if (!found.ok()) return found.status();
+  if (!*found) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
+  spdlog::info("event=pin cache_key={} pinned={}", cache_key, pinned);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
+  EvictionStats stats;
+  const int64_t cap = options_.store_max_bytes;
+  if (cap <= 0 || blobs_->total_bytes() <= cap) return stats;
+  std::lock_guard lock(mu_);
+  // What must stay: every input of a queued or running job.
+  std::set<std::string> needed;
+  auto pending = jobs_->Pending();
+  if (!pending.ok()) return pending.status();
+  for (const JobRecord& r : *pending) {
+    needed.insert(r.mesh.entry().digest().hash());
+    for (const auto& f : r.mesh.files()) needed.insert(f.digest().hash());
+  }
+  auto results = jobs_->ResultsByLastUse();
+  if (!results.ok()) return results.status();
+  std::map<std::string, int> result_refs;
+  auto result_blobs = [](const v1::Manifest& m) {
+    std::vector<std::string> hashes = {m.manifest_json().hash()};
+    for (const auto& map : m.maps()) hashes.push_back(map.digest().hash());
+    return hashes;
+  };
+  for (const auto& r : *results) {
+    for (const auto& h : result_blobs(r.manifest)) ++result_refs[h];
+  }
+  auto remove = [&](const std::string& hash, int64_t size) -> absl::Status {
+    if (auto s = blobs_->Remove(hash); !s.ok()) return s;
+    ++stats.blobs_removed;
+    stats.bytes_freed += size;
+    return absl::OkStatus();
+  };
+  // First, blobs nothing refers to (inputs of finished bakes, orphans),
+  // oldest first, sparing recent uploads that may be about to be submitted.
+  std::vector<BlobStore::StoredBlob> stored = blobs_->List();
+  std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.mtime_ns < b.mtime_ns; });
+  std::map<std::string, int64_t> sizes;
+  // File times are real time, whatever clock the scheduler runs on.
+  const int64_t grace_ns = (SystemNowMs() - options_.eviction_grace_ms) * 1'000'000;
+  for (const auto& b : stored) {
+    sizes[b.hash] = b.size_bytes;
+    if (blobs_->total_bytes() <= cap) break;
+    if (needed.count(b.hash) || result_refs.count(b.hash) || b.mtime_ns > grace_ns) continue;
+    if (auto s = remove(b.hash, b.size_bytes); !s.ok()) return s;
+  }
+  // Then whole results, least recently used first, never pinned ones.
+  for (const auto& r : *results) {
+    if (blobs_->total_bytes() <= cap) break;
+    if (r.pinned) continue;
+    const std::string& key = r.manifest.cache_key();
+    if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
+    ++stats.results_removed;
+    for (const auto& h : result_blobs(r.manifest)) {
+      if (--result_refs[h] > 0 || needed.count(h)) continue;
+      if (auto s = remove(h, sizes.count(h) ? sizes[h] : 0); !s.ok()) return s;
+    }
+    spdlog::info("event=evict_result cache_key={}", key);
+  }
+  if (stats.blobs_removed > 0) {
+    spdlog::info("event=store_evicted blobs={} results={} bytes={} store_bytes={} cap={}", stats.blobs_removed,
+                 stats.results_removed, stats.bytes_freed, blobs_->total_bytes(), cap);
+  }
+  return stats;
 }
 
 uint64_t BakeScheduler::change_count() {
@@ -395,7 +477,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
     }
   }
   // Even a cancelled job's result is good: keep it for the next request.
-  if (auto s = jobs_->PutResult(m); !s.ok()) return s;
+  if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     r->job.set_state(v1::JOB_STATE_SUCCEEDED);
     r->job.set_progress(1.0f);

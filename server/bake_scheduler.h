@@ -39,6 +39,13 @@ struct SchedulerOptions {
   // range >= 1.
   int64_t max_pending_jobs = 100'000;
   int64_t max_pending_per_client = 10'000;
+  // Store size cap in bytes (0 = none). Over it, EnforceStoreCap evicts
+  // blobs no result or pending job refers to, oldest first, then the least
+  // recently used unpinned results and the blobs only they used. Blobs a
+  // queued or running job needs, and blobs younger than
+  // `eviction_grace_ms` (uploads about to be submitted), are never evicted.
+  int64_t store_max_bytes = 0;
+  int64_t eviction_grace_ms = 10 * 60'000;
   // Wall clock in Unix epoch milliseconds; tests substitute a fake.
   std::function<int64_t()> now_ms;
 };
@@ -61,6 +68,20 @@ class BakeScheduler {
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
   // NOT_FOUND when nothing is baked under the key (or its blobs are gone).
   absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
+
+  // Pins (or unpins) a result so eviction never drops it.
+  // NOT_FOUND when nothing is baked under the key; INVALID_ARGUMENT for a
+  // malformed key.
+  absl::Status PinResult(const std::string& cache_key, bool pinned);
+
+  struct EvictionStats {
+    int blobs_removed = 0;
+    int results_removed = 0;
+    int64_t bytes_freed = 0;
+  };
+  // Brings the store under options().store_max_bytes (see there). Cheap when
+  // already under it.
+  absl::StatusOr<EvictionStats> EnforceStoreCap();
 
   // Counter bumped on every job change.
   uint64_t change_count();

@@ -35,8 +35,13 @@ std::string UniqueSuffix() {
 
 class FileWriter final : public BlobStore::Writer {
  public:
-  FileWriter(BlobDigest digest, fs::path tmp_path, fs::path final_path, int fd)
-      : digest_(std::move(digest)), tmp_path_(std::move(tmp_path)), final_path_(std::move(final_path)), fd_(fd) {}
+  FileWriter(BlobDigest digest, fs::path tmp_path, fs::path final_path, int fd,
+             std::function<void(int64_t)> on_published)
+      : digest_(std::move(digest)),
+        tmp_path_(std::move(tmp_path)),
+        final_path_(std::move(final_path)),
+        fd_(fd),
+        on_published_(std::move(on_published)) {}
 
   ~FileWriter() override {
     if (fd_ >= 0) ::close(fd_);
@@ -82,6 +87,7 @@ class FileWriter final : public BlobStore::Writer {
     fs::create_directories(final_path_.parent_path(), ec);
     if (::rename(tmp_path_.c_str(), final_path_.c_str()) != 0) return ErrnoError("rename into", final_path_);
     committed_ = true;
+    on_published_(digest_.size_bytes);
     if (auto s = SyncDirectory(final_path_.parent_path()); !s.ok()) return s;
     return false;
   }
@@ -94,6 +100,7 @@ class FileWriter final : public BlobStore::Writer {
   Sha256 hash_;
   int64_t written_ = 0;
   bool committed_ = false;
+  std::function<void(int64_t)> on_published_;
 };
 
 }  // namespace
@@ -114,7 +121,33 @@ absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root,
   fs::remove_all(store->tmp_dir_, ec);
   fs::create_directories(store->tmp_dir_, ec);
   if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->tmp_dir_.string(), ": ", ec.message()));
+  for (const StoredBlob& b : store->List()) store->total_bytes_ += b.size_bytes;
   return store;
+}
+
+std::vector<BlobStore::StoredBlob> BlobStore::List() const {
+  std::vector<StoredBlob> out;
+  std::error_code ec;
+  for (const auto& entry : fs::recursive_directory_iterator(cas_dir_, ec)) {
+    struct stat st {};
+    if (!entry.is_regular_file(ec) || ::stat(entry.path().c_str(), &st) != 0) continue;
+    const std::string name = entry.path().filename().string();
+    if (!IsSha256Hex(name)) continue;
+    out.push_back({name, st.st_size, int64_t{st.st_mtim.tv_sec} * 1'000'000'000 + st.st_mtim.tv_nsec});
+  }
+  return out;
+}
+
+absl::Status BlobStore::Remove(const std::string& hash) {
+  if (!IsSha256Hex(hash)) return absl::InvalidArgumentError("hash: not a SHA-256 hex string");
+  const fs::path path = cas_dir_ / hash.substr(0, 2) / hash;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return absl::OkStatus();
+  if (::unlink(path.c_str()) != 0 && errno != ENOENT) return ErrnoError("remove", path);
+  total_bytes_ -= st.st_size;
+  std::lock_guard lock(verified_mu_);
+  verified_.erase(hash);
+  return absl::OkStatus();
 }
 
 fs::path BlobStore::PathFor(const BlobDigest& digest) const {
@@ -130,7 +163,8 @@ absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const Bl
   const fs::path tmp = tmp_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix(), ".tmp");
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) return ErrnoError("create", tmp);
-  return std::make_unique<FileWriter>(digest, tmp, PathFor(digest), fd);
+  return std::make_unique<FileWriter>(digest, tmp, PathFor(digest), fd,
+                                      [this](int64_t bytes) { AddPublished(bytes); });
 }
 
 absl::StatusOr<bool> BlobStore::Put(const BlobDigest& digest, std::string_view bytes) {
@@ -171,6 +205,7 @@ absl::Status BlobStore::Verify(const BlobDigest& digest) const {
   std::error_code ec;
   fs::create_directories(quarantine_dir_, ec);
   fs::rename(path, quarantine_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix()), ec);
+  if (!ec) total_bytes_ -= digest_on_disk->size_bytes;
   {
     std::lock_guard lock(verified_mu_);
     verified_.erase(digest.hash);

@@ -15,6 +15,7 @@
 #ifndef IMPOSTOR_SERVER_BLOB_STORE_H_
 #define IMPOSTOR_SERVER_BLOB_STORE_H_
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -23,6 +24,7 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
@@ -81,17 +83,32 @@ class BlobStore {
   // the bytes no longer hash to the digest.
   absl::StatusOr<std::string> ReadAll(const BlobDigest& digest) const;
 
+  // A blob file as found on disk.
+  struct StoredBlob {
+    std::string hash;
+    int64_t size_bytes = 0;
+    int64_t mtime_ns = 0;  // when it was published
+  };
+  // Every blob in the store (a directory scan).
+  std::vector<StoredBlob> List() const;
+  // Deletes a blob; OK if it is already gone.
+  absl::Status Remove(const std::string& hash);
+  // Bytes of all published blobs, kept current by the store itself.
+  int64_t total_bytes() const { return total_bytes_.load(); }
+
   std::filesystem::path PathFor(const BlobDigest& digest) const;
   const std::filesystem::path& root() const { return root_; }
 
  private:
   BlobStore(std::filesystem::path root, int64_t max_blob_bytes);
+  void AddPublished(int64_t bytes) { total_bytes_ += bytes; }
 
   const std::filesystem::path root_;
   const std::filesystem::path cas_dir_;
   const std::filesystem::path tmp_dir_;
   const std::filesystem::path quarantine_dir_;
   const int64_t max_blob_bytes_;
+  mutable std::atomic<int64_t> total_bytes_{0};  // quarantine in const Verify updates it
 
   // hash -> modification time (ns) of the file when its content last hashed
   // to the digest. Lets reads skip re-hashing an unchanged blob.

@@ -30,9 +30,11 @@ CREATE INDEX IF NOT EXISTS jobs_by_key ON jobs (cache_key, state);
 CREATE INDEX IF NOT EXISTS jobs_by_leader ON jobs (leader_job_id, state);
 CREATE INDEX IF NOT EXISTS jobs_by_client ON jobs (client_id, state);
 CREATE TABLE IF NOT EXISTS results (
-  cache_key  TEXT PRIMARY KEY,
-  manifest   BLOB NOT NULL,  -- impostor.v1.Manifest
-  created_ms INTEGER NOT NULL
+  cache_key    TEXT PRIMARY KEY,
+  manifest     BLOB NOT NULL,  -- impostor.v1.Manifest
+  created_ms   INTEGER NOT NULL,
+  last_used_ms INTEGER NOT NULL DEFAULT 0,  -- for least-recently-used eviction
+  pinned       INTEGER NOT NULL DEFAULT 0   -- never evicted while 1
 );
 )sql";
 
@@ -241,12 +243,14 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {
   return out;
 }
 
-absl::Status JobStore::PutResult(const v1::Manifest& manifest) {
-  Statement st(db_, "INSERT OR REPLACE INTO results (cache_key, manifest, created_ms) VALUES (?1, ?2, "
-                    "CAST(strftime('%s','now') AS INTEGER) * 1000)");
+absl::Status JobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
+  Statement st(db_, "INSERT INTO results (cache_key, manifest, created_ms, last_used_ms) VALUES (?1, ?2, ?3, ?3) "
+                    "ON CONFLICT (cache_key) DO UPDATE SET manifest = excluded.manifest, "
+                    "last_used_ms = excluded.last_used_ms");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, manifest.cache_key());
   st.BindBlob(2, manifest.SerializeAsString());
+  st.Bind(3, now_ms);
   if (st.Step() != SQLITE_DONE) return st.Error("insert result");
   return absl::OkStatus();
 }
@@ -261,6 +265,55 @@ absl::StatusOr<std::optional<v1::Manifest>> JobStore::GetResult(const std::strin
   v1::Manifest m;
   if (!m.ParseFromString(st.Blob(0))) return absl::DataLossError("result " + cache_key + ": stored manifest does not parse");
   return std::optional<v1::Manifest>(std::move(m));
+}
+
+absl::Status JobStore::TouchResult(const std::string& cache_key, int64_t now_ms) {
+  Statement st(db_, "UPDATE results SET last_used_ms = ?2 WHERE cache_key = ?1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  st.Bind(2, now_ms);
+  if (st.Step() != SQLITE_DONE) return st.Error("touch result");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<bool> JobStore::PinResult(const std::string& cache_key, bool pinned) {
+  Statement st(db_, "UPDATE results SET pinned = ?2 WHERE cache_key = ?1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  st.Bind(2, int64_t{pinned ? 1 : 0});
+  if (st.Step() != SQLITE_DONE) return st.Error("pin result");
+  return sqlite3_changes(db_) > 0;
+}
+
+absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ResultsByLastUse() {
+  Statement st(db_, "SELECT cache_key, manifest, pinned FROM results ORDER BY last_used_ms, created_ms");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  std::vector<StoredResult> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    StoredResult r;
+    if (!r.manifest.ParseFromString(st.Blob(1))) return absl::DataLossError("result " + st.Text(0) + " does not parse");
+    r.pinned = st.Int(2) != 0;
+    out.push_back(std::move(r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("list results");
+  return out;
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::Pending() {
+  Statement st(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state IN (?1, ?2)").c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  std::vector<JobRecord> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    auto r = ReadJob(st);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("query pending");
+  return out;
 }
 
 absl::Status JobStore::DeleteResult(const std::string& cache_key) {

@@ -64,9 +64,21 @@ class JobStore {
   // RUNNING jobs whose lease deadline is before `now_ms`.
   absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms);
 
-  absl::Status PutResult(const v1::Manifest& manifest);
+  absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms);
   absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key);
   absl::Status DeleteResult(const std::string& cache_key);
+  // Records a use of the result (cache hit, GetResult) for LRU eviction.
+  absl::Status TouchResult(const std::string& cache_key, int64_t now_ms);
+  // Sets or clears the pin; false when no result has that key.
+  absl::StatusOr<bool> PinResult(const std::string& cache_key, bool pinned);
+  struct StoredResult {
+    v1::Manifest manifest;
+    bool pinned = false;
+  };
+  // Every result, least recently used first.
+  absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse();
+  // Every QUEUED or RUNNING job.
+  absl::StatusOr<std::vector<JobRecord>> Pending();
 
  private:
   explicit JobStore(sqlite3* db) : db_(db) {}

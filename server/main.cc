@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
@@ -37,6 +38,8 @@ ABSL_FLAG(int, max_attempts, 3, "Leases a job gets before it fails for good (1..
 ABSL_FLAG(int64_t, max_pending_jobs, 100000, "Queued or running jobs accepted in total (>= 1)");
 ABSL_FLAG(int64_t, max_pending_per_client, 10000, "Queued or running jobs accepted per client (>= 1)");
 ABSL_FLAG(int64_t, max_blob_bytes, int64_t{2} << 30, "Largest blob (upload or output) accepted, bytes (>= 1)");
+ABSL_FLAG(int64_t, store_max_bytes, 0,
+          "Store size cap in bytes; least recently used unpinned results are evicted beyond it (0 = no cap)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
@@ -90,7 +93,8 @@ int main(int argc, char** argv) {
       {.lease_timeout_ms = int64_t{lease_timeout_s} * 1000,
        .max_attempts = static_cast<uint32_t>(max_attempts),
        .max_pending_jobs = max_pending_jobs,
-       .max_pending_per_client = max_pending_per_client});
+       .max_pending_per_client = max_pending_per_client,
+       .store_max_bytes = std::max<int64_t>(0, absl::GetFlag(FLAGS_store_max_bytes))});
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler);
@@ -151,11 +155,14 @@ int main(int argc, char** argv) {
     server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
   });
 
-  // Lease expiry runs once a second.
+  // Lease expiry and the store cap are checked once a second.
   std::thread reaper([&] {
     uint64_t seen = scheduler.change_count();
     while (!g_stop) {
       if (auto s = scheduler.ExpireLeases(); !s.ok()) spdlog::error("event=expire_leases_failed error=\"{}\"", s.ToString());
+      if (auto s = scheduler.EnforceStoreCap(); !s.ok()) {
+        spdlog::error("event=eviction_failed error=\"{}\"", s.status().ToString());
+      }
       seen = scheduler.WaitForChange(seen, std::chrono::steady_clock::now() + std::chrono::seconds(1));
     }
   });

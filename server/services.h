@@ -25,6 +25,8 @@ class AssetServiceImpl final : public v1::AssetService::Service {
                         grpc::ServerWriter<v1::ReadBlobResponse>* writer) override;
   grpc::Status GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,
                          v1::Manifest* response) override;
+  grpc::Status PinResult(grpc::ServerContext* context, const v1::PinResultRequest* request,
+                         v1::PinResultResponse* response) override;
 
  private:
   BlobStore* const blobs_;

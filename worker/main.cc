@@ -25,6 +25,8 @@ ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (
 ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
 ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
 ABSL_FLAG(int, heartbeat_s, 1, "Seconds between lease renewals and cancel checks while baking (1..60)");
+ABSL_FLAG(uint64_t, max_triangles, 20'000'000, "Largest mesh accepted, triangles as drawn (>= 1)");
+ABSL_FLAG(int, max_texture_dimension, 16384, "Largest texture side accepted, pixels (1..65536)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
 int main(int argc, char** argv) {
@@ -65,6 +67,8 @@ int main(int argc, char** argv) {
                              .scratch_dir = scratch,
                              .heartbeat_seconds = heartbeat,
                              .max_jobs = absl::GetFlag(FLAGS_max_jobs),
+                             .load_limits = {.max_triangles = absl::GetFlag(FLAGS_max_triangles),
+                                             .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension)},
                              .test_pause_file = [] {
                                const char* f = std::getenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
                                return std::filesystem::path(f ? f : "");

@@ -214,7 +214,8 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     AtlasBakeRequest request{.entry_file = entry,
                              .parameters = job.parameters(),
                              .cache_key = job.cache_key(),
-                             .output_dir = output_dir};
+                             .output_dir = output_dir,
+                             .load_limits = options_.load_limits};
     auto out = job.parameters().product() == v1::PRODUCT_SURFELS
                    ? BakeSurfels(request, *renderer_, progress, cancelled)
                    : BakeAtlas(request, *renderer_, progress, cancelled);

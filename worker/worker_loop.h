@@ -19,6 +19,7 @@
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "worker/gpu/atlas_renderer.h"
+#include "worker/scene/gltf_loader.h"
 
 namespace impostor {
 
@@ -33,6 +34,8 @@ struct WorkerOptions {
   int heartbeat_seconds = 1;
   // Stop after this many jobs (0 = never): used by tests and one-shot runs.
   int max_jobs = 0;
+  // Limits on what a mesh may contain (triangles, texture sizes, ...).
+  GltfLoadLimits load_limits;
   // Test hook: while this file exists, a bake pauses when it reaches its
   // render stage (heartbeats continue). Lets tests kill processes at a known
   // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.

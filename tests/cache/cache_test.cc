@@ -233,12 +233,14 @@ TEST(CacheGet, InterruptedDownloadResumesFromItsOffsetAfterServerRestart) {
   const fs::path data = testing::NewTempDir("cache_resume_server");
   auto server = std::make_unique<ServerProcess>(0, data, "127.0.0.1:0");
   const std::string address = server->address();
-  const PublishedResult published = PublishResult(*server, {24 << 20, 64 << 10, 64 << 10}, 5);
+  const PublishedResult published = PublishResult(*server, {40 << 20, 64 << 10, 64 << 10}, 5);
   const std::string& big = published.files.at("albedo_alpha.png");
   const std::string big_hash = testing::DigestOf(big).hash();
   const fs::path dir = testing::NewTempDir("cache_resume");
 
-  // First run: the server dies once 1 MiB of the big map has arrived.
+  // First run: the server dies once 1 MiB of the big map has arrived. The
+  // map is far larger than what socket buffers and HTTP/2 windows can hold
+  // in flight, so the transfer is cut off midway.
   {
     std::atomic<bool> killed{false};
     sdk::DownloadHooks hooks;

@@ -211,3 +211,34 @@ TEST(FarmSurvival, CancelStopsTheRunningBakeAndFreesTheWorker) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(FarmLimits, AMeshOverTheWorkersTriangleLimitFailsNamingTheLimit) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  ChildProcess worker({(testing::BinaryDir() / "impostor-worker").string(), "--server=" + server.address(),
+                       "--max-triangles=1000", "--log-level=warn"});
+  const v1::MeshInput duck = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Duck/glTF-Binary/Duck.glb");
+  const v1::SubmitBakeResponse job = Submit(server.bake(), duck, 2, 64);
+  const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::RESOURCE_EXHAUSTED)) << done.error().message();
+  // The loader stops at the first accessor that cannot fit: 4,212 triangles
+  // are 12,636 indices.
+  EXPECT_NE(done.error().message().find("12636"), std::string::npos) << done.error().message();
+  EXPECT_NE(done.error().message().find("max_triangles = 1000"), std::string::npos) << done.error().message();
+  EXPECT_EQ(done.attempts(), 1u) << "a limit is not worth a retry";
+}
+
+TEST(FarmLimits, UploadsOverTheBlobLimitAreRefused) {
+  testing::ServerProcess server(/*local_workers=*/0, {"--max-blob-bytes=1000"});
+  const std::string bytes(2000, 'x');
+  const grpc::Status s = testing::UploadBytes(server.assets(), bytes, testing::DigestOf(bytes));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("2000"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("1000"), std::string::npos) << s.error_message();
+}
+
+}  // namespace
+}  // namespace impostor

@@ -87,7 +87,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // Load.
   progress("load", kLoadStart);
   auto t = Clock::now();
-  auto scene = LoadGltfScene(request.entry_file);
+  auto scene = LoadGltfScene(request.entry_file, request.load_limits);
   if (!scene.ok()) return scene.status();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");

@@ -17,6 +17,7 @@
 #include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
 #include "worker/gpu/atlas_renderer.h"
+#include "worker/scene/gltf_loader.h"
 
 namespace impostor {
 
@@ -25,6 +26,7 @@ struct AtlasBakeRequest {
   v1::BakeParameters parameters;     // normalised
   std::string cache_key;
   std::filesystem::path output_dir;  // exists and is empty
+  GltfLoadLimits load_limits;        // the worker's configured input limits
 };
 
 struct AtlasBakeOutput {

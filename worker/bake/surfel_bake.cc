@@ -170,7 +170,7 @@ absl::StatusOr<AtlasBakeOutput> BakeSurfels(const AtlasBakeRequest& request, Atl
 
   progress("load", kLoadStart);
   auto t = Clock::now();
-  auto scene = LoadGltfScene(request.entry_file);
+  auto scene = LoadGltfScene(request.entry_file, request.load_limits);
   if (!scene.ok()) return scene.status();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");

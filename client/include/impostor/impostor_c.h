@@ -33,6 +33,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
+// Every function below is exported from libimpostor_c.so even though the
+// library hides all other symbols.
+#if defined(__GNUC__)
+#define IMPOSTOR_C_EXPORT __attribute__((visibility("default")))
+#else
+#define IMPOSTOR_C_EXPORT
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -69,56 +77,56 @@ typedef struct impostor_cache_options {
   int32_t max_attempts;           /* default 3; >= 1 */
 } impostor_cache_options;
 
-void impostor_cache_options_init(impostor_cache_options* options);
+IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);
 
 /* Opens (creates) the cache directory; does not contact the server. On
  * success *out must be closed with impostor_cache_close. */
-impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out);
+IMPOSTOR_C_EXPORT impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out);
 
 /* Cancels pending downloads and frees the cache. NULL is a no-op. */
-void impostor_cache_close(impostor_cache* cache);
+IMPOSTOR_C_EXPORT void impostor_cache_close(impostor_cache* cache);
 
 /* Blocking Get: the result under the 64-hex-character key, from disk or
  * downloaded. On success *out must be released with impostor_result_release. */
-impostor_status impostor_cache_get(impostor_cache* cache, const char* key, impostor_result** out);
+IMPOSTOR_C_EXPORT impostor_status impostor_cache_get(impostor_cache* cache, const char* key, impostor_result** out);
 
 /* Non-blocking Get: `done` is called once, on a cache thread, with the
  * status, the result (NULL unless IMPOSTOR_OK; the callee owns it and must
  * release it) and `user_data`. The error message is available through
  * impostor_last_error() inside the callback. */
 typedef void (*impostor_get_callback)(impostor_status status, impostor_result* result, void* user_data);
-void impostor_cache_get_async(impostor_cache* cache, const char* key, impostor_get_callback done, void* user_data);
+IMPOSTOR_C_EXPORT void impostor_cache_get_async(impostor_cache* cache, const char* key, impostor_get_callback done, void* user_data);
 
 /* Background download of `count` keys; keys already cached are skipped. */
-void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count);
+IMPOSTOR_C_EXPORT void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count);
 
 /* The key of an already-baked result for a model and settings, without
  * baking: `layout` "octahedral" / "hemi-octahedral" (NULL = default),
  * `frames` and `resolution` 0 = server default. Writes 64 hex characters and
  * a NUL into key_out (65 bytes) and whether it is baked into *found. */
-impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
+IMPOSTOR_C_EXPORT impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
                                       uint32_t frames, uint32_t resolution, char key_out[65], int* found);
 
 /* Accessors; valid until impostor_result_release. */
-const char* impostor_result_key(const impostor_result* result);
-const char* impostor_result_dir(const impostor_result* result);
-const char* impostor_result_manifest_path(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_key(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_dir(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_manifest_path(const impostor_result* result);
 /* Map images then manifest.json. */
-size_t impostor_result_file_count(const impostor_result* result);
-const char* impostor_result_file_path(const impostor_result* result, size_t index);
-const char* impostor_result_file_semantic(const impostor_result* result, size_t index);
+IMPOSTOR_C_EXPORT size_t impostor_result_file_count(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_file_path(const impostor_result* result, size_t index);
+IMPOSTOR_C_EXPORT const char* impostor_result_file_semantic(const impostor_result* result, size_t index);
 /* The path of the map with `semantic` ("albedo_alpha", "normal_depth",
  * "orm"), or NULL. */
-const char* impostor_result_map_path(const impostor_result* result, const char* semantic);
-int64_t impostor_result_size_bytes(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_map_path(const impostor_result* result, const char* semantic);
+IMPOSTOR_C_EXPORT int64_t impostor_result_size_bytes(const impostor_result* result);
 /* 1 when this Get downloaded it, 0 when it came from disk. */
-int impostor_result_downloaded(const impostor_result* result);
-void impostor_result_release(impostor_result* result);
+IMPOSTOR_C_EXPORT int impostor_result_downloaded(const impostor_result* result);
+IMPOSTOR_C_EXPORT void impostor_result_release(impostor_result* result);
 
 /* "OK", "NOT_FOUND", ... for a status code. */
-const char* impostor_status_name(impostor_status status);
+IMPOSTOR_C_EXPORT const char* impostor_status_name(impostor_status status);
 /* The message of the last failed call on this thread ("" if none). */
-const char* impostor_last_error(void);
+IMPOSTOR_C_EXPORT const char* impostor_last_error(void);
 
 #ifdef __cplusplus
 }
