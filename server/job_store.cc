@@ -105,6 +105,22 @@ absl::StatusOr<std::optional<JobRecord>> QueryOne(sqlite3* db, const std::string
   return std::optional<JobRecord>(std::move(*r));
 }
 
+absl::StatusOr<std::vector<JobRecord>> QueryMany(sqlite3* db, const std::string& sql,
+                                                 const std::function<void(Statement&)>& bind) {
+  Statement st(db, sql.c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  bind(st);
+  std::vector<JobRecord> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    auto r = ReadJob(st);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("query");
+  return out;
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
@@ -197,21 +213,12 @@ absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::stri
 }
 
 absl::StatusOr<std::vector<JobRecord>> JobStore::ActiveFollowers(const std::string& leader_job_id) {
-  Statement st(db_, absl::StrCat("SELECT ", kJobColumns,
-                                 " FROM jobs WHERE leader_job_id = ?1 AND state IN (?2, ?3)").c_str());
-  if (auto s = st.prepared(); !s.ok()) return s;
-  st.Bind(1, leader_job_id);
-  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
-  st.Bind(3, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
-  std::vector<JobRecord> out;
-  int rc;
-  while ((rc = st.Step()) == SQLITE_ROW) {
-    auto r = ReadJob(st);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  if (rc != SQLITE_DONE) return st.Error("query followers");
-  return out;
+  return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE leader_job_id = ?1 AND state IN (?2, ?3)"),
+                   [&](Statement& st) {
+                     st.Bind(1, leader_job_id);
+                     st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+                     st.Bind(3, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                   });
 }
 
 absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
@@ -228,19 +235,11 @@ absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
 }
 
 absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {
-  Statement st(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND lease_deadline_ms < ?2").c_str());
-  if (auto s = st.prepared(); !s.ok()) return s;
-  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
-  st.Bind(2, now_ms);
-  std::vector<JobRecord> out;
-  int rc;
-  while ((rc = st.Step()) == SQLITE_ROW) {
-    auto r = ReadJob(st);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  if (rc != SQLITE_DONE) return st.Error("query expired leases");
-  return out;
+  return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND lease_deadline_ms < ?2"),
+                   [&](Statement& st) {
+                     st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                     st.Bind(2, now_ms);
+                   });
 }
 
 absl::Status JobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
@@ -301,19 +300,11 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ResultsByLastUse()
 }
 
 absl::StatusOr<std::vector<JobRecord>> JobStore::Pending() {
-  Statement st(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state IN (?1, ?2)").c_str());
-  if (auto s = st.prepared(); !s.ok()) return s;
-  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
-  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
-  std::vector<JobRecord> out;
-  int rc;
-  while ((rc = st.Step()) == SQLITE_ROW) {
-    auto r = ReadJob(st);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  if (rc != SQLITE_DONE) return st.Error("query pending");
-  return out;
+  return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state IN (?1, ?2)"),
+                   [&](Statement& st) {
+                     st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+                     st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                   });
 }
 
 absl::Status JobStore::DeleteResult(const std::string& cache_key) {

@@ -12,6 +12,7 @@
 #include "common/frame_camera.h"
 #include "common/manifest_json.h"
 #include "common/sha256.h"
+#include "worker/bake/bake_outputs.h"
 #include "worker/output/atlas_dilation.h"
 #include "worker/output/map_writer.h"
 #include "worker/scene/bounding_sphere.h"
@@ -39,21 +40,6 @@ const std::vector<std::string> kNormalDepthChannels = {
 const std::vector<std::string> kOrmChannels = {
     "R: ambient occlusion (1 + strength * (texture.r - 1)), linear", "G: roughness (factor x texture.g), linear",
     "B: metalness (factor x texture.b), linear", "A: coverage, as albedo_alpha.A"};
-
-LayoutKind ToLayoutKind(v1::Layout layout) {
-  return layout == v1::LAYOUT_HEMI_OCTAHEDRAL ? LayoutKind::kHemiOctahedral : LayoutKind::kOctahedral;
-}
-
-absl::StatusOr<v1::Digest> WriteFile(const std::filesystem::path& path, std::string_view bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.close();
-  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
-  v1::Digest d;
-  d.set_hash(Sha256Hex(bytes));
-  d.set_size_bytes(static_cast<int64_t>(bytes.size()));
-  return d;
-}
 
 absl::Status AddMap(const std::filesystem::path& dir, const std::string& semantic, const std::string& format,
                     const std::vector<std::string>& channels, int size, v1::Manifest* manifest) {
@@ -175,7 +161,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
 
   AtlasBakeOutput out;
   out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFile(out.manifest_path, ManifestToJson(manifest));
+  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
   if (!json_digest.ok()) return json_digest.status();
   *manifest.mutable_manifest_json() = *json_digest;
   out.manifest = std::move(manifest);

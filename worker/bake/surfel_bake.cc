@@ -15,6 +15,7 @@
 #include "common/frame_camera.h"
 #include "common/manifest_json.h"
 #include "common/sha256.h"
+#include "worker/bake/bake_outputs.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"
 #include "worker/surfels/atlas_samples.h"
@@ -45,21 +46,6 @@ const std::vector<std::string> kBufferChannels = {
 const std::vector<std::string> kPlyChannels = {
     "x, y, z: float32 position", "nx, ny, nz: float32 unit normal", "red, green, blue: uint8 albedo, sRGB",
     "occlusion, roughness, metalness: float32"};
-
-LayoutKind ToLayoutKind(v1::Layout layout) {
-  return layout == v1::LAYOUT_HEMI_OCTAHEDRAL ? LayoutKind::kHemiOctahedral : LayoutKind::kOctahedral;
-}
-
-absl::StatusOr<v1::Digest> WriteFile(const std::filesystem::path& path, std::string_view bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.close();
-  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
-  v1::Digest d;
-  d.set_hash(Sha256Hex(bytes));
-  d.set_size_bytes(static_cast<int64_t>(bytes.size()));
-  return d;
-}
 
 // Renders the mesh from held-out directions on the GPU and the cloud on the
 // CPU, and compares them.
@@ -184,13 +170,13 @@ absl::StatusOr<AtlasBakeOutput> BakeSurfels(const AtlasBakeRequest& request, Atl
   t = Clock::now();
   const std::filesystem::path& dir = request.output_dir;
   const auto n = static_cast<uint32_t>(cloud->points.size());
-  auto buffer_digest = WriteFile(dir / kSurfelBufferFile, EncodePointBuffer(cloud->points));
+  auto buffer_digest = WriteFileWithDigest(dir / kSurfelBufferFile, EncodePointBuffer(cloud->points));
   if (!buffer_digest.ok()) return buffer_digest.status();
   const std::vector<std::string> comments = {
       absl::StrCat("impostor surfels baker ", std::string(BakerVersion()), " cache_key ", request.cache_key),
       absl::StrCat("voxel_size ", cloud->voxel_size, " point_diameter ", cloud->point_diameter,
                    " (draw each point as a camera-facing square of this side)")};
-  auto ply_digest = WriteFile(dir / kSurfelPlyFile, EncodePly(cloud->points, comments));
+  auto ply_digest = WriteFileWithDigest(dir / kSurfelPlyFile, EncodePly(cloud->points, comments));
   if (!ply_digest.ok()) return ply_digest.status();
 
   manifest.set_format_version(kManifestFormatVersion);
@@ -251,7 +237,7 @@ absl::StatusOr<AtlasBakeOutput> BakeSurfels(const AtlasBakeRequest& request, Atl
 
   AtlasBakeOutput out;
   out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFile(out.manifest_path, ManifestToJson(manifest));
+  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
   if (!json_digest.ok()) return json_digest.status();
   *manifest.mutable_manifest_json() = *json_digest;
   out.manifest = std::move(manifest);
