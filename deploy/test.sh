@@ -10,5 +10,5 @@ BUILD_DIR=${BUILD_DIR:-build}
 cd "$BUILD_DIR"
 ctest --output-on-failure --timeout 900 -j 2
 cd - >/dev/null
-# The glTF loader under libFuzzer with ASan+UBSan, for FUZZ_SECONDS (60).
+# The glTF loader under libFuzzer with ASan+UBSan: a fixed, seeded number of runs (fuzz/run.sh).
 bash fuzz/run.sh

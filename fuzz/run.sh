@@ -6,11 +6,19 @@
 # finds a crash, a sanitizer report, a leak, a timeout or an out-of-memory
 # input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
 #
-#   FUZZ_SECONDS=600 bash fuzz/run.sh            # a longer run
-#   bash fuzz/run.sh path/to/crash-input         # replay one input
+# CI runs a fixed number of executions from a fixed seed (FUZZ_RUNS,
+# FUZZ_SEED), so the same commit explores the same inputs on every machine and
+# a red CI always points at a reproducible finding; FUZZ_SECONDS bounds the
+# time on a slow machine. Exploratory runs: FUZZ_RUNS=-1 FUZZ_SEED=0 (random)
+# with a longer FUZZ_SECONDS.
+#
+#   FUZZ_RUNS=-1 FUZZ_SEED=0 FUZZ_SECONDS=600 bash fuzz/run.sh   # a longer, random run
+#   bash fuzz/run.sh path/to/crash-input                        # replay one input
 set -euo pipefail
 cd "$(dirname "$0")/.."
-FUZZ_SECONDS=${FUZZ_SECONDS:-60}
+FUZZ_SECONDS=${FUZZ_SECONDS:-120}
+FUZZ_RUNS=${FUZZ_RUNS:-40000}
+FUZZ_SEED=${FUZZ_SEED:-1}
 FUZZ_BUILD_DIR=${FUZZ_BUILD_DIR:-build-fuzz}
 ASSETS_DIR=${IMPOSTOR_ASSETS_DIR:-../shared/assets}
 JOBS=${JOBS:-2}
@@ -55,5 +63,5 @@ find "$ASSETS_DIR" -type f \( -iname '*.glb' -o -iname '*.gltf' \) -size -"$MAX_
   while IFS= read -r -d '' f; do
     cp "$f" "$corpus/$(sha256sum "$f" | cut -c1-16)"
   done
-echo "fuzz/run.sh: $(ls "$corpus" | wc -l) seeds from $ASSETS_DIR, ${FUZZ_SECONDS}s"
-"$fuzzer" "${flags[@]}" -max_total_time="$FUZZ_SECONDS" "$corpus"
+echo "fuzz/run.sh: $(ls "$corpus" | wc -l) seeds from $ASSETS_DIR, ${FUZZ_RUNS} runs (seed ${FUZZ_SEED}), at most ${FUZZ_SECONDS}s"
+"$fuzzer" "${flags[@]}" -runs="$FUZZ_RUNS" -seed="$FUZZ_SEED" -max_total_time="$FUZZ_SECONDS" "$corpus"

@@ -112,5 +112,17 @@ TEST(GltfTextureTest, CorruptImageIsAnError) {
       << scene.status();
 }
 
+// Found by the fuzzer: stb_image quotes an unknown chunk's raw type bytes
+// in its error, and those may hold a newline. Job errors must stay one line.
+TEST(GltfTextureTest, DecoderErrorsWithControlBytesStayOneLine) {
+  std::vector<uint8_t> png = testing::MakePng(2, 2, 3, 8, std::vector<uint16_t>(12, 1));
+  const std::vector<uint8_t> chunk = {0, 0, 0, 0, '\n', 'B', 'A', 'D', 0, 0, 0, 0};
+  png.insert(png.begin() + 33, chunk.begin(), chunk.end());  // after signature + IHDR
+  const absl::StatusOr<Scene> scene = LoadWithTexture(png);
+  ASSERT_EQ(scene.status().code(), absl::StatusCode::kInvalidArgument) << scene.status();
+  EXPECT_EQ(std::string(scene.status().message()).find('\n'), std::string::npos) << scene.status();
+  EXPECT_NE(std::string(scene.status().message()).find("image[0]"), std::string::npos) << scene.status();
+}
+
 }  // namespace
 }  // namespace impostor

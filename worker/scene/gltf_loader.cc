@@ -215,6 +215,13 @@ absl::StatusOr<Scene> ParseAndBuild(const ParseInput& in, const GltfLoadLimits& 
   return scene;
 }
 
+// Every error leaves the loader as one line, whatever library text (tinygltf,
+// stb_image) it carries: workers put it into a job status and a log line.
+absl::StatusOr<Scene> WithOneLineError(absl::StatusOr<Scene> result) {
+  if (result.ok()) return result;
+  return absl::Status(result.status().code(), OneLine(std::string(result.status().message())));
+}
+
 }  // namespace
 
 absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLimits& limits) {
@@ -231,13 +238,13 @@ absl::StatusOr<Scene> LoadGltfScene(const fs::path& entry_file, const GltfLoadLi
                       .named_glb = path.extension() == ".glb",
                       .json = &entry->json,
                       .sandbox = &sandbox};
-  return ParseAndBuild(in, limits,
+  return WithOneLineError(ParseAndBuild(in, limits,
                        [&](tinygltf::TinyGLTF& gltf, tinygltf::Model* model, std::string* err,
                            std::string* warn) {
                          return entry->is_glb
                                     ? gltf.LoadBinaryFromFile(model, err, warn, path.string())
                                     : gltf.LoadASCIIFromFile(model, err, warn, path.string());
-                       });
+                       }));
 }
 
 absl::StatusOr<Scene> LoadGltfSceneFromMemory(std::string_view bytes, std::string_view name,
@@ -267,7 +274,7 @@ absl::StatusOr<Scene> LoadGltfSceneFromMemory(std::string_view bytes, std::strin
                       .named_glb = named_glb,
                       .json = &json,
                       .sandbox = nullptr};
-  return ParseAndBuild(in, limits,
+  return WithOneLineError(ParseAndBuild(in, limits,
                        [&](tinygltf::TinyGLTF& gltf, tinygltf::Model* model, std::string* err,
                            std::string* warn) {
                          const auto size = static_cast<unsigned int>(bytes.size());
@@ -275,7 +282,7 @@ absl::StatusOr<Scene> LoadGltfSceneFromMemory(std::string_view bytes, std::strin
                                                                    /*base_dir=*/"")
                                        : gltf.LoadASCIIFromString(model, err, warn, bytes.data(),
                                                                   size, /*base_dir=*/"");
-                       });
+                       }));
 }
 
 }  // namespace impostor
