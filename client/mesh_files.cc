@@ -149,32 +149,6 @@ absl::Status CollectUris(const nlohmann::json& json, const char* array_name, con
 
 }  // namespace
 
-absl::StatusOr<std::string> PercentDecode(std::string_view uri) {
-  auto hex = [](char c) -> int {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
-  std::string out;
-  out.reserve(uri.size());
-  for (size_t i = 0; i < uri.size(); ++i) {
-    if (uri[i] != '%') {
-      out += uri[i];
-      continue;
-    }
-    if (i + 2 >= uri.size()) {
-      return absl::InvalidArgumentError(absl::StrCat("truncated percent escape at byte ", i));
-    }
-    const int hi = hex(uri[i + 1]);
-    const int lo = hex(uri[i + 2]);
-    if (hi < 0 || lo < 0) return absl::InvalidArgumentError(absl::StrCat("bad percent escape at byte ", i));
-    out += static_cast<char>(hi * 16 + lo);
-    i += 2;
-  }
-  return out;
-}
-
 absl::StatusOr<std::string> GlbJsonChunk(std::string_view glb, std::string_view name) {
   const std::string n(name);
   if (glb.size() < kGlbHeaderBytes + kChunkHeaderBytes) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "common/percent_decode.h"
 
 namespace impostor::sdk {
 
@@ -41,8 +42,8 @@ absl::StatusOr<MeshFiles> CollectMeshFiles(const std::filesystem::path& model);
 // need be present). INVALID_ARGUMENT naming what is wrong with the header.
 absl::StatusOr<std::string> GlbJsonChunk(std::string_view glb_prefix, std::string_view name);
 
-// Decodes %XX escapes. INVALID_ARGUMENT on a truncated or non-hex escape.
-absl::StatusOr<std::string> PercentDecode(std::string_view uri);
+// Decodes %XX escapes (common/percent_decode.h, shared with the worker).
+using ::impostor::PercentDecode;
 
 }  // namespace impostor::sdk
 

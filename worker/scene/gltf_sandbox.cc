@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/percent_decode.h"
 
 namespace impostor::gltf_internal {
 namespace {
@@ -91,8 +92,8 @@ absl::Status CheckUri(const Sandbox* sandbox, const std::string& what, const std
     return absl::InvalidArgumentError(absl::StrCat(
         what, ": uri '", uri, "' names an external file; a glTF loaded from memory may only use data: uris"));
   }
-  const std::optional<std::string> decoded = PercentDecode(uri);
-  if (!decoded) {
+  const absl::StatusOr<std::string> decoded = impostor::PercentDecode(uri);
+  if (!decoded.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat(what, ": uri '", uri, "' has a malformed %-escape"));
   }
@@ -164,33 +165,6 @@ tinygltf::FsCallbacks NoFileSystemCallbacks() {
   callbacks.WriteWholeFile = &WriteWholeFileCallback;
   callbacks.user_data = nullptr;
   return callbacks;
-}
-
-std::optional<std::string> PercentDecode(std::string_view uri) {
-  auto hex = [](char c) -> int {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
-  std::string out;
-  out.reserve(uri.size());
-  for (size_t i = 0; i < uri.size(); ++i) {
-    if (uri[i] != '%') {
-      if (uri[i] == '\0') return std::nullopt;
-      out.push_back(uri[i]);
-      continue;
-    }
-    if (i + 2 >= uri.size()) return std::nullopt;
-    const int hi = hex(uri[i + 1]);
-    const int lo = hex(uri[i + 2]);
-    if (hi < 0 || lo < 0) return std::nullopt;
-    const char c = static_cast<char>(hi * 16 + lo);
-    if (c == '\0') return std::nullopt;
-    out.push_back(c);
-    i += 2;
-  }
-  return out;
 }
 
 absl::Status CheckJsonNesting(std::string_view json, int max_depth) {

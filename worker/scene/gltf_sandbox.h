@@ -53,10 +53,6 @@ class Sandbox {
 // written, so an external uri that slips past PrecheckJson still fails.
 tinygltf::FsCallbacks NoFileSystemCallbacks();
 
-// %XX-decodes a uri as RFC 3986 says. nullopt on a malformed escape or an
-// escaped NUL.
-std::optional<std::string> PercentDecode(std::string_view uri);
-
 // OK if no JSON array/object is nested deeper than `max_depth` (strings are
 // skipped correctly). INVALID_ARGUMENT naming the depth otherwise.
 absl::Status CheckJsonNesting(std::string_view json, int max_depth);
