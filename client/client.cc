@@ -61,6 +61,7 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = std::move(uploaded->mesh);
   *request.mutable_parameters() = *parameters;
+  ApplySchedulingSettings(settings, &request);
   absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
   if (!response.ok()) return response.status();
 
@@ -69,7 +70,75 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
   result.cache_key = response->cache_key();
   result.cached = response->cached();
   result.upload = uploaded->stats;
+  if (response->job().state() == v1::JOB_STATE_FAILED) {
+    result.error_code = response->job().error().code();
+    result.error_message = response->job().error().message();
+  }
   return result;
+}
+
+absl::StatusOr<std::vector<BatchSubmission>> Client::SubmitBakeBatch(
+    const std::vector<BatchItem>& items,
+    const std::function<bool(size_t index, const BatchSubmission& submission)>& on_submitted) {
+  std::vector<BatchSubmission> out(items.size());
+  // Local checks first, per item: one bad model does not sink the batch.
+  std::vector<v1::BakeParameters> parameters(items.size());
+  std::vector<MeshFiles> files(items.size());
+  std::vector<const MeshFiles*> to_upload;
+  std::vector<size_t> upload_index;
+  for (size_t i = 0; i < items.size(); ++i) {
+    absl::StatusOr<v1::BakeParameters> p = ToBakeParameters(items[i].settings);
+    if (!p.ok()) {
+      out[i].status = p.status();
+      continue;
+    }
+    parameters[i] = std::move(*p);
+    absl::StatusOr<MeshFiles> f = CollectMeshFiles(items[i].model);
+    if (!f.ok()) {
+      out[i].status = f.status();
+      continue;
+    }
+    files[i] = std::move(*f);
+    to_upload.push_back(&files[i]);
+    upload_index.push_back(i);
+  }
+  absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> uploaded = UploadMeshes(impl_->transport(), to_upload);
+  if (!uploaded.ok()) return uploaded.status();
+  std::vector<std::optional<UploadedMesh>> meshes(items.size());
+  for (size_t k = 0; k < upload_index.size(); ++k) {
+    if ((*uploaded)[k].ok()) {
+      meshes[upload_index[k]] = std::move(*(*uploaded)[k]);
+    } else {
+      out[upload_index[k]].status = (*uploaded)[k].status();
+    }
+  }
+
+  bool stopped = false;
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (stopped) {
+      out[i].status = absl::CancelledError("not submitted: the batch stopped");
+    } else if (out[i].status.ok()) {
+      v1::SubmitBakeRequest request;
+      *request.mutable_mesh() = meshes[i]->mesh;
+      *request.mutable_parameters() = parameters[i];
+      ApplySchedulingSettings(items[i].settings, &request);
+      absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
+      if (response.ok()) {
+        out[i].result.job_id = response->job_id();
+        out[i].result.cache_key = response->cache_key();
+        out[i].result.cached = response->cached();
+        out[i].result.upload = meshes[i]->stats;
+        if (response->job().state() == v1::JOB_STATE_FAILED) {
+          out[i].result.error_code = response->job().error().code();
+          out[i].result.error_message = response->job().error().message();
+        }
+      } else {
+        out[i].status = response.status();
+      }
+    }
+    if (on_submitted && !stopped && !on_submitted(i, out[i])) stopped = true;
+  }
+  return out;
 }
 
 absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,

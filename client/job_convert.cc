@@ -56,16 +56,28 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
     p.set_layout(v1::LAYOUT_OCTAHEDRAL);
   } else if (settings.layout == "hemi-octahedral") {
     p.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  } else if (settings.layout == "azimuth-elevation") {
+    p.set_layout(v1::LAYOUT_AZIMUTH_ELEVATION);
+  } else if (settings.layout == "ring-top") {
+    p.set_layout(v1::LAYOUT_RING_TOP);
+  } else if (settings.layout == "billboard") {
+    p.set_layout(v1::LAYOUT_BILLBOARD);
   } else {
-    return absl::InvalidArgumentError(absl::StrCat("layout: unknown layout \"", settings.layout,
-                                                   "\"; expected \"octahedral\" or \"hemi-octahedral\""));
+    return absl::InvalidArgumentError(
+        absl::StrCat("layout: unknown layout \"", settings.layout,
+                     "\"; expected octahedral, hemi-octahedral, azimuth-elevation, ring-top or billboard"));
   }
+  if (settings.ring_views.has_value()) p.set_ring_views(*settings.ring_views);
   p.set_frames(settings.frames);
   p.set_resolution(settings.resolution);
   if (settings.product.empty() || settings.product == "atlas") {
     // PRODUCT_UNSPECIFIED: the server's default, the atlas.
   } else if (settings.product == "surfels") {
     p.set_product(v1::PRODUCT_SURFELS);
+  } else if (settings.product == "lod-chain") {
+    p.set_product(v1::PRODUCT_LOD_CHAIN);
+  } else if (settings.product == "cards") {
+    p.set_product(v1::PRODUCT_CARDS);
   } else {
     return absl::InvalidArgumentError(
         absl::StrCat("product: unknown product \"", settings.product, "\"; expected \"atlas\" or \"surfels\""));
@@ -74,7 +86,17 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
   // refuses them with product atlas.
   p.set_preset(settings.preset);
   if (settings.point_budget.has_value()) p.set_point_budget(*settings.point_budget);
+  for (float r : settings.lod_ratios) p.add_lod_ratios(r);
+  if (settings.lod_pixel_error.has_value()) p.set_lod_pixel_error(*settings.lod_pixel_error);
+  if (settings.max_planes.has_value()) p.set_max_planes(*settings.max_planes);
+  if (settings.tolerance.has_value()) p.set_tolerance(*settings.tolerance);
   return p;
+}
+
+void ApplySchedulingSettings(const BakeSettings& settings, v1::SubmitBakeRequest* request) {
+  request->set_priority(settings.priority);
+  if (settings.min_iou.has_value()) request->mutable_gate()->set_min_iou(*settings.min_iou);
+  if (settings.min_psnr_db.has_value()) request->mutable_gate()->set_min_psnr_db(*settings.min_psnr_db);
 }
 
 }  // namespace impostor::sdk

@@ -1,6 +1,7 @@
 #include "client/mesh_upload.h"
 
 #include <cstring>
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <string>
@@ -110,6 +111,55 @@ absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& f
     if (absl::Status s = UploadWithRetry(transport, blob); !s.ok()) return s;
     ++out.stats.uploaded;
     out.stats.bytes_uploaded += blob.digest.size_bytes();
+  }
+  return out;
+}
+
+absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
+                                                                      const std::vector<const MeshFiles*>& models) {
+  std::vector<absl::StatusOr<UploadedMesh>> out;
+  out.reserve(models.size());
+  // Every distinct blob once, with the first model that has it.
+  std::vector<LocalBlob> blobs;
+  std::vector<size_t> first_user;
+  std::set<std::string> seen;
+  for (size_t m = 0; m < models.size(); ++m) {
+    absl::StatusOr<v1::MeshInput> mesh = HashMesh(*models[m]);
+    if (!mesh.ok()) {
+      out.push_back(mesh.status());
+      continue;
+    }
+    UploadedMesh uploaded;
+    uploaded.mesh = std::move(*mesh);
+    auto add = [&](const v1::InputFile& input, const std::filesystem::path& local) {
+      ++uploaded.stats.files;
+      uploaded.stats.bytes_total += input.digest().size_bytes();
+      if (seen.insert(absl::StrCat(input.digest().hash(), "/", input.digest().size_bytes())).second) {
+        blobs.push_back(LocalBlob{local, input.digest()});
+        first_user.push_back(m);
+      }
+    };
+    add(uploaded.mesh.entry(), models[m]->entry);
+    for (int i = 0; i < uploaded.mesh.files_size(); ++i) add(uploaded.mesh.files(i), models[m]->files[i].local_path);
+    out.push_back(std::move(uploaded));
+  }
+
+  std::set<std::string> missing_keys;
+  for (size_t begin = 0; begin < blobs.size(); begin += kMaxFindMissingDigests) {
+    v1::FindMissingBlobsRequest request;
+    for (size_t i = begin; i < std::min(blobs.size(), begin + kMaxFindMissingDigests); ++i) {
+      *request.add_digests() = blobs[i].digest;
+    }
+    absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request);
+    if (!missing.ok()) return missing.status();
+    for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
+  }
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    if (!missing_keys.contains(absl::StrCat(blobs[i].digest.hash(), "/", blobs[i].digest.size_bytes()))) continue;
+    if (absl::Status s = UploadWithRetry(transport, blobs[i]); !s.ok()) return s;
+    UploadStats& stats = out[first_user[i]]->stats;
+    ++stats.uploaded;
+    stats.bytes_uploaded += blobs[i].digest.size_bytes();
   }
   return out;
 }

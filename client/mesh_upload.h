@@ -4,6 +4,8 @@
 #ifndef IMPOSTOR_CLIENT_MESH_UPLOAD_H_
 #define IMPOSTOR_CLIENT_MESH_UPLOAD_H_
 
+#include <vector>
+
 #include "absl/status/statusor.h"
 #include "client/mesh_files.h"
 #include "client/transport.h"
@@ -21,6 +23,17 @@ struct UploadedMesh {
 inline constexpr size_t kUploadChunkBytes = 1 << 20;
 
 absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files);
+
+// The most digests one FindMissingBlobs may carry (AssetService's limit).
+inline constexpr size_t kMaxFindMissingDigests = 10'000;
+
+// UploadMesh for many models at once: one FindMissingBlobs for all of their
+// blobs (one per kMaxFindMissingDigests distinct blobs), each missing blob
+// uploaded once and counted in the stats of the first model that has it.
+// A model whose files cannot be read gets its own error in the result; the
+// call fails as a whole only when an RPC does.
+absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
+                                                                      const std::vector<const MeshFiles*>& models);
 
 // The MeshInput naming `files` with their digests, hashed locally and
 // uploaded nowhere: what LookupBake needs. NOT_FOUND / INTERNAL naming the

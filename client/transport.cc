@@ -171,6 +171,7 @@ absl::StatusOr<Response> CallUnary(const ClientOptions& options, std::string_vie
   for (int attempt = 1;; ++attempt) {
     grpc::ClientContext context;
     context.set_deadline(DeadlineAfter(options.rpc_timeout_seconds));
+    if (!options.client_id.empty()) context.AddMetadata("impostor-client-id", options.client_id);
     Response response;
     const grpc::Status status = call(&context, &response);
     if (status.ok()) return response;

@@ -40,11 +40,15 @@
 namespace impostor {
 
 enum class LayoutKind {
-  kOctahedral,      // full sphere
-  kHemiOctahedral,  // upper hemisphere (y >= 0)
+  kOctahedral,        // full sphere
+  kHemiOctahedral,    // upper hemisphere (y >= 0)
+  kAzimuthElevation,  // full sphere, azimuth columns x elevation rows
+  kRingTop,           // K horizontal views + 1 from straight above
+  kBillboard,         // traditional 3x3: 8 side views + 1 top view
 };
 
-// "octahedral" / "hemi-octahedral", as in the manifest and the CLI.
+// "octahedral", "hemi-octahedral", "azimuth-elevation", "ring-top",
+// "billboard", as in the manifest and the CLI.
 std::string_view LayoutName(LayoutKind kind);
 // INVALID_ARGUMENT naming the accepted values if `name` is not a layout.
 absl::StatusOr<LayoutKind> ParseLayout(std::string_view name);
@@ -84,6 +88,59 @@ inline int FrameIndex(int frames, FrameCoord f) { return f.row * frames + f.col;
 inline FrameCoord FrameFromIndex(int frames, int index) {
   return {index % frames, index / frames};
 }
+
+// ---------------------------------------------------------------------------
+// Every layout, by frame index. The functions above are the grid form of the
+// two octahedral layouts; the ones below cover all five and are what the
+// baker, the manifest and the runtime use.
+//
+// azimuth-elevation (after the Cinevva article): N x N frames, N odd.
+//   az = atan2(d.x, d.z) in [0, 2 pi), el = asin(d.y).
+//   Column c is azimuth c * 2 pi / N (column 0 looks from +Z, the front);
+//   row r is elevation 90 - (r + 0.5) * 180 / N degrees (row 0 at the top
+//   of the image is the highest). An odd N puts the middle row at exactly
+//   0 degrees, where most views come from; an even N has no horizontal row
+//   and is refused by the request validation.
+// ring-top: K = ring_views frames at elevation 0, frame k at azimuth
+//   k * 2 pi / K, then frame K looking from straight above (+Y).
+// billboard: ring-top with K = 8 (every 45 degrees) in a 3 x 3 atlas.
+// Tiles: frame i sits in tile (i % side, i / side) of a side x side grid
+// (GridSide); ring-top's tiles past its last frame stay empty.
+// Picking (NearestFrame): the frame whose direction is nearest in angle,
+// ties to the lowest index. On the octahedral layouts it is the nearest of
+// the four vertices of the grid cell the direction falls in (which is the
+// nearest frame overall, up to a few hundredths of a degree across the
+// folded border); EncodeFrame instead rounds in the octahedral square.
+
+struct ViewLayout {
+  LayoutKind kind = LayoutKind::kOctahedral;
+  // Octahedral, hemi-octahedral, azimuth-elevation: frames per axis (N).
+  int frames = 0;
+  // Ring-top: horizontal views (K). Billboard: 8. Others: 0.
+  int ring_views = 0;
+};
+
+inline constexpr int kBillboardRingViews = 8;
+
+// Frames that are baked: N * N, or K + 1 for ring-top and billboard.
+int FrameCount(const ViewLayout& layout);
+// Tiles per atlas side: N, or ceil(sqrt(K + 1)) for ring-top, 3 for billboard.
+int GridSide(const ViewLayout& layout);
+// Direction (unit, centre -> camera) of frame `index`, 0 <= index < FrameCount.
+glm::vec3 FrameDirectionAt(const ViewLayout& layout, int index);
+// The frame shown for a view from `direction` (need not be unit length, must
+// not be zero); canonical on the octahedral fold.
+int NearestFrame(const ViewLayout& layout, glm::vec3 direction);
+// Lowest-numbered frame showing the same view as `index` (octahedral fold).
+int CanonicalFrameIndex(const ViewLayout& layout, int index);
+// Tile of frame `index` in the side x side grid of tiles.
+inline FrameCoord FrameTile(const ViewLayout& layout, int index) {
+  return FrameFromIndex(GridSide(layout), index);
+}
+
+// Azimuth-elevation in radians: az in [0, 2 pi), el in [-pi/2, pi/2].
+glm::vec2 DirectionToAzimuthElevation(glm::vec3 direction);
+glm::vec3 AzimuthElevationToDirection(float azimuth, float elevation);
 
 }  // namespace impostor
 

@@ -5,6 +5,10 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/layout_parameters.h"
+#include "common/card_parameters.h"
+#include "common/lod_parameters.h"
+#include "common/quality_parameters.h"
 #include "common/sha256.h"
 
 namespace impostor {
@@ -48,13 +52,16 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
   switch (in.product()) {
     case v1::PRODUCT_UNSPECIFIED: out.set_product(v1::PRODUCT_ATLAS); break;
     case v1::PRODUCT_ATLAS:
-    case v1::PRODUCT_SURFELS: break;
+    case v1::PRODUCT_SURFELS:
+    case v1::PRODUCT_CARDS:
+    case v1::PRODUCT_LOD_CHAIN: break;
     default:
       return absl::InvalidArgumentError(absl::StrCat(
           "parameters.product: unknown value ", static_cast<int>(in.product()),
           "; expected PRODUCT_ATLAS (1) or PRODUCT_SURFELS (2)"));
   }
-  if (out.product() == v1::PRODUCT_ATLAS) {
+  // Every product but surfels refuses the surfel fields.
+  if (out.product() != v1::PRODUCT_SURFELS) {
     if (!in.preset().empty()) {
       return absl::InvalidArgumentError(absl::StrCat("parameters.preset: \"", in.preset(),
                                                      "\" is only for product PRODUCT_SURFELS"));
@@ -81,15 +88,32 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
       return s;
     }
   }
+  if (auto s = NormalizeLodParameters(in, &out); !s.ok()) return s;
+  if (auto s = NormalizeCardParameters(in, &out); !s.ok()) return s;
   switch (in.layout()) {
-    case v1::LAYOUT_UNSPECIFIED: out.set_layout(v1::LAYOUT_OCTAHEDRAL); break;
+    case v1::LAYOUT_UNSPECIFIED:
+      // A LOD chain's impostor is seen from around and above, as a game's
+      // distant props are: the hemisphere spends its frames there.
+      out.set_layout(out.product() == v1::PRODUCT_LOD_CHAIN ? v1::LAYOUT_HEMI_OCTAHEDRAL
+                                                             : v1::LAYOUT_OCTAHEDRAL);
+      break;
     case v1::LAYOUT_OCTAHEDRAL:
-    case v1::LAYOUT_HEMI_OCTAHEDRAL: break;
+    case v1::LAYOUT_HEMI_OCTAHEDRAL:
+    case v1::LAYOUT_AZIMUTH_ELEVATION:
+    case v1::LAYOUT_RING_TOP:
+    case v1::LAYOUT_BILLBOARD: break;
     default:
       return absl::InvalidArgumentError(absl::StrCat(
           "parameters.layout: unknown value ", static_cast<int>(in.layout()),
-          "; expected LAYOUT_OCTAHEDRAL (1) or LAYOUT_HEMI_OCTAHEDRAL (2)"));
+          "; expected LAYOUT_OCTAHEDRAL (1), LAYOUT_HEMI_OCTAHEDRAL (2), LAYOUT_AZIMUTH_ELEVATION (3), "
+          "LAYOUT_RING_TOP (4) or LAYOUT_BILLBOARD (5)"));
   }
+  if (auto s = NormalizeLayoutFrames(&out); !s.ok()) return s;
+  if (auto s = NormalizeQualityParameters(in, &out); !s.ok()) return s;
+  // frames_auto: the baker picks frames from a ladder that fits the
+  // resolution; the checks below see the ladder's smallest count, and frames
+  // goes back to unset at the end.
+  if (out.frames_auto()) out.set_frames(kAutoFramesMinFrames);
   if (out.frames() == 0) out.set_frames(kDefaultFrames);
   if (out.resolution() == 0) out.set_resolution(kDefaultResolution);
   if (auto s = CheckRange("parameters.frames", out.frames(), kMinFrames, kMaxFrames); !s.ok()) return s;
@@ -103,6 +127,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
         " frames leaves ", out.resolution() / out.frames(), " px per frame; at least ",
         kMinTilePixels, " are needed (resolution >= ", kMinTilePixels * out.frames(), ")"));
   }
+  if (out.frames_auto()) out.set_frames(0);
   return out;
 }
 
@@ -180,11 +205,15 @@ std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters&
   put(absl::StrCat("layout ", static_cast<int>(p.layout())));
   put(absl::StrCat("frames ", p.frames()));
   put(absl::StrCat("resolution ", p.resolution()));
+  // Only non-default quality-pass settings add a line (quality_parameters.h).
+  if (const std::string quality = QualityCacheKeyLine(p); !quality.empty()) put(quality);
   // Atlas keys predate products and stay as they were; other products add
   // their own lines.
   if (p.product() != v1::PRODUCT_ATLAS && p.product() != v1::PRODUCT_UNSPECIFIED) {
     put(absl::StrCat("product ", static_cast<int>(p.product())));
     put(absl::StrCat("point_budget ", p.point_budget()));
+    if (p.product() == v1::PRODUCT_LOD_CHAIN) put(LodCacheKeyLine(p));
+    if (p.product() == v1::PRODUCT_CARDS) put(CardCacheKeyLine(p));
   }
   return h.FinishHex();
 }

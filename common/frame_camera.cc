@@ -17,20 +17,23 @@ glm::vec3 CameraUpFor(glm::vec3 d) {
 int TileSize(int resolution, int frames) { return frames > 0 ? resolution / frames : 0; }
 
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution) {
-  const int tile = TileSize(resolution, frames);
+  return AtlasCameras(ViewLayout{.kind = kind, .frames = frames}, resolution);
+}
+
+std::vector<FrameCamera> AtlasCameras(const ViewLayout& layout, int resolution) {
+  const int tile = TileSize(resolution, GridSide(layout));
+  const int count = FrameCount(layout);
   std::vector<FrameCamera> cameras;
-  cameras.reserve(static_cast<size_t>(frames) * frames);
-  for (int row = 0; row < frames; ++row) {
-    for (int col = 0; col < frames; ++col) {
-      FrameCamera c;
-      c.frame = {col, row};
-      c.index = FrameIndex(frames, c.frame);
-      c.direction = FrameDirection(kind, frames, c.frame);
-      c.up = CameraUpFor(c.direction);
-      c.right = glm::normalize(glm::cross(c.up, c.direction));
-      c.tile = {col * tile, row * tile, tile, tile};
-      cameras.push_back(c);
-    }
+  cameras.reserve(static_cast<size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    FrameCamera c;
+    c.index = i;
+    c.frame = FrameTile(layout, i);
+    c.direction = FrameDirectionAt(layout, i);
+    c.up = CameraUpFor(c.direction);
+    c.right = glm::normalize(glm::cross(c.up, c.direction));
+    c.tile = {c.frame.col * tile, c.frame.row * tile, tile, tile};
+    cameras.push_back(c);
   }
   return cameras;
 }

@@ -52,8 +52,13 @@ glm::vec3 CameraUpFor(glm::vec3 direction);
 // top-left corner; the remainder (resolution % frames) is unused border.
 int TileSize(int resolution, int frames);
 
-// All frames of an atlas, index order.
+// All frames of an octahedral or hemi-octahedral atlas, index order.
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution);
+
+// All frames of any layout, index order: frame i in tile FrameTile(layout, i)
+// of side TileSize(resolution, GridSide(layout)). `frame` holds the tile's
+// grid position.
+std::vector<FrameCamera> AtlasCameras(const ViewLayout& layout, int resolution);
 
 // Vulkan clip-space transform (x right, y down, depth 0..1) for one frame's
 // camera: clip = ViewProjection * vec4(p, 1) gives x = s, y = -t,

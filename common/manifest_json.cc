@@ -3,6 +3,9 @@
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/cards_manifest_json.h"
+#include "common/quality_manifest_json.h"
+#include "common/lod_manifest_json.h"
 
 namespace impostor {
 namespace {
@@ -86,8 +89,10 @@ json SurfelsJson(const v1::SurfelCloud& s) {
 }
 
 v1::Layout LayoutFromJsonName(const std::string& name) {
-  if (name == "octahedral") return v1::LAYOUT_OCTAHEDRAL;
-  if (name == "hemi-octahedral") return v1::LAYOUT_HEMI_OCTAHEDRAL;
+  for (v1::Layout l : {v1::LAYOUT_OCTAHEDRAL, v1::LAYOUT_HEMI_OCTAHEDRAL, v1::LAYOUT_AZIMUTH_ELEVATION,
+                       v1::LAYOUT_RING_TOP, v1::LAYOUT_BILLBOARD}) {
+    if (name == LayoutJsonName(l)) return l;
+  }
   return v1::LAYOUT_UNSPECIFIED;
 }
 
@@ -131,6 +136,8 @@ std::string_view ProductJsonName(v1::Product product) {
     case v1::PRODUCT_UNSPECIFIED:
     case v1::PRODUCT_ATLAS: return "atlas";
     case v1::PRODUCT_SURFELS: return "surfels";
+    case v1::PRODUCT_CARDS: return "cards";
+    case v1::PRODUCT_LOD_CHAIN: return "lod-chain";
     default: return "unknown";
   }
 }
@@ -139,6 +146,9 @@ std::string_view LayoutJsonName(v1::Layout layout) {
   switch (layout) {
     case v1::LAYOUT_OCTAHEDRAL: return "octahedral";
     case v1::LAYOUT_HEMI_OCTAHEDRAL: return "hemi-octahedral";
+    case v1::LAYOUT_AZIMUTH_ELEVATION: return "azimuth-elevation";
+    case v1::LAYOUT_RING_TOP: return "ring-top";
+    case v1::LAYOUT_BILLBOARD: return "billboard";
     default: return "unspecified";
   }
 }
@@ -185,6 +195,9 @@ std::string ManifestToJson(const v1::Manifest& m) {
                           {"total", t.total_seconds()}};
   j["device"] = m.device();
   if (m.product() == v1::PRODUCT_SURFELS) j["surfels"] = SurfelsJson(m.surfels());
+  if (m.product() == v1::PRODUCT_CARDS) j["cards"] = CardsToJson(m.cards());
+  if (m.product() == v1::PRODUCT_LOD_CHAIN) j["lods"] = LodLevelsToJson(m.lods());
+  AddQualityJson(m, &j);
   return j.dump(2) + "\n";
 }
 
@@ -205,14 +218,15 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
     const std::string product = it->is_string() ? it->get<std::string>() : std::string();
     if (product == "atlas") m.set_product(v1::PRODUCT_ATLAS);
     else if (product == "surfels") m.set_product(v1::PRODUCT_SURFELS);
+    else if (product == "cards") m.set_product(v1::PRODUCT_CARDS);
+    else if (product == "lod-chain") m.set_product(v1::PRODUCT_LOD_CHAIN);
     else return absl::InvalidArgumentError("manifest.json: product: unknown \"" + product + "\"");
   }
   m.set_cache_key(r.Get<std::string>(j, "cache_key", ""));
   m.set_baker_version(r.Get<std::string>(j, "baker_version", ""));
   const std::string layout = r.Get<std::string>(j, "layout", "");
-  if (layout == "octahedral") m.set_layout(v1::LAYOUT_OCTAHEDRAL);
-  else if (layout == "hemi-octahedral") m.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
-  else if (r.error().empty()) return absl::InvalidArgumentError("manifest.json: layout: unknown \"" + layout + "\"");
+  m.set_layout(LayoutFromJsonName(layout));
+  if (m.layout() == v1::LAYOUT_UNSPECIFIED && r.error().empty()) return absl::InvalidArgumentError("manifest.json: layout: unknown \"" + layout + "\"");
   m.set_frames(r.Get<uint32_t>(j, "frames", ""));
   m.set_resolution(r.Get<uint32_t>(j, "resolution", ""));
   m.set_tile_size(r.Get<uint32_t>(j, "tile_size", ""));
@@ -249,7 +263,14 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
     v->set_same_view_as(r.Get<uint32_t>(views[i], "same_view_as", path));
   }
   if (m.product() == v1::PRODUCT_SURFELS) ReadSurfels(r, r.Obj(j, "surfels", ""), m.mutable_surfels());
+  if (r.error().empty() && m.product() == v1::PRODUCT_CARDS) {
+    if (absl::Status s = ReadCards(j, &m); !s.ok()) return s;
+  }
+  if (r.error().empty() && m.product() == v1::PRODUCT_LOD_CHAIN) {
+    if (absl::Status s = ReadLodLevels(j, &m); !s.ok()) return s;
+  }
   if (!r.error().empty()) return absl::InvalidArgumentError("manifest.json: " + r.error());
+  if (absl::Status s = ReadQualityJson(j, &m); !s.ok()) return s;
   if (auto it = j.find("device"); it != j.end() && it->is_string()) m.set_device(it->get<std::string>());
   if (auto it = j.find("mesh"); it != j.end() && it->is_object()) {
     m.mutable_mesh()->set_triangles(it->value("triangles", uint64_t{0}));

@@ -17,6 +17,8 @@ packages=(
   libtinygltf-dev libstb-dev nlohmann-json3-dev libopenimageio-dev libglm-dev libmeshoptimizer-dev
   # Infrastructure
   libspdlog-dev libfmt-dev libabsl-dev libssl-dev libsqlite3-dev
+  # Batch bake specs in YAML (impostor bake-batch)
+  libyaml-cpp-dev
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
@@ -26,3 +28,12 @@ packages=(
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${packages[@]}"
+
+# The Khronos glTF validator (npm gltf-validator, pinned in
+# tools/gltf_validator/package.json) checks every .glb the baker writes in
+# the tests. Node from Debian unless a newer one is already installed.
+if ! command -v npm >/dev/null 2>&1; then
+  $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+fi
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+(cd "$repo_root/tools/gltf_validator" && npm ci --no-audit --no-fund --loglevel=error)

@@ -4,13 +4,16 @@
 
 #include <algorithm>
 #include <array>
+#include <climits>
 #include <map>
+#include <tuple>
 #include <set>
 
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/quality_gate.h"
 
 namespace impostor {
 namespace {
@@ -83,18 +86,57 @@ v1::Job BakeScheduler::View(const JobRecord& record) {
     job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
     job.mutable_error()->set_message("cancelled by CancelJob");
   }
-  if (job.state() == v1::JOB_STATE_SUCCEEDED) {
+  // A requester failed by its quality gate still sees the result, so the
+  // atlases can be inspected.
+  const bool gate_failed = job.state() == v1::JOB_STATE_FAILED && HasQualityGate(record.gate) &&
+                           job.error().code() == static_cast<int>(absl::StatusCode::kFailedPrecondition);
+  if (job.state() == v1::JOB_STATE_SUCCEEDED || gate_failed) {
     auto result = jobs_->GetResult(job.cache_key());
     if (result.ok() && result->has_value()) *job.mutable_result() = std::move(**result);
   }
   return job;
 }
 
-absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader) {
+void BakeScheduler::ApplyResult(JobRecord& r, const v1::Manifest& result) {
+  r.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  r.job.set_progress(1.0f);
+  if (r.job.stage() != "cached") r.job.set_stage("done");
+  r.job.clear_error();
+  const absl::Status gate = CheckQualityGate(r.gate, result);
+  if (gate.ok()) return;
+  r.job.set_state(v1::JOB_STATE_FAILED);
+  r.job.set_stage("quality_gate");
+  r.job.mutable_error()->set_code(static_cast<int>(gate.code()));
+  r.job.mutable_error()->set_message(std::string(gate.message()));
+  spdlog::info("event=quality_gate_failed job={} cache_key={} error=\"{}\"", r.job.job_id(), r.job.cache_key(),
+               std::string(gate.message()));
+}
+
+absl::Status BakeScheduler::RefreshLeasePriority(JobRecord& leader) {
+  if (IsTerminal(leader.job.state()) || !leader.leader_job_id.empty()) return absl::OkStatus();
+  int32_t best = INT32_MIN;
+  if (!leader.requester_cancelled) best = leader.job.priority();
+  auto followers = jobs_->ActiveFollowers(leader.job.job_id());
+  if (!followers.ok()) return followers.status();
+  for (const JobRecord& f : *followers) best = std::max(best, f.job.priority());
+  // Nobody wants it any more: CancelBakeIfUnwanted decides its fate.
+  if (best == INT32_MIN || best == leader.lease_priority) return absl::OkStatus();
+  spdlog::info("event=priority_changed job={} from={} to={}", leader.job.job_id(), leader.lease_priority, best);
+  leader.lease_priority = best;
+  return Save(leader);
+}
+
+absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::Manifest* result) {
   if (!IsTerminal(leader.job.state())) return absl::OkStatus();
   auto followers = jobs_->ActiveFollowers(leader.job.job_id());
   if (!followers.ok()) return followers.status();
   for (JobRecord& f : *followers) {
+    if (result != nullptr) {
+      f.job.set_attempts(leader.job.attempts());
+      ApplyResult(f, *result);
+      if (auto s = Save(f); !s.ok()) return s;
+      continue;
+    }
     f.job.set_state(leader.job.state());
     f.job.set_progress(leader.job.progress());
     f.job.set_stage(leader.job.stage());
@@ -137,6 +179,11 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   if (auto s = ValidateMeshInput(request.mesh()); !s.ok()) return s;
   auto params = NormalizeParameters(request.parameters());
   if (!params.ok()) return params.status();
+  if (request.priority() < kMinPriority || request.priority() > kMaxPriority) {
+    return absl::InvalidArgumentError(absl::StrCat("priority: ", request.priority(), " is out of range ", kMinPriority,
+                                                   "..", kMaxPriority));
+  }
+  if (auto s = ValidateQualityGate(request.gate(), "gate"); !s.ok()) return s;
 
   auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
     if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
@@ -164,6 +211,9 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   record.job.set_created_ms(now);
   record.job.set_updated_ms(now);
   record.client_id = client_id.substr(0, 128);
+  record.job.set_priority(request.priority());
+  record.lease_priority = request.priority();
+  if (HasQualityGate(request.gate())) record.gate = request.gate();
   if (cached->has_value()) {
     if (auto s = jobs_->TouchResult(key, now); !s.ok()) return s;
     // A job record even for a hit, so GetJob/WatchJob work on every id.
@@ -171,12 +221,14 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     record.job.set_progress(1.0f);
     record.job.set_stage("cached");
     record.job.set_cached(true);
+    ApplyResult(record, **cached);  // the gate judges a cached result too
     if (auto s = jobs_->Insert(record); !s.ok()) return s;
     response.set_job_id(record.job.job_id());
     response.set_cached(true);
     *response.mutable_job() = record.job;
     *response.mutable_job()->mutable_result() = std::move(**cached);
-    spdlog::info("event=submit job={} cache_key={} outcome=cache_hit", record.job.job_id(), key);
+    spdlog::info("event=submit job={} cache_key={} outcome=cache_hit state={}", record.job.job_id(), key,
+                 v1::JobState_Name(record.job.state()));
     return response;
   }
 
@@ -208,6 +260,8 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     if (auto s = jobs_->Insert(record); !s.ok()) return s;
     ++changes_;
     changed_.notify_all();
+    // The shared bake runs at the highest priority anyone waiting asked for.
+    if (auto s = RefreshLeasePriority(**active); !s.ok()) return s;
     response.set_job_id(record.job.job_id());
     *response.mutable_job() = View(record);
     spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
@@ -267,11 +321,13 @@ absl::StatusOr<v1::Job> BakeScheduler::CancelJob(const std::string& job_id) {
     auto leader = LoadJob(r->leader_job_id);
     if (!leader.ok()) return leader.status();
     if (auto s = CancelBakeIfUnwanted(*leader); !s.ok()) return s;
+    if (auto s = RefreshLeasePriority(*leader); !s.ok()) return s;
     return View(*r);
   }
   r->requester_cancelled = true;
   if (auto s = Save(*r); !s.ok()) return s;
   if (auto s = CancelBakeIfUnwanted(*r); !s.ok()) return s;
+  if (auto s = RefreshLeasePriority(*r); !s.ok()) return s;
   return View(*r);
 }
 
@@ -390,7 +446,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
   std::unique_lock lock(mu_);
   while (true) {
-    auto next = jobs_->OldestQueued();
+    auto next = NextToLease();
     if (!next.ok()) return next.status();
     if (next->has_value()) {
       JobRecord& r = **next;
@@ -403,6 +459,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       r.lease_deadline_ms = now + options_.lease_timeout_ms;
       r.worker_id = request.worker_id();
       if (auto s = Save(r); !s.ok()) return s;
+      last_served_[r.client_id] = ++lease_sequence_;
       v1::LeasedJob leased;
       leased.set_job_id(r.job.job_id());
       leased.set_lease_id(r.lease_id);
@@ -411,7 +468,8 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       *leased.mutable_parameters() = r.parameters;
       leased.set_lease_deadline_ms(r.lease_deadline_ms);
       leased.set_attempt(r.job.attempts());
-      spdlog::info("event=lease job={} worker={} attempt={}", r.job.job_id(), request.worker_id(), r.job.attempts());
+      spdlog::info("event=lease job={} worker={} attempt={} priority={} client={}", r.job.job_id(),
+                   request.worker_id(), r.job.attempts(), r.lease_priority, r.client_id);
       return std::optional<v1::LeasedJob>(std::move(leased));
     }
     const auto now = std::chrono::steady_clock::now();
@@ -420,6 +478,25 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     changed_.wait_until(lock, std::min(deadline, now + std::chrono::seconds(1)),
                         [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return shutdown_ || changes_ != seen; });
   }
+}
+
+absl::StatusOr<std::optional<JobRecord>> BakeScheduler::NextToLease() {
+  auto heads = jobs_->QueueHeadsPerClient();
+  if (!heads.ok()) return heads.status();
+  if (heads->empty()) return std::optional<JobRecord>();
+  if (heads->size() == 1) return std::optional<JobRecord>(std::move(heads->front()));
+  auto running = jobs_->RunningPerClient();
+  if (!running.ok()) return running.status();
+  auto rank = [&](const JobRecord& r) {
+    const auto busy = running->find(r.client_id);
+    const auto served = last_served_.find(r.client_id);
+    return std::make_tuple(busy == running->end() ? int64_t{0} : busy->second,
+                           served == last_served_.end() ? uint64_t{0} : served->second, r.job.created_ms(),
+                           r.job.job_id());
+  };
+  auto best = std::min_element(heads->begin(), heads->end(),
+                               [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
+  return std::optional<JobRecord>(std::move(*best));
 }
 
 absl::StatusOr<JobRecord> BakeScheduler::HeldLease(const std::string& job_id, const std::string& lease_id) {
@@ -478,14 +555,10 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   }
   // Even a cancelled job's result is good: keep it for the next request.
   if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
-  if (r->job.state() == v1::JOB_STATE_RUNNING) {
-    r->job.set_state(v1::JOB_STATE_SUCCEEDED);
-    r->job.set_progress(1.0f);
-    r->job.set_stage("done");
-  }
+  if (r->job.state() == v1::JOB_STATE_RUNNING) ApplyResult(*r, m);
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
-  if (auto s = SettleFollowers(*r); !s.ok()) return s;
+  if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
   spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
                r->worker_id, m.timings().total_seconds());
   return absl::OkStatus();

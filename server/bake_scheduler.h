@@ -13,6 +13,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -26,6 +27,10 @@
 #include "server/job_store.h"
 
 namespace impostor {
+
+// SubmitBakeRequest.priority range; outside it Submit is INVALID_ARGUMENT.
+inline constexpr int32_t kMinPriority = -100;
+inline constexpr int32_t kMaxPriority = 100;
 
 struct SchedulerOptions {
   // A lease not renewed for this long expires and its job is queued again.
@@ -89,7 +94,11 @@ class BakeScheduler {
   // Shutdown is called; returns the counter.
   uint64_t WaitForChange(uint64_t seen, Deadline deadline);
 
-  // Leases the oldest queued job, waiting until `deadline` for one.
+  // Leases a queued job, waiting until `deadline` for one. Order: the
+  // highest lease priority first (a shared bake has the highest priority of
+  // the requesters still waiting for it); among equal priorities the client
+  // with the fewest running jobs, then the one served least recently (so two
+  // clients alternate whatever their queue lengths), then the oldest job.
   // `caller_gone` is polled about once a second; when it turns true the
   // wait ends with no job.
   absl::StatusOr<std::optional<v1::LeasedJob>> Lease(const v1::LeaseJobRequest& request, Deadline deadline,
@@ -120,8 +129,20 @@ class BakeScheduler {
   // leader's progress, CANCELLED for a cancelled requester, the result once
   // SUCCEEDED.
   v1::Job View(const JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // Copies a leader's terminal state to its followers still waiting.
-  absl::Status SettleFollowers(const JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Copies a leader's terminal state to its followers still waiting; with
+  // `result` (the bake succeeded), each follower gets it through its own
+  // quality gate instead (ApplyResult).
+  absl::Status SettleFollowers(const JobRecord& leader, const v1::Manifest* result = nullptr)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Marks `r` SUCCEEDED with `result`, or FAILED (FAILED_PRECONDITION, the
+  // result still attached by View) when its quality gate rejects it. Does
+  // not save.
+  void ApplyResult(JobRecord& r, const v1::Manifest& result);
+  // Sets a queued or running leader's lease priority to the highest
+  // priority among its live requesters and saves it when that changed.
+  absl::Status RefreshLeasePriority(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The queued leader Lease should hand out next (see Lease), if any.
+  absl::StatusOr<std::optional<JobRecord>> NextToLease() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Cancels the leader's bake when neither its requester nor any follower
   // wants it any more.
   absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -134,6 +155,11 @@ class BakeScheduler {
   std::condition_variable changed_;
   uint64_t changes_ ABSL_GUARDED_BY(mu_) = 0;
   bool shutdown_ ABSL_GUARDED_BY(mu_) = false;
+  // Fairness between clients: the lease sequence number at which each
+  // client was last served. In memory only: after a restart every client
+  // starts even, which is fair too.
+  std::map<std::string, uint64_t> last_served_ ABSL_GUARDED_BY(mu_);
+  uint64_t lease_sequence_ ABSL_GUARDED_BY(mu_) = 0;
 };
 
 // Random identifier: prefix + 32 hex characters.

@@ -38,9 +38,23 @@ CREATE TABLE IF NOT EXISTS results (
 );
 )sql";
 
+// Columns added after the first release, each with the statement that adds
+// it to an older database (SQLite's ALTER TABLE keeps existing rows, filled
+// with the default). Applied in order at Open.
+struct Migration {
+  const char* column;
+  const char* sql;
+};
+constexpr Migration kMigrations[] = {
+    {"priority", "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0"},
+};
+// Indexes over migrated columns: created after the migrations.
+constexpr const char* kLateIndexes =
+    "CREATE INDEX IF NOT EXISTS jobs_by_priority ON jobs (state, leader_job_id, priority, client_id, created_ms);";
+
 constexpr const char* kJobColumns =
     "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
-    "requester_cancelled, client_id";
+    "requester_cancelled, client_id, priority";
 
 // RAII prepared statement.
 class Statement {
@@ -89,6 +103,8 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
   r.leader_job_id = st.Text(9);
   r.requester_cancelled = st.Int(10) != 0;
   r.client_id = st.Text(11);
+  r.lease_priority = static_cast<int32_t>(st.Int(12));
+  r.gate = request.gate();
   return r;
 }
 
@@ -139,6 +155,32 @@ absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::
     sqlite3_close(db);
     return absl::InternalError(absl::StrCat("cannot initialise ", file.string(), ": ", msg));
   }
+  for (const Migration& m : kMigrations) {
+    Statement has(db, "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name = ?1");
+    if (auto s = has.prepared(); !s.ok()) {
+      sqlite3_close(db);
+      return s;
+    }
+    has.Bind(1, std::string(m.column));
+    if (has.Step() != SQLITE_ROW) {
+      absl::Status s = has.Error("read schema");
+      sqlite3_close(db);
+      return s;
+    }
+    if (has.Int(0) > 0) continue;
+    if (sqlite3_exec(db, m.sql, nullptr, nullptr, &err) != SQLITE_OK) {
+      std::string msg = err ? err : "unknown error";
+      sqlite3_free(err);
+      sqlite3_close(db);
+      return absl::InternalError(absl::StrCat("cannot migrate ", file.string(), " (column ", m.column, "): ", msg));
+    }
+  }
+  if (sqlite3_exec(db, kLateIndexes, nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    sqlite3_close(db);
+    return absl::InternalError(absl::StrCat("cannot index ", file.string(), ": ", msg));
+  }
   return std::unique_ptr<JobStore>(new JobStore(db));
 }
 
@@ -152,6 +194,7 @@ void BindJob(Statement& st, const JobRecord& r) {
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = r.mesh;
   *request.mutable_parameters() = r.parameters;
+  if (r.gate.has_min_iou() || r.gate.has_min_psnr_db()) *request.mutable_gate() = r.gate;
   st.Bind(1, r.job.job_id());
   st.Bind(2, r.job.cache_key());
   st.Bind(3, static_cast<int64_t>(r.job.state()));
@@ -164,14 +207,15 @@ void BindJob(Statement& st, const JobRecord& r) {
   st.Bind(10, r.leader_job_id);
   st.Bind(11, int64_t{r.requester_cancelled ? 1 : 0});
   st.Bind(12, r.client_id);
+  st.Bind(13, int64_t{r.lease_priority});
 }
 
 }  // namespace
 
 absl::Status JobStore::Insert(const JobRecord& record) {
   Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
-                    "worker_id, job, request, leader_job_id, requester_cancelled, client_id) "
-                    "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+                    "worker_id, job, request, leader_job_id, requester_cancelled, client_id, priority) "
+                    "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("insert job");
@@ -181,7 +225,7 @@ absl::Status JobStore::Insert(const JobRecord& record) {
 absl::Status JobStore::Update(const JobRecord& record) {
   Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
                     "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9, leader_job_id = ?10, "
-                    "requester_cancelled = ?11, client_id = ?12 WHERE job_id = ?1");
+                    "requester_cancelled = ?11, client_id = ?12, priority = ?13 WHERE job_id = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("update job");
@@ -198,6 +242,27 @@ absl::StatusOr<std::optional<JobRecord>> JobStore::OldestQueued() {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND leader_job_id = '' ORDER BY created_ms, rowid LIMIT 1"),
                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::QueueHeadsPerClient() {
+  return QueryMany(db_,
+                   absl::StrCat("SELECT ", kJobColumns, " FROM (SELECT ", kJobColumns,
+                                ", ROW_NUMBER() OVER (PARTITION BY client_id ORDER BY created_ms, rowid) AS n "
+                                "FROM jobs WHERE state = ?1 AND leader_job_id = '' AND priority = "
+                                "(SELECT MAX(priority) FROM jobs WHERE state = ?1 AND leader_job_id = '')) "
+                                "WHERE n = 1"),
+                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
+}
+
+absl::StatusOr<std::map<std::string, int64_t>> JobStore::RunningPerClient() {
+  Statement st(db_, "SELECT client_id, COUNT(*) FROM jobs WHERE state = ?1 AND leader_job_id = '' GROUP BY client_id");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  std::map<std::string, int64_t> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) out[st.Text(0)] = st.Int(1);
+  if (rc != SQLITE_DONE) return st.Error("count running");
+  return out;
 }
 
 absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::string& cache_key) {

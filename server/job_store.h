@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -41,6 +42,11 @@ struct JobRecord {
   // row keeps baking and reports CANCELLED to its own requester only.
   bool requester_cancelled = false;
   std::string client_id;       // who submitted it, for per-client limits
+  // Leaders: the priority the queue orders by, the highest of its live
+  // requesters' (job.priority() is this requester's own). Column `priority`.
+  int32_t lease_priority = 0;
+  // This requester's quality gate (SubmitBakeRequest.gate); empty = none.
+  v1::QualityGate gate;
 };
 
 class JobStore {
@@ -55,6 +61,12 @@ class JobStore {
   absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id);
   // The oldest QUEUED leader.
   absl::StatusOr<std::optional<JobRecord>> OldestQueued();
+  // For the highest lease priority among QUEUED leaders: the oldest QUEUED
+  // leader of each client at that priority (one per client, any order).
+  // Empty when nothing is queued.
+  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient();
+  // RUNNING leaders per client_id (clients with none are absent).
+  absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient();
   // A QUEUED or RUNNING leader with this cache key.
   absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key);
   // Followers of `leader_job_id` that are still QUEUED or RUNNING.

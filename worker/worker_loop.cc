@@ -12,6 +12,8 @@
 #include "common/bake_request.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
+#include "worker/bake/cards_bake.h"
+#include "worker/bake/lod_bake.h"
 #include "worker/bake/surfel_bake.h"
 
 namespace impostor {
@@ -216,9 +218,14 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                              .cache_key = job.cache_key(),
                              .output_dir = output_dir,
                              .load_limits = options_.load_limits};
-    auto out = job.parameters().product() == v1::PRODUCT_SURFELS
-                   ? BakeSurfels(request, *renderer_, progress, cancelled)
-                   : BakeAtlas(request, *renderer_, progress, cancelled);
+    auto out = [&]() -> absl::StatusOr<AtlasBakeOutput> {
+      switch (job.parameters().product()) {
+        case v1::PRODUCT_SURFELS: return BakeSurfels(request, *renderer_, progress, cancelled);
+        case v1::PRODUCT_LOD_CHAIN: return BakeLodChain(request, *renderer_, progress, cancelled);
+        case v1::PRODUCT_CARDS: return BakeCards(request, *renderer_, progress, cancelled);
+        default: return BakeAtlas(request, *renderer_, progress, cancelled);
+      }
+    }();
     if (!out.ok()) return out;
     out->manifest.mutable_timings()->set_download_seconds(download_seconds);
     return out;

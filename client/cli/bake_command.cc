@@ -55,6 +55,7 @@ class BakeReport {
 }  // namespace
 
 int RunBake(const CliArgs& args) {
+  if (args.targets.size() > 1) return RunBakeBatch(args);  // bake A B ...: a batch
   BakeReport report(args);
   const auto start = std::chrono::steady_clock::now();
 
@@ -69,16 +70,22 @@ int RunBake(const CliArgs& args) {
 
   sdk::ClientOptions options;
   options.server = args.server;
+  options.client_id = args.client_id;
   absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
   if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
 
   sdk::BakeSettings settings;
   settings.layout = args.layout;
+  settings.ring_views = args.ring_views;
   settings.frames = args.frames;
   settings.resolution = args.resolution;
   settings.product = args.product;
   settings.preset = args.preset;
   settings.point_budget = args.point_budget;
+  settings.max_planes = args.max_planes;
+  settings.tolerance = args.tolerance;
+  settings.priority = args.priority.value_or(0);
+  settings.lod_ratios = args.lod_ratios;
   absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
   if (!submitted.ok()) {
     const absl::Status& s = submitted.status();
@@ -100,6 +107,13 @@ int RunBake(const CliArgs& args) {
                  HumanBytes(submitted->upload.bytes_uploaded).c_str(), submitted->cached ? ", cached" : "");
   }
 
+  if (submitted->cached && submitted->error_code != 0) {
+    // A cached result that fails this request's quality gate.
+    return report.Fail(kExitBakeFailed,
+                       absl::StrCat("bake failed: ",
+                                    absl::StatusCodeToString(static_cast<absl::StatusCode>(submitted->error_code)),
+                                    ": ", submitted->error_message));
+  }
   if (!submitted->cached) {
     ProgressPrinter printer(stderr, isatty(STDERR_FILENO) == 1);
     absl::StatusOr<sdk::JobUpdate> final_state = (*client)->WatchJob(submitted->job_id, [&](const sdk::JobUpdate& u) {

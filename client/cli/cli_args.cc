@@ -1,5 +1,6 @@
 #include "client/cli/cli_args.h"
 
+#include <algorithm>
 #include <charconv>
 #include <map>
 #include <optional>
@@ -22,8 +23,11 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--layout", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget"}, {"--json", "--quiet"}, true,
+       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance"}, {"--json", "--quiet", "--keep-going"}, true,
         "MODEL"}},
+      {"bake-batch",
+       {Command::kBakeBatch, {"--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
+        true, "SPEC"}},
       {"fetch", {Command::kFetch, {"--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
       {"status", {Command::kStatus, {"--server"}, {"--json"}, false, "JOB_ID"}},
       {"cancel", {Command::kCancel, {"--server"}, {"--json"}, false, "JOB_ID"}},
@@ -85,6 +89,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   std::vector<std::string> positional;
   bool flags_done = false;
   bool out_given = false;
+  bool layout_given = false;
   for (size_t i = first_arg; i < args.size(); ++i) {
     const std::string& arg = args[i];
     if (flags_done || arg.size() < 2 || arg[0] != '-') {
@@ -107,6 +112,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--json") out.json = true;
       if (flag == "--quiet") out.quiet = true;
       if (flag == "--verify") out.verify = true;
+      if (flag == "--keep-going") out.keep_going = true;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -118,6 +124,21 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
         return Usage(absl::StrCat(flag, ": missing value"));
       }
       value = args[++i];
+    }
+    if (flag == "--priority") {
+      int32_t n = 0;
+      const char* end = value->data() + value->size();
+      auto [ptr, ec] = std::from_chars(value->data(), end, n);
+      if (value->empty() || ec != std::errc() || ptr != end || n < -100 || n > 100) {
+        return Usage(absl::StrCat("--priority: expected a whole number in -100..100, got \"", *value, "\""));
+      }
+      out.priority = n;
+      continue;
+    }
+    if (flag == "--client-id") {
+      if (value->empty()) return Usage("--client-id: missing value");
+      out.client_id = *value;
+      continue;
     }
     if (flag == "--cache-dir") {
       if (value->empty()) return Usage("--cache-dir: missing value");
@@ -138,19 +159,52 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (value->empty()) return Usage("--server: missing value");
       out.server = *value;
     } else if (flag == "--layout") {
-      if (*value != "octahedral" && *value != "hemi-octahedral") {
+      if (*value != "octahedral" && *value != "hemi-octahedral" && *value != "azimuth-elevation" &&
+          *value != "ring-top" && *value != "billboard") {
         return Usage(absl::StrCat("--layout: unknown layout \"", *value,
-                                  "\"; expected octahedral or hemi-octahedral"));
+                                  "\"; expected octahedral, hemi-octahedral, azimuth-elevation, ring-top or billboard"));
       }
       out.layout = *value;
+      layout_given = true;
+    } else if (flag == "--ring") {
+      absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
+      if (!n.ok()) return n.status();
+      out.ring_views = *n;
     } else if (flag == "--product") {
-      if (*value != "atlas" && *value != "surfels") {
-        return Usage(absl::StrCat("--product: unknown product \"", *value, "\"; expected atlas or surfels"));
+      if (*value != "atlas" && *value != "surfels" && *value != "lod-chain" && *value != "cards") {
+        return Usage(
+            absl::StrCat("--product: unknown product \"", *value, "\"; expected atlas, surfels, lod-chain or cards"));
       }
       out.product = *value;
     } else if (flag == "--preset") {
       if (value->empty()) return Usage("--preset: missing value");
       out.preset = *value;
+    } else if (flag == "--lod-ratios") {
+      // "0.5,0.1": plain decimal numbers; their rules are the server's.
+      out.lod_ratios.clear();
+      size_t start = 0;
+      while (start <= value->size()) {
+        const size_t end = std::min(value->find(',', start), value->size());
+        const std::string item = value->substr(start, end - start);
+        float r = 0;
+        auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), r);
+        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size()) {
+          return Usage(absl::StrCat("--lod-ratios: expected comma-separated numbers like 0.5,0.1, got \"", *value, "\""));
+        }
+        out.lod_ratios.push_back(r);
+        start = end + 1;
+      }
+    } else if (flag == "--max-planes") {
+      absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
+      if (!n.ok()) return n.status();
+      out.max_planes = *n;
+    } else if (flag == "--tolerance") {
+      float e = 0;
+      auto [ptr, ec] = std::from_chars(value->data(), value->data() + value->size(), e);
+      if (value->empty() || ec != std::errc() || ptr != value->data() + value->size()) {
+        return Usage(absl::StrCat("--tolerance: expected a number like 0.05, got \"", *value, "\""));
+      }
+      out.tolerance = e;
     } else if (flag == "--point-budget") {
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
@@ -161,6 +215,8 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       (flag == "--frames" ? out.frames : out.resolution) = *n;
     }
   }
+  // A LOD chain's impostor defaults to the hemisphere (the server's choice).
+  if (out.product == "lod-chain" && !layout_given) out.layout.clear();
   if (spec.target_name == nullptr) {
     if (!positional.empty()) {
       return Usage(absl::StrCat("unexpected argument \"", positional[0], "\" for '", command_name, "'"));
@@ -168,9 +224,14 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
     return out;
   }
   if (positional.empty()) return Usage(absl::StrCat("'", command_name, "' needs ", spec.target_name));
-  if (positional.size() > 1) {
+  // bake takes several models: a batch (batch_command.cc).
+  if (positional.size() > 1 && spec.command != Command::kBake) {
     return Usage(absl::StrCat("unexpected argument \"", positional[1], "\" for '", name, "'"));
   }
+  for (const std::string& p : positional) {
+    if (p.empty()) return Usage(absl::StrCat("'", name, "': ", spec.target_name, " is empty"));
+  }
+  out.targets = positional;
   out.target = positional[0];
   if (out.target.empty()) return Usage(absl::StrCat("'", name, "': ", spec.target_name, " is empty"));
   if (spec.needs_out && !out_given) return Usage(absl::StrCat("'", name, "' needs --out DIR"));
@@ -181,16 +242,24 @@ std::string UsageText() {
   return R"(impostor - bake glTF models into impostor atlases on an impostor bake farm
 
 Usage:
-  impostor bake MODEL --out DIR [--layout octahedral|hemi-octahedral]
+  impostor bake MODEL --out DIR [--layout L] [--ring K]
                 [--frames N] [--resolution R] [--server HOST:PORT] [--json] [--quiet]
-                [--product atlas|surfels] [--preset NAME] [--point-budget N]
+                [--product atlas|surfels|lod-chain] [--preset NAME] [--point-budget N]
+                [--lod-ratios R1,R2,...] [--max-planes N] [--tolerance E]
       Uploads MODEL (.gltf or .glb, with the files it refers to; only what the
       server lacks), bakes it, shows progress on stderr, and downloads the
       atlas into DIR (manifest.json, albedo_alpha.png, normal_depth.png,
       orm.png). Prints the paths of the files on stdout.
-        --layout      view directions: octahedral (full sphere, default) or
-                      hemi-octahedral (upper hemisphere)
-        --frames N    frames per atlas axis (server default 12, range 2..64)
+        --layout      view directions: octahedral (full sphere, default),
+                      hemi-octahedral (upper hemisphere), azimuth-elevation
+                      (N azimuth columns x N elevation rows, N odd so a row
+                      sits at 0 degrees), ring-top (--ring K horizontal views,
+                      default 24, plus one from above) or billboard (the
+                      traditional 3x3: 8 side views + 1 top view)
+        --ring K      ring-top: horizontal views (default 24, range 3..64)
+        --frames N    frames per atlas axis (server default 12, range 2..64;
+                      azimuth-elevation: odd, default 11; ring-top and
+                      billboard derive it)
         --resolution R atlas side in pixels (server default 2048, range
                       64..8192 and at least 8 * frames)
         --product P   atlas (default) or surfels: a point cloud for foliage at
@@ -201,7 +270,51 @@ Usage:
                       (16384, 16, 1024), vegetation (32768, 24, 2048, the
                       default) or hero (65536, 32, 2048); explicit flags win
         --point-budget N surfels: most points in the cloud (range 1..4194304)
+        --product lod-chain [--lod-ratios 0.5,0.1]: the mesh at LOD0, simplified
+                      levels at those triangle ratios (default 0.5,0.1) as
+                      lod<N>.glb sharing the input's textures, and an atlas
+                      impostor as the last level (layout default
+                      hemi-octahedral); manifest.json lists the levels and
+                      their switch thresholds (see impostor/lod.h)
+        --product cards [--max-planes N] [--tolerance E]: a card cluster
+                      ("billboard cloud"): at most N textured quads (default
+                      8, range 1..64) fitted to the mesh within E x the
+                      bounding-sphere radius (default 0.05, range
+                      0.0001..1), as cards.glb (standard glTF 2.0, any
+                      viewer loads it) plus the card atlas maps;
+                      --resolution is the card atlas side (default 1024);
+                      --frames is refused and --layout ignored
         --quiet       no progress output
+        --priority N  scheduling priority, -100..100 (default 0; 50 for a
+                      person waiting, -50 for nightly batches)
+        --client-id NAME  names this client to the server (fairness, limits)
+  impostor bake MODEL MODEL... --out DIR [flags as above] [--keep-going]
+      Several models: a batch, as bake-batch with every model at the flags'
+      settings; each result lands in DIR/<model name>/.
+  impostor bake-batch SPEC --out DIR [--server HOST:PORT] [--json] [--quiet]
+                [--keep-going] [--priority N] [--client-id NAME]
+      Bakes every asset listed in SPEC (a .json, .yaml or .yml file, or - for
+      JSON or YAML on stdin): {"defaults": {...}, "assets": ["a.glb",
+      {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
+      and of defaults: layout, frames, resolution, product, preset,
+      point_budget, priority, min_iou, min_psnr_db; an asset also has path
+      (required, relative to SPEC's folder) and name (its folder in DIR,
+      default the file name without extension). Uploads only the blobs the
+      server lacks (one FindMissingBlobs for the batch), submits everything,
+      follows the jobs over at most 8 WatchJob streams and downloads each
+      result into DIR/<name>/ as it finishes. A live summary line (queued,
+      running, done, cached, failed, progress bar) goes to stderr.
+        --keep-going  bake everything possible after a failure (default: stop
+                      submitting after the first failure; what was already
+                      submitted is still followed and reported)
+        --priority N  default priority of assets that do not set one
+        --json        one JSON object per finished asset on stdout: {type:
+                      "asset", asset, name, status (succeeded, failed or
+                      skipped), cached, cache_key, job_id, out_dir, files,
+                      wall_seconds, priority, quality (the manifest's quality
+                      block, or null), error (null or "CODE: message"),
+                      error_code}, then {type: "summary", total, succeeded,
+                      baked, cached, failed, skipped, wall_seconds, exit_code}
   impostor fetch KEY --out DIR [--server HOST:PORT] [--json] [--quiet]
       Downloads the result baked under cache key KEY into DIR. Files already
       in DIR with the right content are kept.
@@ -232,8 +345,10 @@ Common flags:
 
 Exit codes:
   0  success
-  1  the bake failed, was cancelled, or the server refused the request as invalid
-  2  usage error (unknown flag, missing value, not a number, ...)
+  1  the bake failed, was cancelled, or the server refused the request as invalid;
+     for a batch: at least one asset failed or was skipped (the others are in DIR)
+  2  usage error (unknown flag, missing value, not a number, ...); a malformed
+     batch SPEC or a listed model that does not exist (nothing is submitted)
   3  cannot reach the server, or an RPC failed
   4  local I/O error (model not found or unusable, cannot write DIR)
 Every failure prints exactly one line "impostor: <reason>" on stderr.

@@ -21,14 +21,25 @@ enum ExitCode : int {
   kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
 };
 
-enum class Command { kHelp, kVersion, kBake, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc };
+enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc };
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
 struct CliArgs {
   Command command = Command::kHelp;
-  // The positional argument: MODEL (bake), KEY (fetch) or JOB_ID.
+  // The positional argument: MODEL (bake), SPEC (bake-batch), KEY (fetch) or
+  // JOB_ID.
   std::string target;
+  // bake: every MODEL given (targets[0] == target); more than one makes a
+  // batch (batch_command.cc).
+  std::vector<std::string> targets;
+  // --priority (bake, bake-batch): -100..100, checked here; unset = 0 (for
+  // bake-batch: the spec's own default).
+  std::optional<int32_t> priority;
+  // --keep-going (batches): bake everything possible after a failure.
+  bool keep_going = false;
+  // --client-id: names this client to the server for fairness and limits.
+  std::string client_id;
   std::string out;
   // --server, else $IMPOSTOR_SERVER, else kDefaultServer.
   std::string server = kDefaultServer;
@@ -43,6 +54,17 @@ struct CliArgs {
   // unset = not given.
   std::string preset;
   std::optional<uint32_t> point_budget;
+  // --ring K (layout ring-top): passed to the server unchecked.
+  std::optional<uint32_t> ring_views;
+  // --lod-ratios 0.5,0.1 (product lod-chain): comma-separated numbers, passed
+  // to the server unchecked (it owns the rules); empty = not given. With
+  // product lod-chain and no --layout, `layout` is empty: the server's
+  // default for LOD chains (hemi-octahedral).
+  std::vector<float> lod_ratios;
+  // --max-planes N and --tolerance E (product cards): passed to the server
+  // unchecked (it owns the ranges); unset = not given.
+  std::optional<uint32_t> max_planes;
+  std::optional<float> tolerance;
   bool json = false;
   bool quiet = false;
   // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else

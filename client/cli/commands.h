@@ -8,6 +8,9 @@
 namespace impostor::cli {
 
 int RunBake(const CliArgs& args);
+// impostor bake-batch SPEC, and impostor bake with several models
+// (batch_command.cc).
+int RunBakeBatch(const CliArgs& args);
 int RunFetch(const CliArgs& args);
 int RunStatus(const CliArgs& args);
 int RunCancel(const CliArgs& args);

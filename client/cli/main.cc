@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
       std::printf("impostor %s (baker %s)\n", IMPOSTOR_VERSION, IMPOSTOR_BAKER_VERSION);
       return kExitOk;
     case Command::kBake: return RunBake(*parsed);
+    case Command::kBakeBatch: return RunBakeBatch(*parsed);
     case Command::kFetch: return RunFetch(*parsed);
     case Command::kStatus: return RunStatus(*parsed);
     case Command::kCancel: return RunCancel(*parsed);

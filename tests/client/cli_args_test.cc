@@ -47,6 +47,20 @@ TEST(ParseCliArgs, NumbersPassThroughUnchecked) {
   EXPECT_EQ(ParseCliArgs({"bake", "m.glb", "--out", "o", "--frames", "1000"}, nullptr)->frames, 1000u);
 }
 
+TEST(ParseCliArgs, CardFlags) {
+  auto a = ParseCliArgs({"bake", "tree.gltf", "--product", "cards", "--max-planes", "12", "--tolerance", "0.02",
+                         "--resolution", "512", "--out", "o"},
+                        nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->product, "cards");
+  EXPECT_EQ(a->max_planes, 12u);
+  EXPECT_FLOAT_EQ(a->tolerance.value_or(0), 0.02f);
+  EXPECT_EQ(a->resolution, 512u);
+  auto bad = ParseCliArgs({"bake", "tree.gltf", "--product", "cards", "--tolerance", "tight", "--out", "o"}, nullptr);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("--tolerance"), std::string::npos) << bad.status();
+}
+
 TEST(ParseCliArgs, HelpVersionAndOtherCommands) {
   EXPECT_EQ(ParseCliArgs({"--help"}, nullptr)->command, Command::kHelp);
   EXPECT_EQ(ParseCliArgs({"help"}, nullptr)->command, Command::kHelp);
@@ -82,7 +96,8 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
       {"resolution_overflow", {"bake", "m.glb", "--out", "o", "--resolution", "99999999999"}, "--resolution"},
       {"unknown_layout", {"bake", "m.glb", "--out", "o", "--layout", "cube"}, "--layout"},
       {"missing_model", {"bake", "--out", "o"}, "MODEL"},
-      {"two_models", {"bake", "a.glb", "b.glb", "--out", "o"}, "unexpected argument \"b.glb\""},
+      {"two_models_without_out", {"bake", "a.glb", "b.glb"}, "needs --out DIR"},
+      {"two_keys", {"fetch", "k1", "k2", "--out", "o"}, "unexpected argument \"k2\""},
       {"bool_flag_with_value", {"bake", "m.glb", "--out", "o", "--json=yes"}, "--json takes no value"},
       {"missing_job_id", {"status"}, "JOB_ID"},
   };

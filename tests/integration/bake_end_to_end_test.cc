@@ -65,7 +65,16 @@ v1::BakeParameters Params(v1::Layout layout, int frames, int resolution) {
   return p;
 }
 
-class SilhouetteTest : public ::testing::TestWithParam<v1::Layout> {};
+struct LayoutCase {
+  const char* name;
+  v1::Layout layout;
+  uint32_t frames;      // requested; 0 = derived by the server
+  uint32_t ring_views;  // ring-top only
+  uint32_t expect_frames;
+  int expect_views;
+};
+
+class SilhouetteTest : public ::testing::TestWithParam<LayoutCase> {};
 
 // The product's core promise: a real asset baked by a real server and
 // worker, whose every tile's alpha covers the mesh's silhouette as seen by a
@@ -74,7 +83,10 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
   ServerProcess server(/*local_workers=*/1);
   const auto glb = AssetsDir() / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
   const v1::MeshInput mesh = testing::UploadGlb(server.assets(), glb);
-  const v1::Job submitted = Submit(server, mesh, Params(GetParam(), 4, 512));
+  const LayoutCase& param = GetParam();
+  v1::BakeParameters params = Params(param.layout, static_cast<int>(param.frames), 512);
+  if (param.ring_views != 0) params.set_ring_views(param.ring_views);
+  const v1::Job submitted = Submit(server, mesh, params);
   std::vector<v1::Job> updates;
   const v1::Job done = testing::WatchToEnd(server.bake(), submitted.job_id(), &updates);
   ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
@@ -84,10 +96,11 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
 
   const v1::Manifest& m = done.result();
   EXPECT_EQ(m.cache_key(), submitted.cache_key());
-  EXPECT_EQ(m.frames(), 4u);
-  EXPECT_EQ(m.tile_size(), 128u);
-  ASSERT_EQ(m.maps_size(), 3);
-  ASSERT_EQ(m.views_size(), 16);
+  EXPECT_EQ(m.layout(), param.layout);
+  EXPECT_EQ(m.frames(), param.expect_frames);
+  EXPECT_EQ(m.tile_size(), 512u / param.expect_frames);
+  ASSERT_GE(m.maps_size(), 3);
+  ASSERT_EQ(m.views_size(), param.expect_views);
   EXPECT_EQ(m.mesh().triangles(), 15452u);
 
   // manifest.json in the store says the same as the proto.
@@ -95,7 +108,8 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
   ASSERT_TRUE(testing::ReadBlob(server.assets(), m.manifest_json(), &json).ok());
   auto from_json = ManifestFromJson(json);
   ASSERT_TRUE(from_json.ok()) << from_json.status();
-  EXPECT_EQ(from_json->views_size(), 16);
+  EXPECT_EQ(from_json->views_size(), param.expect_views);
+  EXPECT_EQ(from_json->layout(), param.layout);
   EXPECT_EQ(from_json->maps(0).digest().hash(), m.maps(0).digest().hash());
 
   std::string png;
@@ -131,14 +145,32 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
     EXPECT_GT(iou, 0.985) << "view " << view.index() << ": alpha vs CPU silhouette IoU " << iou;
     EXPECT_GT(lit, both / 2) << "view " << view.index() << ": covered texels are mostly black";
   }
+  // Grid tiles no frame uses (ring-top's remainder) stay fully transparent.
+  const int side = static_cast<int>(m.frames()), tile = static_cast<int>(m.tile_size());
+  std::vector<bool> used(static_cast<size_t>(side * side), false);
+  for (const v1::View& view : m.views()) used[(view.tile().y() / tile) * side + view.tile().x() / tile] = true;
+  for (int t = 0; t < side * side; ++t) {
+    if (used[static_cast<size_t>(t)]) continue;
+    int covered = 0;
+    for (int y = 0; y < tile; ++y) {
+      for (int x = 0; x < tile; ++x) {
+        const size_t px = static_cast<size_t>((t / side) * tile + y) * albedo.width + (t % side) * tile + x;
+        covered += albedo.pixels[px * 4 + 3] > 0;
+      }
+    }
+    EXPECT_EQ(covered, 0) << "unused tile " << t << " has covered texels";
+  }
 }
 
-INSTANTIATE_TEST_SUITE_P(Layouts, SilhouetteTest,
-                         ::testing::Values(v1::LAYOUT_OCTAHEDRAL, v1::LAYOUT_HEMI_OCTAHEDRAL),
-                         [](const auto& info) {
-                           return info.param == v1::LAYOUT_OCTAHEDRAL ? std::string("octahedral")
-                                                                      : std::string("hemi_octahedral");
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    Layouts, SilhouetteTest,
+    ::testing::Values(LayoutCase{"octahedral", v1::LAYOUT_OCTAHEDRAL, 4, 0, 4, 16},
+                      LayoutCase{"hemi_octahedral", v1::LAYOUT_HEMI_OCTAHEDRAL, 4, 0, 4, 16},
+                      LayoutCase{"azimuth_elevation", v1::LAYOUT_AZIMUTH_ELEVATION, 5, 0, 5, 25},
+                      // 10 ring views + the top in a 4 x 4 grid: 5 tiles stay empty.
+                      LayoutCase{"ring_top", v1::LAYOUT_RING_TOP, 0, 10, 4, 11},
+                      LayoutCase{"billboard", v1::LAYOUT_BILLBOARD, 0, 0, 3, 9}),
+    [](const auto& info) { return std::string(info.param.name); });
 
 TEST(EndToEnd, SecondRequestComesFromTheCacheUnderAnyFileName) {
   ServerProcess server(/*local_workers=*/1);

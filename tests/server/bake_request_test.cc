@@ -1,5 +1,8 @@
 #include "common/bake_request.h"
 
+#include <cmath>
+#include <optional>
+
 #include <gtest/gtest.h>
 
 #include "common/sha256.h"
@@ -109,6 +112,71 @@ TEST(BakeRequest, CacheKeyDependsOnContentNotOnNamesOrOrder) {
   v1::BakeParameters hemi = params;
   hemi.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
   EXPECT_NE(ComputeCacheKey(Gltf(), hemi), key);
+}
+
+TEST(BakeRequest, CardDefaultsAreFilledInAndKeyed) {
+  v1::BakeParameters in;
+  in.set_product(v1::PRODUCT_CARDS);
+  auto p = NormalizeParameters(in);
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->max_planes(), 8u);
+  EXPECT_FLOAT_EQ(p->tolerance(), 0.05f);
+  EXPECT_EQ(p->resolution(), 1024u);
+
+  v1::BakeParameters explicit_defaults = in;
+  explicit_defaults.set_max_planes(8);
+  explicit_defaults.set_tolerance(0.05f);
+  explicit_defaults.set_resolution(1024);
+  const std::string key = ComputeCacheKey(Gltf(), *p);
+  EXPECT_EQ(ComputeCacheKey(Gltf(), *NormalizeParameters(explicit_defaults)), key);
+  v1::BakeParameters more = in;
+  more.set_max_planes(9);
+  EXPECT_NE(ComputeCacheKey(Gltf(), *NormalizeParameters(more)), key);
+  v1::BakeParameters looser = in;
+  looser.set_tolerance(0.0500001f);
+  EXPECT_NE(ComputeCacheKey(Gltf(), *NormalizeParameters(looser)), key) << "tolerance keyed exactly";
+  EXPECT_NE(ComputeCacheKey(Gltf(), *NormalizeParameters({})), key) << "cards and atlas never share a key";
+  v1::BakeParameters hemi = in;
+  hemi.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  EXPECT_EQ(ComputeCacheKey(Gltf(), *NormalizeParameters(hemi)), key) << "cards have no views: layout ignored";
+}
+
+TEST(BakeRequest, BadCardParametersNameTheFieldAndLimit) {
+  struct Case {
+    const char* name;
+    v1::Product product;
+    std::optional<uint32_t> max_planes;
+    std::optional<float> tolerance;
+    uint32_t frames, resolution;
+    int layout;
+    const char* expect;
+  } cases[] = {
+      {"no planes", v1::PRODUCT_CARDS, 0u, {}, 0, 0, 0, "parameters.max_planes: 0 is out of range 1..64"},
+      {"too many planes", v1::PRODUCT_CARDS, 65u, {}, 0, 0, 0, "parameters.max_planes: 65 is out of range 1..64"},
+      {"zero tolerance", v1::PRODUCT_CARDS, {}, 0.0f, 0, 0, 0, "parameters.tolerance: 0 is out of range 0.0001..1"},
+      {"huge tolerance", v1::PRODUCT_CARDS, {}, 2.0f, 0, 0, 0, "parameters.tolerance: 2 is out of range 0.0001..1"},
+      {"nan tolerance", v1::PRODUCT_CARDS, {}, std::nanf(""), 0, 0, 0, "parameters.tolerance: nan is out of range"},
+      {"tiny card atlas", v1::PRODUCT_CARDS, {}, {}, 0, 32, 0, "parameters.resolution: 32 is out of range 64..8192"},
+      {"frames with cards", v1::PRODUCT_CARDS, {}, {}, 12, 0, 0, "parameters.frames: 12 given, but product "
+                                                                 "PRODUCT_CARDS renders no views"},
+      {"planes with atlas", v1::PRODUCT_ATLAS, 8u, {}, 0, 0, 0, "parameters.max_planes: only for product "
+                                                                "PRODUCT_CARDS"},
+      {"tolerance with surfels", v1::PRODUCT_SURFELS, {}, 0.1f, 0, 0, 0, "parameters.tolerance: only for product "
+                                                                         "PRODUCT_CARDS"},
+  };
+  for (const Case& c : cases) {
+    v1::BakeParameters in;
+    in.set_product(c.product);
+    if (c.max_planes) in.set_max_planes(*c.max_planes);
+    if (c.tolerance) in.set_tolerance(*c.tolerance);
+    in.set_frames(c.frames);
+    in.set_resolution(c.resolution);
+    in.set_layout(static_cast<v1::Layout>(c.layout));
+    auto p = NormalizeParameters(in);
+    ASSERT_FALSE(p.ok()) << c.name;
+    EXPECT_EQ(p.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(p.status().message().find(c.expect), std::string::npos) << c.name << ": " << p.status();
+  }
 }
 
 }  // namespace

@@ -10,9 +10,12 @@
 #include "common/atlas_layout.h"
 #include "common/bake_request.h"
 #include "common/frame_camera.h"
+#include "common/layout_parameters.h"
 #include "common/manifest_json.h"
 #include "common/sha256.h"
+#include "worker/bake/auto_frames.h"
 #include "worker/bake/bake_outputs.h"
+#include "worker/bake/quality_pass.h"
 #include "worker/output/atlas_dilation.h"
 #include "worker/output/map_writer.h"
 #include "worker/scene/bounding_sphere.h"
@@ -62,6 +65,8 @@ absl::Status AddMap(const std::filesystem::path& dir, const std::string& semanti
 
 absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, AtlasRenderer& renderer,
                                           const BakeProgress& progress, const std::atomic<bool>& cancelled) {
+  // frames_auto bakes a ladder of frame counts through this function.
+  if (request.parameters.frames_auto()) return BakeAtlasAutoFrames(request, renderer, progress, cancelled);
   const auto start = Clock::now();
   const v1::BakeParameters& p = request.parameters;
   const LayoutKind layout = ToLayoutKind(p.layout());
@@ -84,7 +89,8 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     return absl::InvalidArgumentError(absl::StrCat(
         "mesh: its bounding sphere has radius ", sphere.radius, "; a mesh needs extent to be baked"));
   }
-  const std::vector<FrameCamera> cameras = AtlasCameras(layout, frames, resolution);
+  const ViewLayout view_layout = ViewLayoutOf(p);
+  const std::vector<FrameCamera> cameras = AtlasCameras(view_layout, resolution);
 
   // Render.
   progress("render", kRenderStart);
@@ -142,6 +148,13 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     return s;
   }
   if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
+  // Quality: the mesh from held-out views against the impostor as a game
+  // draws it from the maps as written (quality_pass.h). Its time is logged.
+  if (auto s = AddAtlasQuality(*scene, sphere, cameras, std::move(*atlas), p, request.cache_key, dir, renderer,
+                               &manifest);
+      !s.ok()) {
+    return s;
+  }
   for (const FrameCamera& c : cameras) {
     v1::View* v = manifest.add_views();
     v->set_index(static_cast<uint32_t>(c.index));
@@ -151,7 +164,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     v->mutable_tile()->set_y(static_cast<uint32_t>(c.tile.y));
     v->mutable_tile()->set_width(static_cast<uint32_t>(c.tile.width));
     v->mutable_tile()->set_height(static_cast<uint32_t>(c.tile.height));
-    v->set_same_view_as(static_cast<uint32_t>(FrameIndex(frames, CanonicalFrame(layout, frames, c.frame))));
+    v->set_same_view_as(static_cast<uint32_t>(CanonicalFrameIndex(view_layout, c.index)));
   }
   manifest.mutable_mesh()->set_triangles(scene->TriangleCount());
   manifest.mutable_mesh()->set_materials(static_cast<uint32_t>(scene->materials.size()));

@@ -3,13 +3,12 @@
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
+#include "common/layout_parameters.h"
 #include "common/sha256.h"
 
 namespace impostor {
 
-LayoutKind ToLayoutKind(v1::Layout layout) {
-  return layout == v1::LAYOUT_HEMI_OCTAHEDRAL ? LayoutKind::kHemiOctahedral : LayoutKind::kOctahedral;
-}
+LayoutKind ToLayoutKind(v1::Layout layout) { return LayoutKindOf(layout); }
 
 absl::StatusOr<v1::Digest> WriteFileWithDigest(const std::filesystem::path& path, std::string_view bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);

@@ -61,6 +61,13 @@ struct ClientOptions {
   // A refused connection (nothing listening) ends the wait after about one
   // second instead. Default: 10. Range: > 0.
   double connect_timeout_seconds = 10;
+
+  // Names this client to the server (the "impostor-client-id" metadata of
+  // unary calls), e.g. "ci-nightly" or a user name: per-client limits and
+  // fairness between clients count by it. Empty = the server uses the
+  // connection's address, which every client on one host shares.
+  // Default: empty. At most 128 bytes are used.
+  std::string client_id;
 };
 
 // What to bake. Zero and empty values mean "the server's default", which the
@@ -68,13 +75,22 @@ struct ClientOptions {
 // an omitted one share a cached result.
 struct BakeSettings {
   // Arrangement of view directions in the atlas: "octahedral" (the full
-  // sphere) or "hemi-octahedral" (the upper hemisphere, glTF +Y up).
+  // sphere), "hemi-octahedral" (the upper hemisphere, glTF +Y up),
+  // "azimuth-elevation" (columns = azimuth, rows = elevation, full sphere,
+  // odd row count), "ring-top" (ring_views horizontal views + 1 from above)
+  // or "billboard" (the traditional 3x3: 8 side views + 1 top view).
   // Default: "octahedral". Any other name is INVALID_ARGUMENT.
   std::string layout = "octahedral";
 
   // Frames per atlas axis: the atlas holds frames x frames views.
-  // Default: 0 = the server's default (12). Range checked by the server: 2..64.
+  // Default: 0 = the server's default (12; azimuth-elevation 11). Range
+  // checked by the server: 2..64; azimuth-elevation odd 3..63; ring-top and
+  // billboard derive it and refuse an explicit value.
   uint32_t frames = 0;
+
+  // ring-top only: horizontal views, evenly spaced in azimuth.
+  // Default: unset = 24 (15 degrees apart). Range checked by the server: 3..64.
+  std::optional<uint32_t> ring_views;
 
   // Atlas side in pixels.
   // Default: 0 = the server's default (2048). Range checked by the server:
@@ -99,6 +115,45 @@ struct BakeSettings {
   // as the capture allows without exceeding it.
   // Default: unset = from the preset. Range checked by the server: 1..4194304.
   std::optional<uint32_t> point_budget;
+
+  // Product "lod-chain" only (the original mesh, simplified levels, then an
+  // atlas impostor; read the result with LoadLodChain, impostor/lod.h):
+  // triangle ratios of the simplified levels, each in (0, 1), strictly
+  // decreasing, at most 8. Default: empty = [0.5, 0.1]. Checked by the
+  // server. The impostor level's layout defaults to hemi-octahedral when
+  // `layout` is empty (the string default "octahedral" is sent as given).
+  std::vector<float> lod_ratios;
+  // Product "lod-chain" only: screen-space geometric error allowed at each
+  // switch, pixels. Default: unset = 1. Range checked by the server: 0.1..16.
+  std::optional<float> lod_pixel_error;
+
+  // Product "cards" only (a few textured quads fitted to the mesh, delivered
+  // as cards.glb, a standard glTF 2.0 binary, plus the card atlas maps):
+  // the most cards (planes). Default: unset = 8. Range checked by the
+  // server: 1..64. For cards, resolution is the card atlas's side (default
+  // 1024) and frames must stay 0; layout is ignored.
+  std::optional<uint32_t> max_planes;
+  // Product "cards" only: how far a triangle may lie from its card's plane,
+  // as a fraction of the bounding-sphere radius. Default: unset = 0.05.
+  // Range checked by the server: 0.0001..1.
+  std::optional<float> tolerance;
+
+  // Scheduling priority: higher runs first. Suggested: 50 for a person
+  // waiting at a desk, 0 for CI, -50 for nightly batches; among equal
+  // priorities the server alternates between clients. Not part of the cache
+  // key. Default: 0. Range checked by the server: -100..100.
+  int32_t priority = 0;
+
+  // Quality gate on the measured fidelity of an atlas (the manifest's
+  // "quality" block): the job FAILS (error code 9, FAILED_PRECONDITION, with
+  // the result still downloadable) when the mean silhouette IoU over the
+  // held-out views is below min_iou, or the mean albedo PSNR below
+  // min_psnr_db. Not part of the cache key: a gated request shares the bake
+  // and the cached result of an ungated one.
+  // Default: unset = not checked. Ranges checked by the server: min_iou
+  // 0..1, min_psnr_db 0..100 (dB).
+  std::optional<float> min_iou;
+  std::optional<float> min_psnr_db;
 };
 
 // What SubmitBake sent to the store.
@@ -116,6 +171,28 @@ struct SubmitResult {
   // The result was already baked: the job is SUCCEEDED and Fetch works now.
   bool cached = false;
   UploadStats upload;
+  // Set when a cached result failed the request's quality gate: the job is
+  // already FAILED with code 9 (FAILED_PRECONDITION) and this reason; Fetch
+  // still downloads the result for inspection. 0 and empty otherwise.
+  int error_code = 0;
+  std::string error_message;
+};
+
+// One model of a SubmitBakeBatch.
+struct BatchItem {
+  std::filesystem::path model;  // a .gltf or .glb, as for SubmitBake
+  BakeSettings settings;
+};
+
+// What SubmitBakeBatch did with one item.
+struct BatchSubmission {
+  // OK when submitted (`result` is set). Otherwise why not: the model's own
+  // problem (NOT_FOUND, INVALID_ARGUMENT as for SubmitBake), the server's
+  // refusal of this request (an RPC error from SubmitBake, e.g.
+  // INVALID_ARGUMENT naming the field), or CANCELLED when the batch stopped
+  // before this item (see SubmitBakeBatch).
+  absl::Status status;
+  SubmitResult result;
 };
 
 enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled, kUnknown };
@@ -199,6 +276,22 @@ class Client {
   // (the model or a file it refers to is missing), or an RPC's error.
   absl::StatusOr<SubmitResult> SubmitBake(const std::filesystem::path& model,
                                           const BakeSettings& settings);
+
+  // Submits many bakes at once: hashes every item's files, asks the server
+  // which blobs it lacks with one FindMissingBlobs for the whole batch (one
+  // per 10,000 distinct blobs), uploads each missing blob once, then sends
+  // one SubmitBake per item, in order. Identical models share one bake on
+  // the server; cached ones are answered at once (result.cached).
+  // An item whose files cannot be read or whose settings are invalid is not
+  // submitted and the others go on. `on_submitted` (may be empty) is called
+  // on the calling thread with each item's index and outcome, in item order,
+  // as soon as it is known; when it returns false, no further item is
+  // submitted and each gets CANCELLED "not submitted: the batch stopped".
+  // Returns one BatchSubmission per item, or an RPC's error for the whole
+  // batch when FindMissingBlobs or an upload fails.
+  absl::StatusOr<std::vector<BatchSubmission>> SubmitBakeBatch(
+      const std::vector<BatchItem>& items,
+      const std::function<bool(size_t index, const BatchSubmission& submission)>& on_submitted);
 
   // Follows a job until it reaches a terminal state and returns that state; a
   // failed or cancelled bake is an OK StatusOr whose state says so.

@@ -1,0 +1,118 @@
+// Impostor runtime math for game programmers: which baked frames to blend
+// for a view, with what weights, and where each frame is sampled. Plain C++
+// (no gRPC, protobuf or glm types); the same math as the CPU reference
+// renderer and the reference shader shaders/impostor_runtime.glsl, and the
+// same direction <-> frame mapping the baker used (one implementation).
+//
+// Conventions (manifest.json, common/manifest_format.md): object space is
+// the glTF scene's space, +Y up. A view direction is the unit vector from the
+// bounding sphere's centre TOWARD the camera (for a perspective camera at
+// eye e: normalize(e - center)). Frame indices are row * frames + col, as
+// in the manifest's `views`.
+//
+// Typical per-instance use (the shader does the per-pixel part):
+//
+//   auto layout = impostor::sdk::LayoutFromName(manifest["layout"]);
+//   float dir[3] = {...};  // object space, centre -> camera
+//   impostor::sdk::FrameBlend blend = impostor::sdk::BlendFrames(
+//       *layout, frames, dir, impostor::sdk::BlendMode::kTriangle3);
+//   for (int i = 0; i < blend.count; ++i)
+//     ... blend.entries[i].frame, blend.entries[i].weight ...
+//
+// Blend modes: kTriangle3 (Ryan Brucks' octahedral impostors: the three
+// frames of the grid triangle the view lies in, barycentric weights) and
+// kBilinear4 (the four frames of the grid cell, bilinear weights). Weights
+// are positive, sum to 1, vary continuously with the view, and are 1 on a
+// frame seen from exactly its own direction. Duplicate frames of the
+// octahedron's folded border are merged into the lowest-numbered one (the
+// manifest's `same_view_as`).
+//
+// All functions are pure and thread-safe.
+#ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_
+#define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_
+
+#include <functional>
+#include <optional>
+#include <string_view>
+
+namespace impostor::sdk {
+
+enum class Layout {
+  kOctahedral,      // "octahedral": full sphere
+  kHemiOctahedral,  // "hemi-octahedral": upper hemisphere
+};
+
+// The manifest's `layout` string; nullopt if unknown.
+std::optional<Layout> LayoutFromName(std::string_view manifest_name);
+std::string_view LayoutName(Layout layout);
+
+enum class BlendMode {
+  kTriangle3,  // "triangle3": up to 3 frames
+  kBilinear4,  // "bilinear4": up to 4 frames
+};
+
+std::optional<BlendMode> BlendModeFromName(std::string_view name);
+std::string_view BlendModeName(BlendMode mode);
+
+struct FrameWeight {
+  int frame = 0;        // index, row * frames + col
+  float weight = 0.0f;  // > 0
+};
+
+struct FrameBlend {
+  int count = 0;           // entries used, 1..4
+  FrameWeight entries[4];  // weights sum to 1
+};
+
+// The frames to blend for `view_dir` (object space, centre -> camera; need
+// not be normalised; a zero or non-finite vector is taken as +Y). `frames` =
+// the manifest's `frames`.
+FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], BlendMode mode);
+
+// The camera that baked `frame` (the manifest's `views[frame]`): direction
+// (centre -> camera), up (toward tile row 0) and right, all unit length.
+struct FrameBasis {
+  float direction[3];
+  float up[3];
+  float right[3];
+};
+FrameBasis FrameCameraBasis(Layout layout, int frames, int frame);
+
+// Where a view ray samples a frame, in the frame's tile: u from 0 (left) to
+// 1 (right), v from 0 (top row) to 1 (bottom). Outside [0, 1] the ray passes
+// outside the frame's view square (nothing there). `valid` is false when the
+// frame faces away from the ray (or the parallax march found no surface).
+struct FrameUv {
+  bool valid = false;
+  float u = 0.0f;
+  float v = 0.0f;
+};
+
+// The view ray in object space: `ray_origin` any point on it (e.g. the eye,
+// or the impostor card's fragment position), `ray_dir` its direction from
+// the eye into the scene. The ray is intersected with the frame's virtual
+// plane (through the sphere centre, normal = the frame's direction, shifted
+// by `height` x radius along that normal) and the hit projected with the
+// frame's bake camera.
+FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_center[3], float sphere_radius,
+                       const float ray_origin[3], const float ray_dir[3], float height = 0.0f);
+
+// The same with parallax: marches the ray through the frame's captured depth
+// (16 steps from the front of the bounding sphere to the back, then 4
+// bisection steps; see common/runtime/virtual_plane.h). `read_depth(u, v,
+// &depth01)` returns the frame's depth (the normal_depth map's A channel,
+// 0..1) at tile coordinates (u, v), or false where the frame is empty
+// (coverage below 0.5).
+using FrameDepthReader = std::function<bool(float u, float v, float* depth01)>;
+FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float sphere_center[3],
+                               float sphere_radius, const float ray_origin[3], const float ray_dir[3],
+                               const FrameDepthReader& read_depth);
+
+// Atlas texture coordinates (0..1 over the whole atlas, v down) of a frame's
+// tile coordinates, for an atlas of `resolution` pixels (tiles of
+// floor(resolution / frames) pixels from the top-left corner).
+void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_

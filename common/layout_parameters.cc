@@ -1,0 +1,78 @@
+#include "common/layout_parameters.h"
+
+#include <string>
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor {
+
+LayoutKind LayoutKindOf(v1::Layout layout) {
+  switch (layout) {
+    case v1::LAYOUT_HEMI_OCTAHEDRAL: return LayoutKind::kHemiOctahedral;
+    case v1::LAYOUT_AZIMUTH_ELEVATION: return LayoutKind::kAzimuthElevation;
+    case v1::LAYOUT_RING_TOP: return LayoutKind::kRingTop;
+    case v1::LAYOUT_BILLBOARD: return LayoutKind::kBillboard;
+    default: return LayoutKind::kOctahedral;
+  }
+}
+
+ViewLayout ViewLayoutOf(const v1::BakeParameters& p) {
+  ViewLayout layout{.kind = LayoutKindOf(p.layout()), .frames = static_cast<int>(p.frames())};
+  if (layout.kind == LayoutKind::kRingTop) layout.ring_views = static_cast<int>(p.ring_views());
+  if (layout.kind == LayoutKind::kBillboard) layout.ring_views = kBillboardRingViews;
+  return layout;
+}
+
+absl::Status NormalizeLayoutFrames(v1::BakeParameters* out) {
+  const LayoutKind kind = LayoutKindOf(out->layout());
+  const std::string name(LayoutName(kind));
+  const bool octahedral = kind == LayoutKind::kOctahedral || kind == LayoutKind::kHemiOctahedral;
+  if (out->product() == v1::PRODUCT_SURFELS && !octahedral) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "parameters.layout: surfel captures use octahedral or hemi-octahedral, not ", name));
+  }
+  if (kind != LayoutKind::kRingTop && out->has_ring_views()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("parameters.ring_views: only for layout ring-top, not ", name));
+  }
+  switch (kind) {
+    case LayoutKind::kOctahedral:
+    case LayoutKind::kHemiOctahedral: return absl::OkStatus();
+    case LayoutKind::kAzimuthElevation: {
+      if (out->frames() == 0) out->set_frames(kDefaultAzimuthElevationFrames);
+      const uint32_t n = out->frames();
+      if (n % 2 == 0) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "parameters.frames: azimuth-elevation needs an odd row count so that a row sits at 0 "
+            "degrees elevation; got ",
+            n, " (use ", n - 1, " or ", n + 1, ")"));
+      }
+      if (n < 3 || n > 63) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("parameters.frames: ", n, " is out of range 3..63 for azimuth-elevation"));
+      }
+      return absl::OkStatus();
+    }
+    case LayoutKind::kRingTop:
+    case LayoutKind::kBillboard: {
+      if (out->frames() != 0) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "parameters.frames: ", name, " derives its atlas grid from ",
+            kind == LayoutKind::kRingTop ? "ring_views" : "its 9 views", "; leave frames unset"));
+      }
+      if (kind == LayoutKind::kRingTop) {
+        if (!out->has_ring_views()) out->set_ring_views(kDefaultRingViews);
+        if (out->ring_views() < kMinRingViews || out->ring_views() > kMaxRingViews) {
+          return absl::InvalidArgumentError(absl::StrCat("parameters.ring_views: ", out->ring_views(),
+                                                         " is out of range ", kMinRingViews, "..",
+                                                         kMaxRingViews));
+        }
+      }
+      out->set_frames(static_cast<uint32_t>(GridSide(ViewLayoutOf(*out))));
+      return absl::OkStatus();
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace impostor

@@ -1,0 +1,245 @@
+#include "common/runtime/reference_renderer.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+#include "common/runtime/virtual_plane.h"
+
+namespace impostor {
+namespace {
+
+float SrgbToLinear(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+float LinearToSrgb(float c) {
+  c = std::clamp(c, 0.0f, 1.0f);
+  return c <= 0.0031308f ? c * 12.92f : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+const std::array<float, 256>& SrgbTable() {
+  static const std::array<float, 256> table = [] {
+    std::array<float, 256> t{};
+    for (int i = 0; i < 256; ++i) t[i] = SrgbToLinear(static_cast<float>(i) / 255.0f);
+    return t;
+  }();
+  return table;
+}
+
+uint8_t ToUnorm8(float v) {
+  return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+}
+uint16_t ToUnorm16(float v) {
+  return static_cast<uint16_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 65535.0f));
+}
+
+// One frame's filtered sample: bilinear alpha, and the alpha-weighted means
+// of the covered texels' values (unset when alpha == 0).
+struct TileSample {
+  float alpha = 0.0f;
+  glm::vec3 albedo{0.0f};  // linear
+  glm::vec3 normal{0.0f};  // decoded to [-1, 1], not renormalised
+  float depth = 1.0f;      // the frame's depth, 0..1
+  glm::vec3 orm{0.0f};
+};
+
+class TileSampler {
+ public:
+  explicit TileSampler(const ImpostorAtlas& atlas) : atlas_(atlas), srgb_(SrgbTable()) {}
+
+  // Bilinear over the 2x2 texel centres around st, texel indices clamped to
+  // `tile`. `full` = false reads alpha and depth only (parallax steps).
+  TileSample Sample(const TileRect& tile, glm::vec2 st, bool full) const {
+    TileSample out;
+    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
+    const glm::vec2 pixel = FrameStToPixel(tile, st);
+    const float fx = pixel.x - static_cast<float>(tile.x) - 0.5f;
+    const float fy = pixel.y - static_cast<float>(tile.y) - 0.5f;
+    const float flx = std::floor(fx);
+    const float fly = std::floor(fy);
+    const int ix = static_cast<int>(flx);
+    const int iy = static_cast<int>(fly);
+    const float ax = fx - flx;
+    const float ay = fy - fly;
+    const std::array<float, 4> bilinear = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+    float covered = 0.0f;
+    float depth = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+      if (bilinear[k] <= 0.0f) continue;
+      const int tx = tile.x + std::clamp(ix + (k & 1), 0, tile.width - 1);
+      const int ty = tile.y + std::clamp(iy + (k >> 1), 0, tile.height - 1);
+      const size_t texel = (static_cast<size_t>(ty) * atlas_.width + tx) * 4;
+      const float w = bilinear[k] * (static_cast<float>(atlas_.albedo_alpha[texel + 3]) / 255.0f);
+      if (w <= 0.0f) continue;
+      covered += w;
+      const uint16_t* nd = &atlas_.normal_depth[texel];
+      depth += w * (static_cast<float>(nd[3]) / 65535.0f);
+      if (!full) continue;
+      out.normal += w * (glm::vec3(nd[0], nd[1], nd[2]) * (2.0f / 65535.0f) - 1.0f);
+      const uint8_t* c = &atlas_.albedo_alpha[texel];
+      out.albedo += w * glm::vec3(srgb_[c[0]], srgb_[c[1]], srgb_[c[2]]);
+      if (!atlas_.orm.empty()) {
+        const uint8_t* o = &atlas_.orm[texel];
+        out.orm += w * (glm::vec3(o[0], o[1], o[2]) / 255.0f);
+      }
+    }
+    out.alpha = covered;
+    if (covered > 0.0f) {
+      out.depth = depth / covered;
+      out.normal /= covered;
+      out.albedo /= covered;
+      out.orm /= covered;
+    }
+    return out;
+  }
+
+ private:
+  const ImpostorAtlas& atlas_;
+  const std::array<float, 256>& srgb_;
+};
+
+// Covered texels of a tile, as a box in tile-pixel coordinates grown by one
+// texel: a bilinear sample outside it reads four empty texels, so the
+// parallax march may skip it without changing any result.
+struct CoveredBox {
+  float x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // empty when x1 < x0
+  bool MayCover(const TileRect& tile, glm::vec2 st) const {
+    const glm::vec2 p = FrameStToPixel(tile, st) - glm::vec2(tile.x, tile.y);
+    return p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+  }
+};
+
+CoveredBox FindCoveredBox(const ImpostorAtlas& atlas, const TileRect& tile) {
+  int min_x = tile.width, min_y = tile.height, max_x = -1, max_y = -1;
+  for (int y = 0; y < tile.height; ++y) {
+    const uint8_t* row = &atlas.albedo_alpha[(static_cast<size_t>(tile.y + y) * atlas.width + tile.x) * 4];
+    for (int x = 0; x < tile.width; ++x) {
+      if (row[x * 4 + 3] == 0) continue;
+      min_x = std::min(min_x, x);
+      max_x = std::max(max_x, x);
+      min_y = std::min(min_y, y);
+      max_y = std::max(max_y, y);
+    }
+  }
+  CoveredBox box;
+  if (max_x < 0) return box;
+  // Texel i spans [i, i + 1]; a sample within one texel of it may read it.
+  box.x0 = static_cast<float>(min_x) - 1.0f;
+  box.y0 = static_cast<float>(min_y) - 1.0f;
+  box.x1 = static_cast<float>(max_x) + 2.0f;
+  box.y1 = static_cast<float>(max_y) + 2.0f;
+  return box;
+}
+
+bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
+  if (atlas.frames <= 0 || atlas.width <= 0 || atlas.height <= 0 || atlas.sphere.radius <= 0.0f) return false;
+  const size_t texels = static_cast<size_t>(atlas.width) * atlas.height * 4;
+  if (atlas.albedo_alpha.size() != texels || atlas.normal_depth.size() != texels) return false;
+  if (!atlas.orm.empty() && atlas.orm.size() != texels) return false;
+  if (atlas.cameras.size() != static_cast<size_t>(atlas.frames) * atlas.frames) return false;
+  for (const FrameCamera& c : atlas.cameras) {
+    const TileRect& t = c.tile;
+    if (t.width <= 0 || t.height <= 0 || t.x < 0 || t.y < 0 || t.x + t.width > atlas.width ||
+        t.y + t.height > atlas.height) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+FrameCamera ViewCameraFor(glm::vec3 direction) { return CameraForDirection(direction); }
+
+ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& camera, int pixels,
+                              const ReferenceRenderOptions& options) {
+  ViewImages view;
+  if (pixels <= 0 || !AtlasIsConsistent(atlas)) return view;
+  view.width = pixels;
+  view.height = pixels;
+  const size_t count = static_cast<size_t>(pixels) * pixels;
+  view.albedo_alpha.assign(count * 4, 0);
+  view.normal_depth.resize(count * 4);
+  for (size_t i = 0; i < count; ++i) {
+    view.normal_depth[i * 4 + 0] = kEmptyNormal16;
+    view.normal_depth[i * 4 + 1] = kEmptyNormal16;
+    view.normal_depth[i * 4 + 2] = kEmptyNormal16;
+    view.normal_depth[i * 4 + 3] = kEmptyDepth16;
+  }
+  const bool has_orm = !atlas.orm.empty();
+  if (has_orm) view.orm.assign(count * 4, 0);
+
+  // The view is orthographic: one view direction, one set of frames.
+  const FrameBlend blend = BlendFrames(atlas.layout, atlas.frames, camera.direction, options.blend);
+  const TileSampler sampler(atlas);
+  const float inv = 1.0f / static_cast<float>(pixels);
+  std::array<CoveredBox, 4> boxes;
+  if (options.parallax) {
+    for (int i = 0; i < blend.count; ++i) boxes[i] = FindCoveredBox(atlas, atlas.cameras[blend.entries[i].index].tile);
+  }
+
+  for (int y = 0; y < pixels; ++y) {
+    for (int x = 0; x < pixels; ++x) {
+      const glm::vec2 view_st((static_cast<float>(x) + 0.5f) * inv * 2.0f - 1.0f,
+                              1.0f - (static_cast<float>(y) + 0.5f) * inv * 2.0f);
+      float alpha = 0.0f;
+      float covered = 0.0f;  // sum of weight * alpha
+      glm::vec3 albedo(0.0f), normal(0.0f), orm(0.0f);
+      float depth = 0.0f;
+      for (int i = 0; i < blend.count; ++i) {
+        const FrameCamera& frame = atlas.cameras[blend.entries[i].index];
+        PlaneSample plane;
+        if (options.parallax) {
+          const CoveredBox& box = boxes[i];
+          plane = ProjectToFrameParallax(camera, frame, view_st, [&](glm::vec2 st, float* height) {
+            if (!box.MayCover(frame.tile, st)) return false;
+            const TileSample s = sampler.Sample(frame.tile, st, /*full=*/false);
+            if (s.alpha < 0.5f) return false;
+            *height = 1.0f - 2.0f * s.depth;
+            return true;
+          });
+        } else {
+          plane = ProjectToFrame(camera, frame, view_st);
+        }
+        if (!plane.valid) continue;
+        const TileSample s = sampler.Sample(frame.tile, plane.st, /*full=*/true);
+        const float w = blend.entries[i].weight * s.alpha;
+        alpha += w;
+        if (w <= 0.0f) continue;
+        covered += w;
+        albedo += w * s.albedo;
+        normal += w * s.normal;
+        orm += w * s.orm;
+        // The sample's surface point, then its depth for the view camera.
+        const glm::vec3 p = plane.st.x * frame.right + plane.st.y * frame.up +
+                            (1.0f - 2.0f * s.depth) * frame.direction;
+        depth += w * (1.0f - glm::dot(p, camera.direction)) * 0.5f;
+      }
+      if (alpha < 0.5f) continue;  // empty: keeps the clear encodings
+      const size_t o = (static_cast<size_t>(y) * pixels + x) * 4;
+      albedo /= covered;
+      view.albedo_alpha[o + 0] = ToUnorm8(LinearToSrgb(albedo.x));
+      view.albedo_alpha[o + 1] = ToUnorm8(LinearToSrgb(albedo.y));
+      view.albedo_alpha[o + 2] = ToUnorm8(LinearToSrgb(albedo.z));
+      view.albedo_alpha[o + 3] = 255;
+      const float len = glm::length(normal);
+      if (len > 1e-12f) normal /= len;
+      view.normal_depth[o + 0] = ToUnorm16(normal.x * 0.5f + 0.5f);
+      view.normal_depth[o + 1] = ToUnorm16(normal.y * 0.5f + 0.5f);
+      view.normal_depth[o + 2] = ToUnorm16(normal.z * 0.5f + 0.5f);
+      view.normal_depth[o + 3] = ToUnorm16(depth / covered);
+      if (has_orm) {
+        orm /= covered;
+        view.orm[o + 0] = ToUnorm8(orm.x);
+        view.orm[o + 1] = ToUnorm8(orm.y);
+        view.orm[o + 2] = ToUnorm8(orm.z);
+        view.orm[o + 3] = 255;
+      }
+    }
+  }
+  return view;
+}
+
+}  // namespace impostor

@@ -1,0 +1,98 @@
+// Per-frame virtual-plane projection (the Unreal article's "virtual frame
+// plane", the Unity notes' projection of the view ray into each captured
+// frame): where a pixel of an arbitrary view samples one baked frame.
+//
+// The view is an orthographic camera framed by the same bounding sphere as
+// the bake cameras (a FrameCamera; its tile is ignored): its pixel at view
+// coordinates (s, t) in [-1, 1] (frame_camera.h: s along right, t along up)
+// casts the ray  o + k * (-v)  with  o = c + r * (s * right_v + t * up_v + v),
+// v = view direction. Frame f (direction d, axes right_f, up_f) is a flat
+// card through the sphere centre c with normal d: the ray meets it at q, and
+// q projects into frame f's tile at
+//   s_f = dot(q - c, right_f) / r,  t_f = dot(q - c, up_f) / r.
+// When the frame faces away from the view or the ray is (nearly) parallel to
+// its plane (dot(v, d) < 1e-4) the sample is reported invalid. The blend
+// picks such frames only for views below a hemi-octahedron's horizon or on
+// very coarse grids (frames 2..3), where the frames are 90 degrees apart.
+//
+// Parallax (optional): the plane is only the right place for points on it.
+// Frame f's depth map is a height field over its plane: the texel at (s_f,
+// t_f) holds a surface point at height h = dot(p - c, d) / r =
+// 1 - 2 * depth01 (frame_camera.h). Parallax marches the view ray through
+// that height field (parallax occlusion mapping): the ray enters at h = 1
+// (the front of the bounding sphere) and is tested at kParallaxSteps + 1
+// evenly spaced heights h_i = 1 - 2 i / kParallaxSteps down to -1; at each,
+// the ray's point on the plane shifted by h_i is projected into the frame and
+// the surface height S there is read. The first h_i <= S (ray at or below a
+// covered surface) brackets the hit between h_{i-1} and h_i, which
+// kParallaxRefinements bisection steps narrow; the sample is the last point
+// found at or below the surface (always covered). If the ray never meets the
+// surface the frame sees nothing along that ray: the sample is invalid, and
+// the frame contributes no coverage there, so silhouettes move with the view
+// as the object's would. The march has a fixed bound (at most 17 + 4 depth
+// reads per frame), as a shader runs it. Covered means filtered alpha >= 0.5; empty texels (depth 1
+// = the back of the sphere) are never a surface.
+#ifndef IMPOSTOR_COMMON_RUNTIME_VIRTUAL_PLANE_H_
+#define IMPOSTOR_COMMON_RUNTIME_VIRTUAL_PLANE_H_
+
+#include <functional>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "common/frame_camera.h"
+
+namespace impostor {
+
+inline constexpr int kParallaxSteps = 16;
+inline constexpr int kParallaxRefinements = 4;
+
+struct PlaneSample {
+  bool valid = false;
+  glm::vec2 st{0.0f};  // frame coordinates (s_f, t_f), [-1, 1] inside the tile
+};
+
+// The camera that bakes (or views along) `direction` (unit, sphere centre ->
+// camera), built as AtlasCameras builds bake cameras: up = CameraUpFor,
+// right = cross(up, direction). index, frame and tile keep their defaults.
+FrameCamera CameraForDirection(glm::vec3 direction);
+
+// The general form, for any ray (a perspective game camera too): `origin` is
+// relative to the sphere centre in radius units ((p - c) / r), `ray` the ray's
+// direction (any length, pointing away from the eye). Intersects the ray with
+// frame `frame`'s plane shifted by `height` along its direction and returns
+// the frame coordinates of the hit. Invalid when dot(-ray, d) / |ray| < 1e-4
+// (the frame faces away or the ray runs along its plane).
+PlaneSample IntersectFramePlane(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray, float height);
+
+// The point (object space, relative to the sphere centre, in radius units)
+// where the view pixel (s, t) starts its ray: on the view camera's near plane.
+glm::vec3 ViewRayOrigin(const FrameCamera& view, glm::vec2 st);
+
+// Intersects the ray of view pixel `view_st` with frame `frame`'s plane
+// shifted by `height` (in radius units along the frame direction; 0 = the
+// plane through the centre) and returns its frame coordinates.
+PlaneSample ProjectToFrame(const FrameCamera& view, const FrameCamera& frame, glm::vec2 view_st,
+                           float height = 0.0f);
+
+// Reads the frame's surface height at frame coordinates st: returns false
+// when the texel is empty (coverage below 0.5), otherwise sets *height to
+// dot(p - c, d) / r = 1 - 2 * depth01.
+using FrameHeightReader = std::function<bool(glm::vec2 st, float* height)>;
+
+// ProjectToFrame with parallax (see the file comment). Invalid when the ray
+// misses the frame's height field.
+PlaneSample ProjectToFrameParallax(const FrameCamera& view, const FrameCamera& frame, glm::vec2 view_st,
+                                   const FrameHeightReader& read_height);
+
+// The same march for any ray (origin and ray as in IntersectFramePlane).
+PlaneSample IntersectFrameHeightField(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray,
+                                      const FrameHeightReader& read_height);
+
+// Tile pixel coordinates (continuous, pixel centres at +0.5) of frame
+// coordinates st: x = tile.x + (s + 1) / 2 * w, y = tile.y + (1 - t) / 2 * h.
+glm::vec2 FrameStToPixel(const TileRect& tile, glm::vec2 st);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_COMMON_RUNTIME_VIRTUAL_PLANE_H_

@@ -1,0 +1,356 @@
+// Reference runtime for octahedral impostors, for engines to copy.
+//
+// The same math, line for line, as the C++ in common/runtime/ (frame_blend,
+// virtual_plane, reference_renderer) and the SDK header
+// client/include/impostor/runtime.h, with the same conventions and the same
+// tie-breaking; tests/runtime checks this file against the C++ on the GPU.
+// Conventions (common/manifest_format.md): object space, +Y up; a view
+// direction points from the bounding sphere's centre TOWARD the camera;
+// frame (col, row) is the grid vertex uv = (col, row) / (frames - 1) of the
+// (hemi-)octahedral square; its tile starts at (col, row) * tile_size pixels
+// from the atlas's top-left corner; positions below are relative to the
+// sphere centre in units of its radius ((p - centre) / radius).
+//
+// Textures (as baked): albedo_alpha (sRGB, bind as an SRGB format so reads
+// are linear; A = coverage), normal_depth (UNORM16: normal * 0.5 + 0.5,
+// A = depth 0 nearest .. 1 farthest), orm (UNORM8, optional). Sampling uses
+// texelFetch and filters by hand, alpha-weighted and clamped to the frame's
+// own tile, so neighbouring tiles never bleed in (no mipmaps here).
+//
+// Use (per fragment; the blend can move to the vertex shader, it depends
+// only on the view direction):
+//   ImpostorBlend b = impostorBlendFrames(layout_kind, frames, view_dir, mode);
+//   ImpostorSurface s = impostorShade(albedo_tex, normal_depth_tex, orm_tex,
+//       layout_kind, frames, tile_size, b, ray_origin, ray_dir, parallax);
+//   if (s.alpha < 0.5) discard;
+// where ray_origin/ray_dir are the fragment's view ray in object space
+// (radius units, relative to the centre) and view_dir = normalize(eye - c).
+#ifndef IMPOSTOR_RUNTIME_GLSL
+#define IMPOSTOR_RUNTIME_GLSL
+
+const int IMPOSTOR_LAYOUT_OCTAHEDRAL = 0;
+const int IMPOSTOR_LAYOUT_HEMI_OCTAHEDRAL = 1;
+const int IMPOSTOR_BLEND_TRIANGLE3 = 0;
+const int IMPOSTOR_BLEND_BILINEAR4 = 1;
+const int IMPOSTOR_PARALLAX_STEPS = 16;       // kParallaxSteps
+const int IMPOSTOR_PARALLAX_REFINEMENTS = 4;  // kParallaxRefinements
+
+// ---- direction <-> layout square (common/atlas_layout.cc) ----
+
+float impostorSignNotZero(float v) { return v < 0.0 ? -1.0 : 1.0; }
+
+vec3 impostorOctahedralToDirection(vec2 oct) {
+  vec3 d = vec3(oct.x, 1.0 - abs(oct.x) - abs(oct.y), oct.y);
+  if (d.y < 0.0) {
+    float x = (1.0 - abs(oct.y)) * impostorSignNotZero(oct.x);
+    float z = (1.0 - abs(oct.x)) * impostorSignNotZero(oct.y);
+    d.x = x;
+    d.z = z;
+  }
+  return normalize(d);
+}
+
+vec2 impostorDirectionToOctahedral(vec3 d) {
+  d /= (abs(d.x) + abs(d.y) + abs(d.z));
+  if (d.y >= 0.0) return vec2(d.x, d.z);
+  return vec2((1.0 - abs(d.z)) * impostorSignNotZero(d.x), (1.0 - abs(d.x)) * impostorSignNotZero(d.z));
+}
+
+vec3 impostorHemiOctahedralToDirection(vec2 oct) {
+  float x = (oct.x + oct.y) * 0.5;
+  float z = (oct.x - oct.y) * 0.5;
+  return normalize(vec3(x, 1.0 - abs(x) - abs(z), z));
+}
+
+vec2 impostorDirectionToHemiOctahedral(vec3 d) {
+  d.y = max(d.y, 0.0);
+  float sum = abs(d.x) + d.y + abs(d.z);
+  if (sum == 0.0) return vec2(0.0);
+  d /= sum;
+  return vec2(d.x + d.z, d.x - d.z);
+}
+
+vec3 impostorLayoutToDirection(int layout_kind, vec2 oct) {
+  return layout_kind == IMPOSTOR_LAYOUT_OCTAHEDRAL ? impostorOctahedralToDirection(oct)
+                                              : impostorHemiOctahedralToDirection(oct);
+}
+
+vec2 impostorDirectionToLayout(int layout_kind, vec3 d) {
+  return layout_kind == IMPOSTOR_LAYOUT_OCTAHEDRAL ? impostorDirectionToOctahedral(d)
+                                              : impostorDirectionToHemiOctahedral(d);
+}
+
+vec2 impostorDirectionToGrid(int layout_kind, int frames, vec3 d) {
+  vec2 oct = impostorDirectionToLayout(layout_kind, d);
+  float scale = float(frames - 1);
+  return clamp((oct * 0.5 + 0.5) * scale, vec2(0.0), vec2(scale));
+}
+
+vec3 impostorFrameDirection(int layout_kind, int frames, ivec2 frame) {
+  float inv = frames > 1 ? 1.0 / float(frames - 1) : 0.0;
+  vec2 uv = vec2(float(frame.x) * inv, float(frame.y) * inv);
+  return impostorLayoutToDirection(layout_kind, uv * 2.0 - 1.0);
+}
+
+int impostorFrameIndex(int frames, ivec2 f) { return f.y * frames + f.x; }
+
+// The lowest-numbered frame showing the same view (the octahedron's fold).
+ivec2 impostorCanonicalFrame(int layout_kind, int frames, ivec2 frame) {
+  if (layout_kind != IMPOSTOR_LAYOUT_OCTAHEDRAL || frames < 2) return frame;
+  int last = frames - 1;
+  bool on_border = frame.x == 0 || frame.y == 0 || frame.x == last || frame.y == last;
+  if (!on_border) return frame;
+  bool corner = (frame.x == 0 || frame.x == last) && (frame.y == 0 || frame.y == last);
+  if (corner) return ivec2(0, 0);
+  ivec2 mirror = frame;
+  if (frame.x == 0 || frame.x == last) mirror.y = last - frame.y;
+  else mirror.x = last - frame.x;
+  return impostorFrameIndex(frames, mirror) < impostorFrameIndex(frames, frame) ? mirror : frame;
+}
+
+// ---- frame blend (common/runtime/frame_blend.cc) ----
+
+struct ImpostorBlend {
+  int count;          // 1..4
+  ivec2 frame[4];     // canonical frames (col, row)
+  float weight[4];    // > 0, sum 1
+};
+
+void impostorBlendAdd(int layout_kind, int frames, ivec2 frame, float weight, inout ImpostorBlend b) {
+  if (weight <= 0.0) return;
+  ivec2 canonical = impostorCanonicalFrame(layout_kind, frames, frame);
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count && b.frame[i] == canonical) {
+      b.weight[i] += weight;
+      return;
+    }
+  }
+  b.frame[b.count] = canonical;
+  b.weight[b.count] = weight;
+  b.count += 1;
+}
+
+ImpostorBlend impostorBlendFrames(int layout_kind, int frames, vec3 view_dir, int mode) {
+  ImpostorBlend b;
+  b.count = 0;
+  for (int i = 0; i < 4; ++i) {
+    b.frame[i] = ivec2(0);
+    b.weight[i] = 0.0;
+  }
+  if (frames <= 1) {
+    b.count = 1;
+    b.weight[0] = 1.0;
+    return b;
+  }
+  // A zero or non-finite direction is taken as straight up (as in the C++).
+  float length2 = dot(view_dir, view_dir);
+  if (!(length2 > 0.0) || isinf(length2) || isnan(length2)) view_dir = vec3(0.0, 1.0, 0.0);
+  vec2 grid = impostorDirectionToGrid(layout_kind, frames, view_dir);
+  // The last grid line belongs to the last quad (fx, fy reach 1 there).
+  int x0 = clamp(int(floor(grid.x)), 0, frames - 2);
+  int y0 = clamp(int(floor(grid.y)), 0, frames - 2);
+  float fx = clamp(grid.x - float(x0), 0.0, 1.0);
+  float fy = clamp(grid.y - float(y0), 0.0, 1.0);
+  ivec2 c0 = ivec2(x0, y0);
+  if (mode == IMPOSTOR_BLEND_TRIANGLE3) {
+    // Brucks: A = 1 - max on the current frame, B = |fx - fy| on the right
+    // (fx > fy) or lower frame, C = min on the lower-right frame.
+    impostorBlendAdd(layout_kind, frames, c0, 1.0 - max(fx, fy), b);
+    if (fx > fy) impostorBlendAdd(layout_kind, frames, c0 + ivec2(1, 0), fx - fy, b);
+    else impostorBlendAdd(layout_kind, frames, c0 + ivec2(0, 1), fy - fx, b);
+    impostorBlendAdd(layout_kind, frames, c0 + ivec2(1, 1), min(fx, fy), b);
+  } else {
+    impostorBlendAdd(layout_kind, frames, c0, (1.0 - fx) * (1.0 - fy), b);
+    impostorBlendAdd(layout_kind, frames, c0 + ivec2(1, 0), fx * (1.0 - fy), b);
+    impostorBlendAdd(layout_kind, frames, c0 + ivec2(0, 1), (1.0 - fx) * fy, b);
+    impostorBlendAdd(layout_kind, frames, c0 + ivec2(1, 1), fx * fy, b);
+  }
+  float total = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count) total += b.weight[i];
+  }
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count) b.weight[i] /= total;
+  }
+  return b;
+}
+
+// ---- bake cameras (common/frame_camera.cc) ----
+
+vec3 impostorCameraUp(vec3 d) {
+  const vec3 world_up = vec3(0.0, 1.0, 0.0);
+  vec3 up = world_up - dot(world_up, d) * d;
+  if (length(up) < 1.7e-4) return d.y > 0.0 ? vec3(0.0, 0.0, -1.0) : vec3(0.0, 0.0, 1.0);
+  return normalize(up);
+}
+
+struct ImpostorFrameCamera {
+  vec3 direction;  // centre -> camera
+  vec3 up;         // toward tile row 0
+  vec3 right;
+};
+
+ImpostorFrameCamera impostorCameraForDirection(vec3 direction) {
+  ImpostorFrameCamera c;
+  c.direction = normalize(direction);
+  c.up = impostorCameraUp(c.direction);
+  c.right = normalize(cross(c.up, c.direction));
+  return c;
+}
+
+ImpostorFrameCamera impostorFrameCamera(int layout_kind, int frames, ivec2 frame) {
+  return impostorCameraForDirection(impostorFrameDirection(layout_kind, frames, frame));
+}
+
+// ---- virtual planes (common/runtime/virtual_plane.cc) ----
+
+// xy = frame coordinates (s, t) in [-1, 1] over the tile, z = 1 if valid.
+vec3 impostorIntersectFramePlane(ImpostorFrameCamera frame, vec3 origin, vec3 ray, float height) {
+  float len = length(ray);
+  if (!(len > 0.0)) return vec3(0.0);
+  vec3 toward_eye = -ray / len;
+  float facing = dot(toward_eye, frame.direction);
+  if (!(facing >= 1e-4)) return vec3(0.0);
+  float k = (dot(origin, frame.direction) - height) / facing;
+  vec3 q = origin - k * toward_eye;
+  return vec3(dot(q, frame.right), dot(q, frame.up), 1.0);
+}
+
+// ---- tile sampling (common/runtime/reference_renderer.cc) ----
+
+struct ImpostorSample {
+  float alpha;    // bilinear coverage
+  vec3 albedo;    // linear, alpha-weighted mean of covered texels
+  vec3 normal;    // [-1, 1], not renormalised
+  float depth;    // the frame's depth 0..1
+  vec3 orm;
+};
+
+// Bilinear over the 2x2 texel centres around st, clamped to the tile
+// (tile = x, y, width, height in pixels); empty outside the tile's square.
+ImpostorSample impostorSampleTile(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                  bool has_orm, ivec4 tile, vec2 st) {
+  ImpostorSample o;
+  o.alpha = 0.0;
+  o.albedo = vec3(0.0);
+  o.normal = vec3(0.0);
+  o.depth = 1.0;
+  o.orm = vec3(0.0);
+  if (!(abs(st.x) <= 1.0 && abs(st.y) <= 1.0)) return o;
+  vec2 pixel = vec2(float(tile.x) + (st.x + 1.0) * 0.5 * float(tile.z),
+                    float(tile.y) + (1.0 - st.y) * 0.5 * float(tile.w));
+  float fx = pixel.x - float(tile.x) - 0.5;
+  float fy = pixel.y - float(tile.y) - 0.5;
+  float flx = floor(fx);
+  float fly = floor(fy);
+  int ix = int(flx);
+  int iy = int(fly);
+  float ax = fx - flx;
+  float ay = fy - fly;
+  float bilinear[4] = float[4]((1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay);
+  float covered = 0.0;
+  float depth = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    if (bilinear[k] <= 0.0) continue;
+    ivec2 texel = ivec2(tile.x + clamp(ix + (k & 1), 0, tile.z - 1), tile.y + clamp(iy + (k >> 1), 0, tile.w - 1));
+    vec4 c = texelFetch(albedo_tex, texel, 0);
+    float w = bilinear[k] * c.a;
+    if (w <= 0.0) continue;
+    covered += w;
+    vec4 nd = texelFetch(normal_depth_tex, texel, 0);
+    depth += w * nd.a;
+    o.normal += w * (nd.rgb * 2.0 - 1.0);
+    o.albedo += w * c.rgb;
+    if (has_orm) o.orm += w * texelFetch(orm_tex, texel, 0).rgb;
+  }
+  o.alpha = covered;
+  if (covered > 0.0) {
+    o.depth = depth / covered;
+    o.normal /= covered;
+    o.albedo /= covered;
+    o.orm /= covered;
+  }
+  return o;
+}
+
+// Parallax: marches the ray through the frame's depth (see virtual_plane.h).
+// Returns the sample point (xy) and validity (z).
+vec3 impostorIntersectFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                       ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
+  float above = 1.0;
+  for (int i = 0; i <= IMPOSTOR_PARALLAX_STEPS; ++i) {
+    float h = 1.0 - 2.0 * float(i) / float(IMPOSTOR_PARALLAX_STEPS);
+    vec3 hit = impostorIntersectFramePlane(frame, origin, ray, h);
+    if (hit.z == 0.0) return hit;
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
+    if (!(s.alpha >= 0.5 && h <= 1.0 - 2.0 * s.depth)) {
+      above = h;
+      continue;
+    }
+    float below = h;
+    for (int j = 0; j < IMPOSTOR_PARALLAX_REFINEMENTS && i > 0; ++j) {
+      float mid = 0.5 * (above + below);
+      vec3 at = impostorIntersectFramePlane(frame, origin, ray, mid);
+      ImpostorSample m = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, at.xy);
+      if (at.z != 0.0 && m.alpha >= 0.5 && mid <= 1.0 - 2.0 * m.depth) {
+        below = mid;
+        hit = at;
+      } else {
+        above = mid;
+      }
+    }
+    return hit;
+  }
+  return vec3(0.0);
+}
+
+// ---- the blended surface (RenderImpostorView, per pixel) ----
+
+struct ImpostorSurface {
+  float alpha;    // blended coverage; covered iff >= 0.5
+  vec3 albedo;    // linear (write to an sRGB target to encode)
+  vec3 normal;    // object space, unit (zero where empty)
+  vec3 position;  // blended surface point, radius units from the centre
+  vec3 orm;
+};
+
+ImpostorSurface impostorShade(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex, bool has_orm,
+                              int layout_kind, int frames, int tile_size, ImpostorBlend blend, vec3 ray_origin,
+                              vec3 ray_dir, bool parallax) {
+  ImpostorSurface out_surface;
+  float alpha = 0.0;
+  float covered = 0.0;
+  vec3 albedo = vec3(0.0), normal = vec3(0.0), orm = vec3(0.0), position = vec3(0.0);
+  for (int i = 0; i < 4; ++i) {
+    if (i >= blend.count) break;
+    ImpostorFrameCamera frame = impostorFrameCamera(layout_kind, frames, blend.frame[i]);
+    ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
+    vec3 plane = parallax ? impostorIntersectFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame,
+                                                              ray_origin, ray_dir)
+                          : impostorIntersectFramePlane(frame, ray_origin, ray_dir, 0.0);
+    if (plane.z == 0.0) continue;
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, has_orm, tile, plane.xy);
+    float w = blend.weight[i] * s.alpha;
+    alpha += w;
+    if (w <= 0.0) continue;
+    covered += w;
+    albedo += w * s.albedo;
+    normal += w * s.normal;
+    orm += w * s.orm;
+    position += w * (plane.x * frame.right + plane.y * frame.up + (1.0 - 2.0 * s.depth) * frame.direction);
+  }
+  out_surface.alpha = alpha;
+  float inv = covered > 0.0 ? 1.0 / covered : 0.0;
+  out_surface.albedo = albedo * inv;
+  out_surface.orm = orm * inv;
+  out_surface.position = position * inv;
+  float len = length(normal);
+  out_surface.normal = len > 1e-12 ? normal / len : vec3(0.0);
+  return out_surface;
+}
+
+// Depth of a surface point for an orthographic camera framed like a bake
+// camera (frame_camera.h): 0 at the near side of the sphere, 1 at the far.
+float impostorViewDepth(vec3 position, vec3 view_dir) { return (1.0 - dot(position, view_dir)) * 0.5; }
+
+#endif  // IMPOSTOR_RUNTIME_GLSL

@@ -1,0 +1,293 @@
+// `impostor bake-batch` and `impostor bake A B ...` as a CI job runs them:
+// the real tool against a real impostor-server with local workers on
+// loopback, reading real assets from ../shared/assets. Small bakes (4x4
+// frames, 128 px) keep lavapipe fast.
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct CliRun {
+  int exit_code = -1;
+  std::string output;        // stdout (and stderr when asked for)
+  std::vector<json> assets;  // --json lines of type "asset"
+  json summary;              // the --json line of type "summary"
+};
+
+// Runs a shell command line (so tests can pipe stdin and capture stderr)
+// and parses every JSON line it printed.
+CliRun RunShell(const std::string& command) {
+  ChildProcess p({"/bin/sh", "-c", command});
+  CliRun run;
+  run.exit_code = p.Wait(&run.output);
+  size_t start = 0;
+  while (start < run.output.size()) {
+    size_t end = run.output.find('\n', start);
+    if (end == std::string::npos) end = run.output.size();
+    const std::string line = run.output.substr(start, end - start);
+    start = end + 1;
+    if (line.empty() || line[0] != '{') continue;
+    json j = json::parse(line, nullptr, /*allow_exceptions=*/false);
+    EXPECT_FALSE(j.is_discarded()) << "not JSON: " << line;
+    if (j.is_discarded()) continue;
+    if (j.value("type", "") == "asset") run.assets.push_back(j);
+    if (j.value("type", "") == "summary") run.summary = j;
+  }
+  return run;
+}
+
+std::string Impostor() { return (BinaryDir() / "impostor").string(); }
+
+std::string Quote(const std::string& s) { return "'" + s + "'"; }
+
+fs::path Asset(const std::string& relative) { return AssetsDir() / relative; }
+
+// Every key the README promises on an asset line.
+void ExpectDocumentedKeys(const json& line) {
+  for (const char* key : {"type", "asset", "name", "status", "cached", "cache_key", "job_id", "out_dir", "files",
+                          "wall_seconds", "priority", "quality", "error", "error_code"}) {
+    EXPECT_TRUE(line.contains(key)) << "missing \"" << key << "\" in " << line.dump();
+  }
+}
+
+fs::path WriteSpec(const fs::path& dir, const std::vector<fs::path>& models, const std::string& name = "spec.json") {
+  json spec = {{"defaults", {{"frames", 4}, {"resolution", 128}}}, {"assets", json::array()}};
+  for (const fs::path& m : models) spec["assets"].push_back(m.string());
+  const fs::path file = dir / name;
+  std::ofstream(file) << spec.dump(2);
+  return file;
+}
+
+// Props and vegetation from ../shared/assets (MANIFEST.md), binary and
+// separate-file glTF, textured and not.
+std::vector<fs::path> PropsAndVegetation() {
+  return {
+      Asset("props_pbr/Box/glTF-Binary/Box.glb"),
+      Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb"),
+      Asset("props_pbr/Duck/glTF-Binary/Duck.glb"),
+      Asset("props_pbr/Avocado/glTF/Avocado.gltf"),
+      Asset("props_pbr/Fox/glTF-Binary/Fox.glb"),
+      Asset("vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf"),
+      Asset("vegetation/Quaternius_CommonTree_1/CommonTree_1.glb"),
+      Asset("vegetation/AlphaBlendModeTest/glTF-Binary/AlphaBlendModeTest.glb"),
+      Asset("vegetation/StylizedTree_ChrisCLP/jungletree.glb"),
+  };
+}
+
+TEST(BatchCli, PropsAndVegetationBakeThenComeEntirelyFromTheCache) {
+  ServerProcess server(2);
+  const fs::path dir = NewTempDir("batch_all");
+  std::vector<fs::path> models = PropsAndVegetation();
+  models.push_back(models[0]);  // the same asset twice: one bake, two folders
+  const fs::path spec = WriteSpec(dir, models);
+  const std::string command = Impostor() + " bake-batch " + Quote(spec.string()) + " --out " +
+                              Quote((dir / "out").string()) + " --server " + server.address() + " --json --quiet";
+
+  const CliRun first = RunShell(command);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  ASSERT_EQ(first.assets.size(), models.size()) << first.output;
+  std::set<std::string> names;
+  for (const json& a : first.assets) {
+    ExpectDocumentedKeys(a);
+    EXPECT_EQ(a["status"], "succeeded") << a.dump();
+    EXPECT_TRUE(a["error"].is_null()) << a.dump();
+    EXPECT_EQ(a["cache_key"].get<std::string>().size(), 64u);
+    EXPECT_TRUE(fs::exists(fs::path(a["out_dir"].get<std::string>()) / "manifest.json")) << a.dump();
+    EXPECT_TRUE(fs::exists(fs::path(a["out_dir"].get<std::string>()) / "albedo_alpha.png")) << a.dump();
+    EXPECT_FALSE(a["files"].empty());
+    EXPECT_GE(a["wall_seconds"].get<double>(), 0.0);
+    names.insert(a["name"].get<std::string>());
+  }
+  EXPECT_EQ(names.size(), models.size()) << "every asset has its own folder";
+  EXPECT_TRUE(names.contains("Box") && names.contains("Box-2"));
+  EXPECT_EQ(first.summary["total"], models.size());
+  EXPECT_EQ(first.summary["succeeded"], models.size());
+  EXPECT_EQ(first.summary["failed"], 0);
+  EXPECT_EQ(first.summary["exit_code"], 0);
+  EXPECT_GE(first.summary["baked"].get<int>(), static_cast<int>(PropsAndVegetation().size()) - 1);
+
+  // The next commit's CI run: nothing new to bake.
+  const CliRun second = RunShell(command);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  ASSERT_EQ(second.assets.size(), models.size());
+  for (const json& a : second.assets) {
+    EXPECT_EQ(a["status"], "succeeded") << a.dump();
+    EXPECT_EQ(a["cached"], true) << "answered from the cache: " << a.dump();
+  }
+  EXPECT_EQ(second.summary["cached"], models.size());
+  EXPECT_EQ(second.summary["baked"], 0);
+  for (size_t i = 0; i < models.size(); ++i) {
+    const auto same = [&](const json& a) { return a["asset"] == first.assets[i]["asset"]; };
+    auto it = std::find_if(second.assets.begin(), second.assets.end(), same);
+    ASSERT_NE(it, second.assets.end());
+    EXPECT_EQ((*it)["cache_key"], first.assets[i]["cache_key"]);
+  }
+}
+
+// Models that fail on the client (corrupt GLB header, missing buffer) and on
+// the worker (no triangles) between good ones.
+std::vector<fs::path> GoodAndBroken() {
+  const fs::path corpus = Asset("edge_cases/gltf-validator-tests/base/data");
+  return {
+      Asset("props_pbr/Box/glTF-Binary/Box.glb"),
+      corpus / "glb/invalid_magic.glb",
+      corpus / "buffer/not_found.gltf",
+      corpus / "mesh/empty_object.gltf",
+      Asset("props_pbr/Duck/glTF-Binary/Duck.glb"),
+  };
+}
+
+TEST(BatchCli, KeepGoingBakesTheGoodOnesAndNamesEachFailure) {
+  ServerProcess server(1);
+  const fs::path dir = NewTempDir("batch_keep_going");
+  const fs::path spec = WriteSpec(dir, GoodAndBroken());
+  const CliRun run = RunShell(Impostor() + " bake-batch " + Quote(spec.string()) + " --out " +
+                              Quote((dir / "out").string()) + " --server " + server.address() +
+                              " --json --quiet --keep-going 2>&1");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  ASSERT_EQ(run.assets.size(), 5u) << run.output;
+  std::map<std::string, json> by_name;
+  for (const json& a : run.assets) {
+    ExpectDocumentedKeys(a);
+    by_name[fs::path(a["asset"].get<std::string>()).filename().string()] = a;
+  }
+  for (const char* good : {"Box.glb", "Duck.glb"}) {
+    EXPECT_EQ(by_name[good]["status"], "succeeded") << by_name[good].dump();
+    EXPECT_TRUE(fs::exists(fs::path(by_name[good]["out_dir"].get<std::string>()) / "manifest.json"));
+  }
+  const struct {
+    const char* file;
+    const char* code;
+    const char* why;
+  } failures[] = {
+      {"invalid_magic.glb", "INVALID_ARGUMENT", "corrupt GLB header"},
+      {"not_found.gltf", "NOT_FOUND", "not_found.bin not found"},
+      {"empty_object.gltf", "INVALID_ARGUMENT", "no triangles"},
+  };
+  for (const auto& f : failures) {
+    const json& a = by_name[f.file];
+    EXPECT_EQ(a["status"], "failed") << a.dump();
+    const std::string error = a["error"].is_string() ? a["error"].get<std::string>() : "";
+    EXPECT_EQ(error.rfind(f.code, 0), 0u) << error;
+    EXPECT_NE(error.find(f.why), std::string::npos) << error;
+    EXPECT_NE(a["error_code"], 0);
+    // And the one failure line on stderr names it too.
+    EXPECT_NE(run.output.find(std::string(f.file) + ": " + f.code), std::string::npos) << run.output;
+  }
+  EXPECT_EQ(by_name["empty_object.gltf"]["cache_key"].get<std::string>().size(), 64u)
+      << "the worker failed it, so it was submitted";
+  EXPECT_EQ(run.summary["succeeded"], 2);
+  EXPECT_EQ(run.summary["failed"], 3);
+  EXPECT_EQ(run.summary["skipped"], 0);
+  EXPECT_EQ(run.summary["exit_code"], 1);
+  EXPECT_NE(run.output.find("impostor: 3 of 5 assets failed: "), std::string::npos) << run.output;
+}
+
+TEST(BatchCli, WithoutKeepGoingNothingIsSubmittedAfterTheFirstFailure) {
+  ServerProcess server(1);
+  const fs::path dir = NewTempDir("batch_stop");
+  std::vector<fs::path> models = GoodAndBroken();
+  std::rotate(models.begin(), models.begin() + 1, models.end());  // the corrupt GLB first
+  const fs::path spec = WriteSpec(dir, models);
+  const CliRun run = RunShell(Impostor() + " bake-batch " + Quote(spec.string()) + " --out " +
+                              Quote((dir / "out").string()) + " --server " + server.address() + " --json --quiet");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  ASSERT_EQ(run.assets.size(), models.size()) << "every asset is reported, skipped ones too";
+  for (const json& a : run.assets) {
+    ExpectDocumentedKeys(a);
+    if (fs::path(a["asset"].get<std::string>()).filename() == "invalid_magic.glb") {
+      EXPECT_EQ(a["status"], "failed");
+      continue;
+    }
+    EXPECT_EQ(a["status"], "skipped") << a.dump();
+    EXPECT_TRUE(a["job_id"].is_null()) << "never submitted: " << a.dump();
+    EXPECT_FALSE(fs::exists(a["out_dir"].get<std::string>())) << a.dump();
+  }
+  EXPECT_EQ(run.summary["skipped"], models.size() - 1);
+  EXPECT_EQ(run.summary["exit_code"], 1);
+}
+
+TEST(BatchCli, BakeWithSeveralModelsIsABatch) {
+  ServerProcess server(1);
+  const fs::path dir = NewTempDir("batch_bake_many");
+  const CliRun run = RunShell(Impostor() + " bake " + Quote(Asset("props_pbr/Box/glTF-Binary/Box.glb").string()) +
+                              " " + Quote(Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb").string()) +
+                              " --frames 4 --resolution 64 --priority 30 --out " + Quote((dir / "out").string()) +
+                              " --server " + server.address() + " --json --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  ASSERT_EQ(run.assets.size(), 2u);
+  for (const json& a : run.assets) {
+    EXPECT_EQ(a["status"], "succeeded");
+    EXPECT_EQ(a["priority"], 30);
+  }
+  EXPECT_TRUE(fs::exists(dir / "out/Box/manifest.json"));
+  EXPECT_TRUE(fs::exists(dir / "out/BoxTextured/manifest.json"));
+  // The server recorded the priority on the job.
+  grpc::ClientContext context;
+  v1::GetJobRequest request;
+  request.set_job_id(run.assets[0]["job_id"].get<std::string>());
+  v1::Job job;
+  ASSERT_TRUE(server.bake().GetJob(&context, request, &job).ok());
+  EXPECT_EQ(job.priority(), 30);
+}
+
+TEST(BatchCli, MalformedInputIsAUsageErrorNamingTheEntryAndField) {
+  const fs::path dir = NewTempDir("batch_bad_spec");
+  const std::string box = Asset("props_pbr/Box/glTF-Binary/Box.glb").string();
+  const struct {
+    const char* name;
+    std::string spec;  // JSON text; empty = use `args` alone
+    std::string args;
+    std::string message;
+  } cases[] = {
+      {"missing file", R"({"assets": [")" + box + R"(", "missing/tree.glb"]})", "",
+       "impostor: assets[1]: \"missing/tree.glb\" not found"},
+      {"unknown key", R"({"assets": [{"path": ")" + box + R"(", "frame": 4}]})", "",
+       "unknown key \"frame\""},
+      {"wrong type", R"({"defaults": {"frames": "four"}, "assets": [")" + box + R"("]})", "",
+       "impostor: defaults.frames: expected a whole number 0..4294967295, got \"four\" (string)"},
+      {"empty list", R"({"assets": []})", "", "impostor: assets: the list is empty; nothing to bake"},
+      {"priority in spec", R"({"assets": [{"path": ")" + box + R"(", "priority": 1000}]})", "",
+       "priority: 1000 is out of range -100..100"},
+      {"priority flag", R"({"assets": [")" + box + R"("]})", " --priority 101",
+       "--priority: expected a whole number in -100..100, got \"101\""},
+      {"spec missing", "", " " + (dir / "absent.json").string(), "impostor: SPEC: cannot read "},
+  };
+  int n = 0;
+  for (const auto& c : cases) {
+    std::string spec_arg;
+    if (!c.spec.empty()) {
+      const fs::path file = dir / ("spec" + std::to_string(n++) + ".json");
+      std::ofstream(file) << c.spec;
+      spec_arg = " " + Quote(file.string());
+    }
+    // No server: a bad spec is refused before connecting.
+    const CliRun run = RunShell(Impostor() + " bake-batch" + spec_arg + c.args + " --out " +
+                                Quote((dir / "out").string()) + " --server 127.0.0.1:1 2>&1");
+    EXPECT_EQ(run.exit_code, 2) << c.name << ": " << run.output;
+    EXPECT_NE(run.output.find(c.message), std::string::npos) << c.name << ": " << run.output;
+  }
+  // YAML on standard input, with a mistake on its second asset.
+  const CliRun yaml = RunShell("printf 'defaults: {frames: 4}\\nassets:\\n  - " + box +
+                               "\\n  - {path: " + box + ", resolution: big}\\n' | " + Impostor() +
+                               " bake-batch - --out " + Quote((dir / "out").string()) + " 2>&1");
+  EXPECT_EQ(yaml.exit_code, 2) << yaml.output;
+  EXPECT_NE(yaml.output.find(".resolution: expected a whole number 0..4294967295, got \"big\" (string)"),
+            std::string::npos)
+      << yaml.output;
+}
+
+}  // namespace
+}  // namespace impostor::testing

@@ -1,0 +1,177 @@
+// The image metrics on synthetic cases whose answer is known in closed form.
+#include "common/quality/image_metrics.h"
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace impostor {
+namespace {
+
+// A test image: a size x size view with a covered rectangle of one colour,
+// normal and depth.
+struct Image {
+  int size = 0;
+  std::vector<uint8_t> albedo;
+  std::vector<uint16_t> normal_depth;
+  ViewPixels Pixels() const { return {size, size, albedo, normal_depth}; }
+};
+
+struct Rect {
+  int x0, y0, x1, y1;  // half-open
+};
+
+Image MakeImage(int size, Rect covered, uint8_t r, uint8_t g, uint8_t b, uint16_t nx = 32768, uint16_t ny = 32768,
+                uint16_t nz = 65535, uint16_t depth = 16384) {
+  Image im;
+  im.size = size;
+  im.albedo.assign(static_cast<size_t>(size) * size * 4, 0);
+  im.normal_depth.resize(static_cast<size_t>(size) * size * 4);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const size_t i = (static_cast<size_t>(y) * size + x) * 4;
+      const bool in = x >= covered.x0 && x < covered.x1 && y >= covered.y0 && y < covered.y1;
+      im.normal_depth[i + 0] = im.normal_depth[i + 1] = im.normal_depth[i + 2] = 32768;
+      im.normal_depth[i + 3] = 65535;
+      if (!in) continue;
+      im.albedo[i + 0] = r, im.albedo[i + 1] = g, im.albedo[i + 2] = b, im.albedo[i + 3] = 255;
+      im.normal_depth[i + 0] = nx, im.normal_depth[i + 1] = ny, im.normal_depth[i + 2] = nz;
+      im.normal_depth[i + 3] = depth;
+    }
+  }
+  return im;
+}
+
+// A textured square (a checker of 4-pixel cells) so SSIM has structure.
+Image MakeChecker(int size, Rect covered) {
+  Image im = MakeImage(size, covered, 0, 0, 0);
+  for (int y = covered.y0; y < covered.y1; ++y) {
+    for (int x = covered.x0; x < covered.x1; ++x) {
+      const size_t i = (static_cast<size_t>(y) * size + x) * 4;
+      const uint8_t v = ((x / 4 + y / 4) % 2) ? 200 : 60;
+      im.albedo[i] = v, im.albedo[i + 1] = v / 2, im.albedo[i + 2] = 255 - v;
+    }
+  }
+  return im;
+}
+
+TEST(ImageMetricsTest, IdenticalImagesArePerfect) {
+  const Image a = MakeChecker(64, {10, 12, 50, 40});
+  const ViewMetrics m = CompareViews(a.Pixels(), a.Pixels());
+  EXPECT_DOUBLE_EQ(m.iou, 1.0);
+  EXPECT_DOUBLE_EQ(m.albedo_psnr_db, kMaxPsnrDb);
+  EXPECT_NEAR(m.albedo_ssim, 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(m.normal_error_deg_mean, 0.0);
+  EXPECT_DOUBLE_EQ(m.normal_error_deg_max, 0.0);
+  EXPECT_DOUBLE_EQ(m.depth_error_mean, 0.0);
+  EXPECT_EQ(m.union_pixels, 40 * 28);
+  EXPECT_EQ(m.both_pixels, 40 * 28);
+}
+
+TEST(ImageMetricsTest, EmptyImagesHaveNothingToDiffer) {
+  const Image a = MakeImage(16, {0, 0, 0, 0}, 0, 0, 0);
+  const ViewMetrics m = CompareViews(a.Pixels(), a.Pixels());
+  EXPECT_DOUBLE_EQ(m.iou, 1.0);
+  EXPECT_DOUBLE_EQ(m.albedo_psnr_db, kMaxPsnrDb);
+  EXPECT_DOUBLE_EQ(m.albedo_ssim, 1.0);
+  EXPECT_EQ(m.union_pixels, 0);
+}
+
+// A w x h square shifted by k pixels along x: intersection (w - k) h, union
+// (w + k) h.
+TEST(ImageMetricsTest, ShiftedSilhouetteGivesKnownIou) {
+  struct Case {
+    int w, h, k;
+  };
+  for (const Case c : {Case{20, 20, 1}, Case{20, 20, 5}, Case{30, 10, 10}, Case{16, 16, 16}}) {
+    SCOPED_TRACE(::testing::Message() << "w=" << c.w << " h=" << c.h << " shift=" << c.k);
+    const Image a = MakeImage(64, {5, 5, 5 + c.w, 5 + c.h}, 100, 100, 100);
+    const Image b = MakeImage(64, {5 + c.k, 5, 5 + c.k + c.w, 5 + c.h}, 100, 100, 100);
+    const double expected = static_cast<double>(std::max(0, c.w - c.k)) / (c.w + c.k);
+    EXPECT_NEAR(SilhouetteIou(a.Pixels(), b.Pixels()), expected, 1e-12);
+    const ViewMetrics m = CompareViews(a.Pixels(), b.Pixels());
+    EXPECT_EQ(m.union_pixels, (c.w + c.k) * c.h);
+    // Misses are composited over black: 2 k h of (w + k) h pixels differ by
+    // 100 levels in every channel.
+    const double mse = (2.0 * c.k * c.h) * std::pow(100.0 / 255.0, 2) / ((c.w + c.k) * c.h);
+    EXPECT_NEAR(m.albedo_psnr_db, -10.0 * std::log10(mse), 1e-9);
+  }
+}
+
+// A flat shift of d levels in every channel over the same silhouette:
+// PSNR = 20 log10(255 / d).
+TEST(ImageMetricsTest, FlatColourShiftGivesKnownPsnr) {
+  for (int d : {1, 2, 5, 16, 64}) {
+    SCOPED_TRACE(::testing::Message() << "shift=" << d);
+    const Image a = MakeImage(32, {4, 4, 28, 20}, 100, 120, 140);
+    const Image b = MakeImage(32, {4, 4, 28, 20}, 100 + d, 120 + d, 140 + d);
+    EXPECT_NEAR(AlbedoPsnrDb(a.Pixels(), b.Pixels()), 20.0 * std::log10(255.0 / d), 1e-9);
+    EXPECT_DOUBLE_EQ(SilhouetteIou(a.Pixels(), b.Pixels()), 1.0);
+  }
+}
+
+// SSIM sees structure: noise lowers it, losing the texture lowers it more.
+TEST(ImageMetricsTest, SsimFallsWithStructureAndStaysBelowOne) {
+  const Image a = MakeChecker(64, {8, 8, 56, 56});
+  Image noisy = a;
+  uint32_t state = 12345;
+  for (size_t i = 0; i < noisy.albedo.size(); i += 4) {
+    if (noisy.albedo[i + 3] == 0) continue;
+    state = state * 1664525u + 1013904223u;
+    const int n = static_cast<int>((state >> 24) % 61) - 30;
+    for (int c = 0; c < 3; ++c) noisy.albedo[i + c] = static_cast<uint8_t>(std::clamp(noisy.albedo[i + c] + n, 0, 255));
+  }
+  const double ssim_noisy = AlbedoSsim(a.Pixels(), noisy.Pixels());
+  EXPECT_LT(ssim_noisy, 0.95);
+  EXPECT_GT(ssim_noisy, 0.3);
+  // A flat grey patch against the checker loses the structure entirely.
+  const Image flat = MakeImage(64, {8, 8, 56, 56}, 130, 65, 125);
+  EXPECT_LT(AlbedoSsim(a.Pixels(), flat.Pixels()), ssim_noisy);
+}
+
+TEST(ImageMetricsTest, NormalAndDepthErrorsAreKnownAngleAndRadiusFraction) {
+  // Normal +Z against normal rotated 90 degrees to +X; depth 0.25 vs 0.375
+  // of the encoded range = 0.125 * 2 radii = 0.25 r.
+  const Image a = MakeImage(16, {0, 0, 8, 8}, 50, 50, 50, 32768, 32768, 65535, 16384);
+  const Image b = MakeImage(16, {0, 0, 8, 8}, 50, 50, 50, 65535, 32768, 32768, 24576);
+  const ViewMetrics m = CompareViews(a.Pixels(), b.Pixels());
+  EXPECT_NEAR(m.normal_error_deg_mean, 90.0, 0.01);
+  EXPECT_NEAR(m.normal_error_deg_max, 90.0, 0.01);
+  EXPECT_NEAR(m.depth_error_mean, 0.25, 1e-4);
+  EXPECT_NEAR(m.depth_error_max, 0.25, 1e-4);
+}
+
+TEST(ImageMetricsTest, GeometryCountsOnlyPixelsBothCover) {
+  // b covers more, with a wildly different normal outside a's square: only
+  // the overlap counts, where both agree.
+  const Image a = MakeImage(16, {0, 0, 8, 8}, 50, 50, 50);
+  Image b = MakeImage(16, {0, 0, 16, 16}, 50, 50, 50, 65535, 32768, 32768);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      const size_t i = (static_cast<size_t>(y) * 16 + x) * 4;
+      b.normal_depth[i] = 32768, b.normal_depth[i + 2] = 65535;
+    }
+  }
+  const ViewMetrics m = CompareViews(a.Pixels(), b.Pixels());
+  EXPECT_NEAR(m.normal_error_deg_max, 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(m.iou, 64.0 / 256.0);
+}
+
+TEST(ImageMetricsTest, AlbedoChangeIsMeanAbsoluteDifferenceOverUnion) {
+  const Image a = MakeImage(16, {0, 0, 8, 16}, 100, 100, 100);
+  const Image b = MakeImage(16, {0, 0, 8, 16}, 110, 90, 100);
+  EXPECT_NEAR(MeanAbsoluteAlbedoChange(a.Pixels(), b.Pixels()), (10.0 + 10.0 + 0.0) / 3.0 / 255.0, 1e-12);
+  EXPECT_DOUBLE_EQ(MeanAbsoluteAlbedoChange(a.Pixels(), a.Pixels()), 0.0);
+}
+
+TEST(ImageMetricsTest, PsnrFromMseIsCapped) {
+  EXPECT_DOUBLE_EQ(PsnrFromMse(0.0), kMaxPsnrDb);
+  EXPECT_DOUBLE_EQ(PsnrFromMse(1e-20), kMaxPsnrDb);
+  EXPECT_NEAR(PsnrFromMse(0.01), 20.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,273 @@
+// The reference shader (shaders/impostor_runtime.glsl) against the C++: a
+// compute shader evaluates impostorBlendFrames and the virtual-plane
+// projection for thousands of directions on the Vulkan device (lavapipe
+// suffices); every frame's weight must match BlendFrames within 1e-5 and its
+// sample point ProjectToFrame within 1e-5, for both layouts and both blend
+// modes.
+#include <cstdint>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <random>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include "common/runtime/frame_blend.h"
+#include "common/runtime/virtual_plane.h"
+#include "common/runtime/reference_renderer.h"
+#include "shaders/impostor_runtime_view_comp.h"
+#include "shaders/impostor_runtime_weights_comp.h"
+#include "tests/runtime/compute_kernel.h"
+#include "tests/runtime/image_compare.h"
+#include "tests/runtime/synthetic_atlas.h"
+#include "worker/gpu/gpu_buffer.h"
+#include "worker/gpu/vk_check.h"
+#include "worker/gpu/vk_handle.h"
+#include "worker/gpu/vulkan_context.h"
+
+namespace impostor {
+namespace {
+
+using gpu::GpuBuffer;
+using ::impostor::testing::KernelBinding;
+using ::impostor::testing::RunKernel;
+using ::impostor::testing::UploadImage;
+
+struct Push {
+  int32_t layout_kind, frames, mode, count;
+};
+
+// Runs the weights shader; returns per direction 4 x (frame index, weight, s, t).
+absl::StatusOr<std::vector<float>> RunShader(const gpu::VulkanContext& ctx, const std::vector<glm::vec4>& dirs,
+                                             LayoutKind layout, int frames, BlendMode mode) {
+  const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(GpuBuffer in,
+                                GpuBuffer::Create(ctx, dirs.size() * sizeof(glm::vec4),
+                                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, host, 0, "directions"));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(GpuBuffer out,
+                                GpuBuffer::Create(ctx, dirs.size() * 16 * sizeof(float),
+                                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, host,
+                                                  VK_MEMORY_PROPERTY_HOST_CACHED_BIT, "weights"));
+  std::memcpy(in.mapped(), dirs.data(), dirs.size() * sizeof(glm::vec4));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(in.FlushHostWrites());
+  const Push push{layout == LayoutKind::kOctahedral ? 0 : 1, frames, mode == BlendMode::kTriangle3 ? 0 : 1,
+                  static_cast<int32_t>(dirs.size())};
+  IMPOSTOR_GPU_RETURN_IF_ERROR(RunKernel(
+      ctx, impostor_runtime_weights_comp, sizeof(impostor_runtime_weights_comp),
+      {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, in.buffer()}, {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, out.buffer()}}, &push,
+      sizeof(push), static_cast<uint32_t>((dirs.size() + 63) / 64), 1));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(out.InvalidateForHostRead());
+  std::vector<float> result(dirs.size() * 16);
+  std::memcpy(result.data(), out.mapped(), result.size() * sizeof(float));
+  return result;
+}
+
+std::vector<glm::vec4> TestDirections(LayoutKind layout, int frames) {
+  std::vector<glm::vec4> dirs;
+  std::mt19937 rng(11);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  for (int i = 0; i < 4000; ++i) {
+    glm::vec3 d = glm::normalize(glm::vec3(n(rng), n(rng), n(rng)));
+    dirs.emplace_back(d, 0.0f);
+  }
+  // Every frame's own direction, and points on grid lines and diagonals,
+  // where tie-breaking decides.
+  const float n1 = static_cast<float>(frames - 1);
+  for (int row = 0; row < frames; ++row) {
+    for (int col = 0; col < frames; ++col) {
+      dirs.emplace_back(FrameDirection(layout, frames, {col, row}), 0.0f);
+      for (glm::vec2 off : {glm::vec2(0.5f, 0.0f), glm::vec2(0.0f, 0.5f), glm::vec2(0.5f, 0.5f), glm::vec2(0.25f, 0.25f)}) {
+        const glm::vec2 g = glm::vec2(col, row) + off;
+        if (g.x > n1 || g.y > n1) continue;
+        dirs.emplace_back(LayoutToDirection(layout, g / n1 * 2.0f - 1.0f), 0.0f);
+      }
+    }
+  }
+  // Axes and poles.
+  for (glm::vec3 d : {glm::vec3(0, 1, 0), glm::vec3(0, -1, 0), glm::vec3(1, 0, 0), glm::vec3(-1, 0, 0),
+                      glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) {
+    dirs.emplace_back(d, 0.0f);
+  }
+  return dirs;
+}
+
+TEST(GlslBlend, ShaderWeightsMatchTheCpp) {
+  auto ctx = gpu::VulkanContext::Create("");
+  if (!ctx.ok()) GTEST_SKIP() << "no Vulkan device: " << ctx.status();
+  float worst = 0.0f, worst_st = 0.0f;
+  size_t compared = 0;
+  for (LayoutKind layout : {LayoutKind::kOctahedral, LayoutKind::kHemiOctahedral}) {
+    for (int frames : {2, 6, 8, 12, 16}) {
+      const std::vector<glm::vec4> dirs = TestDirections(layout, frames);
+      for (BlendMode mode : {BlendMode::kTriangle3, BlendMode::kBilinear4}) {
+        auto got = RunShader(**ctx, dirs, layout, frames, mode);
+        ASSERT_TRUE(got.ok()) << got.status();
+        for (size_t i = 0; i < dirs.size(); ++i) {
+          std::map<int, float> cpp, glsl;
+          const FrameBlend want = BlendFrames(layout, frames, glm::vec3(dirs[i]), mode);
+          for (int k = 0; k < want.count; ++k) cpp[want.entries[k].index] += want.entries[k].weight;
+          const FrameCamera view = CameraForDirection(glm::vec3(dirs[i]));
+          for (int k = 0; k < 4; ++k) {
+            const float* slot = &(*got)[i * 16 + k * 4];
+            if (slot[0] < 0.0f) continue;
+            const int index = static_cast<int>(slot[0]);
+            glsl[index] += slot[1];
+            const FrameCamera frame =
+                CameraForDirection(FrameDirection(layout, frames, FrameFromIndex(frames, index)));
+            const PlaneSample st = ProjectToFrame(view, frame, {0.3f, -0.2f});
+            // Below a hemi-octahedron's horizon the blended frames are seen
+            // edge-on and the hit runs off to infinity (ill-conditioned as
+            // 1 / facing^2): compare only frames facing the view by > 0.05,
+            // relative to |st| beyond the tile.
+            const bool conditioned = glm::dot(view.direction, frame.direction) > 0.05f;
+            const float st_diff = st.valid && conditioned ? glm::length(st.st - glm::vec2(slot[2], slot[3])) /
+                                                                std::max(1.0f, glm::length(st.st))
+                                                          : 0.0f;
+            worst_st = std::max(worst_st, st_diff);
+            ASSERT_LE(st_diff, 1e-5f) << "frame " << index << " frames " << frames << " direction " << dirs[i].x << "," << dirs[i].y
+                                      << "," << dirs[i].z;
+          }
+          float diff = 0.0f;
+          for (const auto& [f, w] : cpp) diff = std::max(diff, std::abs(w - (glsl.count(f) ? glsl[f] : 0.0f)));
+          for (const auto& [f, w] : glsl) diff = std::max(diff, std::abs(w - (cpp.count(f) ? cpp[f] : 0.0f)));
+          worst = std::max(worst, diff);
+          ++compared;
+          ASSERT_LE(diff, 1e-5f) << LayoutName(layout) << " frames=" << frames << " " << BlendModeName(mode)
+                                 << " direction " << dirs[i].x << "," << dirs[i].y << "," << dirs[i].z;
+        }
+      }
+    }
+  }
+  std::printf("[ figures  ] %zu blends compared on %s: largest weight difference %.3g, largest (s, t) "
+              "difference %.3g\n", compared, (*ctx)->info().name.c_str(), worst, worst_st);
+}
+
+struct ViewPush {
+  glm::vec4 view_dir, view_up, view_right;
+  glm::ivec4 params;  // layout, frames, tile_size, mode
+  glm::ivec4 flags;   // parallax, has_orm, pixels, 0
+};
+
+uint8_t Srgb8(float linear) {
+  const float c = std::clamp(linear, 0.0f, 1.0f);
+  const float s = c <= 0.0031308f ? c * 12.92f : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+  return static_cast<uint8_t>(std::lround(s * 255.0f));
+}
+uint8_t Unorm8(float v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
+uint16_t Unorm16(float v) { return static_cast<uint16_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 65535.0f)); }
+
+// Renders a view with impostor_runtime_view.comp and encodes it as
+// RenderImpostorView does (coverage iff alpha >= 0.5, bake encodings).
+absl::StatusOr<ViewImages> RenderWithShader(const gpu::VulkanContext& ctx, const ImpostorAtlas& atlas,
+                                            VkImageView albedo, VkImageView normal_depth, VkImageView orm,
+                                            VkSampler sampler, const FrameCamera& view, int pixels,
+                                            const ReferenceRenderOptions& options) {
+  const size_t count = static_cast<size_t>(pixels) * pixels;
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      GpuBuffer out, GpuBuffer::Create(ctx, count * 3 * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
+                                       "view pixels"));
+  ViewPush push;
+  push.view_dir = glm::vec4(view.direction, 0.0f);
+  push.view_up = glm::vec4(view.up, 0.0f);
+  push.view_right = glm::vec4(view.right, 0.0f);
+  push.params = {atlas.layout == LayoutKind::kOctahedral ? 0 : 1, atlas.frames,
+                 TileSize(atlas.resolution, atlas.frames), options.blend == BlendMode::kTriangle3 ? 0 : 1};
+  push.flags = {options.parallax ? 1 : 0, 1, pixels, 0};
+  const uint32_t groups = static_cast<uint32_t>((pixels + 7) / 8);
+  IMPOSTOR_GPU_RETURN_IF_ERROR(RunKernel(ctx, impostor_runtime_view_comp, sizeof(impostor_runtime_view_comp),
+                                         {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, albedo, sampler},
+                                          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, normal_depth,
+                                           sampler},
+                                          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, orm, sampler},
+                                          {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, out.buffer()}},
+                                         &push, sizeof(push), groups, groups));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(out.InvalidateForHostRead());
+  const glm::vec4* px = static_cast<const glm::vec4*>(out.mapped());
+  ViewImages v;
+  v.width = v.height = pixels;
+  v.albedo_alpha.assign(count * 4, 0);
+  v.orm.assign(count * 4, 0);
+  v.normal_depth.resize(count * 4);
+  for (size_t i = 0; i < count; ++i) {
+    const glm::vec4 a = px[i * 3], nd = px[i * 3 + 1], o = px[i * 3 + 2];
+    if (a.w < 0.5f) {
+      v.normal_depth[i * 4] = v.normal_depth[i * 4 + 1] = v.normal_depth[i * 4 + 2] = kEmptyNormal16;
+      v.normal_depth[i * 4 + 3] = kEmptyDepth16;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      v.albedo_alpha[i * 4 + k] = Srgb8(a[k]);
+      v.normal_depth[i * 4 + k] = Unorm16(nd[k] * 0.5f + 0.5f);
+      v.orm[i * 4 + k] = Unorm8(o[k]);
+    }
+    v.albedo_alpha[i * 4 + 3] = 255;
+    v.orm[i * 4 + 3] = 255;
+    v.normal_depth[i * 4 + 3] = Unorm16(nd.w);
+  }
+  return v;
+}
+
+// The whole shading path of the shader (virtual planes, tile sampling,
+// parallax march, blending, depth) against RenderImpostorView on the same
+// synthetic atlas and views. Float rounding differs between the device and
+// the CPU (e.g. fused multiply-adds), which moves sample points by ~1e-6 of
+// a tile; where neighbouring texels differ a lot (a sphere's rim) that shows
+// as up to ~1e-3 in a normal and ~2e-4 in depth, hence the tolerances.
+TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
+  auto ctx = gpu::VulkanContext::Create("");
+  if (!ctx.ok()) GTEST_SKIP() << "no Vulkan device: " << ctx.status();
+  const gpu::VulkanContext& c = **ctx;
+  VkSamplerCreateInfo sampler_info{};
+  sampler_info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  sampler_info.magFilter = sampler_info.minFilter = VK_FILTER_NEAREST;
+  sampler_info.addressModeU = sampler_info.addressModeV = sampler_info.addressModeW =
+      VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  VkSampler sampler_raw;
+  ASSERT_EQ(vkCreateSampler(c.device(), &sampler_info, nullptr, &sampler_raw), VK_SUCCESS);
+  gpu::UniqueSampler sampler(c.device(), sampler_raw);
+  int mismatched = 0, total = 0, worst_albedo = 0, worst_normal = 0, worst_depth = 0;
+  for (LayoutKind layout : {LayoutKind::kOctahedral, LayoutKind::kHemiOctahedral}) {
+    const ImpostorAtlas atlas = ::impostor::testing::BakeSyntheticAtlas(layout, 8, 512);
+    auto albedo = UploadImage(c, VK_FORMAT_R8G8B8A8_SRGB, 512, 512, atlas.albedo_alpha.data(),
+                              atlas.albedo_alpha.size());
+    auto normal_depth = UploadImage(c, VK_FORMAT_R16G16B16A16_UNORM, 512, 512, atlas.normal_depth.data(),
+                                    atlas.normal_depth.size() * sizeof(uint16_t));
+    auto orm = UploadImage(c, VK_FORMAT_R8G8B8A8_UNORM, 512, 512, atlas.orm.data(), atlas.orm.size());
+    ASSERT_TRUE(albedo.ok() && normal_depth.ok() && orm.ok());
+    for (glm::vec3 d : {glm::vec3(0.31f, 0.42f, 0.77f), glm::vec3(-0.6f, 0.1f, 0.3f), glm::vec3(0.2f, 0.9f, -0.4f),
+                        FrameDirection(layout, 8, {3, 5})}) {
+      const FrameCamera view = ViewCameraFor(glm::normalize(d));
+      for (BlendMode mode : {BlendMode::kTriangle3, BlendMode::kBilinear4}) {
+        for (bool parallax : {false, true}) {
+          const ReferenceRenderOptions options{mode, parallax};
+          auto shader = RenderWithShader(c, atlas, albedo->view(), normal_depth->view(), orm->view(), sampler_raw,
+                                         view, 64, options);
+          ASSERT_TRUE(shader.ok()) << shader.status();
+          const ViewImages cpp = RenderImpostorView(atlas, view, 64, options);
+          const ::impostor::testing::Comparison cmp = ::impostor::testing::Compare(*shader, cpp);
+          mismatched += cmp.coverage_mismatch;
+          total += 64 * 64;
+          worst_albedo = std::max(worst_albedo, cmp.albedo_max_diff);
+          worst_normal = std::max(worst_normal, cmp.normal_max_diff);
+          worst_depth = std::max(worst_depth, cmp.depth_max_diff);
+          EXPECT_LE(cmp.coverage_mismatch, 2) << LayoutName(layout) << " " << BlendModeName(mode) << " parallax "
+                                              << parallax;
+          EXPECT_LE(cmp.albedo_max_diff, 1);
+          EXPECT_LE(cmp.orm_max_diff, 1);
+          EXPECT_LE(cmp.normal_max_diff, 160);  // 0.005 in a normal component
+          EXPECT_LE(cmp.depth_max_diff, 40);    // 0.0006 of the sphere's diameter
+        }
+      }
+    }
+  }
+  std::printf("[ figures  ] shader vs C++ views: %d of %d pixels differ in coverage; largest differences: albedo "
+              "%d/255, normal %d/65535, depth %d/65535\n",
+              mismatched, total, worst_albedo, worst_normal, worst_depth);
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,108 @@
+// The SDK header (client/include/impostor/runtime.h) against the common
+// runtime it wraps: same frames, weights and sample points.
+#include "impostor/runtime.h"  // first: the public header must stand alone
+
+#include <random>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include "common/runtime/frame_blend.h"
+#include "common/runtime/virtual_plane.h"
+
+namespace impostor {
+namespace {
+
+TEST(SdkRuntime, NamesMatchTheManifest) {
+  EXPECT_EQ(sdk::LayoutFromName("octahedral"), sdk::Layout::kOctahedral);
+  EXPECT_EQ(sdk::LayoutFromName("hemi-octahedral"), sdk::Layout::kHemiOctahedral);
+  EXPECT_EQ(sdk::LayoutFromName("cube"), std::nullopt);
+  EXPECT_EQ(sdk::LayoutName(sdk::Layout::kHemiOctahedral), "hemi-octahedral");
+  EXPECT_EQ(sdk::BlendModeFromName("bilinear4"), sdk::BlendMode::kBilinear4);
+  EXPECT_EQ(sdk::BlendModeFromName("triangle3"), sdk::BlendMode::kTriangle3);
+  EXPECT_EQ(sdk::BlendModeFromName("nearest"), std::nullopt);
+  EXPECT_EQ(sdk::BlendModeName(sdk::BlendMode::kTriangle3), "triangle3");
+}
+
+TEST(SdkRuntime, BlendFramesIsTheCommonImplementation) {
+  std::mt19937 rng(3);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  for (int i = 0; i < 2000; ++i) {
+    const float dir[3] = {n(rng), n(rng), n(rng)};
+    for (sdk::Layout layout : {sdk::Layout::kOctahedral, sdk::Layout::kHemiOctahedral}) {
+      for (sdk::BlendMode mode : {sdk::BlendMode::kTriangle3, sdk::BlendMode::kBilinear4}) {
+        const sdk::FrameBlend got = sdk::BlendFrames(layout, 12, dir, mode);
+        const FrameBlend want = BlendFrames(
+            layout == sdk::Layout::kOctahedral ? LayoutKind::kOctahedral : LayoutKind::kHemiOctahedral, 12,
+            glm::vec3(dir[0], dir[1], dir[2]),
+            mode == sdk::BlendMode::kTriangle3 ? BlendMode::kTriangle3 : BlendMode::kBilinear4);
+        ASSERT_EQ(got.count, want.count);
+        for (int k = 0; k < got.count; ++k) {
+          EXPECT_EQ(got.entries[k].frame, want.entries[k].index);
+          EXPECT_EQ(got.entries[k].weight, want.entries[k].weight);
+        }
+      }
+    }
+  }
+}
+
+// A perspective ray through a point of a frame's plane lands where that
+// frame's bake camera put the point; the frame's own orthographic ray hits
+// the tile where the manifest says.
+TEST(SdkRuntime, VirtualPlaneUvFollowsTheBakeCamera) {
+  const float center[3] = {1.0f, 2.0f, 3.0f};
+  const float radius = 2.0f;
+  const int frames = 8, frame = FrameIndex(8, {5, 2});
+  const sdk::FrameBasis basis = sdk::FrameCameraBasis(sdk::Layout::kOctahedral, frames, frame);
+  const glm::vec3 d(basis.direction[0], basis.direction[1], basis.direction[2]);
+  const glm::vec3 up(basis.up[0], basis.up[1], basis.up[2]);
+  const glm::vec3 right(basis.right[0], basis.right[1], basis.right[2]);
+  EXPECT_NEAR(glm::length(d - FrameDirection(LayoutKind::kOctahedral, frames, {5, 2})), 0.0f, 1e-6f);
+  // The plane point at s = 0.4, t = -0.2 (radius units) -> u = 0.7, v = 0.6.
+  const glm::vec3 c(center[0], center[1], center[2]);
+  const glm::vec3 point = c + radius * (0.4f * right - 0.2f * up);
+  const glm::vec3 eye = c + radius * 3.0f * glm::normalize(d + glm::vec3(0.1f, 0.2f, -0.1f));
+  const glm::vec3 ray = point - eye;
+  const float o[3] = {eye.x, eye.y, eye.z};
+  const float r[3] = {ray.x, ray.y, ray.z};
+  const sdk::FrameUv uv = sdk::VirtualPlaneUv(sdk::Layout::kOctahedral, frames, frame, center, radius, o, r);
+  ASSERT_TRUE(uv.valid);
+  EXPECT_NEAR(uv.u, 0.7f, 1e-5f);
+  EXPECT_NEAR(uv.v, 0.6f, 1e-5f);
+  float atlas_uv[2];
+  sdk::FrameUvToAtlasUv(frames, 512, frame, uv, atlas_uv);  // tiles of 64 px
+  EXPECT_NEAR(atlas_uv[0], (5 * 64 + 0.7f * 64) / 512.0f, 1e-6f);
+  EXPECT_NEAR(atlas_uv[1], (2 * 64 + 0.6f * 64) / 512.0f, 1e-6f);
+  // Looking from behind the frame: no sample.
+  const float back[3] = {-r[0], -r[1], -r[2]};
+  EXPECT_FALSE(sdk::VirtualPlaneUv(sdk::Layout::kOctahedral, frames, frame, center, radius, o, back).valid);
+}
+
+// Parallax over a flat depth of 0.3 (height 0.4): the march lands near where
+// the ray meets that surface, and nowhere when the frame is empty.
+TEST(SdkRuntime, ParallaxMarchesTheCapturedDepth) {
+  const float center[3] = {0.0f, 0.0f, 0.0f};
+  const int frames = 6, frame = FrameIndex(6, {2, 3});
+  const sdk::FrameBasis basis = sdk::FrameCameraBasis(sdk::Layout::kHemiOctahedral, frames, frame);
+  const glm::vec3 d(basis.direction[0], basis.direction[1], basis.direction[2]);
+  const glm::vec3 toward_eye = glm::normalize(d + glm::vec3(0.15f, 0.0f, 0.1f));
+  const glm::vec3 eye = 4.0f * toward_eye;
+  const float o[3] = {eye.x, eye.y, eye.z};
+  const float r[3] = {-toward_eye.x, -toward_eye.y, -toward_eye.z};
+  const sdk::FrameUv flat =
+      sdk::VirtualPlaneUv(sdk::Layout::kHemiOctahedral, frames, frame, center, 1.0f, o, r, 0.4f);
+  const sdk::FrameUv marched = sdk::VirtualPlaneUvParallax(
+      sdk::Layout::kHemiOctahedral, frames, frame, center, 1.0f, o, r, [](float, float, float* depth) {
+        *depth = 0.3f;
+        return true;
+      });
+  ASSERT_TRUE(marched.valid);
+  EXPECT_NEAR(marched.u, flat.u, 0.01f);
+  EXPECT_NEAR(marched.v, flat.v, 0.01f);
+  EXPECT_FALSE(sdk::VirtualPlaneUvParallax(sdk::Layout::kHemiOctahedral, frames, frame, center, 1.0f, o, r,
+                                           [](float, float, float*) { return false; })
+                   .valid);
+}
+
+}  // namespace
+}  // namespace impostor

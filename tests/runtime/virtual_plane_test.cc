@@ -1,0 +1,90 @@
+// Virtual-plane projection: identity for a frame's own camera, exact for
+// points on the plane, and parallax that finds a surface at a known height.
+#include "common/runtime/virtual_plane.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include "common/runtime/reference_renderer.h"
+
+namespace impostor {
+namespace {
+
+TEST(VirtualPlane, FrameCameraSeesItsOwnTileUnchanged) {
+  for (const FrameCamera& frame : AtlasCameras(LayoutKind::kOctahedral, 6, 384)) {
+    const FrameCamera view = ViewCameraFor(frame.direction);
+    for (glm::vec2 st : {glm::vec2(0.0f), glm::vec2(-0.9f, 0.3f), glm::vec2(0.99f, -0.99f)}) {
+      const PlaneSample p = ProjectToFrame(view, frame, st);
+      ASSERT_TRUE(p.valid);
+      EXPECT_NEAR(p.st.x, st.x, 1e-5f);
+      EXPECT_NEAR(p.st.y, st.y, 1e-5f);
+    }
+  }
+}
+
+// A point q on frame f's plane seen by another view must land where f's
+// camera put it: (dot(q, right_f), dot(q, up_f)).
+TEST(VirtualPlane, PointsOnThePlaneProjectWhereTheFrameCameraSawThem) {
+  const std::vector<FrameCamera> frames = AtlasCameras(LayoutKind::kHemiOctahedral, 8, 512);
+  const FrameCamera& frame = frames[FrameIndex(8, {3, 4})];
+  const FrameCamera view = ViewCameraFor(glm::normalize(frame.direction + glm::vec3(0.2f, 0.05f, -0.1f)));
+  for (glm::vec2 fst : {glm::vec2(0.1f, 0.2f), glm::vec2(-0.5f, 0.4f), glm::vec2(0.7f, -0.6f)}) {
+    const glm::vec3 q = fst.x * frame.right + fst.y * frame.up;  // on the plane
+    const glm::vec2 view_st(glm::dot(q, view.right), glm::dot(q, view.up));
+    const PlaneSample p = ProjectToFrame(view, frame, view_st);
+    ASSERT_TRUE(p.valid);
+    EXPECT_NEAR(p.st.x, fst.x, 1e-5f);
+    EXPECT_NEAR(p.st.y, fst.y, 1e-5f);
+  }
+}
+
+// A flat surface at height h above the plane: the march must find where the
+// view ray meets it, to within its bisection step (2 / 16 / 2^4 in height).
+TEST(VirtualPlane, ParallaxFindsASurfaceAtItsHeight) {
+  const FrameCamera frame = CameraForDirection(glm::normalize(glm::vec3(0.3f, 0.8f, 0.2f)));
+  const FrameCamera view = CameraForDirection(glm::normalize(frame.direction + glm::vec3(0.25f, -0.1f, 0.1f)));
+  const float h = 0.4f;
+  const glm::vec2 view_st(0.2f, -0.1f);
+  const PlaneSample flat = ProjectToFrame(view, frame, view_st);
+  const PlaneSample refined = ProjectToFrameParallax(view, frame, view_st, [&](glm::vec2, float* height) {
+    *height = h;
+    return true;
+  });
+  const PlaneSample truth = ProjectToFrame(view, frame, view_st, h);
+  ASSERT_TRUE(refined.valid);
+  const float tan_angle = std::tan(std::acos(glm::dot(view.direction, frame.direction)));
+  const float tolerance = 2.0f / kParallaxSteps / (1 << kParallaxRefinements) * tan_angle + 1e-5f;
+  EXPECT_NEAR(refined.st.x, truth.st.x, tolerance);
+  EXPECT_NEAR(refined.st.y, truth.st.y, tolerance);
+  EXPECT_GT(glm::distance(flat.st, truth.st), 0.05f) << "the case must have visible parallax";
+  // A ray that meets no surface samples nothing.
+  EXPECT_FALSE(ProjectToFrameParallax(view, frame, view_st, [](glm::vec2, float*) { return false; }).valid);
+  // A surface only right of s = 0.3 in the frame: the ray enters it there
+  // only if it gets that far; the sample is always on covered ground.
+  const PlaneSample partial = ProjectToFrameParallax(view, frame, view_st, [](glm::vec2 st, float* height) {
+    *height = 0.9f;
+    return st.x > 0.3f;
+  });
+  if (partial.valid) {
+    EXPECT_GT(partial.st.x, 0.3f);
+  }
+}
+
+TEST(VirtualPlane, FramesFacingAwayAreInvalid) {
+  const FrameCamera frame = CameraForDirection({0, 0, 1});
+  EXPECT_FALSE(ProjectToFrame(CameraForDirection({0, 0, -1}), frame, {0, 0}).valid);
+  EXPECT_FALSE(ProjectToFrame(CameraForDirection({1, 0, 0}), frame, {0, 0}).valid);
+  EXPECT_TRUE(ProjectToFrame(CameraForDirection(glm::normalize(glm::vec3(1, 0, 0.1f))), frame, {0, 0}).valid);
+}
+
+TEST(VirtualPlane, TilePixelsFollowFrameCameraConventions) {
+  const TileRect tile{64, 128, 64, 64};
+  EXPECT_EQ(FrameStToPixel(tile, {-1, 1}), glm::vec2(64, 128));    // top-left corner
+  EXPECT_EQ(FrameStToPixel(tile, {1, -1}), glm::vec2(128, 192));   // bottom-right
+  EXPECT_EQ(FrameStToPixel(tile, {0, 0}), glm::vec2(96, 160));     // centre
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,367 @@
+#include "worker/bake/quality_pass.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <future>
+#include <numbers>
+#include <thread>
+
+#include <glm/geometric.hpp>
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/frame_camera.h"
+#include "common/sha256.h"
+#include "worker/bake/bake_outputs.h"
+#include "worker/output/map_writer.h"
+
+namespace impostor {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// FNV-1a: a stable 64-bit seed from the cache key (any string).
+uint64_t SeedFromKey(std::string_view key) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : key) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// splitmix64: the next uniform number in [0, 1) from a running state.
+double NextUniform(uint64_t& state) {
+  uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+// Rodrigues' rotation of v about unit `axis` by `angle` radians.
+glm::vec3 Rotate(glm::vec3 v, glm::vec3 axis, float angle) {
+  const float c = std::cos(angle), s = std::sin(angle);
+  return v * c + glm::cross(axis, v) * s + axis * glm::dot(axis, v) * (1.0f - c);
+}
+
+float DegreesBetween(glm::vec3 a, glm::vec3 b) {
+  return std::acos(std::clamp(glm::dot(a, b), -1.0f, 1.0f)) * 180.0f / std::numbers::pi_v<float>;
+}
+
+// One view's pixels, owned.
+struct ViewBuffers {
+  int size = 0;
+  std::vector<uint8_t> albedo_alpha;
+  std::vector<uint16_t> normal_depth;
+  ViewPixels Pixels() const { return {size, size, albedo_alpha, normal_depth}; }
+};
+
+FrameCamera CameraFor(glm::vec3 direction, int index, int pixels, int columns) {
+  FrameCamera c = ViewCameraFor(direction);
+  c.index = index;
+  c.tile = {(index % columns) * pixels, (index / columns) * pixels, pixels, pixels};
+  return c;
+}
+
+// The mesh from every direction, as tiles of one atlas (one Render call, so
+// the scene is uploaded once), cut apart into one buffer per view.
+absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, const BoundingSphere& sphere,
+                                                         const std::vector<glm::vec3>& directions, int pixels,
+                                                         AtlasRenderer& renderer) {
+  const int n = static_cast<int>(directions.size());
+  const int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  std::vector<FrameCamera> cameras;
+  for (int i = 0; i < n; ++i) cameras.push_back(CameraFor(directions[i], i, pixels, columns));
+  RenderTimings timings;
+  auto atlas = renderer.Render(scene, sphere, cameras, columns * pixels, {}, &timings);
+  if (!atlas.ok()) return atlas.status();
+  std::vector<ViewBuffers> views(n);
+  const size_t row = static_cast<size_t>(pixels) * 4;
+  for (int i = 0; i < n; ++i) {
+    const TileRect& t = cameras[i].tile;
+    ViewBuffers& v = views[i];
+    v.size = pixels;
+    v.albedo_alpha.resize(row * pixels);
+    v.normal_depth.resize(row * pixels);
+    for (int y = 0; y < pixels; ++y) {
+      const size_t src = (static_cast<size_t>(t.y + y) * atlas->width + t.x) * 4;
+      std::copy_n(atlas->albedo_alpha.begin() + src, row, v.albedo_alpha.begin() + y * row);
+      std::copy_n(atlas->normal_depth.begin() + src, row, v.normal_depth.begin() + y * row);
+    }
+  }
+  return views;
+}
+
+// The impostor from every direction, rendered on all cores (the reference
+// renderer is pure).
+std::vector<ViewBuffers> RenderImpostorViews(const ImpostorAtlas& atlas, const std::vector<glm::vec3>& directions,
+                                             int pixels, BlendMode blend) {
+  std::vector<ViewBuffers> views(directions.size());
+  const ReferenceRenderOptions options{.blend = blend};
+  const size_t threads = std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 16);
+  std::vector<std::future<void>> jobs;
+  for (size_t worker = 0; worker < threads; ++worker) {
+    jobs.push_back(std::async(std::launch::async, [&, worker] {
+      for (size_t i = worker; i < directions.size(); i += threads) {
+        FrameCamera camera = ViewCameraFor(directions[i]);
+        camera.tile = {0, 0, pixels, pixels};
+        ViewImages image = RenderImpostorView(atlas, camera, pixels, options);
+        views[i].size = pixels;
+        views[i].albedo_alpha = std::move(image.albedo_alpha);
+        views[i].normal_depth = std::move(image.normal_depth);
+      }
+    }));
+  }
+  for (auto& j : jobs) j.get();
+  return views;
+}
+
+// Largest change of the impostor between neighbouring orbit steps relative
+// to the mesh's (see the header for the floor).
+absl::StatusOr<double> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas, const QualityPassOptions& o,
+                                  AtlasRenderer& renderer) {
+  const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
+  std::vector<glm::vec3> orbit;
+  for (int i = 0; i < o.orbit_steps; ++i) {
+    const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(i) / static_cast<float>(o.orbit_steps);
+    orbit.push_back({std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
+                     std::cos(elevation) * std::cos(azimuth)});
+  }
+  auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, renderer);
+  if (!mesh.ok()) return mesh.status();
+  const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend);
+  const int n = o.orbit_steps;
+  std::vector<double> mesh_change(n), impostor_change(n);
+  double mesh_mean = 0;
+  for (int i = 0; i < n; ++i) {
+    const int j = (i + 1) % n;
+    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[i].Pixels(), (*mesh)[j].Pixels());
+    impostor_change[i] = MeanAbsoluteAlbedoChange(impostor[i].Pixels(), impostor[j].Pixels());
+    mesh_mean += mesh_change[i] / n;
+  }
+  const double floor = std::max(0.25 * mesh_mean, 0.5 / 255.0);
+  double pop = 0;
+  for (int i = 0; i < n; ++i) pop = std::max(pop, impostor_change[i] / std::max(mesh_change[i], floor));
+  return pop;
+}
+
+// mesh | impostor | difference, each upscaled by `scale` (nearest). Mesh and
+// impostor are shown over dark grey; the difference is grey where both
+// cover (4 x the mean absolute colour difference), magenta where only the
+// mesh covers (the impostor misses it), cyan where only the impostor covers.
+absl::Status WriteSideBySide(const std::filesystem::path& path, const ViewBuffers& mesh,
+                             const ViewBuffers& impostor) {
+  const int n = mesh.size, scale = n < 256 ? 2 : 1, w = 3 * n * scale, h = n * scale;
+  std::vector<uint8_t> out(static_cast<size_t>(w) * h * 4, 255);
+  auto put = [&](int panel, int x, int y, uint8_t r, uint8_t g, uint8_t b) {
+    for (int dy = 0; dy < scale; ++dy) {
+      for (int dx = 0; dx < scale; ++dx) {
+        uint8_t* p = &out[((static_cast<size_t>(y * scale + dy) * w) + (panel * n + x) * scale + dx) * 4];
+        p[0] = r, p[1] = g, p[2] = b, p[3] = 255;
+      }
+    }
+  };
+  constexpr uint8_t kBackground = 48;
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const size_t i = (static_cast<size_t>(y) * n + x) * 4;
+      const uint8_t* a = &mesh.albedo_alpha[i];
+      const uint8_t* b = &impostor.albedo_alpha[i];
+      const bool ca = a[3] >= 128, cb = b[3] >= 128;
+      if (ca) put(0, x, y, a[0], a[1], a[2]);
+      else put(0, x, y, kBackground, kBackground, kBackground);
+      if (cb) put(1, x, y, b[0], b[1], b[2]);
+      else put(1, x, y, kBackground, kBackground, kBackground);
+      if (ca && cb) {
+        const int diff = (std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2])) * 4 / 3;
+        const auto g = static_cast<uint8_t>(std::min(255, diff));
+        put(2, x, y, g, g, g);
+      } else if (ca) {
+        put(2, x, y, 255, 0, 255);
+      } else if (cb) {
+        put(2, x, y, 0, 255, 255);
+      } else {
+        put(2, x, y, 0, 0, 0);
+      }
+    }
+  }
+  return WritePngRgba8(path, out, w, h);
+}
+
+}  // namespace
+
+std::vector<glm::vec3> HeldOutViewDirections(LayoutKind layout, int frames, std::string_view cache_key, int count) {
+  uint64_t state = SeedFromKey(cache_key);
+  const bool upper = layout == LayoutKind::kHemiOctahedral;
+  // A rotation from the key: about +Y only for the hemisphere (the domain
+  // must stay the upper half), about a random axis for the sphere.
+  const float spin = static_cast<float>(2.0 * std::numbers::pi * NextUniform(state));
+  glm::vec3 axis(0.0f, 1.0f, 0.0f);
+  if (!upper) {
+    const double z = 2.0 * NextUniform(state) - 1.0, phi = 2.0 * std::numbers::pi * NextUniform(state);
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    axis = glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi)));
+  }
+  std::vector<glm::vec3> frame_directions;
+  for (const FrameCamera& c : AtlasCameras(layout, frames, frames * 8)) frame_directions.push_back(c.direction);
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  std::vector<glm::vec3> out;
+  for (int i = 0; i < count; ++i) {
+    // Spherical Fibonacci: equal-area bands in y, golden-angle steps around.
+    const double t = (i + 0.5) / count;
+    const double y = upper ? t : 1.0 - 2.0 * t;
+    const double r = std::sqrt(std::max(0.0, 1.0 - y * y)), phi = golden * i;
+    glm::vec3 d = Rotate(glm::vec3(r * std::sin(phi), y, r * std::cos(phi)), axis, spin);
+    for (int attempt = 0; attempt < 16; ++attempt) {
+      glm::vec3 nearest = frame_directions[0];
+      for (const glm::vec3& f : frame_directions) {
+        if (glm::dot(f, d) > glm::dot(nearest, d)) nearest = f;
+      }
+      if (DegreesBetween(d, nearest) >= kMinDegreesFromFrame) break;
+      // Step 2 * the limit away, about an axis that changes with each try so
+      // the nudge cannot land on the same frame twice.
+      glm::vec3 side = glm::cross(d, glm::vec3(0.3f + attempt, 1.0f, 0.7f));
+      if (glm::length(side) < 1e-4f) side = glm::cross(d, glm::vec3(1.0f, 0.0f, 0.0f));
+      d = Rotate(d, glm::normalize(side), 2.0f * kMinDegreesFromFrame * std::numbers::pi_v<float> / 180.0f);
+      if (upper && d.y < 0.0f) d.y = -d.y;
+      d = glm::normalize(d);
+    }
+    out.push_back(glm::normalize(d));
+  }
+  return out;
+}
+
+absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const ImpostorAtlas& atlas,
+                                                      std::string_view cache_key, const QualityPassOptions& o,
+                                                      AtlasRenderer& renderer) {
+  if (o.views < 1 || o.views > kMaxQualityViews) {
+    return absl::InvalidArgumentError(absl::StrCat("quality pass: views ", o.views, " is out of range 1..",
+                                                   kMaxQualityViews));
+  }
+  if (o.view_pixels < 8 || o.view_pixels > 1024 || o.orbit_steps < 0 || (o.orbit_steps > 0 && o.orbit_pixels < 8)) {
+    return absl::InvalidArgumentError(absl::StrCat("quality pass: view_pixels ", o.view_pixels, " orbit_pixels ",
+                                                   o.orbit_pixels, " must be 8..1024"));
+  }
+  const auto start = Clock::now();
+  QualityPassResult result;
+  result.directions = HeldOutViewDirections(atlas.layout, atlas.frames, cache_key, o.views);
+  auto mesh = RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, renderer);
+  if (!mesh.ok()) return mesh.status();
+  const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend);
+
+  v1::AtlasQuality& q = result.quality;
+  q.set_blend(std::string(BlendModeName(o.blend)));
+  q.set_views(static_cast<uint32_t>(o.views));
+  q.set_view_pixels(static_cast<uint32_t>(o.view_pixels));
+  double iou_min = 1, iou_sum = 0, psnr_min = kMaxPsnrDb, psnr_sum = 0, ssim_min = 1, ssim_sum = 0;
+  double normal_sum = 0, normal_max = 0, depth_sum = 0, depth_max = 0;
+  int worst = 0;
+  for (int i = 0; i < o.views; ++i) {
+    const ViewMetrics m = CompareViews((*mesh)[i].Pixels(), impostor[i].Pixels());
+    result.per_view.push_back(m);
+    if (m.iou < iou_min) worst = i;
+    iou_min = std::min(iou_min, m.iou);
+    psnr_min = std::min(psnr_min, m.albedo_psnr_db);
+    ssim_min = std::min(ssim_min, m.albedo_ssim);
+    iou_sum += m.iou;
+    psnr_sum += m.albedo_psnr_db;
+    ssim_sum += m.albedo_ssim;
+    normal_sum += m.normal_error_deg_mean;
+    normal_max = std::max(normal_max, m.normal_error_deg_max);
+    depth_sum += m.depth_error_mean;
+    depth_max = std::max(depth_max, m.depth_error_max);
+  }
+  const double n = o.views;
+  q.set_silhouette_iou_min(static_cast<float>(iou_min));
+  q.set_silhouette_iou_mean(static_cast<float>(iou_sum / n));
+  q.set_albedo_psnr_db_min(static_cast<float>(psnr_min));
+  q.set_albedo_psnr_db_mean(static_cast<float>(psnr_sum / n));
+  q.set_albedo_ssim_min(static_cast<float>(ssim_min));
+  q.set_albedo_ssim_mean(static_cast<float>(ssim_sum / n));
+  q.set_normal_error_deg_mean(static_cast<float>(normal_sum / n));
+  q.set_normal_error_deg_max(static_cast<float>(normal_max));
+  q.set_depth_error_mean(static_cast<float>(depth_sum / n));
+  q.set_depth_error_max(static_cast<float>(depth_max));
+  q.set_worst_view(static_cast<uint32_t>(worst));
+  result.views_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (o.orbit_steps > 0) {
+    const auto pop_start = Clock::now();
+    auto pop = MeasurePop(scene, atlas, o, renderer);
+    if (!pop.ok()) return pop.status();
+    q.set_pop(static_cast<float>(*pop));
+    result.pop_seconds = std::chrono::duration<double>(Clock::now() - pop_start).count();
+  }
+  if (!o.worst_view_png.empty()) {
+    if (auto s = WriteSideBySide(o.worst_view_png, (*mesh)[worst], impostor[worst]); !s.ok()) return s;
+  }
+  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return result;
+}
+
+bool QualityPassSupports(LayoutKind layout) {
+  return layout == LayoutKind::kOctahedral || layout == LayoutKind::kHemiOctahedral;
+}
+
+absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, const std::vector<FrameCamera>& cameras,
+                             AtlasImages&& maps, const v1::BakeParameters& p, const std::string& cache_key,
+                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest) {
+  QualityPassOptions options;
+  options.views = p.has_quality_views() ? static_cast<int>(p.quality_views()) : kDefaultQualityViews;
+  const LayoutKind layout = ToLayoutKind(p.layout());
+  if (options.views == 0) return absl::OkStatus();
+  // Compared at the size the impostor is made for: a view larger than a tile
+  // would measure upscaling blur, not the impostor.
+  options.view_pixels = std::min(options.view_pixels, TileSize(static_cast<int>(p.resolution()), static_cast<int>(p.frames())));
+  if (!QualityPassSupports(layout)) {
+    spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",
+                 cache_key, std::string(LayoutName(layout)));
+    return absl::OkStatus();
+  }
+  ImpostorAtlas atlas;
+  atlas.layout = layout;
+  atlas.frames = static_cast<int>(p.frames());
+  atlas.resolution = static_cast<int>(p.resolution());
+  atlas.sphere = sphere;
+  atlas.cameras = cameras;
+  atlas.width = maps.width;
+  atlas.height = maps.height;
+  atlas.albedo_alpha = std::move(maps.albedo_alpha);
+  atlas.normal_depth = std::move(maps.normal_depth);
+  atlas.orm = std::move(maps.orm);
+  options.worst_view_png = dir / kQualityWorstViewFile;
+  auto result = MeasureAtlasQuality(scene, atlas, cache_key, options, renderer);
+  if (!result.ok()) return result.status();
+  auto digest = DigestFile(options.worst_view_png);
+  if (!digest.ok()) return digest.status();
+  v1::MapFile* map = manifest->add_maps();
+  map->set_semantic(kQualityWorstViewSemantic);
+  map->set_file(kQualityWorstViewFile);
+  map->mutable_digest()->set_hash(digest->hash);
+  map->mutable_digest()->set_size_bytes(digest->size_bytes);
+  const int scale = options.view_pixels < 256 ? 2 : 1;
+  map->set_width(static_cast<uint32_t>(3 * options.view_pixels * scale));
+  map->set_height(static_cast<uint32_t>(options.view_pixels * scale));
+  map->set_format("png_rgba8");
+  for (const char* c : {"R: the quality pass's worst held-out view (quality.worst_view) side by side, sRGB: mesh "
+                        "| impostor over dark grey | difference",
+                        "G: difference panel: grey = 4 x mean |colour difference| where both cover",
+                        "B: magenta = only the mesh covers (impostor misses), cyan = only the impostor covers",
+                        "A: 255"}) {
+    map->add_channels(c);
+  }
+  *manifest->mutable_quality() = result->quality;
+  const v1::AtlasQuality& q = result->quality;
+  spdlog::info(
+      "event=quality_pass cache_key={} frames={} views={} view_pixels={} blend={} iou_mean={:.4f} iou_min={:.4f} "
+      "psnr_db_mean={:.2f} ssim_mean={:.4f} normal_deg_mean={:.2f} depth_error_mean={:.4f} pop={:.3f} "
+      "worst_view={} views_seconds={:.2f} pop_seconds={:.2f} seconds={:.2f}",
+      cache_key, atlas.frames, q.views(), q.view_pixels(), q.blend(), q.silhouette_iou_mean(),
+      q.silhouette_iou_min(), q.albedo_psnr_db_mean(), q.albedo_ssim_mean(), q.normal_error_deg_mean(),
+      q.depth_error_mean(), q.pop(), q.worst_view(), result->views_seconds, result->pop_seconds, result->seconds);
+  return absl::OkStatus();
+}
+
+}  // namespace impostor

@@ -1,0 +1,110 @@
+// The bake's quality pass: how faithful an atlas impostor is to its mesh.
+//
+// The mesh is rendered by the bake's own renderer (unlit albedo, the same
+// orthographic camera convention as the bake, common/frame_camera.h) from K
+// held-out view directions that are not baked frames, and the impostor is
+// reconstructed for the very same cameras by the CPU reference renderer
+// (common/runtime/reference_renderer.h), i.e. exactly as a game would draw
+// it. Both sides are unlit, so every difference is the impostor's. Each pair
+// is measured with common/quality/image_metrics.h and the figures are
+// summarised (min, mean) into v1::AtlasQuality.
+//
+// Pop: the camera orbits the object at a fixed elevation in 1 degree steps;
+// for each step, the change of the reconstruction (MeanAbsoluteAlbedoChange
+// between neighbouring steps) is divided by the mesh's own change over the
+// same step, and the largest ratio is reported (1.0 = as smooth as the mesh).
+// A step where the mesh hardly changes (a symmetric object) would make the
+// ratio explode on noise, so the mesh's change is floored at a quarter of its
+// mean change over the orbit and at half an 8-bit level.
+//
+// Held-out directions: a spherical Fibonacci set over the layout's domain
+// (the whole sphere for octahedral, the upper hemisphere for hemi-octahedral),
+// rotated by a hash of the cache key, so that they are spread evenly,
+// deterministic per bake and unrelated to the frame grid; any that lands
+// within kMinDegreesFromFrame of a baked frame is nudged away.
+//
+// Thread-safety: one pass per AtlasRenderer at a time (the renderer's rule).
+#ifndef IMPOSTOR_WORKER_BAKE_QUALITY_PASS_H_
+#define IMPOSTOR_WORKER_BAKE_QUALITY_PASS_H_
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "absl/status/statusor.h"
+#include "common/atlas_layout.h"
+#include "common/quality/image_metrics.h"
+#include "common/runtime/reference_renderer.h"
+#include "impostor/v1/types.pb.h"
+#include "worker/gpu/atlas_renderer.h"
+#include "worker/scene/scene.h"
+
+namespace impostor {
+
+// Default number of held-out views (BakeParameters.quality_views unset).
+inline constexpr int kDefaultQualityViews = 16;
+// Upper limit of BakeParameters.quality_views.
+inline constexpr int kMaxQualityViews = 256;
+// No held-out direction is closer than this to a baked frame's direction.
+inline constexpr float kMinDegreesFromFrame = 1.0f;
+
+// The side-by-side image of the worst view (manifest map semantic and file).
+inline constexpr char kQualityWorstViewSemantic[] = "quality_worst_view";
+inline constexpr char kQualityWorstViewFile[] = "quality_worst_view.png";
+
+struct QualityPassOptions {
+  int views = kDefaultQualityViews;  // held-out views, 1..kMaxQualityViews
+  // Side of each compared view. The bake uses min(128, tile size): at the
+  // size the impostor is made for, never upscaled.
+  int view_pixels = 128;
+  // Pop orbit: `orbit_steps` views, 360 / orbit_steps degrees apart, at
+  // `orbit_elevation_deg` above the horizon, `orbit_pixels` on a side
+  // (small: the pop is about changes, not detail). 0 steps = no pop.
+  int orbit_steps = 360;
+  int orbit_pixels = 64;
+  float orbit_elevation_deg = 20.0f;
+  BlendMode blend = BlendMode::kTriangle3;
+  // Where to write the worst view side by side (mesh | impostor |
+  // difference); empty = not written.
+  std::filesystem::path worst_view_png;
+};
+
+struct QualityPassResult {
+  v1::AtlasQuality quality;
+  std::vector<glm::vec3> directions;  // the held-out views, quality.views of them
+  std::vector<ViewMetrics> per_view;  // same order
+  double seconds = 0;        // the whole pass
+  double views_seconds = 0;  // held-out views: render both sides, measure
+  double pop_seconds = 0;    // the orbit
+};
+
+// `count` held-out view directions (unit, sphere centre -> camera) for an
+// atlas of `frames` x `frames` in `layout`, deterministic in `cache_key`;
+// none within kMinDegreesFromFrame of a frame direction.
+std::vector<glm::vec3> HeldOutViewDirections(LayoutKind layout, int frames, std::string_view cache_key, int count);
+
+// Runs the pass on an atlas held in memory. INVALID_ARGUMENT for options out
+// of range; the renderer's errors otherwise.
+absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const ImpostorAtlas& atlas,
+                                                      std::string_view cache_key, const QualityPassOptions& options,
+                                                      AtlasRenderer& renderer);
+
+// Whether the reference renderer can draw a layout (the octahedral ones).
+bool QualityPassSupports(LayoutKind layout);
+
+// The bake's hook (worker/bake/atlas_bake.cc), called with the maps as
+// written (dilated): runs the pass with parameters.quality_views views (unset
+// = kDefaultQualityViews; 0, or a layout QualityPassSupports refuses: nothing
+// is added), writes kQualityWorstViewFile into `dir`, appends it to
+// manifest->maps and fills manifest->quality. Takes the maps over (they are
+// not needed after writing). Logs the pass's figures and time.
+absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, const std::vector<FrameCamera>& cameras,
+                             AtlasImages&& maps, const v1::BakeParameters& parameters, const std::string& cache_key,
+                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_BAKE_QUALITY_PASS_H_
