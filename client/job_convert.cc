@@ -90,6 +90,14 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
   if (settings.lod_pixel_error.has_value()) p.set_lod_pixel_error(*settings.lod_pixel_error);
   if (settings.max_planes.has_value()) p.set_max_planes(*settings.max_planes);
   if (settings.tolerance.has_value()) p.set_tolerance(*settings.tolerance);
+  if (settings.quality_views.has_value()) p.set_quality_views(*settings.quality_views);
+  p.set_emissive(settings.emissive);
+  // frames_auto's target is the request's gate: one pair of thresholds.
+  if (settings.frames_auto) {
+    p.set_frames_auto(true);
+    if (settings.min_iou.has_value()) p.mutable_auto_target()->set_min_iou(*settings.min_iou);
+    if (settings.min_psnr_db.has_value()) p.mutable_auto_target()->set_min_psnr_db(*settings.min_psnr_db);
+  }
   return p;
 }
 

@@ -80,6 +80,7 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   FetchResult result;
   result.dir = out_dir;
   result.manifest_path = out_dir / kManifestFileName;
+  result.warnings.assign(manifest->warnings().begin(), manifest->warnings().end());
   for (const Wanted& w : wanted) {
     if (AlreadyThere(w.path, w.digest)) {
       result.bytes_reused += w.digest.size_bytes();

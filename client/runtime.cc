@@ -14,7 +14,36 @@ namespace impostor::sdk {
 namespace {
 
 LayoutKind ToKind(Layout layout) {
-  return layout == Layout::kOctahedral ? LayoutKind::kOctahedral : LayoutKind::kHemiOctahedral;
+  switch (layout) {
+    case Layout::kOctahedral: return LayoutKind::kOctahedral;
+    case Layout::kHemiOctahedral: return LayoutKind::kHemiOctahedral;
+    case Layout::kAzimuthElevation: return LayoutKind::kAzimuthElevation;
+    case Layout::kRingTop: return LayoutKind::kRingTop;
+    case Layout::kBillboard: return LayoutKind::kBillboard;
+  }
+  return LayoutKind::kOctahedral;
+}
+
+Layout FromKind(LayoutKind kind) {
+  switch (kind) {
+    case LayoutKind::kOctahedral: return Layout::kOctahedral;
+    case LayoutKind::kHemiOctahedral: return Layout::kHemiOctahedral;
+    case LayoutKind::kAzimuthElevation: return Layout::kAzimuthElevation;
+    case LayoutKind::kRingTop: return Layout::kRingTop;
+    case LayoutKind::kBillboard: return Layout::kBillboard;
+  }
+  return Layout::kOctahedral;
+}
+
+ViewLayout ToViewLayout(const AtlasLayout& layout) {
+  ViewLayout v{.kind = ToKind(layout.layout), .frames = layout.frames, .ring_views = 0};
+  if (layout.layout == Layout::kRingTop) v.ring_views = layout.ring_views;
+  if (layout.layout == Layout::kBillboard) v.ring_views = kBillboardRingViews;
+  return v;
+}
+
+AtlasLayout FromFrames(Layout layout, int frames) {
+  return {layout, frames, layout == Layout::kBillboard ? kBillboardRingViews : 0};
 }
 
 glm::vec3 Vec(const float v[3]) { return {v[0], v[1], v[2]}; }
@@ -25,8 +54,8 @@ void Store(glm::vec3 v, float out[3]) {
   out[2] = v.z;
 }
 
-FrameCamera CameraOf(Layout layout, int frames, int frame) {
-  return CameraForDirection(FrameDirection(ToKind(layout), frames, FrameFromIndex(frames, frame)));
+FrameCamera CameraOf(const AtlasLayout& layout, int frame) {
+  return CameraForDirection(FrameDirectionAt(ToViewLayout(layout), frame));
 }
 
 FrameUv ToUv(const PlaneSample& sample) {
@@ -42,10 +71,34 @@ FrameUv ToUv(const PlaneSample& sample) {
 std::optional<Layout> LayoutFromName(std::string_view manifest_name) {
   auto kind = ParseLayout(manifest_name);
   if (!kind.ok()) return std::nullopt;
-  return *kind == LayoutKind::kOctahedral ? Layout::kOctahedral : Layout::kHemiOctahedral;
+  return FromKind(*kind);
 }
 
 std::string_view LayoutName(Layout layout) { return impostor::LayoutName(ToKind(layout)); }
+
+std::optional<AtlasLayout> AtlasLayoutFromManifest(std::string_view name, int frames, int view_count) {
+  const std::optional<Layout> layout = LayoutFromName(name);
+  if (!layout) return std::nullopt;
+  AtlasLayout out{*layout, frames, 0};
+  switch (*layout) {
+    case Layout::kRingTop:
+      if (view_count < 2) return std::nullopt;
+      out.ring_views = view_count - 1;
+      break;
+    case Layout::kBillboard:
+      if (view_count != kBillboardRingViews + 1) return std::nullopt;
+      out.ring_views = kBillboardRingViews;
+      break;
+    default:
+      if (frames < 1 || view_count != frames * frames) return std::nullopt;
+      break;
+  }
+  // The grid side of ring layouts follows from the ring count.
+  if (*layout == Layout::kRingTop || *layout == Layout::kBillboard) out.frames = GridSide(ToViewLayout(out));
+  return out;
+}
+
+int FrameCount(const AtlasLayout& layout) { return impostor::FrameCount(ToViewLayout(layout)); }
 
 std::optional<BlendMode> BlendModeFromName(std::string_view name) {
   auto mode = ParseBlendMode(name);
@@ -57,9 +110,9 @@ std::string_view BlendModeName(BlendMode mode) {
   return mode == BlendMode::kTriangle3 ? "triangle3" : "bilinear4";
 }
 
-FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], BlendMode mode) {
+FrameBlend BlendFrames(const AtlasLayout& layout, const float view_dir[3], BlendMode mode) {
   const impostor::FrameBlend blend = impostor::BlendFrames(
-      ToKind(layout), frames, Vec(view_dir),
+      ToViewLayout(layout), Vec(view_dir),
       mode == BlendMode::kTriangle3 ? impostor::BlendMode::kTriangle3 : impostor::BlendMode::kBilinear4);
   FrameBlend out;
   out.count = blend.count;
@@ -67,8 +120,12 @@ FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], Blend
   return out;
 }
 
-FrameBasis FrameCameraBasis(Layout layout, int frames, int frame) {
-  const FrameCamera c = CameraOf(layout, frames, frame);
+FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], BlendMode mode) {
+  return BlendFrames(FromFrames(layout, frames), view_dir, mode);
+}
+
+FrameBasis FrameCameraBasis(const AtlasLayout& layout, int frame) {
+  const FrameCamera c = CameraOf(layout, frame);
   FrameBasis basis;
   Store(c.direction, basis.direction);
   Store(c.up, basis.up);
@@ -76,19 +133,29 @@ FrameBasis FrameCameraBasis(Layout layout, int frames, int frame) {
   return basis;
 }
 
-FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_center[3], float sphere_radius,
+FrameBasis FrameCameraBasis(Layout layout, int frames, int frame) {
+  return FrameCameraBasis(FromFrames(layout, frames), frame);
+}
+
+FrameUv VirtualPlaneUv(const AtlasLayout& layout, int frame, const float sphere_center[3], float sphere_radius,
                        const float ray_origin[3], const float ray_dir[3], float height) {
   if (!(sphere_radius > 0.0f)) return {};
   const glm::vec3 origin = (Vec(ray_origin) - Vec(sphere_center)) / sphere_radius;
-  return ToUv(IntersectFramePlane(CameraOf(layout, frames, frame), origin, Vec(ray_dir), height));
+  return ToUv(IntersectFramePlane(CameraOf(layout, frame), origin, Vec(ray_dir), height));
 }
 
-FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float sphere_center[3],
+FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_center[3], float sphere_radius,
+                       const float ray_origin[3], const float ray_dir[3], float height) {
+  return VirtualPlaneUv(FromFrames(layout, frames), frame, sphere_center, sphere_radius, ray_origin, ray_dir,
+                        height);
+}
+
+FrameUv VirtualPlaneUvParallax(const AtlasLayout& layout, int frame, const float sphere_center[3],
                                float sphere_radius, const float ray_origin[3], const float ray_dir[3],
                                const FrameDepthReader& read_depth) {
   if (!(sphere_radius > 0.0f)) return {};
   const glm::vec3 origin = (Vec(ray_origin) - Vec(sphere_center)) / sphere_radius;
-  return ToUv(IntersectFrameHeightField(CameraOf(layout, frames, frame), origin, Vec(ray_dir),
+  return ToUv(IntersectFrameHeightField(CameraOf(layout, frame), origin, Vec(ray_dir),
                                         [&](glm::vec2 st, float* height) {
                                           float depth = 1.0f;
                                           if (!read_depth((st.x + 1.0f) * 0.5f, (1.0f - st.y) * 0.5f, &depth)) {
@@ -99,12 +166,24 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
                                         }));
 }
 
-void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]) {
-  const int tile = TileSize(resolution, frames);
-  const FrameCoord f = FrameFromIndex(frames, frame);
+FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float sphere_center[3],
+                               float sphere_radius, const float ray_origin[3], const float ray_dir[3],
+                               const FrameDepthReader& read_depth) {
+  return VirtualPlaneUvParallax(FromFrames(layout, frames), frame, sphere_center, sphere_radius, ray_origin,
+                                ray_dir, read_depth);
+}
+
+void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]) {
+  const ViewLayout v = ToViewLayout(layout);
+  const int tile = TileSize(resolution, GridSide(v));
+  const FrameCoord f = FrameTile(v, frame);
   const float inv = resolution > 0 ? 1.0f / static_cast<float>(resolution) : 0.0f;
   atlas_uv[0] = (static_cast<float>(f.col * tile) + uv.u * static_cast<float>(tile)) * inv;
   atlas_uv[1] = (static_cast<float>(f.row * tile) + uv.v * static_cast<float>(tile)) * inv;
+}
+
+void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]) {
+  FrameUvToAtlasUv(AtlasLayout{Layout::kOctahedral, frames, 0}, resolution, frame, uv, atlas_uv);
 }
 
 }  // namespace impostor::sdk

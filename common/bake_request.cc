@@ -58,7 +58,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
     default:
       return absl::InvalidArgumentError(absl::StrCat(
           "parameters.product: unknown value ", static_cast<int>(in.product()),
-          "; expected PRODUCT_ATLAS (1) or PRODUCT_SURFELS (2)"));
+          "; expected PRODUCT_ATLAS (1), PRODUCT_SURFELS (2), PRODUCT_CARDS (3) or PRODUCT_LOD_CHAIN (4)"));
   }
   // Every product but surfels refuses the surfel fields.
   if (out.product() != v1::PRODUCT_SURFELS) {
@@ -87,6 +87,11 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
         !s.ok()) {
       return s;
     }
+  }
+  // The emissive map is a fourth atlas map; other products have no atlas
+  // maps of their own to add it to.
+  if (in.emissive() && out.product() != v1::PRODUCT_ATLAS) {
+    return absl::InvalidArgumentError("parameters.emissive: only for product PRODUCT_ATLAS");
   }
   if (auto s = NormalizeLodParameters(in, &out); !s.ok()) return s;
   if (auto s = NormalizeCardParameters(in, &out); !s.ok()) return s;
@@ -207,6 +212,8 @@ std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters&
   put(absl::StrCat("resolution ", p.resolution()));
   // Only non-default quality-pass settings add a line (quality_parameters.h).
   if (const std::string quality = QualityCacheKeyLine(p); !quality.empty()) put(quality);
+  // Only a requested emissive map adds a line: other keys stay as they were.
+  if (p.emissive()) put("emissive 1");
   // Atlas keys predate products and stay as they were; other products add
   // their own lines.
   if (p.product() != v1::PRODUCT_ATLAS && p.product() != v1::PRODUCT_UNSPECIFIED) {

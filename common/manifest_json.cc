@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/cards_manifest_json.h"
+#include "common/geometry_manifest_json.h"
 #include "common/quality_manifest_json.h"
 #include "common/lod_manifest_json.h"
 
@@ -198,6 +199,7 @@ std::string ManifestToJson(const v1::Manifest& m) {
   if (m.product() == v1::PRODUCT_CARDS) j["cards"] = CardsToJson(m.cards());
   if (m.product() == v1::PRODUCT_LOD_CHAIN) j["lods"] = LodLevelsToJson(m.lods());
   AddQualityJson(m, &j);
+  AddGeometryJson(m, &j);
   return j.dump(2) + "\n";
 }
 
@@ -271,6 +273,7 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
   }
   if (!r.error().empty()) return absl::InvalidArgumentError("manifest.json: " + r.error());
   if (absl::Status s = ReadQualityJson(j, &m); !s.ok()) return s;
+  if (absl::Status s = ReadGeometryJson(j, &m); !s.ok()) return s;
   if (auto it = j.find("device"); it != j.end() && it->is_string()) m.set_device(it->get<std::string>());
   if (auto it = j.find("mesh"); it != j.end() && it->is_object()) {
     m.mutable_mesh()->set_triangles(it->value("triangles", uint64_t{0}));

@@ -15,6 +15,8 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers vulkan-tools glslang-tools
   # Assets and images
   libtinygltf-dev libstb-dev nlohmann-json3-dev libopenimageio-dev libglm-dev libmeshoptimizer-dev
+  # Labels of the contact sheet (worker/output/contact_sheet.h)
+  fonts-dejavu-core
   # Infrastructure
   libspdlog-dev libfmt-dev libabsl-dev libssl-dev libsqlite3-dev
   # Batch bake specs in YAML (impostor bake-batch)

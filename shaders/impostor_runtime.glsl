@@ -1,4 +1,4 @@
-// Reference runtime for octahedral impostors, for engines to copy.
+// Reference runtime for impostors of every layout, for engines to copy.
 //
 // The same math, line for line, as the C++ in common/runtime/ (frame_blend,
 // virtual_plane, reference_renderer) and the SDK header
@@ -10,6 +10,14 @@
 // (hemi-)octahedral square; its tile starts at (col, row) * tile_size pixels
 // from the atlas's top-left corner; positions below are relative to the
 // sphere centre in units of its radius ((p - centre) / radius).
+// The other layouts (common/atlas_layout.h): azimuth-elevation (N x N,
+// column c at azimuth c * 2 pi / N, row r at elevation 90 - (r + 0.5) * 180
+// / N degrees), ring-top (K ring views at elevation 0, then one from above)
+// and billboard (ring-top with K = 8); frame i's tile is (i % side, i /
+// side) of the layout's side x side grid. An ImpostorLayout names a layout
+// (kind, frames, ring_views: the manifest's layout, frames and views - 1 for
+// ring-top); the *Layout functions take it, the older (layout_kind, frames)
+// ones stay for the layouts frames describes fully (all but ring-top).
 //
 // Textures (as baked): albedo_alpha (sRGB, bind as an SRGB format so reads
 // are linear; A = coverage), normal_depth (UNORM16: normal * 0.5 + 0.5,
@@ -19,9 +27,11 @@
 //
 // Use (per fragment; the blend can move to the vertex shader, it depends
 // only on the view direction):
-//   ImpostorBlend b = impostorBlendFrames(layout_kind, frames, view_dir, mode);
-//   ImpostorSurface s = impostorShade(albedo_tex, normal_depth_tex, orm_tex,
-//       layout_kind, frames, tile_size, b, ray_origin, ray_dir, parallax);
+//   ImpostorLayout atlas = ImpostorLayout(layout_kind, frames, ring_views);
+//   ImpostorBlend b = impostorBlendFramesLayout(atlas, view_dir, mode);
+//   ImpostorSurface s = impostorShadeLayout(albedo_tex, normal_depth_tex,
+//       orm_tex, has_orm, atlas, tile_size, b, ray_origin, ray_dir, parallax);
+// (`layout` is a GLSL keyword, hence `atlas`.)
 //   if (s.alpha < 0.5) discard;
 // where ray_origin/ray_dir are the fragment's view ray in object space
 // (radius units, relative to the centre) and view_dir = normalize(eye - c).
@@ -30,6 +40,12 @@
 
 const int IMPOSTOR_LAYOUT_OCTAHEDRAL = 0;
 const int IMPOSTOR_LAYOUT_HEMI_OCTAHEDRAL = 1;
+const int IMPOSTOR_LAYOUT_AZIMUTH_ELEVATION = 2;
+const int IMPOSTOR_LAYOUT_RING_TOP = 3;
+const int IMPOSTOR_LAYOUT_BILLBOARD = 4;
+const int IMPOSTOR_BILLBOARD_RING_VIEWS = 8;
+const float IMPOSTOR_PI = 3.14159265358979323846;
+const float IMPOSTOR_TWO_PI = 6.28318530717958647692;
 const int IMPOSTOR_BLEND_TRIANGLE3 = 0;
 const int IMPOSTOR_BLEND_BILINEAR4 = 1;
 const int IMPOSTOR_PARALLAX_STEPS = 16;       // kParallaxSteps
@@ -112,7 +128,8 @@ ivec2 impostorCanonicalFrame(int layout_kind, int frames, ivec2 frame) {
 
 struct ImpostorBlend {
   int count;          // 1..4
-  ivec2 frame[4];     // canonical frames (col, row)
+  ivec2 frame[4];     // canonical frames: their tiles (col, row)
+  int index[4];       // frame indices (the manifest's views)
   float weight[4];    // > 0, sum 1
 };
 
@@ -126,17 +143,34 @@ void impostorBlendAdd(int layout_kind, int frames, ivec2 frame, float weight, in
     }
   }
   b.frame[b.count] = canonical;
+  b.index[b.count] = impostorFrameIndex(frames, canonical);
   b.weight[b.count] = weight;
   b.count += 1;
 }
 
-ImpostorBlend impostorBlendFrames(int layout_kind, int frames, vec3 view_dir, int mode) {
+ImpostorBlend impostorEmptyBlend() {
   ImpostorBlend b;
   b.count = 0;
   for (int i = 0; i < 4; ++i) {
     b.frame[i] = ivec2(0);
+    b.index[i] = 0;
     b.weight[i] = 0.0;
   }
+  return b;
+}
+
+void impostorBlendNormalize(inout ImpostorBlend b) {
+  float total = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count) total += b.weight[i];
+  }
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count) b.weight[i] /= total;
+  }
+}
+
+ImpostorBlend impostorBlendFramesGrid(int layout_kind, int frames, vec3 view_dir, int mode) {
+  ImpostorBlend b = impostorEmptyBlend();
   if (frames <= 1) {
     b.count = 1;
     b.weight[0] = 1.0;
@@ -165,14 +199,194 @@ ImpostorBlend impostorBlendFrames(int layout_kind, int frames, vec3 view_dir, in
     impostorBlendAdd(layout_kind, frames, c0 + ivec2(0, 1), (1.0 - fx) * fy, b);
     impostorBlendAdd(layout_kind, frames, c0 + ivec2(1, 1), fx * fy, b);
   }
-  float total = 0.0;
-  for (int i = 0; i < 4; ++i) {
-    if (i < b.count) total += b.weight[i];
-  }
-  for (int i = 0; i < 4; ++i) {
-    if (i < b.count) b.weight[i] /= total;
-  }
+  impostorBlendNormalize(b);
   return b;
+}
+
+// ---- every layout by frame index (common/atlas_layout.cc) ----
+
+struct ImpostorLayout {
+  int kind;        // IMPOSTOR_LAYOUT_*
+  int frames;      // frames per axis (grid layouts) or the atlas grid side
+  int ring_views;  // ring-top: K; billboard: 8 (or 0); others 0
+};
+
+bool impostorIsRing(ImpostorLayout atlas) {
+  return atlas.kind == IMPOSTOR_LAYOUT_RING_TOP || atlas.kind == IMPOSTOR_LAYOUT_BILLBOARD;
+}
+
+int impostorRingViews(ImpostorLayout atlas) {
+  return atlas.kind == IMPOSTOR_LAYOUT_BILLBOARD ? IMPOSTOR_BILLBOARD_RING_VIEWS : atlas.ring_views;
+}
+
+// Tiles per atlas side (GridSide).
+int impostorGridSide(ImpostorLayout atlas) {
+  if (!impostorIsRing(atlas)) return atlas.frames;
+  int count = impostorRingViews(atlas) + 1;
+  int side = 1;
+  while (side * side < count) ++side;
+  return side;
+}
+
+// Tile (col, row) of frame `index` (FrameTile).
+ivec2 impostorFrameTile(ImpostorLayout atlas, int index) {
+  int side = impostorGridSide(atlas);
+  return ivec2(index % side, index / side);
+}
+
+vec3 impostorAzimuthElevationToDirection(float az, float el) {
+  return vec3(sin(az) * cos(el), sin(el), cos(az) * cos(el));
+}
+
+// Direction of frame `index` (FrameDirectionAt).
+vec3 impostorFrameDirectionAt(ImpostorLayout atlas, int index) {
+  if (atlas.kind == IMPOSTOR_LAYOUT_AZIMUTH_ELEVATION) {
+    int n = atlas.frames;
+    float az = float(index % n) * IMPOSTOR_TWO_PI / float(n);
+    float el = 0.5 * IMPOSTOR_PI - (float(index / n) + 0.5) * IMPOSTOR_PI / float(n);
+    return impostorAzimuthElevationToDirection(az, el);
+  }
+  if (impostorIsRing(atlas)) {
+    int k = impostorRingViews(atlas);
+    if (index >= k) return vec3(0.0, 1.0, 0.0);
+    return impostorAzimuthElevationToDirection(float(index) * IMPOSTOR_TWO_PI / float(k), 0.0);
+  }
+  return impostorFrameDirection(atlas.kind, atlas.frames, ivec2(index % atlas.frames, index / atlas.frames));
+}
+
+// ---- frame blend of the other layouts (frame_blend.cc) ----
+
+// atan2 in plain arithmetic, as frame_blend.cc's Atan2: the built-in atan
+// may be off by up to 4096 ULP on a Vulkan device, more than the weights
+// may differ between the C++ and this shader. Octant reduction, then
+// atan(a) = pi/4 + atan((a - 1) / (a + 1)) for a > tan(pi/8), then the
+// Taylor series to r^17 (< 3e-9 rad).
+float impostorAtan2(float y, float x) {
+  float ax = abs(x), ay = abs(y);
+  float hi = max(ax, ay), lo = min(ax, ay);
+  if (!(hi > 0.0)) return 0.0;
+  float a = lo / hi;
+  bool reduced = a > 0.41421356;
+  float r = reduced ? (a - 1.0) / (a + 1.0) : a;
+  float r2 = r * r;
+  float p = 1.0 / 17.0;
+  p = p * r2 + -1.0 / 15.0;
+  p = p * r2 + 1.0 / 13.0;
+  p = p * r2 + -1.0 / 11.0;
+  p = p * r2 + 1.0 / 9.0;
+  p = p * r2 + -1.0 / 7.0;
+  p = p * r2 + 1.0 / 5.0;
+  p = p * r2 + -1.0 / 3.0;
+  p = p * r2 + 1.0;
+  float angle = (reduced ? 0.25 * IMPOSTOR_PI : 0.0) + r * p;
+  if (ay > ax) angle = 0.5 * IMPOSTOR_PI - angle;
+  if (x < 0.0) angle = IMPOSTOR_PI - angle;
+  return y < 0.0 ? -angle : angle;
+}
+
+// Azimuth [0, 2 pi) and elevation (atan2 form, exact near the poles; the
+// azimuth is 0 on the Y axis, where atan(0, 0) would be undefined).
+vec2 impostorBlendAngles(vec3 d) {
+  float horizontal = sqrt(d.x * d.x + d.z * d.z);
+  float az = horizontal > 0.0 ? impostorAtan2(d.x, d.z) : 0.0;
+  if (az < 0.0) az += IMPOSTOR_TWO_PI;
+  if (az >= IMPOSTOR_TWO_PI) az = 0.0;
+  return vec2(az, impostorAtan2(d.y, horizontal));
+}
+
+void impostorBlendAddIndex(ImpostorLayout atlas, int index, float weight, inout ImpostorBlend b) {
+  if (weight <= 0.0) return;
+  for (int i = 0; i < 4; ++i) {
+    if (i < b.count && b.index[i] == index) {
+      b.weight[i] += weight;
+      return;
+    }
+  }
+  b.frame[b.count] = impostorFrameTile(atlas, index);
+  b.index[b.count] = index;
+  b.weight[b.count] = weight;
+  b.count += 1;
+}
+
+// The two frames of a ring of `count` bracketing azimuth `az`: x = c0,
+// y = c1 = (c0 + 1) % count (exact small integers as floats), z = the
+// fraction toward c1.
+vec3 impostorAzimuthBracket(float az, int count) {
+  float u = az * float(count) / IMPOSTOR_TWO_PI;
+  int c0 = clamp(int(floor(u)), 0, count - 1);
+  return vec3(float(c0), float((c0 + 1) % count), clamp(u - float(c0), 0.0, 1.0));
+}
+
+ImpostorBlend impostorBlendAzimuthElevation(ImpostorLayout atlas, vec3 d, int mode) {
+  ImpostorBlend b = impostorEmptyBlend();
+  int n = atlas.frames;
+  vec2 ae = impostorBlendAngles(d);
+  vec3 col = impostorAzimuthBracket(ae.x, n);
+  int c0 = int(col.x), c1 = int(col.y);
+  float v = (0.5 * IMPOSTOR_PI - ae.y) * float(n) / IMPOSTOR_PI - 0.5;
+  int r0 = clamp(int(floor(v)), 0, n - 2);
+  float fx = col.z;
+  float fy = clamp(v - float(r0), 0.0, 1.0);
+  // Pole caps: beyond the first / last row the pole's frame takes over.
+  float top = clamp(-2.0 * v, 0.0, 1.0);
+  float bottom = clamp(2.0 * (v - float(n - 1)), 0.0, 1.0);
+  float cell = 1.0 - top - bottom;
+  int i00 = r0 * n + c0, i10 = r0 * n + c1, i01 = (r0 + 1) * n + c0, i11 = (r0 + 1) * n + c1;
+  if (mode == IMPOSTOR_BLEND_TRIANGLE3) {
+    impostorBlendAddIndex(atlas, i00, cell * (1.0 - max(fx, fy)), b);
+    if (fx > fy) impostorBlendAddIndex(atlas, i10, cell * (fx - fy), b);
+    else impostorBlendAddIndex(atlas, i01, cell * (fy - fx), b);
+    impostorBlendAddIndex(atlas, i11, cell * min(fx, fy), b);
+  } else {
+    impostorBlendAddIndex(atlas, i00, cell * (1.0 - fx) * (1.0 - fy), b);
+    impostorBlendAddIndex(atlas, i10, cell * fx * (1.0 - fy), b);
+    impostorBlendAddIndex(atlas, i01, cell * (1.0 - fx) * fy, b);
+    impostorBlendAddIndex(atlas, i11, cell * fx * fy, b);
+  }
+  impostorBlendAddIndex(atlas, 0, top, b);
+  impostorBlendAddIndex(atlas, (n - 1) * n, bottom, b);
+  return b;
+}
+
+ImpostorBlend impostorBlendRingTop(ImpostorLayout atlas, int ring_views, vec3 d) {
+  ImpostorBlend b = impostorEmptyBlend();
+  vec2 ae = impostorBlendAngles(d);
+  vec3 ring = impostorAzimuthBracket(ae.x, ring_views);
+  float t = clamp(ae.y / (0.5 * IMPOSTOR_PI), 0.0, 1.0);
+  impostorBlendAddIndex(atlas, int(ring.x), (1.0 - t) * (1.0 - ring.z), b);
+  impostorBlendAddIndex(atlas, int(ring.y), (1.0 - t) * ring.z, b);
+  impostorBlendAddIndex(atlas, ring_views, t, b);
+  return b;
+}
+
+// The frames to blend for any layout (BlendFrames(const ViewLayout&, ...)).
+ImpostorBlend impostorBlendFramesLayout(ImpostorLayout atlas, vec3 view_dir, int mode) {
+  bool ring = impostorIsRing(atlas);
+  if (!ring && atlas.kind != IMPOSTOR_LAYOUT_AZIMUTH_ELEVATION) {
+    return impostorBlendFramesGrid(atlas.kind, atlas.frames, view_dir, mode);
+  }
+  int ring_views = impostorRingViews(atlas);
+  if (ring ? ring_views < 1 : atlas.frames <= 1) {
+    ImpostorBlend single = impostorEmptyBlend();
+    single.count = 1;
+    single.weight[0] = 1.0;
+    return single;
+  }
+  float length2 = dot(view_dir, view_dir);
+  if (!(length2 > 0.0) || isinf(length2) || isnan(length2)) view_dir = vec3(0.0, 1.0, 0.0);
+  ImpostorBlend b = ring ? impostorBlendRingTop(atlas, ring_views, view_dir)
+                         : impostorBlendAzimuthElevation(atlas, view_dir, mode);
+  impostorBlendNormalize(b);
+  return b;
+}
+
+ImpostorLayout impostorLayoutFor(int layout_kind, int frames) {
+  return ImpostorLayout(layout_kind, frames, layout_kind == IMPOSTOR_LAYOUT_BILLBOARD ? IMPOSTOR_BILLBOARD_RING_VIEWS : 0);
+}
+
+// The (layout_kind, frames) form: every layout but ring-top.
+ImpostorBlend impostorBlendFrames(int layout_kind, int frames, vec3 view_dir, int mode) {
+  return impostorBlendFramesLayout(impostorLayoutFor(layout_kind, frames), view_dir, mode);
 }
 
 // ---- bake cameras (common/frame_camera.cc) ----
@@ -200,6 +414,11 @@ ImpostorFrameCamera impostorCameraForDirection(vec3 direction) {
 
 ImpostorFrameCamera impostorFrameCamera(int layout_kind, int frames, ivec2 frame) {
   return impostorCameraForDirection(impostorFrameDirection(layout_kind, frames, frame));
+}
+
+// The camera of frame `index` of any layout.
+ImpostorFrameCamera impostorFrameCameraAt(ImpostorLayout atlas, int index) {
+  return impostorCameraForDirection(impostorFrameDirectionAt(atlas, index));
 }
 
 // ---- virtual planes (common/runtime/virtual_plane.cc) ----
@@ -314,16 +533,16 @@ struct ImpostorSurface {
   vec3 orm;
 };
 
-ImpostorSurface impostorShade(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex, bool has_orm,
-                              int layout_kind, int frames, int tile_size, ImpostorBlend blend, vec3 ray_origin,
-                              vec3 ray_dir, bool parallax) {
+ImpostorSurface impostorShadeLayout(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                    bool has_orm, ImpostorLayout atlas, int tile_size, ImpostorBlend blend,
+                                    vec3 ray_origin, vec3 ray_dir, bool parallax) {
   ImpostorSurface out_surface;
   float alpha = 0.0;
   float covered = 0.0;
   vec3 albedo = vec3(0.0), normal = vec3(0.0), orm = vec3(0.0), position = vec3(0.0);
   for (int i = 0; i < 4; ++i) {
     if (i >= blend.count) break;
-    ImpostorFrameCamera frame = impostorFrameCamera(layout_kind, frames, blend.frame[i]);
+    ImpostorFrameCamera frame = impostorFrameCameraAt(atlas, blend.index[i]);
     ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
     vec3 plane = parallax ? impostorIntersectFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame,
                                                               ray_origin, ray_dir)
@@ -347,6 +566,14 @@ ImpostorSurface impostorShade(sampler2D albedo_tex, sampler2D normal_depth_tex, 
   float len = length(normal);
   out_surface.normal = len > 1e-12 ? normal / len : vec3(0.0);
   return out_surface;
+}
+
+// The (layout_kind, frames) form: every layout but ring-top.
+ImpostorSurface impostorShade(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex, bool has_orm,
+                              int layout_kind, int frames, int tile_size, ImpostorBlend blend, vec3 ray_origin,
+                              vec3 ray_dir, bool parallax) {
+  return impostorShadeLayout(albedo_tex, normal_depth_tex, orm_tex, has_orm, impostorLayoutFor(layout_kind, frames),
+                             tile_size, blend, ray_origin, ray_dir, parallax);
 }
 
 // Depth of a surface point for an orthographic camera framed like a bake

@@ -13,7 +13,7 @@ layout(push_constant) uniform Push {
   vec4 view_up;
   vec4 view_right;
   ivec4 params;     // layout, frames, tile_size, blend mode
-  ivec4 flags;      // parallax, has_orm, pixels, unused
+  ivec4 flags;      // parallax, has_orm, pixels, ring_views
 } push;
 
 layout(set = 0, binding = 0) uniform sampler2D albedo_alpha_tex;  // SRGB view
@@ -31,9 +31,10 @@ void main() {
   vec2 st = vec2((float(p.x) + 0.5) * inv * 2.0 - 1.0, 1.0 - (float(p.y) + 0.5) * inv * 2.0);
   vec3 v = push.view_dir.xyz;
   vec3 origin = st.x * push.view_right.xyz + st.y * push.view_up.xyz + v;
-  ImpostorBlend blend = impostorBlendFrames(push.params.x, push.params.y, v, push.params.w);
-  ImpostorSurface s = impostorShade(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0, push.params.x,
-                                    push.params.y, push.params.z, blend, origin, -v, push.flags.x != 0);
+  ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.w);
+  ImpostorBlend blend = impostorBlendFramesLayout(atlas, v, push.params.w);
+  ImpostorSurface s = impostorShadeLayout(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0, atlas,
+                                          push.params.z, blend, origin, -v, push.flags.x != 0);
   uint o = uint(p.y * n + p.x) * 3u;
   pixels[o + 0u] = vec4(s.albedo, s.alpha);
   pixels[o + 1u] = vec4(s.normal, impostorViewDepth(s.position, v));

@@ -12,6 +12,7 @@ layout(push_constant) uniform Push {
   int frames;
   int mode;
   int count;
+  int ring_views;
 } push;
 
 layout(std430, set = 0, binding = 0) readonly buffer Directions { vec4 directions[]; };
@@ -24,17 +25,17 @@ layout(std430, set = 0, binding = 1) writeonly buffer Weights { vec4 weights[]; 
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= uint(push.count)) return;
-  ImpostorBlend b = impostorBlendFrames(push.layout_kind, push.frames, directions[i].xyz, push.mode);
+  ImpostorLayout atlas = ImpostorLayout(push.layout_kind, push.frames, push.ring_views);
+  ImpostorBlend b = impostorBlendFramesLayout(atlas, directions[i].xyz, push.mode);
   ImpostorFrameCamera view = impostorCameraForDirection(directions[i].xyz);
   vec3 origin = 0.3 * view.right + -0.2 * view.up + view.direction;
   for (int k = 0; k < 4; ++k) {
     bool used = k < b.count;
     vec3 st = vec3(0.0);
     if (used) {
-      st = impostorIntersectFramePlane(impostorFrameCamera(push.layout_kind, push.frames, b.frame[k]), origin,
-                                       -view.direction, 0.0);
+      st = impostorIntersectFramePlane(impostorFrameCameraAt(atlas, b.index[k]), origin, -view.direction, 0.0);
     }
-    weights[i * 4u + uint(k)] = vec4(used ? float(impostorFrameIndex(push.frames, b.frame[k])) : -1.0,
+    weights[i * 4u + uint(k)] = vec4(used ? float(b.index[k]) : -1.0,
                                      used ? b.weight[k] : 0.0, st.xy);
   }
 }

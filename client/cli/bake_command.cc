@@ -12,6 +12,7 @@
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
+#include "client/cli/quality_command.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {
@@ -86,6 +87,11 @@ int RunBake(const CliArgs& args) {
   settings.tolerance = args.tolerance;
   settings.priority = args.priority.value_or(0);
   settings.lod_ratios = args.lod_ratios;
+  settings.min_iou = args.min_iou;
+  settings.min_psnr_db = args.min_psnr_db;
+  settings.frames_auto = args.frames_auto;
+  settings.quality_views = args.quality_views;
+  settings.emissive = args.emissive;
   absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
   if (!submitted.ok()) {
     const absl::Status& s = submitted.status();
@@ -109,6 +115,9 @@ int RunBake(const CliArgs& args) {
 
   if (submitted->cached && submitted->error_code != 0) {
     // A cached result that fails this request's quality gate.
+    if (IsQualityGateFailure(submitted->error_code, submitted->error_message)) {
+      FetchGatedResult(**client, submitted->cache_key, args.out, args.quiet, &report.json());
+    }
     return report.Fail(kExitBakeFailed,
                        absl::StrCat("bake failed: ",
                                     absl::StatusCodeToString(static_cast<absl::StatusCode>(submitted->error_code)),
@@ -123,6 +132,10 @@ int RunBake(const CliArgs& args) {
     if (!final_state.ok()) return report.Fail(ExitCodeFor(final_state.status()), Describe(final_state.status()));
     report.json()["cached"] = final_state->cached;
     if (final_state->state == sdk::JobState::kFailed) {
+      // The gate rejected a finished bake: its result is kept; fetch it.
+      if (IsQualityGateFailure(final_state->error_code, final_state->error_message)) {
+        FetchGatedResult(**client, submitted->cache_key, args.out, args.quiet, &report.json());
+      }
       return report.Fail(kExitBakeFailed,
                          absl::StrCat("bake failed: ",
                                       absl::StatusCodeToString(static_cast<absl::StatusCode>(final_state->error_code)),
@@ -143,6 +156,17 @@ int RunBake(const CliArgs& args) {
   if (!fetched.ok()) return report.Fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));
   report.json()["manifest"] = fetched->manifest_path.string();
   for (const fs::path& f : fetched->files) report.json()["files"].push_back(f.string());
+  report.json()["warnings"] = fetched->warnings;
+  // Warnings go to stderr even with --quiet: they say what the atlas lacks.
+  for (const std::string& w : fetched->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const nlohmann::json quality = ReadQualityBlock(fetched->manifest_path);
+  report.json()["quality"] = quality;
+  if (!args.quiet && quality.is_object()) std::fprintf(stderr, "%s\n", QualitySummaryLine(quality).c_str());
+  for (const fs::path& f : fetched->files) {
+    if (f.filename() != "contact_sheet.png") continue;
+    report.json()["contact_sheet"] = f.string();
+    if (!args.quiet) std::fprintf(stderr, "contact sheet: %s\n", f.string().c_str());
+  }
 
   if (!args.json) {
     std::printf("%s\n", fetched->manifest_path.string().c_str());

@@ -250,30 +250,33 @@ void AssignNames(std::vector<BatchEntry>& entries, const std::vector<bool>& expl
   for (size_t i = 0; i < entries.size(); ++i) {
     if (explicit_name[i]) taken.insert(entries[i].name);
   }
-  // The shallowest depth at which a name is unique among the implicit ones
-  // and clear of the explicit ones.
-  std::map<std::string, std::set<std::string>> models_by_name;  // name -> distinct model paths
+  // Each implicit name starts as the bare file stem; names shared by
+  // different files (or taken by an explicit one) grow by a parent folder,
+  // for those files only, until they differ.
   auto normal = [](const fs::path& p) {
     std::error_code ec;
     return fs::weakly_canonical(p, ec).string();
   };
-  for (int depth = 1; depth <= 8; ++depth) {
-    models_by_name.clear();
+  std::vector<int> depth(entries.size(), 1);
+  for (int round = 0; round < 8; ++round) {
+    std::map<std::string, std::set<std::string>> models_by_name;  // name -> distinct model files
     for (size_t i = 0; i < entries.size(); ++i) {
-      if (!explicit_name[i]) models_by_name[NameAtDepth(entries[i].model, depth)].insert(normal(entries[i].model));
+      if (!explicit_name[i]) models_by_name[NameAtDepth(entries[i].model, depth[i])].insert(normal(entries[i].model));
     }
-    bool clash = false;
-    for (size_t i = 0; i < entries.size() && !clash; ++i) {
+    bool grew = false;
+    for (size_t i = 0; i < entries.size(); ++i) {
       if (explicit_name[i]) continue;
-      const std::string name = NameAtDepth(entries[i].model, depth);
-      clash = models_by_name[name].size() > 1 || taken.contains(name);
-    }
-    if (!clash || depth == 8) {
-      for (size_t i = 0; i < entries.size(); ++i) {
-        if (!explicit_name[i]) entries[i].name = NameAtDepth(entries[i].model, depth);
+      const std::string name = NameAtDepth(entries[i].model, depth[i]);
+      if ((models_by_name[name].size() > 1 || taken.contains(name)) &&
+          NameAtDepth(entries[i].model, depth[i] + 1) != name) {
+        ++depth[i];
+        grew = true;
       }
-      break;
     }
+    if (!grew) break;
+  }
+  for (size_t i = 0; i < entries.size(); ++i) {
+    if (!explicit_name[i]) entries[i].name = NameAtDepth(entries[i].model, depth[i]);
   }
   // The same file twice (or a clash no depth resolves): number them.
   std::set<std::string> used = taken;

@@ -23,12 +23,14 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance"}, {"--json", "--quiet", "--keep-going"}, true,
+       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
         true, "SPEC"}},
       {"fetch", {Command::kFetch, {"--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
+      // --out is optional: quality_command.cc picks ./quality-KEY12.
+      {"quality", {Command::kQuality, {"--out", "--server"}, {"--json", "--quiet"}, false, "KEY"}},
       {"status", {Command::kStatus, {"--server"}, {"--json"}, false, "JOB_ID"}},
       {"cancel", {Command::kCancel, {"--server"}, {"--json"}, false, "JOB_ID"}},
       // "cache VERB": the local result cache; no target = no positional.
@@ -113,6 +115,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--quiet") out.quiet = true;
       if (flag == "--verify") out.verify = true;
       if (flag == "--keep-going") out.keep_going = true;
+      if (flag == "--emissive") out.emissive = true;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -209,6 +212,21 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
       out.point_budget = *n;
+    } else if (flag == "--frames" && *value == "auto") {
+      out.frames_auto = true;
+      out.frames = 0;
+    } else if (flag == "--min-iou" || flag == "--min-psnr") {
+      float x = 0;
+      auto [ptr, ec] = std::from_chars(value->data(), value->data() + value->size(), x);
+      if (value->empty() || ec != std::errc() || ptr != value->data() + value->size()) {
+        return Usage(absl::StrCat(flag, ": expected a number like ", flag == "--min-iou" ? "0.95" : "30",
+                                  ", got \"", *value, "\""));
+      }
+      (flag == "--min-iou" ? out.min_iou : out.min_psnr_db) = x;
+    } else if (flag == "--quality-views") {
+      absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
+      if (!n.ok()) return n.status();
+      out.quality_views = *n;
     } else if (flag == "--frames" || flag == "--resolution") {
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
@@ -284,6 +302,21 @@ Usage:
                       viewer loads it) plus the card atlas maps;
                       --resolution is the card atlas side (default 1024);
                       --frames is refused and --layout ignored
+        --emissive    atlas: also bake emissive.png (emissive texture x
+                      factor x KHR_materials_emissive_strength, sRGB, A =
+                      coverage), listed in the manifest's maps
+        --frames auto atlas: the server bakes 8, 10, 12, 16, 20 and 24 frames
+                      (those that fit --resolution) and keeps the smallest
+                      whose measured quality meets --min-iou / --min-psnr
+                      (one is needed); the manifest lists the counts tried
+        --min-iou X   quality gate: the bake fails (exit 1, FAILED_PRECONDITION
+                      giving measured values and thresholds) when the mean
+                      silhouette IoU over held-out views is below X (0..1);
+                      the result is still downloaded into DIR for inspection
+        --min-psnr Y  the same for the mean albedo PSNR, dB (0..100)
+        --quality-views N held-out views of the quality pass (default 16,
+                      range 0..256, 0 = none); the summary of the manifest's
+                      quality block is printed after the bake
         --quiet       no progress output
         --priority N  scheduling priority, -100..100 (default 0; 50 for a
                       person waiting, -50 for nightly batches)
@@ -318,6 +351,13 @@ Usage:
   impostor fetch KEY --out DIR [--server HOST:PORT] [--json] [--quiet]
       Downloads the result baked under cache key KEY into DIR. Files already
       in DIR with the right content are kept.
+  impostor quality KEY [--out DIR] [--server HOST:PORT] [--json] [--quiet]
+      Downloads the result KEY into DIR (default ./quality-<first 12 hex of
+      KEY>), prints its quality report (held-out views against the mesh:
+      IoU, albedo PSNR and SSIM, normal and depth error, pop, frames tried)
+      and the path of quality_worst_view.png: the worst view side by side,
+      mesh | impostor | difference (magenta: only the mesh covers, cyan: only
+      the impostor covers).
   impostor status JOB_ID [--server HOST:PORT] [--json]
       Shows a job's state.
   impostor cancel JOB_ID [--server HOST:PORT] [--json]

@@ -21,7 +21,7 @@ enum ExitCode : int {
   kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
 };
 
-enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc };
+enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc, kQuality };
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
@@ -48,6 +48,15 @@ struct CliArgs {
   // unchecked: it owns the ranges.
   uint32_t frames = 0;
   uint32_t resolution = 0;
+  // --frames auto: the server picks frames by measured quality (frames stays
+  // 0; --min-iou / --min-psnr are the target).
+  bool frames_auto = false;
+  // --min-iou X / --min-psnr Y: the quality gate (and frames_auto's target);
+  // numbers checked here, ranges by the server. Unset = not given.
+  std::optional<float> min_iou;
+  std::optional<float> min_psnr_db;
+  // --quality-views N: held-out views of the quality pass (server: 0..256).
+  std::optional<uint32_t> quality_views;
   // --product: "atlas" or "surfels" (checked here).
   std::string product = "atlas";
   // --preset and --point-budget (surfels): passed to the server unchecked;
@@ -67,6 +76,8 @@ struct CliArgs {
   std::optional<float> tolerance;
   bool json = false;
   bool quiet = false;
+  // --emissive (bake): also bake the emissive map.
+  bool emissive = false;
   // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else
   // $XDG_CACHE_HOME/impostor, else ~/.cache/impostor; see cache_commands.cc),
   // --max-bytes (unset = the cache's default cap), gc --verify.

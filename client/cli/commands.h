@@ -12,6 +12,8 @@ int RunBake(const CliArgs& args);
 // (batch_command.cc).
 int RunBakeBatch(const CliArgs& args);
 int RunFetch(const CliArgs& args);
+// impostor quality KEY (quality_command.cc).
+int RunQuality(const CliArgs& args);
 int RunStatus(const CliArgs& args);
 int RunCancel(const CliArgs& args);
 // impostor cache get / ls / gc (cache_commands.cc).

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
     case Command::kBake: return RunBake(*parsed);
     case Command::kBakeBatch: return RunBakeBatch(*parsed);
     case Command::kFetch: return RunFetch(*parsed);
+    case Command::kQuality: return RunQuality(*parsed);
     case Command::kStatus: return RunStatus(*parsed);
     case Command::kCancel: return RunCancel(*parsed);
     case Command::kCacheGet: return RunCacheGet(*parsed);

@@ -134,11 +134,13 @@ CoveredBox FindCoveredBox(const ImpostorAtlas& atlas, const TileRect& tile) {
 }
 
 bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
-  if (atlas.frames <= 0 || atlas.width <= 0 || atlas.height <= 0 || atlas.sphere.radius <= 0.0f) return false;
+  const ViewLayout layout = AtlasViewLayout(atlas);
+  const bool ring = layout.kind == LayoutKind::kRingTop || layout.kind == LayoutKind::kBillboard;
+  if ((ring ? layout.ring_views <= 0 : atlas.frames <= 0) || atlas.width <= 0 || atlas.height <= 0 || atlas.sphere.radius <= 0.0f) return false;
   const size_t texels = static_cast<size_t>(atlas.width) * atlas.height * 4;
   if (atlas.albedo_alpha.size() != texels || atlas.normal_depth.size() != texels) return false;
   if (!atlas.orm.empty() && atlas.orm.size() != texels) return false;
-  if (atlas.cameras.size() != static_cast<size_t>(atlas.frames) * atlas.frames) return false;
+  if (atlas.cameras.size() != static_cast<size_t>(FrameCount(layout))) return false;
   for (const FrameCamera& c : atlas.cameras) {
     const TileRect& t = c.tile;
     if (t.width <= 0 || t.height <= 0 || t.x < 0 || t.y < 0 || t.x + t.width > atlas.width ||
@@ -150,6 +152,13 @@ bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
 }
 
 }  // namespace
+
+ViewLayout AtlasViewLayout(const ImpostorAtlas& atlas) {
+  ViewLayout layout{.kind = atlas.layout, .frames = atlas.frames, .ring_views = atlas.ring_views};
+  if (atlas.layout == LayoutKind::kBillboard) layout.ring_views = kBillboardRingViews;
+  if (atlas.layout != LayoutKind::kRingTop && atlas.layout != LayoutKind::kBillboard) layout.ring_views = 0;
+  return layout;
+}
 
 FrameCamera ViewCameraFor(glm::vec3 direction) { return CameraForDirection(direction); }
 
@@ -172,7 +181,7 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
   if (has_orm) view.orm.assign(count * 4, 0);
 
   // The view is orthographic: one view direction, one set of frames.
-  const FrameBlend blend = BlendFrames(atlas.layout, atlas.frames, camera.direction, options.blend);
+  const FrameBlend blend = BlendFrames(AtlasViewLayout(atlas), camera.direction, options.blend);
   const TileSampler sampler(atlas);
   const float inv = 1.0f / static_cast<float>(pixels);
   std::array<CoveredBox, 4> boxes;

@@ -1,4 +1,4 @@
-// CPU reference renderer for octahedral impostors: draws a baked atlas for
+// CPU reference renderer for impostors of every layout: draws a baked atlas for
 // any orthographic camera exactly as a game's impostor shader would, using
 // the runtime math of frame_blend.h and virtual_plane.h (the same math as the
 // SDK header client/include/impostor/runtime.h and the reference shader
@@ -9,7 +9,7 @@
 // Per output pixel (x, y) of a `pixels` x `pixels` view, at view coordinates
 //   s = (x + 0.5) / pixels * 2 - 1,  t = 1 - (y + 0.5) / pixels * 2
 // (frame_camera.h, row 0 = camera up):
-//  1. Frames and weights w_i: BlendFrames(atlas.layout, atlas.frames,
+//  1. Frames and weights w_i: BlendFrames(AtlasViewLayout(atlas),
 //     camera.direction, options.blend) — one set for the whole view, because
 //     the view is orthographic (every pixel has the same view direction).
 //  2. Each frame i is sampled through its virtual plane (ProjectToFrame, or
@@ -59,10 +59,18 @@ namespace impostor {
 
 struct ImpostorAtlas {            // a baked atlas in memory
   LayoutKind layout = LayoutKind::kOctahedral;
+  // Octahedral, hemi-octahedral, azimuth-elevation: frames per axis (N).
+  // Ring-top and billboard: the atlas grid side (the request's derived
+  // `frames`); their frames are counted by ring_views.
   int frames = 0;
+  // Ring-top: horizontal views K (the manifest's views.size() - 1).
+  // Billboard: 8 or left 0. Others: 0.
+  int ring_views = 0;
   int resolution = 0;
   BoundingSphere sphere;                 // from the manifest
-  std::vector<FrameCamera> cameras;      // AtlasCameras(layout, frames, resolution)
+  // AtlasCameras(AtlasViewLayout(atlas), resolution): FrameCount of them,
+  // index order.
+  std::vector<FrameCamera> cameras;
   int width = 0, height = 0;             // atlas pixels
   std::vector<uint8_t> albedo_alpha;     // RGBA8, as AtlasImages
   std::vector<uint16_t> normal_depth;    // RGBA16, as AtlasImages
@@ -80,6 +88,9 @@ struct ReferenceRenderOptions {
   BlendMode blend = BlendMode::kTriangle3;
   bool parallax = false;
 };
+
+// The shared mapping's description of the atlas's layout.
+ViewLayout AtlasViewLayout(const ImpostorAtlas& atlas);
 
 // Empty-texel encodings (atlas_renderer.h, the bake's clear values).
 inline constexpr uint16_t kEmptyNormal16 = 32768;  // 0.5 in UNORM16

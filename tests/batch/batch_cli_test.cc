@@ -243,6 +243,49 @@ TEST(BatchCli, BakeWithSeveralModelsIsABatch) {
   EXPECT_EQ(job.priority(), 30);
 }
 
+// The quality gate end to end: the worker measures, the server judges each
+// requester, the tool reports the failure with the measured values and still
+// downloads the result; the bake is cached whatever the gate said.
+TEST(BatchCli, QualityGateFailsTheAssetButKeepsItsResult) {
+  ServerProcess server(1);
+  const fs::path dir = NewTempDir("batch_gate");
+  const std::string box = Asset("props_pbr/Box/glTF-Binary/Box.glb").string();
+  auto spec_with = [&](const std::string& file, const json& extra) {
+    json asset = {{"path", box}, {"name", "box"}};
+    asset.update(extra);
+    std::ofstream(dir / file) << json{{"defaults", {{"frames", 4}, {"resolution", 128}}}, {"assets", {asset}}}.dump();
+    return Quote((dir / file).string());
+  };
+  const std::string gated = spec_with("gated.json", {{"min_iou", 1.0}, {"min_psnr_db", 100.0}});
+  const std::string ungated = spec_with("ungated.json", json::object());
+  auto run = [&](const std::string& spec, const std::string& out) {
+    return RunShell(Impostor() + " bake-batch " + spec + " --out " + Quote((dir / out).string()) + " --server " +
+                    server.address() + " --json --quiet");
+  };
+
+  const CliRun baked = run(gated, "gated");
+  EXPECT_EQ(baked.exit_code, 1) << baked.output;
+  ASSERT_EQ(baked.assets.size(), 1u) << baked.output;
+  const json& a = baked.assets[0];
+  EXPECT_EQ(a["status"], "failed");
+  EXPECT_EQ(a["error_code"], 9);
+  EXPECT_EQ(a["error"].get<std::string>().rfind("FAILED_PRECONDITION: quality gate: silhouette IoU ", 0), 0u)
+      << a.dump();
+  ASSERT_TRUE(a["quality"].is_object()) << "the measured figures come with the failure: " << a.dump();
+  EXPECT_GT(a["quality"]["views"].get<int>(), 0);
+  EXPECT_TRUE(fs::exists(dir / "gated/box/manifest.json")) << "the result is kept for inspection";
+
+  const CliRun plain = run(ungated, "plain");
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_EQ(plain.assets[0]["cached"], true) << "the gate is not part of the cache key";
+
+  const CliRun hit = run(gated, "gated_again");
+  EXPECT_EQ(hit.exit_code, 1) << hit.output;
+  EXPECT_EQ(hit.assets[0]["cached"], true);
+  EXPECT_EQ(hit.assets[0]["status"], "failed") << "a cache hit is gated too";
+  EXPECT_EQ(hit.assets[0]["error"], a["error"]);
+}
+
 TEST(BatchCli, MalformedInputIsAUsageErrorNamingTheEntryAndField) {
   const fs::path dir = NewTempDir("batch_bad_spec");
   const std::string box = Asset("props_pbr/Box/glTF-Binary/Box.glb").string();

@@ -61,6 +61,27 @@ TEST(ParseCliArgs, CardFlags) {
   EXPECT_NE(bad.status().message().find("--tolerance"), std::string::npos) << bad.status();
 }
 
+TEST(ParseCliArgs, LodChainFlags) {
+  auto a = ParseCliArgs({"bake", "tree.gltf", "--product", "lod-chain", "--lod-ratios", "0.6,0.25,0.05", "--out", "o"},
+                        nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->product, "lod-chain");
+  EXPECT_EQ(a->lod_ratios, (std::vector<float>{0.6f, 0.25f, 0.05f}));
+  EXPECT_EQ(a->layout, "") << "no --layout: the server's lod-chain default (hemi-octahedral)";
+  auto with_layout = ParseCliArgs({"bake", "m.glb", "--product", "lod-chain", "--layout", "octahedral", "--out", "o"},
+                                  nullptr);
+  ASSERT_TRUE(with_layout.ok());
+  EXPECT_EQ(with_layout->layout, "octahedral");
+  EXPECT_TRUE(with_layout->lod_ratios.empty());
+  // Order and range are the server's to judge; the syntax is checked here.
+  EXPECT_TRUE(ParseCliArgs({"bake", "m.glb", "--lod-ratios", "0.1,0.5", "--out", "o"}, nullptr).ok());
+  for (const char* bad : {"0.5,,0.1", "half", "0.5,", ""}) {
+    auto b = ParseCliArgs({"bake", "m.glb", "--product", "lod-chain", "--lod-ratios", bad, "--out", "o"}, nullptr);
+    ASSERT_FALSE(b.ok()) << bad;
+    EXPECT_NE(b.status().message().find("--lod-ratios"), std::string::npos) << bad << ": " << b.status();
+  }
+}
+
 TEST(ParseCliArgs, HelpVersionAndOtherCommands) {
   EXPECT_EQ(ParseCliArgs({"--help"}, nullptr)->command, Command::kHelp);
   EXPECT_EQ(ParseCliArgs({"help"}, nullptr)->command, Command::kHelp);

@@ -60,10 +60,13 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   std::vector<std::vector<v1::Job>> watch_scripts;  // one per WatchJob call; UNAVAILABLE after a script
   int watch_calls = 0;
   v1::Job get_job;                             // GetJob's answer
+  int find_missing_calls = 0;
+  std::vector<v1::SubmitBakeRequest> submits;  // every SubmitBake, in order
 
   grpc::Status FindMissingBlobs(grpc::ServerContext*, const v1::FindMissingBlobsRequest* req,
                                 v1::FindMissingBlobsResponse* resp) override {
     std::lock_guard lock(mu);
+    ++find_missing_calls;
     for (const auto& d : req->digests()) {
       if (!blobs.contains(d.hash())) *resp->add_missing() = d;
     }
@@ -136,6 +139,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
                           v1::SubmitBakeResponse* resp) override {
     std::lock_guard lock(mu);
     last_submit = *req;
+    submits.push_back(*req);
     if (req->parameters().frames() > 64) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "parameters.frames: 80 is out of range 2..64"};
     }
@@ -236,7 +240,7 @@ TEST_F(FakeServerTest, SubmitUploadsOnlyMissingFiles) {
     std::lock_guard lock(fake_.mu);
     fake_.blobs[Sha256Hex(bin)] = bin;
   }
-  absl::StatusOr<SubmitResult> r = client_->SubmitBake(model, BakeSettings{"hemi-octahedral", 8, 512});
+  absl::StatusOr<SubmitResult> r = client_->SubmitBake(model, BakeSettings{.layout = "hemi-octahedral", .frames = 8, .resolution = 512});
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_EQ(r->job_id, "job-1");
   EXPECT_EQ(r->upload.files, 6);
@@ -251,6 +255,57 @@ TEST_F(FakeServerTest, SubmitUploadsOnlyMissingFiles) {
   EXPECT_EQ(req.parameters().layout(), v1::LAYOUT_HEMI_OCTAHEDRAL);
   EXPECT_EQ(req.parameters().frames(), 8u);
   EXPECT_EQ(req.parameters().resolution(), 512u);
+}
+
+TEST_F(FakeServerTest, SubmitBakeBatchAsksOnceAndUploadsEachBlobOnce) {
+  const fs::path bottle = kAssets / "props_pbr/WaterBottle/glTF/WaterBottle.gltf";
+  const fs::path helmet = kAssets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+  BakeSettings urgent;
+  urgent.priority = 50;
+  urgent.min_iou = 0.9f;
+  std::vector<BatchItem> items = {{bottle, {}}, {helmet, urgent}, {bottle, {}}, {kAssets / "absent.glb", {}}};
+  std::vector<size_t> seen;
+  absl::StatusOr<std::vector<BatchSubmission>> r =
+      client_->SubmitBakeBatch(items, [&](size_t i, const BatchSubmission&) {
+        seen.push_back(i);
+        return true;
+      });
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(r->size(), 4u);
+  EXPECT_EQ(seen, (std::vector<size_t>{0, 1, 2, 3}));
+  EXPECT_TRUE((*r)[0].status.ok()) << (*r)[0].status;
+  EXPECT_TRUE((*r)[1].status.ok()) << (*r)[1].status;
+  EXPECT_EQ((*r)[3].status.code(), absl::StatusCode::kNotFound) << "a missing model fails alone";
+  EXPECT_EQ((*r)[0].result.upload.uploaded, 6) << "the first user of each blob uploads it";
+  EXPECT_EQ((*r)[2].result.upload.uploaded, 0) << "the same model again uploads nothing";
+  EXPECT_EQ((*r)[2].result.upload.files, 6);
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.find_missing_calls, 1) << "one FindMissingBlobs for the whole batch";
+  EXPECT_EQ(fake_.uploaded.size(), std::set<std::string>(fake_.uploaded.begin(), fake_.uploaded.end()).size())
+      << "no blob uploaded twice";
+  EXPECT_EQ(fake_.uploaded.size(), 7u);  // WaterBottle's 6 files and the helmet
+  ASSERT_EQ(fake_.submits.size(), 3u);
+  EXPECT_EQ(fake_.submits[1].priority(), 50);
+  EXPECT_FLOAT_EQ(fake_.submits[1].gate().min_iou(), 0.9f);
+  EXPECT_FALSE(fake_.submits[1].gate().has_min_psnr_db());
+  EXPECT_EQ(fake_.submits[0].priority(), 0);
+  EXPECT_FALSE(fake_.submits[0].has_gate());
+}
+
+TEST_F(FakeServerTest, SubmitBakeBatchStopsWhenAsked) {
+  const fs::path helmet = kAssets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+  std::vector<BatchItem> items(4, BatchItem{helmet, {}});
+  absl::StatusOr<std::vector<BatchSubmission>> r =
+      client_->SubmitBakeBatch(items, [](size_t i, const BatchSubmission&) { return i < 1; });
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_TRUE((*r)[0].status.ok());
+  EXPECT_TRUE((*r)[1].status.ok());
+  for (size_t i = 2; i < 4; ++i) {
+    EXPECT_EQ((*r)[i].status.code(), absl::StatusCode::kCancelled) << i;
+    EXPECT_EQ((*r)[i].status.message(), "not submitted: the batch stopped");
+  }
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.submits.size(), 2u);
 }
 
 TEST_F(FakeServerTest, SecondSubmitUploadsNothing) {

@@ -145,6 +145,43 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
     EXPECT_GT(iou, 0.985) << "view " << view.index() << ": alpha vs CPU silhouette IoU " << iou;
     EXPECT_GT(lit, both / 2) << "view " << view.index() << ": covered texels are mostly black";
   }
+  // The bounding box lies inside the bounding sphere and touches it.
+  ASSERT_EQ(m.bounding_box().min_size(), 3);
+  ASSERT_EQ(m.bounding_box().max_size(), 3);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LT(m.bounding_box().min(i), m.bounding_box().max(i));
+    EXPECT_GE(m.bounding_box().min(i), center[i] - m.bounding_sphere().radius() - 1e-4f);
+    EXPECT_LE(m.bounding_box().max(i), center[i] + m.bounding_sphere().radius() + 1e-4f);
+  }
+  EXPECT_EQ(from_json->bounding_box().min_size(), 3);
+  // The cutout polygon holds every covered texel of every frame (texel
+  // centres, in tile coordinates) and saves overdraw.
+  const v1::Cutout& cutout = m.cutout();
+  ASSERT_GE(cutout.vertices_size(), 6);
+  ASSERT_LE(cutout.vertices_size(), 16);
+  EXPECT_GT(cutout.area_ratio(), 0.1f);
+  EXPECT_LT(cutout.area_ratio(), 1.0f);
+  EXPECT_EQ(from_json->cutout().vertices_size(), cutout.vertices_size());
+  const int n_cut = cutout.vertices_size() / 2;
+  auto inside_cutout = [&](float u, float v) {
+    for (int i = 0; i < n_cut; ++i) {
+      const float ax = cutout.vertices(2 * i), ay = cutout.vertices(2 * i + 1);
+      const float bx = cutout.vertices(2 * ((i + 1) % n_cut)), by = cutout.vertices(2 * ((i + 1) % n_cut) + 1);
+      if ((bx - ax) * (v - ay) - (by - ay) * (u - ax) > 1e-5f) return false;
+    }
+    return true;
+  };
+  for (const v1::View& view : m.views()) {
+    const int tw = static_cast<int>(view.tile().width()), th = static_cast<int>(view.tile().height());
+    for (int y = 0; y < th; ++y) {
+      for (int x = 0; x < tw; ++x) {
+        const size_t px = (static_cast<size_t>(view.tile().y()) + y) * albedo.width + view.tile().x() + x;
+        if (albedo.pixels[px * 4 + 3] == 0) continue;
+        ASSERT_TRUE(inside_cutout((x + 0.5f) / tw, (y + 0.5f) / th))
+            << "view " << view.index() << " texel " << x << "," << y << " outside the cutout";
+      }
+    }
+  }
   // Grid tiles no frame uses (ring-top's remainder) stay fully transparent.
   const int side = static_cast<int>(m.frames()), tile = static_cast<int>(m.tile_size());
   std::vector<bool> used(static_cast<size_t>(side * side), false);

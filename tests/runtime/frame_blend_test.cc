@@ -103,7 +103,7 @@ TEST_P(FrameBlendTest, FullWeightOnEveryFrameAtItsOwnDirection) {
 // Random pairs of directions 1e-4 apart anywhere on the domain (some cross
 // cell edges, diagonals, the octahedron's axes or its folded border): the
 // weights may change only a little.
-TEST_P(FrameBlendTest, ContinuousAcrossCellAndTriangleBoundaries) {
+TEST_P(FrameBlendTest, ContinuousBetweenRandomNearbyDirections) {
   const Case c = GetParam();
   std::mt19937 rng(7);
   const float step = 1e-4f;

@@ -3,6 +3,7 @@
 #include "impostor/runtime.h"  // first: the public header must stand alone
 
 #include <random>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -102,6 +103,82 @@ TEST(SdkRuntime, ParallaxMarchesTheCapturedDepth) {
   EXPECT_FALSE(sdk::VirtualPlaneUvParallax(sdk::Layout::kHemiOctahedral, frames, frame, center, 1.0f, o, r,
                                            [](float, float, float*) { return false; })
                    .valid);
+}
+
+TEST(SdkRuntime, NewLayoutNamesAndManifestDescriptions) {
+  EXPECT_EQ(sdk::LayoutFromName("azimuth-elevation"), sdk::Layout::kAzimuthElevation);
+  EXPECT_EQ(sdk::LayoutFromName("ring-top"), sdk::Layout::kRingTop);
+  EXPECT_EQ(sdk::LayoutFromName("billboard"), sdk::Layout::kBillboard);
+  EXPECT_EQ(sdk::LayoutName(sdk::Layout::kRingTop), "ring-top");
+  // Ring-top: K = views - 1, the grid side from K.
+  auto ring = sdk::AtlasLayoutFromManifest("ring-top", 5, 25);
+  ASSERT_TRUE(ring.has_value());
+  EXPECT_EQ(ring->layout, sdk::Layout::kRingTop);
+  EXPECT_EQ(ring->ring_views, 24);
+  EXPECT_EQ(ring->frames, 5);
+  EXPECT_EQ(sdk::FrameCount(*ring), 25);
+  auto billboard = sdk::AtlasLayoutFromManifest("billboard", 3, 9);
+  ASSERT_TRUE(billboard.has_value());
+  EXPECT_EQ(billboard->ring_views, 8);
+  auto ae = sdk::AtlasLayoutFromManifest("azimuth-elevation", 11, 121);
+  ASSERT_TRUE(ae.has_value());
+  EXPECT_EQ(ae->frames, 11);
+  EXPECT_EQ(sdk::FrameCount(*ae), 121);
+  // Counts that do not fit the layout, and unknown names.
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("billboard", 3, 8).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("azimuth-elevation", 11, 120).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("ring-top", 1, 1).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("cube", 4, 16).has_value());
+}
+
+TEST(SdkRuntime, NewLayoutsAreTheCommonImplementation) {
+  struct Pair {
+    sdk::AtlasLayout sdk;
+    ViewLayout common;
+  };
+  const std::vector<Pair> pairs = {
+      {{sdk::Layout::kAzimuthElevation, 11, 0}, {LayoutKind::kAzimuthElevation, 11, 0}},
+      {{sdk::Layout::kRingTop, 5, 24}, {LayoutKind::kRingTop, 5, 24}},
+      {{sdk::Layout::kBillboard, 3, 8}, {LayoutKind::kBillboard, 3, 8}}};
+  std::mt19937 rng(9);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  for (const Pair& p : pairs) {
+    for (int i = 0; i < 1000; ++i) {
+      const float dir[3] = {n(rng), n(rng), n(rng)};
+      for (sdk::BlendMode mode : {sdk::BlendMode::kTriangle3, sdk::BlendMode::kBilinear4}) {
+        const sdk::FrameBlend got = sdk::BlendFrames(p.sdk, dir, mode);
+        const FrameBlend want = BlendFrames(p.common, glm::vec3(dir[0], dir[1], dir[2]),
+                                            mode == sdk::BlendMode::kTriangle3 ? BlendMode::kTriangle3
+                                                                               : BlendMode::kBilinear4);
+        ASSERT_EQ(got.count, want.count);
+        for (int k = 0; k < got.count; ++k) {
+          EXPECT_EQ(got.entries[k].frame, want.entries[k].index);
+          EXPECT_EQ(got.entries[k].weight, want.entries[k].weight);
+        }
+      }
+    }
+    // Frame cameras are the baker's, tiles in the layout's grid.
+    for (int frame = 0; frame < FrameCount(p.common); ++frame) {
+      const sdk::FrameBasis basis = sdk::FrameCameraBasis(p.sdk, frame);
+      const glm::vec3 d = FrameDirectionAt(p.common, frame);
+      EXPECT_NEAR(glm::length(glm::vec3(basis.direction[0], basis.direction[1], basis.direction[2]) - d), 0.0f,
+                  1e-6f);
+      const int resolution = 64 * GridSide(p.common);
+      float atlas_uv[2];
+      sdk::FrameUvToAtlasUv(p.sdk, resolution, frame, sdk::FrameUv{true, 0.5f, 0.25f}, atlas_uv);
+      const FrameCoord tile = FrameTile(p.common, frame);
+      EXPECT_NEAR(atlas_uv[0], (tile.col * 64 + 32) / static_cast<float>(resolution), 1e-6f);
+      EXPECT_NEAR(atlas_uv[1], (tile.row * 64 + 16) / static_cast<float>(resolution), 1e-6f);
+    }
+  }
+  // The top frame of ring-top: its own orthographic ray hits its tile's centre.
+  const float center[3] = {0.0f, 0.0f, 0.0f};
+  const float eye[3] = {0.0f, 3.0f, 0.0f};
+  const float ray[3] = {0.0f, -1.0f, 0.0f};
+  const sdk::FrameUv top = sdk::VirtualPlaneUv(pairs[1].sdk, 24, center, 1.0f, eye, ray);
+  ASSERT_TRUE(top.valid);
+  EXPECT_NEAR(top.u, 0.5f, 1e-6f);
+  EXPECT_NEAR(top.v, 0.5f, 1e-6f);
 }
 
 }  // namespace

@@ -101,12 +101,19 @@ ViewImages RenderSyntheticView(const FrameCamera& camera, int pixels) {
 }
 
 ImpostorAtlas BakeSyntheticAtlas(LayoutKind layout, int frames, int resolution) {
+  return BakeSyntheticAtlas(ViewLayout{.kind = layout, .frames = frames}, resolution);
+}
+
+ImpostorAtlas BakeSyntheticAtlas(const ViewLayout& layout, int resolution) {
   ImpostorAtlas a;
-  a.layout = layout;
-  a.frames = frames;
+  a.layout = layout.kind;
+  const bool ring = layout.kind == LayoutKind::kRingTop || layout.kind == LayoutKind::kBillboard;
+  a.frames = ring ? GridSide(layout) : layout.frames;
+  a.ring_views = ring ? layout.ring_views : 0;
+  if (layout.kind == LayoutKind::kBillboard) a.ring_views = kBillboardRingViews;
   a.resolution = resolution;
   a.sphere = SyntheticSphere();
-  a.cameras = AtlasCameras(layout, frames, resolution);
+  a.cameras = AtlasCameras(layout, resolution);
   a.width = a.height = resolution;
   const size_t n = static_cast<size_t>(resolution) * resolution * 4;
   a.albedo_alpha.assign(n, 0);

@@ -19,6 +19,10 @@ ViewImages RenderSyntheticView(const FrameCamera& camera, int pixels);
 
 // Bakes every frame of a layout into an atlas of `resolution` pixels.
 ImpostorAtlas BakeSyntheticAtlas(LayoutKind layout, int frames, int resolution);
+// Any layout: frame i in tile FrameTile(layout, i) of side
+// TileSize(resolution, GridSide(layout)); atlas.frames = GridSide for the
+// ring layouts, as the bake request carries it.
+ImpostorAtlas BakeSyntheticAtlas(const ViewLayout& layout, int resolution);
 
 // Copies the tile of frame `index` out of an atlas as a ViewImages.
 ViewImages ExtractTile(const ImpostorAtlas& atlas, int index);

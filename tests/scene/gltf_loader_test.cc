@@ -82,9 +82,10 @@ TEST(GltfLoaderTest, DamagedHelmetGlb) {
   EXPECT_EQ(scene.TriangleCount(), 15452u);
   ASSERT_EQ(scene.materials.size(), 1u);
   const SceneMaterial& m = scene.materials[0];
-  // baseColor, metalRough, normal, occlusion are decoded; the emissive map
-  // is not baked.
-  EXPECT_EQ(scene.textures.size(), 4u);
+  // baseColor, metalRough, normal, occlusion and emissive are decoded.
+  EXPECT_EQ(scene.textures.size(), 5u);
+  ASSERT_GE(m.emissive_texture, 0);
+  EXPECT_TRUE(scene.textures[m.emissive_texture].srgb);
   ASSERT_GE(m.base_color_texture, 0);
   ASSERT_GE(m.metallic_roughness_texture, 0);
   ASSERT_GE(m.normal_texture, 0);
@@ -114,7 +115,8 @@ TEST(GltfLoaderTest, WaterBottleWithExternalFiles) {
   ASSERT_GE(m.normal_texture, 0);
   // The ORM image serves both metallicRoughness and occlusion: one texture.
   EXPECT_EQ(m.metallic_roughness_texture, m.occlusion_texture);
-  EXPECT_EQ(scene.textures.size(), 3u);
+  // + the emissive map.
+  EXPECT_EQ(scene.textures.size(), 4u);
   for (const SceneTexture& t : scene.textures) {
     EXPECT_EQ(t.width, 2048) << t.name;
     EXPECT_EQ(t.height, 2048) << t.name;

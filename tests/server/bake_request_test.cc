@@ -179,5 +179,78 @@ TEST(BakeRequest, BadCardParametersNameTheFieldAndLimit) {
   }
 }
 
+TEST(BakeRequest, LodChainDefaultsAreFilledInAndKeyed) {
+  v1::BakeParameters in;
+  in.set_product(v1::PRODUCT_LOD_CHAIN);
+  auto p = NormalizeParameters(in);
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_EQ(p->lod_ratios_size(), 2);
+  EXPECT_FLOAT_EQ(p->lod_ratios(0), 0.5f);
+  EXPECT_FLOAT_EQ(p->lod_ratios(1), 0.1f);
+  EXPECT_FLOAT_EQ(p->lod_pixel_error(), 1.0f);
+  EXPECT_EQ(p->layout(), v1::LAYOUT_HEMI_OCTAHEDRAL) << "a LOD chain's impostor defaults to the hemisphere";
+
+  // The explicit defaults bake once; other ratios or budgets do not.
+  v1::BakeParameters explicit_in = in;
+  explicit_in.add_lod_ratios(0.5f);
+  explicit_in.add_lod_ratios(0.1f);
+  explicit_in.set_lod_pixel_error(1.0f);
+  explicit_in.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  auto q = NormalizeParameters(explicit_in);
+  ASSERT_TRUE(q.ok()) << q.status();
+  v1::MeshInput mesh;
+  mesh.mutable_entry()->set_path("m.glb");
+  mesh.mutable_entry()->mutable_digest()->set_hash(std::string(64, 'a'));
+  EXPECT_EQ(ComputeCacheKey(mesh, *p), ComputeCacheKey(mesh, *q));
+  v1::BakeParameters other = *p;
+  other.set_lod_ratios(1, 0.2f);
+  EXPECT_NE(ComputeCacheKey(mesh, *p), ComputeCacheKey(mesh, other));
+  other = *p;
+  other.set_lod_pixel_error(2.0f);
+  EXPECT_NE(ComputeCacheKey(mesh, *p), ComputeCacheKey(mesh, other));
+  v1::BakeParameters atlas;
+  atlas.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  auto a = NormalizeParameters(atlas);
+  ASSERT_TRUE(a.ok());
+  EXPECT_NE(ComputeCacheKey(mesh, *p), ComputeCacheKey(mesh, *a));
+}
+
+TEST(BakeRequest, BadLodParametersNameTheFieldAndRule) {
+  struct Case {
+    const char* name;
+    v1::Product product;
+    std::vector<float> ratios;
+    std::optional<float> pixel_error;
+    const char* expect;
+  };
+  const Case cases[] = {
+      {"increasing", v1::PRODUCT_LOD_CHAIN, {0.1f, 0.5f}, {},
+       "parameters.lod_ratios[1]: 0.5 must be smaller than parameters.lod_ratios[0] (0.100000001); ratios must be "
+       "strictly decreasing"},
+      {"repeated", v1::PRODUCT_LOD_CHAIN, {0.5f, 0.5f}, {}, "parameters.lod_ratios[1]: 0.5 must be smaller"},
+      {"one", v1::PRODUCT_LOD_CHAIN, {1.0f}, {}, "parameters.lod_ratios[0]: 1 is outside the open range (0, 1)"},
+      {"zero", v1::PRODUCT_LOD_CHAIN, {0.5f, 0.0f}, {}, "parameters.lod_ratios[1]: 0 is outside the open range (0, 1)"},
+      {"negative", v1::PRODUCT_LOD_CHAIN, {-0.5f}, {}, "parameters.lod_ratios[0]: -0.5 is outside the open range"},
+      {"nan", v1::PRODUCT_LOD_CHAIN, {std::nanf("")}, {}, "parameters.lod_ratios[0]: nan is outside the open range"},
+      {"too many", v1::PRODUCT_LOD_CHAIN, {0.9f, 0.8f, 0.7f, 0.6f, 0.5f, 0.4f, 0.3f, 0.2f, 0.1f}, {},
+       "parameters.lod_ratios: 9 levels is more than the limit of 8"},
+      {"tiny budget", v1::PRODUCT_LOD_CHAIN, {}, 0.05f, "parameters.lod_pixel_error: 0.0500000007 is out of range 0.1..16"},
+      {"huge budget", v1::PRODUCT_LOD_CHAIN, {}, 17.0f, "parameters.lod_pixel_error: 17 is out of range 0.1..16"},
+      {"ratios with atlas", v1::PRODUCT_ATLAS, {0.5f}, {}, "parameters.lod_ratios: only for product PRODUCT_LOD_CHAIN"},
+      {"budget with surfels", v1::PRODUCT_SURFELS, {}, 1.0f,
+       "parameters.lod_pixel_error: only for product PRODUCT_LOD_CHAIN"},
+  };
+  for (const Case& c : cases) {
+    v1::BakeParameters in;
+    in.set_product(c.product);
+    for (float r : c.ratios) in.add_lod_ratios(r);
+    if (c.pixel_error) in.set_lod_pixel_error(*c.pixel_error);
+    auto p = NormalizeParameters(in);
+    ASSERT_FALSE(p.ok()) << c.name;
+    EXPECT_EQ(p.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(p.status().message().find(c.expect), std::string::npos) << c.name << ": " << p.status();
+  }
+}
+
 }  // namespace
 }  // namespace impostor

@@ -192,3 +192,24 @@ CREATE TABLE results (cache_key TEXT PRIMARY KEY, manifest BLOB NOT NULL, create
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+// A measurement, not a check (run with --gtest_also_run_disabled_tests): how
+// long one Lease takes with a long queue from several clients.
+TEST_F(PrioritySchedulingTest, DISABLED_LeaseTimeWithALongQueue) {
+  constexpr int kJobs = 3000;
+  for (int i = 0; i < kJobs; ++i) {
+    const std::string client = i % 10 == 0 ? "artist" : (i % 3 == 0 ? "ci-a" : "ci-b");
+    Submit(Request("model " + std::to_string(i), i % 10 == 0 ? 0 : -50), client);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  constexpr int kLeases = 200;
+  for (int i = 0; i < kLeases; ++i) ASSERT_FALSE(Lease().job_id().empty());
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  std::printf("lease with %d queued: %.2f ms each (including the SQLite write)\n", kJobs, ms / kLeases);
+}
+
+}  // namespace
+}  // namespace impostor

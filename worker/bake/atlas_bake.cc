@@ -17,6 +17,8 @@
 #include "worker/bake/bake_outputs.h"
 #include "worker/bake/quality_pass.h"
 #include "worker/output/atlas_dilation.h"
+#include "worker/output/contact_sheet.h"
+#include "worker/output/cutout_hull.h"
 #include "worker/output/map_writer.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"
@@ -40,9 +42,16 @@ const std::vector<std::string> kNormalDepthChannels = {
     "B: normal z * 0.5 + 0.5",
     "A: depth along the view direction, (1 - dot(p - centre, direction) / radius) / 2: 0 = nearest point of "
     "the bounding sphere, 1 = farthest; 16-bit because 8 bits quantise depth to radius/128"};
+const std::vector<std::string> kContactSheetChannels = {
+    "RGB: for people, not for engines: albedo over a checkerboard, coverage, normal, depth and ORM panels "
+    "side by side, labelled"};
 const std::vector<std::string> kOrmChannels = {
     "R: ambient occlusion (1 + strength * (texture.r - 1)), linear", "G: roughness (factor x texture.g), linear",
     "B: metalness (factor x texture.b), linear", "A: coverage, as albedo_alpha.A"};
+
+const std::vector<std::string> kEmissiveChannels = {
+    "R: emissive red (texture x emissiveFactor x KHR_materials_emissive_strength, unlit), sRGB, clamped to 1",
+    "G: emissive green, sRGB", "B: emissive blue, sRGB", "A: coverage, as albedo_alpha.A"};
 
 absl::Status AddMap(const std::filesystem::path& dir, const std::string& semantic, const std::string& format,
                     const std::vector<std::string>& channels, int size, v1::Manifest* manifest) {
@@ -97,10 +106,12 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   if (cancelled) return absl::CancelledError("cancelled before rendering");
   RenderTimings render_timings;
   renderer.set_cancel_flag(&cancelled);
+  renderer.set_emissive(p.emissive());
   auto atlas = renderer.Render(
       *scene, sphere, cameras, resolution,
       [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
   renderer.set_cancel_flag(nullptr);
+  renderer.set_emissive(false);
   if (!atlas.ok()) return atlas.status();
   timings->set_render_seconds(render_timings.upload_seconds + render_timings.render_seconds);
   timings->set_readback_seconds(render_timings.readback_seconds);
@@ -111,6 +122,9 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   t = Clock::now();
   std::vector<TileRect> tiles;
   for (const FrameCamera& c : cameras) tiles.push_back(c.tile);
+  // One convex polygon around every frame's opaque texels, for cutout quads.
+  auto cutout = ComputeCutout(atlas->albedo_alpha, atlas->width, atlas->height, tiles);
+  if (!cutout.ok()) return cutout.status();
   // Dilation fills empty texels' colour from the silhouette so mipmaps and
   // bilinear filtering never pull in black; coverage stays untouched. The
   // three maps are independent (normal_depth only reads albedo's alpha,
@@ -130,6 +144,16 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   for (absl::Status s : {albedo.get(), orm.get(), normal}) {
     if (!s.ok()) return s;
   }
+  if (p.emissive()) {
+    if (auto s = DilateRgba8(atlas->emissive, w, h, tiles); !s.ok()) return s;
+    if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
+  }
+  // The maps side by side for a person's first look (contact_sheet.h).
+  auto sheet = WriteContactSheet(dir / "contact_sheet.png",
+                                 {.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
+                                  .normal_depth = atlas->normal_depth, .orm = atlas->orm});
+  if (!sheet.ok()) return sheet.status();
+  if (!sheet->labelled) spdlog::warn("event=contact_sheet_unlabelled reason=\"no TrueType font found\"");
   timings->set_encode_seconds(SecondsSince(t));
   progress("encode", kEncodeEnd);
 
@@ -143,11 +167,27 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   manifest.set_tile_size(static_cast<uint32_t>(TileSize(resolution, frames)));
   for (int i = 0; i < 3; ++i) manifest.mutable_bounding_sphere()->add_center(sphere.center[i]);
   manifest.mutable_bounding_sphere()->set_radius(sphere.radius);
+  const BoundingBox box = ComputeBoundingBox(*scene);
+  for (int i = 0; i < 3; ++i) manifest.mutable_bounding_box()->add_min(box.min[i]);
+  for (int i = 0; i < 3; ++i) manifest.mutable_bounding_box()->add_max(box.max[i]);
+  for (glm::vec2 v : cutout->vertices) {
+    manifest.mutable_cutout()->add_vertices(v.x);
+    manifest.mutable_cutout()->add_vertices(v.y);
+  }
+  manifest.mutable_cutout()->set_area_ratio(cutout->area_ratio);
   if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest); !s.ok()) return s;
   if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest); !s.ok()) {
     return s;
   }
   if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
+  if (p.emissive()) {
+    if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest); !s.ok()) {
+      return s;
+    }
+  }
+  if (auto s = AddMap(dir, "contact_sheet", "png_rgb8", kContactSheetChannels, 0, &manifest); !s.ok()) return s;
+  manifest.mutable_maps(manifest.maps_size() - 1)->set_width(static_cast<uint32_t>(sheet->width));
+  manifest.mutable_maps(manifest.maps_size() - 1)->set_height(static_cast<uint32_t>(sheet->height));
   // Quality: the mesh from held-out views against the impostor as a game
   // draws it from the maps as written (quality_pass.h). Its time is logged.
   if (auto s = AddAtlasQuality(*scene, sphere, cameras, std::move(*atlas), p, request.cache_key, dir, renderer,
@@ -169,6 +209,9 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   manifest.mutable_mesh()->set_triangles(scene->TriangleCount());
   manifest.mutable_mesh()->set_materials(static_cast<uint32_t>(scene->materials.size()));
   manifest.mutable_mesh()->set_textures(static_cast<uint32_t>(scene->textures.size()));
+  // What the loader worked around (skipped points/lines, dropped images,
+  // MASK without alpha...) travels with the result.
+  for (const std::string& w : scene->warnings) manifest.add_warnings(w);
   manifest.set_device(renderer.device().name);
   timings->set_total_seconds(SecondsSince(start));
 

@@ -71,11 +71,12 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
     for (const LodPrimitive& prim : source->primitives) counts.push_back(prim.indices.size());
     return source->DrawnTriangles(counts);
   }();
-  for (size_t level = 0; level < ratios.size(); ++level) {
-    if (cancelled) return absl::CancelledError("cancelled while simplifying");
-    progress("simplify", kMeshStart + (kMeshEnd - kMeshStart) * level / ratios.size());
-    auto built = BuildMeshLevel(*source, ratios[level], textures);
-    if (!built.ok()) return built.status();
+  progress("simplify", kMeshStart);
+  auto levels = BuildMeshLevels(*source, ratios, textures);
+  if (!levels.ok()) return levels.status();
+  if (cancelled) return absl::CancelledError("cancelled while simplifying");
+  for (size_t level = 0; level < levels->size(); ++level) {
+    const MeshLevel* built = &(*levels)[level].mesh;
     const float error = built->error;
     const bool sloppy = built->sloppy, unlocked = built->unlocked;
     const std::string file = absl::StrCat("lod", level, ".glb");
@@ -97,11 +98,16 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
       chain.add_warnings(absl::StrCat("lod", level, ": quadric simplification could not reach ratio ",
                                       ratios[level], "; sloppy simplification was used"));
     } else if (unlocked) {
-      chain.add_warnings(absl::StrCat("lod", level, ": material-boundary borders were unlocked to reach ratio ",
-                                      ratios[level]));
+      chain.add_warnings(absl::StrCat("lod", level, ": open borders were unlocked to reach ratio ", ratios[level]));
     }
-    spdlog::info("event=lod_level level={} triangles={} original={} target_ratio={} error={} sloppy={} seconds={:.3f}",
-                 level, triangles, original, ratios[level], error, sloppy, built->seconds);
+    if (built->welded) {
+      chain.add_warnings(absl::StrCat("lod", level, ": UV/normal seams were welded to reach ratio ", ratios[level]));
+    }
+    spdlog::info(
+        "event=lod_level level={} triangles={} original={} target_ratio={} error={} measured_error={} sloppy={} "
+        "welded={} unlocked={} seconds={:.3f}",
+        level, triangles, original, ratios[level], error, (*levels)[level].measured_error, sloppy, built->welded,
+        unlocked, built->seconds);
   }
 
   // The impostor: a plain atlas bake of the same input, in a scratch folder

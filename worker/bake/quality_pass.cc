@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/frame_camera.h"
+#include "common/layout_parameters.h"
 #include "common/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/output/map_writer.h"
@@ -194,8 +195,16 @@ absl::Status WriteSideBySide(const std::filesystem::path& path, const ViewBuffer
 }  // namespace
 
 std::vector<glm::vec3> HeldOutViewDirections(LayoutKind layout, int frames, std::string_view cache_key, int count) {
+  return HeldOutViewDirections(ViewLayoutFor(layout, frames), cache_key, count);
+}
+
+std::vector<glm::vec3> HeldOutViewDirections(const ViewLayout& layout, std::string_view cache_key, int count) {
   uint64_t state = SeedFromKey(cache_key);
-  const bool upper = layout == LayoutKind::kHemiOctahedral;
+  // Ring-top and billboard are drawn from near the horizon: their views
+  // span elevations 0..60 degrees (y up to sin 60), like a hemisphere.
+  const bool ring = layout.kind == LayoutKind::kRingTop || layout.kind == LayoutKind::kBillboard;
+  const bool upper = layout.kind == LayoutKind::kHemiOctahedral || ring;
+  const double y_top = ring ? std::sin(std::numbers::pi / 3.0) : 1.0;
   // A rotation from the key: about +Y only for the hemisphere (the domain
   // must stay the upper half), about a random axis for the sphere.
   const float spin = static_cast<float>(2.0 * std::numbers::pi * NextUniform(state));
@@ -206,13 +215,13 @@ std::vector<glm::vec3> HeldOutViewDirections(LayoutKind layout, int frames, std:
     axis = glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi)));
   }
   std::vector<glm::vec3> frame_directions;
-  for (const FrameCamera& c : AtlasCameras(layout, frames, frames * 8)) frame_directions.push_back(c.direction);
+  for (const FrameCamera& c : AtlasCameras(layout, GridSide(layout) * 8)) frame_directions.push_back(c.direction);
   const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
   std::vector<glm::vec3> out;
   for (int i = 0; i < count; ++i) {
     // Spherical Fibonacci: equal-area bands in y, golden-angle steps around.
     const double t = (i + 0.5) / count;
-    const double y = upper ? t : 1.0 - 2.0 * t;
+    const double y = upper ? t * y_top : 1.0 - 2.0 * t;
     const double r = std::sqrt(std::max(0.0, 1.0 - y * y)), phi = golden * i;
     glm::vec3 d = Rotate(glm::vec3(r * std::sin(phi), y, r * std::cos(phi)), axis, spin);
     for (int attempt = 0; attempt < 16; ++attempt) {
@@ -247,7 +256,7 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   }
   const auto start = Clock::now();
   QualityPassResult result;
-  result.directions = HeldOutViewDirections(atlas.layout, atlas.frames, cache_key, o.views);
+  result.directions = HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
   auto mesh = RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, renderer);
   if (!mesh.ok()) return mesh.status();
   const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend);
@@ -301,8 +310,8 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   return result;
 }
 
-bool QualityPassSupports(LayoutKind layout) {
-  return layout == LayoutKind::kOctahedral || layout == LayoutKind::kHemiOctahedral;
+bool QualityPassSupports(LayoutKind) {
+  return true;  // the reference renderer draws every layout
 }
 
 absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, const std::vector<FrameCamera>& cameras,
@@ -312,9 +321,12 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   options.views = p.has_quality_views() ? static_cast<int>(p.quality_views()) : kDefaultQualityViews;
   const LayoutKind layout = ToLayoutKind(p.layout());
   if (options.views == 0) return absl::OkStatus();
-  // Compared at the size the impostor is made for: a view larger than a tile
-  // would measure upscaling blur, not the impostor.
-  options.view_pixels = std::min(options.view_pixels, TileSize(static_cast<int>(p.resolution()), static_cast<int>(p.frames())));
+  // One view size per atlas resolution, whatever the frame count, so that
+  // frames_auto's candidates are judged at the same display size: at most
+  // the largest tile any count of the ladder gets (resolution / 8), so a
+  // small atlas is not judged far above the size it can serve.
+  options.view_pixels = std::clamp(static_cast<int>(p.resolution()) / 8, 8, options.view_pixels);
+  options.orbit_pixels = std::min(options.orbit_pixels, options.view_pixels);
   if (!QualityPassSupports(layout)) {
     spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",
                  cache_key, std::string(LayoutName(layout)));
@@ -323,6 +335,7 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   ImpostorAtlas atlas;
   atlas.layout = layout;
   atlas.frames = static_cast<int>(p.frames());
+  atlas.ring_views = ViewLayoutOf(p).ring_views;
   atlas.resolution = static_cast<int>(p.resolution());
   atlas.sphere = sphere;
   atlas.cameras = cameras;

@@ -18,7 +18,9 @@
 // mean change over the orbit and at half an 8-bit level.
 //
 // Held-out directions: a spherical Fibonacci set over the layout's domain
-// (the whole sphere for octahedral, the upper hemisphere for hemi-octahedral),
+// (the whole sphere for octahedral and azimuth-elevation, the upper
+// hemisphere for hemi-octahedral, elevations 0..60 degrees for ring-top and
+// billboard, which are drawn from near the horizon),
 // rotated by a hash of the cache key, so that they are spread evenly,
 // deterministic per bake and unrelated to the frame grid; any that lands
 // within kMinDegreesFromFrame of a baked frame is nudged away.
@@ -57,8 +59,10 @@ inline constexpr char kQualityWorstViewFile[] = "quality_worst_view.png";
 
 struct QualityPassOptions {
   int views = kDefaultQualityViews;  // held-out views, 1..kMaxQualityViews
-  // Side of each compared view. The bake uses min(128, tile size): at the
-  // size the impostor is made for, never upscaled.
+  // Side of each compared view. The bake uses min(128, resolution / 8):
+  // the same for every frame count at one resolution, and never beyond the
+  // largest tile (8 frames) the atlas could have. The orbit uses at most
+  // view_pixels too.
   int view_pixels = 128;
   // Pop orbit: `orbit_steps` views, 360 / orbit_steps degrees apart, at
   // `orbit_elevation_deg` above the horizon, `orbit_pixels` on a side
@@ -85,6 +89,8 @@ struct QualityPassResult {
 // atlas of `frames` x `frames` in `layout`, deterministic in `cache_key`;
 // none within kMinDegreesFromFrame of a frame direction.
 std::vector<glm::vec3> HeldOutViewDirections(LayoutKind layout, int frames, std::string_view cache_key, int count);
+// Any layout (ring-top needs its ring_views).
+std::vector<glm::vec3> HeldOutViewDirections(const ViewLayout& layout, std::string_view cache_key, int count);
 
 // Runs the pass on an atlas held in memory. INVALID_ARGUMENT for options out
 // of range; the renderer's errors otherwise.
@@ -92,7 +98,7 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
                                                       std::string_view cache_key, const QualityPassOptions& options,
                                                       AtlasRenderer& renderer);
 
-// Whether the reference renderer can draw a layout (the octahedral ones).
+// Whether the reference renderer can draw a layout (all of them now).
 bool QualityPassSupports(LayoutKind layout);
 
 // The bake's hook (worker/bake/atlas_bake.cc), called with the maps as

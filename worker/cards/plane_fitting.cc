@@ -51,8 +51,50 @@ struct Scored {
   float offset = 0;
 };
 
+// Offsets are scored on a fixed grid of bins eps / 4 wide spanning the
+// mesh's extent about its box centre (the same grid every round, so a
+// normal's score never rises as triangles are taken: the lazy greedy's
+// bounds stay valid). A triangle counts for the bins lying wholly inside its
+// interval of valid offsets, so any offset in the best bin holds every
+// triangle counted; O(triangles + bins) per normal. Grids finer than this
+// many bins (tiny tolerances) fall back to sorting interval end points.
+constexpr int64_t kMaxOffsetBins = 16384;
+
+struct OffsetGrid {
+  glm::vec3 center{0.0f};
+  double extent = 0;
+};
+
 Scored BestOffset(const glm::vec3& n, std::span<const Triangle3> tris, const std::vector<uint32_t>& remaining,
-                  const std::vector<double>& weight, float eps, std::vector<std::pair<float, double>>& events) {
+                  const std::vector<double>& weight, float eps, const OffsetGrid& grid,
+                  std::vector<std::pair<float, double>>& events, std::vector<double>& bins) {
+  const double width = eps / 4.0;
+  const double origin = glm::dot(n, grid.center) - grid.extent;
+  const auto bin_count = static_cast<int64_t>(std::ceil(2.0 * grid.extent / width)) + 2;
+  Scored best;
+  if (bin_count <= kMaxOffsetBins) {
+    bins.assign(static_cast<size_t>(bin_count) + 1, 0.0);
+    for (uint32_t i : remaining) {
+      const Triangle3& t = tris[i];
+      const float a = glm::dot(n, t[0]), b = glm::dot(n, t[1]), c = glm::dot(n, t[2]);
+      const double lo = std::max({a, b, c}) - eps, hi = std::min({a, b, c}) + eps;
+      if (lo > hi) continue;
+      const auto first = std::max<int64_t>(0, static_cast<int64_t>(std::ceil((lo - origin) / width)));
+      const auto last = std::min<int64_t>(bin_count - 1, static_cast<int64_t>(std::floor((hi - origin) / width)) - 1);
+      if (first > last) continue;
+      bins[first] += weight[i];
+      bins[last + 1] -= weight[i];
+    }
+    double running = 0;
+    for (int64_t k = 0; k < bin_count; ++k) {
+      running += bins[k];
+      if (running > best.score * (1.0 + 1e-12)) {
+        best.score = running;
+        best.offset = static_cast<float>(origin + (k + 0.5) * width);
+      }
+    }
+    return best;
+  }
   events.clear();
   for (uint32_t i : remaining) {
     const Triangle3& t = tris[i];
@@ -66,7 +108,6 @@ Scored BestOffset(const glm::vec3& n, std::span<const Triangle3> tris, const std
   std::sort(events.begin(), events.end(), [](const auto& x, const auto& y) {
     return x.first < y.first || (x.first == y.first && x.second > y.second);
   });
-  Scored best;
   double running = 0;
   for (size_t k = 0; k < events.size(); ++k) {
     running += events[k].second;
@@ -221,6 +262,8 @@ PlaneFit FitPlanes(std::span<const Triangle3> tris, const PlaneFitOptions& optio
   for (size_t i = 0; i < count; ++i) remaining[i] = static_cast<uint32_t>(i);
   std::vector<int> assigned(count, -1);
   std::vector<std::pair<float, double>> events;
+  std::vector<double> bins;
+  const OffsetGrid grid{0.5f * (lo + hi), extent * 1.001 + eps};
 
   // Lazy greedy: (upper bound of the normal's score, candidate index).
   std::priority_queue<std::pair<double, size_t>> heap;
@@ -236,12 +279,12 @@ PlaneFit FitPlanes(std::span<const Triangle3> tris, const PlaneFitOptions& optio
     Scored best;
     if (const glm::vec3 f = FaceNormal(tris[largest]); glm::length(f) > 0.0f) {
       best_n = Canonical(glm::normalize(f));
-      best = BestOffset(best_n, tris, remaining, weight, eps, events);
+      best = BestOffset(best_n, tris, remaining, weight, eps, grid, events, bins);
     }
     while (!heap.empty() && heap.top().first > best.score) {
       const size_t c = heap.top().second;
       heap.pop();
-      const Scored s = BestOffset(normals[c], tris, remaining, weight, eps, events);
+      const Scored s = BestOffset(normals[c], tris, remaining, weight, eps, grid, events, bins);
       heap.emplace(s.score, c);
       if (s.score > best.score) {
         best = s;

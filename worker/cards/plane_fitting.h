@@ -7,9 +7,12 @@
 // each triangle votes, weighted by its area, for every plane that lies
 // within the tolerance of all three of its vertices, and planes are taken
 // greedily by support. Departures from the paper, and why:
-//   - Offsets are not binned: for one normal a triangle's valid offsets form
-//     an interval, so the best offset is found exactly by sweeping interval
-//     end points (no offset resolution to choose).
+//   - For one normal a triangle's valid offsets form an interval; offsets are
+//     binned at a quarter of the tolerance and a triangle votes for the bins
+//     wholly inside its interval (a difference array: linear time per
+//     normal), so any offset in a winning bin holds every triangle counted.
+//     Tolerances too fine for a bounded grid sweep sorted interval end points
+//     instead.
 //   - Candidate normals are a Fibonacci lattice over the hemisphere, plus the
 //     normals of the largest triangles and of the largest triangle still
 //     unassigned: planar pieces are then found exactly even when the

@@ -37,6 +37,10 @@ struct AtlasImages {
   std::vector<uint16_t> normal_depth;
   // R = occlusion, G = roughness, B = metalness, A = coverage (as albedo).
   std::vector<uint8_t> orm;
+  // Only when set_emissive(true): R,G,B = emissive texture x emissiveFactor x
+  // KHR_materials_emissive_strength, sRGB-encoded and clamped to 0..1 (an
+  // 8-bit map, not HDR), A = coverage (as albedo). Empty texels 0,0,0,0.
+  std::vector<uint8_t> emissive;
 };
 
 struct RenderTimings {
@@ -83,11 +87,17 @@ class AtlasRenderer {
   // nullptr to clear.
   void set_cancel_flag(const std::atomic<bool>* flag) { cancel_flag_ = flag; }
 
+  // Whether later Render calls also bake the emissive map
+  // (AtlasImages::emissive). Off by default: it costs a fourth target.
+  void set_emissive(bool on) { emissive_ = on; }
+
  protected:
   bool cancel_requested() const { return cancel_flag_ != nullptr && cancel_flag_->load(); }
+  bool emissive_requested() const { return emissive_; }
 
  private:
   const std::atomic<bool>* cancel_flag_ = nullptr;
+  bool emissive_ = false;
 };
 
 }  // namespace impostor

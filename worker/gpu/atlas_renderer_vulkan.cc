@@ -150,7 +150,8 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(resources,
                                 SceneResources::Upload(*ctx_, runner_, pipeline_, scene));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(targets,
-                                AtlasTargets::Create(*ctx_, static_cast<uint32_t>(atlas_size)));
+                                AtlasTargets::Create(*ctx_, static_cast<uint32_t>(atlas_size),
+                                                     emissive_requested()));
   times.upload_seconds = SecondsSince(phase_start);
 
   std::vector<MaterialPushConstants> materials;

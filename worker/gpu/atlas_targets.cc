@@ -41,9 +41,11 @@ absl::StatusOr<GpuBuffer> CreateReadback(const VulkanContext& ctx, VkDeviceSize 
 
 }  // namespace
 
-absl::StatusOr<AtlasTargets> AtlasTargets::Create(const VulkanContext& ctx, uint32_t size) {
+absl::StatusOr<AtlasTargets> AtlasTargets::Create(const VulkanContext& ctx, uint32_t size,
+                                                  bool emissive) {
   AtlasTargets t;
   t.size_ = size;
+  t.has_emissive_ = emissive;
   constexpr VkImageUsageFlags kColorUsage =
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_, CreateTarget(ctx, size, kAlbedoFormat, kColorUsage,
@@ -62,12 +64,19 @@ absl::StatusOr<AtlasTargets> AtlasTargets::Create(const VulkanContext& ctx, uint
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.normal_depth_readback_,
                                 CreateReadback(ctx, texels * 8, "normal_depth readback"));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_readback_, CreateReadback(ctx, texels * 4, "orm readback"));
+  if (emissive) {
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+        t.emissive_, CreateTarget(ctx, size, kEmissiveFormat, kColorUsage,
+                                  VK_IMAGE_ASPECT_COLOR_BIT, "atlas emissive"));
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.emissive_readback_,
+                                  CreateReadback(ctx, texels * 4, "emissive readback"));
+  }
   return t;
 }
 
 void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
   if (first_use) {
-    std::array<ImageTransition, 4> init{};
+    std::array<ImageTransition, 5> init{};
     const std::array<VkImage, 3> colors = {albedo_.image(), normal_depth_.image(), orm_.image()};
     for (size_t i = 0; i < colors.size(); ++i) {
       init[i].image = colors[i];
@@ -82,7 +91,13 @@ void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
     init[3].new_layout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
     init[3].dst_stage = kDepthStage;
     init[3].dst_access = kDepthAccess;
-    TransitionImages(cmd, init.data(), static_cast<uint32_t>(init.size()));
+    uint32_t count = 4;
+    if (has_emissive_) {
+      init[4] = init[0];
+      init[4].image = emissive_.image();
+      count = 5;
+    }
+    TransitionImages(cmd, init.data(), count);
   } else {
     // The previous chunk was a separate submission; its attachment writes
     // must be complete and visible before this chunk loads them.
@@ -95,11 +110,15 @@ void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
   const VkAttachmentLoadOp load =
       first_use ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
   // Clear values are the "empty texel" encodings of atlas_renderer.h.
-  std::array<VkRenderingAttachmentInfo, 3> colors{};
-  const std::array<VkImageView, 3> views = {albedo_.view(), normal_depth_.view(), orm_.view()};
-  const std::array<VkClearColorValue, 3> clears = {{
+  // The pipeline always has four colour attachments; without an emissive
+  // target the fourth is VK_NULL_HANDLE and its writes are discarded.
+  std::array<VkRenderingAttachmentInfo, 4> colors{};
+  const std::array<VkImageView, 4> views = {albedo_.view(), normal_depth_.view(), orm_.view(),
+                                            has_emissive_ ? emissive_.view() : VK_NULL_HANDLE};
+  const std::array<VkClearColorValue, 4> clears = {{
       {{0.0f, 0.0f, 0.0f, 0.0f}},
       {{0.5f, 0.5f, 0.5f, 1.0f}},
+      {{0.0f, 0.0f, 0.0f, 0.0f}},
       {{0.0f, 0.0f, 0.0f, 0.0f}},
   }};
   for (size_t i = 0; i < colors.size(); ++i) {
@@ -130,11 +149,12 @@ void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
 }
 
 void AtlasTargets::RecordReadback(VkCommandBuffer cmd) const {
-  const std::array<const GpuImage*, 3> images = {&albedo_, &normal_depth_, &orm_};
-  const std::array<const GpuBuffer*, 3> buffers = {&albedo_readback_, &normal_depth_readback_,
-                                                   &orm_readback_};
-  std::array<ImageTransition, 3> to_src{};
-  for (size_t i = 0; i < images.size(); ++i) {
+  const std::array<const GpuImage*, 4> images = {&albedo_, &normal_depth_, &orm_, &emissive_};
+  const std::array<const GpuBuffer*, 4> buffers = {&albedo_readback_, &normal_depth_readback_,
+                                                   &orm_readback_, &emissive_readback_};
+  const size_t count = has_emissive_ ? 4 : 3;
+  std::array<ImageTransition, 4> to_src{};
+  for (size_t i = 0; i < count; ++i) {
     to_src[i].image = images[i]->image();
     to_src[i].old_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     to_src[i].new_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
@@ -143,8 +163,8 @@ void AtlasTargets::RecordReadback(VkCommandBuffer cmd) const {
     to_src[i].dst_stage = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
     to_src[i].dst_access = VK_ACCESS_2_TRANSFER_READ_BIT;
   }
-  TransitionImages(cmd, to_src.data(), static_cast<uint32_t>(to_src.size()));
-  for (size_t i = 0; i < images.size(); ++i) {
+  TransitionImages(cmd, to_src.data(), static_cast<uint32_t>(count));
+  for (size_t i = 0; i < count; ++i) {
     // bufferRowLength 0 = tightly packed; image row 0 (clip y = -1, the
     // camera's up side) lands first, as AtlasImages wants.
     VkBufferImageCopy region{};
@@ -170,6 +190,12 @@ absl::Status AtlasTargets::CopyToHost(AtlasImages* out) const {
   std::memcpy(out->albedo_alpha.data(), albedo_readback_.mapped(), texels * 4);
   std::memcpy(out->normal_depth.data(), normal_depth_readback_.mapped(), texels * 8);
   std::memcpy(out->orm.data(), orm_readback_.mapped(), texels * 4);
+  out->emissive.clear();
+  if (has_emissive_) {
+    IMPOSTOR_GPU_RETURN_IF_ERROR(emissive_readback_.InvalidateForHostRead());
+    out->emissive.resize(texels * 4);
+    std::memcpy(out->emissive.data(), emissive_readback_.mapped(), texels * 4);
+  }
   return absl::OkStatus();
 }
 

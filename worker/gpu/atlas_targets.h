@@ -26,7 +26,10 @@ class AtlasTargets {
  public:
   // Allocates everything up front so an atlas too large for the device
   // fails (RESOURCE_EXHAUSTED) before any frame is rendered.
-  static absl::StatusOr<AtlasTargets> Create(const VulkanContext& ctx, uint32_t size);
+  // `emissive`: also the fourth (emissive) target; without it the fourth
+  // attachment of the bake pipeline is bound to no image (writes dropped).
+  static absl::StatusOr<AtlasTargets> Create(const VulkanContext& ctx, uint32_t size,
+                                             bool emissive = false);
 
   AtlasTargets(AtlasTargets&&) noexcept = default;
   AtlasTargets& operator=(AtlasTargets&&) noexcept = default;
@@ -52,10 +55,13 @@ class AtlasTargets {
   GpuImage albedo_;
   GpuImage normal_depth_;
   GpuImage orm_;
+  GpuImage emissive_;  // null image unless requested
   GpuImage depth_;
   GpuBuffer albedo_readback_;
   GpuBuffer normal_depth_readback_;
   GpuBuffer orm_readback_;
+  GpuBuffer emissive_readback_;
+  bool has_emissive_ = false;
 };
 
 }  // namespace impostor::gpu

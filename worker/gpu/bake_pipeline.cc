@@ -40,14 +40,27 @@ MaterialPushConstants MakeMaterialPushConstants(const SceneMaterial& m) {
   return p;
 }
 
+MaterialUniforms MakeMaterialUniforms(const SceneMaterial& m) {
+  MaterialUniforms u;
+  for (int slot = 0; slot < kTextureSlotCount; ++slot) {
+    const glm::mat3& t = m.uv[slot].transform;  // column-major: t[col][row]
+    u.row0[slot] = glm::vec4(t[0][0], t[1][0], t[2][0], m.uv[slot].tex_coord == 1 ? 1.0f : 0.0f);
+    u.row1[slot] = glm::vec4(t[0][1], t[1][1], t[2][1], 0.0f);
+  }
+  u.emissive = glm::vec4(m.emissive_factor * m.emissive_strength, 0.0f);
+  return u;
+}
+
 absl::StatusOr<BakePipeline> BakePipeline::Create(const VulkanContext& ctx) {
   const VkDevice device = ctx.device();
   BakePipeline out;
 
-  std::array<VkDescriptorSetLayoutBinding, kMaterialTextureCount> bindings{};
-  for (uint32_t i = 0; i < kMaterialTextureCount; ++i) {
+  std::array<VkDescriptorSetLayoutBinding, kMaterialTextureCount + 1> bindings{};
+  for (uint32_t i = 0; i < bindings.size(); ++i) {
     bindings[i].binding = i;
-    bindings[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    bindings[i].descriptorType = i == kMaterialUniformBinding
+                                     ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                     : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     bindings[i].descriptorCount = 1;
     bindings[i].stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
   }
@@ -90,11 +103,13 @@ absl::StatusOr<BakePipeline> BakePipeline::Create(const VulkanContext& ctx) {
   // The vertex buffer is Scene::vertices as is.
   const VkVertexInputBindingDescription binding{0, sizeof(SceneVertex),
                                                 VK_VERTEX_INPUT_RATE_VERTEX};
-  const std::array<VkVertexInputAttributeDescription, 4> attributes = {{
+  const std::array<VkVertexInputAttributeDescription, 6> attributes = {{
       {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(SceneVertex, position)},
       {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(SceneVertex, normal)},
       {2, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(SceneVertex, tangent)},
       {3, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(SceneVertex, uv)},
+      {4, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(SceneVertex, uv1)},
+      {5, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(SceneVertex, color)},
   }};
   VkPipelineVertexInputStateCreateInfo vertex_input{};
   vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
@@ -129,7 +144,7 @@ absl::StatusOr<BakePipeline> BakePipeline::Create(const VulkanContext& ctx) {
   depth.depthWriteEnable = VK_TRUE;
   depth.depthCompareOp = VK_COMPARE_OP_LESS;
 
-  std::array<VkPipelineColorBlendAttachmentState, 3> blend_attachments{};
+  std::array<VkPipelineColorBlendAttachmentState, 4> blend_attachments{};
   for (auto& a : blend_attachments) {
     a.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                        VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
@@ -148,7 +163,8 @@ absl::StatusOr<BakePipeline> BakePipeline::Create(const VulkanContext& ctx) {
   dynamic.dynamicStateCount = static_cast<uint32_t>(dynamic_states.size());
   dynamic.pDynamicStates = dynamic_states.data();
 
-  const std::array<VkFormat, 3> color_formats = {kAlbedoFormat, kNormalDepthFormat, kOrmFormat};
+  const std::array<VkFormat, 4> color_formats = {kAlbedoFormat, kNormalDepthFormat, kOrmFormat,
+                                                 kEmissiveFormat};
   VkPipelineRenderingCreateInfo rendering{};
   rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO;
   rendering.colorAttachmentCount = static_cast<uint32_t>(color_formats.size());

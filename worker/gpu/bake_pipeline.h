@@ -7,8 +7,10 @@
 // Resource interface:
 //   push constants: bytes 0..63 vertex (frame view-projection),
 //                   bytes 64..111 fragment (MaterialPushConstants)
-//   set 0: bindings 0..3 combined image samplers (base colour, metal-rough,
-//          normal, occlusion), fragment stage; one set per material.
+//   set 0: bindings 0..4 combined image samplers (base colour, metal-rough,
+//          normal, occlusion, emissive), binding 5 uniform buffer
+//          (MaterialUniforms: per-slot UV set and transform), fragment
+//          stage; one set per material.
 //
 // Ownership: owns the pipeline, pipeline layout and set layout; must be
 // destroyed before the VulkanContext. Thread-safety: immutable after Create.
@@ -30,7 +32,8 @@ namespace impostor::gpu {
 inline constexpr uint32_t kFramePushOffset = 0;
 inline constexpr uint32_t kFramePushSize = 64;  // mat4
 inline constexpr uint32_t kMaterialPushOffset = 64;
-inline constexpr uint32_t kMaterialTextureCount = 4;
+inline constexpr uint32_t kMaterialTextureCount = 5;
+inline constexpr uint32_t kMaterialUniformBinding = 5;
 
 // Mirrors `MaterialPush` in shaders/bake.frag (std430 push-constant layout).
 struct MaterialPushConstants {
@@ -49,6 +52,18 @@ static_assert(kMaterialPushOffset + sizeof(MaterialPushConstants) <= 128,
               "128 bytes is the guaranteed maxPushConstantsSize");
 
 MaterialPushConstants MakeMaterialPushConstants(const SceneMaterial& material);
+
+// Mirrors `MaterialUniform` in shaders/bake.frag (std140): per texture slot
+// (TextureSlot order) the two rows of its 2x3 affine UV transform, row0.w =
+// UV set; then the emissive factor x strength.
+struct MaterialUniforms {
+  glm::vec4 row0[kTextureSlotCount];
+  glm::vec4 row1[kTextureSlotCount];
+  glm::vec4 emissive{0.0f};
+};
+static_assert(sizeof(MaterialUniforms) == 176);
+
+MaterialUniforms MakeMaterialUniforms(const SceneMaterial& material);
 
 class BakePipeline {
  public:

@@ -25,6 +25,8 @@ namespace impostor::gpu {
 inline constexpr VkFormat kAlbedoFormat = VK_FORMAT_R8G8B8A8_SRGB;
 inline constexpr VkFormat kNormalDepthFormat = VK_FORMAT_R16G16B16A16_UNORM;
 inline constexpr VkFormat kOrmFormat = VK_FORMAT_R8G8B8A8_UNORM;
+// Emissive map: colour, like albedo.
+inline constexpr VkFormat kEmissiveFormat = VK_FORMAT_R8G8B8A8_SRGB;
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
 struct DeviceCandidate {

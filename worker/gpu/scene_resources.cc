@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <array>
+#include <cstring>
 #include <string>
 
 #include "absl/strings/str_cat.h"
@@ -71,6 +73,24 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(
       res->flat_normal_, uploader.UploadTexture(flat_normal, 1, 1, false, "default flat normal"));
 
+  // One MaterialUniforms block per material, each at a multiple of the
+  // device's uniform offset alignment (at most 256 by the spec).
+  const uint32_t material_count = static_cast<uint32_t>(scene.materials.size());
+  const VkDeviceSize align =
+      std::max<VkDeviceSize>(ctx.limits().minUniformBufferOffsetAlignment, 16);
+  const VkDeviceSize uniform_stride = (sizeof(MaterialUniforms) + align - 1) / align * align;
+  {
+    std::vector<uint8_t> blocks(uniform_stride * material_count, 0);
+    for (uint32_t m = 0; m < material_count; ++m) {
+      const MaterialUniforms u = MakeMaterialUniforms(scene.materials[m]);
+      std::memcpy(blocks.data() + m * uniform_stride, &u, sizeof(u));
+    }
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+        res->material_uniforms_,
+        uploader.UploadBuffer(blocks.data(), blocks.size(), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                              "material uniforms"));
+  }
+
   res->textures_.reserve(scene.textures.size());
   for (size_t i = 0; i < scene.textures.size(); ++i) {
     const SceneTexture& t = scene.textures[i];
@@ -84,14 +104,15 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
   IMPOSTOR_GPU_RETURN_IF_ERROR(uploader.Finish());
   res->uploaded_bytes_ = uploader.uploaded_bytes();
 
-  const uint32_t material_count = static_cast<uint32_t>(scene.materials.size());
-  const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                                       material_count * kMaterialTextureCount};
+  const std::array<VkDescriptorPoolSize, 2> pool_sizes = {{
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, material_count * kMaterialTextureCount},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, material_count},
+  }};
   VkDescriptorPoolCreateInfo pool_info{};
   pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
   pool_info.maxSets = material_count;
-  pool_info.poolSizeCount = 1;
-  pool_info.pPoolSizes = &pool_size;
+  pool_info.poolSizeCount = static_cast<uint32_t>(pool_sizes.size());
+  pool_info.pPoolSizes = pool_sizes.data();
   VkDescriptorPool pool = VK_NULL_HANDLE;
   IMPOSTOR_VK_RETURN_IF_ERROR(vkCreateDescriptorPool(ctx.device(), &pool_info, nullptr, &pool));
   res->descriptor_pool_ = UniqueDescriptorPool(ctx.device(), pool);
@@ -111,11 +132,11 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
     // Slot order matches the bindings in shaders/bake.frag.
     const std::array<int, kMaterialTextureCount> texture_of = {
         material.base_color_texture, material.metallic_roughness_texture, material.normal_texture,
-        material.occlusion_texture};
+        material.occlusion_texture, material.emissive_texture};
     std::array<VkDescriptorImageInfo, kMaterialTextureCount> images{};
     for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
       const int t = texture_of[slot];
-      const bool color = slot == 0;
+      const bool color = slot == kSlotBaseColor || slot == kSlotEmissive;
       if (t < 0) {
         const UploadedTexture& fallback = slot == 2 ? res->flat_normal_ : res->white_;
         IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler, res->SamplerFor(ctx, 10497, 10497));
@@ -124,20 +145,27 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
         const SceneTexture& source = scene.textures[t];
         IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler,
                                       res->SamplerFor(ctx, source.wrap_s, source.wrap_t));
-        // Base colour decodes sRGB to linear in the sampler; the other maps
-        // are data and read raw.
+        // Base colour and emissive decode sRGB to linear in the sampler; the
+        // other maps are data and read raw.
         images[slot].imageView = color ? res->textures_[t].srgb_view : res->textures_[t].unorm_view;
       }
       images[slot].imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
     }
-    std::array<VkWriteDescriptorSet, kMaterialTextureCount> writes{};
-    for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
+    const VkDescriptorBufferInfo uniforms{res->material_uniforms_.buffer(), m * uniform_stride,
+                                          sizeof(MaterialUniforms)};
+    std::array<VkWriteDescriptorSet, kMaterialTextureCount + 1> writes{};
+    for (uint32_t slot = 0; slot < writes.size(); ++slot) {
       writes[slot].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
       writes[slot].dstSet = res->material_sets_[m];
       writes[slot].dstBinding = slot;
       writes[slot].descriptorCount = 1;
-      writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-      writes[slot].pImageInfo = &images[slot];
+      if (slot == kMaterialUniformBinding) {
+        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        writes[slot].pBufferInfo = &uniforms;
+      } else {
+        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+        writes[slot].pImageInfo = &images[slot];
+      }
     }
     vkUpdateDescriptorSets(ctx.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
                            nullptr);

@@ -1,6 +1,6 @@
 // Device-side copy of one Scene for one Render(): vertex and index buffers,
 // textures (with mips), samplers, and one descriptor set per material whose
-// four texture slots always hold something (1x1 white or flat-normal
+// five texture slots always hold something (1x1 white or flat-normal
 // defaults stand in for missing textures).
 //
 // Ownership: owns every resource it created; destruction frees the
@@ -46,6 +46,7 @@ class SceneResources {
 
   GpuBuffer vertices_;
   GpuBuffer indices_;
+  GpuBuffer material_uniforms_;  // MaterialUniforms per material, aligned
   std::vector<UploadedTexture> textures_;
   UploadedTexture white_;        // base colour, metal-rough, occlusion default
   UploadedTexture flat_normal_;  // (128,128,255): tangent-space +Z

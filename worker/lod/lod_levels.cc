@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <span>
 
 #include <glm/vec4.hpp>
 
@@ -42,11 +43,25 @@ absl::StatusOr<MeshLevel> BuildMeshLevel(const LodSource& source, float ratio,
     for (uint32_t i : prim.indices) merged.push_back(base + i);
   }
   start.back() = static_cast<uint32_t>(positions.size() / 3);
-  const SimplifyResult r = SimplifyTriangles(merged, positions, ratio, {.lock_border = true, .weld_ranges = start});
+  SimplifyResult r = SimplifyTriangles(merged, positions, ratio,
+                                       {.lock_border = true, .weld_ranges = start, .allow_sloppy = false});
   level.error = r.error;
-  level.sloppy = r.method == SimplifyMethod::kSloppy;
   level.unlocked = r.method == SimplifyMethod::kQuadric;
   level.welded = r.method == SimplifyMethod::kWelded;
+  if (!r.reached) {
+    // Sloppy fallback per primitive (scene-space positions, its own range),
+    // each to the same ratio.
+    level.sloppy = true;
+    level.error = 0;
+    r.indices.clear();
+    for (size_t k = 0; k < source.primitives.size(); ++k) {
+      const std::span<const float> p(positions.data() + size_t{start[k]} * 3,
+                                     size_t{start[k + 1] - start[k]} * 3);
+      const SimplifyResult part = SimplifyTriangles(source.primitives[k].indices, p, ratio, {.lock_border = true});
+      level.error = std::max(level.error, part.error);
+      for (uint32_t i : part.indices) r.indices.push_back(start[k] + i);
+    }
+  }
   // Split the triangles back by the vertex range they lie in. Collapses keep
   // a seam's sides apart, so a triangle should never span two ranges; one
   // that does is dropped rather than written with foreign indices.
@@ -68,6 +83,22 @@ absl::StatusOr<MeshLevel> BuildMeshLevel(const LodSource& source, float ratio,
   level.glb = std::move(*glb);
   level.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return level;
+}
+
+absl::StatusOr<std::vector<ChainLevel>> BuildMeshLevels(const LodSource& source, const std::vector<float>& ratios,
+                                                        const std::vector<std::string>& texture_files) {
+  std::vector<ChainLevel> levels;
+  float previous = 0;
+  for (float ratio : ratios) {
+    auto built = BuildMeshLevel(source, ratio, texture_files);
+    if (!built.ok()) return built.status();
+    ChainLevel level{.mesh = std::move(*built), .ratio = ratio};
+    level.measured_error = level.mesh.error;
+    level.mesh.error = std::max(level.mesh.error, previous);
+    previous = level.mesh.error;
+    levels.push_back(std::move(level));
+  }
+  return levels;
 }
 
 }  // namespace impostor

@@ -33,6 +33,19 @@ struct MeshLevel {
 absl::StatusOr<MeshLevel> BuildMeshLevel(const LodSource& source, float ratio,
                                          const std::vector<std::string>& texture_files);
 
+// Every level of a chain: ratios[i] for level i (ratios[0] = 1 for LOD0,
+// then decreasing). Each level's `error` is made non-decreasing
+// (max(measured, the finer level's)): meshoptimizer's figures for different
+// methods (quadric, sloppy) are not on one scale, and a coarser level is
+// never assumed better than a finer one; `measured_error` keeps the raw value.
+struct ChainLevel {
+  MeshLevel mesh;
+  float ratio = 1;
+  float measured_error = 0;
+};
+absl::StatusOr<std::vector<ChainLevel>> BuildMeshLevels(const LodSource& source, const std::vector<float>& ratios,
+                                                        const std::vector<std::string>& texture_files);
+
 }  // namespace impostor
 
 #endif  // IMPOSTOR_WORKER_LOD_LOD_LEVELS_H_

@@ -11,9 +11,10 @@
 namespace impostor {
 namespace {
 
-// Count-driven simplification: the error limit is out of reach so only the
-// target count stops the collapse.
-constexpr float kNoErrorLimit = std::numeric_limits<float>::max();
+// Count-driven simplification: an error limit of the whole mesh extent is
+// never the one that stops the collapse. (Not FLT_MAX: meshoptimizer 0.18
+// squares it, and the infinity derails meshopt_simplifySloppy's search.)
+constexpr float kNoErrorLimit = 1.0f;
 
 }  // namespace
 
@@ -23,6 +24,7 @@ SimplifyResult SimplifyTriangles(std::span<const uint32_t> indices, std::span<co
   const size_t triangles = indices.size() / 3;
   if (ratio >= 1.0f || triangles <= 1) {
     out.indices.assign(indices.begin(), indices.end());
+    out.reached = true;
     return out;
   }
   const size_t vertex_count = positions.size() / 3;
@@ -53,12 +55,18 @@ SimplifyResult SimplifyTriangles(std::span<const uint32_t> indices, std::span<co
   if (options.lock_border) {
     const size_t n = run_quadric(meshopt_SimplifyLockBorder);
     keep(n, SimplifyMethod::kLockedBorder);
-    if (reached(n)) return out;
+    if (reached(n)) {
+      out.reached = true;
+      return out;
+    }
   }
   {
     const size_t n = run_quadric(0);
     keep(n, SimplifyMethod::kQuadric);
-    if (reached(n)) return out;
+    if (reached(n)) {
+      out.reached = true;
+      return out;
+    }
   }
   {
     // Seams everywhere (flat-shaded low-poly meshes: every corner its own
@@ -79,42 +87,47 @@ SimplifyResult SimplifyTriangles(std::span<const uint32_t> indices, std::span<co
     const size_t n = meshopt_simplify(buffer.data(), welded.data(), welded.size(), positions.data(), vertex_count,
                                       sizeof(float) * 3, target_indices, kNoErrorLimit, 0, &error);
     keep(n, SimplifyMethod::kWelded);
-    if (reached(n)) return out;
+    if (reached(n)) {
+      out.reached = true;
+      return out;
+    }
   }
+  if (!options.allow_sloppy) return out;
   // meshopt_simplifySloppy clusters vertices on a grid and may land on
   // either side of the target; it can also drop everything for tiny targets.
   auto run_sloppy = [&](size_t target) {
     return meshopt_simplifySloppy(buffer.data(), indices.data(), indices.size(), positions.data(), vertex_count,
                                   sizeof(float) * 3, target, kNoErrorLimit, &error);
   };
-  size_t n = run_sloppy(target_indices);
-  // meshoptimizer 0.18's grid search can undershoot a small target badly
-  // (a 78-triangle target giving 4): search the target it is given for the
-  // largest result that does not exceed ours.
-  if (n < target_indices * 9 / 10) {
-    size_t lo = target_indices, hi = indices.size();
-    for (int step = 0; step < 16 && lo + 3 < hi; ++step) {
-      const size_t mid = (lo + hi) / 2 / 3 * 3;
-      const size_t m = run_sloppy(mid);
-      if (m <= target_indices) {
-        lo = mid;
-        if (m > n) n = m;
-      } else {
-        hi = mid;
-      }
-    }
-    n = run_sloppy(lo);
-  }
   // Distance from the target as a ratio: sloppy may land well below it.
   const auto miss = [&](size_t index_count) {
     return std::abs(std::log(static_cast<double>(index_count) / static_cast<double>(target_indices)));
   };
+  // meshoptimizer 0.18's grid search lands wherever its grid allows, and
+  // not monotonically in the target it is given (a 78-triangle target may
+  // give 4, 27 or 92): scan targets up to 4x ours for the result closest to
+  // ours.
+  size_t n = run_sloppy(target_indices), best_target = target_indices;
+  if (n < target_indices * 9 / 10 || n > target_indices * 11 / 10) {
+    const size_t top = std::min(indices.size(), target_indices * 4);
+    constexpr int kSteps = 48;
+    for (int step = 1; step <= kSteps; ++step) {
+      const size_t t = (target_indices + (top - target_indices) * step / kSteps) / 3 * 3;
+      const size_t m = run_sloppy(t);
+      if (m > 0 && (n == 0 || miss(m) < miss(n))) {
+        n = m;
+        best_target = t;
+      }
+    }
+    n = run_sloppy(best_target);
+  }
   if (n > 0 && (out.indices.empty() || miss(n) < miss(out.indices.size()))) {
     out.indices.assign(buffer.begin(), buffer.begin() + static_cast<ptrdiff_t>(n));
     out.error = error * scale;
     out.method = SimplifyMethod::kSloppy;
   }
   if (out.indices.empty()) out.indices.assign(indices.begin(), indices.end());
+  out.reached = reached(out.indices.size());
   return out;
 }
 

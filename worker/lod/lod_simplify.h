@@ -42,6 +42,11 @@ struct SimplifyOptions {
   // the vertex count (empty = one range). Keeps each primitive's triangles on
   // its own vertices when several are simplified as one buffer.
   std::span<const uint32_t> weld_ranges;
+  // Try meshopt_simplifySloppy when no quadric pass reaches the target.
+  // Vertex clustering merges vertices across weld_ranges, so a caller
+  // simplifying several primitives as one buffer turns it off and runs the
+  // sloppy fallback per primitive.
+  bool allow_sloppy = true;
 };
 
 struct SimplifyResult {
@@ -50,6 +55,8 @@ struct SimplifyResult {
   // error x meshopt_simplifyScale).
   float error = 0;
   SimplifyMethod method = SimplifyMethod::kNone;
+  // The result has at most target * (1 + tolerance) triangles.
+  bool reached = false;
 };
 
 // Simplifies `indices` (a triangle list, size a multiple of 3) over

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -127,6 +129,17 @@ BoundingSphere ComputeBoundingSphere(const Scene& scene) {
   positions.reserve(scene.vertices.size());
   for (const SceneVertex& v : scene.vertices) positions.push_back(v.position);
   return ComputeBoundingSphere(positions);
+}
+
+BoundingBox ComputeBoundingBox(const Scene& scene) {
+  BoundingBox box{glm::vec3(std::numeric_limits<float>::infinity()),
+                  glm::vec3(-std::numeric_limits<float>::infinity())};
+  for (const SceneVertex& v : scene.vertices) {
+    if (!std::isfinite(v.position.x) || !std::isfinite(v.position.y) || !std::isfinite(v.position.z)) continue;
+    box.min = glm::min(box.min, v.position);
+    box.max = glm::max(box.max, v.position);
+  }
+  return box;
 }
 
 }  // namespace impostor

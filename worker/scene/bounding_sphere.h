@@ -27,6 +27,14 @@ BoundingSphere ComputeBoundingSphere(std::span<const glm::vec3> points);
 // The same, over all vertex positions of `scene`.
 BoundingSphere ComputeBoundingSphere(const Scene& scene);
 
+// Axis-aligned box of the finite vertex positions of `scene`; min > max
+// (+inf, -inf) when there are none.
+struct BoundingBox {
+  glm::vec3 min{0.0f};
+  glm::vec3 max{0.0f};
+};
+BoundingBox ComputeBoundingBox(const Scene& scene);
+
 }  // namespace impostor
 
 #endif  // IMPOSTOR_WORKER_SCENE_BOUNDING_SPHERE_H_

@@ -37,8 +37,13 @@ int WrapMode(int mode) {
 }
 
 // KHR_texture_transform of a texture reference, as the 3x3 matrix
-// T * R * S the extension defines (column-major for glm).
-std::optional<glm::mat3> TextureTransform(const tinygltf::ExtensionMap& extensions) {
+// T * R * S the extension defines (column-major for glm), and its texCoord
+// override (-1 when absent).
+struct TextureTransformExt {
+  glm::mat3 matrix{1.0f};
+  int tex_coord = -1;
+};
+std::optional<TextureTransformExt> TextureTransform(const tinygltf::ExtensionMap& extensions) {
   auto it = extensions.find("KHR_texture_transform");
   if (it == extensions.end() || !it->second.IsObject()) return std::nullopt;
   const tinygltf::Value& ext = it->second;
@@ -53,8 +58,10 @@ std::optional<glm::mat3> TextureTransform(const tinygltf::ExtensionMap& extensio
   vec2("offset", &offset);
   vec2("scale", &scale);
   if (ext.Get("rotation").IsNumber()) rotation = ext.Get("rotation").GetNumberAsDouble();
-  if (ext.Has("texCoord")) {
-    spdlog::debug("gltf: KHR_texture_transform texCoord override ignored (TEXCOORD_0 used)");
+  TextureTransformExt out;
+  if (ext.Get("texCoord").IsNumber()) {
+    const double t = ext.Get("texCoord").GetNumberAsDouble();
+    out.tex_coord = t >= 0.0 && t <= 1000.0 ? static_cast<int>(t) : 1000;
   }
   const float c = std::cos(rotation), s = std::sin(rotation);
   // u' = ox + c*sx*u + s*sy*v ; v' = oy - s*sx*u + c*sy*v
@@ -62,10 +69,11 @@ std::optional<glm::mat3> TextureTransform(const tinygltf::ExtensionMap& extensio
               glm::vec3(offset, 1.0f));
   for (int col = 0; col < 3; ++col) {
     for (int row = 0; row < 3; ++row) {
-      if (!std::isfinite(m[col][row])) return std::nullopt;
+      if (!std::isfinite(m[col][row])) m = glm::mat3(1.0f);
     }
   }
-  return m;
+  out.matrix = m;
+  return out;
 }
 
 }  // namespace
@@ -89,7 +97,6 @@ absl::StatusOr<int> MaterialTable::Use(int gltf_index) {
 
 absl::StatusOr<int> MaterialTable::Convert(int gltf_index) {
   SceneMaterial out;  // defaults are the glTF default material
-  std::optional<glm::mat3> uv_transform;
   if (gltf_index >= 0) {
     const tinygltf::Material& m = model_.materials[gltf_index];
     const std::string what = MaterialName(model_, gltf_index);
@@ -111,6 +118,18 @@ absl::StatusOr<int> MaterialTable::Convert(int gltf_index) {
     out.occlusion_strength = static_cast<float>(m.occlusionTexture.strength);
     out.alpha_cutoff = static_cast<float>(m.alphaCutoff);
     out.double_sided = m.doubleSided;
+    if (m.emissiveFactor.size() == 3 && AllFinite(m.emissiveFactor)) {
+      out.emissive_factor =
+          glm::vec3(m.emissiveFactor[0], m.emissiveFactor[1], m.emissiveFactor[2]);
+    }
+    if (auto it = m.extensions.find("KHR_materials_emissive_strength");
+        it != m.extensions.end() && it->second.IsObject() &&
+        it->second.Get("emissiveStrength").IsNumber()) {
+      const double strength = it->second.Get("emissiveStrength").GetNumberAsDouble();
+      if (std::isfinite(strength) && strength >= 0.0) {
+        out.emissive_strength = static_cast<float>(strength);
+      }
+    }
     if (m.alphaMode == "MASK") {
       out.alpha_mode = AlphaMode::kMask;
     } else if (m.alphaMode == "BLEND") {
@@ -118,34 +137,71 @@ absl::StatusOr<int> MaterialTable::Convert(int gltf_index) {
     } else if (m.alphaMode != "OPAQUE") {
       spdlog::debug("gltf: {}: unknown alphaMode '{}', using OPAQUE", what, m.alphaMode);
     }
-    absl::StatusOr<int> t = UseTexture(pbr.baseColorTexture, /*srgb=*/true, gltf_index);
+    absl::StatusOr<int> t = UseSlot(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
+                                    pbr.baseColorTexture.extensions, /*srgb=*/true, gltf_index,
+                                    kSlotBaseColor, &out);
     if (!t.ok()) return t.status();
     out.base_color_texture = *t;
-    t = UseTexture(pbr.metallicRoughnessTexture, false, gltf_index);
+    t = UseSlot(pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
+                pbr.metallicRoughnessTexture.extensions, false, gltf_index,
+                kSlotMetallicRoughness, &out);
     if (!t.ok()) return t.status();
     out.metallic_roughness_texture = *t;
-    t = UseTexture(m.normalTexture.index, m.normalTexture.texCoord, false, gltf_index, "normal");
+    t = UseSlot(m.normalTexture.index, m.normalTexture.texCoord, m.normalTexture.extensions, false,
+                gltf_index, kSlotNormal, &out);
     if (!t.ok()) return t.status();
     out.normal_texture = *t;
-    t = UseTexture(m.occlusionTexture.index, m.occlusionTexture.texCoord, false, gltf_index,
-                   "occlusion");
+    t = UseSlot(m.occlusionTexture.index, m.occlusionTexture.texCoord,
+                m.occlusionTexture.extensions, false, gltf_index, kSlotOcclusion, &out);
     if (!t.ok()) return t.status();
     out.occlusion_texture = *t;
-    // One UV set per vertex: the base colour texture's transform wins; the
-    // other maps of the same material are assumed to share it.
-    if (pbr.baseColorTexture.index >= 0) {
-      uv_transform = TextureTransform(pbr.baseColorTexture.extensions);
+    t = UseSlot(m.emissiveTexture.index, m.emissiveTexture.texCoord, m.emissiveTexture.extensions,
+                /*srgb=*/true, gltf_index, kSlotEmissive, &out);
+    if (!t.ok()) return t.status();
+    out.emissive_texture = *t;
+    if (out.alpha_mode == AlphaMode::kMask && out.base_color_texture >= 0 &&
+        !scene_->textures[out.base_color_texture].has_alpha_channel) {
+      AddWarning(absl::StrCat(what, " is MASK but its base colour image '",
+                              scene_->textures[out.base_color_texture].name,
+                              "' has no alpha channel: the cutout comes from baseColorFactor "
+                              "and vertex colour alone"));
     }
   }
+  for (int slot = 0; slot < kTextureSlotCount; ++slot) {
+    if (out.uv[slot].tex_coord == 1) uses_uv1_ = true;
+  }
   scene_->materials.push_back(std::move(out));
-  uv_transforms_.push_back(uv_transform);
   return static_cast<int>(scene_->materials.size() - 1);
 }
 
-absl::StatusOr<int> MaterialTable::UseTexture(const tinygltf::TextureInfo& info, bool srgb,
-                                              int material) {
-  return UseTexture(info.index, info.texCoord, srgb, material,
-                    srgb ? "baseColor" : "metallicRoughness");
+void MaterialTable::AddWarning(std::string warning) {
+  for (const std::string& w : scene_->warnings) {
+    if (w == warning) return;
+  }
+  spdlog::warn("gltf: warning=\"{}\"", warning);
+  scene_->warnings.push_back(std::move(warning));
+}
+
+absl::StatusOr<int> MaterialTable::UseSlot(int texture, int tex_coord,
+                                           const tinygltf::ExtensionMap& extensions, bool srgb,
+                                           int material, TextureSlot slot, SceneMaterial* out) {
+  static constexpr const char* kSlotNames[] = {"baseColor", "metallicRoughness", "normal",
+                                               "occlusion", "emissive"};
+  if (texture == -1) return -1;
+  const std::string what =
+      absl::StrCat(MaterialName(model_, material), " ", kSlotNames[slot], "Texture");
+  SlotUv& uv = out->uv[slot];
+  uv.tex_coord = tex_coord;
+  if (std::optional<TextureTransformExt> transform = TextureTransform(extensions)) {
+    uv.transform = transform->matrix;
+    if (transform->tex_coord >= 0) uv.tex_coord = transform->tex_coord;
+  }
+  if (uv.tex_coord != 0 && uv.tex_coord != 1) {
+    AddWarning(absl::StrCat(what, " uses TEXCOORD_", uv.tex_coord,
+                            "; only sets 0 and 1 are baked, TEXCOORD_0 used instead"));
+    uv.tex_coord = 0;
+  }
+  return UseTexture(texture, uv.tex_coord, srgb, material, kSlotNames[slot]);
 }
 
 absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool srgb, int material,
@@ -155,15 +211,15 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool s
   if (texture < 0 || static_cast<size_t>(texture) >= model_.textures.size()) {
     return absl::InvalidArgumentError(absl::StrCat(what, ": texture ", texture, " does not exist"));
   }
-  if (tex_coord != 0) {
-    spdlog::debug("gltf: {} uses TEXCOORD_{}; falling back to TEXCOORD_0", what, tex_coord);
-  }
+  (void)tex_coord;  // resolved by UseSlot
   const tinygltf::Texture& tex = model_.textures[texture];
   if (tex.source == -1) {
     // KHR_texture_basisu / EXT_texture_webp put the image in an extension
     // this loader cannot decode; without a fallback source the map is
     // dropped (the material factor alone is used).
-    spdlog::debug("gltf: {}: texture {} has no PNG/JPEG source; ignored", what, texture);
+    AddWarning(absl::StrCat(what, ": texture ", texture,
+                            " has no PNG/JPEG source (KTX2/WebP only); the map is dropped and "
+                            "the material's factors are used"));
     return -1;
   }
   if (tex.source < 0 || static_cast<size_t>(tex.source) >= model_.images.size()) {
@@ -201,6 +257,7 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool s
                        limits_.max_texture_bytes, " bytes"));
     }
     texture_bytes_ += bytes;
+    out.has_alpha_channel = same.has_alpha_channel;
     out.rgba8 = same.rgba8;  // same image, other sampler or colour space
   } else {
     if (image.image.empty()) {
@@ -216,7 +273,8 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool s
     if (decoded.status().code() == absl::StatusCode::kUnimplemented) {
       // e.g. a KTX2 image named as `source` (KHR_texture_basisu not marked
       // required): bake with the material factors alone rather than refuse.
-      spdlog::warn("gltf: {}; texture ignored", std::string(decoded.status().message()));
+      AddWarning(absl::StrCat(std::string(decoded.status().message()),
+                              "; the map is dropped and the material's factors are used"));
       textures_[key] = -1;
       return -1;
     }
@@ -225,6 +283,7 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool s
     out.width = decoded->width;
     out.height = decoded->height;
     out.rgba8 = std::move(decoded->rgba8);
+    out.has_alpha_channel = decoded->source_channels == 2 || decoded->source_channels == 4;
     decoded_[tex.source] = static_cast<int>(scene_->textures.size());
     spdlog::debug("gltf: decoded {} ({}x{})", image_what, out.width, out.height);
   }

@@ -34,16 +34,19 @@ class MaterialTable {
   // dropped with a warning: the material keeps its factors.
   absl::StatusOr<int> Use(int gltf_index);
 
-  // UV transform (KHR_texture_transform of the base colour texture) to apply
-  // to TEXCOORD_0 of primitives drawn with scene material `scene_index`;
-  // nullopt for none.
-  const std::optional<glm::mat3>& UvTransform(int scene_index) const {
-    return uv_transforms_[scene_index];
-  }
+  // Whether any material converted so far reads TEXCOORD_1.
+  bool uses_uv1() const { return uses_uv1_; }
+
+  // Appends `warning` to scene->warnings unless it is already there.
+  void AddWarning(std::string warning);
 
  private:
   absl::StatusOr<int> Convert(int gltf_index);
-  absl::StatusOr<int> UseTexture(const tinygltf::TextureInfo& info, bool srgb, int material);
+  // One texture reference of a material: resolves its UV set (texCoord,
+  // KHR_texture_transform with its texCoord override) into out->uv[slot]
+  // and returns the scene texture (-1 when none or dropped).
+  absl::StatusOr<int> UseSlot(int texture, int tex_coord, const tinygltf::ExtensionMap& extensions,
+                              bool srgb, int material, TextureSlot slot, SceneMaterial* out);
   absl::StatusOr<int> UseTexture(int texture, int tex_coord, bool srgb, int material,
                                  const char* slot);
 
@@ -51,7 +54,7 @@ class MaterialTable {
   const GltfLoadLimits& limits_;
   Scene* scene_;
   std::map<int, int> materials_;  // glTF material (-1 = default) -> scene index
-  std::vector<std::optional<glm::mat3>> uv_transforms_;  // by scene material
+  bool uses_uv1_ = false;
   // (image, wrap_s, wrap_t, srgb) -> scene texture
   std::map<std::tuple<int, int, int, bool>, int> textures_;
   std::map<int, int> decoded_;  // image -> a scene texture holding its pixels

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -13,6 +14,7 @@
 #include <memory>
 #include <numeric>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -29,7 +31,9 @@ struct LocalPrimitive {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;
   std::vector<glm::vec4> tangents;
-  std::vector<glm::vec2> uvs;
+  std::vector<glm::vec2> uvs;     // TEXCOORD_0
+  std::vector<glm::vec2> uvs1;    // TEXCOORD_1
+  std::vector<glm::vec4> colors;  // COLOR_0, clamped to [0, 1]
   std::vector<uint32_t> indices;  // triangle list
   int material = 0;               // scene material
 };
@@ -95,7 +99,23 @@ class Builder {
       if (absl::Status s = Visit(root); !s.ok()) return s;
     }
     if (scene_.indices.empty()) {
+      if (!skipped_non_triangles_.empty()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "no triangles in the default scene: only points/lines, which an impostor cannot "
+            "bake (",
+            skipped_non_triangles_, ")"));
+      }
       return absl::InvalidArgumentError("no triangles in the default scene");
+    }
+    if (!skipped_non_triangles_.empty()) {
+      materials_.AddWarning(absl::StrCat("points/lines primitives skipped (",
+                                         skipped_non_triangles_,
+                                         "): impostors bake triangles only"));
+    }
+    if (skinned_nodes_ > 0) {
+      materials_.AddWarning(absl::StrCat(skinned_nodes_,
+                                         " skinned mesh node(s) baked in their bind pose "
+                                         "(joints and animations ignored)"));
     }
     return std::move(scene_);
   }
@@ -258,10 +278,17 @@ class Builder {
           return absl::InvalidArgumentError(
               absl::StrCat(NodeName(item.node), " uses mesh ", node.mesh, " which does not exist"));
         }
-        absl::StatusOr<std::vector<glm::dmat4>> instances = Instances(item.node, world);
+        // glTF: a skinned mesh's vertices are placed by its joints, and the
+        // transform of the node holding it is ignored; at the bind pose
+        // (joint world matrix = inverse bind matrix^-1) the skinned position
+        // is the stored position, so the bind pose is the mesh as stored.
+        const bool skinned = node.skin >= 0;
+        if (skinned) ++skinned_nodes_;
+        absl::StatusOr<std::vector<glm::dmat4>> instances =
+            Instances(item.node, skinned ? glm::dmat4(1.0) : world);
         if (!instances.ok()) return instances.status();
         for (const glm::dmat4& m : *instances) {
-          if (absl::Status s = DrawMesh(node.mesh, m); !s.ok()) return s;
+          if (absl::Status s = DrawMesh(item.node, node.mesh, m); !s.ok()) return s;
         }
       }
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) {
@@ -323,9 +350,20 @@ class Builder {
     return out;
   }
 
-  absl::Status DrawMesh(int mesh, const glm::dmat4& world) {
+  // Default morph weights of `mesh` drawn by `node`: node.weights, else
+  // mesh.weights, else none (all zero).
+  const std::vector<double>& MorphWeights(int node, int mesh) const {
+    const std::vector<double>& w = model_.nodes[node].weights;
+    return w.empty() ? model_.meshes[mesh].weights : w;
+  }
+
+  absl::Status DrawMesh(int node, int mesh, const glm::dmat4& world) {
+    // Primitives are shared between nodes unless the node has its own
+    // morph weights.
+    const int weights_key = model_.nodes[node].weights.empty() ? -1 : node;
     for (size_t p = 0; p < model_.meshes[mesh].primitives.size(); ++p) {
-      absl::StatusOr<const LocalPrimitive*> prim = Primitive(mesh, static_cast<int>(p));
+      absl::StatusOr<const LocalPrimitive*> prim =
+          Primitive(node, weights_key, mesh, static_cast<int>(p));
       if (!prim.ok()) return prim.status();
       if (*prim == nullptr) continue;
       if (absl::Status s = Emit(**prim, world); !s.ok()) return s;
@@ -333,23 +371,28 @@ class Builder {
     return absl::OkStatus();
   }
 
-  absl::StatusOr<const LocalPrimitive*> Primitive(int mesh, int prim) {
-    const auto key = std::make_pair(mesh, prim);
+  absl::StatusOr<const LocalPrimitive*> Primitive(int node, int weights_key, int mesh, int prim) {
+    const auto key = std::make_tuple(weights_key, mesh, prim);
     if (auto it = cache_.find(key); it != cache_.end()) return it->second.get();
-    absl::StatusOr<std::unique_ptr<LocalPrimitive>> read = ReadPrimitive(mesh, prim);
+    absl::StatusOr<std::unique_ptr<LocalPrimitive>> read =
+        ReadPrimitive(mesh, prim, MorphWeights(node, mesh));
     if (!read.ok()) return read.status();
     return (cache_[key] = std::move(*read)).get();
   }
 
   // Reads and validates one primitive in mesh space; nullptr when it draws
   // no triangles (points, lines, no POSITION, empty).
-  absl::StatusOr<std::unique_ptr<LocalPrimitive>> ReadPrimitive(int mesh, int prim_index) {
+  absl::StatusOr<std::unique_ptr<LocalPrimitive>> ReadPrimitive(
+      int mesh, int prim_index, const std::vector<double>& morph_weights) {
     const tinygltf::Primitive& prim = model_.meshes[mesh].primitives[prim_index];
     const std::string what =
         absl::StrCat("mesh ", mesh, " '", model_.meshes[mesh].name, "' primitive ", prim_index);
     const int mode = prim.mode == -1 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode >= TINYGLTF_MODE_POINTS && mode <= TINYGLTF_MODE_LINE_STRIP) {
       spdlog::debug("gltf: {}: mode {} (points/lines) skipped", what, mode);
+      if (!skipped_non_triangles_.empty()) skipped_non_triangles_ += ", ";
+      absl::StrAppend(&skipped_non_triangles_, what, " mode ", mode,
+                      mode == TINYGLTF_MODE_POINTS ? " POINTS" : " LINES");
       return nullptr;
     }
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
@@ -376,6 +419,12 @@ class Builder {
         return absl::InvalidArgumentError(absl::StrCat(
             what, " POSITION (accessor ", position_accessor, ") has non-finite values"));
       }
+    }
+
+    std::vector<glm::vec3> normal_deltas;  // summed weighted NORMAL targets
+    if (absl::Status s = ApplyMorphTargets(prim, what, morph_weights, out.get(), &normal_deltas);
+        !s.ok()) {
+      return s;
     }
 
     std::vector<uint32_t> indices;
@@ -432,6 +481,9 @@ class Builder {
       out->normals = ComputeSmoothNormals(out->positions, out->indices);
     } else {
       out->normals = Unflatten<glm::vec3>(*normals);
+      if (!normal_deltas.empty()) {
+        for (size_t i = 0; i < n; ++i) out->normals[i] += normal_deltas[i];
+      }
       for (size_t i = 0; i < n; ++i) {
         const float len = glm::length(out->normals[i]);
         if (len > 0.0f && std::isfinite(len)) {
@@ -450,8 +502,32 @@ class Builder {
     for (glm::vec2& uv : out->uvs) {
       if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) uv = glm::vec2(0.0f);
     }
-    if (const std::optional<glm::mat3>& transform = materials_.UvTransform(*material)) {
-      for (glm::vec2& uv : out->uvs) uv = glm::vec2(*transform * glm::vec3(uv, 1.0f));
+    absl::StatusOr<std::vector<float>> uvs1 = read_optional("TEXCOORD_1", TINYGLTF_TYPE_VEC2);
+    if (!uvs1.ok()) return uvs1.status();
+    out->uvs1 =
+        uvs1->empty() ? std::vector<glm::vec2>(n, glm::vec2(0.0f)) : Unflatten<glm::vec2>(*uvs1);
+    for (glm::vec2& uv : out->uvs1) {
+      if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) uv = glm::vec2(0.0f);
+    }
+
+    // COLOR_0 is VEC3 or VEC4 (float, normalized ubyte/ushort).
+    out->colors.assign(n, glm::vec4(1.0f));
+    if (const int color_accessor = attribute("COLOR_0"); color_accessor != -1) {
+      const bool vec3 = color_accessor >= 0 &&
+                        static_cast<size_t>(color_accessor) < model_.accessors.size() &&
+                        model_.accessors[color_accessor].type == TINYGLTF_TYPE_VEC3;
+      absl::StatusOr<std::vector<float>> colors =
+          read_optional("COLOR_0", vec3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4);
+      if (!colors.ok()) return colors.status();
+      const int k = vec3 ? 3 : 4;
+      for (size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < k; ++c) {
+          const float v = (*colors)[i * k + c];
+          // Out-of-range values are exporter errors (the glTF validator's
+          // ACCESSOR_NON_CLAMPED); clamping keeps them from over-brightening.
+          out->colors[i][c] = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 1.0f;
+        }
+      }
     }
 
     absl::StatusOr<std::vector<float>> tangents = read_optional("TANGENT", TINYGLTF_TYPE_VEC4);
@@ -465,13 +541,56 @@ class Builder {
         out->tangents[i] = glm::vec4(t, out->tangents[i].w < 0.0f ? -1.0f : 1.0f);
       }
     } else if (scene_material.normal_texture >= 0) {
-      out->tangents = ComputeTangents(out->positions, out->normals, out->uvs, out->indices);
+      // Tangents follow the UVs the normal map is sampled with: its set
+      // and its KHR_texture_transform.
+      const SlotUv& slot = scene_material.uv[kSlotNormal];
+      std::vector<glm::vec2> normal_uvs = slot.tex_coord == 1 ? out->uvs1 : out->uvs;
+      for (glm::vec2& uv : normal_uvs) uv = glm::vec2(slot.transform * glm::vec3(uv, 1.0f));
+      out->tangents = ComputeTangents(out->positions, out->normals, normal_uvs, out->indices);
     } else {  // unused by the renderer without a normal map; keep it valid
       out->tangents.resize(n);
       for (size_t i = 0; i < n; ++i)
         out->tangents[i] = glm::vec4(AnyOrthogonal(out->normals[i]), 1.0f);
     }
     return out;
+  }
+
+  // Adds the morph targets' POSITION deltas, weighted by the default
+  // weights, to out->positions, and returns the weighted NORMAL deltas in
+  // `normal_deltas` (empty when none), to be added to NORMAL before it is
+  // normalised.
+  absl::Status ApplyMorphTargets(const tinygltf::Primitive& prim, const std::string& what,
+                                 const std::vector<double>& weights, LocalPrimitive* out,
+                                 std::vector<glm::vec3>* normal_deltas) {
+    const size_t n = out->positions.size();
+    for (size_t t = 0; t < prim.targets.size() && t < weights.size(); ++t) {
+      const float w = static_cast<float>(weights[t]);
+      if (w == 0.0f || !std::isfinite(w)) continue;
+      for (const char* name : {"POSITION", "NORMAL"}) {
+        auto it = prim.targets[t].find(name);
+        if (it == prim.targets[t].end()) continue;
+        const std::string target_what = absl::StrCat(what, " morph target ", t, " ", name);
+        absl::StatusOr<std::vector<float>> deltas =
+            ReadFloatAccessor(model_, it->second, TINYGLTF_TYPE_VEC3, max_vertices_, target_what);
+        if (!deltas.ok()) return deltas.status();
+        if (deltas->size() != n * 3) {
+          return absl::InvalidArgumentError(absl::StrCat(target_what, " has ", deltas->size() / 3,
+                                                         " elements but POSITION has ", n));
+        }
+        const bool position = name[0] == 'P';
+        if (!position && normal_deltas->empty()) normal_deltas->assign(n, glm::vec3(0.0f));
+        for (size_t i = 0; i < n; ++i) {
+          const glm::vec3 d((*deltas)[3 * i], (*deltas)[3 * i + 1], (*deltas)[3 * i + 2]);
+          if (!std::isfinite(d.x) || !std::isfinite(d.y) || !std::isfinite(d.z)) continue;
+          if (position) {
+            out->positions[i] += w * d;
+          } else {
+            (*normal_deltas)[i] += w * d;
+          }
+        }
+      }
+    }
+    return absl::OkStatus();
   }
 
   // Appends one instance of `prim` transformed by `world`.
@@ -523,6 +642,8 @@ class Builder {
           glm::vec4((t_len > 0.0f && std::isfinite(t_len)) ? t / t_len : AnyOrthogonal(v.normal),
                     prim.tangents[i].w * w_sign);
       v.uv = prim.uvs[i];
+      v.uv1 = prim.uvs1[i];
+      v.color = prim.colors[i];
       scene_.bounds_min = glm::min(scene_.bounds_min, v.position);
       scene_.bounds_max = glm::max(scene_.bounds_max, v.position);
       scene_.vertices.push_back(v);
@@ -544,8 +665,11 @@ class Builder {
   const uint64_t max_vertices_;
   std::vector<int> parent_;
   std::vector<bool> visited_;
-  std::map<std::pair<int, int>, std::unique_ptr<LocalPrimitive>> cache_;
+  // (node with its own morph weights or -1, mesh, primitive) -> primitive
+  std::map<std::tuple<int, int, int>, std::unique_ptr<LocalPrimitive>> cache_;
   uint64_t triangles_ = 0;
+  std::string skipped_non_triangles_;  // "mesh 0 'x' primitive 1 mode 0 POINTS, ..."
+  int skinned_nodes_ = 0;
 };
 
 }  // namespace

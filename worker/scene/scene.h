@@ -10,21 +10,24 @@
 #include <string>
 #include <vector>
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
 namespace impostor {
 
-// Vertex in scene space (node transforms applied). 48 bytes, tightly packed;
-// the GPU vertex layout is this struct.
+// Vertex in scene space (node transforms applied). 72 bytes, tightly packed;
+// the GPU vertex layout is this struct (worker/gpu/bake_pipeline.cc).
 struct SceneVertex {
   glm::vec3 position{0.0f};
   glm::vec3 normal{0.0f, 1.0f, 0.0f};  // unit
   glm::vec4 tangent{1.0f, 0.0f, 0.0f, 1.0f};  // xyz unit, w = bitangent sign
-  glm::vec2 uv{0.0f};                   // TEXCOORD_0 (0 when absent)
+  glm::vec2 uv{0.0f};                   // TEXCOORD_0 as stored (0 when absent)
+  glm::vec2 uv1{0.0f};                  // TEXCOORD_1 as stored (0 when absent)
+  glm::vec4 color{1.0f};                // COLOR_0, linear RGBA (1 when absent)
 };
-static_assert(sizeof(SceneVertex) == 48);
+static_assert(sizeof(SceneVertex) == 72);
 
 enum class AlphaMode : uint32_t { kOpaque = 0, kMask = 1, kBlend = 2 };
 
@@ -34,11 +37,29 @@ struct SceneTexture {
   int height = 0;
   std::vector<uint8_t> rgba8;  // width * height * 4
   bool srgb = false;           // true for base colour (and emissive) images
+  bool has_alpha_channel = true;  // the file has alpha (grey+alpha or RGBA)
   // Sampler, as glTF wrap modes (10497 REPEAT, 33071 CLAMP_TO_EDGE,
   // 33648 MIRRORED_REPEAT).
   int wrap_s = 10497;
   int wrap_t = 10497;
   std::string name;  // for logs
+};
+
+// Texture slots of a material, in the order of the bake shader's bindings.
+enum TextureSlot : int {
+  kSlotBaseColor = 0,
+  kSlotMetallicRoughness = 1,
+  kSlotNormal = 2,
+  kSlotOcclusion = 3,
+  kSlotEmissive = 4,
+  kTextureSlotCount = 5,
+};
+
+// Which UV set a texture slot reads and the KHR_texture_transform applied
+// to it: uv' = transform * vec3(uv, 1) (T * R * S, column-major).
+struct SlotUv {
+  int tex_coord = 0;  // 0 = TEXCOORD_0, 1 = TEXCOORD_1
+  glm::mat3 transform{1.0f};
 };
 
 // glTF metallic-roughness material. A texture index of -1 means "none".
@@ -55,6 +76,12 @@ struct SceneMaterial {
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;
   bool double_sided = false;
+  // Emissive = emissive_texture (sRGB) * emissive_factor * emissive_strength
+  // (KHR_materials_emissive_strength), linear.
+  glm::vec3 emissive_factor{0.0f};
+  int emissive_texture = -1;
+  float emissive_strength = 1.0f;
+  std::array<SlotUv, kTextureSlotCount> uv{};  // by TextureSlot
   std::string name;
 };
 
@@ -78,6 +105,9 @@ struct Scene {
   // Axis-aligned bounds of all vertex positions, scene space.
   glm::vec3 bounds_min{0.0f};
   glm::vec3 bounds_max{0.0f};
+  // What the loader worked around (skipped points/lines, dropped images,
+  // ...), one sentence each; they travel into the manifest's `warnings`.
+  std::vector<std::string> warnings;
 
   size_t TriangleCount() const { return indices.size() / 3; }
 };

@@ -1,5 +1,6 @@
 #include "worker/scene/tangent_space.h"
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 
@@ -35,21 +36,35 @@ std::vector<glm::vec4> ComputeTangents(std::span<const glm::vec3> positions,
   std::vector<glm::vec3> tan(positions.size(), glm::vec3(0.0f));
   std::vector<glm::vec3> bitan(positions.size(), glm::vec3(0.0f));
   for (size_t t = 0; t + 2 < triangles.size(); t += 3) {
-    const uint32_t i0 = triangles[t], i1 = triangles[t + 1], i2 = triangles[t + 2];
-    const glm::vec3 e1 = positions[i1] - positions[i0];
-    const glm::vec3 e2 = positions[i2] - positions[i0];
-    const glm::vec2 d1 = uvs[i1] - uvs[i0];
-    const glm::vec2 d2 = uvs[i2] - uvs[i0];
+    const uint32_t idx[3] = {triangles[t], triangles[t + 1], triangles[t + 2]};
+    const glm::vec3 e1 = positions[idx[1]] - positions[idx[0]];
+    const glm::vec3 e2 = positions[idx[2]] - positions[idx[0]];
+    const glm::vec2 d1 = uvs[idx[1]] - uvs[idx[0]];
+    const glm::vec2 d2 = uvs[idx[2]] - uvs[idx[0]];
     const float det = d1.x * d2.y - d2.x * d1.y;
     if (det == 0.0f || !std::isfinite(det)) continue;
-    // Solving [e1 e2] = [T B] [d1 d2] for T, B; multiplying by |det| instead
-    // of dividing by det keeps the weights proportional to the UV area.
+    // Solving [e1 e2] = [T B] [d1 d2] for T, B (up to the positive factor
+    // |det|, which the normalisation below removes).
     const float sign = det > 0.0f ? 1.0f : -1.0f;
     const glm::vec3 t_dir = (e1 * d2.y - e2 * d1.y) * sign;
     const glm::vec3 b_dir = (e2 * d1.x - e1 * d2.x) * sign;
-    for (uint32_t i : {i0, i1, i2}) {
-      tan[i] += t_dir;
-      bitan[i] += b_dir;
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t i = idx[c];
+      const glm::vec3 n = normals[i];
+      // As MikkTSpace: the face tangent is projected into the vertex's
+      // tangent plane and normalised, then weighted by the corner angle, so
+      // a vertex's tangent does not depend on how finely the surface around
+      // it is split into triangles.
+      glm::vec3 tp = t_dir - n * glm::dot(n, t_dir);
+      glm::vec3 bp = b_dir - n * glm::dot(n, b_dir);
+      const float tl = glm::length(tp), bl = glm::length(bp);
+      const glm::vec3 a = positions[idx[(c + 1) % 3]] - positions[i];
+      const glm::vec3 b = positions[idx[(c + 2) % 3]] - positions[i];
+      const float al = glm::length(a), blen = glm::length(b);
+      if (!(al > 0.0f) || !(blen > 0.0f)) continue;
+      const float angle = std::acos(std::clamp(glm::dot(a, b) / (al * blen), -1.0f, 1.0f));
+      if (tl > 0.0f && std::isfinite(tl)) tan[i] += tp / tl * angle;
+      if (bl > 0.0f && std::isfinite(bl)) bitan[i] += bp / bl * angle;
     }
   }
   std::vector<glm::vec4> out(positions.size());

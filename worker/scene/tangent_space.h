@@ -19,13 +19,20 @@ namespace impostor::gltf_internal {
 std::vector<glm::vec3> ComputeSmoothNormals(std::span<const glm::vec3> positions,
                                             std::span<const uint32_t> triangles);
 
-// Per-vertex tangents from the UV parametrisation: each triangle's dP/du and
-// dP/dv are accumulated (area weighted) at its vertices, the tangent is made
+// Per-vertex tangents from the UV parametrisation, built the way
+// MikkTSpace builds them: each triangle's dP/du and dP/dv are projected into
+// the tangent plane of each of its vertices, normalised and accumulated
+// weighted by the triangle's angle at that vertex; the sum is made
 // orthogonal to the normal (Gram-Schmidt) and w = +-1 says whether
-// (normal x tangent) points along dP/dv. This is NOT MikkTSpace: normal maps
-// baked against MikkTSpace tangents can show small shading differences on
-// curved or mirrored UV islands. Vertices with degenerate UVs get an
-// arbitrary unit tangent orthogonal to the normal (w = 1).
+// (normal x tangent) points along the accumulated dP/dv.
+// Differences from MikkTSpace proper: vertices are not split -- MikkTSpace
+// gives a vertex shared by triangles of opposite UV handedness (mirrored
+// islands) or by UV seams separate tangents, here they are averaged into one
+// (the index buffer is kept as is); degenerate-triangle handling and the
+// final float rounding differ. Normal maps baked against MikkTSpace match
+// on smooth, unmirrored islands and can differ slightly at mirror seams.
+// Vertices with degenerate UVs get an arbitrary unit tangent orthogonal to
+// the normal (w = 1).
 std::vector<glm::vec4> ComputeTangents(std::span<const glm::vec3> positions,
                                        std::span<const glm::vec3> normals,
                                        std::span<const glm::vec2> uvs,

@@ -80,6 +80,7 @@ absl::StatusOr<DecodedImage> DecodeImageRgba8(std::span<const uint8_t> bytes, in
   DecodedImage image;
   image.width = w;
   image.height = h;
+  image.source_channels = channels;
   image.rgba8.assign(pixels, pixels + static_cast<size_t>(w) * h * 4);
   stbi_image_free(pixels);
   if (w != width || h != height) {  // header and data disagree: distrust both

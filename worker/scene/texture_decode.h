@@ -17,6 +17,7 @@ struct DecodedImage {
   int width = 0;
   int height = 0;
   std::vector<uint8_t> rgba8;  // width * height * 4, rows top to bottom
+  int source_channels = 4;     // channels in the file: 2 and 4 carry alpha
 };
 
 // Decodes `bytes`. 1-, 2- and 3-channel images are expanded to RGBA (grey

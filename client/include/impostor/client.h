@@ -154,6 +154,23 @@ struct BakeSettings {
   // 0..1, min_psnr_db 0..100 (dB).
   std::optional<float> min_iou;
   std::optional<float> min_psnr_db;
+
+  // Atlas products: let the server pick frames (which must stay 0) by
+  // measured quality: it bakes 8, 10, 12, 16, 20 and 24 frames (those that
+  // fit resolution >= 8 * frames) and keeps the smallest whose quality meets
+  // min_iou / min_psnr_db (at least one must be set; the same thresholds
+  // then gate the result). The manifest's quality block lists the counts
+  // tried. Part of the cache key (with the thresholds). Default: false.
+  bool frames_auto = false;
+  // Atlas products: held-out views of the quality pass (the manifest's
+  // "quality" block). Default: unset = 16. Range checked by the server:
+  // 0..256 (0 = no quality pass, and no gate can pass).
+  std::optional<uint32_t> quality_views;
+  // Product "atlas" only: also bake a fourth map, emissive.png (emissive
+  // texture x emissiveFactor x KHR_materials_emissive_strength, sRGB, A =
+  // coverage), listed in the manifest's maps as "emissive". Part of the
+  // cache key. Default: false.
+  bool emissive = false;
 };
 
 // What SubmitBake sent to the store.
@@ -235,6 +252,9 @@ struct FetchResult {
   // `dir` with the right digest (kept, not downloaded again).
   int64_t bytes_downloaded = 0;
   int64_t bytes_reused = 0;
+  // The manifest's `warnings`: what the baker worked around (points/lines
+  // skipped, images dropped, a MASK material without alpha, ...).
+  std::vector<std::string> warnings;
   // Wall time of the whole fetch.
   double seconds = 0;
 };

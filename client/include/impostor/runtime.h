@@ -7,15 +7,23 @@
 // Conventions (manifest.json, common/manifest_format.md): object space is
 // the glTF scene's space, +Y up. A view direction is the unit vector from the
 // bounding sphere's centre TOWARD the camera (for a perspective camera at
-// eye e: normalize(e - center)). Frame indices are row * frames + col, as
-// in the manifest's `views`.
+// eye e: normalize(e - center)). Frame indices are those of the manifest's
+// `views` (row * frames + col on the grid layouts).
+//
+// Layouts: the octahedral ones, and azimuth-elevation, ring-top and
+// billboard. A layout is described by an AtlasLayout; build it from the
+// manifest with AtlasLayoutFromManifest(manifest["layout"],
+// manifest["frames"], manifest["views"].size()) (ring-top's ring count is
+// views - 1). The (Layout, frames) overloads below are kept for the layouts
+// `frames` describes fully (all but ring-top).
 //
 // Typical per-instance use (the shader does the per-pixel part):
 //
-//   auto layout = impostor::sdk::LayoutFromName(manifest["layout"]);
+//   auto layout = impostor::sdk::AtlasLayoutFromManifest(
+//       manifest["layout"], manifest["frames"], manifest["views"].size());
 //   float dir[3] = {...};  // object space, centre -> camera
 //   impostor::sdk::FrameBlend blend = impostor::sdk::BlendFrames(
-//       *layout, frames, dir, impostor::sdk::BlendMode::kTriangle3);
+//       *layout, dir, impostor::sdk::BlendMode::kTriangle3);
 //   for (int i = 0; i < blend.count; ++i)
 //     ... blend.entries[i].frame, blend.entries[i].weight ...
 //
@@ -25,7 +33,11 @@
 // are positive, sum to 1, vary continuously with the view, and are 1 on a
 // frame seen from exactly its own direction. Duplicate frames of the
 // octahedron's folded border are merged into the lowest-numbered one (the
-// manifest's `same_view_as`).
+// manifest's `same_view_as`). Azimuth-elevation blends the 2 x 2 frames
+// around the view in (azimuth, elevation), wrapping in azimuth, with the
+// pole caps handed to one frame; ring-top and billboard blend the two ring
+// frames around the azimuth with the top frame by elevation (both modes);
+// see common/runtime/frame_blend.h for the exact weights.
 //
 // All functions are pure and thread-safe.
 #ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_
@@ -38,13 +50,30 @@
 namespace impostor::sdk {
 
 enum class Layout {
-  kOctahedral,      // "octahedral": full sphere
-  kHemiOctahedral,  // "hemi-octahedral": upper hemisphere
+  kOctahedral,        // "octahedral": full sphere
+  kHemiOctahedral,    // "hemi-octahedral": upper hemisphere
+  kAzimuthElevation,  // "azimuth-elevation": N x N azimuth columns x elevation rows
+  kRingTop,           // "ring-top": K horizontal views + 1 from above
+  kBillboard,         // "billboard": 8 horizontal views + 1 from above, 3 x 3
 };
 
 // The manifest's `layout` string; nullopt if unknown.
 std::optional<Layout> LayoutFromName(std::string_view manifest_name);
 std::string_view LayoutName(Layout layout);
+
+struct AtlasLayout {
+  Layout layout = Layout::kOctahedral;
+  int frames = 0;      // the manifest's `frames`: frames per axis, or the atlas grid side (ring-top, billboard)
+  int ring_views = 0;  // ring-top: K; billboard: 8; others 0
+};
+
+// From the manifest's `layout`, `frames` and the length of its `views`
+// list; nullopt for an unknown layout name or a view count that does not
+// fit the layout (frames * frames, or K + 1 with K >= 1 for ring-top, 9 for
+// billboard).
+std::optional<AtlasLayout> AtlasLayoutFromManifest(std::string_view layout, int frames, int view_count);
+// Frames in the atlas (the manifest's views.size()).
+int FrameCount(const AtlasLayout& layout);
 
 enum class BlendMode {
   kTriangle3,  // "triangle3": up to 3 frames
@@ -67,6 +96,7 @@ struct FrameBlend {
 // The frames to blend for `view_dir` (object space, centre -> camera; need
 // not be normalised; a zero or non-finite vector is taken as +Y). `frames` =
 // the manifest's `frames`.
+FrameBlend BlendFrames(const AtlasLayout& layout, const float view_dir[3], BlendMode mode);
 FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], BlendMode mode);
 
 // The camera that baked `frame` (the manifest's `views[frame]`): direction
@@ -76,6 +106,7 @@ struct FrameBasis {
   float up[3];
   float right[3];
 };
+FrameBasis FrameCameraBasis(const AtlasLayout& layout, int frame);
 FrameBasis FrameCameraBasis(Layout layout, int frames, int frame);
 
 // Where a view ray samples a frame, in the frame's tile: u from 0 (left) to
@@ -94,6 +125,8 @@ struct FrameUv {
 // plane (through the sphere centre, normal = the frame's direction, shifted
 // by `height` x radius along that normal) and the hit projected with the
 // frame's bake camera.
+FrameUv VirtualPlaneUv(const AtlasLayout& layout, int frame, const float sphere_center[3], float sphere_radius,
+                       const float ray_origin[3], const float ray_dir[3], float height = 0.0f);
 FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_center[3], float sphere_radius,
                        const float ray_origin[3], const float ray_dir[3], float height = 0.0f);
 
@@ -104,13 +137,20 @@ FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_
 // 0..1) at tile coordinates (u, v), or false where the frame is empty
 // (coverage below 0.5).
 using FrameDepthReader = std::function<bool(float u, float v, float* depth01)>;
+FrameUv VirtualPlaneUvParallax(const AtlasLayout& layout, int frame, const float sphere_center[3],
+                               float sphere_radius, const float ray_origin[3], const float ray_dir[3],
+                               const FrameDepthReader& read_depth);
 FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float sphere_center[3],
                                float sphere_radius, const float ray_origin[3], const float ray_dir[3],
                                const FrameDepthReader& read_depth);
 
 // Atlas texture coordinates (0..1 over the whole atlas, v down) of a frame's
 // tile coordinates, for an atlas of `resolution` pixels (tiles of
-// floor(resolution / frames) pixels from the top-left corner).
+// floor(resolution / frames) pixels from the top-left corner). The
+// AtlasLayout form places frame i in tile (i % side, i / side) of the
+// layout's side x side grid (side = frames, or ceil(sqrt(K + 1)) for
+// ring-top, 3 for billboard); the int form is for the grid layouts.
+void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 
 }  // namespace impostor::sdk

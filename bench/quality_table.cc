@@ -1,0 +1,195 @@
+// quality_table: the public quality claim. Bakes the props and vegetation of
+// ../shared/assets at 8, 12 and 16 frames in each layout with the worker's
+// own pipeline in process (BakeAtlas, whose quality pass renders the mesh
+// from held-out views and reconstructs the impostor with the reference
+// renderer), and writes a Markdown table of the measured figures.
+//
+//   build/bin/quality_table [--out docs/quality.md] [--resolution 1024]
+//                           [--frames 8,12,16] [--only SUBSTRING]
+//
+// Held-out directions are seeded from "<asset> <layout> <frames>
+// <resolution>" (the quality pass takes any key), so the table is the same
+// on every run on the same device; a farm bake seeds them from its cache key
+// and measures other, equally valid, views.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "common/bake_request.h"
+#include "worker/bake/atlas_bake.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using impostor::v1::BakeParameters;
+
+struct Asset {
+  const char* name;
+  const char* kind;  // "prop" or "vegetation"
+  const char* path;  // relative to the assets directory
+};
+
+// Every textured prop and every plant of MANIFEST.md's (a) and (b) that is
+// a single object (Box and BoxTextured are 12-triangle cubes; the
+// AlphaBlendModeTest is a test chart, not a plant).
+const Asset kAssets[] = {
+    {"DamagedHelmet", "prop", "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb"},
+    {"TreeLowPoly (MASK)", "vegetation", "vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf"},
+    {"WaterBottle", "prop", "props_pbr/WaterBottle/glTF/WaterBottle.gltf"},
+    {"StylizedTree", "vegetation", "vegetation/StylizedTree_ChrisCLP/jungletree.glb"},
+    {"Duck", "prop", "props_pbr/Duck/glTF-Binary/Duck.glb"},
+    {"CommonTree_1", "vegetation", "vegetation/Quaternius_CommonTree_1/CommonTree_1.glb"},
+    {"Avocado", "prop", "props_pbr/Avocado/glTF/Avocado.gltf"},
+    {"GlassVaseFlowers", "vegetation", "vegetation/GlassVaseFlowers/glTF-Binary/GlassVaseFlowers.glb"},
+    {"Fox", "prop", "props_pbr/Fox/glTF-Binary/Fox.glb"},
+};
+
+struct Row {
+  std::string asset, kind, layout;
+  uint32_t frames = 0;
+  impostor::v1::AtlasQuality quality;
+  double seconds = 0;
+  std::string error;
+};
+
+std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (argv[i] == name) return argv[i + 1];
+  }
+  return fallback;
+}
+
+std::vector<uint32_t> ParseList(const std::string& s) {
+  std::vector<uint32_t> out;
+  size_t start = 0;
+  while (start < s.size()) {
+    size_t end = s.find(',', start);
+    if (end == std::string::npos) end = s.size();
+    out.push_back(static_cast<uint32_t>(std::stoul(s.substr(start, end - start))));
+    start = end + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_level(spdlog::level::warn);
+  const fs::path out_path = Flag(argc, argv, "--out", IMPOSTOR_BENCH_SOURCE_DIR "/docs/quality.md");
+  const uint32_t resolution = static_cast<uint32_t>(std::stoul(Flag(argc, argv, "--resolution", "1024")));
+  const std::vector<uint32_t> frame_counts = ParseList(Flag(argc, argv, "--frames", "8,12,16"));
+  const std::string only = Flag(argc, argv, "--only", "");
+  const fs::path assets = std::getenv("IMPOSTOR_ASSETS_DIR") != nullptr ? fs::path(std::getenv("IMPOSTOR_ASSETS_DIR"))
+                                                                         : fs::path(IMPOSTOR_BENCH_ASSETS_DIR);
+
+  auto renderer = impostor::AtlasRenderer::Create();
+  if (!renderer.ok()) {
+    std::fprintf(stderr, "quality_table: %s\n", std::string(renderer.status().message()).c_str());
+    return 1;
+  }
+  const fs::path scratch = fs::temp_directory_path() / absl::StrCat("impostor_quality_table_", getpid());
+  std::vector<Row> rows;
+  const std::atomic<bool> cancelled{false};
+  // Written after every row, so a long run leaves a table of what it did.
+  auto write_table = [&](const std::vector<Row>& rows, bool complete) -> bool {
+    std::string md;
+    absl::StrAppend(&md, "# Impostor quality\n\n",
+                    "Measured by `build/bin/quality_table` (bench/quality_table.cc) on `", (*renderer)->device().name,
+                    "`, baker ", std::string(impostor::BakerVersion()), ", atlas ", resolution, " px.\n\n",
+                    "Every row is one bake by the worker's own pipeline. The quality pass renders the mesh from 16 "
+                    "held-out view directions that are not baked frames (spread over the layout's domain) and the "
+                    "impostor for the same cameras with the CPU reference renderer (3-frame triangle blend, no "
+                    "parallax), both unlit, each view ",
+                    rows.empty() ? 0u : rows.front().quality.view_pixels(),
+                    " px. IoU: silhouette intersection over union. PSNR and SSIM: albedo over the union of both "
+                    "silhouettes, composited over black (a silhouette miss costs its full colour). Normal: mean angle "
+                    "between the normals where both cover. Depth: mean depth difference where both cover, in "
+                    "radii. Pop: the largest change of the impostor between neighbouring 1 degree steps of an orbit "
+                    "at 20 degrees elevation relative to the mesh's own change (1.0 = as smooth as the mesh). "
+                    "Format of every figure: manifest_format.md (`quality`).\n\n",
+                    "| asset | kind | layout | frames | IoU mean | IoU min | PSNR mean (dB) | PSNR min (dB) | SSIM mean "
+                    "| normal mean (deg) | depth mean (r) | pop | bake + pass (s) |\n",
+                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (const Row& r : rows) {
+      const auto& q = r.quality;
+      if (!r.error.empty()) {
+        absl::StrAppend(&md, "| ", r.asset, " | ", r.kind, " | ", r.layout, " | ", r.frames, " | failed: ", r.error,
+                        " | | | | | | | | |\n");
+        continue;
+      }
+      absl::StrAppend(&md, absl::StrFormat("| %s | %s | %s | %u | %.3f | %.3f | %.1f | %.1f | %.3f | %.1f | %.3f | "
+                                           "%.2f | %.1f |\n",
+                                           r.asset, r.kind, r.layout, r.frames, q.silhouette_iou_mean(),
+                                           q.silhouette_iou_min(), q.albedo_psnr_db_mean(), q.albedo_psnr_db_min(),
+                                           q.albedo_ssim_mean(), q.normal_error_deg_mean(), q.depth_error_mean(),
+                                           q.pop(), r.seconds));
+    }
+    if (!complete) absl::StrAppend(&md, "\n(incomplete: the run is still going or was stopped)\n");
+    absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table` ",
+                    "(writes this file; `--resolution`, `--frames 8,12,16` and `--only NAME` narrow it).\n");
+    std::ofstream out(out_path, std::ios::trunc);
+    out << md;
+    out.close();
+    return static_cast<bool>(out);
+  };
+  for (const Asset& asset : kAssets) {
+    if (!only.empty() && std::string(asset.name).find(only) == std::string::npos) continue;
+    for (auto layout : {impostor::v1::LAYOUT_OCTAHEDRAL, impostor::v1::LAYOUT_HEMI_OCTAHEDRAL}) {
+      for (uint32_t frames : frame_counts) {
+        Row row;
+        row.asset = asset.name;
+        row.kind = asset.kind;
+        row.layout = layout == impostor::v1::LAYOUT_OCTAHEDRAL ? "octahedral" : "hemi-octahedral";
+        row.frames = frames;
+        BakeParameters in;
+        in.set_layout(layout);
+        in.set_frames(frames);
+        in.set_resolution(resolution);
+        auto p = impostor::NormalizeParameters(in);
+        if (!p.ok()) {
+          std::fprintf(stderr, "quality_table: %s\n", std::string(p.status().message()).c_str());
+          return 2;
+        }
+        fs::remove_all(scratch);
+        fs::create_directories(scratch);
+        impostor::AtlasBakeRequest request{
+            .entry_file = assets / asset.path,
+            .parameters = *p,
+            .cache_key = absl::StrCat(asset.path, " ", row.layout, " ", frames, " ", resolution),
+            .output_dir = scratch,
+            .load_limits = {}};
+        const auto start = std::chrono::steady_clock::now();
+        auto baked = impostor::BakeAtlas(request, **renderer, [](std::string_view, double) {}, cancelled);
+        row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (baked.ok()) {
+          row.quality = baked->manifest.quality();
+        } else {
+          row.error = std::string(baked.status().message());
+        }
+        const auto& q = row.quality;
+        std::fprintf(stderr, "%-20s %-16s %2u frames: IoU %.4f PSNR %.2f dB SSIM %.3f pop %.2f (%.1f s)%s%s\n",
+                     asset.name, row.layout.c_str(), frames, q.silhouette_iou_mean(), q.albedo_psnr_db_mean(),
+                     q.albedo_ssim_mean(), q.pop(), row.seconds, row.error.empty() ? "" : " error: ",
+                     row.error.c_str());
+        rows.push_back(std::move(row));
+        write_table(rows, false);
+      }
+    }
+  }
+  fs::remove_all(scratch);
+
+  if (!write_table(rows, true)) {
+    std::fprintf(stderr, "quality_table: cannot write %s\n", out_path.string().c_str());
+    return 4;
+  }
+  std::printf("%s\n", out_path.string().c_str());
+  return 0;
+}

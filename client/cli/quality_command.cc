@@ -1,0 +1,137 @@
+// impostor quality KEY: fetch a result and print its quality report.
+#include "client/cli/quality_command.h"
+
+#include <cstdio>
+#include <fstream>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "client/cli/commands.h"
+#include "client/cli/output.h"
+
+namespace impostor::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr char kWorstViewFile[] = "quality_worst_view.png";
+
+double Num(const nlohmann::json& q, const char* key) {
+  auto it = q.find(key);
+  return it != q.end() && it->is_number() ? it->get<double>() : 0.0;
+}
+
+std::string FramesTried(const nlohmann::json& q) {
+  auto tried = q.find("frames_tried");
+  auto met = q.find("frames_met");
+  if (tried == q.end() || !tried->is_array() || tried->empty() || met == q.end() || !met->is_array() ||
+      met->size() != tried->size()) {
+    return "";
+  }
+  std::string s;
+  for (size_t i = 0; i < tried->size(); ++i) {
+    absl::StrAppend(&s, i == 0 ? "" : ", ", (*tried)[i].is_number() ? (*tried)[i].get<int>() : 0,
+                    (*met)[i].is_boolean() && (*met)[i].get<bool>() ? " (met)" : " (missed)");
+  }
+  return s;
+}
+
+}  // namespace
+
+nlohmann::json ReadQualityBlock(const fs::path& manifest_path) {
+  std::ifstream in(manifest_path);
+  if (!in) return nullptr;
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (j.is_object() && j.contains("quality") && j["quality"].is_object()) return j["quality"];
+  return nullptr;
+}
+
+std::string QualitySummaryLine(const nlohmann::json& q) {
+  std::string line = absl::StrFormat(
+      "quality: IoU %.3f (min %.3f), albedo PSNR %.1f dB (min %.1f), SSIM %.3f, normal %.1f deg, depth %.3f r, "
+      "pop %.2f over %d views of %d px",
+      Num(q, "silhouette_iou_mean"), Num(q, "silhouette_iou_min"), Num(q, "albedo_psnr_db_mean"),
+      Num(q, "albedo_psnr_db_min"), Num(q, "albedo_ssim_mean"), Num(q, "normal_error_deg_mean"),
+      Num(q, "depth_error_mean"), Num(q, "pop"), static_cast<int>(Num(q, "views")),
+      static_cast<int>(Num(q, "view_pixels")));
+  if (const std::string tried = FramesTried(q); !tried.empty()) absl::StrAppend(&line, "; frames tried ", tried);
+  return line;
+}
+
+bool IsQualityGateFailure(int error_code, const std::string& error_message) {
+  return error_code == static_cast<int>(absl::StatusCode::kFailedPrecondition) &&
+         error_message.rfind("quality gate", 0) == 0;
+}
+
+void FetchGatedResult(sdk::Client& client, const std::string& cache_key, const std::string& out_dir, bool quiet,
+                      nlohmann::json* report) {
+  absl::StatusOr<sdk::FetchResult> fetched = client.Fetch(cache_key, out_dir);
+  if (!fetched.ok()) {
+    std::fprintf(stderr, "impostor: could not download the rejected result for inspection: %s\n",
+                 Describe(fetched.status()).c_str());
+    return;
+  }
+  (*report)["manifest"] = fetched->manifest_path.string();
+  for (const fs::path& f : fetched->files) (*report)["files"].push_back(f.string());
+  const nlohmann::json quality = ReadQualityBlock(fetched->manifest_path);
+  (*report)["quality"] = quality;
+  if (quiet) return;
+  if (quality.is_object()) std::fprintf(stderr, "%s\n", QualitySummaryLine(quality).c_str());
+  std::fprintf(stderr, "the rejected result is in %s for inspection (impostor quality %s shows the worst view)\n",
+               out_dir.c_str(), cache_key.c_str());
+}
+
+int RunQuality(const CliArgs& args) {
+  const std::string out_dir = args.out.empty() ? absl::StrCat("quality-", args.target.substr(0, 12)) : args.out;
+  nlohmann::json report = {{"cache_key", args.target}, {"out_dir", out_dir}, {"manifest", nullptr},
+                           {"quality", nullptr},       {"worst_view_png", nullptr}, {"warnings", nlohmann::json::array()},
+                           {"error", nullptr}};
+  auto fail = [&](int code, const std::string& error) {
+    report["error"] = error;
+    if (args.json) PrintJson(report);
+    return Fail(code, error);
+  };
+  sdk::ClientOptions options;
+  options.server = args.server;
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  if (!client.ok()) return fail(kExitServer, Describe(client.status()));
+  absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(args.target, out_dir);
+  if (!fetched.ok()) return fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));
+  report["manifest"] = fetched->manifest_path.string();
+  report["warnings"] = fetched->warnings;
+  const nlohmann::json q = ReadQualityBlock(fetched->manifest_path);
+  if (!q.is_object()) {
+    return fail(kExitBakeFailed, absl::StrCat("result ", args.target,
+                                              " has no quality block (not an atlas, or baked with --quality-views 0)"));
+  }
+  report["quality"] = q;
+  const fs::path worst = fs::path(out_dir) / kWorstViewFile;
+  std::error_code ec;
+  if (fs::exists(worst, ec)) report["worst_view_png"] = worst.string();
+  if (args.json) {
+    PrintJson(report);
+    return kExitOk;
+  }
+  std::printf("quality of %s (%s blend, %d held-out views of %d px, mesh vs impostor, unlit):\n",
+              args.target.c_str(), q.value("blend", std::string("?")).c_str(), static_cast<int>(Num(q, "views")),
+              static_cast<int>(Num(q, "view_pixels")));
+  std::printf("  silhouette IoU   mean %.4f  min %.4f\n", Num(q, "silhouette_iou_mean"), Num(q, "silhouette_iou_min"));
+  std::printf("  albedo PSNR      mean %.2f dB  min %.2f dB\n", Num(q, "albedo_psnr_db_mean"),
+              Num(q, "albedo_psnr_db_min"));
+  std::printf("  albedo SSIM      mean %.4f  min %.4f\n", Num(q, "albedo_ssim_mean"), Num(q, "albedo_ssim_min"));
+  std::printf("  normal error     mean %.2f deg  max %.2f deg\n", Num(q, "normal_error_deg_mean"),
+              Num(q, "normal_error_deg_max"));
+  std::printf("  depth error      mean %.4f r  max %.4f r\n", Num(q, "depth_error_mean"), Num(q, "depth_error_max"));
+  std::printf("  pop              %.3f (1.0 = as smooth as the mesh over a 1 degree orbit step)\n", Num(q, "pop"));
+  if (const std::string tried = FramesTried(q); !tried.empty()) std::printf("  frames tried     %s\n", tried.c_str());
+  for (const std::string& w : fetched->warnings) std::printf("  warning          %s\n", w.c_str());
+  if (report["worst_view_png"].is_string()) {
+    std::printf("  worst view       %d: %s (mesh | impostor | difference; magenta = only the mesh covers, cyan = "
+                "only the impostor)\n",
+                static_cast<int>(Num(q, "worst_view")), worst.string().c_str());
+  }
+  std::fflush(stdout);
+  return kExitOk;
+}
+
+}  // namespace impostor::cli
