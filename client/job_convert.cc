@@ -68,6 +68,7 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
                      "\"; expected octahedral, hemi-octahedral, azimuth-elevation, ring-top or billboard"));
   }
   if (settings.ring_views.has_value()) p.set_ring_views(*settings.ring_views);
+  if (settings.supersampling.has_value()) p.set_supersampling(*settings.supersampling);
   p.set_frames(settings.frames);
   p.set_resolution(settings.resolution);
   if (settings.product.empty() || settings.product == "atlas") {

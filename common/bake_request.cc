@@ -132,6 +132,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
         " frames leaves ", out.resolution() / out.frames(), " px per frame; at least ",
         kMinTilePixels, " are needed (resolution >= ", kMinTilePixels * out.frames(), ")"));
   }
+  if (auto s = NormalizeSupersampling(&out); !s.ok()) return s;
   if (out.frames_auto()) out.set_frames(0);
   return out;
 }

@@ -22,7 +22,7 @@ inline constexpr uint32_t kMinFrames = 2;
 inline constexpr uint32_t kMaxFrames = 64;
 inline constexpr uint32_t kDefaultResolution = 2048;
 inline constexpr uint32_t kMinResolution = 64;
-inline constexpr uint32_t kMaxResolution = 8192;
+inline constexpr uint32_t kMaxResolution = 16384;
 inline constexpr uint32_t kMinTilePixels = 8;
 inline constexpr int kMaxInputFiles = 4096;
 // PRODUCT_SURFELS: the point budget's range. 4 Mi points (192 MiB of

@@ -23,6 +23,30 @@ ViewLayout ViewLayoutOf(const v1::BakeParameters& p) {
   return layout;
 }
 
+absl::Status NormalizeSupersampling(v1::BakeParameters* out) {
+  const bool filtered = out->product() == v1::PRODUCT_ATLAS || out->product() == v1::PRODUCT_LOD_CHAIN;
+  if (!filtered) {
+    if (out->has_supersampling()) {
+      return absl::InvalidArgumentError(
+          "parameters.supersampling: only for products PRODUCT_ATLAS and PRODUCT_LOD_CHAIN");
+    }
+    return absl::OkStatus();
+  }
+  if (!out->has_supersampling()) out->set_supersampling(kDefaultSupersampling);
+  const uint32_t s = out->supersampling();
+  if (s < 1 || s > kMaxSupersampling) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("parameters.supersampling: ", s, " is out of range 1..", kMaxSupersampling));
+  }
+  if (static_cast<uint64_t>(out->resolution()) * s > kMaxRenderPixels) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "parameters.supersampling: ", s, " x resolution ", out->resolution(), " = ",
+        static_cast<uint64_t>(out->resolution()) * s, " px exceeds the ", kMaxRenderPixels,
+        " px render limit; lower supersampling (1 renders at the resolution itself) or the resolution"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status NormalizeLayoutFrames(v1::BakeParameters* out) {
   const LayoutKind kind = LayoutKindOf(out->layout());
   const std::string name(LayoutName(kind));

@@ -29,6 +29,17 @@ inline constexpr uint32_t kMaxRingViews = 64;
 // Surfel captures take the octahedral layouts only.
 absl::Status NormalizeLayoutFrames(v1::BakeParameters* out);
 
+inline constexpr uint32_t kDefaultSupersampling = 2;
+inline constexpr uint32_t kMaxSupersampling = 4;
+// The largest image the baker renders (resolution x supersampling), the
+// maxImageDimension2D every Vulkan 1.3 desktop driver and lavapipe offer.
+inline constexpr uint32_t kMaxRenderPixels = 16384;
+
+// With resolution filled in: supersampling default 2 for the atlas and
+// LOD-chain products (range 1..4, and resolution x supersampling at most
+// kMaxRenderPixels); refused for the others, whose captures do not filter.
+absl::Status NormalizeSupersampling(v1::BakeParameters* out);
+
 // The shared mapping's description of a normalised request's layout.
 ViewLayout ViewLayoutOf(const v1::BakeParameters& normalized);
 LayoutKind LayoutKindOf(v1::Layout layout);

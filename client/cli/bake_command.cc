@@ -78,6 +78,7 @@ int RunBake(const CliArgs& args) {
   sdk::BakeSettings settings;
   settings.layout = args.layout;
   settings.ring_views = args.ring_views;
+  settings.supersampling = args.supersampling;
   settings.frames = args.frames;
   settings.resolution = args.resolution;
   settings.product = args.product;

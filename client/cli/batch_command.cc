@@ -51,7 +51,6 @@ sdk::BakeSettings SettingsFromArgs(const CliArgs& args) {
   sdk::BakeSettings s;
   s.layout = args.layout;
   s.ring_views = args.ring_views;
-  s.lod_ratios = args.lod_ratios;
   s.frames = args.frames;
   s.resolution = args.resolution;
   s.product = args.product;
@@ -60,6 +59,12 @@ sdk::BakeSettings SettingsFromArgs(const CliArgs& args) {
   s.max_planes = args.max_planes;
   s.tolerance = args.tolerance;
   s.priority = args.priority.value_or(0);
+  s.lod_ratios = args.lod_ratios;
+  s.min_iou = args.min_iou;
+  s.min_psnr_db = args.min_psnr_db;
+  s.frames_auto = args.frames_auto;
+  s.quality_views = args.quality_views;
+  s.emissive = args.emissive;
   return s;
 }
 

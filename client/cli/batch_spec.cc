@@ -84,9 +84,67 @@ const std::map<std::string, Setter>& SettingKeys() {
        }},
       {"frames",
        [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (v.is_string() && v.get<std::string>() == "auto") {
+           s.frames_auto = true;
+           s.frames = 0;
+           return absl::OkStatus();
+         }
+         auto n = WholeNumber(where, v);
+         if (!n.ok()) return Bad(where, absl::StrCat("expected a whole number 0..4294967295 or \"auto\", got ",
+                                                     Shown(v)));
+         s.frames = *n;
+         s.frames_auto = false;
+         return absl::OkStatus();
+       }},
+      {"ring_views",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
          auto n = WholeNumber(where, v);
          if (!n.ok()) return n.status();
-         s.frames = *n;
+         s.ring_views = *n;
+         return absl::OkStatus();
+       }},
+      {"quality_views",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         auto n = WholeNumber(where, v);
+         if (!n.ok()) return n.status();
+         s.quality_views = *n;
+         return absl::OkStatus();
+       }},
+      {"max_planes",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         auto n = WholeNumber(where, v);
+         if (!n.ok()) return n.status();
+         s.max_planes = *n;
+         return absl::OkStatus();
+       }},
+      {"tolerance",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_number()) return Bad(where, absl::StrCat("expected a number, got ", Shown(v)));
+         s.tolerance = v.get<float>();
+         return absl::OkStatus();
+       }},
+      {"lod_pixel_error",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_number()) return Bad(where, absl::StrCat("expected a number, got ", Shown(v)));
+         s.lod_pixel_error = v.get<float>();
+         return absl::OkStatus();
+       }},
+      {"lod_ratios",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_array()) return Bad(where, absl::StrCat("expected a list of numbers, got ", Shown(v)));
+         s.lod_ratios.clear();
+         for (size_t i = 0; i < v.size(); ++i) {
+           if (!v[i].is_number()) {
+             return Bad(absl::StrCat(where, "[", i, "]"), absl::StrCat("expected a number, got ", Shown(v[i])));
+           }
+           s.lod_ratios.push_back(v[i].get<float>());
+         }
+         return absl::OkStatus();
+       }},
+      {"emissive",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_boolean()) return Bad(where, absl::StrCat("expected true or false, got ", Shown(v)));
+         s.emissive = v.get<bool>();
          return absl::OkStatus();
        }},
       {"resolution",

@@ -11,8 +11,10 @@
 //                "min_iou": 0.95}]}
 //
 // A bare list is the same as {"assets": [...]}. Keys of `defaults` and of an
-// asset object: layout, frames, resolution, product, preset, point_budget,
-// priority, min_iou, min_psnr_db; an asset also has `path` (required,
+// asset object, one per sdk::BakeSettings field: layout, frames (a number or
+// "auto"), resolution, product, preset, point_budget, ring_views,
+// quality_views, emissive, lod_ratios, lod_pixel_error, max_planes,
+// tolerance, priority, min_iou, min_psnr_db; an asset also has `path` (required,
 // relative to SPEC's folder, or to the working directory for stdin) and
 // `name` (its output folder, default: see AssignNames). An asset's own key
 // wins over --priority, which wins over `defaults`.

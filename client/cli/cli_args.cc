@@ -23,7 +23,7 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive"}, true,
+       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
@@ -173,6 +173,10 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
       out.ring_views = *n;
+    } else if (flag == "--supersampling") {
+      absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
+      if (!n.ok()) return n.status();
+      out.supersampling = *n;
     } else if (flag == "--product") {
       if (*value != "atlas" && *value != "surfels" && *value != "lod-chain" && *value != "cards") {
         return Usage(
@@ -275,11 +279,14 @@ Usage:
                       default 24, plus one from above) or billboard (the
                       traditional 3x3: 8 side views + 1 top view)
         --ring K      ring-top: horizontal views (default 24, range 3..64)
+        --supersampling S  render S x S samples per texel and filter them
+                      down for clean alpha edges (default 2, range 1..4;
+                      resolution x S at most 16384)
         --frames N    frames per atlas axis (server default 12, range 2..64;
                       azimuth-elevation: odd, default 11; ring-top and
                       billboard derive it)
         --resolution R atlas side in pixels (server default 2048, range
-                      64..8192 and at least 8 * frames)
+                      64..16384 and at least 8 * frames)
         --product P   atlas (default) or surfels: a point cloud for foliage at
                       extreme distance (surfels.bin: 12 float32 per point,
                       surfels.ply), read from a capture of --frames and
@@ -329,8 +336,10 @@ Usage:
       Bakes every asset listed in SPEC (a .json, .yaml or .yml file, or - for
       JSON or YAML on stdin): {"defaults": {...}, "assets": ["a.glb",
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
-      and of defaults: layout, frames, resolution, product, preset,
-      point_budget, priority, min_iou, min_psnr_db; an asset also has path
+      and of defaults, as bake's flags: layout, frames (or "auto"),
+      resolution, product, preset, point_budget, ring_views, quality_views,
+      emissive, lod_ratios, lod_pixel_error, max_planes, tolerance, priority,
+      min_iou, min_psnr_db; an asset also has path
       (required, relative to SPEC's folder) and name (its folder in DIR,
       default the file name without extension). Uploads only the blobs the
       server lacks (one FindMissingBlobs for the batch), submits everything,

@@ -65,6 +65,8 @@ struct CliArgs {
   std::optional<uint32_t> point_budget;
   // --ring K (layout ring-top): passed to the server unchecked.
   std::optional<uint32_t> ring_views;
+  // --supersampling S: passed to the server unchecked.
+  std::optional<uint32_t> supersampling;
   // --lod-ratios 0.5,0.1 (product lod-chain): comma-separated numbers, passed
   // to the server unchecked (it owns the rules); empty = not given. With
   // product lod-chain and no --layout, `layout` is empty: the server's

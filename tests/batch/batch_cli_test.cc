@@ -300,7 +300,7 @@ TEST(BatchCli, MalformedInputIsAUsageErrorNamingTheEntryAndField) {
       {"unknown key", R"({"assets": [{"path": ")" + box + R"(", "frame": 4}]})", "",
        "unknown key \"frame\""},
       {"wrong type", R"({"defaults": {"frames": "four"}, "assets": [")" + box + R"("]})", "",
-       "impostor: defaults.frames: expected a whole number 0..4294967295, got \"four\" (string)"},
+       "impostor: defaults.frames: expected a whole number 0..4294967295 or \"auto\", got \"four\" (string)"},
       {"empty list", R"({"assets": []})", "", "impostor: assets: the list is empty; nothing to bake"},
       {"priority in spec", R"({"assets": [{"path": ")" + box + R"(", "priority": 1000}]})", "",
        "priority: 1000 is out of range -100..100"},

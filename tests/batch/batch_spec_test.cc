@@ -159,13 +159,13 @@ TEST_F(BatchSpecTest, MalformedSpecsNameTheEntryAndField) {
       {"missing file in object", R"({"assets": [{"path": "gone/tree.gltf"}]})", SpecFormat::kJson,
        "assets[0] (\"gone/tree.gltf\").path: \"gone/tree.gltf\" not found"},
       {"unknown key", R"({"assets": [{"path": "rock.glb", "frame": 8}]})", SpecFormat::kJson,
-       "assets[0] (\"rock.glb\"): unknown key \"frame\"; known keys: path, name, frames,"},
+       "assets[0] (\"rock.glb\"): unknown key \"frame\"; known keys: path, name, emissive, frames, layout,"},
       {"unknown default", R"({"defaults": {"resolutoin": 64}, "assets": ["rock.glb"]})", SpecFormat::kJson,
        "defaults: unknown key \"resolutoin\""},
       {"unknown top-level key", R"({"asset": ["rock.glb"]})", SpecFormat::kJson,
        "SPEC: unknown key \"asset\"; known keys: defaults, assets"},
       {"wrong type", R"({"assets": [{"path": "rock.glb", "frames": "8"}]})", SpecFormat::kJson,
-       "assets[0] (\"rock.glb\").frames: expected a whole number 0..4294967295, got \"8\" (string)"},
+       "assets[0] (\"rock.glb\").frames: expected a whole number 0..4294967295 or \"auto\", got \"8\" (string)"},
       {"negative number", R"({"defaults": {"resolution": -64}, "assets": ["rock.glb"]})", SpecFormat::kJson,
        "defaults.resolution: expected a whole number 0..4294967295, got -64 (number)"},
       {"fractional frames", R"({"assets": [{"path": "rock.glb", "frames": 4.5}]})", SpecFormat::kJson,
@@ -206,6 +206,27 @@ TEST_F(BatchSpecTest, MalformedSpecsNameTheEntryAndField) {
     EXPECT_NE(spec.status().message().find(c.message), std::string::npos)
         << c.name << ": message \"" << spec.status().message() << "\" lacks \"" << c.message << "\"";
   }
+}
+
+TEST_F(BatchSpecTest, EveryBakeSettingHasAKey) {
+  auto spec = Parse(R"({"assets": [{"path": "rock.glb", "frames": "auto", "min_iou": 0.9, "emissive": true,
+    "quality_views": 8, "ring_views": 12, "lod_ratios": [0.5, 0.25], "lod_pixel_error": 2, "max_planes": 6,
+    "tolerance": 0.1}]})");
+  ASSERT_TRUE(spec.ok()) << spec.status();
+  const sdk::BakeSettings& s = spec->entries[0].settings;
+  EXPECT_TRUE(s.frames_auto);
+  EXPECT_TRUE(s.emissive);
+  EXPECT_EQ(s.quality_views.value_or(0), 8u);
+  EXPECT_EQ(s.ring_views.value_or(0), 12u);
+  EXPECT_EQ(s.lod_ratios, (std::vector<float>{0.5f, 0.25f}));
+  EXPECT_FLOAT_EQ(s.lod_pixel_error.value_or(0), 2.0f);
+  EXPECT_EQ(s.max_planes.value_or(0), 6u);
+  EXPECT_FLOAT_EQ(s.tolerance.value_or(0), 0.1f);
+  auto bad = Parse(R"({"assets": [{"path": "rock.glb", "lod_ratios": [0.5, "half"]}]})");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("assets[0] (\"rock.glb\").lod_ratios[1]: expected a number, got \"half\""),
+            std::string::npos)
+      << bad.status();
 }
 
 TEST_F(BatchSpecTest, ModelsFromTheCommandLine) {

@@ -43,7 +43,8 @@ class CardsBakeTest : public ::testing::Test {
     if (max_planes != 0) in.set_max_planes(max_planes);
     auto p = NormalizeParameters(in);
     if (!p.ok()) return p.status();
-    AtlasBakeRequest request{.entry_file = entry, .parameters = *p, .cache_key = "test", .output_dir = out};
+    AtlasBakeRequest request{.entry_file = entry, .parameters = *p, .cache_key = "test", .output_dir = out,
+                             .load_limits = {}};
     const std::atomic<bool> cancelled{false};
     const auto start = std::chrono::steady_clock::now();
     auto result = BakeCards(request, *renderer_, [](std::string_view, double) {}, cancelled);
@@ -70,7 +71,9 @@ class CardsBakeTest : public ::testing::Test {
     EXPECT_EQ(c.triangles(), 2u * c.cards_size());
     ASSERT_EQ(static_cast<uint64_t>(c.triangle_plane_size()), m.mesh().triangles()) << "every triangle assigned";
     for (uint32_t plane : c.triangle_plane()) ASSERT_LT(plane, static_cast<uint32_t>(c.planes_size()));
-    if (!c.budget_exhausted()) EXPECT_LE(c.max_distance(), c.tolerance() * 1.0001f);
+    if (!c.budget_exhausted()) {
+      EXPECT_LE(c.max_distance(), c.tolerance() * 1.0001f);
+    }
     uint64_t texels = 0;
     for (const v1::Card& card : c.cards()) {
       EXPECT_EQ(card.corners_size(), 12);

@@ -93,7 +93,9 @@ void ExpectConsistent(std::span<const Triangle3> soup, const PlaneFit& fit, floa
     const FittedPlane& p = fit.planes[fit.triangle_plane[i]];
     EXPECT_NEAR(glm::length(p.normal), 1.0f, 1e-5f);
     const float d = TriangleDistance(soup[i], p.normal, p.d);
-    if (!fit.budget_exhausted) EXPECT_LE(d, tolerance * 1.0001f) << "triangle " << i;
+    if (!fit.budget_exhausted) {
+      EXPECT_LE(d, tolerance * 1.0001f) << "triangle " << i;
+    }
     worst = std::max(worst, d);
   }
   EXPECT_FLOAT_EQ(fit.max_distance, worst);

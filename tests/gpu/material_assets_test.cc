@@ -299,6 +299,26 @@ TEST_F(MaterialAssetsTest, FoxIsBakedInItsBindPose) {
   EXPECT_TRUE(warned);
 }
 
+TEST_F(MaterialAssetsTest, TreeMaskLeavesAreCutOut) {
+  const fs::path path = Asset("vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf");
+  SKIP_IF_MISSING(path);
+  const Scene scene = Load(path);
+  const BoundingSphere sphere = ComputeBoundingSphere(scene);
+  const auto masked = [&](const SceneBatch& b) {
+    return scene.materials[b.material].alpha_mode == AlphaMode::kMask;
+  };
+  const Scene leaves = Only(scene, masked);
+  ASSERT_FALSE(leaves.batches.empty());
+  Scene solid = leaves;
+  for (SceneMaterial& m : solid.materials) m.alpha_mode = AlphaMode::kOpaque;
+  const int cut = Covered(Render(leaves, {1, 0.3f, 0.5f}, 256, &sphere));
+  const int full = Covered(Render(solid, {1, 0.3f, 0.5f}, 256, &sphere));
+  std::printf("[ leaves ] MASK covers %d texels, the same cards OPAQUE %d\n", cut, full);
+  // The leaf cards keep their leaves and lose the transparent parts.
+  EXPECT_GT(cut, full / 10);
+  EXPECT_LT(cut, full * 9 / 10);
+}
+
 TEST_F(MaterialAssetsTest, EmissiveMapIsFactorTimesStrengthTimesTexture) {
   // A quad facing +Z with emissive factor (1, 0.5, 0.25), no texture.
   Scene scene;

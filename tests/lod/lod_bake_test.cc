@@ -59,7 +59,7 @@ class LodBakeTest : public ::testing::Test {
     EXPECT_TRUE(p.ok()) << p.status();
     fs::create_directories(out);
     AtlasBakeRequest request{.entry_file = entry, .parameters = *p, .cache_key = std::string(64, 'c'),
-                             .output_dir = out};
+                             .output_dir = out, .load_limits = {}};
     const std::atomic<bool> cancelled{false};
     return BakeLodChain(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }

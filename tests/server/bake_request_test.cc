@@ -43,8 +43,10 @@ TEST(BakeRequest, OutOfRangeParametersNameTheFieldAndLimit) {
   } cases[] = {
       {"one frame", 1, 0, 0, "parameters.frames: 1 is out of range 2..64"},
       {"too many frames", 65, 0, 0, "parameters.frames: 65 is out of range 2..64"},
-      {"tiny atlas", 0, 32, 0, "parameters.resolution: 32 is out of range 64..8192"},
-      {"huge atlas", 0, 16384, 0, "parameters.resolution: 16384 is out of range 64..8192"},
+      {"tiny atlas", 0, 32, 0, "parameters.resolution: 32 is out of range 64..16384"},
+      {"huge atlas", 0, 32768, 0, "parameters.resolution: 32768 is out of range 64..16384"},
+      {"huge supersampled atlas", 0, 16384, 0,
+       "parameters.supersampling: 2 x resolution 16384 = 32768 px exceeds the 16384 px render limit"},
       {"tiles too small", 64, 256, 0, "at least 8 are needed (resolution >= 512)"},
       {"unknown layout", 0, 0, 9, "parameters.layout: unknown value 9"},
   };
@@ -156,7 +158,7 @@ TEST(BakeRequest, BadCardParametersNameTheFieldAndLimit) {
       {"zero tolerance", v1::PRODUCT_CARDS, {}, 0.0f, 0, 0, 0, "parameters.tolerance: 0 is out of range 0.0001..1"},
       {"huge tolerance", v1::PRODUCT_CARDS, {}, 2.0f, 0, 0, 0, "parameters.tolerance: 2 is out of range 0.0001..1"},
       {"nan tolerance", v1::PRODUCT_CARDS, {}, std::nanf(""), 0, 0, 0, "parameters.tolerance: nan is out of range"},
-      {"tiny card atlas", v1::PRODUCT_CARDS, {}, {}, 0, 32, 0, "parameters.resolution: 32 is out of range 64..8192"},
+      {"tiny card atlas", v1::PRODUCT_CARDS, {}, {}, 0, 32, 0, "parameters.resolution: 32 is out of range 64..16384"},
       {"frames with cards", v1::PRODUCT_CARDS, {}, {}, 12, 0, 0, "parameters.frames: 12 given, but product "
                                                                  "PRODUCT_CARDS renders no views"},
       {"planes with atlas", v1::PRODUCT_ATLAS, 8u, {}, 0, 0, 0, "parameters.max_planes: only for product "

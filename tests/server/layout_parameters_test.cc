@@ -99,3 +99,49 @@ TEST(LayoutParameters, BadCombinationsNameTheFieldAndTheRule) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(SupersamplingParameters, DefaultRangeAndProducts) {
+  v1::BakeParameters atlas;
+  auto p = NormalizeParameters(atlas);
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->supersampling(), 2u);
+
+  struct Case {
+    const char* name;
+    v1::Product product;
+    uint32_t supersampling;
+    uint32_t resolution;
+    const char* expect;  // empty = accepted
+  } cases[] = {
+      {"one", v1::PRODUCT_ATLAS, 1, 1024, ""},
+      {"four", v1::PRODUCT_ATLAS, 4, 4096, ""},
+      {"zero", v1::PRODUCT_ATLAS, 0, 1024, "parameters.supersampling: 0 is out of range 1..4"},
+      {"five", v1::PRODUCT_ATLAS, 5, 1024, "parameters.supersampling: 5 is out of range 1..4"},
+      {"too many pixels", v1::PRODUCT_ATLAS, 4, 8192,
+       "parameters.supersampling: 4 x resolution 8192 = 32768 px exceeds the 16384 px render limit"},
+      {"lod chain", v1::PRODUCT_LOD_CHAIN, 3, 1024, ""},
+      {"surfels", v1::PRODUCT_SURFELS, 2, 1024,
+       "parameters.supersampling: only for products PRODUCT_ATLAS and PRODUCT_LOD_CHAIN"},
+  };
+  for (const Case& c : cases) {
+    v1::BakeParameters in;
+    in.set_product(c.product);
+    in.set_supersampling(c.supersampling);
+    in.set_resolution(c.resolution);
+    auto out = NormalizeParameters(in);
+    if (std::string(c.expect).empty()) {
+      ASSERT_TRUE(out.ok()) << c.name << ": " << out.status();
+      EXPECT_EQ(out->supersampling(), c.supersampling) << c.name;
+    } else {
+      ASSERT_FALSE(out.ok()) << c.name;
+      EXPECT_NE(std::string(out.status().message()).find(c.expect), std::string::npos)
+          << c.name << ": " << out.status().message();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace impostor

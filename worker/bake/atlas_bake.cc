@@ -20,6 +20,7 @@
 #include "worker/output/contact_sheet.h"
 #include "worker/output/cutout_hull.h"
 #include "worker/output/map_writer.h"
+#include "worker/output/supersample.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"
 
@@ -36,7 +37,8 @@ constexpr double kLoadStart = 0.05, kRenderStart = 0.15, kEncodeStart = 0.80, kE
 // How each map's channels are encoded; written into the manifest.
 const std::vector<std::string> kAlbedoChannels = {
     "R: base colour red (texture x factor, unlit), sRGB", "G: base colour green, sRGB",
-    "B: base colour blue, sRGB", "A: coverage, 0 = empty, 255 = mesh (MASK cut at alphaCutoff)"};
+    "B: base colour blue, sRGB", "A: coverage, the fraction of the texel's supersamples the mesh covers: 0 = empty, 255 = fully "
+    "covered (MASK cut at alphaCutoff); colour is the covered samples' mean (straight alpha)"};
 const std::vector<std::string> kNormalDepthChannels = {
     "R: scene-space normal x * 0.5 + 0.5 (normal map applied)", "G: normal y * 0.5 + 0.5",
     "B: normal z * 0.5 + 0.5",
@@ -107,12 +109,29 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   RenderTimings render_timings;
   renderer.set_cancel_flag(&cancelled);
   renderer.set_emissive(p.emissive());
+  // Supersampling: every tile rendered `ss` times larger, then filtered
+  // down (worker/output/supersample.h). Unset (requests not normalised by
+  // the server, e.g. in tests) renders at the resolution itself.
+  const int ss = p.has_supersampling() ? static_cast<int>(p.supersampling()) : 1;
+  std::vector<FrameCamera> render_cameras = cameras;
+  for (FrameCamera& c : render_cameras) c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
   auto atlas = renderer.Render(
-      *scene, sphere, cameras, resolution,
+      *scene, sphere, render_cameras, resolution * ss,
       [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
   renderer.set_cancel_flag(nullptr);
   renderer.set_emissive(false);
   if (!atlas.ok()) return atlas.status();
+  if (ss > 1) {
+    AtlasMaps maps{atlas->width, atlas->height, std::move(atlas->albedo_alpha), std::move(atlas->normal_depth),
+                   std::move(atlas->orm), std::move(atlas->emissive)};
+    if (auto s = DownsampleMaps(ss, &maps); !s.ok()) return s;
+    atlas->width = maps.width;
+    atlas->height = maps.height;
+    atlas->albedo_alpha = std::move(maps.albedo_alpha);
+    atlas->normal_depth = std::move(maps.normal_depth);
+    atlas->orm = std::move(maps.orm);
+    atlas->emissive = std::move(maps.emissive);
+  }
   timings->set_render_seconds(render_timings.upload_seconds + render_timings.render_seconds);
   timings->set_readback_seconds(render_timings.readback_seconds);
   if (cancelled) return absl::CancelledError("cancelled after rendering");
@@ -151,7 +170,8 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // The maps side by side for a person's first look (contact_sheet.h).
   auto sheet = WriteContactSheet(dir / "contact_sheet.png",
                                  {.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
-                                  .normal_depth = atlas->normal_depth, .orm = atlas->orm});
+                                  .normal_depth = atlas->normal_depth, .orm = atlas->orm,
+                                  .emissive = atlas->emissive});
   if (!sheet.ok()) return sheet.status();
   if (!sheet->labelled) spdlog::warn("event=contact_sheet_unlabelled reason=\"no TrueType font found\"");
   timings->set_encode_seconds(SecondsSince(t));

@@ -57,7 +57,8 @@ absl::StatusOr<MeshLevel> BuildMeshLevel(const LodSource& source, float ratio,
     for (size_t k = 0; k < source.primitives.size(); ++k) {
       const std::span<const float> p(positions.data() + size_t{start[k]} * 3,
                                      size_t{start[k + 1] - start[k]} * 3);
-      const SimplifyResult part = SimplifyTriangles(source.primitives[k].indices, p, ratio, {.lock_border = true});
+      const SimplifyResult part = SimplifyTriangles(source.primitives[k].indices, p, ratio,
+                                                    {.lock_border = true, .weld_ranges = {}});
       level.error = std::max(level.error, part.error);
       for (uint32_t i : part.indices) r.indices.push_back(start[k] + i);
     }

@@ -5,8 +5,6 @@
 #include <functional>
 #include <limits>
 #include <unordered_map>
-#include <map>
-#include <tuple>
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -117,7 +115,6 @@ absl::StatusOr<LodSource> LoadLodSource(const fs::path& entry_file, const GltfLo
   for (size_t m = 0; m < mesh_count; ++m) {
     if (source.mesh_instances[m] == 0) continue;
     const tinygltf::Mesh& mesh = model.meshes[m];
-    const size_t first = source.primitives.size();
     for (size_t p = 0; p < mesh.primitives.size(); ++p) {
       const tinygltf::Primitive& prim = mesh.primitives[p];
       const std::string what = absl::StrCat("mesh ", m, " '", mesh.name, "' primitive ", p);

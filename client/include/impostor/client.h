@@ -92,9 +92,15 @@ struct BakeSettings {
   // Default: unset = 24 (15 degrees apart). Range checked by the server: 3..64.
   std::optional<uint32_t> ring_views;
 
+  // Atlas and LOD chain: samples per texel side; the atlas is rendered at
+  // supersampling x its resolution and filtered down, so alpha edges are
+  // smooth and keep the surface's colour. Default: unset = 2. Range checked
+  // by the server: 1..4, and resolution x supersampling at most 16384.
+  std::optional<uint32_t> supersampling;
+
   // Atlas side in pixels.
   // Default: 0 = the server's default (2048). Range checked by the server:
-  // 64..8192 and at least 8 * frames.
+  // 64..16384 and at least 8 * frames.
   uint32_t resolution = 0;
 
   // What to bake: "atlas" (the three atlas maps) or "surfels" (a point
