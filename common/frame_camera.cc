@@ -14,7 +14,19 @@ glm::vec3 CameraUpFor(glm::vec3 d) {
   return glm::normalize(up);
 }
 
-int TileSize(int resolution, int frames) { return frames > 0 ? resolution / frames : 0; }
+int MipSafeLevels(int resolution, int frames) {
+  if (frames <= 0) return 0;
+  const int raw = resolution / frames;
+  int levels = 0;
+  while ((raw >> (levels + 1)) >= kMipSafeTilePixels) ++levels;
+  return levels;
+}
+
+int TileSize(int resolution, int frames) {
+  if (frames <= 0) return 0;
+  const int levels = MipSafeLevels(resolution, frames);
+  return ((resolution / frames) >> levels) << levels;
+}
 
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution) {
   return AtlasCameras(ViewLayout{.kind = kind, .frames = frames}, resolution);

@@ -48,9 +48,19 @@ struct FrameCamera {
 // Up vector for a view direction, by the rule above.
 glm::vec3 CameraUpFor(glm::vec3 direction);
 
-// Side of one tile: resolution / frames, rounded down. Tiles start at the
-// top-left corner; the remainder (resolution % frames) is unused border.
+// Side of one tile, padded for mipmaps: resolution / frames rounded down to
+// a multiple of 2^L, where L = MipSafeLevels(...) is the deepest mip level
+// whose tiles are still at least kMipSafeTilePixels wide. Tiles then start
+// on multiples of 2^L, so every texel of mip levels 0..L lies inside one
+// tile: down to a 16 px tile, no mip level mixes neighbouring frames (each
+// tile is dilated to its edges, so its own colour fills its whole square).
+// Tiles start at the top-left corner; the remainder at the right and bottom
+// (resolution - frames * tile, under 2^L + frames pixels) stays empty.
 int TileSize(int resolution, int frames);
+
+inline constexpr int kMipSafeTilePixels = 16;
+// L above: floor(log2((resolution / frames) / 16)), at least 0.
+int MipSafeLevels(int resolution, int frames);
 
 // All frames of an octahedral or hemi-octahedral atlas, index order.
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution);

@@ -299,6 +299,64 @@ TEST_F(MaterialAssetsTest, FoxIsBakedInItsBindPose) {
   EXPECT_TRUE(warned);
 }
 
+// Sampler wrap modes through a KHR_texture_transform scale of 2 (uv 0..2
+// across a quad): at u' = 1.25 and 1.75 a texture red on its left half and
+// blue on its right reads red/blue (REPEAT), blue/red (MIRRORED_REPEAT) or
+// blue/blue (CLAMP_TO_EDGE).
+TEST_F(MaterialAssetsTest, WrapModesAreHonouredThroughTheUvTransform) {
+  struct Case {
+    int wrap;
+    const char* name;
+    bool red_at_125, red_at_175;
+  };
+  for (const Case& c : {Case{10497, "REPEAT", true, false}, Case{33648, "MIRRORED_REPEAT", false, true},
+                        Case{33071, "CLAMP_TO_EDGE", false, false}}) {
+    Scene scene;
+    SceneMaterial m;
+    m.base_color_texture = 0;
+    m.uv[kSlotBaseColor].transform = glm::mat3(glm::vec3(2, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1));
+    scene.materials.push_back(m);
+    SceneTexture t;
+    t.width = 8;
+    t.height = 1;
+    t.srgb = true;
+    t.wrap_s = t.wrap_t = c.wrap;
+    for (int x = 0; x < 8; ++x) {
+      const uint8_t red = x < 4 ? 255 : 0;
+      for (uint8_t v : {red, uint8_t{0}, static_cast<uint8_t>(255 - red), uint8_t{255}}) t.rgba8.push_back(v);
+    }
+    scene.textures.push_back(t);
+    const glm::vec3 corners[4] = {{-0.5f, -0.5f, 0}, {0.5f, -0.5f, 0}, {0.5f, 0.5f, 0}, {-0.5f, 0.5f, 0}};
+    for (const glm::vec3& p : corners) {
+      SceneVertex v;
+      v.position = p;
+      v.normal = glm::vec3(0, 0, 1);
+      v.uv = glm::vec2(p.x + 0.5f, 0.5f - p.y);
+      scene.vertices.push_back(v);
+    }
+    scene.indices = {0, 1, 2, 0, 2, 3};
+    scene.batches.push_back({0, 6, 0, false});
+    scene.bounds_min = glm::vec3(-0.5f, -0.5f, 0);
+    scene.bounds_max = glm::vec3(0.5f, 0.5f, 0);
+    const AtlasImages img = Render(scene, {0, 0, 1}, 64);
+    ASSERT_EQ(img.width, 64);
+    // Pixel columns 37 and 49 of row 32 sample u' ~ 1.24 and ~ 1.77.
+    const auto is_red = [&](int x) {
+      const size_t i = (32u * 64u + static_cast<size_t>(x)) * 4u;
+      EXPECT_EQ(img.albedo_alpha[i + 3], 255) << c.name;
+      return img.albedo_alpha[i] > 200 && img.albedo_alpha[i + 2] < 55;
+    };
+    const auto is_blue = [&](int x) {
+      const size_t i = (32u * 64u + static_cast<size_t>(x)) * 4u;
+      return img.albedo_alpha[i + 2] > 200 && img.albedo_alpha[i] < 55;
+    };
+    EXPECT_EQ(is_red(37), c.red_at_125) << c.name;
+    EXPECT_EQ(is_blue(37), !c.red_at_125) << c.name;
+    EXPECT_EQ(is_red(49), c.red_at_175) << c.name;
+    EXPECT_EQ(is_blue(49), !c.red_at_175) << c.name;
+  }
+}
+
 TEST_F(MaterialAssetsTest, TreeMaskLeavesAreCutOut) {
   const fs::path path = Asset("vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf");
   SKIP_IF_MISSING(path);

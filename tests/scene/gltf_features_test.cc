@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <glm/geometric.hpp>
 #include <string>
@@ -204,6 +205,59 @@ TEST(GltfFeaturesTest, BoxVertexColorsCarriesColor0) {
     coloured += v.color != glm::vec4(1.0f) ? 1 : 0;
   }
   EXPECT_GT(coloured, static_cast<int>(scene->vertices.size()) / 2);
+}
+
+// COLOR_0 as normalized unsigned bytes (VEC4) and unsigned shorts (VEC3).
+TEST(GltfFeaturesTest, NormalizedIntegerVertexColours) {
+  struct Case {
+    int component_type;  // 5121 ubyte, 5123 ushort
+    const char* type;
+    int components;
+    int bytes_per_component;
+  };
+  for (const Case& c : {Case{5121, "VEC4", 4, 1}, Case{5123, "VEC3", 3, 2}}) {
+    std::vector<uint8_t> bytes(36, 0);
+    const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    std::memcpy(bytes.data(), positions, sizeof(positions));
+    // Vertex i: channel k = max * (k + 1) / 4 (alpha, when present, = max).
+    const uint32_t max = c.bytes_per_component == 1 ? 255 : 65535;
+    const size_t stride = ((c.components * c.bytes_per_component + 3) / 4) * 4;  // 4-aligned
+    const size_t colour_offset = bytes.size();
+    bytes.resize(colour_offset + 3 * stride, 0);
+    for (int v = 0; v < 3; ++v) {
+      for (int k = 0; k < c.components; ++k) {
+        const uint32_t value = k == 3 ? max : max * (k + 1) / 4;
+        std::memcpy(bytes.data() + colour_offset + v * stride + k * c.bytes_per_component, &value,
+                    c.bytes_per_component);
+      }
+    }
+    const std::string gltf = std::string(R"({"asset": {"version": "2.0"}, "scene": 0,
+      "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+      "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}}]}],
+      "buffers": [{"byteLength": )") +
+                             std::to_string(bytes.size()) +
+                             R"(, "uri": "data:application/octet-stream;base64,)" + Base64(bytes) +
+                             R"("}],
+      "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                      {"buffer": 0, "byteOffset": 36, "byteLength": )" +
+                             std::to_string(3 * stride) + R"(, "byteStride": )" +
+                             std::to_string(stride) + R"(}],
+      "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                     "min": [0, 0, 0], "max": [1, 1, 0]},
+                    {"bufferView": 1, "componentType": )" +
+                             std::to_string(c.component_type) +
+                             R"(, "normalized": true, "count": 3, "type": ")" + c.type +
+                             R"("}]})";
+    absl::StatusOr<Scene> scene = FromText(gltf);
+    ASSERT_TRUE(scene.ok()) << c.type << ": " << scene.status();
+    ASSERT_EQ(scene->vertices.size(), 3u);
+    for (const SceneVertex& v : scene->vertices) {
+      EXPECT_NEAR(v.color.r, 0.25f, 0.003f) << c.type;
+      EXPECT_NEAR(v.color.g, 0.5f, 0.003f) << c.type;
+      EXPECT_NEAR(v.color.b, 0.75f, 0.003f) << c.type;
+      EXPECT_EQ(v.color.a, 1.0f) << c.type;
+    }
+  }
 }
 
 TEST(GltfFeaturesTest, MultiUvTestCarriesTexcoord1) {

@@ -27,7 +27,8 @@ namespace impostor {
 struct AtlasImages {
   int width = 0;
   int height = 0;
-  // R,G,B = base colour x factor (sRGB-encoded, unlit), A = coverage
+  // R,G,B = base colour texture x factor x COLOR_0 (sRGB-encoded, unlit),
+  // A = coverage
   // (0 empty, 255 covered). Empty texels are 0,0,0,0.
   std::vector<uint8_t> albedo_alpha;
   // R,G,B = scene-space unit normal (normal map applied) * 0.5 + 0.5,

@@ -31,9 +31,13 @@ using gltf_internal::Sandbox;
 constexpr int kMaxJsonNesting = 256;
 
 // extensionsRequired entries the bake can honour. Material extensions only
-// change lighting terms the unlit albedo/normal/ORM bake does not use;
-// KHR_texture_transform is applied (base colour transform, see
-// gltf_materials.cc); KHR_mesh_quantization is read by gltf_accessor.cc.
+// change lighting terms the unlit albedo/normal/ORM bake does not use
+// (KHR_materials_emissive_strength scales the emissive map);
+// KHR_texture_transform is applied per texture slot (gltf_materials.cc, in
+// the bake shader); KHR_mesh_quantization is read by gltf_accessor.cc.
+// Everything else required -- KHR_draco_mesh_compression,
+// EXT_meshopt_compression, KHR_texture_basisu, EXT_texture_webp, ... -- is
+// INVALID_ARGUMENT naming the extension: the file has no fallback data.
 const std::set<std::string>& SupportedRequiredExtensions() {
   static const std::set<std::string> kSupported = {
       "KHR_mesh_quantization",      "KHR_texture_transform",

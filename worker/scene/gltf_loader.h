@@ -54,9 +54,14 @@ struct GltfLoadLimits {
 //                     mesh, primitive and accessor), non-finite transforms,
 //                     node cycles, nodes deeper than max_node_depth, an
 //                     undecodable PNG/JPEG image, or no triangles in the
-//                     default scene. (Images in formats the loader cannot
-//                     decode -- KTX2, WebP, DDS -- are dropped with a
-//                     warning and the material's factors are used.)
+//                     default scene (naming the points/lines meshes when
+//                     only those exist).
+// Worked around, with a line in Scene::warnings: images in formats the
+// loader cannot decode (KTX2, WebP, DDS) are dropped and the material's
+// factors used; points/lines primitives are skipped when triangles remain;
+// a MASK material whose base colour image has no alpha channel; a texCoord
+// set other than 0 or 1 (set 0 used); skinned meshes are baked in their
+// bind pose.
 //   RESOURCE_EXHAUSTED a GltfLoadLimits limit is exceeded.
 absl::StatusOr<Scene> LoadGltfScene(const std::filesystem::path& entry_file,
                                     const GltfLoadLimits& limits = {});

@@ -201,17 +201,16 @@ absl::StatusOr<int> MaterialTable::UseSlot(int texture, int tex_coord,
                             "; only sets 0 and 1 are baked, TEXCOORD_0 used instead"));
     uv.tex_coord = 0;
   }
-  return UseTexture(texture, uv.tex_coord, srgb, material, kSlotNames[slot]);
+  return UseTexture(texture, srgb, material, kSlotNames[slot]);
 }
 
-absl::StatusOr<int> MaterialTable::UseTexture(int texture, int tex_coord, bool srgb, int material,
+absl::StatusOr<int> MaterialTable::UseTexture(int texture, bool srgb, int material,
                                               const char* slot) {
   if (texture == -1) return -1;
   const std::string what = absl::StrCat(MaterialName(model_, material), " ", slot, "Texture");
   if (texture < 0 || static_cast<size_t>(texture) >= model_.textures.size()) {
     return absl::InvalidArgumentError(absl::StrCat(what, ": texture ", texture, " does not exist"));
   }
-  (void)tex_coord;  // resolved by UseSlot
   const tinygltf::Texture& tex = model_.textures[texture];
   if (tex.source == -1) {
     // KHR_texture_basisu / EXT_texture_webp put the image in an extension

@@ -47,8 +47,7 @@ class MaterialTable {
   // and returns the scene texture (-1 when none or dropped).
   absl::StatusOr<int> UseSlot(int texture, int tex_coord, const tinygltf::ExtensionMap& extensions,
                               bool srgb, int material, TextureSlot slot, SceneMaterial* out);
-  absl::StatusOr<int> UseTexture(int texture, int tex_coord, bool srgb, int material,
-                                 const char* slot);
+  absl::StatusOr<int> UseTexture(int texture, bool srgb, int material, const char* slot);
 
   const tinygltf::Model& model_;
   const GltfLoadLimits& limits_;

@@ -1,9 +1,11 @@
-// BakeParameters.emissive: accepted for atlases only, and part of the cache
-// key only when set (keys of bakes without it do not change).
+// BakeParameters.emissive: `impostor bake --emissive` sets it, the server
+// accepts it for atlases only, and it is part of the cache key only when set
+// (keys of bakes without it do not change).
 #include <gtest/gtest.h>
 
 #include <string>
 
+#include "client/cli/cli_args.h"
 #include "common/bake_request.h"
 
 namespace impostor {
@@ -15,6 +17,16 @@ v1::MeshInput Mesh() {
   mesh.mutable_entry()->mutable_digest()->set_hash(std::string(64, 'a'));
   mesh.mutable_entry()->mutable_digest()->set_size_bytes(100);
   return mesh;
+}
+
+TEST(EmissiveRequestTest, CliFlag) {
+  absl::StatusOr<cli::CliArgs> a = cli::ParseCliArgs({"bake", "tree.gltf", "--out", "o", "--emissive"}, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_TRUE(a->emissive);
+  a = cli::ParseCliArgs({"bake", "tree.gltf", "--out", "o"}, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_FALSE(a->emissive);
+  EXPECT_FALSE(cli::ParseCliArgs({"bake", "tree.gltf", "--out", "o", "--emissive=yes"}, nullptr).ok());
 }
 
 TEST(EmissiveRequestTest, AcceptedForAtlasesAndInTheCacheKey) {
