@@ -93,6 +93,7 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
   if (settings.tolerance.has_value()) p.set_tolerance(*settings.tolerance);
   if (settings.quality_views.has_value()) p.set_quality_views(*settings.quality_views);
   p.set_emissive(settings.emissive);
+  p.set_texture_array(settings.texture_array);
   // frames_auto's target is the request's gate: one pair of thresholds.
   if (settings.frames_auto) {
     p.set_frames_auto(true);

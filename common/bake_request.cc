@@ -215,6 +215,10 @@ std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters&
   if (const std::string quality = QualityCacheKeyLine(p); !quality.empty()) put(quality);
   // Only a requested emissive map adds a line: other keys stay as they were.
   if (p.emissive()) put("emissive 1");
+  // Layout and sampling settings the frame count does not already imply.
+  if (p.has_ring_views()) put(absl::StrCat("ring_views ", p.ring_views()));
+  if (p.has_supersampling()) put(absl::StrCat("supersampling ", p.supersampling()));
+  if (p.texture_array()) put("texture_array 1");
   // Atlas keys predate products and stay as they were; other products add
   // their own lines.
   if (p.product() != v1::PRODUCT_ATLAS && p.product() != v1::PRODUCT_UNSPECIFIED) {

@@ -25,6 +25,10 @@ ViewLayout ViewLayoutOf(const v1::BakeParameters& p) {
 
 absl::Status NormalizeSupersampling(v1::BakeParameters* out) {
   const bool filtered = out->product() == v1::PRODUCT_ATLAS || out->product() == v1::PRODUCT_LOD_CHAIN;
+  if (!filtered && out->texture_array()) {
+    return absl::InvalidArgumentError(
+        "parameters.texture_array: only for products PRODUCT_ATLAS and PRODUCT_LOD_CHAIN");
+  }
   if (!filtered) {
     if (out->has_supersampling()) {
       return absl::InvalidArgumentError(

@@ -38,6 +38,7 @@ inline constexpr uint32_t kMaxRenderPixels = 16384;
 // With resolution filled in: supersampling default 2 for the atlas and
 // LOD-chain products (range 1..4, and resolution x supersampling at most
 // kMaxRenderPixels); refused for the others, whose captures do not filter.
+// texture_array is refused for the same products.
 absl::Status NormalizeSupersampling(v1::BakeParameters* out);
 
 // The shared mapping's description of a normalised request's layout.

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "client/cli/bake_settings.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
@@ -75,24 +76,7 @@ int RunBake(const CliArgs& args) {
   absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
   if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
 
-  sdk::BakeSettings settings;
-  settings.layout = args.layout;
-  settings.ring_views = args.ring_views;
-  settings.supersampling = args.supersampling;
-  settings.frames = args.frames;
-  settings.resolution = args.resolution;
-  settings.product = args.product;
-  settings.preset = args.preset;
-  settings.point_budget = args.point_budget;
-  settings.max_planes = args.max_planes;
-  settings.tolerance = args.tolerance;
-  settings.priority = args.priority.value_or(0);
-  settings.lod_ratios = args.lod_ratios;
-  settings.min_iou = args.min_iou;
-  settings.min_psnr_db = args.min_psnr_db;
-  settings.frames_auto = args.frames_auto;
-  settings.quality_views = args.quality_views;
-  settings.emissive = args.emissive;
+  const sdk::BakeSettings settings = BakeSettingsFromArgs(args);
   absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
   if (!submitted.ok()) {
     const absl::Status& s = submitted.status();

@@ -30,6 +30,7 @@
 #include "absl/strings/str_join.h"
 #include "client/cli/batch_report.h"
 #include "client/cli/batch_spec.h"
+#include "client/cli/bake_settings.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
 #include "impostor/client.h"
@@ -45,28 +46,6 @@ using Clock = std::chrono::steady_clock;
 // cheap wait on the server.
 constexpr size_t kWatchStreams = 8;
 
-// What `impostor bake A B ...` bakes each model with: the flags bake knows
-// (as RunBake maps them; keep the two in step).
-sdk::BakeSettings SettingsFromArgs(const CliArgs& args) {
-  sdk::BakeSettings s;
-  s.layout = args.layout;
-  s.ring_views = args.ring_views;
-  s.frames = args.frames;
-  s.resolution = args.resolution;
-  s.product = args.product;
-  s.preset = args.preset;
-  s.point_budget = args.point_budget;
-  s.max_planes = args.max_planes;
-  s.tolerance = args.tolerance;
-  s.priority = args.priority.value_or(0);
-  s.lod_ratios = args.lod_ratios;
-  s.min_iou = args.min_iou;
-  s.min_psnr_db = args.min_psnr_db;
-  s.frames_auto = args.frames_auto;
-  s.quality_views = args.quality_views;
-  s.emissive = args.emissive;
-  return s;
-}
 
 // A model's manifest.json "quality" block, or null.
 nlohmann::json QualityOf(const fs::path& manifest) {
@@ -371,7 +350,7 @@ int RunBatch(const CliArgs& args, const BatchSpec& spec) {
 int RunBakeBatch(const CliArgs& args) {
   absl::StatusOr<BatchSpec> spec = args.command == Command::kBakeBatch
                                        ? LoadBatchSpec(args.target, args.priority)
-                                       : BatchFromModels(args.targets, SettingsFromArgs(args));
+                                       : BatchFromModels(args.targets, BakeSettingsFromArgs(args));
   if (!spec.ok()) return Fail(kExitUsage, std::string(spec.status().message()));
   return RunBatch(args, *spec);
 }

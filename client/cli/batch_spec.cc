@@ -147,6 +147,19 @@ const std::map<std::string, Setter>& SettingKeys() {
          s.emissive = v.get<bool>();
          return absl::OkStatus();
        }},
+      {"texture_array",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_boolean()) return Bad(where, absl::StrCat("expected true or false, got ", Shown(v)));
+         s.texture_array = v.get<bool>();
+         return absl::OkStatus();
+       }},
+      {"supersampling",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         auto n = WholeNumber(where, v);
+         if (!n.ok()) return n.status();
+         s.supersampling = *n;
+         return absl::OkStatus();
+       }},
       {"resolution",
        [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
          auto n = WholeNumber(where, v);

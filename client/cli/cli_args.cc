@@ -23,7 +23,7 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive"}, true,
+       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
@@ -116,6 +116,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--verify") out.verify = true;
       if (flag == "--keep-going") out.keep_going = true;
       if (flag == "--emissive") out.emissive = true;
+      if (flag == "--array") out.texture_array = true;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -309,6 +310,9 @@ Usage:
                       viewer loads it) plus the card atlas maps;
                       --resolution is the card atlas side (default 1024);
                       --frames is refused and --layout ignored
+        --array       atlas: write each map as a texture array (layer i =
+                      view i, stacked top to bottom in one tile-wide PNG)
+                      instead of an atlas
         --emissive    atlas: also bake emissive.png (emissive texture x
                       factor x KHR_materials_emissive_strength, sRGB, A =
                       coverage), listed in the manifest's maps
@@ -337,8 +341,8 @@ Usage:
       JSON or YAML on stdin): {"defaults": {...}, "assets": ["a.glb",
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
       and of defaults, as bake's flags: layout, frames (or "auto"),
-      resolution, product, preset, point_budget, ring_views, quality_views,
-      emissive, lod_ratios, lod_pixel_error, max_planes, tolerance, priority,
+      resolution, product, preset, point_budget, ring_views, supersampling,
+      quality_views, emissive, texture_array, lod_ratios, lod_pixel_error, max_planes, tolerance, priority,
       min_iou, min_psnr_db; an asset also has path
       (required, relative to SPEC's folder) and name (its folder in DIR,
       default the file name without extension). Uploads only the blobs the

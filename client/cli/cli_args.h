@@ -80,6 +80,8 @@ struct CliArgs {
   bool quiet = false;
   // --emissive (bake): also bake the emissive map.
   bool emissive = false;
+  // --array (bake): texture arrays instead of atlases.
+  bool texture_array = false;
   // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else
   // $XDG_CACHE_HOME/impostor, else ~/.cache/impostor; see cache_commands.cc),
   // --max-bytes (unset = the cache's default cap), gc --verify.

@@ -145,3 +145,38 @@ TEST(SupersamplingParameters, DefaultRangeAndProducts) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(LayoutParameters, EverySettingThatChangesTheBakeChangesTheKey) {
+  v1::MeshInput mesh;
+  mesh.mutable_entry()->set_path("a.glb");
+  mesh.mutable_entry()->mutable_digest()->set_hash(std::string(64, 'a'));
+  mesh.mutable_entry()->mutable_digest()->set_size_bytes(10);
+  auto key = [&](const v1::BakeParameters& in) {
+    auto p = NormalizeParameters(in);
+    EXPECT_TRUE(p.ok()) << p.status();
+    return ComputeCacheKey(mesh, *p);
+  };
+  v1::BakeParameters ring10, ring12;
+  ring10.set_layout(v1::LAYOUT_RING_TOP);
+  ring10.set_ring_views(10);
+  ring12 = ring10;
+  ring12.set_ring_views(12);  // both 4 x 4 grids
+  EXPECT_NE(key(ring10), key(ring12));
+  v1::BakeParameters ss1, ss2, array;
+  ss1.set_supersampling(1);
+  ss2.set_supersampling(2);
+  array.set_texture_array(true);
+  EXPECT_NE(key(ss1), key(ss2));
+  EXPECT_EQ(key(ss2), key(v1::BakeParameters()));  // the default, spelt out
+  EXPECT_NE(key(array), key(v1::BakeParameters()));
+  v1::BakeParameters surfel_array;
+  surfel_array.set_product(v1::PRODUCT_SURFELS);
+  surfel_array.set_texture_array(true);
+  EXPECT_FALSE(NormalizeParameters(surfel_array).ok());
+}
+
+}  // namespace
+}  // namespace impostor

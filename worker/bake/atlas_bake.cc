@@ -16,6 +16,7 @@
 #include "worker/bake/auto_frames.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/bake/quality_pass.h"
+#include "worker/bake/texture_array_output.h"
 #include "worker/output/atlas_dilation.h"
 #include "worker/output/contact_sheet.h"
 #include "worker/output/cutout_hull.h"
@@ -174,6 +175,11 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
                                   .emissive = atlas->emissive});
   if (!sheet.ok()) return sheet.status();
   if (!sheet->labelled) spdlog::warn("event=contact_sheet_unlabelled reason=\"no TrueType font found\"");
+  // --array: the maps as texture arrays (layer strips) instead of atlases.
+  const int tile = TileSize(resolution, GridSide(view_layout));
+  if (p.texture_array()) {
+    if (auto s = WriteTextureArrays(dir, *atlas, tiles, p.emissive()); !s.ok()) return s;
+  }
   timings->set_encode_seconds(SecondsSince(t));
   progress("encode", kEncodeEnd);
 
@@ -205,6 +211,12 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
       return s;
     }
   }
+  if (p.texture_array()) {
+    for (v1::MapFile& map : *manifest.mutable_maps()) {
+      map.set_width(static_cast<uint32_t>(tile));
+      map.set_height(static_cast<uint32_t>(tile) * static_cast<uint32_t>(cameras.size()));
+    }
+  }
   if (auto s = AddMap(dir, "contact_sheet", "png_rgb8", kContactSheetChannels, 0, &manifest); !s.ok()) return s;
   manifest.mutable_maps(manifest.maps_size() - 1)->set_width(static_cast<uint32_t>(sheet->width));
   manifest.mutable_maps(manifest.maps_size() - 1)->set_height(static_cast<uint32_t>(sheet->height));
@@ -220,10 +232,12 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     v->set_index(static_cast<uint32_t>(c.index));
     for (int i = 0; i < 3; ++i) v->add_direction(c.direction[i]);
     for (int i = 0; i < 3; ++i) v->add_up(c.up[i]);
-    v->mutable_tile()->set_x(static_cast<uint32_t>(c.tile.x));
-    v->mutable_tile()->set_y(static_cast<uint32_t>(c.tile.y));
-    v->mutable_tile()->set_width(static_cast<uint32_t>(c.tile.width));
-    v->mutable_tile()->set_height(static_cast<uint32_t>(c.tile.height));
+    // Texture arrays: the view's layer in the strip.
+    const TileRect r = p.texture_array() ? LayerRect(c.index, tile) : c.tile;
+    v->mutable_tile()->set_x(static_cast<uint32_t>(r.x));
+    v->mutable_tile()->set_y(static_cast<uint32_t>(r.y));
+    v->mutable_tile()->set_width(static_cast<uint32_t>(r.width));
+    v->mutable_tile()->set_height(static_cast<uint32_t>(r.height));
     v->set_same_view_as(static_cast<uint32_t>(CanonicalFrameIndex(view_layout, c.index)));
   }
   manifest.mutable_mesh()->set_triangles(scene->TriangleCount());

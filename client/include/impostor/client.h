@@ -177,6 +177,11 @@ struct BakeSettings {
   // coverage), listed in the manifest's maps as "emissive". Part of the
   // cache key. Default: false.
   bool emissive = false;
+  // Atlas and LOD chain: write every map as a texture array instead of an
+  // atlas: one tile-wide PNG with layer i (= view i) at rows
+  // [i * tile_size, (i + 1) * tile_size); each view's tile in the manifest
+  // gives its layer. For engines that prefer arrays. Default: false.
+  bool texture_array = false;
 };
 
 // What SubmitBake sent to the store.
