@@ -1,5 +1,6 @@
 // quality_table: the public quality claim. Bakes the props and vegetation of
-// ../shared/assets at 8, 12 and 16 frames in each layout with the worker's
+// ../shared/assets at 8, 12 and 16 frames in the octahedral layouts, and
+// azimuth-elevation 13 x 13, ring-top (24 + 1) and billboard, with the worker's
 // own pipeline in process (BakeAtlas, whose quality pass renders the mesh
 // from held-out views and reconstructs the impostor with the reference
 // renderer), and writes a Markdown table of the measured figures.
@@ -24,6 +25,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "common/bake_request.h"
+#include "common/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
 
 namespace {
@@ -142,22 +144,38 @@ int main(int argc, char** argv) {
   };
   for (const Asset& asset : kAssets) {
     if (!only.empty() && std::string(asset.name).find(only) == std::string::npos) continue;
+    // The octahedral layouts at every count of the ladder; the others once,
+    // at their defaults (azimuth-elevation 13 x 13 ~ 12 x 12, ring-top 24 + 1,
+    // billboard 3 x 3).
+    struct Config {
+      impostor::v1::Layout layout;
+      uint32_t frames;  // 0 = derived
+    };
+    std::vector<Config> configs;
     for (auto layout : {impostor::v1::LAYOUT_OCTAHEDRAL, impostor::v1::LAYOUT_HEMI_OCTAHEDRAL}) {
-      for (uint32_t frames : frame_counts) {
+      for (uint32_t frames : frame_counts) configs.push_back({layout, frames});
+    }
+    configs.push_back({impostor::v1::LAYOUT_AZIMUTH_ELEVATION, 13});
+    configs.push_back({impostor::v1::LAYOUT_RING_TOP, 0});
+    configs.push_back({impostor::v1::LAYOUT_BILLBOARD, 0});
+    for (const Config& config : configs) {
+      const auto layout = config.layout;
+      {
+        BakeParameters in;
+        in.set_layout(layout);
+        in.set_frames(config.frames);
+        in.set_resolution(resolution);
         Row row;
         row.asset = asset.name;
         row.kind = asset.kind;
-        row.layout = layout == impostor::v1::LAYOUT_OCTAHEDRAL ? "octahedral" : "hemi-octahedral";
-        row.frames = frames;
-        BakeParameters in;
-        in.set_layout(layout);
-        in.set_frames(frames);
-        in.set_resolution(resolution);
+        row.layout = std::string(impostor::LayoutJsonName(layout));
         auto p = impostor::NormalizeParameters(in);
         if (!p.ok()) {
           std::fprintf(stderr, "quality_table: %s\n", std::string(p.status().message()).c_str());
           return 2;
         }
+        const uint32_t frames = p->frames();
+        row.frames = frames;
         fs::remove_all(scratch);
         fs::create_directories(scratch);
         impostor::AtlasBakeRequest request{
