@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/gpu/shared_renderer_test.h"
 #include "common/bake_request.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/gpu/atlas_renderer.h"
@@ -29,17 +30,8 @@ fs::path ScratchDir(const std::string& tag) {
   return dir;
 }
 
-class AtlasOutputsTest : public ::testing::Test {
+class AtlasOutputsTest : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
   static absl::StatusOr<AtlasBakeOutput> Bake(const fs::path& model, v1::BakeParameters in, const fs::path& dir) {
     in.set_quality_views(0);  // not what these tests are about
     auto p = NormalizeParameters(in);
@@ -49,10 +41,7 @@ class AtlasOutputsTest : public ::testing::Test {
         .entry_file = model, .parameters = *p, .cache_key = "outputs-test", .output_dir = dir, .load_limits = {}};
     return BakeAtlas(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }
-  static AtlasRenderer* renderer_;
 };
-AtlasRenderer* AtlasOutputsTest::renderer_ = nullptr;
-
 const v1::MapFile* FindMap(const v1::Manifest& m, const std::string& semantic) {
   for (const v1::MapFile& map : m.maps()) {
     if (map.semantic() == semantic) return &map;

@@ -1,6 +1,7 @@
 // The card-cluster bake end to end through the real Vulkan renderer (Mesa
 // lavapipe suffices): planes, the card atlas's pixels, cards.glb through the
 // Khronos validator, the held-out-view quality and the manifest.
+#include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/cards_bake.h"
 
 #include <chrono>
@@ -23,17 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class CardsBakeTest : public ::testing::Test {
+class CardsBakeTest : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
 
   static absl::StatusOr<AtlasBakeOutput> Bake(const fs::path& entry, uint32_t resolution, const fs::path& out,
                                                uint32_t max_planes = 0) {
@@ -101,10 +93,7 @@ class CardsBakeTest : public ::testing::Test {
     EXPECT_EQ(back->cards().SerializeAsString(), c.SerializeAsString());
   }
 
-  static AtlasRenderer* renderer_;
 };
-
-AtlasRenderer* CardsBakeTest::renderer_ = nullptr;
 
 TEST_F(CardsBakeTest, CrossedQuadsBecomeTwoExactCardsInTheirColour) {
   const fs::path dir = testing::MakeScratchDir("cards_crossed");

@@ -2,6 +2,7 @@
 // suffices): the levels in order with their files and digests, the
 // impostor's atlas manifest, textures stored once, thresholds that shrink as
 // the error grows, every .glb valid, and bad meshes refused.
+#include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/lod_bake.h"
 
 #include <sys/wait.h>
@@ -37,17 +38,8 @@ std::string ReadAll(const fs::path& path) {
   return s.str();
 }
 
-class LodBakeTest : public ::testing::Test {
+class LodBakeTest : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
 
   static absl::StatusOr<AtlasBakeOutput> Bake(const fs::path& entry, const fs::path& out) {
     v1::BakeParameters in;
@@ -64,10 +56,7 @@ class LodBakeTest : public ::testing::Test {
     return BakeLodChain(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }
 
-  static AtlasRenderer* renderer_;
 };
-
-AtlasRenderer* LodBakeTest::renderer_ = nullptr;
 
 TEST_F(LodBakeTest, TreeChainHasOrderedLevelsSharedTexturesAndThresholds) {
   const fs::path dir = testing::MakeScratchDir("lod_bake_tree");

@@ -13,6 +13,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "tests/gpu/shared_renderer_test.h"
 #include "common/bake_request.h"
 #include "common/frame_camera.h"
 #include "common/layout_parameters.h"
@@ -69,21 +70,9 @@ TEST(LayoutsHeldOutViews, CoverEachLayoutsDomainAndAvoidBakedFrames) {
   }
 }
 
-class LayoutsQualityPass : public ::testing::Test {
+class LayoutsQualityPass : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
-  static AtlasRenderer* renderer_;
 };
-
-AtlasRenderer* LayoutsQualityPass::renderer_ = nullptr;
 
 // A bake of each layout fills the manifest's quality block (it used to be
 // skipped: "no reference renderer for the layout"). Floors are far below

@@ -1,6 +1,7 @@
 // The quality pass and frames_auto on real bakes through the Vulkan renderer
 // (Mesa lavapipe suffices): the manifest's quality block, the worst-view
 // image, held-out directions, and the auto frame count's ladder.
+#include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/quality_pass.h"
 
 #include <cmath>
@@ -44,17 +45,8 @@ fs::path ScratchDir(const std::string& tag) {
   return dir;
 }
 
-class QualityPassTest : public ::testing::Test {
+class QualityPassTest : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
 
   static absl::StatusOr<AtlasBakeOutput> Bake(const v1::BakeParameters& in, const fs::path& dir,
                                               const std::string& key = "quality-test-key") {
@@ -66,10 +58,7 @@ class QualityPassTest : public ::testing::Test {
     return BakeAtlas(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }
 
-  static AtlasRenderer* renderer_;
 };
-
-AtlasRenderer* QualityPassTest::renderer_ = nullptr;
 
 TEST_F(QualityPassTest, HelmetBakeFillsTheQualityBlock) {
   const fs::path dir = ScratchDir("helmet");

@@ -1,6 +1,7 @@
 // The surfel cloud bake through the real Vulkan renderer (Mesa lavapipe
 // suffices): budgets, geometry against the triangles, colours in linear
 // space, the quality pass, and the files a bake writes.
+#include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/surfel_bake.h"
 
 #include <cmath>
@@ -25,17 +26,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class SurfelBakeTest : public ::testing::Test {
+class SurfelBakeTest : public testing::SharedRendererTest {
  protected:
-  static void SetUpTestSuite() {
-    auto r = AtlasRenderer::Create();
-    ASSERT_TRUE(r.ok()) << r.status();
-    renderer_ = std::move(*r).release();
-  }
-  static void TearDownTestSuite() {
-    delete renderer_;
-    renderer_ = nullptr;
-  }
 
   static v1::BakeParameters Params(const std::string& preset, uint32_t budget = 0, uint32_t frames = 0,
                                    uint32_t resolution = 0, v1::Layout layout = v1::LAYOUT_UNSPECIFIED) {
@@ -56,10 +48,7 @@ class SurfelBakeTest : public ::testing::Test {
     return BakeSurfelCloud(scene, p, *renderer_, [](std::string_view, double) {}, cancelled);
   }
 
-  static AtlasRenderer* renderer_;
 };
-
-AtlasRenderer* SurfelBakeTest::renderer_ = nullptr;
 
 // The step between the 8-bit sRGB codes around a linear value, in linear
 // units: the precision the capture keeps of a base colour.

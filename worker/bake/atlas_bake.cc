@@ -96,11 +96,9 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   if (cancelled) return absl::CancelledError("cancelled after loading");
 
   // Prepare.
-  const BoundingSphere sphere = ComputeBoundingSphere(*scene);
-  if (!(sphere.radius > 0.0f) || !std::isfinite(sphere.radius)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "mesh: its bounding sphere has radius ", sphere.radius, "; a mesh needs extent to be baked"));
-  }
+  absl::StatusOr<BoundingSphere> framing = FramingSphere(*scene);
+  if (!framing.ok()) return framing.status();
+  const BoundingSphere sphere = *framing;
   const ViewLayout view_layout = ViewLayoutOf(p);
   const std::vector<FrameCamera> cameras = AtlasCameras(view_layout, resolution);
 
@@ -249,12 +247,8 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   manifest.set_device(renderer.device().name);
   timings->set_total_seconds(SecondsSince(start));
 
-  AtlasBakeOutput out;
-  out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
-  if (!json_digest.ok()) return json_digest.status();
-  *manifest.mutable_manifest_json() = *json_digest;
-  out.manifest = std::move(manifest);
+  absl::StatusOr<AtlasBakeOutput> out = WriteManifest(dir, std::move(manifest));
+  if (!out.ok()) return out.status();
   spdlog::debug("event=bake_done cache_key={} triangles={} seconds={:.2f}", request.cache_key,
                 scene->TriangleCount(), SecondsSince(start));
   return out;

@@ -94,11 +94,9 @@ absl::StatusOr<AtlasBakeOutput> BakeCards(const AtlasBakeRequest& request, Atlas
   if (!scene.ok()) return scene.status();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");
-  const BoundingSphere sphere = ComputeBoundingSphere(*scene);
-  if (!(sphere.radius > 0.0f) || !std::isfinite(sphere.radius)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "mesh: its bounding sphere has radius ", sphere.radius, "; a mesh needs extent to be baked"));
-  }
+  absl::StatusOr<BoundingSphere> framing = FramingSphere(*scene);
+  if (!framing.ok()) return framing.status();
+  const BoundingSphere sphere = *framing;
 
   // Fit planes and their cards.
   progress("encode", kFitStart);
@@ -259,12 +257,8 @@ absl::StatusOr<AtlasBakeOutput> BakeCards(const AtlasBakeRequest& request, Atlas
   timings->set_encode_seconds(timings->encode_seconds() + judge_seconds);
   timings->set_total_seconds(SecondsSince(start));
 
-  AtlasBakeOutput out;
-  out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
-  if (!json_digest.ok()) return json_digest.status();
-  *manifest.mutable_manifest_json() = *json_digest;
-  out.manifest = std::move(manifest);
+  absl::StatusOr<AtlasBakeOutput> out = WriteManifest(dir, std::move(manifest));
+  if (!out.ok()) return out.status();
   progress("encode", kEnd);
   spdlog::info(
       "event=cards_bake_done cache_key={} triangles={} cards={} card_triangles={} tolerance={:.6g} "

@@ -171,12 +171,8 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
   timings->set_load_seconds(timings->load_seconds() + load_seconds);
   timings->set_total_seconds(SecondsSince(start));
 
-  AtlasBakeOutput out;
-  out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
-  if (!json_digest.ok()) return json_digest.status();
-  *manifest.mutable_manifest_json() = *json_digest;
-  out.manifest = std::move(manifest);
+  absl::StatusOr<AtlasBakeOutput> out = WriteManifest(dir, std::move(manifest));
+  if (!out.ok()) return out.status();
   progress("encode", 1.0);
   return out;
 }

@@ -235,12 +235,8 @@ absl::StatusOr<AtlasBakeOutput> BakeSurfels(const AtlasBakeRequest& request, Atl
   timings->set_encode_seconds(cloud->cluster_seconds + cloud->quality_seconds + SecondsSince(t));
   timings->set_total_seconds(SecondsSince(start));
 
-  AtlasBakeOutput out;
-  out.manifest_path = dir / "manifest.json";
-  auto json_digest = WriteFileWithDigest(out.manifest_path, ManifestToJson(manifest));
-  if (!json_digest.ok()) return json_digest.status();
-  *manifest.mutable_manifest_json() = *json_digest;
-  out.manifest = std::move(manifest);
+  absl::StatusOr<AtlasBakeOutput> out = WriteManifest(dir, std::move(manifest));
+  if (!out.ok()) return out.status();
   progress("encode", kWriteEnd);
   spdlog::info(
       "event=surfel_bake_done cache_key={} samples={} points={} budget={} fill={:.4f} voxel_size={:.6g} "
