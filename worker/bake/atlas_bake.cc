@@ -81,7 +81,6 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   if (request.parameters.frames_auto()) return BakeAtlasAutoFrames(request, renderer, progress, cancelled);
   const auto start = Clock::now();
   const v1::BakeParameters& p = request.parameters;
-  const LayoutKind layout = ToLayoutKind(p.layout());
   const int frames = static_cast<int>(p.frames());
   const int resolution = static_cast<int>(p.resolution());
   v1::Manifest manifest;

@@ -92,11 +92,9 @@ absl::StatusOr<SurfelCloudResult> BakeSurfelCloud(const Scene& scene, const v1::
                                                   AtlasRenderer& renderer, const BakeProgress& progress,
                                                   const std::atomic<bool>& cancelled) {
   SurfelCloudResult cloud;
-  cloud.sphere = ComputeBoundingSphere(scene);
-  if (!(cloud.sphere.radius > 0.0f) || !std::isfinite(cloud.sphere.radius)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "mesh: its bounding sphere has radius ", cloud.sphere.radius, "; a mesh needs extent to be baked"));
-  }
+  absl::StatusOr<BoundingSphere> framing = FramingSphere(scene);
+  if (!framing.ok()) return framing.status();
+  cloud.sphere = *framing;
   const LayoutKind layout = ToLayoutKind(p.layout());
   const int frames = static_cast<int>(p.frames());
   const int resolution = static_cast<int>(p.resolution());

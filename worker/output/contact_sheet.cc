@@ -16,10 +16,11 @@ namespace {
 constexpr int kLabelBand = 22;
 constexpr int kGap = 4;
 
-// Shrinks a full-atlas RGB image (floats 0..1, 3 channels) to panel x panel
-// with a box filter: every atlas texel lands in exactly one panel pixel, so
-// thin features still show.
-std::vector<float> Shrink(const std::vector<float>& rgb, int w, int h, int panel) {
+// Shrinks the atlas to panel x panel with a box filter, reading each texel's
+// panel colour through `texel` (index -> RGB 0..1): every atlas texel lands
+// in exactly one panel pixel, so thin features still show.
+template <typename Texel>
+std::vector<float> Shrink(int w, int h, int panel, const Texel& texel) {
   std::vector<float> sum(static_cast<size_t>(panel) * panel * 3, 0.0f);
   std::vector<int> count(static_cast<size_t>(panel) * panel, 0);
   for (int y = 0; y < h; ++y) {
@@ -27,7 +28,8 @@ std::vector<float> Shrink(const std::vector<float>& rgb, int w, int h, int panel
     for (int x = 0; x < w; ++x) {
       const int px = std::min(panel - 1, static_cast<int>(static_cast<int64_t>(x) * panel / w));
       const size_t o = static_cast<size_t>(py) * panel + px;
-      for (int c = 0; c < 3; ++c) sum[o * 3 + c] += rgb[(static_cast<size_t>(y) * w + x) * 3 + c];
+      const std::array<float, 3> c = texel(static_cast<size_t>(y) * w + x);
+      for (int k = 0; k < 3; ++k) sum[o * 3 + k] += c[k];
       ++count[o];
     }
   }
@@ -63,16 +65,11 @@ absl::StatusOr<ContactSheetInfo> WriteContactSheet(const std::filesystem::path& 
   }
   struct Panel {
     std::string label;
-    std::vector<float> rgb;  // full atlas resolution
+    std::vector<float> rgb;  // panel x panel
   };
   std::vector<Panel> panels;
   auto add = [&](std::string label, auto&& texel) {
-    Panel p{std::move(label), std::vector<float>(n * 3)};
-    for (size_t i = 0; i < n; ++i) {
-      const std::array<float, 3> c = texel(i);
-      for (int k = 0; k < 3; ++k) p.rgb[i * 3 + k] = c[k];
-    }
-    panels.push_back(std::move(p));
+    panels.push_back({std::move(label), Shrink(in.width, in.height, panel, texel)});
   };
   const int w = in.width;
   auto checker = [w](size_t i) {
@@ -123,9 +120,8 @@ absl::StatusOr<ContactSheetInfo> WriteContactSheet(const std::filesystem::path& 
   info.labelled = true;
   for (size_t k = 0; k < panels.size(); ++k) {
     const int x0 = kGap + static_cast<int>(k) * (panel + kGap);
-    const std::vector<float> small = Shrink(panels[k].rgb, in.width, in.height, panel);
     OIIO::ROI roi(x0, x0 + panel, kLabelBand, kLabelBand + panel, 0, 1, 0, 3);
-    sheet.set_pixels(roi, OIIO::TypeDesc::FLOAT, small.data());
+    sheet.set_pixels(roi, OIIO::TypeDesc::FLOAT, panels[k].rgb.data());
     info.labelled = DrawLabel(sheet, x0 + 2, kLabelBand - 6, panels[k].label) && info.labelled;
   }
   const std::string name = path.string();
