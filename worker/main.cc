@@ -34,6 +34,16 @@ ABSL_FLAG(int, max_outage_seconds, 300,
           "Seconds the server may stay unreachable before the worker exits with status 1 (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
+namespace {
+
+// Test hooks come from the environment (see worker/test_faults.h).
+std::string EnvOrEmpty(const char* name) {
+  const char* value = std::getenv(name);
+  return value ? value : "";
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
   impostor::ShowAllFlagsInHelp();
@@ -94,14 +104,9 @@ int main(int argc, char** argv) {
                                              .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension)},
                              .drain_seconds = drain_seconds,
                              .max_outage_seconds = max_outage_seconds,
-                             .test_crash_on = [] {
-                               const char* name = std::getenv("IMPOSTOR_WORKER_TEST_CRASH_ON");
-                               return std::string(name ? name : "");
-                             }(),
-                             .test_pause_file = [] {
-                               const char* f = std::getenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
-                               return std::filesystem::path(f ? f : "");
-                             }()},
+                             .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),
+                             .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
+                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
                             std::move(*renderer));
 
   // SIGTERM/SIGINT: drain (no new job; the current one finishes within

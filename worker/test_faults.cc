@@ -14,6 +14,12 @@ bool ShouldCrashForTest(const std::string& crash_on, const v1::MeshInput& mesh) 
   return !crash_on.empty() && std::filesystem::path(mesh.entry().path()).filename() == crash_on;
 }
 
+absl::Status FailureForTest(const std::string& fail_on, const v1::MeshInput& mesh) {
+  if (fail_on.empty()) return absl::OkStatus();
+  if (fail_on != "*" && std::filesystem::path(mesh.entry().path()).filename() != fail_on) return absl::OkStatus();
+  return absl::InternalError("test fault: IMPOSTOR_WORKER_TEST_FAIL_ON=" + fail_on);
+}
+
 void CrashForTest() {
   spdlog::warn("event=test_crash signal=SIGSEGV reason=IMPOSTOR_WORKER_TEST_CRASH_ON");
   spdlog::default_logger()->flush();

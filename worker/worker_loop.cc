@@ -278,6 +278,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
 
   absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
     if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
+    if (auto s = FailureForTest(options_.test_fail_on, job.mesh()); !s.ok()) return s;
     // Inputs: the entry under its own name, the rest under their relative
     // paths (validated above: no absolute paths, no "..").
     const fs::path entry = input_dir / fs::path(job.mesh().entry().path()).filename();

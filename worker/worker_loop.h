@@ -57,6 +57,10 @@ struct WorkerOptions {
   // mesh whose entry file is named this. Empty = off. Set from
   // $IMPOSTOR_WORKER_TEST_CRASH_ON (see worker/test_faults.h).
   std::string test_crash_on;
+  // Test-only fault switch: fail every bake of a mesh whose entry file is
+  // named this ("*" = every mesh) with a retryable INTERNAL error, as a
+  // broken GPU would. Empty = off. Set from $IMPOSTOR_WORKER_TEST_FAIL_ON.
+  std::string test_fail_on;
   // Test hook: while this file exists, a bake pauses when it reaches its
   // render stage (heartbeats continue). Lets tests kill processes at a known
   // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.

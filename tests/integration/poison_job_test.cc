@@ -86,3 +86,36 @@ TEST(PoisonJob, TheSupervisorNamesTheSignalAndDoesNotWaitForTheLeaseTimeout) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+// With --max-attempts=1 every failure is final, so the bad worker's streak
+// is exactly the jobs below, one after another.
+TEST(BadWorker, AWorkerThatFailsDifferentJobsInARowIsPausedAndOthersBakeTheRest) {
+  testing::ServerProcess server(/*local_workers=*/0, {"--max-attempts=1", "--worker-failure-limit=2",
+                                                      "--worker-pause-seconds=3600"});
+  auto broken = testing::StartWorker(server.address(), "broken", {}, {{"IMPOSTOR_WORKER_TEST_FAIL_ON", "*"}});
+  for (const char* name : {"a.glb", "b.glb"}) {
+    // Distinct bytes per job: the same bytes would be one shared bake.
+    const v1::MeshInput mesh = testing::UploadGlb(
+        server.assets(), std::string(name) == "a.glb" ? Box() : OtherBox(), name);
+    const v1::Job failed = testing::WatchToEnd(server.bake(), testing::SubmitSmall(server.bake(), mesh).job_id());
+    EXPECT_EQ(failed.state(), v1::JOB_STATE_FAILED) << name;
+    EXPECT_NE(failed.error().message().find("test fault"), std::string::npos) << failed.error().message();
+    EXPECT_TRUE(failed.worker_id().rfind("broken-", 0) == 0) << failed.worker_id();
+  }
+  // The broken worker is paused: this job waits for a working one instead of
+  // failing on the worker that is long-polling right now.
+  const v1::MeshInput duck =
+      testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Duck/glTF-Binary/Duck.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server.bake(), duck);
+  auto healthy = testing::StartWorker(server.address(), "healthy");
+  const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_TRUE(done.worker_id().rfind("healthy-", 0) == 0) << done.worker_id();
+  EXPECT_EQ(done.attempts(), 1u);
+}
+
+}  // namespace
+}  // namespace impostor
