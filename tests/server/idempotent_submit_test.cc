@@ -65,6 +65,15 @@ TEST_F(IdempotentSubmitTest, ACacheHitRetryReturnsTheSameHit) {
   EXPECT_TRUE(again.job().has_result());
 }
 
+TEST_F(IdempotentSubmitTest, ARetryOfASharedBakeReturnsTheSameFollower) {
+  const v1::SubmitBakeResponse leader = Submit(WithId(Request("tree"), "first"), "ci-1");
+  const v1::SubmitBakeRequest second = WithId(Request("tree"), "second");
+  const v1::SubmitBakeResponse follower = Submit(second, "ci-1");
+  ASSERT_NE(follower.job_id(), leader.job_id()) << "a new request id is a new requester of the same bake";
+  EXPECT_EQ(Submit(second, "ci-1").job_id(), follower.job_id());
+  EXPECT_EQ(*jobs_->CountPending(""), 2);
+}
+
 TEST_F(IdempotentSubmitTest, IdsArePerRequester) {
   const v1::SubmitBakeRequest request = WithId(Request("tree"), "same-id");
   const v1::SubmitBakeResponse a = Submit(request, "ci-1");
