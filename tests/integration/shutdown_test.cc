@@ -6,6 +6,8 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -77,7 +79,10 @@ TEST(GracefulShutdown, ServerSigtermEndsStreamsWithUnavailableExitsZeroAndKeepsJ
     long_poll = server->workers().LeaseJob(&ctx, lease, &response);
   });
 
+  const auto signalled = std::chrono::steady_clock::now();
   const int status = server->process().Terminate();
+  std::printf("shutdown: the server exited %.2f s after SIGTERM\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count());
   EXPECT_TRUE(ExitedZero(status)) << "wait status " << status;
   while (watcher->Read(&seen)) {
   }
@@ -85,9 +90,12 @@ TEST(GracefulShutdown, ServerSigtermEndsStreamsWithUnavailableExitsZeroAndKeepsJ
   EXPECT_EQ(watch_end.error_code(), grpc::StatusCode::UNAVAILABLE) << watch_end.error_message();
   EXPECT_NE(watch_end.error_message().find("shutting down"), std::string::npos) << watch_end.error_message();
   poller.join();
-  // Whether the poll reached the server before the signal or not, it must
-  // not hang to its deadline nor come back empty-handed as if all were well.
-  EXPECT_EQ(long_poll.error_code(), grpc::StatusCode::UNAVAILABLE) << long_poll.error_message();
+  // The poll may reach the server before the signal (the scheduler answers
+  // UNAVAILABLE, see LeaseLossTest), while gRPC shuts down (CANCELLED) or
+  // after (UNAVAILABLE): in every case it must neither hang to its deadline
+  // nor come back empty-handed as if all were well.
+  EXPECT_NE(long_poll.error_code(), grpc::StatusCode::OK);
+  EXPECT_NE(long_poll.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << long_poll.error_message();
 
   // The job is all there after a restart, the retried submit finds it, and
   // the old lease can still be handed back.
@@ -132,7 +140,11 @@ TEST(GracefulShutdown, ABusyWorkerHandsItsJobToAnotherOnSigterm) {
   ASSERT_TRUE(StartsWith(paused.worker_id(), "draining-")) << paused.worker_id();
   auto rescuer = testing::StartWorker(server.address(), "rescuer", {}, {{kPauseEnv, pause.string()}});
 
+  const auto signalled = std::chrono::steady_clock::now();
   EXPECT_TRUE(ExitedZero(draining->Terminate())) << "a draining worker exits cleanly";
+  // Printed, not asserted: the figure for the README.
+  std::printf("drain: the worker handed its job back and exited %.2f s after SIGTERM\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count());
   fs::remove(pause);
   const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
   EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
