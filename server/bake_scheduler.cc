@@ -31,6 +31,23 @@ int64_t SystemNowMs() {
 
 }  // namespace
 
+absl::Status ValidateRequestId(std::string_view request_id) {
+  if (request_id.size() > kMaxRequestIdBytes) {
+    return absl::InvalidArgumentError(absl::StrCat("request_id: ", request_id.size(), " bytes is over the limit of ",
+                                                   kMaxRequestIdBytes));
+  }
+  for (size_t i = 0; i < request_id.size(); ++i) {
+    const char c = request_id[i];
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+    if (!ok) {
+      return absl::InvalidArgumentError(absl::StrCat("request_id: byte ", i, " (0x",
+                                                     absl::Hex(static_cast<unsigned char>(c), absl::kZeroPad2),
+                                                     ") is not one of [A-Za-z0-9_-]"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 std::string NewId(std::string_view prefix) {
   std::array<unsigned char, 16> bytes{};
   RAND_bytes(bytes.data(), static_cast<int>(bytes.size()));
@@ -161,6 +178,14 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   return Save(leader);
 }
 
+void BakeScheduler::TouchResult(const std::string& key) {
+  // Only eviction order depends on it: a failed write (a full disk) must not
+  // fail the read that caused it.
+  if (auto s = jobs_->TouchResult(key, options_.now_ms()); !s.ok()) {
+    spdlog::warn("event=touch_result_failed cache_key={} error=\"{}\"", key, std::string(s.message()));
+  }
+}
+
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
   auto result = jobs_->GetResult(key);
   if (!result.ok() || !result->has_value()) return result;
@@ -184,6 +209,33 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
                                                    "..", kMaxPriority));
   }
   if (auto s = ValidateQualityGate(request.gate(), "gate"); !s.ok()) return s;
+  if (auto s = ValidateRequestId(request.request_id()); !s.ok()) return s;
+  const std::string requester = client_id.substr(0, 128);
+  const std::string key = ComputeCacheKey(request.mesh(), *params);
+
+  std::lock_guard lock(mu_);
+  // A retried submit (the first one's answer was lost) gets the first job.
+  // Looked up before the blob checks: the blobs may have been evicted since.
+  if (!request.request_id().empty()) {
+    auto seen = jobs_->FindByRequestId(requester, request.request_id());
+    if (!seen.ok()) return seen.status();
+    if (seen->has_value()) {
+      const JobRecord& first = **seen;
+      if (first.job.cache_key() != key) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "request_id: \"", request.request_id(), "\" was already used by this client for job ",
+            first.job.job_id(), " with a different mesh or parameters; use a fresh id per submit"));
+      }
+      v1::SubmitBakeResponse response;
+      response.set_job_id(first.job.job_id());
+      response.set_cache_key(key);
+      response.set_cached(first.job.cached());
+      *response.mutable_job() = View(first);
+      spdlog::info("event=submit job={} cache_key={} outcome=retry request_id={}", first.job.job_id(), key,
+                   request.request_id());
+      return response;
+    }
+  }
 
   auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
     if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
@@ -194,9 +246,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   for (int i = 0; i < request.mesh().files_size(); ++i) {
     if (auto s = require_blob(absl::StrCat("mesh.files[", i, "]"), request.mesh().files(i)); !s.ok()) return s;
   }
-  const std::string key = ComputeCacheKey(request.mesh(), *params);
 
-  std::lock_guard lock(mu_);
   const int64_t now = options_.now_ms();
   v1::SubmitBakeResponse response;
   response.set_cache_key(key);
@@ -210,19 +260,25 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   record.job.set_cache_key(key);
   record.job.set_created_ms(now);
   record.job.set_updated_ms(now);
-  record.client_id = client_id.substr(0, 128);
+  record.client_id = requester;
+  record.request_id = request.request_id();
   record.job.set_priority(request.priority());
   record.lease_priority = request.priority();
   if (HasQualityGate(request.gate())) record.gate = request.gate();
   if (cached->has_value()) {
-    if (auto s = jobs_->TouchResult(key, now); !s.ok()) return s;
+    TouchResult(key);
     // A job record even for a hit, so GetJob/WatchJob work on every id.
     record.job.set_state(v1::JOB_STATE_SUCCEEDED);
     record.job.set_progress(1.0f);
     record.job.set_stage("cached");
     record.job.set_cached(true);
     ApplyResult(record, **cached);  // the gate judges a cached result too
-    if (auto s = jobs_->Insert(record); !s.ok()) return s;
+    if (auto s = jobs_->Insert(record); !s.ok()) {
+      // A full disk must not stop cache hits: answer without the record
+      // (GetJob on this id is then NOT_FOUND; the result is all it holds).
+      if (!absl::IsResourceExhausted(s)) return s;
+      spdlog::warn("event=cache_hit_not_recorded cache_key={} error=\"{}\"", key, std::string(s.message()));
+    }
     response.set_job_id(record.job.job_id());
     response.set_cached(true);
     *response.mutable_job() = record.job;
@@ -292,7 +348,7 @@ absl::StatusOr<v1::LookupBakeResponse> BakeScheduler::Lookup(const v1::SubmitBak
   if (!cached.ok()) return cached.status();
   if (cached->has_value()) {
     response.set_found(true);
-    if (auto s = jobs_->TouchResult(response.cache_key(), options_.now_ms()); !s.ok()) return s;
+    TouchResult(response.cache_key());
     *response.mutable_result() = std::move(**cached);
   }
   return response;
@@ -340,7 +396,7 @@ absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_k
   auto r = IntactResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
-  if (auto s = jobs_->TouchResult(cache_key, options_.now_ms()); !s.ok()) return s;
+  TouchResult(cache_key);
   return std::move(**r);
 }
 
@@ -437,6 +493,11 @@ void BakeScheduler::Shutdown() {
   changed_.notify_all();
 }
 
+bool BakeScheduler::shutting_down() {
+  std::lock_guard lock(mu_);
+  return shutdown_;
+}
+
 absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::LeaseJobRequest& request,
                                                                    Deadline deadline,
                                                                    const std::function<bool()>& caller_gone) {
@@ -446,7 +507,11 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
   std::unique_lock lock(mu_);
   while (true) {
-    auto next = NextToLease();
+    if (shutdown_) return absl::UnavailableError("LeaseJob: the server is shutting down; lease from the next one");
+    std::optional<JobRecord> none;
+    absl::StatusOr<std::optional<JobRecord>> next = none;
+    // A paused worker waits as if the queue were empty.
+    if (!IsPaused(request.worker_id())) next = NextToLease();
     if (!next.ok()) return next.status();
     if (next->has_value()) {
       JobRecord& r = **next;
@@ -458,6 +523,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       r.lease_id = NewId("lease-");
       r.lease_deadline_ms = now + options_.lease_timeout_ms;
       r.worker_id = request.worker_id();
+      r.job.set_worker_id(request.worker_id());
       if (auto s = Save(r); !s.ok()) return s;
       last_served_[r.client_id] = ++lease_sequence_;
       v1::LeasedJob leased;
@@ -559,6 +625,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
   if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
+  streaks_.erase(r->worker_id);
   spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
                r->worker_id, m.timings().total_seconds());
   return absl::OkStatus();
@@ -585,9 +652,98 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
     }
     spdlog::info("event=fail job={} worker={} retry={} code={} error=\"{}\"", r->job.job_id(), r->worker_id, retry,
                  request.error().code(), request.error().message());
+    // Bad input is the job's fault; anything retryable may be the worker's.
+    if (request.retryable()) NoteWorkerFailure(r->worker_id, r->job.job_id());
   }
   if (auto s = Save(*r); !s.ok()) return s;
   return SettleFollowers(*r);
+}
+
+absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
+  if (request.reason().size() > kMaxReleaseReasonBytes) {
+    return absl::InvalidArgumentError(absl::StrCat("reason: ", request.reason().size(), " bytes is over the limit of ",
+                                                   kMaxReleaseReasonBytes));
+  }
+  std::lock_guard lock(mu_);
+  auto r = HeldLease(request.job_id(), request.lease_id());
+  if (!r.ok()) return r.status();
+  r->lease_id.clear();
+  r->lease_deadline_ms = 0;
+  if (r->job.state() == v1::JOB_STATE_RUNNING) {
+    // Handed back, not failed: the attempt does not count.
+    r->job.set_attempts(r->job.attempts() > 0 ? r->job.attempts() - 1 : 0);
+    r->job.set_state(v1::JOB_STATE_QUEUED);
+    r->job.set_stage("queued");
+    r->job.set_progress(0.0f);
+  }
+  spdlog::info("event=release job={} worker={} reason=\"{}\"", r->job.job_id(), r->worker_id,
+               request.reason().substr(0, 200));
+  return Save(*r);
+}
+
+absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
+  const std::string worker = r.worker_id;
+  const std::string stage = r.job.stage().empty() ? "leased" : r.job.stage();
+  const std::string detail = how.empty() ? "" : absl::StrCat(", ", std::string(how));
+  r.lease_id.clear();
+  r.lease_deadline_ms = 0;
+  ++r.lease_expiries;
+  NoteWorkerFailure(worker, r.job.job_id());
+  if (r.job.attempts() >= options_.max_attempts) {
+    r.job.set_state(v1::JOB_STATE_FAILED);
+    r.job.set_stage("failed");
+    // Every lease ended with a dead or hung worker: most likely the input
+    // kills the baker (a poison job), so say that rather than "unavailable".
+    r.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kInternal));
+    r.job.mutable_error()->set_message(
+        static_cast<uint32_t>(r.lease_expiries) >= r.job.attempts()
+            ? absl::StrCat("lease expired ", r.lease_expiries,
+                           " times: the worker died or hung while baking it (last: worker ", worker, " at stage ",
+                           stage, detail, ")")
+            : absl::StrCat("failed after ", r.job.attempts(), " attempts; last error: lease expired: worker ", worker,
+                           " died or hung at stage ", stage, detail));
+  } else {
+    r.job.set_state(v1::JOB_STATE_QUEUED);
+    r.job.set_stage("queued");
+  }
+  spdlog::warn("event=lease_expired job={} worker={} stage={} attempts={} requeued={} how=\"{}\"", r.job.job_id(),
+               worker, stage, r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED,
+               how.empty() ? std::string("stopped reporting") : std::string(how));
+  if (auto s = Save(r); !s.ok()) return s;
+  return SettleFollowers(r);
+}
+
+absl::Status BakeScheduler::WorkerDied(const std::string& worker_id, const std::string& how) {
+  std::lock_guard lock(mu_);
+  auto running = jobs_->RunningOnWorker(worker_id);
+  if (!running.ok()) return running.status();
+  for (JobRecord& r : *running) {
+    if (auto s = LoseLease(r, absl::StrCat("the process was ", how)); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+void BakeScheduler::NoteWorkerFailure(const std::string& worker_id, const std::string& job_id) {
+  if (options_.worker_failure_limit <= 0 || worker_id.empty()) return;
+  WorkerStreak& streak = streaks_[worker_id];
+  if (std::find(streak.failed_jobs.begin(), streak.failed_jobs.end(), job_id) == streak.failed_jobs.end()) {
+    streak.failed_jobs.push_back(job_id);
+  }
+  if (static_cast<int>(streak.failed_jobs.size()) < options_.worker_failure_limit) return;
+  streak.paused_until_ms = options_.now_ms() + options_.worker_pause_ms;
+  spdlog::warn("event=worker_paused worker={} failed_jobs={} last_job={} pause_s={}", worker_id,
+               streak.failed_jobs.size(), job_id, options_.worker_pause_ms / 1000);
+  streak.failed_jobs.clear();
+}
+
+bool BakeScheduler::IsPaused(const std::string& worker_id) {
+  auto it = streaks_.find(worker_id);
+  return it != streaks_.end() && it->second.paused_until_ms > options_.now_ms();
+}
+
+bool BakeScheduler::WorkerPaused(const std::string& worker_id) {
+  std::lock_guard lock(mu_);
+  return IsPaused(worker_id);
 }
 
 absl::Status BakeScheduler::ExpireLeases() {
@@ -595,22 +751,7 @@ absl::Status BakeScheduler::ExpireLeases() {
   auto expired = jobs_->ExpiredLeases(options_.now_ms());
   if (!expired.ok()) return expired.status();
   for (JobRecord& r : *expired) {
-    const std::string worker = r.worker_id;
-    r.lease_id.clear();
-    if (r.job.attempts() >= options_.max_attempts) {
-      r.job.set_state(v1::JOB_STATE_FAILED);
-      r.job.set_stage("failed");
-      r.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kUnavailable));
-      r.job.mutable_error()->set_message(absl::StrCat("failed after ", r.job.attempts(), " attempts; last error: worker ",
-                                                      worker, " stopped reporting and its lease expired"));
-    } else {
-      r.job.set_state(v1::JOB_STATE_QUEUED);
-      r.job.set_stage("queued");
-    }
-    spdlog::warn("event=lease_expired job={} worker={} attempts={} requeued={}", r.job.job_id(), worker,
-                 r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED);
-    if (auto s = Save(r); !s.ok()) return s;
-    if (auto s = SettleFollowers(r); !s.ok()) return s;
+    if (auto s = LoseLease(r, ""); !s.ok()) return s;
   }
   return absl::OkStatus();
 }

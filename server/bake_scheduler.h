@@ -17,6 +17,8 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
@@ -31,6 +33,13 @@ namespace impostor {
 // SubmitBakeRequest.priority range; outside it Submit is INVALID_ARGUMENT.
 inline constexpr int32_t kMinPriority = -100;
 inline constexpr int32_t kMaxPriority = 100;
+// SubmitBakeRequest.request_id: at most this many bytes of [A-Za-z0-9_-].
+inline constexpr size_t kMaxRequestIdBytes = 128;
+// ReleaseJobRequest.reason limit.
+inline constexpr size_t kMaxReleaseReasonBytes = 1024;
+
+// INVALID_ARGUMENT naming `request_id` and what is wrong with it.
+absl::Status ValidateRequestId(std::string_view request_id);
 
 struct SchedulerOptions {
   // A lease not renewed for this long expires and its job is queued again.
@@ -51,6 +60,12 @@ struct SchedulerOptions {
   // `eviction_grace_ms` (uploads about to be submitted), are never evicted.
   int64_t store_max_bytes = 0;
   int64_t eviction_grace_ms = 10 * 60'000;
+  // A worker whose leases of this many different jobs in a row ended badly
+  // (a retryable FailJob, or a lease that expired or whose worker died) is
+  // paused: not leased to for `worker_pause_ms`. A completed job resets the
+  // count. Defaults 3 and 5 minutes; 0 = never pause.
+  int worker_failure_limit = 3;
+  int64_t worker_pause_ms = 5 * 60'000;
   // Wall clock in Unix epoch milliseconds; tests substitute a fake.
   std::function<int64_t()> now_ms;
 };
@@ -106,13 +121,26 @@ class BakeScheduler {
   absl::StatusOr<v1::ReportProgressResponse> ReportProgress(const v1::ReportProgressRequest& request);
   absl::Status Complete(const v1::CompleteJobRequest& request);
   absl::Status Fail(const v1::FailJobRequest& request);
+  // Hands a lease back without counting the attempt: the job is queued
+  // again at once. INVALID_ARGUMENT (empty lease_id, reason over
+  // kMaxReleaseReasonBytes); NOT_FOUND; FAILED_PRECONDITION (lease not held).
+  absl::Status Release(const v1::ReleaseJobRequest& request);
+
+  // What a supervisor that saw the worker process exit knows: its jobs lose
+  // their leases now (as if they expired) and `how` (e.g. "killed by signal
+  // 11 (SIGSEGV)") goes into the error of a job that runs out of attempts.
+  absl::Status WorkerDied(const std::string& worker_id, const std::string& how);
+  // True while `worker_id` is paused for failing too many jobs in a row.
+  bool WorkerPaused(const std::string& worker_id);
 
   // Queues again (or fails, when out of attempts) every job whose lease
   // deadline has passed. Called periodically by the server.
   absl::Status ExpireLeases();
 
-  // Wakes every waiter; later waits return at once.
+  // Wakes every waiter; later waits return at once, and Lease answers
+  // UNAVAILABLE so long-polling workers reconnect to the next server.
   void Shutdown();
+  bool shutting_down();
 
   const SchedulerOptions& options() const { return options_; }
 
@@ -122,6 +150,8 @@ class BakeScheduler {
   // blobs are gone is dropped so the key bakes again.
   absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Records a use of the result for LRU eviction; failures are logged only.
+  void TouchResult(const std::string& key) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::StatusOr<JobRecord> HeldLease(const std::string& job_id, const std::string& lease_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::Status Save(JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -146,6 +176,13 @@ class BakeScheduler {
   // Cancels the leader's bake when neither its requester nor any follower
   // wants it any more.
   absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // A running job whose worker is gone (lease expired, or the process
+  // died: `how`): queued again, or failed when out of attempts. Saves.
+  absl::Status LoseLease(JobRecord& r, std::string_view how) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The failure streaks that pause a bad worker (see SchedulerOptions).
+  void NoteWorkerFailure(const std::string& worker_id, const std::string& job_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  bool IsPaused(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   JobStore* const jobs_;
   BlobStore* const blobs_;
@@ -160,6 +197,13 @@ class BakeScheduler {
   // starts even, which is fair too.
   std::map<std::string, uint64_t> last_served_ ABSL_GUARDED_BY(mu_);
   uint64_t lease_sequence_ ABSL_GUARDED_BY(mu_) = 0;
+  // Per worker: the different jobs it failed in a row, and until when it is
+  // paused (Unix ms). In memory only: a restart forgives every worker.
+  struct WorkerStreak {
+    std::vector<std::string> failed_jobs;
+    int64_t paused_until_ms = 0;
+  };
+  std::map<std::string, WorkerStreak> streaks_ ABSL_GUARDED_BY(mu_);
 };
 
 // Random identifier: prefix + 32 hex characters.

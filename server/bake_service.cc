@@ -53,6 +53,11 @@ grpc::Status BakeServiceImpl::WatchJob(grpc::ServerContext* context, const v1::W
                                        grpc::ServerWriter<v1::Job>* writer) {
   std::optional<v1::Job> last;
   while (!context->IsCancelled()) {
+    // A stopping server ends the stream so the client reconnects to the
+    // next one instead of hanging on a server that will never send again.
+    if (scheduler_->shutting_down()) {
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, "WatchJob: the server is shutting down; watch again");
+    }
     const uint64_t seen = scheduler_->change_count();
     auto job = scheduler_->GetJob(request->job_id());
     if (!job.ok()) return ToGrpc(job.status());

@@ -10,13 +10,18 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/disk_full.h"
 
 namespace impostor {
 namespace fs = std::filesystem;
 namespace {
 
+// INTERNAL naming the call and path; RESOURCE_EXHAUSTED with the free space
+// when the disk or quota is full.
 absl::Status ErrnoError(std::string_view what, const fs::path& path) {
-  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(errno)));
+  const int error_number = errno;
+  if (IsDiskFull(error_number)) return DiskFullError(what, path, std::strerror(error_number));
+  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(error_number)));
 }
 
 absl::Status SyncDirectory(const fs::path& dir) {
@@ -85,6 +90,7 @@ class FileWriter final : public BlobStore::Writer {
     std::error_code ec;
     if (fs::exists(final_path_, ec)) return true;
     fs::create_directories(final_path_.parent_path(), ec);
+    if (ec && IsDiskFull(ec.value())) return DiskFullError("create", final_path_.parent_path(), ec.message());
     if (::rename(tmp_path_.c_str(), final_path_.c_str()) != 0) return ErrnoError("rename into", final_path_);
     committed_ = true;
     on_published_(digest_.size_bytes);

@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 
 #include "absl/strings/str_cat.h"
+#include "server/disk_full.h"
 #include "impostor/v1/bake_service.pb.h"
 
 namespace impostor {
@@ -47,14 +48,20 @@ struct Migration {
 };
 constexpr Migration kMigrations[] = {
     {"priority", "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0"},
+    {"request_id", "ALTER TABLE jobs ADD COLUMN request_id TEXT NOT NULL DEFAULT ''"},
+    {"lease_expiries", "ALTER TABLE jobs ADD COLUMN lease_expiries INTEGER NOT NULL DEFAULT 0"},
 };
 // Indexes over migrated columns: created after the migrations.
 constexpr const char* kLateIndexes =
-    "CREATE INDEX IF NOT EXISTS jobs_by_priority ON jobs (state, leader_job_id, priority, client_id, created_ms);";
+    "CREATE INDEX IF NOT EXISTS jobs_by_priority ON jobs (state, leader_job_id, priority, client_id, created_ms);"
+    // One job per (requester, request id): a retried submit finds it, and a
+    // second insert could only be a scheduler bug.
+    "CREATE UNIQUE INDEX IF NOT EXISTS jobs_by_request ON jobs (client_id, request_id) WHERE request_id != '';"
+    "CREATE INDEX IF NOT EXISTS jobs_by_worker ON jobs (worker_id, state);";
 
 constexpr const char* kJobColumns =
     "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
-    "requester_cancelled, client_id, priority";
+    "requester_cancelled, client_id, priority, request_id, lease_expiries";
 
 // RAII prepared statement.
 class Statement {
@@ -79,7 +86,15 @@ class Statement {
     return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
   }
   int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
+  // INTERNAL with SQLite's message; RESOURCE_EXHAUSTED naming the database
+  // and the free space when the disk is full (SQLite rolled the statement
+  // back: nothing is half-written).
   absl::Status Error(std::string_view what) const {
+    if (sqlite3_errcode(db_) == SQLITE_FULL) {
+      const char* file = sqlite3_db_filename(db_, "main");
+      return DiskFullError(absl::StrCat("sqlite ", std::string(what), ":"), file ? file : "database",
+                           sqlite3_errmsg(db_));
+    }
     return absl::InternalError(absl::StrCat("sqlite ", std::string(what), ": ", sqlite3_errmsg(db_)));
   }
 
@@ -105,6 +120,8 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
   r.client_id = st.Text(11);
   r.lease_priority = static_cast<int32_t>(st.Int(12));
   r.gate = request.gate();
+  r.request_id = st.Text(13);
+  r.lease_expiries = static_cast<int32_t>(st.Int(14));
   return r;
 }
 
@@ -208,14 +225,16 @@ void BindJob(Statement& st, const JobRecord& r) {
   st.Bind(11, int64_t{r.requester_cancelled ? 1 : 0});
   st.Bind(12, r.client_id);
   st.Bind(13, int64_t{r.lease_priority});
+  st.Bind(14, r.request_id);
+  st.Bind(15, int64_t{r.lease_expiries});
 }
 
 }  // namespace
 
 absl::Status JobStore::Insert(const JobRecord& record) {
   Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
-                    "worker_id, job, request, leader_job_id, requester_cancelled, client_id, priority) "
-                    "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)");
+                    "worker_id, job, request, leader_job_id, requester_cancelled, client_id, priority, request_id, "
+                    "lease_expiries) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("insert job");
@@ -225,7 +244,8 @@ absl::Status JobStore::Insert(const JobRecord& record) {
 absl::Status JobStore::Update(const JobRecord& record) {
   Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
                     "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9, leader_job_id = ?10, "
-                    "requester_cancelled = ?11, client_id = ?12, priority = ?13 WHERE job_id = ?1");
+                    "requester_cancelled = ?11, client_id = ?12, priority = ?13, request_id = ?14, "
+                    "lease_expiries = ?15 WHERE job_id = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("update job");
@@ -297,6 +317,25 @@ absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
   if (!client_id.empty()) st.Bind(3, client_id);
   if (st.Step() != SQLITE_ROW) return st.Error("count pending");
   return st.Int(0);
+}
+
+absl::StatusOr<std::optional<JobRecord>> JobStore::FindByRequestId(const std::string& client_id,
+                                                                   const std::string& request_id) {
+  return QueryOne(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE client_id = ?1 AND request_id = ?2"),
+                  [&](Statement& st) {
+                    st.Bind(1, client_id);
+                    st.Bind(2, request_id);
+                  });
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::RunningOnWorker(const std::string& worker_id) {
+  return QueryMany(db_,
+                   absl::StrCat("SELECT ", kJobColumns,
+                                " FROM jobs WHERE worker_id = ?1 AND state = ?2 AND leader_job_id = ''"),
+                   [&](Statement& st) {
+                     st.Bind(1, worker_id);
+                     st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                   });
 }
 
 absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {

@@ -47,6 +47,13 @@ struct JobRecord {
   int32_t lease_priority = 0;
   // This requester's quality gate (SubmitBakeRequest.gate); empty = none.
   v1::QualityGate gate;
+  // SubmitBakeRequest.request_id ('' = none): a second submit with the same
+  // (client_id, request_id) returns this job. Column `request_id`.
+  std::string request_id;
+  // Leases of this job that expired (the worker died or hung), for the
+  // error a job that keeps killing its workers ends with. Column
+  // `lease_expiries`.
+  int32_t lease_expiries = 0;
 };
 
 class JobStore {
@@ -73,6 +80,11 @@ class JobStore {
   absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id);
   // QUEUED or RUNNING rows, of one client or (client_id empty) of everyone.
   absl::StatusOr<int64_t> CountPending(const std::string& client_id);
+  // The job a submit with this (client_id, request_id) created, if any.
+  absl::StatusOr<std::optional<JobRecord>> FindByRequestId(const std::string& client_id,
+                                                           const std::string& request_id);
+  // RUNNING leaders leased to `worker_id`.
+  absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id);
   // RUNNING jobs whose lease deadline is before `now_ms`.
   absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms);
 

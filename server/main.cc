@@ -40,6 +40,12 @@ ABSL_FLAG(int64_t, max_pending_per_client, 10000, "Queued or running jobs accept
 ABSL_FLAG(int64_t, max_blob_bytes, int64_t{2} << 30, "Largest blob (upload or output) accepted, bytes (>= 1)");
 ABSL_FLAG(int64_t, store_max_bytes, 0,
           "Store size cap in bytes; least recently used unpinned results are evicted beyond it (0 = no cap)");
+ABSL_FLAG(int, shutdown_grace_seconds, 10,
+          "On SIGTERM/SIGINT: seconds for local workers to drain and in-flight calls to finish before the "
+          "server exits (1..3600)");
+ABSL_FLAG(int, worker_failure_limit, 3,
+          "Pause a worker after this many different jobs in a row failed or lost on it (0 = never, 0..1000)");
+ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
@@ -66,6 +72,14 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
 
+  // Blocked before any thread starts (gRPC's, the supervisor's), so every
+  // thread inherits the mask and only the watcher below receives them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
   const std::string data = absl::GetFlag(FLAGS_data);
   if (data.empty()) return Fail("--data: required (directory for blobs and the job database)");
   const int local_workers = absl::GetFlag(FLAGS_local_workers);
@@ -74,6 +88,13 @@ int main(int argc, char** argv) {
   if (lease_timeout_s < 1 || lease_timeout_s > 3600) return Fail("--lease-timeout-s: must be in 1..3600");
   const int max_attempts = absl::GetFlag(FLAGS_max_attempts);
   if (max_attempts < 1 || max_attempts > 100) return Fail("--max-attempts: must be in 1..100");
+
+  const int grace_s = absl::GetFlag(FLAGS_shutdown_grace_seconds);
+  if (grace_s < 1 || grace_s > 3600) return Fail("--shutdown-grace-seconds: must be in 1..3600");
+  const int worker_failure_limit = absl::GetFlag(FLAGS_worker_failure_limit);
+  if (worker_failure_limit < 0 || worker_failure_limit > 1000) return Fail("--worker-failure-limit: must be in 0..1000");
+  const int worker_pause_s = absl::GetFlag(FLAGS_worker_pause_seconds);
+  if (worker_pause_s < 1 || worker_pause_s > 86400) return Fail("--worker-pause-seconds: must be in 1..86400");
 
   const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
   const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);
@@ -94,7 +115,9 @@ int main(int argc, char** argv) {
        .max_attempts = static_cast<uint32_t>(max_attempts),
        .max_pending_jobs = max_pending_jobs,
        .max_pending_per_client = max_pending_per_client,
-       .store_max_bytes = std::max<int64_t>(0, absl::GetFlag(FLAGS_store_max_bytes))});
+       .store_max_bytes = std::max<int64_t>(0, absl::GetFlag(FLAGS_store_max_bytes)),
+       .worker_failure_limit = worker_failure_limit,
+       .worker_pause_ms = int64_t{worker_pause_s} * 1000});
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler);
@@ -134,25 +157,43 @@ int main(int argc, char** argv) {
       worker_binary = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path() / "impostor-worker";
     }
     const std::string connect_host = (host == "0.0.0.0" || host == "[::]" || host.empty()) ? "127.0.0.1" : host;
-    supervisor = std::make_unique<impostor::WorkerSupervisor>(worker_binary, connect_host + ":" + std::to_string(port),
-                                                              local_workers);
+    // Local workers drain within half the grace period, so a job that cannot
+    // finish is handed back while the server can still take it.
+    supervisor = std::make_unique<impostor::WorkerSupervisor>(
+        worker_binary, connect_host + ":" + std::to_string(port), local_workers,
+        std::vector<std::string>{"--drain-seconds=" + std::to_string(grace_s / 2)},
+        [&scheduler](const std::string& worker_id, const std::string& how) {
+          if (auto s = scheduler.WorkerDied(worker_id, how); !s.ok()) {
+            spdlog::error("event=worker_death_not_recorded worker={} error=\"{}\"", worker_id, s.ToString());
+          }
+        });
     if (auto s = supervisor->Start(); !s.ok()) return Fail(std::string(s.message()));
   }
 
-  // SIGINT/SIGTERM end the server; a watcher thread turns the signal into a
-  // graceful shutdown (signal handlers may not call into gRPC).
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // SIGINT/SIGTERM end the server gracefully within --shutdown-grace-seconds;
+  // a watcher thread does it (signal handlers may not call into gRPC):
+  // 1. local workers drain (finish or hand back their jobs) while the server
+  //    still answers them;
+  // 2. WatchJob streams and LeaseJob long polls end with UNAVAILABLE, so
+  //    clients and workers reconnect to the next server;
+  // 3. gRPC stops accepting calls and lets in-flight ones finish until the
+  //    deadline, then cancels them.
+  // Every accepted job is in the database already: nothing to flush.
   std::thread signal_thread([&] {
     int sig = 0;
     sigwait(&signals, &sig);
-    spdlog::info("event=shutdown signal={}", sig);
+    const auto start = std::chrono::steady_clock::now();
+    const auto deadline = start + std::chrono::seconds(grace_s);
+    spdlog::info("event=shutdown signal={} grace_s={}", sig, grace_s);
+    if (supervisor) supervisor->Stop(deadline - std::chrono::seconds(grace_s) / 4);
     g_stop = true;
     scheduler.Shutdown();
-    server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+    const auto left = std::max<std::chrono::steady_clock::duration>(deadline - std::chrono::steady_clock::now(),
+                                                                    std::chrono::milliseconds(500));
+    server->Shutdown(std::chrono::system_clock::now() +
+                     std::chrono::duration_cast<std::chrono::system_clock::duration>(left));
+    spdlog::info("event=shutdown_done seconds={:.2f}",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   });
 
   // Lease expiry and the store cap are checked once a second.

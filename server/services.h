@@ -63,6 +63,8 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
                            v1::CompleteJobResponse* response) override;
   grpc::Status FailJob(grpc::ServerContext* context, const v1::FailJobRequest* request,
                        v1::FailJobResponse* response) override;
+  grpc::Status ReleaseJob(grpc::ServerContext* context, const v1::ReleaseJobRequest* request,
+                          v1::ReleaseJobResponse* response) override;
 
  private:
   BakeScheduler* const scheduler_;

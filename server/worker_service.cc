@@ -30,4 +30,9 @@ grpc::Status WorkerServiceImpl::FailJob(grpc::ServerContext*, const v1::FailJobR
   return ToGrpc(scheduler_->Fail(*request));
 }
 
+grpc::Status WorkerServiceImpl::ReleaseJob(grpc::ServerContext*, const v1::ReleaseJobRequest* request,
+                                           v1::ReleaseJobResponse*) {
+  return ToGrpc(scheduler_->Release(*request));
+}
+
 }  // namespace impostor

@@ -12,13 +12,27 @@
 #include "absl/strings/str_cat.h"
 
 namespace impostor {
+namespace {
+
+// "killed by signal 11 (SIGSEGV)" or "exited with status 1".
+std::string ExitDescription(int status) {
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    const char* name = ::sigabbrev_np(sig);
+    return absl::StrCat("killed by signal ", sig, name ? absl::StrCat(" (SIG", name, ")") : "");
+  }
+  return absl::StrCat("exited with status ", WEXITSTATUS(status));
+}
+
+}  // namespace
 
 WorkerSupervisor::WorkerSupervisor(std::filesystem::path worker_binary, std::string server_address, int count,
-                                   std::vector<std::string> extra_args)
+                                   std::vector<std::string> extra_args, ExitCallback on_exit)
     : worker_binary_(std::move(worker_binary)),
       server_address_(std::move(server_address)),
       count_(count),
-      extra_args_(std::move(extra_args)) {}
+      extra_args_(std::move(extra_args)),
+      on_exit_(std::move(on_exit)) {}
 
 WorkerSupervisor::~WorkerSupervisor() { Stop(); }
 
@@ -48,6 +62,11 @@ pid_t WorkerSupervisor::Spawn(int index) {
   if (pid == 0) {
     // Only async-signal-safe calls between fork and exec.
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    // The server blocks SIGTERM/SIGINT for its signal thread; a worker
+    // starts with none blocked.
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
     if (::getppid() != parent) ::_exit(1);
     ::execv(argv[0], argv.data());
     ::_exit(127);
@@ -72,15 +91,24 @@ void WorkerSupervisor::Run() {
         Slot& slot = slots_[i];
         if (slot.pid != pid) continue;
         slot.pid = -1;
-        if (stopping_) break;
-        const auto now = std::chrono::steady_clock::now();
-        const bool died_young = now - slot.started < std::chrono::seconds(10);
-        slot.backoff = died_young ? std::min(slot.backoff * 2, std::chrono::seconds(30)) : std::chrono::seconds(1);
-        slot.restart_at = now + slot.backoff;
-        const std::string how = WIFSIGNALED(status) ? absl::StrCat("signal ", WTERMSIG(status))
-                                                    : absl::StrCat("exit ", WEXITSTATUS(status));
-        spdlog::warn("event=worker_exited index={} pid={} how=\"{}\" restart_in_s={}", i, pid, how,
-                     slot.backoff.count());
+        const std::string how = ExitDescription(status);
+        const std::string worker_id = absl::StrCat("local-", i, "-", pid);
+        if (stopping_) {
+          spdlog::info("event=worker_stopped index={} pid={} how=\"{}\"", i, pid, how);
+        } else {
+          const auto now = std::chrono::steady_clock::now();
+          const bool died_young = now - slot.started < std::chrono::seconds(10);
+          slot.backoff = died_young ? std::min(slot.backoff * 2, std::chrono::seconds(30)) : std::chrono::seconds(1);
+          slot.restart_at = now + slot.backoff;
+          spdlog::warn("event=worker_exited index={} pid={} how=\"{}\" restart_in_s={}", i, pid, how,
+                       slot.backoff.count());
+        }
+        if (on_exit_) {
+          // Outside the lock: the callback takes the scheduler's.
+          lock.unlock();
+          on_exit_(worker_id, how);
+        }
+        break;
       }
       continue;
     }
@@ -88,8 +116,9 @@ void WorkerSupervisor::Run() {
       bool any = false;
       for (const Slot& s : slots_) any = any || s.pid > 0;
       if (!any) return;
-      // A worker busy in a long draw call may not get to its SIGTERM handler.
-      if (std::chrono::steady_clock::now() - stop_requested_ > std::chrono::seconds(5)) {
+      // Past the deadline a worker still draining (or stuck in a long draw
+      // call) is killed; the scheduler hears of it through on_exit_.
+      if (std::chrono::steady_clock::now() >= kill_at_) {
         for (const Slot& s : slots_) {
           if (s.pid > 0) ::kill(s.pid, SIGKILL);
         }
@@ -107,12 +136,12 @@ void WorkerSupervisor::Run() {
   }
 }
 
-void WorkerSupervisor::Stop() {
+void WorkerSupervisor::Stop(std::chrono::steady_clock::time_point deadline) {
   {
     std::lock_guard lock(mu_);
     if (stopping_ && !thread_.joinable()) return;
     stopping_ = true;
-    stop_requested_ = std::chrono::steady_clock::now();
+    kill_at_ = deadline;
     for (const Slot& s : slots_) {
       if (s.pid > 0) ::kill(s.pid, SIGTERM);
     }

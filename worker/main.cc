@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -27,13 +28,34 @@ ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
 ABSL_FLAG(int, heartbeat_s, 1, "Seconds between lease renewals and cancel checks while baking (1..60)");
 ABSL_FLAG(uint64_t, max_triangles, 20'000'000, "Largest mesh accepted, triangles as drawn (>= 1)");
 ABSL_FLAG(int, max_texture_dimension, 16384, "Largest texture side accepted, pixels (1..65536)");
+ABSL_FLAG(int, drain_seconds, 60,
+          "On SIGTERM, seconds the current job may take to finish before its lease is handed back (0..3600)");
+ABSL_FLAG(int, max_outage_seconds, 300,
+          "Seconds the server may stay unreachable before the worker exits with status 1 (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+
+namespace {
+
+// Test hooks come from the environment (see worker/test_faults.h).
+std::string EnvOrEmpty(const char* name) {
+  const char* value = std::getenv(name);
+  return value ? value : "";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
   impostor::ShowAllFlagsInHelp();
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
+  // Blocked before any thread starts (Vulkan's, gRPC's), so only the
+  // watcher thread below receives them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   // Logs go to stderr: stdout carries only the "listening on" line, and a
   // closed stdout must not take the process down.
   spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
@@ -48,6 +70,17 @@ int main(int argc, char** argv) {
   const int heartbeat = absl::GetFlag(FLAGS_heartbeat_s);
   if (heartbeat < 1 || heartbeat > 60) {
     std::fprintf(stderr, "impostor-worker: --heartbeat-s must be in 1..60\n");
+    return 2;
+  }
+
+  const int drain_seconds = absl::GetFlag(FLAGS_drain_seconds);
+  if (drain_seconds < 0 || drain_seconds > 3600) {
+    std::fprintf(stderr, "impostor-worker: --drain-seconds must be in 0..3600\n");
+    return 2;
+  }
+  const int max_outage_seconds = absl::GetFlag(FLAGS_max_outage_seconds);
+  if (max_outage_seconds < 1 || max_outage_seconds > 86400) {
+    std::fprintf(stderr, "impostor-worker: --max-outage-seconds must be in 1..86400\n");
     return 2;
   }
 
@@ -69,24 +102,24 @@ int main(int argc, char** argv) {
                              .max_jobs = absl::GetFlag(FLAGS_max_jobs),
                              .load_limits = {.max_triangles = absl::GetFlag(FLAGS_max_triangles),
                                              .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension)},
-                             .test_pause_file = [] {
-                               const char* f = std::getenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
-                               return std::filesystem::path(f ? f : "");
-                             }()},
+                             .drain_seconds = drain_seconds,
+                             .max_outage_seconds = max_outage_seconds,
+                             .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),
+                             .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
+                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
                             std::move(*renderer));
 
-  // SIGTERM/SIGINT: finish the current job's bookkeeping and leave.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // SIGTERM/SIGINT: drain (no new job; the current one finishes within
+  // --drain-seconds or is handed back). A second signal hands it back now;
+  // a third ends the process at once.
   std::thread([&] {
     int sig = 0;
     sigwait(&signals, &sig);
-    spdlog::info("event=stopping signal={}", sig);
-    loop.Stop();
-    // A second signal (or a long bake) should not keep the process alive.
+    spdlog::info("event=draining signal={} drain_s={}", sig, drain_seconds);
+    loop.Drain(std::chrono::seconds(drain_seconds));
+    sigwait(&signals, &sig);
+    spdlog::info("event=draining signal={} drain_s=0", sig);
+    loop.Drain(std::chrono::seconds(0));
     sigwait(&signals, &sig);
     std::_Exit(1);
   }).detach();
@@ -94,5 +127,11 @@ int main(int argc, char** argv) {
   spdlog::info("event=worker_ready server={}", absl::GetFlag(FLAGS_server));
   const auto status = loop.Run();
   std::filesystem::remove_all(scratch, ec);
-  return status.ok() ? 0 : 1;
+  if (!status.ok()) {
+    spdlog::error("event=worker_exit error=\"{}\"", status.ToString());
+    std::fprintf(stderr, "impostor-worker: %s\n", status.ToString().c_str());
+    return 1;
+  }
+  spdlog::info("event=worker_exit");
+  return 0;
 }

@@ -15,6 +15,7 @@
 #include "worker/bake/cards_bake.h"
 #include "worker/bake/lod_bake.h"
 #include "worker/bake/surfel_bake.h"
+#include "worker/test_faults.h"
 
 namespace impostor {
 namespace fs = std::filesystem;
@@ -106,6 +107,8 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
 absl::Status WorkerLoop::Run() {
   int jobs_done = 0;
   auto backoff = std::chrono::milliseconds(200);
+  const auto max_outage = std::chrono::seconds(options_.max_outage_seconds);
+  std::optional<Clock::time_point> outage_since;
   while (!stop_) {
     v1::LeaseJobRequest request;
     request.set_worker_id(options_.worker_id);
@@ -115,20 +118,76 @@ absl::Status WorkerLoop::Run() {
     auto ctx = ContextWithDeadline(std::chrono::seconds(15));
     const grpc::Status s = workers_->LeaseJob(ctx.get(), request, &response);
     if (!s.ok()) {
-      spdlog::warn("event=lease_failed server={} code={} error=\"{}\" retry_ms={}", options_.server,
-                   static_cast<int>(s.error_code()), s.error_message(), backoff.count());
+      const auto now = Clock::now();
+      if (!outage_since) outage_since = now;
+      const double down_s = std::chrono::duration<double>(now - *outage_since).count();
+      spdlog::warn("event=lease_failed server={} code={} error=\"{}\" down_s={:.1f} retry_ms={}", options_.server,
+                   static_cast<int>(s.error_code()), s.error_message(), down_s, backoff.count());
+      if (now - *outage_since >= max_outage) {
+        return absl::UnavailableError(absl::StrCat("server ", options_.server, " unreachable for ",
+                                                   static_cast<int64_t>(down_s), " s (--max-outage-seconds ",
+                                                   options_.max_outage_seconds, "); last error: ",
+                                                   s.error_message()));
+      }
       // Wait for the channel to come back (or the backoff to pass) rather
       // than spinning on a dead server.
       channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
       backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
       continue;
     }
+    if (outage_since) {
+      spdlog::info("event=server_back server={} down_s={:.1f}", options_.server,
+                   std::chrono::duration<double>(Clock::now() - *outage_since).count());
+      outage_since.reset();
+    }
     backoff = std::chrono::milliseconds(200);
     if (!response.has_job()) continue;
+    if (stop_) {
+      // Leased while the drain began: not ours to start.
+      ReleaseLease(response.job(), "worker draining: leased as the drain began");
+      break;
+    }
     ProcessJob(response.job());
     if (options_.max_jobs > 0 && ++jobs_done >= options_.max_jobs) break;
   }
   return absl::OkStatus();
+}
+
+void WorkerLoop::Drain(std::chrono::seconds budget) {
+  std::lock_guard lock(job_mu_);
+  stop_ = true;
+  const auto deadline = Clock::now() + budget;
+  if (!drain_deadline_ || deadline < *drain_deadline_) drain_deadline_ = deadline;
+  job_wake_.notify_all();
+}
+
+bool WorkerLoop::DrainDue() const { return drain_deadline_ && Clock::now() >= *drain_deadline_; }
+
+grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call) {
+  const auto give_up = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
+  auto backoff = std::chrono::milliseconds(200);
+  while (true) {
+    const grpc::Status s = call();
+    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up) return s;
+    spdlog::warn("event=rpc_retry rpc={} error=\"{}\" retry_ms={}", std::string(rpc), s.error_message(),
+                 backoff.count());
+    channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+  }
+}
+
+void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reason) {
+  v1::ReleaseJobRequest r;
+  r.set_job_id(job.job_id());
+  r.set_lease_id(job.lease_id());
+  r.set_reason(reason);
+  const grpc::Status s = RetryThroughOutage("ReleaseJob", [&] {
+    v1::ReleaseJobResponse resp;
+    auto ctx = ContextWithDeadline(std::chrono::seconds(10));
+    return workers_->ReleaseJob(ctx.get(), r, &resp);
+  });
+  spdlog::info("event=job_released job={} reason=\"{}\" ok={}{}", job.job_id(), reason, s.ok(),
+               s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
 }
 
 void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
@@ -136,10 +195,12 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   spdlog::info("event=job_start job={} cache_key={} attempt={}", job.job_id(), job.cache_key(), job.attempt());
   std::atomic<bool> cancelled{false};
   std::atomic<bool> lease_lost{false};
+  // Draining past its budget: the bake stops and the lease goes back.
+  std::atomic<bool> releasing{false};
 
   // Latest progress, sent by the heartbeat thread (and on stage changes).
-  std::mutex mu;
-  std::condition_variable wake;
+  std::mutex& mu = job_mu_;
+  std::condition_variable& wake = job_wake_;
   std::string stage = "download";
   double fraction = 0.0;
   bool stage_changed = true;
@@ -166,8 +227,18 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   std::thread heartbeat([&] {
     std::unique_lock lock(mu);
     while (!done) {
-      wake.wait_for(lock, std::chrono::seconds(options_.heartbeat_seconds), [&] { return done || stage_changed; });
+      auto until = Clock::now() + std::chrono::seconds(options_.heartbeat_seconds);
+      if (drain_deadline_ && !releasing) until = std::min(until, *drain_deadline_);
+      wake.wait_until(lock, until, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_) {
+        return done || stage_changed || (!releasing && DrainDue());
+      });
       if (done) break;
+      if (!releasing && DrainDue()) {
+        // Out of drain time: stop the bake; the lease is handed back below.
+        spdlog::info("event=drain_deadline job={} stage={} action=release", job.job_id(), stage);
+        releasing = true;
+        cancelled = true;
+      }
       const std::string st = stage;
       const double f = fraction;
       stage_changed = false;
@@ -184,6 +255,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
       stage = std::string(st);
       fraction = f;
       if (stage_changed) wake.notify_all();
+    }
+    if (entered_stage && st == "render" && ShouldCrashForTest(options_.test_crash_on, job.mesh())) {
+      report("render", f);  // so the server knows where it died
+      CrashForTest();
     }
     if (entered_stage && st == "render" && !options_.test_pause_file.empty()) {
       std::error_code ec;
@@ -203,6 +278,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
 
   absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
     if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
+    if (auto s = FailureForTest(options_.test_fail_on, job.mesh()); !s.ok()) return s;
     // Inputs: the entry under its own name, the rest under their relative
     // paths (validated above: no absolute paths, no "..").
     const fs::path entry = input_dir / fs::path(job.mesh().entry().path()).filename();
@@ -250,14 +326,18 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
 
   if (lease_lost) {
     spdlog::warn("event=job_dropped job={} reason=lease_lost", job.job_id());
+  } else if (releasing && !outcome.ok()) {
+    ReleaseLease(job, absl::StrCat("worker draining: not done within --drain-seconds ", options_.drain_seconds));
   } else if (outcome.ok()) {
     v1::CompleteJobRequest r;
     r.set_job_id(job.job_id());
     r.set_lease_id(job.lease_id());
     *r.mutable_result() = result->manifest;
-    v1::CompleteJobResponse resp;
-    auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-    const grpc::Status s = workers_->CompleteJob(ctx.get(), r, &resp);
+    const grpc::Status s = RetryThroughOutage("CompleteJob", [&] {
+      v1::CompleteJobResponse resp;
+      auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+      return workers_->CompleteJob(ctx.get(), r, &resp);
+    });
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
                  s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
@@ -268,9 +348,11 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.mutable_error()->set_code(static_cast<int>(outcome.code()));
     r.mutable_error()->set_message(std::string(outcome.message()));
     r.set_retryable(IsRetryable(outcome.code()));
-    v1::FailJobResponse resp;
-    auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-    const grpc::Status s = workers_->FailJob(ctx.get(), r, &resp);
+    const grpc::Status s = RetryThroughOutage("FailJob", [&] {
+      v1::FailJobResponse resp;
+      auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+      return workers_->FailJob(ctx.get(), r, &resp);
+    });
     spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
                  static_cast<int>(outcome.code()), r.retryable(), std::string(outcome.message()), s.ok());
   }

@@ -3,18 +3,29 @@
 // or fail the job, repeat. A heartbeat thread renews the lease while a bake
 // runs and notices cancellation.
 //
-// Thread-safety: Run() on one thread; Stop() from any thread (e.g. a signal
-// watcher) makes Run return after the current job.
+// Draining (SIGTERM): no new leases; the current job may finish within the
+// drain budget, else its lease is handed back (ReleaseJob) so another worker
+// starts it at once.
+//
+// Thread-safety: Run() on one thread; Stop() and Drain() from any thread
+// (e.g. a signal watcher).
 #ifndef IMPOSTOR_WORKER_WORKER_LOOP_H_
 #define IMPOSTOR_WORKER_WORKER_LOOP_H_
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include <grpcpp/grpcpp.h>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/worker_service.grpc.pb.h"
@@ -36,6 +47,20 @@ struct WorkerOptions {
   int max_jobs = 0;
   // Limits on what a mesh may contain (triangles, texture sizes, ...).
   GltfLoadLimits load_limits;
+  // SIGTERM budget: the current job may finish within this many seconds;
+  // past it the lease is handed back. Default 60; range 0..3600.
+  int drain_seconds = 60;
+  // How long the server may stay unreachable before Run gives up
+  // (UNAVAILABLE, the process exits non-zero). Default 300; range 1..86400.
+  int max_outage_seconds = 300;
+  // Test-only fault switch: raise SIGSEGV on entering the render stage of a
+  // mesh whose entry file is named this. Empty = off. Set from
+  // $IMPOSTOR_WORKER_TEST_CRASH_ON (see worker/test_faults.h).
+  std::string test_crash_on;
+  // Test-only fault switch: fail every bake of a mesh whose entry file is
+  // named this ("*" = every mesh) with a retryable INTERNAL error, as a
+  // broken GPU would. Empty = off. Set from $IMPOSTOR_WORKER_TEST_FAIL_ON.
+  std::string test_fail_on;
   // Test hook: while this file exists, a bake pauses when it reaches its
   // render stage (heartbeats continue). Lets tests kill processes at a known
   // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
@@ -46,13 +71,24 @@ class WorkerLoop {
  public:
   WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> renderer);
 
-  // Serves until Stop() or max_jobs. Returns OK on a clean stop;
-  // connection trouble is retried with backoff, never fatal.
+  // Serves until Stop()/Drain() or max_jobs. Returns OK on a clean stop;
+  // UNAVAILABLE when the server stayed unreachable for max_outage_seconds
+  // (shorter outages are retried with backoff).
   absl::Status Run();
-  void Stop() { stop_ = true; }
+  // Drain with the configured budget (options.drain_seconds).
+  void Stop() { Drain(std::chrono::seconds(options_.drain_seconds)); }
+  // Takes no new job; the current one is handed back once `budget` has
+  // passed (at once for 0). A shorter budget than an earlier call wins.
+  void Drain(std::chrono::seconds budget);
 
  private:
   void ProcessJob(const v1::LeasedJob& job);
+  // Hands a lease back to the server (retrying through an outage).
+  void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
+  // Runs `call` until it answers something other than UNAVAILABLE or the
+  // outage budget is spent; returns its last status.
+  grpc::Status RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call);
+  bool DrainDue() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_);
 
   const WorkerOptions options_;
   std::unique_ptr<AtlasRenderer> renderer_;
@@ -60,6 +96,11 @@ class WorkerLoop {
   std::unique_ptr<v1::WorkerService::Stub> workers_;
   std::unique_ptr<v1::AssetService::Stub> assets_;
   std::atomic<bool> stop_{false};
+  // Guards the running job's progress hand-off to its heartbeat thread, and
+  // the drain deadline; job_wake_ wakes that thread on either.
+  std::mutex job_mu_;
+  std::condition_variable job_wake_;
+  std::optional<std::chrono::steady_clock::time_point> drain_deadline_ ABSL_GUARDED_BY(job_mu_);
 };
 
 }  // namespace impostor

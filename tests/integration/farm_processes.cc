@@ -1,0 +1,97 @@
+#include "tests/integration/farm_processes.h"
+
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+namespace impostor::testing {
+
+ScopedEnv::ScopedEnv(std::map<std::string, std::string> vars) {
+  for (const auto& [name, value] : vars) {
+    const char* old = std::getenv(name.c_str());
+    saved_[name] = old ? std::optional<std::string>(old) : std::nullopt;
+    ::setenv(name.c_str(), value.c_str(), 1);
+  }
+}
+
+ScopedEnv::~ScopedEnv() {
+  for (const auto& [name, value] : saved_) {
+    if (value) {
+      ::setenv(name.c_str(), value->c_str(), 1);
+    } else {
+      ::unsetenv(name.c_str());
+    }
+  }
+}
+
+std::unique_ptr<ChildProcess> StartWorker(const std::string& address, const std::string& name,
+                                          const std::vector<std::string>& extra,
+                                          const std::map<std::string, std::string>& env) {
+  ScopedEnv scoped(env);
+  std::vector<std::string> argv = {(BinaryDir() / "impostor-worker").string(), "--server=" + address,
+                                   "--name=" + name, "--log-level=warn"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return std::make_unique<ChildProcess>(argv);
+}
+
+v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
+                   const std::function<bool(const v1::Job&)>& done, int minutes) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(minutes));
+  v1::WatchJobRequest request;
+  request.set_job_id(job_id);
+  auto reader = bake.WatchJob(&ctx, request);
+  v1::Job job;
+  while (reader->Read(&job)) {
+    if (done(job)) {
+      ctx.TryCancel();
+      break;
+    }
+  }
+  reader->Finish();
+  return job;
+}
+
+v1::Job GetJob(v1::BakeService::Stub& bake, const std::string& job_id) {
+  grpc::ClientContext ctx;
+  v1::GetJobRequest request;
+  request.set_job_id(job_id);
+  v1::Job job;
+  const grpc::Status s = bake.GetJob(&ctx, request, &job);
+  EXPECT_TRUE(s.ok()) << "GetJob " << job_id << ": " << s.error_message();
+  return job;
+}
+
+v1::SubmitBakeResponse SubmitSmall(v1::BakeService::Stub& bake, const v1::MeshInput& mesh) {
+  grpc::ClientContext ctx;
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = mesh;
+  request.mutable_parameters()->set_frames(2);
+  request.mutable_parameters()->set_resolution(64);
+  v1::SubmitBakeResponse response;
+  const grpc::Status s = bake.SubmitBake(&ctx, request, &response);
+  EXPECT_TRUE(s.ok()) << "SubmitBake: " << s.error_message();
+  return response;
+}
+
+int FreeLoopbackPort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
+  socklen_t len = sizeof(addr);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+void Touch(const std::filesystem::path& file) { std::ofstream(file) << "pause"; }
+
+}  // namespace impostor::testing

@@ -1,0 +1,57 @@
+// Helpers for tests that start, signal and kill real impostor-worker
+// processes next to a ServerProcess: workers with a name and test switches
+// in their environment, and watching a job until a condition holds.
+#ifndef IMPOSTOR_TESTS_INTEGRATION_FARM_PROCESSES_H_
+#define IMPOSTOR_TESTS_INTEGRATION_FARM_PROCESSES_H_
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor::testing {
+
+// impostor-worker --server=<address> --name=<name> [extra...], with `env`
+// (e.g. IMPOSTOR_WORKER_TEST_PAUSE_FILE) set in its environment only.
+std::unique_ptr<ChildProcess> StartWorker(const std::string& address, const std::string& name,
+                                          const std::vector<std::string>& extra = {},
+                                          const std::map<std::string, std::string>& env = {});
+
+// Sets environment variables for the lifetime of the object (children
+// started meanwhile inherit them), then restores the previous values.
+class ScopedEnv {
+ public:
+  explicit ScopedEnv(std::map<std::string, std::string> vars);
+  ~ScopedEnv();
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  std::map<std::string, std::optional<std::string>> saved_;
+};
+
+// Follows WatchJob until `done(job)` holds (returns that job) or the stream
+// ends (returns the last job seen). Gives up after `minutes`.
+v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
+                   const std::function<bool(const v1::Job&)>& done, int minutes = 3);
+
+// GetJob; a failed call is a test failure and an empty Job.
+v1::Job GetJob(v1::BakeService::Stub& bake, const std::string& job_id);
+
+// Submits `mesh` at a small size (2 frames, 64 px); a failed call is a test
+// failure.
+v1::SubmitBakeResponse SubmitSmall(v1::BakeService::Stub& bake, const v1::MeshInput& mesh);
+
+// A loopback port nothing listens on (bound, read, released).
+int FreeLoopbackPort();
+
+void Touch(const std::filesystem::path& file);
+
+}  // namespace impostor::testing
+
+#endif  // IMPOSTOR_TESTS_INTEGRATION_FARM_PROCESSES_H_

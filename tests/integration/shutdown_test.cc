@@ -1,0 +1,210 @@
+// Graceful shutdown with real processes: SIGTERM to the server ends streams
+// and long polls with UNAVAILABLE, exits 0 and keeps every job; SIGTERM to a
+// busy worker hands its job to another worker at once (no lease timeout);
+// --local-workers drain on server shutdown; a worker gives up on a server
+// that stays away past --max-outage-seconds.
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "tests/integration/farm_processes.h"
+#include "tests/integration/server_process.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::AssetsDir;
+
+constexpr char kPauseEnv[] = "IMPOSTOR_WORKER_TEST_PAUSE_FILE";
+
+bool PausedAtRender(const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING && j.stage() == "render"; }
+
+bool StartsWith(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
+
+bool ExitedZero(int wait_status) { return WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == 0; }
+
+TEST(GracefulShutdown, ServerSigtermEndsStreamsWithUnavailableExitsZeroAndKeepsJobs) {
+  auto server = std::make_unique<testing::ServerProcess>(/*local_workers=*/0);
+  const fs::path data = server->data_dir();
+  const std::string address = server->address();
+
+  // A job leased by a hand-driven worker: the queue is empty, so the long
+  // poll below waits.
+  const std::string bytes = "mesh bytes no worker will bake";
+  const v1::Digest digest = testing::DigestOf(bytes);
+  ASSERT_TRUE(testing::UploadBytes(server->assets(), bytes, digest).ok());
+  v1::SubmitBakeRequest submit;
+  submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
+  *submit.mutable_mesh()->mutable_entry()->mutable_digest() = digest;
+  submit.set_request_id("shutdown-test-submit-1");
+  v1::SubmitBakeResponse submitted;
+  {
+    grpc::ClientContext ctx;
+    ASSERT_TRUE(server->bake().SubmitBake(&ctx, submit, &submitted).ok());
+  }
+  v1::LeaseJobResponse leased;
+  {
+    grpc::ClientContext ctx;
+    v1::LeaseJobRequest lease;
+    lease.set_worker_id("hand-worker");
+    ASSERT_TRUE(server->workers().LeaseJob(&ctx, lease, &leased).ok());
+    ASSERT_EQ(leased.job().job_id(), submitted.job_id());
+  }
+
+  // A watcher streaming and a worker long-polling when the signal comes.
+  grpc::ClientContext watch_ctx;
+  watch_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  v1::WatchJobRequest watch;
+  watch.set_job_id(submitted.job_id());
+  auto watcher = server->bake().WatchJob(&watch_ctx, watch);
+  v1::Job seen;
+  ASSERT_TRUE(watcher->Read(&seen));
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_RUNNING);
+  grpc::Status long_poll;
+  std::thread poller([&] {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    v1::LeaseJobRequest lease;
+    lease.set_worker_id("idle-worker");
+    lease.set_wait_seconds(60);
+    v1::LeaseJobResponse response;
+    long_poll = server->workers().LeaseJob(&ctx, lease, &response);
+  });
+
+  const auto signalled = std::chrono::steady_clock::now();
+  const int status = server->process().Terminate();
+  std::printf("shutdown: the server exited %.2f s after SIGTERM\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count());
+  EXPECT_TRUE(ExitedZero(status)) << "wait status " << status;
+  while (watcher->Read(&seen)) {
+  }
+  const grpc::Status watch_end = watcher->Finish();
+  EXPECT_EQ(watch_end.error_code(), grpc::StatusCode::UNAVAILABLE) << watch_end.error_message();
+  EXPECT_NE(watch_end.error_message().find("shutting down"), std::string::npos) << watch_end.error_message();
+  poller.join();
+  // The poll may reach the server before the signal (the scheduler answers
+  // UNAVAILABLE, see LeaseLossTest), while gRPC shuts down (CANCELLED) or
+  // after (UNAVAILABLE): in every case it must neither hang to its deadline
+  // nor come back empty-handed as if all were well.
+  EXPECT_NE(long_poll.error_code(), grpc::StatusCode::OK);
+  EXPECT_NE(long_poll.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << long_poll.error_message();
+
+  // The job is all there after a restart, the retried submit finds it, and
+  // the old lease can still be handed back.
+  server = std::make_unique<testing::ServerProcess>(0, data, address);
+  const v1::Job after = testing::GetJob(server->bake(), submitted.job_id());
+  EXPECT_EQ(after.state(), v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(after.worker_id(), "hand-worker");
+  {
+    grpc::ClientContext ctx;
+    v1::SubmitBakeResponse again;
+    ASSERT_TRUE(server->bake().SubmitBake(&ctx, submit, &again).ok());
+    EXPECT_EQ(again.job_id(), submitted.job_id()) << "a retried submit must not create a second job";
+  }
+  {
+    grpc::ClientContext ctx;
+    v1::ReleaseJobRequest release;
+    release.set_job_id(leased.job().job_id());
+    release.set_lease_id(leased.job().lease_id());
+    release.set_reason("test");
+    v1::ReleaseJobResponse response;
+    const grpc::Status s = server->workers().ReleaseJob(&ctx, release, &response);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+  }
+  const v1::Job released = testing::GetJob(server->bake(), submitted.job_id());
+  EXPECT_EQ(released.state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(released.attempts(), 0u);
+}
+
+// The default 30 s lease timeout stays: only a hand-back gets the job to
+// the second worker on its first counted attempt.
+TEST(GracefulShutdown, ABusyWorkerHandsItsJobToAnotherOnSigterm) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  const fs::path pause = testing::NewTempDir("drain_handback") / "pause";
+  testing::Touch(pause);
+  auto draining = testing::StartWorker(server.address(), "draining", {"--drain-seconds=0"},
+                                       {{kPauseEnv, pause.string()}});
+  const v1::MeshInput mesh =
+      testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server.bake(), mesh);
+  const v1::Job paused = testing::WatchUntil(server.bake(), job.job_id(), PausedAtRender);
+  ASSERT_TRUE(PausedAtRender(paused));
+  ASSERT_TRUE(StartsWith(paused.worker_id(), "draining-")) << paused.worker_id();
+  auto rescuer = testing::StartWorker(server.address(), "rescuer", {}, {{kPauseEnv, pause.string()}});
+
+  const auto signalled = std::chrono::steady_clock::now();
+  EXPECT_TRUE(ExitedZero(draining->Terminate())) << "a draining worker exits cleanly";
+  // Printed, not asserted: the figure for the README.
+  std::printf("drain: the worker handed its job back and exited %.2f s after SIGTERM\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count());
+  fs::remove(pause);
+  const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_TRUE(StartsWith(done.worker_id(), "rescuer-")) << done.worker_id();
+  EXPECT_EQ(done.attempts(), 1u) << "the drained lease was handed back, not left to expire (that counts an attempt)";
+}
+
+TEST(GracefulShutdown, ADrainingWorkerFinishesAJobThatFitsItsBudget) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  const fs::path pause = testing::NewTempDir("drain_finish") / "pause";
+  testing::Touch(pause);
+  auto worker = testing::StartWorker(server.address(), "finisher", {"--drain-seconds=600"},
+                                     {{kPauseEnv, pause.string()}});
+  const v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server.bake(), mesh);
+  ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server.bake(), job.job_id(), PausedAtRender)));
+  ::kill(worker->pid(), SIGTERM);
+  fs::remove(pause);
+  EXPECT_EQ(worker->Wait(), 0) << "the worker leaves once its job is done";
+  const v1::Job done = testing::GetJob(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_TRUE(StartsWith(done.worker_id(), "finisher-")) << done.worker_id();
+  EXPECT_EQ(done.attempts(), 1u);
+}
+
+TEST(GracefulShutdown, LocalWorkersHandTheirJobsBackWhenTheServerStops) {
+  const fs::path pause = testing::NewTempDir("local_drain") / "pause";
+  testing::Touch(pause);
+  std::unique_ptr<testing::ServerProcess> server;
+  {
+    testing::ScopedEnv env(std::map<std::string, std::string>{{kPauseEnv, pause.string()}});  // inherited by the local workers
+    server = std::make_unique<testing::ServerProcess>(1, std::vector<std::string>{"--shutdown-grace-seconds=4"});
+  }
+  const fs::path data = server->data_dir();
+  const std::string address = server->address();
+  const v1::MeshInput mesh = testing::UploadGlb(server->assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server->bake(), mesh);
+  const v1::Job paused = testing::WatchUntil(server->bake(), job.job_id(), PausedAtRender);
+  ASSERT_TRUE(PausedAtRender(paused));
+  ASSERT_TRUE(StartsWith(paused.worker_id(), "local-0-")) << paused.worker_id();
+
+  EXPECT_TRUE(ExitedZero(server->process().Terminate()));
+  server = std::make_unique<testing::ServerProcess>(0, data, address);
+  const v1::Job after = testing::GetJob(server->bake(), job.job_id());
+  EXPECT_EQ(after.state(), v1::JOB_STATE_QUEUED) << "handed back, not left leased to a worker that is gone";
+  EXPECT_EQ(after.attempts(), 0u);
+}
+
+TEST(WorkerOutage, AWorkerGivesUpOnAServerThatStaysAway) {
+  const std::string nowhere = "127.0.0.1:" + std::to_string(testing::FreeLoopbackPort());
+  auto worker = testing::StartWorker(nowhere, "lonely", {"--max-outage-seconds=1"});
+  EXPECT_EQ(worker->Wait(), 1);
+}
+
+TEST(WorkerOutage, OutOfRangeDrainAndOutageFlagsAreUsageErrors) {
+  for (const char* flag : {"--drain-seconds=-1", "--drain-seconds=3601", "--max-outage-seconds=0"}) {
+    auto worker = testing::StartWorker("127.0.0.1:1", "bad-flags", {flag});
+    EXPECT_EQ(worker->Wait(), 2) << flag;
+  }
+}
+
+}  // namespace
+}  // namespace impostor
