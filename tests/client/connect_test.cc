@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -54,6 +55,13 @@ TEST(Connect, RejectsBadOptions) {
   options = ClientOptions();
   options.server = "";
   EXPECT_EQ(Client::Connect(options).status().code(), absl::StatusCode::kInvalidArgument);
+  for (double outage : {-1.0, 86401.0, std::nan("")}) {
+    options = ClientOptions();
+    options.max_outage_seconds = outage;
+    absl::Status s = Client::Connect(options).status();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << outage;
+    EXPECT_NE(s.message().find("max_outage_seconds"), std::string::npos) << s;
+  }
 }
 
 TEST(GetRpcErrorInfo, LocalErrorsHaveNone) {
