@@ -266,7 +266,9 @@ class Cache {
   // downloaded again. Concurrent Gets of one key share one download.
   // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars), NOT_FOUND
   // (nothing baked under that key), UNAVAILABLE (not cached and the server
-  // cannot be reached; fast, see connect_timeout_seconds), DATA_LOSS (the
+  // cannot be reached: fast when it was never reached, see
+  // connect_timeout_seconds; after max_outage_seconds when it went away
+  // during the download), DATA_LOSS (the
   // server's bytes do not match their digests), INTERNAL (local disk),
   // CANCELLED (the Cache is being destroyed), or an RPC's error.
   absl::StatusOr<CachedResult> Get(const std::string& cache_key);
