@@ -600,7 +600,7 @@ TEST_F(FakeServerTest, OutageBudgetSpentReturnsTheLastUnavailable) {
     fake_.get_job_unavailable = 1 << 30;  // never back
   }
   EventLog log;
-  auto client = Connect(1, 0.5, log.Callback());
+  auto client = Connect(1, 2, log.Callback());
   ASSERT_NE(client, nullptr);
   absl::StatusOr<JobUpdate> job = client->GetJob("job-1");
   ASSERT_EQ(job.status().code(), absl::StatusCode::kUnavailable) << job.status();
