@@ -46,7 +46,8 @@ void ConnectionMonitor::NoteFailure(const absl::Status& status) {
   event.server = server_;
   event.error = status;
   event.max_outage_seconds = max_outage_seconds_;
-  spdlog::debug("lost server {} ({}); retrying for up to {} s", server_, std::string(status.message()), max_outage_seconds_);
+  spdlog::debug("lost server {} ({}); retrying for up to {} s", server_, std::string(status.message()),
+                max_outage_seconds_);
   if (on_change_) on_change_(event);
 }
 

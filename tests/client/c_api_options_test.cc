@@ -32,8 +32,9 @@ TEST(CApiOptions, OutageBudgetIsChecked) {
     double max_outage_seconds;
     impostor_status expected;
   };
-  for (const Case& c : {Case{"negative", -1, IMPOSTOR_INVALID_ARGUMENT}, Case{"over a day", 86401, IMPOSTOR_INVALID_ARGUMENT},
-                        Case{"zero", 0, IMPOSTOR_OK}, Case{"a day", 86400, IMPOSTOR_OK}}) {
+  for (const Case& c : {Case{"negative", -1, IMPOSTOR_INVALID_ARGUMENT},
+                        Case{"over a day", 86401, IMPOSTOR_INVALID_ARGUMENT}, Case{"zero", 0, IMPOSTOR_OK},
+                        Case{"a day", 86400, IMPOSTOR_OK}}) {
     impostor_cache_options o;
     impostor_cache_options_init(&o);
     o.dir = dir_string.c_str();

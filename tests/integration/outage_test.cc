@@ -308,7 +308,6 @@ struct EventLog {
 
 void Touch(const fs::path& p) { std::ofstream(p) << "pause"; }
 
-
 // The body of the outage tests: see the file comment.
 void RideOutAnOutage(int outage_seconds) {
   const auto& reference = Reference();
@@ -328,8 +327,8 @@ void RideOutAnOutage(int outage_seconds) {
   auto client = sdk::Client::Connect(Options(address, 120));
   ASSERT_TRUE(client.ok()) << client.status();
 
-  // Before the outage: the batch's cached item, and the result that the
-  // fetch and the cache download (maps of random bytes: large and exact).
+  // Before the outage: the batch's cached item, baked while the worker runs
+  // freely. From here on it pauses at the render stage of every bake.
   ASSERT_FALSE(BakeAndWait(**client, kCachedAsset).empty());
   Touch(pause);
   const std::string out = (work / "out").string();
@@ -346,12 +345,15 @@ void RideOutAnOutage(int outage_seconds) {
   ASSERT_TRUE(WaitUntilPausedAtRender(**client, job_id))
       << "the bake never reached its render stage: " << bake.stderr_text();
 
-  // The only worker is held by the bake: publish the fetch's result by hand.
+  // The result that the fetch and the cache download: maps of random bytes
+  // (large, and known exactly), published by hand since the only worker is
+  // held by the bake.
   const testing::PublishedResult published = testing::PublishResult(*server, {3 << 20, 512 << 10, 256 << 10}, 7);
 
   // The batch: its items queue behind the paused bake; the cached one,
   // listed last, finishes at once.
-  nlohmann::json spec = {{"defaults", {{"frames", 2}, {"resolution", 64}, {"quality_views", 0}}}, {"assets", nlohmann::json::array()}};
+  nlohmann::json spec = {{"defaults", {{"frames", 2}, {"resolution", 64}, {"quality_views", 0}}},
+                         {"assets", nlohmann::json::array()}};
   for (const std::string& asset : kBatchAssets) spec["assets"].push_back((AssetsDir() / asset).string());
   spec["assets"].push_back((AssetsDir() / kCachedAsset).string());
   std::ofstream(work / "batch.json") << spec.dump();
