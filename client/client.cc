@@ -14,6 +14,7 @@
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
 #include "client/retry.h"
+#include "client/rpc_error.h"
 #include "client/transport.h"
 
 namespace impostor::sdk {
@@ -184,8 +185,8 @@ absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
     // The stream broke (a server restart), or ended before a terminal state
     // (a server shutting down): resume, within the retry policy.
     if (status.ok()) {
-      status = absl::UnavailableError(absl::StrCat("WatchJob (server ", transport.server(), "): stream for job ",
-                                                   job_id, " ended before the job finished"));
+      status = MakeRpcError(absl::StatusCode::kUnavailable, "WatchJob", transport.server(),
+                            absl::StrCat("stream for job ", job_id, " ended before the job finished"));
     }
     if (!retry.ShouldRetry(status)) return status;
     spdlog::debug("WatchJob {} interrupted ({}); resuming", job_id, status.ToString());

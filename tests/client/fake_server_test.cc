@@ -71,6 +71,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   int read_unavailable = 0;
   int refuse_after_break = 0;  // read_unavailable once a break_once stream broke
   int watch_unavailable = 0;
+  bool watch_ends_ok = false;  // every script ends OK (a server shutting down politely)
   // GetJob answers this code instead (OK = answer get_job).
   grpc::StatusCode get_job_code = grpc::StatusCode::OK;
   int get_job_calls = 0;
@@ -198,7 +199,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
       last_script = watch_calls == static_cast<int>(watch_scripts.size());
     }
     for (const v1::Job& job : script) writer->Write(job);
-    if (!last_script) return {grpc::StatusCode::UNAVAILABLE, "server restarting (test)"};
+    if (!last_script && !watch_ends_ok) return {grpc::StatusCode::UNAVAILABLE, "server restarting (test)"};
     return grpc::Status::OK;
   }
 
@@ -592,6 +593,27 @@ TEST_F(FakeServerTest, WatchResumesWhenNewStreamsAreRefusedToo) {
   EXPECT_EQ(done->state, JobState::kSucceeded);
   std::lock_guard lock(fake_.mu);
   EXPECT_EQ(fake_.watch_calls, 5);
+}
+
+// Streams that end without news while the server answers are no outage:
+// max_attempts of them in a row end the watch, as an RPC error.
+TEST_F(FakeServerTest, WatchGivesUpOnStreamsThatEndWithoutNews) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")}, {}, {}, {}};
+    fake_.watch_ends_ok = true;
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render");
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<JobUpdate> done = client->WatchJob("job-1", nullptr);
+  ASSERT_EQ(done.status().code(), absl::StatusCode::kUnavailable) << done.status();
+  std::optional<RpcErrorInfo> info = GetRpcErrorInfo(done.status());
+  ASSERT_TRUE(info.has_value()) << done.status();
+  EXPECT_EQ(info->rpc, "WatchJob");
+  EXPECT_NE(info->server_message.find("ended before the job finished"), std::string::npos) << done.status();
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.watch_calls, 2) << "the stream with news and its end count as one failure, the empty one as the second";
 }
 
 TEST_F(FakeServerTest, OutageBudgetSpentReturnsTheLastUnavailable) {
