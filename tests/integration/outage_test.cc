@@ -24,6 +24,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <future>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -215,28 +217,38 @@ std::map<std::string, std::string> ResultDigests(sdk::Client& client, const std:
   return HashDir(dir);
 }
 
+// Polls GetJob until `job_id` satisfies `done`; the job as last seen, or
+// nullopt at the deadline (a stuck job fails the test instead of hanging it).
+std::optional<sdk::JobUpdate> PollJob(sdk::Client& client, const std::string& job_id,
+                                      const std::function<bool(const sdk::JobUpdate&)>& done) {
+  const auto deadline = Clock::now() + kStepDeadline;
+  while (Clock::now() < deadline) {
+    auto job = client.GetJob(job_id);
+    if (job.ok() && done(*job)) return *job;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // polling interval, not a synchronisation
+  }
+  return std::nullopt;
+}
+
 // Bakes `asset` through the SDK and waits for the end; returns the key.
 std::string BakeAndWait(sdk::Client& client, const std::string& asset) {
   auto submitted = client.SubmitBake(AssetsDir() / asset, kSettings);
   EXPECT_TRUE(submitted.ok()) << asset << ": " << submitted.status();
   if (!submitted.ok()) return "";
-  auto done = client.WatchJob(submitted->job_id, nullptr);
-  EXPECT_TRUE(done.ok()) << asset << ": " << done.status();
-  EXPECT_EQ(done.ok() ? done->state : sdk::JobState::kUnknown, sdk::JobState::kSucceeded) << asset;
-  return submitted->cache_key;
+  const std::optional<sdk::JobUpdate> done =
+      PollJob(client, submitted->job_id, [](const sdk::JobUpdate& j) { return sdk::IsTerminal(j.state); });
+  EXPECT_TRUE(done.has_value()) << asset << ": no end within the deadline";
+  EXPECT_EQ(done.has_value() ? done->state : sdk::JobState::kUnknown, sdk::JobState::kSucceeded) << asset;
+  return done.has_value() && done->state == sdk::JobState::kSucceeded ? submitted->cache_key : "";
 }
 
-// Polls GetJob until `job_id` is RUNNING at its render stage (the worker's
-// pause point); false at the deadline.
+// True once `job_id` is RUNNING at its render stage (the worker's pause
+// point); false when it ends first or at the deadline.
 bool WaitUntilPausedAtRender(sdk::Client& client, const std::string& job_id) {
-  const auto deadline = Clock::now() + kStepDeadline;
-  while (Clock::now() < deadline) {
-    auto job = client.GetJob(job_id);
-    if (job.ok() && job->state == sdk::JobState::kRunning && job->stage == "render") return true;
-    if (job.ok() && sdk::IsTerminal(job->state)) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // polling interval, not a synchronisation
-  }
-  return false;
+  const std::optional<sdk::JobUpdate> job = PollJob(client, job_id, [](const sdk::JobUpdate& j) {
+    return sdk::IsTerminal(j.state) || (j.state == sdk::JobState::kRunning && j.stage == "render");
+  });
+  return job.has_value() && job->state == sdk::JobState::kRunning;
 }
 
 // Results of an uninterrupted run of the bake and the batch, by asset: the
@@ -510,7 +522,12 @@ TEST(ServerOutage, UploadCutOffByAServerKillCompletesAfterTheRestart) {
   auto client = sdk::Client::Connect(options);
   ASSERT_TRUE(client.ok()) << client.status();
   absl::StatusOr<sdk::SubmitResult> submitted = absl::UnknownError("not run");
-  std::thread submitter([&] { submitted = (*client)->SubmitBake(work / "big.gltf", {}); });
+  std::promise<void> finished;
+  std::future<void> submit_done = finished.get_future();
+  std::thread submitter([&] {
+    submitted = (*client)->SubmitBake(work / "big.gltf", {});
+    finished.set_value();
+  });
   struct Joiner {
     std::thread& t;
     TcpProxy& proxy;
@@ -527,6 +544,7 @@ TEST(ServerOutage, UploadCutOffByAServerKillCompletesAfterTheRestart) {
   std::this_thread::sleep_for(std::chrono::seconds(1));  // the outage itself
   server = std::make_unique<ServerProcess>(0, data, address);
   ASSERT_EQ(server->address(), address) << "the server did not come back on its address";
+  ASSERT_EQ(submit_done.wait_for(kStepDeadline), std::future_status::ready) << "the submit did not return";
   submitter.join();
 
   ASSERT_TRUE(submitted.ok()) << submitted.status();
