@@ -25,11 +25,10 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
     return absl::InvalidArgumentError(
         absl::StrCat("ReadBlob ", name, ": resume offset ", offset, " is outside 0..", digest.size_bytes()));
   }
-  const int max_attempts = transport.options().max_attempts;
   int64_t received = offset;
-  // Counts tries in a row that brought nothing; progress starts it over, so
-  // a slow but moving download on a flaky link is never given up.
-  int fruitless = 0;
+  // Progress starts the count of failures over, so a slow but moving
+  // download on a flaky link is never given up.
+  RetryPolicy retry(transport.options(), transport.monitor());
   while (true) {
     const int64_t start = received;
     absl::Status status = transport.ReadBlob(digest, received, [&](const v1::ReadBlobResponse& msg) {
@@ -46,18 +45,17 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
       return sink(msg.data());
     });
     if (status.ok() && received == digest.size_bytes()) break;
-    // A stream that ended OK but short is treated like a broken one.
-    if (!status.ok() && !IsRetryable(status.code())) return status;
-    fruitless = received > start ? 1 : fruitless + 1;
-    if (fruitless >= max_attempts) {
-      if (status.ok()) {
-        return absl::DataLossError(absl::StrCat("ReadBlob ", name, ": stream ended after ", received, " of ",
-                                                digest.size_bytes(), " bytes"));
-      }
+    if (received > start) retry.MadeProgress();
+    // A stream that ended OK but short is treated like a broken one (the
+    // server answered, so max_attempts bounds the tries, not the outage).
+    if (status.ok()) {
+      const absl::Status short_stream = absl::DataLossError(absl::StrCat(
+          "ReadBlob ", name, ": stream ended after ", received, " of ", digest.size_bytes(), " bytes"));
+      if (!retry.ShouldRetry(absl::UnavailableError(short_stream.message()))) return short_stream;
+    } else if (!retry.ShouldRetry(status)) {
       return status;
     }
     spdlog::debug("download of {} interrupted at byte {} ({}); resuming", name, received, status.ToString());
-    SleepBeforeRetry(fruitless);
   }
   const std::string actual = hash.FinishHex();
   if (actual != digest.hash()) {

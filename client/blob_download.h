@@ -20,7 +20,9 @@ namespace impostor::sdk {
 
 // Feeds the blob's bytes, in order and each once, to `sink`. A broken stream
 // (UNAVAILABLE, DEADLINE_EXCEEDED, or an early end) is resumed at the next
-// offset, up to max_attempts tries in a row that bring no bytes. DATA_LOSS
+// offset, as RetryPolicy decides: up to max_attempts tries in a row that
+// bring no bytes, and through a server outage for up to max_outage_seconds.
+// DATA_LOSS
 // when the server sends more bytes than the digest's size, a wrong offset, or
 // bytes whose SHA-256 differs (the sink has then seen bad bytes: the caller
 // must discard them). A non-OK status from `sink` is returned as is.

@@ -2,6 +2,7 @@
 // (mesh_files, mesh_upload, result_fetch, transport) on the caller's thread.
 #include "impostor/client.h"
 
+#include <random>
 #include <utility>
 
 #include <spdlog/spdlog.h>
@@ -13,6 +14,7 @@
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
 #include "client/retry.h"
+#include "client/rpc_error.h"
 #include "client/transport.h"
 
 namespace impostor::sdk {
@@ -21,6 +23,22 @@ namespace {
 bool SameSnapshot(const JobUpdate& a, const JobUpdate& b) {
   return a.state == b.state && a.stage == b.stage && a.progress == b.progress && a.error_code == b.error_code &&
          a.error_message == b.error_message && a.cache_key == b.cache_key;
+}
+
+// 128 random bits as 32 hex characters: names one logical submit, so that the
+// server answers its retries with the job the first attempt created.
+std::string NewRequestId() {
+  thread_local std::mt19937_64 rng([] {
+    std::random_device device;
+    return (static_cast<uint64_t>(device()) << 32) ^ device();
+  }());
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string id(32, '0');
+  for (int half = 0; half < 2; ++half) {
+    uint64_t bits = rng();
+    for (int i = 0; i < 16; ++i, bits >>= 4) id[half * 16 + i] = kHex[bits & 0xf];
+  }
+  return id;
 }
 
 }  // namespace
@@ -62,6 +80,7 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
   *request.mutable_mesh() = std::move(uploaded->mesh);
   *request.mutable_parameters() = *parameters;
   ApplySchedulingSettings(settings, &request);
+  request.set_request_id(NewRequestId());
   absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
   if (!response.ok()) return response.status();
 
@@ -122,6 +141,7 @@ absl::StatusOr<std::vector<BatchSubmission>> Client::SubmitBakeBatch(
       *request.mutable_mesh() = meshes[i]->mesh;
       *request.mutable_parameters() = parameters[i];
       ApplySchedulingSettings(items[i].settings, &request);
+      request.set_request_id(NewRequestId());
       absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
       if (response.ok()) {
         out[i].result.job_id = response->job_id();
@@ -151,7 +171,8 @@ absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
     last = update;
     if (on_update) on_update(update);
   };
-  int fruitless = 0;
+  // Failures in a row; news from the server starts the count over.
+  RetryPolicy retry(transport.options(), transport.monitor());
   while (true) {
     bool got_any = false;
     absl::Status status = transport.WatchJob(job_id, [&](const v1::Job& job) {
@@ -160,17 +181,17 @@ absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
       return !IsTerminal(last->state);
     });
     if (last.has_value() && IsTerminal(last->state)) return *last;
-    if (!status.ok() && !IsRetryable(status.code())) return status;
-    // The stream broke, or ended before a terminal state (a server shutting
-    // down): resume.
-    fruitless = got_any ? 1 : fruitless + 1;
-    if (fruitless >= transport.options().max_attempts) {
-      if (!status.ok()) return status;
-      return absl::UnavailableError(absl::StrCat("WatchJob (server ", transport.server(), "): stream for job ",
-                                                 job_id, " ended before the job finished"));
+    if (got_any) retry.MadeProgress();
+    // The stream broke (a server restart), or ended before a terminal state
+    // (a server shutting down): resume, within the retry policy.
+    if (status.ok()) {
+      status = MakeRpcError(absl::StatusCode::kUnavailable, "WatchJob", transport.server(),
+                            absl::StrCat("stream for job ", job_id, " ended before the job finished"));
     }
+    if (!retry.ShouldRetry(status)) return status;
     spdlog::debug("WatchJob {} interrupted ({}); resuming", job_id, status.ToString());
-    SleepBeforeRetry(fruitless);
+    // GetJob rides out the rest of an outage itself (the same budget), so
+    // its failure is final: the budget is spent or the job is gone.
     absl::StatusOr<v1::Job> job = transport.GetJob(job_id);
     if (!job.ok()) return job.status();
     emit(ToJobUpdate(*job));

@@ -48,14 +48,15 @@ absl::Status UploadOnce(Transport& transport, const LocalBlob& blob) {
   return absl::OkStatus();
 }
 
+// The server keeps only complete blobs, so every retry starts the stream
+// over from the first byte.
 absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
-  const int max_attempts = transport.options().max_attempts;
-  for (int attempt = 1;; ++attempt) {
+  RetryPolicy retry(transport.options(), transport.monitor());
+  while (true) {
     absl::Status status = UploadOnce(transport, blob);
-    if (status.ok() || !IsRetryable(status.code()) || attempt >= max_attempts) return status;
-    spdlog::debug("upload of {} failed (attempt {} of {}): {}; retrying", blob.path.string(), attempt,
-                  max_attempts, status.ToString());
-    SleepBeforeRetry(attempt);
+    if (status.ok() || !retry.ShouldRetry(status)) return status;
+    spdlog::debug("upload of {} failed ({} in a row): {}; starting it over", blob.path.string(), retry.failures(),
+                  status.ToString());
   }
 }
 

@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "client/connection_monitor.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
@@ -29,6 +30,15 @@ constexpr int kKeepaliveTimeMs = 310 * 1000;
 constexpr int kKeepaliveTimeoutMs = 20 * 1000;
 // A stream's deadline grows by one second per this many bytes.
 constexpr double kStreamBytesPerSecond = 256 * 1024;
+// Reconnect backoff of the channel: gRPC's default grows to 120 s, so a
+// server back after a restart would go unnoticed for minutes. Tries every
+// second at most (a refused connection costs the server nothing); each try
+// may take a second to connect.
+constexpr int kInitialReconnectBackoffMs = 200;
+constexpr int kMaxReconnectBackoffMs = 1000;
+constexpr int kMinConnectTimeoutMs = 1000;
+// The largest outage budget accepted: a day.
+constexpr double kMaxOutageSeconds = 86400;
 
 std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
   return std::chrono::system_clock::now() +
@@ -54,6 +64,10 @@ absl::Status ValidateOptions(const ClientOptions& o) {
   }
   if (o.max_attempts < 1) {
     return absl::InvalidArgumentError(absl::StrCat("ClientOptions.max_attempts: must be >= 1, got ", o.max_attempts));
+  }
+  if (!(o.max_outage_seconds >= 0 && o.max_outage_seconds <= kMaxOutageSeconds)) {
+    return absl::InvalidArgumentError(absl::StrCat("ClientOptions.max_outage_seconds: must be in 0..",
+                                                   kMaxOutageSeconds, ", got ", o.max_outage_seconds));
   }
   return absl::OkStatus();
 }
@@ -100,6 +114,9 @@ class RpcObserverFactory : public grpc::experimental::ClientInterceptorFactoryIn
 }  // namespace
 
 struct Transport::Stubs {
+  explicit Stubs(const ClientOptions& options)
+      : monitor(options.server, options.max_outage_seconds, options.on_connection_change) {}
+  ConnectionMonitor monitor;
   // Outlives the channel's interceptors, which point at it.
   TransportHooks hooks;
   std::shared_ptr<grpc::Channel> channel;
@@ -119,7 +136,10 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kKeepaliveTimeMs);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
-  auto stubs = std::make_unique<Stubs>();
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kInitialReconnectBackoffMs);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kMaxReconnectBackoffMs);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kMinConnectTimeoutMs);
+  auto stubs = std::make_unique<Stubs>(options);
   stubs->hooks = hooks;
   if (stubs->hooks.on_rpc) {
     std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
@@ -163,37 +183,47 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   return std::unique_ptr<Transport>(new Transport(options, std::move(stubs)));
 }
 
-namespace {
+ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
-// Runs a unary call with a fresh context per attempt.
+absl::Status Transport::Note(const grpc::Status& status, std::string_view rpc) {
+  absl::Status error = ToStatus(status, rpc, options_.server);
+  switch (status.error_code()) {
+    case grpc::StatusCode::UNAVAILABLE: stubs_->monitor.NoteFailure(error); break;
+    // Said by our own side (a deadline, a cancel), not by the server.
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::CANCELLED: break;
+    default: stubs_->monitor.NoteAnswer(); break;
+  }
+  return error;
+}
+
+// Runs a unary call with a fresh context per attempt, retried as RetryPolicy
+// decides.
 template <typename Response, typename Call>
-absl::StatusOr<Response> CallUnary(const ClientOptions& options, std::string_view rpc, Call call) {
-  for (int attempt = 1;; ++attempt) {
+absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
+  RetryPolicy retry(options_, stubs_->monitor);
+  while (true) {
     grpc::ClientContext context;
-    context.set_deadline(DeadlineAfter(options.rpc_timeout_seconds));
-    if (!options.client_id.empty()) context.AddMetadata("impostor-client-id", options.client_id);
+    context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds));
+    if (!options_.client_id.empty()) context.AddMetadata("impostor-client-id", options_.client_id);
     Response response;
     const grpc::Status status = call(&context, &response);
-    if (status.ok()) return response;
-    absl::Status error = ToStatus(status, rpc, options.server);
-    if (!IsRetryable(error.code()) || attempt >= options.max_attempts) return error;
-    spdlog::debug("{} failed (attempt {} of {}): {}; retrying", std::string(rpc), attempt, options.max_attempts,
-                  error.ToString());
-    SleepBeforeRetry(attempt);
+    absl::Status error = Note(status, rpc);
+    if (error.ok()) return response;
+    if (!retry.ShouldRetry(error)) return error;
+    spdlog::debug("{} failed ({} in a row): {}; retrying", std::string(rpc), retry.failures(), error.ToString());
   }
 }
 
-}  // namespace
-
 absl::StatusOr<v1::FindMissingBlobsResponse> Transport::FindMissingBlobs(
     const v1::FindMissingBlobsRequest& request) {
-  return CallUnary<v1::FindMissingBlobsResponse>(options_, "FindMissingBlobs", [&](auto* ctx, auto* resp) {
+  return CallUnary<v1::FindMissingBlobsResponse>("FindMissingBlobs", [&](auto* ctx, auto* resp) {
     return stubs_->asset->FindMissingBlobs(ctx, request, resp);
   });
 }
 
 absl::StatusOr<v1::SubmitBakeResponse> Transport::SubmitBake(const v1::SubmitBakeRequest& request) {
-  return CallUnary<v1::SubmitBakeResponse>(options_, "SubmitBake", [&](auto* ctx, auto* resp) {
+  return CallUnary<v1::SubmitBakeResponse>("SubmitBake", [&](auto* ctx, auto* resp) {
     return stubs_->bake->SubmitBake(ctx, request, resp);
   });
 }
@@ -201,26 +231,26 @@ absl::StatusOr<v1::SubmitBakeResponse> Transport::SubmitBake(const v1::SubmitBak
 absl::StatusOr<v1::Job> Transport::GetJob(const std::string& job_id) {
   v1::GetJobRequest request;
   request.set_job_id(job_id);
-  return CallUnary<v1::Job>(options_, "GetJob",
+  return CallUnary<v1::Job>("GetJob",
                             [&](auto* ctx, auto* resp) { return stubs_->bake->GetJob(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::Job> Transport::CancelJob(const std::string& job_id) {
   v1::CancelJobRequest request;
   request.set_job_id(job_id);
-  return CallUnary<v1::Job>(options_, "CancelJob",
+  return CallUnary<v1::Job>("CancelJob",
                             [&](auto* ctx, auto* resp) { return stubs_->bake->CancelJob(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) {
   v1::GetResultRequest request;
   request.set_cache_key(cache_key);
-  return CallUnary<v1::Manifest>(options_, "GetResult",
+  return CallUnary<v1::Manifest>("GetResult",
                                  [&](auto* ctx, auto* resp) { return stubs_->asset->GetResult(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {
-  return CallUnary<v1::LookupBakeResponse>(options_, "LookupBake", [&](auto* ctx, auto* resp) {
+  return CallUnary<v1::LookupBakeResponse>("LookupBake", [&](auto* ctx, auto* resp) {
     return stubs_->bake->LookupBake(ctx, request, resp);
   });
 }
@@ -259,7 +289,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
   }
   writer->WritesDone();
   const grpc::Status status = writer->Finish();
-  if (!status.ok()) return ToStatus(status, "UploadBlob", options_.server);
+  if (absl::Status error = Note(status, "UploadBlob"); !error.ok()) return error;
   return response;
 }
 
@@ -274,13 +304,14 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
   std::unique_ptr<grpc::ClientReader<v1::ReadBlobResponse>> reader = stubs_->asset->ReadBlob(&context, request);
   v1::ReadBlobResponse message;
   while (reader->Read(&message)) {
+    stubs_->monitor.NoteAnswer();
     if (absl::Status s = on_chunk(message); !s.ok()) {
       context.TryCancel();
       reader->Finish();
       return s;
     }
   }
-  return ToStatus(reader->Finish(), "ReadBlob", options_.server);
+  return Note(reader->Finish(), "ReadBlob");
 }
 
 absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {
@@ -290,6 +321,7 @@ absl::Status Transport::WatchJob(const std::string& job_id, const std::function<
   std::unique_ptr<grpc::ClientReader<v1::Job>> reader = stubs_->bake->WatchJob(&context, request);
   v1::Job job;
   while (reader->Read(&job)) {
+    stubs_->monitor.NoteAnswer();
     if (!on_job(job)) {
       // We have what we came for; do not wait for the server to close.
       context.TryCancel();
@@ -297,7 +329,7 @@ absl::Status Transport::WatchJob(const std::string& job_id, const std::function<
       return absl::OkStatus();
     }
   }
-  return ToStatus(reader->Finish(), "WatchJob", options_.server);
+  return Note(reader->Finish(), "WatchJob");
 }
 
 }  // namespace impostor::sdk

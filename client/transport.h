@@ -11,13 +11,19 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/connection_monitor.h"
 #include "impostor/client.h"
 #include "impostor/v1/asset_service.pb.h"
 #include "impostor/v1/bake_service.pb.h"
 #include "impostor/v1/types.pb.h"
+
+namespace grpc {
+class Status;
+}  // namespace grpc
 
 namespace impostor::sdk {
 
@@ -42,8 +48,8 @@ class Transport {
   const ClientOptions& options() const { return options_; }
   const std::string& server() const { return options_.server; }
 
-  // Unary RPCs: deadline rpc_timeout_seconds, retried with backoff while
-  // IsRetryable, up to max_attempts.
+  // Unary RPCs: deadline rpc_timeout_seconds, retried as RetryPolicy
+  // decides (max_attempts, and through outages up to max_outage_seconds).
   absl::StatusOr<v1::FindMissingBlobsResponse> FindMissingBlobs(const v1::FindMissingBlobsRequest& request);
   absl::StatusOr<v1::SubmitBakeResponse> SubmitBake(const v1::SubmitBakeRequest& request);
   absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
@@ -55,6 +61,10 @@ class Transport {
   // returns true, or returns false once there are none left. A non-OK status
   // aborts the upload and is returned as is.
   using ChunkSource = std::function<absl::StatusOr<bool>(std::string* data)>;
+
+  // Every RPC's outcome is reported here (streams: each message too); the
+  // callers' RetryPolicy reads the outage from it.
+  ConnectionMonitor& monitor();
 
   // One UploadBlob stream, not retried (the caller restarts from byte 0: the
   // server only keeps complete blobs). Deadline: rpc_timeout_seconds plus one
@@ -74,6 +84,12 @@ class Transport {
  private:
   struct Stubs;
   Transport(ClientOptions options, std::unique_ptr<Stubs> stubs);
+
+  // `status` as an absl::Status naming `rpc`, after telling the monitor
+  // whether the server answered.
+  absl::Status Note(const grpc::Status& status, std::string_view rpc);
+  template <typename Response, typename Call>
+  absl::StatusOr<Response> CallUnary(std::string_view rpc, Call call);
 
   ClientOptions options_;
   std::unique_ptr<Stubs> stubs_;

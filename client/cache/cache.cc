@@ -70,6 +70,9 @@ absl::Status ValidateOptions(const CacheOptions& o) {
     return bad("rpc_timeout_seconds", o.rpc_timeout_seconds, "> 0");
   }
   if (o.max_attempts < 1) return bad("max_attempts", o.max_attempts, ">= 1");
+  if (!(o.max_outage_seconds >= 0 && o.max_outage_seconds <= 86400)) {
+    return bad("max_outage_seconds", o.max_outage_seconds, "in 0..86400");
+  }
   if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
     return bad("connect_timeout_seconds", o.connect_timeout_seconds, "> 0");
   }
@@ -83,6 +86,8 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.server = o.server;
   c.rpc_timeout_seconds = o.rpc_timeout_seconds;
   c.max_attempts = o.max_attempts;
+  c.max_outage_seconds = o.max_outage_seconds;
+  c.on_connection_change = o.on_connection_change;
   c.connect_timeout_seconds = o.connect_timeout_seconds;
   return c;
 }

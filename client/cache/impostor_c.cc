@@ -56,6 +56,7 @@ void impostor_cache_options_init(impostor_cache_options* options) {
   options->connect_timeout_seconds = defaults.connect_timeout_seconds;
   options->rpc_timeout_seconds = defaults.rpc_timeout_seconds;
   options->max_attempts = defaults.max_attempts;
+  options->max_outage_seconds = defaults.max_outage_seconds;
 }
 
 impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out) {
@@ -72,6 +73,7 @@ impostor_status impostor_cache_open(const impostor_cache_options* options, impos
   o.connect_timeout_seconds = options->connect_timeout_seconds;
   o.rpc_timeout_seconds = options->rpc_timeout_seconds;
   o.max_attempts = options->max_attempts;
+  o.max_outage_seconds = options->max_outage_seconds;
   auto cache = impostor::sdk::Cache::Open(o);
   if (!cache.ok()) return Report(cache.status());
   *out = new impostor_cache{std::move(*cache)};

@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/cli/bake_settings.h"
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
 #include "client/cli/quality_command.h"
@@ -70,10 +71,8 @@ int RunBake(const CliArgs& args) {
                                                   ec ? ec.message() : std::string("not a directory")));
   }
 
-  sdk::ClientOptions options;
-  options.server = args.server;
-  options.client_id = args.client_id;
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
+      sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
   if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
 
   const sdk::BakeSettings settings = BakeSettingsFromArgs(args);

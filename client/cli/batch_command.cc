@@ -32,6 +32,7 @@
 #include "client/cli/batch_spec.h"
 #include "client/cli/bake_settings.h"
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "impostor/client.h"
 
@@ -336,10 +337,8 @@ int RunBatch(const CliArgs& args, const BatchSpec& spec) {
     return Fail(kExitLocalIo, absl::StrCat("cannot create output directory ", args.out, ": ",
                                            ec ? ec.message() : std::string("not a directory")));
   }
-  sdk::ClientOptions options;
-  options.server = args.server;
-  options.client_id = args.client_id;
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
+      sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
   if (!client.ok()) return Fail(kExitServer, Describe(client.status()));
   BatchRunner runner(args, spec, **client);
   return runner.Run();

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "impostor/cache.h"
 
@@ -40,7 +41,7 @@ int CacheExitCode(const absl::Status& status) {
 
 absl::StatusOr<std::unique_ptr<sdk::Cache>> OpenCache(const CliArgs& args) {
   sdk::CacheOptions options;
-  options.server = args.server;
+  ApplyConnectionOptions(args, kInteractiveOutageSeconds, &options);
   options.dir = CacheDir(args);
   // A command-line run is short: the cap is applied by `gc`, not on open.
   options.max_bytes = int64_t{1} << 62;

@@ -23,18 +23,18 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array"}, true,
+       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array"}, true,
         "MODEL"}},
       {"bake-batch",
-       {Command::kBakeBatch, {"--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
+       {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
         true, "SPEC"}},
-      {"fetch", {Command::kFetch, {"--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
+      {"fetch", {Command::kFetch, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
       // --out is optional: quality_command.cc picks ./quality-KEY12.
-      {"quality", {Command::kQuality, {"--out", "--server"}, {"--json", "--quiet"}, false, "KEY"}},
-      {"status", {Command::kStatus, {"--server"}, {"--json"}, false, "JOB_ID"}},
-      {"cancel", {Command::kCancel, {"--server"}, {"--json"}, false, "JOB_ID"}},
+      {"quality", {Command::kQuality, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, false, "KEY"}},
+      {"status", {Command::kStatus, {"--max-outage-seconds", "--server"}, {"--json"}, false, "JOB_ID"}},
+      {"cancel", {Command::kCancel, {"--max-outage-seconds", "--server"}, {"--json"}, false, "JOB_ID"}},
       // "cache VERB": the local result cache; no target = no positional.
-      {"cache get", {Command::kCacheGet, {"--server", "--cache-dir"}, {"--json", "--quiet"}, false, "KEY"}},
+      {"cache get", {Command::kCacheGet, {"--max-outage-seconds", "--server", "--cache-dir"}, {"--json", "--quiet"}, false, "KEY"}},
       {"cache ls", {Command::kCacheLs, {"--cache-dir"}, {"--json"}, false, nullptr}},
       {"cache gc", {Command::kCacheGc, {"--cache-dir", "--max-bytes"}, {"--json", "--verify"}, false, nullptr}},
   };
@@ -137,6 +137,17 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
         return Usage(absl::StrCat("--priority: expected a whole number in -100..100, got \"", *value, "\""));
       }
       out.priority = n;
+      continue;
+    }
+    if (flag == "--max-outage-seconds") {
+      double seconds = 0;
+      const char* end = value->data() + value->size();
+      auto [ptr, ec] = std::from_chars(value->data(), end, seconds);
+      if (value->empty() || ec != std::errc() || ptr != end || !(seconds >= 0 && seconds <= 86400)) {
+        return Usage(absl::StrCat("--max-outage-seconds: expected a number of seconds in 0..86400, got \"", *value,
+                                  "\""));
+      }
+      out.max_outage_seconds = seconds;
       continue;
     }
     if (flag == "--client-id") {
@@ -332,11 +343,15 @@ Usage:
         --priority N  scheduling priority, -100..100 (default 0; 50 for a
                       person waiting, -50 for nightly batches)
         --client-id NAME  names this client to the server (fairness, limits)
+        --max-outage-seconds N  keep retrying for up to N seconds while the
+                      server is away (restart, reboot; default 300, 0 = give
+                      up after a few quick tries); see Common flags
   impostor bake MODEL MODEL... --out DIR [flags as above] [--keep-going]
       Several models: a batch, as bake-batch with every model at the flags'
       settings; each result lands in DIR/<model name>/.
   impostor bake-batch SPEC --out DIR [--server HOST:PORT] [--json] [--quiet]
                 [--keep-going] [--priority N] [--client-id NAME]
+                [--max-outage-seconds N]
       Bakes every asset listed in SPEC (a .json, .yaml or .yml file, or - for
       JSON or YAML on stdin): {"defaults": {...}, "assets": ["a.glb",
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
@@ -362,20 +377,24 @@ Usage:
                       error_code}, then {type: "summary", total, succeeded,
                       baked, cached, failed, skipped, wall_seconds, exit_code}
   impostor fetch KEY --out DIR [--server HOST:PORT] [--json] [--quiet]
+                [--max-outage-seconds N]
       Downloads the result baked under cache key KEY into DIR. Files already
-      in DIR with the right content are kept.
+      in DIR with the right content are kept; a download cut off by a server
+      restart resumes where it stopped (default outage budget 30 s).
   impostor quality KEY [--out DIR] [--server HOST:PORT] [--json] [--quiet]
+                [--max-outage-seconds N]
       Downloads the result KEY into DIR (default ./quality-<first 12 hex of
       KEY>), prints its quality report (held-out views against the mesh:
       IoU, albedo PSNR and SSIM, normal and depth error, pop, frames tried)
       and the path of quality_worst_view.png: the worst view side by side,
       mesh | impostor | difference (magenta: only the mesh covers, cyan: only
       the impostor covers).
-  impostor status JOB_ID [--server HOST:PORT] [--json]
+  impostor status JOB_ID [--server HOST:PORT] [--json] [--max-outage-seconds N]
       Shows a job's state.
-  impostor cancel JOB_ID [--server HOST:PORT] [--json]
+  impostor cancel JOB_ID [--server HOST:PORT] [--json] [--max-outage-seconds N]
       Cancels a queued or running job.
   impostor cache get KEY [--cache-dir DIR] [--server HOST:PORT] [--json] [--quiet]
+                [--max-outage-seconds N]
       Puts the result KEY in the local cache (downloaded only when not there
       yet, verified, installed atomically) and prints its files' paths.
   impostor cache ls [--cache-dir DIR] [--json]
@@ -391,6 +410,18 @@ Usage:
 
 Common flags:
   --server HOST:PORT  the bake server (default $IMPOSTOR_SERVER, else localhost:50051)
+  --max-outage-seconds N  (bake, bake-batch, fetch, quality, status, cancel,
+                      cache get) when a server that answered goes away
+                      (killed, restarting, refusing connections), keep
+                      retrying with backoff for up to N seconds from the
+                      first failure: uploads start over, a submit is resent
+                      with the same request id (never a second job), watches
+                      resume, downloads resume at the byte reached. Default
+                      300 for bake and bake-batch, 30 for the others; 0..86400.
+                      One line "impostor: lost server ..." goes to stderr when
+                      the server goes away and one "impostor: server ... is
+                      back after S s" when it returns (not with --quiet).
+                      A server that never answered fails at once (exit 3).
   --json              print one JSON object on stdout instead of text; bake prints
                       {model, cache_key, job_id, cached, out_dir, manifest, files,
                       wall_seconds, uploaded_bytes, error}

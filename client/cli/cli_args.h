@@ -25,6 +25,12 @@ enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCance
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
+// Default --max-outage-seconds: bake and bake-batch wait out a server restart
+// or reboot (the SDK's default); fetch, quality, status, cancel and cache get
+// are interactive and give up sooner.
+inline constexpr double kBakeOutageSeconds = 300;
+inline constexpr double kInteractiveOutageSeconds = 30;
+
 struct CliArgs {
   Command command = Command::kHelp;
   // The positional argument: MODEL (bake), SPEC (bake-batch), KEY (fetch) or
@@ -40,6 +46,10 @@ struct CliArgs {
   bool keep_going = false;
   // --client-id: names this client to the server for fairness and limits.
   std::string client_id;
+  // --max-outage-seconds (commands that talk to the server): how long to
+  // keep retrying while the server is away, 0..86400 (checked here); unset =
+  // the command's default (kBakeOutageSeconds or kInteractiveOutageSeconds).
+  std::optional<double> max_outage_seconds;
   std::string out;
   // --server, else $IMPOSTOR_SERVER, else kDefaultServer.
   std::string server = kDefaultServer;

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "impostor/client.h"
 
@@ -22,9 +23,8 @@ int RunFetch(const CliArgs& args) {
     return code == kExitOk ? code : Fail(code, error);
   };
 
-  sdk::ClientOptions options;
-  options.server = args.server;
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
+      sdk::Client::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));
   if (!client.ok()) return finish(kExitServer, Describe(client.status()));
   absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(args.target, args.out);
   if (!fetched.ok()) return finish(ExitCodeFor(fetched.status()), Describe(fetched.status()));

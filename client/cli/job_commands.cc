@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_format.h"
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
 #include "impostor/client.h"
@@ -18,9 +19,8 @@ int RunJobCall(const CliArgs& args, const JobCall& call) {
     if (args.json) PrintJson({{"job_id", args.target}, {"error", reason}});
     return Fail(code, reason);
   };
-  sdk::ClientOptions options;
-  options.server = args.server;
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
+      sdk::Client::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));
   if (!client.ok()) return fail(kExitServer, Describe(client.status()));
   absl::StatusOr<sdk::JobUpdate> job = call(**client, args.target);
   if (!job.ok()) return fail(ExitCodeFor(job.status()), Describe(job.status()));

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/commands.h"
+#include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 
 namespace impostor::cli {
@@ -91,9 +92,8 @@ int RunQuality(const CliArgs& args) {
     if (args.json) PrintJson(report);
     return Fail(code, error);
   };
-  sdk::ClientOptions options;
-  options.server = args.server;
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client = sdk::Client::Connect(options);
+  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
+      sdk::Client::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));
   if (!client.ok()) return fail(kExitServer, Describe(client.status()));
   absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(args.target, out_dir);
   if (!fetched.ok()) return fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <latch>
@@ -65,6 +66,10 @@ sdk::CacheOptions Options(const std::string& server, const fs::path& dir) {
   o.server = server;
   o.dir = dir;
   o.max_attempts = 2;
+  // These tests are about a server that is gone for good (offline hits, a
+  // fast UNAVAILABLE, resuming in a later run): no outage to ride out.
+  // tests/integration/outage_test.cc covers the default budget.
+  o.max_outage_seconds = 0;
   return o;
 }
 
@@ -447,6 +452,9 @@ TEST(CacheOpen, BadOptionsAreNamed) {
       {"no io threads", [](auto& o) { o.io_threads = 0; }, "io_threads"},
       {"zero timeout", [](auto& o) { o.rpc_timeout_seconds = 0; }, "rpc_timeout_seconds"},
       {"no attempts", [](auto& o) { o.max_attempts = 0; }, "max_attempts"},
+      {"negative outage", [](auto& o) { o.max_outage_seconds = -1; }, "max_outage_seconds"},
+      {"outage over a day", [](auto& o) { o.max_outage_seconds = 1e9; }, "max_outage_seconds"},
+      {"outage NaN", [](auto& o) { o.max_outage_seconds = std::nan(""); }, "max_outage_seconds"},
   };
   for (const Case& c : cases) {
     sdk::CacheOptions o;

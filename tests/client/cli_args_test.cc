@@ -121,6 +121,13 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
       {"two_keys", {"fetch", "k1", "k2", "--out", "o"}, "unexpected argument \"k2\""},
       {"bool_flag_with_value", {"bake", "m.glb", "--out", "o", "--json=yes"}, "--json takes no value"},
       {"missing_job_id", {"status"}, "JOB_ID"},
+      {"outage_negative", {"bake", "m.glb", "--out", "o", "--max-outage-seconds", "-1"}, "--max-outage-seconds"},
+      {"outage_too_long", {"fetch", "k", "--out", "o", "--max-outage-seconds=90000"}, "0..86400"},
+      {"outage_not_a_number", {"bake-batch", "s.json", "--out", "o", "--max-outage-seconds", "soon"},
+       "--max-outage-seconds"},
+      {"outage_nan", {"status", "j1", "--max-outage-seconds", "nan"}, "--max-outage-seconds"},
+      {"outage_missing_value", {"fetch", "k", "--out", "o", "--max-outage-seconds"}, "missing value"},
+      {"outage_on_cache_ls", {"cache", "ls", "--max-outage-seconds", "5"}, "unknown flag --max-outage-seconds"},
   };
   for (const UsageCase& c : cases) {
     absl::StatusOr<CliArgs> a = ParseCliArgs(c.args, nullptr);
@@ -129,6 +136,22 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
     EXPECT_NE(a.status().message().find(c.message_part), std::string::npos)
         << c.name << ": message \"" << a.status().message() << "\" lacks \"" << c.message_part << "\"";
   }
+}
+
+TEST(ParseCliArgs, MaxOutageSecondsOnEveryCommandThatTalksToTheServer) {
+  const std::vector<std::vector<std::string>> commands = {
+      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", "k", "--out", "o"},
+      {"quality", "k"},                {"status", "j"},                         {"cancel", "j"},
+      {"cache", "get", "k"}};
+  for (std::vector<std::string> args : commands) {
+    EXPECT_FALSE(ParseCliArgs(args, nullptr)->max_outage_seconds.has_value()) << args[0] << ": unset by default";
+    args.push_back("--max-outage-seconds=12.5");
+    absl::StatusOr<CliArgs> a = ParseCliArgs(args, nullptr);
+    ASSERT_TRUE(a.ok()) << args[0] << ": " << a.status();
+    EXPECT_EQ(a->max_outage_seconds, 12.5) << args[0];
+  }
+  EXPECT_EQ(ParseCliArgs({"fetch", "k", "--out", "o", "--max-outage-seconds", "0"}, nullptr)->max_outage_seconds, 0);
+  EXPECT_NE(UsageText().find("--max-outage-seconds N"), std::string::npos);
 }
 
 TEST(UsageText, DocumentsEveryExitCode) {

@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
@@ -62,6 +63,27 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   v1::Job get_job;                             // GetJob's answer
   int find_missing_calls = 0;
   std::vector<v1::SubmitBakeRequest> submits;  // every SubmitBake, in order
+  // Outage knobs: the next N calls of each kind fail with UNAVAILABLE, as a
+  // server that is down would answer, before they are served normally.
+  int get_job_unavailable = 0;
+  int submit_unavailable = 0;
+  int upload_unavailable = 0;
+  int read_unavailable = 0;
+  int refuse_after_break = 0;  // read_unavailable once a break_once stream broke
+  int watch_unavailable = 0;
+  bool watch_ends_ok = false;  // every script ends OK (a server shutting down politely)
+  // GetJob answers this code instead (OK = answer get_job).
+  grpc::StatusCode get_job_code = grpc::StatusCode::OK;
+  int get_job_calls = 0;
+  int upload_calls = 0;
+
+  // Takes one failure from `budget` if any is left.
+  static bool Fail(int& budget) {
+    if (budget <= 0) return false;
+    --budget;
+    return true;
+  }
+  static grpc::Status Down() { return {grpc::StatusCode::UNAVAILABLE, "server down (test)"}; }
 
   grpc::Status FindMissingBlobs(grpc::ServerContext*, const v1::FindMissingBlobsRequest* req,
                                 v1::FindMissingBlobsResponse* resp) override {
@@ -75,6 +97,11 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
 
   grpc::Status UploadBlob(grpc::ServerContext*, grpc::ServerReader<v1::UploadBlobRequest>* reader,
                           v1::UploadBlobResponse* resp) override {
+    {
+      std::lock_guard lock(mu);
+      ++upload_calls;
+      if (Fail(upload_unavailable)) return Down();
+    }
     v1::UploadBlobRequest msg;
     v1::Digest digest;
     std::string data;
@@ -105,6 +132,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     {
       std::lock_guard lock(mu);
       read_offsets.push_back(req->offset());
+      if (Fail(read_unavailable)) return Down();
       auto it = blobs.find(req->digest().hash());
       if (it == blobs.end()) return {grpc::StatusCode::NOT_FOUND, "no such blob"};
       bytes = it->second;
@@ -117,7 +145,11 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     }
     int sent = 0;
     for (size_t off = static_cast<size_t>(req->offset()); off < bytes.size(); off += chunk_size) {
-      if (breaks && sent == 2) return {grpc::StatusCode::UNAVAILABLE, "connection reset (test)"};
+      if (breaks && sent == 2) {
+        std::lock_guard lock(mu);
+        read_unavailable = refuse_after_break;
+        return {grpc::StatusCode::UNAVAILABLE, "connection reset (test)"};
+      }
       v1::ReadBlobResponse msg;
       msg.set_offset(static_cast<int64_t>(off));
       msg.set_data(bytes.substr(off, chunk_size));
@@ -140,6 +172,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     std::lock_guard lock(mu);
     last_submit = *req;
     submits.push_back(*req);
+    if (Fail(submit_unavailable)) return Down();
     if (req->parameters().frames() > 64) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "parameters.frames: 80 is out of range 2..64"};
     }
@@ -160,17 +193,21 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     bool last_script;
     {
       std::lock_guard lock(mu);
+      if (Fail(watch_unavailable)) return Down();
       if (watch_calls >= static_cast<int>(watch_scripts.size())) return {grpc::StatusCode::NOT_FOUND, "no job"};
       script = watch_scripts[watch_calls++];
       last_script = watch_calls == static_cast<int>(watch_scripts.size());
     }
     for (const v1::Job& job : script) writer->Write(job);
-    if (!last_script) return {grpc::StatusCode::UNAVAILABLE, "server restarting (test)"};
+    if (!last_script && !watch_ends_ok) return {grpc::StatusCode::UNAVAILABLE, "server restarting (test)"};
     return grpc::Status::OK;
   }
 
   grpc::Status GetJob(grpc::ServerContext*, const v1::GetJobRequest*, v1::Job* resp) override {
     std::lock_guard lock(mu);
+    ++get_job_calls;
+    if (Fail(get_job_unavailable)) return Down();
+    if (get_job_code != grpc::StatusCode::OK) return {get_job_code, "refused (test)"};
     *resp = get_job;
     return grpc::Status::OK;
   }
@@ -195,6 +232,21 @@ class FakeServerTest : public testing::Test {
                                         testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
   }
+  // A client of the fake with `options` (server filled in). Budget tests use
+  // max_attempts 2, so that only the outage budget can carry a call through
+  // more failures than that.
+  std::unique_ptr<Client> Connect(int max_attempts, double max_outage_seconds,
+                                  std::function<void(const ConnectionEvent&)> on_connection_change = nullptr) {
+    ClientOptions options;
+    options.max_attempts = max_attempts;
+    options.max_outage_seconds = max_outage_seconds;
+    options.on_connection_change = std::move(on_connection_change);
+    options.server = "127.0.0.1:" + std::to_string(port_);
+    auto client = Client::Connect(options);
+    EXPECT_TRUE(client.ok()) << client.status();
+    return client.ok() ? std::move(*client) : nullptr;
+  }
+
   void TearDown() override {
     client_.reset();
     server_->Shutdown();
@@ -469,6 +521,231 @@ TEST_F(FakeServerTest, WatchUnknownJobIsNotFound) {
   EXPECT_EQ(done.status().code(), absl::StatusCode::kNotFound) << done.status();
 }
 
+// Records ClientOptions::on_connection_change events.
+struct EventLog {
+  std::mutex mu;
+  std::vector<ConnectionEvent> events;
+  std::function<void(const ConnectionEvent&)> Callback() {
+    return [this](const ConnectionEvent& e) {
+      std::lock_guard lock(mu);
+      events.push_back(e);
+    };
+  }
+  int Count(ConnectionEvent::Kind kind) {
+    std::lock_guard lock(mu);
+    return static_cast<int>(std::count_if(events.begin(), events.end(), [&](const auto& e) { return e.kind == kind; }));
+  }
+};
+
+// The outage outlasts max_attempts (2) on every step of a watch: the broken
+// stream, the GetJob that follows and the next stream. The old SDK returned
+// the first failed GetJob here.
+TEST_F(FakeServerTest, WatchRidesOutAnOutageLongerThanItsAttempts) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {
+        {MakeJob(v1::JOB_STATE_QUEUED, 0, ""), MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")},
+        {MakeJob(v1::JOB_STATE_RUNNING, 0.5f, "render"), MakeJob(v1::JOB_STATE_SUCCEEDED, 1, "")},
+    };
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.5f, "render");
+    fake_.get_job_unavailable = 4;
+  }
+  EventLog log;
+  auto client = Connect(2, 60, log.Callback());
+  ASSERT_NE(client, nullptr);
+  std::vector<JobUpdate> seen;
+  absl::StatusOr<JobUpdate> done = client->WatchJob("job-1", [&](const JobUpdate& u) { seen.push_back(u); });
+  ASSERT_TRUE(done.ok()) << done.status();
+  EXPECT_EQ(done->state, JobState::kSucceeded);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(seen.back().state, JobState::kSucceeded);
+  {
+    std::lock_guard lock(fake_.mu);
+    EXPECT_EQ(fake_.get_job_calls, 5) << "four refused, then answered";
+    EXPECT_EQ(fake_.watch_calls, 2);
+  }
+  // One outage, reported once each way however many calls saw it.
+  EXPECT_EQ(log.Count(ConnectionEvent::Kind::kLost), 1);
+  EXPECT_EQ(log.Count(ConnectionEvent::Kind::kRegained), 1);
+  std::lock_guard lock(log.mu);
+  ASSERT_EQ(log.events.size(), 2u);
+  EXPECT_EQ(log.events[0].kind, ConnectionEvent::Kind::kLost);
+  EXPECT_EQ(log.events[0].error.code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(log.events[0].server, "127.0.0.1:" + std::to_string(port_));
+  EXPECT_EQ(log.events[0].max_outage_seconds, 60);
+  EXPECT_EQ(log.events[1].kind, ConnectionEvent::Kind::kRegained);
+  EXPECT_GT(log.events[1].outage_seconds, 0);
+}
+
+TEST_F(FakeServerTest, WatchResumesWhenNewStreamsAreRefusedToo) {
+  {
+    std::lock_guard lock(fake_.mu);
+    // The first stream breaks; the next three end at once with UNAVAILABLE
+    // (empty scripts), more than max_attempts in a row without news.
+    fake_.watch_scripts = {{MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")}, {}, {}, {},
+                           {MakeJob(v1::JOB_STATE_SUCCEEDED, 1, "")}};
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render");
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<JobUpdate> done = client->WatchJob("job-1", nullptr);
+  ASSERT_TRUE(done.ok()) << done.status();
+  EXPECT_EQ(done->state, JobState::kSucceeded);
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.watch_calls, 5);
+}
+
+// Streams that end without news while the server answers are no outage:
+// max_attempts of them in a row end the watch, as an RPC error.
+TEST_F(FakeServerTest, WatchGivesUpOnStreamsThatEndWithoutNews) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")}, {}, {}, {}};
+    fake_.watch_ends_ok = true;
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render");
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<JobUpdate> done = client->WatchJob("job-1", nullptr);
+  ASSERT_EQ(done.status().code(), absl::StatusCode::kUnavailable) << done.status();
+  std::optional<RpcErrorInfo> info = GetRpcErrorInfo(done.status());
+  ASSERT_TRUE(info.has_value()) << done.status();
+  EXPECT_EQ(info->rpc, "WatchJob");
+  EXPECT_NE(info->server_message.find("ended before the job finished"), std::string::npos) << done.status();
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.watch_calls, 2) << "the stream with news and its end count as one failure, the empty one as the second";
+}
+
+TEST_F(FakeServerTest, OutageBudgetSpentReturnsTheLastUnavailable) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.get_job_unavailable = 1 << 30;  // never back
+  }
+  EventLog log;
+  auto client = Connect(1, 2, log.Callback());
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<JobUpdate> job = client->GetJob("job-1");
+  ASSERT_EQ(job.status().code(), absl::StatusCode::kUnavailable) << job.status();
+  EXPECT_NE(job.status().message().find("GetJob"), std::string::npos) << job.status();
+  EXPECT_NE(job.status().message().find("server down (test)"), std::string::npos) << job.status();
+  {
+    std::lock_guard lock(fake_.mu);
+    EXPECT_GT(fake_.get_job_calls, 1) << "max_attempts is 1: only the outage budget retries";
+  }
+  EXPECT_EQ(log.Count(ConnectionEvent::Kind::kLost), 1);
+  EXPECT_EQ(log.Count(ConnectionEvent::Kind::kRegained), 0);
+}
+
+TEST_F(FakeServerTest, ZeroOutageBudgetTriesMaxAttemptsOnly) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.get_job_unavailable = 1 << 30;
+  }
+  auto client = Connect(3, 0);
+  ASSERT_NE(client, nullptr);
+  EXPECT_EQ(client->GetJob("job-1").status().code(), absl::StatusCode::kUnavailable);
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.get_job_calls, 3);
+}
+
+TEST_F(FakeServerTest, ErrorsOtherThanUnavailableAreNotRetried) {
+  const std::vector<grpc::StatusCode> codes = {
+      grpc::StatusCode::NOT_FOUND,         grpc::StatusCode::INVALID_ARGUMENT,   grpc::StatusCode::FAILED_PRECONDITION,
+      grpc::StatusCode::PERMISSION_DENIED, grpc::StatusCode::RESOURCE_EXHAUSTED, grpc::StatusCode::INTERNAL,
+      grpc::StatusCode::DATA_LOSS,         grpc::StatusCode::UNAUTHENTICATED};
+  auto client = Connect(5, 60);
+  ASSERT_NE(client, nullptr);
+  for (grpc::StatusCode code : codes) {
+    {
+      std::lock_guard lock(fake_.mu);
+      fake_.get_job_code = code;
+      fake_.get_job_calls = 0;
+    }
+    absl::StatusOr<JobUpdate> job = client->GetJob("job-1");
+    EXPECT_EQ(static_cast<int>(job.status().code()), static_cast<int>(code)) << "code " << code;
+    std::lock_guard lock(fake_.mu);
+    EXPECT_EQ(fake_.get_job_calls, 1) << "code " << code << " was retried";
+  }
+}
+
+TEST_F(FakeServerTest, RetriedSubmitSendsTheSameRequestId) {
+  const fs::path model = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_unavailable = 3;
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<SubmitResult> r = client->SubmitBake(model, {});
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_TRUE(client->SubmitBake(model, {}).ok());
+  std::lock_guard lock(fake_.mu);
+  ASSERT_EQ(fake_.submits.size(), 5u) << "three refused, one accepted, then a second submit";
+  const std::string id = fake_.submits[0].request_id();
+  EXPECT_EQ(id.size(), 32u) << id;
+  EXPECT_EQ(id.find_first_not_of("0123456789abcdef"), std::string::npos) << id;
+  for (size_t i = 1; i < 4; ++i) EXPECT_EQ(fake_.submits[i].request_id(), id) << "retry " << i;
+  EXPECT_NE(fake_.submits[4].request_id(), id) << "a new logical submit gets a new id";
+  EXPECT_EQ(fake_.submits[4].request_id().size(), 32u);
+}
+
+TEST_F(FakeServerTest, BatchItemsGetDistinctRequestIdsKeptOnRetry) {
+  const fs::path box = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_unavailable = 1;  // the first item's first try
+  }
+  auto client = Connect(1, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<std::vector<BatchSubmission>> r = client->SubmitBakeBatch({{box, {}}, {box, {}}, {box, {}}}, nullptr);
+  ASSERT_TRUE(r.ok()) << r.status();
+  for (const BatchSubmission& b : *r) EXPECT_TRUE(b.status.ok()) << b.status;
+  std::lock_guard lock(fake_.mu);
+  ASSERT_EQ(fake_.submits.size(), 4u);
+  EXPECT_EQ(fake_.submits[0].request_id(), fake_.submits[1].request_id()) << "the retry of item 0";
+  std::set<std::string> ids;
+  for (const auto& submit : fake_.submits) ids.insert(submit.request_id());
+  EXPECT_EQ(ids.size(), 3u) << "one id per item";
+}
+
+TEST_F(FakeServerTest, UploadStartsOverThroughAnOutage) {
+  const fs::path model = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.upload_unavailable = 4;
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<SubmitResult> r = client->SubmitBake(model, {});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->upload.uploaded, 1);
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.upload_calls, 5);
+  ASSERT_EQ(fake_.uploaded.size(), 1u);
+  EXPECT_EQ(fake_.blobs.at(fake_.uploaded[0]), ReadAll(model)) << "the stored blob is the whole file";
+}
+
+TEST_F(FakeServerTest, DownloadResumesAtItsOffsetAfterAnOutage) {
+  const std::string key = AddResult();
+  {
+    std::lock_guard lock(fake_.mu);
+    // The albedo map's stream breaks after two 1000-byte chunks; then the
+    // server refuses four ReadBlobs, twice max_attempts.
+    fake_.break_once.insert(Sha256Hex(contents_["albedo_alpha.png"]));
+    fake_.refuse_after_break = 4;
+  }
+  auto client = Connect(2, 60);
+  ASSERT_NE(client, nullptr);
+  absl::StatusOr<FetchResult> r = client->Fetch(key, dir_);
+  ASSERT_TRUE(r.ok()) << r.status();
+  for (const auto& [name, bytes] : contents_) EXPECT_EQ(ReadAll(dir_ / name), bytes) << name;
+  std::lock_guard lock(fake_.mu);
+  // The albedo map's requests: from 0, then from 2000 on every retry.
+  const std::vector<int64_t> expected = {0, 2000, 2000, 2000, 2000, 2000};
+  ASSERT_GE(fake_.read_offsets.size(), expected.size());
+  EXPECT_EQ(std::vector<int64_t>(fake_.read_offsets.begin(), fake_.read_offsets.begin() + 6), expected);
+}
+
 struct CliRun {
   int exit_code;
   std::string out;  // stdout
@@ -529,6 +806,45 @@ TEST_F(FakeServerTest, CliFailedBakeExitsOneWithServerReason) {
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err, "impostor: bake failed: INVALID_ARGUMENT: mesh: no triangles\n");
   EXPECT_EQ(run.out, "");
+}
+
+TEST_F(FakeServerTest, CliPrintsOneLineWhenItLosesTheServerAndOneWhenItIsBack) {
+  AddResult(std::string(64, 'a'));  // the key the fake's SubmitBake answers
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_scripts = {{MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render")}, {MakeJob(v1::JOB_STATE_SUCCEEDED, 1, "")}};
+    fake_.get_job = MakeJob(v1::JOB_STATE_RUNNING, 0.1f, "render");
+    fake_.get_job_unavailable = 6;  // more than the default max_attempts (5)
+  }
+  const std::string server = "127.0.0.1:" + std::to_string(port_);
+  const std::string model = (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string();
+  CliRun run = RunCli("bake " + model + " --out " + (dir_ / "atlas").string() + " --server " + server +
+                          " --max-outage-seconds 60",
+                      dir_ / "io");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::vector<std::string> lost, back;
+  std::istringstream lines(run.err);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("impostor: lost server ", 0) == 0) lost.push_back(line);
+    if (line.rfind("impostor: server ", 0) == 0) back.push_back(line);
+  }
+  ASSERT_EQ(lost.size(), 1u) << run.err;
+  EXPECT_EQ(lost[0].rfind("impostor: lost server " + server + " (UNAVAILABLE: ", 0), 0u) << lost[0];
+  EXPECT_NE(lost[0].find("; retrying for up to 60 s"), std::string::npos) << lost[0];
+  ASSERT_EQ(back.size(), 1u) << run.err;
+  EXPECT_EQ(back[0].rfind("impostor: server " + server + " is back after ", 0), 0u) << back[0];
+  EXPECT_EQ(ReadAll(dir_ / "atlas" / "albedo_alpha.png"), contents_["albedo_alpha.png"]);
+
+  // --quiet silences both lines.
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.watch_calls = 0;
+    fake_.get_job_unavailable = 2;
+  }
+  run = RunCli("bake " + model + " --out " + (dir_ / "atlas2").string() + " --server " + server + " --quiet",
+               dir_ / "io");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err, "");
 }
 
 }  // namespace

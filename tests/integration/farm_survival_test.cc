@@ -2,17 +2,17 @@
 // SIGKILL at known points of a bake (workers pause at their render stage
 // while a test-controlled file exists), restarted, and checked on the jobs'
 // final states and the bytes fetched.
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <mutex>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -27,28 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 using testing::AssetsDir;
 using testing::ChildProcess;
-
-int FreeLoopbackPort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
-  socklen_t len = sizeof(addr);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  ::close(fd);
-  return ntohs(addr.sin_port);
-}
-
-std::unique_ptr<ChildProcess> StartServer(int port, const fs::path& data, std::vector<std::string> extra = {}) {
-  std::vector<std::string> argv = {(testing::BinaryDir() / "impostor-server").string(),
-                                   "--listen=127.0.0.1:" + std::to_string(port), "--data=" + data.string(),
-                                   "--log-level=warn"};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  auto server = std::make_unique<ChildProcess>(argv);
-  EXPECT_FALSE(server->ReadLineContaining("listening on").empty()) << "impostor-server did not start";
-  return server;
-}
 
 // A worker that pauses at the render stage of every bake while `pause_file`
 // exists.
@@ -119,16 +97,65 @@ TEST(FarmSurvival, AJobWhoseWorkerIsKilledMidBakeIsBakedByAnother) {
               done.state() == v1::JOB_STATE_SUCCEEDED ? 1 : 0, done.attempts());
 }
 
+// Watcher threads that only record what they saw: nothing asserts while
+// they run (a failed ASSERT in a thread would terminate the test binary and
+// leave processes behind). JoinAll waits for them with a deadline; on any
+// other way out of the test the destructor first runs `stop` (which must make
+// the threads' calls return, e.g. by killing the server so that they fail
+// once their outage budget is spent), then joins them.
+class WatcherThreads {
+ public:
+  explicit WatcherThreads(std::function<void()> stop) : stop_(std::move(stop)) {}
+  ~WatcherThreads() {
+    bool running = false;
+    for (std::thread& t : threads_) running = running || t.joinable();
+    if (running) stop_();
+    for (std::thread& t : threads_) {
+      if (t.joinable()) t.join();
+    }
+  }
+  void Start(std::function<void()> body) {
+    threads_.emplace_back([this, body = std::move(body)] {
+      body();
+      std::lock_guard lock(mu_);
+      ++finished_;
+      done_.notify_all();
+    });
+  }
+  // True when every thread finished before `deadline`; joins them then.
+  bool JoinAll(std::chrono::steady_clock::time_point deadline) {
+    {
+      std::unique_lock lock(mu_);
+      if (!done_.wait_until(lock, deadline, [&] { return finished_ == threads_.size(); })) return false;
+    }
+    for (std::thread& t : threads_) t.join();
+    return true;
+  }
+
+ private:
+  std::function<void()> stop_;
+  std::vector<std::thread> threads_;
+  std::mutex mu_;
+  std::condition_variable done_;
+  size_t finished_ = 0;
+};
+
 TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
-  const int port = FreeLoopbackPort();
-  const std::string address = "127.0.0.1:" + std::to_string(port);
   const fs::path data = testing::NewTempDir("server_death_data");
   const fs::path pause = testing::NewTempDir("server_death_pause") / "pause";
-  auto server = StartServer(port, data);
+  // Port 0, then the restart on the address it got: no port number is
+  // guessed or reused from a socket closed earlier.
+  auto server = std::make_unique<testing::ServerProcess>(0, data, "127.0.0.1:0");
+  const std::string address = server->address();
+  ASSERT_FALSE(address.empty()) << "impostor-server did not start";
   Touch(pause);
   auto worker = StartWorker(address, pause);
 
-  auto client = sdk::Client::Connect({.server = address});
+  // The budget bounds how long a watcher can outlive a failed restart.
+  sdk::ClientOptions options;
+  options.server = address;
+  options.max_outage_seconds = 60;
+  auto client = sdk::Client::Connect(options);
   ASSERT_TRUE(client.ok()) << client.status();
   const char* assets[] = {"props_pbr/Box/glTF-Binary/Box.glb", "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb",
                           "props_pbr/Duck/glTF-Binary/Duck.glb"};
@@ -138,21 +165,27 @@ TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
     ASSERT_TRUE(r.ok()) << asset << ": " << r.status();
     jobs.push_back(*r);
   }
-  // Watchers that are streaming when the server dies.
+  ASSERT_TRUE(PausedAtRender(WatchUntil(server->bake(), jobs[0].job_id, PausedAtRender)));
+
+  // Watchers that are streaming when the server dies. Declared after the
+  // client, so they are joined before it goes.
   std::vector<absl::StatusOr<sdk::JobUpdate>> finals(jobs.size(), absl::UnknownError("not watched"));
-  std::vector<std::thread> watchers;
+  WatcherThreads watchers([&] {
+    fs::remove(pause);
+    worker.reset();
+    server.reset();
+  });
   for (size_t i = 0; i < jobs.size(); ++i) {
-    watchers.emplace_back([&, i] { finals[i] = (*client)->WatchJob(jobs[i].job_id, [](const sdk::JobUpdate&) {}); });
+    watchers.Start([&, i] { finals[i] = (*client)->WatchJob(jobs[i].job_id, [](const sdk::JobUpdate&) {}); });
   }
-  {
-    auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
-    auto bake = v1::BakeService::NewStub(channel);
-    ASSERT_TRUE(PausedAtRender(WatchUntil(*bake, jobs[0].job_id, PausedAtRender)));
-  }
-  Kill9(*server);
-  server = StartServer(port, data);
+  Kill9(server->process());
+  server = std::make_unique<testing::ServerProcess>(0, data, address);
+  ASSERT_EQ(server->address(), address) << "the restarted server is not on the old address";
+  ASSERT_TRUE(server->channel()->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(60)))
+      << "the restarted server does not answer";
   fs::remove(pause);
-  for (auto& t : watchers) t.join();
+  ASSERT_TRUE(watchers.JoinAll(std::chrono::steady_clock::now() + std::chrono::minutes(5)))
+      << "a watcher did not return within 5 minutes";
 
   int completed = 0;
   for (size_t i = 0; i < jobs.size(); ++i) {

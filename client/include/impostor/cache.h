@@ -106,6 +106,23 @@ struct CacheOptions {
   // Default: 3. Range: >= 1.
   int max_attempts = 3;
 
+  // How long a server this cache has reached may stay away, in seconds
+  // (as ClientOptions::max_outage_seconds): a Get, Prefetch or Lookup under
+  // way when the server goes down keeps retrying (downloads resume at the
+  // byte already on disk) until the outage has lasted this long, then fails
+  // with UNAVAILABLE; once it has, further misses fail after max_attempts
+  // quick tries until the server answers again. Shorter than the CLI's
+  // bake budget: a game's loader thread should not hang for minutes, and a
+  // later Get tries again anyway. Never delays a cache that has not
+  // connected yet (see connect_timeout_seconds).
+  // Default: 30. Range: 0..86400 (0 = max_attempts alone decides).
+  double max_outage_seconds = 30;
+
+  // Told when the server stops and starts answering again (as
+  // ClientOptions::on_connection_change), on a cache thread.
+  // Default: empty.
+  std::function<void(const ConnectionEvent&)> on_connection_change;
+
   // How long the first connection may take, in seconds; a refused
   // connection fails in about one second. After a failure, further network
   // calls within `offline_retry_seconds` fail at once with the same
@@ -249,7 +266,9 @@ class Cache {
   // downloaded again. Concurrent Gets of one key share one download.
   // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars), NOT_FOUND
   // (nothing baked under that key), UNAVAILABLE (not cached and the server
-  // cannot be reached; fast, see connect_timeout_seconds), DATA_LOSS (the
+  // cannot be reached: fast when it was never reached, see
+  // connect_timeout_seconds; after max_outage_seconds when it went away
+  // during the download), DATA_LOSS (the
   // server's bytes do not match their digests), INTERNAL (local disk),
   // CANCELLED (the Cache is being destroyed), or an RPC's error.
   absl::StatusOr<CachedResult> Get(const std::string& cache_key);

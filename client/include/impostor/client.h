@@ -34,6 +34,28 @@
 
 namespace impostor::sdk {
 
+// A change in whether the server answers, as ClientOptions::
+// on_connection_change reports it.
+struct ConnectionEvent {
+  enum class Kind {
+    // A call failed with UNAVAILABLE (server down, restarting, connection
+    // refused or reset) after the server had answered; calls now retry for
+    // up to max_outage_seconds, counted from this moment.
+    kLost,
+    // The server answered again after a kLost.
+    kRegained,
+  };
+  Kind kind = Kind::kLost;
+  // ClientOptions::server.
+  std::string server;
+  // kLost: the error that showed the outage (UNAVAILABLE, naming the RPC).
+  absl::Status error;
+  // kRegained: how long the server was gone, seconds.
+  double outage_seconds = 0;
+  // ClientOptions::max_outage_seconds.
+  double max_outage_seconds = 0;
+};
+
 // How a Client talks to the server.
 struct ClientOptions {
   // Address of the bake server as "host:port" (any gRPC target string works,
@@ -49,13 +71,36 @@ struct ClientOptions {
   // Default: 30. Range: > 0.
   double rpc_timeout_seconds = 30;
 
-  // How often a call is tried in all before its error is returned. A call is
-  // retried when it fails with UNAVAILABLE or DEADLINE_EXCEEDED (every RPC of
-  // impostor.v1 is idempotent), after an exponential backoff of 100 ms,
-  // 200 ms, 400 ms, ... capped at 5 s. A download that breaks midway resumes
-  // where it stopped; its attempt count starts over whenever bytes arrived.
+  // How often a call is tried in all before its error is returned, outside
+  // an outage (see max_outage_seconds). A call is retried when it fails with
+  // UNAVAILABLE or DEADLINE_EXCEEDED (every RPC of impostor.v1 is idempotent;
+  // SubmitBake through its request id), after an exponential backoff of
+  // 100 ms, 200 ms, 400 ms, ... capped at 1 s, with up to 20% jitter. A
+  // download that breaks midway resumes where it stopped; its attempt count
+  // starts over whenever bytes arrived.
   // Default: 5. Range: >= 1 (1 = never retry).
   int max_attempts = 5;
+
+  // How long a server that answered once may stay away, in seconds. While
+  // calls fail with UNAVAILABLE (the server is down, restarting, refusing or
+  // resetting connections) every call keeps retrying with the backoff above
+  // (so a restarted server is found within about a second) until the outage,
+  // counted from the first failure after the last answer, has lasted this
+  // long; then it returns its last error. This covers uploads (a broken
+  // UploadBlob starts over), SubmitBake (same request id, so never a second
+  // job), WatchJob (resumed with GetJob and a new stream), GetJob, GetResult
+  // and downloads (resumed at the byte offset already received, still
+  // verified against the digest). Connect itself still fails fast when
+  // nothing answers. 0 = no outage handling: max_attempts alone decides.
+  // Default: 300 (a deploy or a reboot of the server). Range: 0..86400.
+  double max_outage_seconds = 300;
+
+  // Called when the server stops answering (kLost) and when it answers again
+  // (kRegained): once per transition for the whole Client, however many
+  // calls notice. Runs on the thread of the call that noticed, serialised
+  // with other invocations; it must return quickly and must not call the
+  // Client. The `impostor` CLI prints one line for each. Default: empty.
+  std::function<void(const ConnectionEvent&)> on_connection_change;
 
   // How long Connect waits for the channel to become ready, in seconds.
   // A refused connection (nothing listening) ends the wait after about one
@@ -302,6 +347,8 @@ class Client {
 
   // Uploads what the server lacks of `model` (a .gltf or .glb file and every
   // file its buffers and images refer to by relative URI) and submits a bake.
+  // The submit carries a fresh random request id, the same on every retry,
+  // so a retried SubmitBake never creates a second job.
   // Errors: INVALID_ARGUMENT (unknown layout, not a .gltf/.glb, malformed
   // glTF, a URI that is absolute or leaves the model's directory), NOT_FOUND
   // (the model or a file it refers to is missing), or an RPC's error.
@@ -311,7 +358,8 @@ class Client {
   // Submits many bakes at once: hashes every item's files, asks the server
   // which blobs it lacks with one FindMissingBlobs for the whole batch (one
   // per 10,000 distinct blobs), uploads each missing blob once, then sends
-  // one SubmitBake per item, in order. Identical models share one bake on
+  // one SubmitBake per item, in order (each with its own request id, as
+  // SubmitBake). Identical models share one bake on
   // the server; cached ones are answered at once (result.cached).
   // An item whose files cannot be read or whose settings are invalid is not
   // submitted and the others go on. `on_submitted` (may be empty) is called
@@ -328,8 +376,9 @@ class Client {
   // failed or cancelled bake is an OK StatusOr whose state says so.
   // `on_update` (may be empty) is called on the calling thread for each
   // change, the terminal one included. When the stream breaks (UNAVAILABLE,
-  // e.g. a server restart) it resumes: GetJob, then a new stream, up to
-  // max_attempts times in a row without news.
+  // e.g. a server restart) it resumes: GetJob, then a new stream, for as long
+  // as ClientOptions::max_outage_seconds allows (a stream that ends without
+  // news while the server answers: up to max_attempts times in a row).
   absl::StatusOr<JobUpdate> WatchJob(const std::string& job_id,
                                      const std::function<void(const JobUpdate&)>& on_update);
 

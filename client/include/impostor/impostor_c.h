@@ -75,6 +75,11 @@ typedef struct impostor_cache_options {
   double connect_timeout_seconds; /* default 5; > 0 */
   double rpc_timeout_seconds;     /* default 30; > 0 */
   int32_t max_attempts;           /* default 3; >= 1 */
+  /* How long a server the cache has reached may stay away while a get,
+   * prefetch or lookup keeps retrying, seconds. Default 30; 0..86400
+   * (0 = max_attempts alone decides). Added after max_attempts: callers that
+   * fill the struct with impostor_cache_options_init get the default. */
+  double max_outage_seconds;
 } impostor_cache_options;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);
