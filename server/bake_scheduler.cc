@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/log_escape.h"
 #include "common/quality_gate.h"
 
 namespace impostor {
@@ -468,8 +469,9 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       *leased.mutable_parameters() = r.parameters;
       leased.set_lease_deadline_ms(r.lease_deadline_ms);
       leased.set_attempt(r.job.attempts());
-      spdlog::info("event=lease job={} worker={} attempt={} priority={} client={}", r.job.job_id(),
-                   request.worker_id(), r.job.attempts(), r.lease_priority, r.client_id);
+      spdlog::info("event=lease job={} worker=\"{}\" attempt={} priority={} client=\"{}\"", r.job.job_id(),
+                   EscapeUntrusted(request.worker_id()), r.job.attempts(), r.lease_priority,
+                   EscapeUntrusted(r.client_id));
       return std::optional<v1::LeasedJob>(std::move(leased));
     }
     const auto now = std::chrono::steady_clock::now();
@@ -559,8 +561,8 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
   if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
-  spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
-               r->worker_id, m.timings().total_seconds());
+  spdlog::info("event=complete job={} cache_key={} worker=\"{}\" seconds={:.2f}", r->job.job_id(), m.cache_key(),
+               EscapeUntrusted(r->worker_id), m.timings().total_seconds());
   return absl::OkStatus();
 }
 
@@ -583,8 +585,9 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
                                                          " attempts; last error: ", request.error().message()));
       }
     }
-    spdlog::info("event=fail job={} worker={} retry={} code={} error=\"{}\"", r->job.job_id(), r->worker_id, retry,
-                 request.error().code(), request.error().message());
+    spdlog::info("event=fail job={} worker=\"{}\" retry={} code={} error=\"{}\"", r->job.job_id(),
+                 EscapeUntrusted(r->worker_id), retry, request.error().code(),
+                 EscapeUntrusted(request.error().message()));
   }
   if (auto s = Save(*r); !s.ok()) return s;
   return SettleFollowers(*r);
@@ -607,7 +610,8 @@ absl::Status BakeScheduler::ExpireLeases() {
       r.job.set_state(v1::JOB_STATE_QUEUED);
       r.job.set_stage("queued");
     }
-    spdlog::warn("event=lease_expired job={} worker={} attempts={} requeued={}", r.job.job_id(), worker,
+    spdlog::warn("event=lease_expired job={} worker=\"{}\" attempts={} requeued={}", r.job.job_id(),
+                 EscapeUntrusted(worker),
                  r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED);
     if (auto s = Save(r); !s.ok()) return s;
     if (auto s = SettleFollowers(r); !s.ok()) return s;

@@ -27,6 +27,11 @@ ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
 ABSL_FLAG(int, heartbeat_s, 1, "Seconds between lease renewals and cancel checks while baking (1..60)");
 ABSL_FLAG(uint64_t, max_triangles, 20'000'000, "Largest mesh accepted, triangles as drawn (>= 1)");
 ABSL_FLAG(int, max_texture_dimension, 16384, "Largest texture side accepted, pixels (1..65536)");
+ABSL_FLAG(uint64_t, max_draws, 1'000'000, "Most mesh primitives drawn, instances x primitives (1..2^31)");
+ABSL_FLAG(uint64_t, max_load_bytes, uint64_t{6} << 30, "Estimated peak heap of one mesh load, bytes (>= 1)");
+ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rlimits first");
+ABSL_FLAG(uint64_t, load_memory_mb, 8192, "Address space the isolated load may add, MiB (>= 64)");
+ABSL_FLAG(int, load_cpu_s, 300, "CPU seconds the isolated load may use (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
 int main(int argc, char** argv) {
@@ -68,7 +73,12 @@ int main(int argc, char** argv) {
                              .heartbeat_seconds = heartbeat,
                              .max_jobs = absl::GetFlag(FLAGS_max_jobs),
                              .load_limits = {.max_triangles = absl::GetFlag(FLAGS_max_triangles),
-                                             .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension)},
+                                             .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension),
+                                             .max_draws = absl::GetFlag(FLAGS_max_draws),
+                                             .max_load_bytes = absl::GetFlag(FLAGS_max_load_bytes)},
+                             .load_isolation = {.enabled = absl::GetFlag(FLAGS_isolate_load),
+                                                .address_space_bytes = absl::GetFlag(FLAGS_load_memory_mb) << 20,
+                                                .cpu_seconds = absl::GetFlag(FLAGS_load_cpu_s)},
                              .test_pause_file = [] {
                                const char* f = std::getenv("IMPOSTOR_WORKER_TEST_PAUSE_FILE");
                                return std::filesystem::path(f ? f : "");

@@ -20,6 +20,7 @@
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/scene/gltf_loader.h"
+#include "worker/scene/isolated_load.h"
 
 namespace impostor {
 
@@ -36,6 +37,10 @@ struct WorkerOptions {
   int max_jobs = 0;
   // Limits on what a mesh may contain (triangles, texture sizes, ...).
   GltfLoadLimits load_limits;
+  // Each input is first loaded in a child process under these rlimits
+  // (isolated_load.h), so a file that slips past load_limits fails its job,
+  // not the worker.
+  LoadIsolation load_isolation;
   // Test hook: while this file exists, a bake pauses when it reaches its
   // render stage (heartbeats continue). Lets tests kill processes at a known
   // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
