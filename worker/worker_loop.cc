@@ -306,7 +306,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     auto ctx = ContextWithDeadline(std::chrono::seconds(30));
     const grpc::Status s = workers_->FailJob(ctx.get(), r, &resp);
     spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
-                 static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(outcome.message()), s.ok());
+                 static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(std::string(outcome.message())), s.ok());
   }
   fs::remove_all(job_dir, ec);
 }

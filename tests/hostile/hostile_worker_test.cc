@@ -164,51 +164,54 @@ TEST(HostileWorker, CollidingInputPathsAreRefusedAtSubmit) {
 }
 
 // While a bake is paused at its render stage (the worker's test hook), its
-// scratch folder is one the worker named, not the server's job id; it is
-// gone once the job ends.
+// scratch folder is one the worker named, not the server's job id; by the
+// time the worker leases its next job, the previous job's folder is gone.
 TEST(HostileWorker, ScratchFoldersAreNamedByTheWorker) {
   ServerProcess server(/*local_workers=*/0);
   const fs::path dir = testing::NewTempDir("hostile_scratch");
   const fs::path scratch = dir / "scratch";
   const fs::path pause = dir / "pause";
-  std::ofstream(pause) << "";
   std::unique_ptr<ChildProcess> worker = StartWorker(server, dir / "worker.log", "--scratch='" + scratch.string() + "'",
                                                      "IMPOSTOR_WORKER_TEST_PAUSE_FILE='" + pause.string() + "'");
   const fs::path box = testing::AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb";
-  const std::string id = Submit(server, testing::UploadGlb(server.assets(), box), 72);
+  const v1::MeshInput mesh = testing::UploadGlb(server.assets(), box);
 
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(5));
-  v1::WatchJobRequest request;
-  request.set_job_id(id);
-  auto reader = server.bake().WatchJob(&ctx, request);
-  v1::Job job;
-  bool saw_render = false;
-  while (reader->Read(&job)) {
-    if (job.stage() == "render" && !saw_render) {
-      saw_render = true;
-      std::vector<std::string> entries;
-      for (const auto& e : fs::directory_iterator(scratch)) entries.push_back(e.path().filename().string());
-      ASSERT_EQ(entries.size(), 1u);
-      EXPECT_EQ(entries[0].rfind("job-", 0), 0u) << entries[0];
-      EXPECT_EQ(entries[0].find(id), std::string::npos) << entries[0];
-      EXPECT_TRUE(fs::is_regular_file(scratch / entries[0] / "input" / "Box.glb"));
-      fs::remove(pause);
+  // Bakes one job, listing the scratch folder while it is paused at render.
+  auto bake_and_list = [&](uint32_t resolution, std::string* job_id) {
+    std::ofstream(pause) << "";
+    *job_id = Submit(server, mesh, resolution);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(5));
+    v1::WatchJobRequest request;
+    request.set_job_id(*job_id);
+    auto reader = server.bake().WatchJob(&ctx, request);
+    v1::Job job;
+    std::vector<std::string> entries;
+    while (reader->Read(&job)) {
+      if (job.stage() == "render" && fs::exists(pause)) {
+        for (const auto& e : fs::directory_iterator(scratch)) entries.push_back(e.path().filename().string());
+        fs::remove(pause);
+      }
     }
-  }
-  EXPECT_TRUE(reader->Finish().ok());
-  EXPECT_TRUE(saw_render);
-  EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.error().message();
-  // The job's folder is removed once the job has ended; the worker's
-  // scratch folder itself stays while the worker runs.
-  worker->Terminate();
-  EXPECT_TRUE(!fs::exists(scratch) || fs::is_empty(scratch));
+    EXPECT_TRUE(reader->Finish().ok());
+    EXPECT_EQ(job.state(), v1::JOB_STATE_SUCCEEDED) << job.error().message();
+    return entries;
+  };
+  std::string first_id, second_id;
+  const std::vector<std::string> first = bake_and_list(72, &first_id);
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(first[0], "job-0");
+  EXPECT_EQ(first[0].find(first_id), std::string::npos);
+  const std::vector<std::string> second = bake_and_list(88, &second_id);
+  // job-0 was removed before job-1 was leased.
+  EXPECT_EQ(second, std::vector<std::string>{"job-1"});
+  EXPECT_TRUE(Alive(*worker));
 }
 
 // The CLI's upload of a model whose texture is a link out of its folder.
 TEST(HostileWorker, CliRefusesASymlinkOutOfTheModelFolder) {
-  const fs::path source = testing::AssetsDir() / "props_pbr/BoxTextured/glTF";
-  ASSERT_TRUE(fs::exists(source / "BoxTextured.gltf")) << source;
+  const fs::path source = testing::AssetsDir() / "props_pbr/WaterBottle/glTF";
+  ASSERT_TRUE(fs::exists(source / "WaterBottle.gltf")) << source;
   const fs::path dir = testing::NewTempDir("hostile_symlink");
   const fs::path model = dir / "model";
   fs::create_directories(model);
@@ -226,7 +229,7 @@ TEST(HostileWorker, CliRefusesASymlinkOutOfTheModelFolder) {
   const std::string cli = (testing::BinaryDir() / "impostor").string();
   auto run = [&](const std::string& flags, std::string* output) {
     ChildProcess p({"/bin/sh", "-c",
-                    "exec '" + cli + "' bake '" + (model / "BoxTextured.gltf").string() + "' --out='" +
+                    "exec '" + cli + "' bake '" + (model / "WaterBottle.gltf").string() + "' --out='" +
                         (dir / "out").string() + "' --server=" + server.address() +
                         " --frames=2 --resolution=64 --quiet " + flags + " 2>&1"});
     return p.Wait(output);
