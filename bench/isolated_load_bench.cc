@@ -40,13 +40,15 @@ int main(int argc, char** argv) {
     files = {assets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
              assets / "props_pbr/Duck/glTF-Binary/Duck.glb"};
   }
-  std::printf("| asset | in-process load s | isolated check s | overhead |\n|---|---|---|---|\n");
+  // The worker loads in the child first and then again in process, so the
+  // isolation adds the child's whole time (fork, load, exit) to the job.
+  std::printf("| asset | in-process load s | load in a child s | child / in-process |\n|---|---|---|---|\n");
   for (const auto& f : files) {
     bool ok = true;
     const double in_process = MedianSeconds(5, [&] { ok &= impostor::LoadGltfScene(f).ok(); });
     const double child = MedianSeconds(5, [&] { ok &= impostor::CheckLoadInChild(f, {}, {}).ok(); });
-    std::printf("| %s | %.3f | %.3f | +%.0f%% |%s\n", f.filename().string().c_str(), in_process, child,
-                100.0 * child / in_process, ok ? "" : " (a load failed)");
+    std::printf("| %s | %.3f | %.3f | %.2f |%s\n", f.filename().string().c_str(), in_process, child,
+                child / in_process, ok ? "" : " (a load failed)");
   }
   return 0;
 }
