@@ -2,9 +2,9 @@
 # Builds the libFuzzer targets with clang, AddressSanitizer and
 # UndefinedBehaviorSanitizer in their own build folder, and runs
 # gltf_load_fuzzer for FUZZ_SECONDS (default 60) from a seed corpus of every
-# small .glb/.gltf under the shared assets. Exits non-zero if the fuzzer
-# finds a crash, a sanitizer report, a leak, a timeout or an out-of-memory
-# input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
+# small .glb/.gltf under the shared assets and tests/hostile/corpus/. Exits
+# non-zero if the fuzzer finds a crash, a sanitizer report, a leak, a timeout
+# or an out-of-memory input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
 #
 # CI runs a fixed number of executions from a fixed seed (FUZZ_RUNS,
 # FUZZ_SEED), so the same commit explores the same inputs on every machine and
@@ -61,7 +61,9 @@ fi
 # the shared folder.
 corpus=$(mktemp -d)
 trap 'rm -rf "$corpus"' EXIT
-find "$ASSETS_DIR" -type f \( -iname '*.glb' -o -iname '*.gltf' \) -size -"$MAX_LEN"c -print0 |
+# The committed hostile corpus (tests/hostile/corpus/, issue 23) seeds the
+# resource-bomb shapes the load budget must refuse.
+find "$ASSETS_DIR" tests/hostile/corpus -type f \( -iname '*.glb' -o -iname '*.gltf' \) -size -"$MAX_LEN"c -print0 |
   while IFS= read -r -d '' f; do
     cp "$f" "$corpus/$(sha256sum "$f" | cut -c1-16)"
   done
