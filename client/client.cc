@@ -68,7 +68,7 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
   // Everything checkable locally is checked before the first RPC.
   absl::StatusOr<v1::BakeParameters> parameters = ToBakeParameters(settings);
   if (!parameters.ok()) return parameters.status();
-  absl::StatusOr<MeshFiles> files = CollectMeshFiles(model);
+  absl::StatusOr<MeshFiles> files = CollectMeshFiles(model, {.follow_symlinks = settings.follow_symlinks});
   if (!files.ok()) return files.status();
 
   absl::StatusOr<UploadedMesh> uploaded = UploadMesh(impl_->transport(), *files);
@@ -112,7 +112,8 @@ absl::StatusOr<std::vector<BatchSubmission>> Client::SubmitBakeBatch(
       continue;
     }
     parameters[i] = std::move(*p);
-    absl::StatusOr<MeshFiles> f = CollectMeshFiles(items[i].model);
+    absl::StatusOr<MeshFiles> f =
+        CollectMeshFiles(items[i].model, {.follow_symlinks = items[i].settings.follow_symlinks});
     if (!f.ok()) {
       out[i].status = f.status();
       continue;

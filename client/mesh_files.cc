@@ -111,10 +111,42 @@ absl::StatusOr<std::string> UriToRelativePath(const std::string& uri, const std:
   return path;
 }
 
+// OK if `rel` under `dir`, with every symbolic link resolved, is still
+// inside `dir` (or `follow` is set). PERMISSION_DENIED naming the first link
+// on the way that leads out, and its target, otherwise.
+absl::Status CheckStaysInside(const fs::path& dir, const std::string& rel, bool follow,
+                              const std::string& user, const std::string& model_name) {
+  if (follow) return absl::OkStatus();
+  std::error_code ec;
+  const fs::path root = fs::canonical(dir, ec);
+  if (ec) return absl::InternalError(absl::StrCat("cannot resolve ", dir.string(), ": ", ec.message()));
+  auto inside = [&](const fs::path& p) {
+    const fs::path r = p.lexically_relative(root);
+    return !r.empty() && *r.begin() != "..";
+  };
+  const fs::path resolved = fs::canonical(dir / rel, ec);
+  if (!ec && inside(resolved)) return absl::OkStatus();
+  fs::path link = dir;
+  for (const fs::path& part : fs::path(rel)) {
+    link /= part;
+    if (!fs::is_symlink(link, ec)) continue;
+    const fs::path target = fs::read_symlink(link, ec);
+    const fs::path where = fs::canonical(link, ec);
+    if (!ec && inside(where)) continue;
+    return absl::PermissionDeniedError(absl::StrCat(
+        link.string(), " (", user, " of ", model_name, ") is a symbolic link to ", target.string(),
+        ", outside the model's folder ", root.string(),
+        "; pass --follow-symlinks (BakeSettings::follow_symlinks) to upload it anyway"));
+  }
+  return absl::PermissionDeniedError(absl::StrCat(
+      (dir / rel).string(), " (", user, " of ", model_name, ") resolves to ", resolved.string(),
+      ", outside the model's folder ", root.string()));
+}
+
 // Adds the external files named by json[array_name][i].uri to `out`.
 absl::Status CollectUris(const nlohmann::json& json, const char* array_name, const fs::path& dir,
-                         const std::string& model_name, std::set<std::string>* seen,
-                         std::vector<MeshFile>* out) {
+                         const std::string& model_name, bool follow_symlinks,
+                         std::set<std::string>* seen, std::vector<MeshFile>* out) {
   auto it = json.find(array_name);
   if (it == json.end()) return absl::OkStatus();
   if (!it->is_array()) {
@@ -141,6 +173,9 @@ absl::Status CollectUris(const nlohmann::json& json, const char* array_name, con
     if (!fs::is_regular_file(local, ec)) {
       return absl::NotFoundError(absl::StrCat("file ", local.string(), " not found (used by ", user,
                                               " \"", uri, "\" of ", model_name, ")"));
+    }
+    if (absl::Status s = CheckStaysInside(dir, *rel, follow_symlinks, user, model_name); !s.ok()) {
+      return s;
     }
     out->push_back(MeshFile{*rel, local});
   }
@@ -179,7 +214,7 @@ absl::StatusOr<std::string> GlbJsonChunk(std::string_view glb, std::string_view 
   return std::string(glb.substr(kGlbHeaderBytes + kChunkHeaderBytes, json_len));
 }
 
-absl::StatusOr<MeshFiles> CollectMeshFiles(const fs::path& model) {
+absl::StatusOr<MeshFiles> CollectMeshFiles(const fs::path& model, const CollectOptions& options) {
   const std::string name = model.string();
   std::error_code ec;
   if (!fs::exists(model, ec)) return absl::NotFoundError(absl::StrCat("model ", name, " not found"));
@@ -203,7 +238,7 @@ absl::StatusOr<MeshFiles> CollectMeshFiles(const fs::path& model) {
   const fs::path dir = model.has_parent_path() ? model.parent_path() : fs::path(".");
   std::set<std::string> seen;
   for (const char* array : {"buffers", "images"}) {
-    if (absl::Status s = CollectUris(json, array, dir, name, &seen, &result.files); !s.ok()) return s;
+    if (absl::Status s = CollectUris(json, array, dir, name, options.follow_symlinks, &seen, &result.files); !s.ok()) return s;
   }
   return result;
 }

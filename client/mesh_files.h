@@ -29,14 +29,27 @@ struct MeshFiles {
   std::vector<MeshFile> files;
 };
 
+struct CollectOptions {
+  // Upload files reached through a symbolic link that leads out of the
+  // model's folder. Default false: a downloaded asset pack's
+  // "tex.png -> ~/.ssh/id_rsa" must not be uploaded (and then readable by
+  // anyone who can read blobs). Links that stay inside the folder are
+  // followed either way.
+  bool follow_symlinks = false;
+};
+
 // Reads `model` and lists its files. Errors:
 //   NOT_FOUND         the model, or a file it refers to (naming the file and
 //                     the buffer/image that uses it);
 //   INVALID_ARGUMENT  not .gltf/.glb, a corrupt GLB header, invalid JSON, a
 //                     URI that is absolute, has a scheme, contains "..", or a
 //                     bad percent escape (naming the URI);
+//   PERMISSION_DENIED a file reached through a symbolic link that leads out
+//                     of the model's folder, unless options.follow_symlinks
+//                     (naming the link, its target and the flag);
 //   INTERNAL          a read error.
-absl::StatusOr<MeshFiles> CollectMeshFiles(const std::filesystem::path& model);
+absl::StatusOr<MeshFiles> CollectMeshFiles(const std::filesystem::path& model,
+                                           const CollectOptions& options = {});
 
 // The JSON chunk of a GLB file's bytes (only the header and the first chunk
 // need be present). INVALID_ARGUMENT naming what is wrong with the header.

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/layout_parameters.h"
 #include "common/card_parameters.h"
+#include "common/input_paths.h"
 #include "common/lod_parameters.h"
 #include "common/quality_parameters.h"
 #include "common/sha256.h"
@@ -176,16 +177,12 @@ absl::Status ValidateMeshInput(const v1::MeshInput& mesh) {
     return absl::InvalidArgumentError(absl::StrCat("mesh.files: ", mesh.files_size(),
                                                    " files is more than the limit of ", kMaxInputFiles));
   }
-  std::set<std::string> seen;
   for (int i = 0; i < mesh.files_size(); ++i) {
     const std::string field = absl::StrCat("mesh.files[", i, "]");
     if (auto s = ValidateInputFile(field, mesh.files(i)); !s.ok()) return s;
-    if (!seen.insert(mesh.files(i).path()).second) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(field, ".path: \"", mesh.files(i).path(), "\" appears twice"));
-    }
   }
-  return absl::OkStatus();
+  // No two inputs may land on the same place in the worker's input folder.
+  return CheckInputPathsDisjoint(mesh);
 }
 
 std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters& p) {

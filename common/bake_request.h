@@ -58,8 +58,9 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
 // INVALID_ARGUMENT unless `path` is a safe relative path (see InputFile.path).
 absl::Status ValidateRelativePath(std::string_view field, std::string_view path);
 
-// Checks digests, paths (unique, safe), counts and the entry's extension
-// (.glb or .gltf). INVALID_ARGUMENT naming the offending field.
+// Checks digests, paths (safe, and disjoint on disk: input_paths.h), counts
+// and the entry's extension (.glb or .gltf). INVALID_ARGUMENT naming the
+// offending field (both fields for a collision).
 absl::Status ValidateMeshInput(const v1::MeshInput& mesh);
 
 // SHA-256 hex over the entry's content, every external file's path and

@@ -2,9 +2,9 @@
 # Builds the libFuzzer targets with clang, AddressSanitizer and
 # UndefinedBehaviorSanitizer in their own build folder, and runs
 # gltf_load_fuzzer for FUZZ_SECONDS (default 60) from a seed corpus of every
-# small .glb/.gltf under the shared assets. Exits non-zero if the fuzzer
-# finds a crash, a sanitizer report, a leak, a timeout or an out-of-memory
-# input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
+# small .glb/.gltf under the shared assets and tests/hostile/corpus/. Exits
+# non-zero if the fuzzer finds a crash, a sanitizer report, a leak, a timeout
+# or an out-of-memory input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
 #
 # CI runs a fixed number of executions from a fixed seed (FUZZ_RUNS,
 # FUZZ_SEED), so the same commit explores the same inputs on every machine and
@@ -48,7 +48,9 @@ fuzzer="$FUZZ_BUILD_DIR/bin/gltf_load_fuzzer"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 mkdir -p "$FUZZ_BUILD_DIR/artifacts"
-flags=(-max_len="$MAX_LEN" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1
+# The load budget (FuzzLimits' max_load_bytes = 256 MiB) keeps every input
+# far below this; an input that reaches it is a budget the loader escaped.
+flags=(-max_len="$MAX_LEN" -rss_limit_mb=1024 -timeout=10 -print_final_stats=1
        -dict=fuzz/gltf.dict -artifact_prefix="$FUZZ_BUILD_DIR/artifacts/")
 
 if [ $# -gt 0 ]; then
@@ -59,7 +61,9 @@ fi
 # the shared folder.
 corpus=$(mktemp -d)
 trap 'rm -rf "$corpus"' EXIT
-find "$ASSETS_DIR" -type f \( -iname '*.glb' -o -iname '*.gltf' \) -size -"$MAX_LEN"c -print0 |
+# The committed hostile corpus (tests/hostile/corpus/, issue 23) seeds the
+# resource-bomb shapes the load budget must refuse.
+find "$ASSETS_DIR" tests/hostile/corpus -type f \( -iname '*.glb' -o -iname '*.gltf' \) -size -"$MAX_LEN"c -print0 |
   while IFS= read -r -d '' f; do
     cp "$f" "$corpus/$(sha256sum "$f" | cut -c1-16)"
   done

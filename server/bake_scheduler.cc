@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/log_escape.h"
 #include "common/quality_gate.h"
 
 namespace impostor {
@@ -534,8 +535,9 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       *leased.mutable_parameters() = r.parameters;
       leased.set_lease_deadline_ms(r.lease_deadline_ms);
       leased.set_attempt(r.job.attempts());
-      spdlog::info("event=lease job={} worker={} attempt={} priority={} client={}", r.job.job_id(),
-                   request.worker_id(), r.job.attempts(), r.lease_priority, r.client_id);
+      spdlog::info("event=lease job={} worker=\"{}\" attempt={} priority={} client=\"{}\"", r.job.job_id(),
+                   EscapeUntrusted(request.worker_id()), r.job.attempts(), r.lease_priority,
+                   EscapeUntrusted(r.client_id));
       return std::optional<v1::LeasedJob>(std::move(leased));
     }
     const auto now = std::chrono::steady_clock::now();
@@ -626,8 +628,8 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   if (auto s = Save(*r); !s.ok()) return s;
   if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
   streaks_.erase(r->worker_id);
-  spdlog::info("event=complete job={} cache_key={} worker={} seconds={:.2f}", r->job.job_id(), m.cache_key(),
-               r->worker_id, m.timings().total_seconds());
+  spdlog::info("event=complete job={} cache_key={} worker=\"{}\" seconds={:.2f}", r->job.job_id(), m.cache_key(),
+               EscapeUntrusted(r->worker_id), m.timings().total_seconds());
   return absl::OkStatus();
 }
 
@@ -650,8 +652,9 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
                                                          " attempts; last error: ", request.error().message()));
       }
     }
-    spdlog::info("event=fail job={} worker={} retry={} code={} error=\"{}\"", r->job.job_id(), r->worker_id, retry,
-                 request.error().code(), request.error().message());
+    spdlog::info("event=fail job={} worker=\"{}\" retry={} code={} error=\"{}\"", r->job.job_id(),
+                 EscapeUntrusted(r->worker_id), retry, request.error().code(),
+                 EscapeUntrusted(request.error().message()));
     // Bad input is the job's fault; anything retryable may be the worker's.
     if (request.retryable()) NoteWorkerFailure(r->worker_id, r->job.job_id());
   }
@@ -706,8 +709,8 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
     r.job.set_state(v1::JOB_STATE_QUEUED);
     r.job.set_stage("queued");
   }
-  spdlog::warn("event=lease_expired job={} worker={} stage={} attempts={} requeued={} how=\"{}\"", r.job.job_id(),
-               worker, stage, r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED,
+  spdlog::warn("event=lease_expired job={} worker=\"{}\" stage=\"{}\" attempts={} requeued={} how=\"{}\"",
+               r.job.job_id(), EscapeUntrusted(worker), EscapeUntrusted(stage), r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED,
                how.empty() ? std::string("stopped reporting") : std::string(how));
   if (auto s = Save(r); !s.ok()) return s;
   return SettleFollowers(r);
@@ -731,7 +734,7 @@ void BakeScheduler::NoteWorkerFailure(const std::string& worker_id, const std::s
   }
   if (static_cast<int>(streak.failed_jobs.size()) < options_.worker_failure_limit) return;
   streak.paused_until_ms = options_.now_ms() + options_.worker_pause_ms;
-  spdlog::warn("event=worker_paused worker={} failed_jobs={} last_job={} pause_s={}", worker_id,
+  spdlog::warn("event=worker_paused worker=\"{}\" failed_jobs={} last_job={} pause_s={}", EscapeUntrusted(worker_id),
                streak.failed_jobs.size(), job_id, options_.worker_pause_ms / 1000);
   streak.failed_jobs.clear();
 }

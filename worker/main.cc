@@ -32,6 +32,11 @@ ABSL_FLAG(int, drain_seconds, 60,
           "On SIGTERM, seconds the current job may take to finish before its lease is handed back (0..3600)");
 ABSL_FLAG(int, max_outage_seconds, 300,
           "Seconds the server may stay unreachable before the worker exits with status 1 (1..86400)");
+ABSL_FLAG(uint64_t, max_draws, 1'000'000, "Most mesh primitives drawn, instances x primitives (1..2^31)");
+ABSL_FLAG(uint64_t, max_load_bytes, uint64_t{6} << 30, "Estimated peak heap of one mesh load, bytes (>= 1)");
+ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rlimits first");
+ABSL_FLAG(uint64_t, load_memory_mb, 8192, "Address space the isolated load may add, MiB (>= 64)");
+ABSL_FLAG(int, load_cpu_s, 300, "CPU seconds the isolated load may use (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 
 namespace {
@@ -101,7 +106,12 @@ int main(int argc, char** argv) {
                              .heartbeat_seconds = heartbeat,
                              .max_jobs = absl::GetFlag(FLAGS_max_jobs),
                              .load_limits = {.max_triangles = absl::GetFlag(FLAGS_max_triangles),
-                                             .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension)},
+                                             .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension),
+                                             .max_draws = absl::GetFlag(FLAGS_max_draws),
+                                             .max_load_bytes = absl::GetFlag(FLAGS_max_load_bytes)},
+                             .load_isolation = {.enabled = absl::GetFlag(FLAGS_isolate_load),
+                                                .address_space_bytes = absl::GetFlag(FLAGS_load_memory_mb) << 20,
+                                                .cpu_seconds = absl::GetFlag(FLAGS_load_cpu_s)},
                              .drain_seconds = drain_seconds,
                              .max_outage_seconds = max_outage_seconds,
                              .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),

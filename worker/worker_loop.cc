@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/log_escape.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/cards_bake.h"
@@ -37,7 +38,14 @@ std::unique_ptr<grpc::ClientContext> ContextWithDeadline(std::chrono::seconds ti
 
 // Downloads one blob to `path`, verifying its digest as it goes.
 absl::Status DownloadBlob(v1::AssetService::Stub& assets, const v1::Digest& digest, const fs::path& path) {
-  fs::create_directories(path.parent_path());
+  // The error_code overload: a path another input holds as a file used to
+  // throw here and terminate the worker (issue 23).
+  std::error_code ec;
+  fs::create_directories(path.parent_path(), ec);
+  if (ec) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot create the folder for input ", path.filename().string(), ": ", ec.message()));
+  }
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) return absl::InternalError(absl::StrCat("cannot create ", path.string()));
   v1::ReadBlobRequest request;
@@ -80,6 +88,20 @@ absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, co
   }
   writer->WritesDone();
   return FromGrpc(writer->Finish(), "UploadBlob");
+}
+
+// A folder under the scratch directory for one job, named by this worker:
+// never from a server-sent string such as the job id, which could hold a
+// path (the folder is deleted afterwards).
+fs::path NewJobDir(const fs::path& scratch_dir) {
+  static std::atomic<uint64_t> next{0};
+  return scratch_dir / absl::StrCat("job-", next++);
+}
+
+// CompleteJob codes that say the server will never accept this result (too
+// big for a message, a manifest it refuses): retrying the bake cannot help.
+bool ResultRefusedForGood(grpc::StatusCode code) {
+  return code == grpc::StatusCode::INVALID_ARGUMENT || code == grpc::StatusCode::RESOURCE_EXHAUSTED;
 }
 
 // Bad input fails the job for good; anything else may succeed elsewhere.
@@ -268,7 +290,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     }
   };
 
-  const fs::path job_dir = options_.scratch_dir / job.job_id();
+  const fs::path job_dir = NewJobDir(options_.scratch_dir);
   const fs::path input_dir = job_dir / "input";
   const fs::path output_dir = job_dir / "output";
   std::error_code ec;
@@ -289,6 +311,11 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
       if (auto s = DownloadBlob(*assets_, f.digest(), input_dir / f.path()); !s.ok()) return s;
     }
     const double download_seconds = std::chrono::duration<double>(Clock::now() - t).count();
+    // Untrusted bytes meet the loader in a child process first (issue 23).
+    progress("load", 0.0);
+    if (auto s = CheckLoadInChild(entry, options_.load_limits, options_.load_isolation, &cancelled); !s.ok()) {
+      return s;
+    }
     AtlasBakeRequest request{.entry_file = entry,
                              .parameters = job.parameters(),
                              .cache_key = job.cache_key(),
@@ -341,7 +368,14 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
                  s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
-  } else {
+    // A refused result is failed now, with the reason, rather than left to
+    // time out and be baked again three times (issue 23).
+    if (ResultRefusedForGood(s.error_code())) {
+      outcome = absl::Status(static_cast<absl::StatusCode>(s.error_code()),
+                             absl::StrCat("the server refused the result: CompleteJob: ", s.error_message()));
+    }
+  }
+  if (!lease_lost && !outcome.ok()) {
     v1::FailJobRequest r;
     r.set_job_id(job.job_id());
     r.set_lease_id(job.lease_id());
@@ -354,7 +388,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
       return workers_->FailJob(ctx.get(), r, &resp);
     });
     spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
-                 static_cast<int>(outcome.code()), r.retryable(), std::string(outcome.message()), s.ok());
+                 static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(std::string(outcome.message())), s.ok());
   }
   fs::remove_all(job_dir, ec);
 }

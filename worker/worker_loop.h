@@ -31,6 +31,7 @@
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/scene/gltf_loader.h"
+#include "worker/scene/isolated_load.h"
 
 namespace impostor {
 
@@ -47,6 +48,10 @@ struct WorkerOptions {
   int max_jobs = 0;
   // Limits on what a mesh may contain (triangles, texture sizes, ...).
   GltfLoadLimits load_limits;
+  // Each input is first loaded in a child process under these rlimits
+  // (isolated_load.h), so a file that slips past load_limits fails its job,
+  // not the worker.
+  LoadIsolation load_isolation;
   // SIGTERM budget: the current job may finish within this many seconds;
   // past it the lease is handed back. Default 60; range 0..3600.
   int drain_seconds = 60;

@@ -198,7 +198,7 @@ class Cache::Impl {
   absl::StatusOr<LookupResult> Lookup(const fs::path& model, const BakeSettings& settings) {
     absl::StatusOr<v1::BakeParameters> parameters = ToBakeParameters(settings);
     if (!parameters.ok()) return parameters.status();
-    absl::StatusOr<MeshFiles> files = CollectMeshFiles(model);
+    absl::StatusOr<MeshFiles> files = CollectMeshFiles(model, {.follow_symlinks = settings.follow_symlinks});
     if (!files.ok()) return files.status();
     absl::StatusOr<v1::MeshInput> mesh = HashMesh(*files);
     if (!mesh.ok()) return mesh.status();

@@ -22,6 +22,7 @@ sdk::BakeSettings BakeSettingsFromArgs(const CliArgs& args) {
   s.quality_views = args.quality_views;
   s.emissive = args.emissive;
   s.texture_array = args.texture_array;
+  s.follow_symlinks = args.follow_symlinks;
   return s;
 }
 

@@ -88,7 +88,10 @@ class BatchRunner {
     for (size_t i = 0; i < std::min(kWatchStreams, items_.size()); ++i) watchers.emplace_back([this] { Watch(); });
 
     std::vector<sdk::BatchItem> batch;
-    for (const BatchEntry& e : spec_.entries) batch.push_back({e.model, e.settings});
+    for (const BatchEntry& e : spec_.entries) {
+      batch.push_back({e.model, e.settings});
+      batch.back().settings.follow_symlinks = args_.follow_symlinks;
+    }
     absl::StatusOr<std::vector<sdk::BatchSubmission>> submitted = client_.SubmitBakeBatch(
         batch, [this](size_t i, const sdk::BatchSubmission& s) { return OnSubmitted(i, s); });
     {

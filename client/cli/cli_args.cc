@@ -23,10 +23,10 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array"}, true,
+       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
         "MODEL"}},
       {"bake-batch",
-       {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going"},
+       {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going", "--follow-symlinks"},
         true, "SPEC"}},
       {"fetch", {Command::kFetch, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
       // --out is optional: quality_command.cc picks ./quality-KEY12.
@@ -117,6 +117,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--keep-going") out.keep_going = true;
       if (flag == "--emissive") out.emissive = true;
       if (flag == "--array") out.texture_array = true;
+      if (flag == "--follow-symlinks") out.follow_symlinks = true;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -321,6 +322,8 @@ Usage:
                       viewer loads it) plus the card atlas maps;
                       --resolution is the card atlas side (default 1024);
                       --frames is refused and --layout ignored
+        --follow-symlinks upload files reached through a symbolic link that
+                      leads out of the model's folder (refused by default)
         --array       atlas: write each map as a texture array (layer i =
                       view i, stacked top to bottom in one tile-wide PNG)
                       instead of an atlas
@@ -350,7 +353,7 @@ Usage:
       Several models: a batch, as bake-batch with every model at the flags'
       settings; each result lands in DIR/<model name>/.
   impostor bake-batch SPEC --out DIR [--server HOST:PORT] [--json] [--quiet]
-                [--keep-going] [--priority N] [--client-id NAME]
+                [--keep-going] [--priority N] [--client-id NAME] [--follow-symlinks]
                 [--max-outage-seconds N]
       Bakes every asset listed in SPEC (a .json, .yaml or .yml file, or - for
       JSON or YAML on stdin): {"defaults": {...}, "assets": ["a.glb",
@@ -369,6 +372,7 @@ Usage:
                       submitting after the first failure; what was already
                       submitted is still followed and reported)
         --priority N  default priority of assets that do not set one
+        --follow-symlinks as for bake, for every asset
         --json        one JSON object per finished asset on stdout: {type:
                       "asset", asset, name, status (succeeded, failed or
                       skipped), cached, cache_key, job_id, out_dir, files,

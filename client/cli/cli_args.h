@@ -92,6 +92,8 @@ struct CliArgs {
   bool emissive = false;
   // --array (bake): texture arrays instead of atlases.
   bool texture_array = false;
+  // --follow-symlinks (bake, bake-batch): BakeSettings::follow_symlinks.
+  bool follow_symlinks = false;
   // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else
   // $XDG_CACHE_HOME/impostor, else ~/.cache/impostor; see cache_commands.cc),
   // --max-bytes (unset = the cache's default cap), gc --verify.

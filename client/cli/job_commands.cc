@@ -7,6 +7,7 @@
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
+#include "common/log_escape.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {
@@ -33,7 +34,7 @@ int RunJobCall(const CliArgs& args, const JobCall& call) {
   if (job->cached) line += " (cached)";
   if (job->error_code != 0 || !job->error_message.empty()) {
     line += absl::StrFormat(" error %s: %s", absl::StatusCodeToString(static_cast<absl::StatusCode>(job->error_code)),
-                            job->error_message);
+                            EscapeForTerminal(job->error_message, 4096));
   }
   std::printf("%s\n", line.c_str());
   return kExitOk;

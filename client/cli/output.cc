@@ -5,14 +5,14 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_args.h"
+#include "common/log_escape.h"
 
 namespace impostor::cli {
 
 int Fail(int exit_code, std::string_view reason) {
-  std::string line(reason);
-  for (char& c : line) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
+  // Reasons carry server and worker text: no control sequences reach the
+  // terminal, and a runaway message is cut.
+  const std::string line = EscapeForTerminal(reason, 4096);
   std::fprintf(stderr, "impostor: %s\n", line.c_str());
   std::fflush(stderr);
   return exit_code;

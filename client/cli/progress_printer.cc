@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_format.h"
+#include "common/log_escape.h"
 
 namespace impostor::cli {
 
@@ -12,7 +13,7 @@ std::string ProgressPrinter::Format(const sdk::JobUpdate& update) {
   // read 42%, hence the epsilon; floor so that 99.6% never shows as done.
   const int percent = static_cast<int>(std::floor(std::clamp(update.progress, 0.0, 1.0) * 100 + 1e-4));
   std::string line = absl::StrFormat("[%-7s %3d%%]", std::string(sdk::JobStateName(update.state)), percent);
-  if (!update.stage.empty()) line += " " + update.stage;
+  if (!update.stage.empty()) line += " " + EscapeForTerminal(update.stage, 64);
   return line;
 }
 

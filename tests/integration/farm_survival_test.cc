@@ -257,9 +257,9 @@ TEST(FarmLimits, AMeshOverTheWorkersTriangleLimitFailsNamingTheLimit) {
   const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
   EXPECT_EQ(done.state(), v1::JOB_STATE_FAILED);
   EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::RESOURCE_EXHAUSTED)) << done.error().message();
-  // The loader stops at the first accessor that cannot fit: 4,212 triangles
-  // are 12,636 indices.
-  EXPECT_NE(done.error().message().find("12636"), std::string::npos) << done.error().message();
+  // The load budget refuses the declared counts before reading: 12,636
+  // indices are 4,212 triangles.
+  EXPECT_NE(done.error().message().find("4212 triangles"), std::string::npos) << done.error().message();
   EXPECT_NE(done.error().message().find("max_triangles = 1000"), std::string::npos) << done.error().message();
   EXPECT_EQ(done.attempts(), 1u) << "a limit is not worth a retry";
 }

@@ -73,7 +73,7 @@ TEST(BakeRequest, UnsafePathsAreRefused) {
   }
   v1::MeshInput dup = Gltf();
   *dup.add_files() = File("tree.bin", "again");
-  EXPECT_NE(ValidateMeshInput(dup).message().find("appears twice"), std::string::npos);
+  EXPECT_NE(ValidateMeshInput(dup).message().find("name the same file"), std::string::npos);
   v1::MeshInput obj = Gltf();
   obj.mutable_entry()->set_path("tree.obj");
   EXPECT_NE(ValidateMeshInput(obj).message().find("neither a .glb nor a .gltf"), std::string::npos);

@@ -160,10 +160,13 @@ absl::StatusOr<std::string> EncodeLodGlb(const LodSource& source, const std::vec
       const int type = in.accessors[accessor].type;
       const int comps = Components(type);
       if (comps == 0) continue;
-      auto values = gltf_internal::ReadFloatAccessor(in, accessor, type, std::numeric_limits<uint32_t>::max(),
+      // An attribute whose count differs from POSITION's is dropped unread:
+      // reading first with no bound let a count-only accessor (no
+      // bufferView) allocate count x 16 bytes (issue 23).
+      if (in.accessors[accessor].count != vertex_count) continue;
+      auto values = gltf_internal::ReadFloatAccessor(in, accessor, type, vertex_count,
                                                      absl::StrCat("mesh ", lp.mesh, " primitive ", lp.primitive, " ", name));
       if (!values.ok()) return values.status();
-      if (values->size() != vertex_count * comps) continue;  // attribute count differs from POSITION
       std::vector<float> packed(unique * comps);
       meshopt_remapVertexBuffer(packed.data(), values->data(), vertex_count, sizeof(float) * comps, remap.data());
       const int view = bin.AddView(packed.data(), packed.size() * sizeof(float), kArrayBuffer);

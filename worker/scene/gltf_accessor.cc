@@ -230,11 +230,12 @@ absl::Status Walk(const tinygltf::Model& model, int index, int expected_type, ui
   if (component_size == 0) {
     return Invalid(what, index, absl::StrCat("componentType ", acc.componentType, " is invalid"));
   }
+  // Checked before anything is allocated: an accessor without a bufferView
+  // is all zeros, so `count` alone would size the output (issue 23).
   if (acc.count > max_count) {
     return absl::ResourceExhaustedError(
         absl::StrCat(std::string(what), " (accessor ", index, "): count ", acc.count,
-                     " exceeds the vertex limit ", max_count,
-                     " (3 x GltfLoadLimits::max_triangles = ", max_count / 3, ")"));
+                     " exceeds the ", max_count, " elements this read allows"));
   }
   const size_t element_size = static_cast<size_t>(component_size) * ComponentsOf(acc.type);
   absl::StatusOr<DenseLayout> dense = CheckDense(model, acc, index, element_size, what);

@@ -23,7 +23,10 @@ namespace impostor::gltf_internal {
 // INVALID_ARGUMENT (message starts with `what`, e.g. "mesh 0 'hull'
 // primitive 1 POSITION") for a bad index, type, component type or any
 // out-of-bounds view, offset, stride or sparse entry; RESOURCE_EXHAUSTED if
-// count exceeds `max_count`.
+// count exceeds `max_count`, checked before anything is allocated. Callers
+// pass the tightest bound they know (POSITION's count for other attributes,
+// GltfLoadLimits::max_draws for instances): the file's declared counts
+// were checked as a whole by CheckLoadBudget first.
 absl::StatusOr<std::vector<float>> ReadFloatAccessor(const tinygltf::Model& model, int index,
                                                      int expected_type, uint64_t max_count,
                                                      std::string_view what);

@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "worker/scene/gltf_sandbox.h"
 #include "worker/scene/gltf_scene_builder.h"
+#include "worker/scene/load_budget.h"
 
 namespace impostor {
 namespace {
@@ -71,11 +72,13 @@ std::string OneLine(const std::string& text) {
 absl::Status CheckLimits(const GltfLoadLimits& limits) {
   if (limits.max_triangles < 1 || limits.max_triangles > (uint64_t{1} << 31) / 3 ||
       limits.max_texture_dimension < 1 || limits.max_texture_dimension > 65535 ||
-      limits.max_node_depth < 1 || limits.max_node_depth > 100000) {
-    return absl::InvalidArgumentError(absl::StrCat("GltfLoadLimits out of range: max_triangles ",
-                                                   limits.max_triangles, ", max_texture_dimension ",
-                                                   limits.max_texture_dimension,
-                                                   ", max_node_depth ", limits.max_node_depth));
+      limits.max_node_depth < 1 || limits.max_node_depth > 100000 || limits.max_draws < 1 ||
+      limits.max_draws > (uint64_t{1} << 31) || limits.max_load_bytes < 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "GltfLoadLimits out of range: max_triangles ", limits.max_triangles,
+        ", max_texture_dimension ", limits.max_texture_dimension, ", max_node_depth ",
+        limits.max_node_depth, ", max_draws ", limits.max_draws, ", max_load_bytes ",
+        limits.max_load_bytes));
   }
   return absl::OkStatus();
 }
@@ -205,6 +208,8 @@ absl::StatusOr<Scene> ParseAndBuild(const ParseInput& in, const GltfLoadLimits& 
   }
   if (!warn.empty()) spdlog::debug("gltf: {}: tinygltf: {}", in.name, OneLine(warn));
   if (absl::Status s = CheckRequiredExtensions(model); !s.ok()) return s;
+  // Declared counts against the limits before anything is read per element.
+  if (absl::Status s = gltf_internal::CheckLoadBudget(model, limits); !s.ok()) return s;
 
   absl::StatusOr<Scene> scene = gltf_internal::BuildScene(model, limits);
   if (scene.ok()) {

@@ -31,9 +31,21 @@ struct GltfLoadLimits {
   // Largest width or height of a decoded texture, pixels. Default 16,384
   // (the usual GPU maxImageDimension2D); range 1 .. 65,535.
   int max_texture_dimension = 16384;
-  // Sum of width * height * 4 over all decoded textures. Default 2 GiB;
-  // any value >= 0 (0 refuses every textured asset).
+  // Sum of width * height * 4 over all decoded textures; each decode's peak
+  // (texture_decode.h PeakDecodeBytes: per format, e.g. 40 bytes per pixel
+  // for a 16-bit RGBA PNG) must also fit in what is left. Default 2 GiB; any
+  // value >= 0 (0 refuses every textured asset).
   uint64_t max_texture_bytes = uint64_t{2} << 30;
+  // Mesh primitives drawn, counting every node and EXT_mesh_gpu_instancing
+  // instance (instances x primitives): each is a draw batch in the Scene.
+  // Default 1,000,000; range 1 .. 2^31.
+  uint64_t max_draws = 1'000'000;
+  // Estimated peak heap of the whole load (load_budget.h: buffers, scene
+  // geometry, per-primitive copies, decoded textures and the largest
+  // decode's peak), checked from the file's declared counts before the
+  // scene is built. Default 6 GiB (a 20,000,000-triangle scene with its
+  // textures fits); any value >= 1.
+  uint64_t max_load_bytes = uint64_t{6} << 30;
   // Deepest node nesting below a scene root (a root is depth 0). Deeper
   // hierarchies are INVALID_ARGUMENT. Default 1,024; range 1 .. 100,000.
   int max_node_depth = 1024;
@@ -62,7 +74,11 @@ struct GltfLoadLimits {
 // a MASK material whose base colour image has no alpha channel; a texCoord
 // set other than 0 or 1 (set 0 used); skinned meshes are baked in their
 // bind pose.
-//   RESOURCE_EXHAUSTED a GltfLoadLimits limit is exceeded.
+//   RESOURCE_EXHAUSTED a GltfLoadLimits limit is exceeded. The counts the
+//                     file declares are checked against the limits before
+//                     the scene is built (load_budget.h), so a file whose
+//                     accessors declare more than the limits allow is
+//                     refused without allocating for them.
 absl::StatusOr<Scene> LoadGltfScene(const std::filesystem::path& entry_file,
                                     const GltfLoadLimits& limits = {});
 

@@ -284,11 +284,13 @@ class Builder {
         // is the stored position, so the bind pose is the mesh as stored.
         const bool skinned = node.skin >= 0;
         if (skinned) ++skinned_nodes_;
-        absl::StatusOr<std::vector<glm::dmat4>> instances =
-            Instances(item.node, skinned ? glm::dmat4(1.0) : world);
+        absl::StatusOr<InstanceSet> instances = Instances(item.node);
         if (!instances.ok()) return instances.status();
-        for (const glm::dmat4& m : *instances) {
-          if (absl::Status s = DrawMesh(item.node, node.mesh, m); !s.ok()) return s;
+        const glm::dmat4 base = skinned ? glm::dmat4(1.0) : world;
+        for (size_t i = 0; i < instances->count; ++i) {
+          if (absl::Status s = DrawMesh(item.node, node.mesh, instances->Matrix(base, i)); !s.ok()) {
+            return s;
+          }
         }
       }
       for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) {
@@ -298,45 +300,16 @@ class Builder {
     return absl::OkStatus();
   }
 
-  // The node's world matrix, or one per EXT_mesh_gpu_instancing instance
-  // (world * T * R * S of each instance).
-  absl::StatusOr<std::vector<glm::dmat4>> Instances(int index, const glm::dmat4& world) {
-    const tinygltf::Node& node = model_.nodes[index];
-    auto ext = node.extensions.find("EXT_mesh_gpu_instancing");
-    if (ext == node.extensions.end() || !ext->second.IsObject() ||
-        !ext->second.Get("attributes").IsObject()) {
-      return std::vector<glm::dmat4>{world};
-    }
-    const tinygltf::Value& attributes = ext->second.Get("attributes");
-    const std::string what = absl::StrCat(NodeName(index), " EXT_mesh_gpu_instancing");
+  // A node's EXT_mesh_gpu_instancing attributes, read once; instance i's
+  // matrix is made on demand (Matrix), never all at once: 4x4 doubles per
+  // instance was 128 bytes each before the triangle limit could refuse a
+  // file declaring millions (issue 23; the count itself is bounded first,
+  // by CheckLoadBudget's GltfLoadLimits::max_draws).
+  struct InstanceSet {
+    size_t count = 1;  // 1 and no attributes: the node's world matrix alone
     std::vector<float> t, r, s;
-    size_t count = 0;
-    bool any = false;
-    for (auto [key, type, out] : {std::make_tuple("TRANSLATION", TINYGLTF_TYPE_VEC3, &t),
-                                  std::make_tuple("ROTATION", TINYGLTF_TYPE_VEC4, &r),
-                                  std::make_tuple("SCALE", TINYGLTF_TYPE_VEC3, &s)}) {
-      const tinygltf::Value& accessor = attributes.Get(key);
-      if (!accessor.IsNumber()) continue;
-      // A double outside int range would make GetNumberAsInt undefined.
-      const double number = accessor.GetNumberAsDouble();
-      const int accessor_index =
-          number >= 0.0 && number <= 2147483647.0 ? static_cast<int>(number) : -1;
-      absl::StatusOr<std::vector<float>> values = ReadFloatAccessor(
-          model_, accessor_index, type, max_vertices_, absl::StrCat(what, " ", key));
-      if (!values.ok()) return values.status();
-      const size_t n = values->size() / (type == TINYGLTF_TYPE_VEC4 ? 4 : 3);
-      if (any && n != count) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(what, ": attribute counts differ (", count, " vs ", n, ")"));
-      }
-      count = n;
-      any = true;
-      *out = std::move(*values);
-    }
-    if (!any) return std::vector<glm::dmat4>{world};
-    std::vector<glm::dmat4> out;
-    out.reserve(count);
-    for (size_t i = 0; i < count; ++i) {
+
+    glm::dmat4 Matrix(const glm::dmat4& world, size_t i) const {
       glm::dmat4 m = world;
       if (!t.empty()) m = glm::translate(m, glm::dvec3(t[3 * i], t[3 * i + 1], t[3 * i + 2]));
       if (!r.empty()) {
@@ -345,9 +318,55 @@ class Builder {
         if (len > 0.0 && std::isfinite(len)) m = m * glm::mat4_cast(q / len);
       }
       if (!s.empty()) m = glm::scale(m, glm::dvec3(s[3 * i], s[3 * i + 1], s[3 * i + 2]));
-      out.push_back(m);
+      return m;
     }
-    return out;
+  };
+
+  absl::StatusOr<InstanceSet> Instances(int index) {
+    const tinygltf::Node& node = model_.nodes[index];
+    auto ext = node.extensions.find("EXT_mesh_gpu_instancing");
+    if (ext == node.extensions.end() || !ext->second.IsObject() ||
+        !ext->second.Get("attributes").IsObject()) {
+      return InstanceSet{};
+    }
+    const tinygltf::Value& attributes = ext->second.Get("attributes");
+    const std::string what = absl::StrCat(NodeName(index), " EXT_mesh_gpu_instancing");
+    InstanceSet set;
+    bool any = false;
+    for (auto [key, type, out] : {std::make_tuple("TRANSLATION", TINYGLTF_TYPE_VEC3, &set.t),
+                                  std::make_tuple("ROTATION", TINYGLTF_TYPE_VEC4, &set.r),
+                                  std::make_tuple("SCALE", TINYGLTF_TYPE_VEC3, &set.s)}) {
+      const tinygltf::Value& accessor = attributes.Get(key);
+      if (!accessor.IsNumber()) continue;
+      // A double outside int range would make GetNumberAsInt undefined.
+      const double number = accessor.GetNumberAsDouble();
+      const int accessor_index =
+          number >= 0.0 && number <= 2147483647.0 ? static_cast<int>(number) : -1;
+      absl::StatusOr<std::vector<float>> values = ReadFloatAccessor(
+          model_, accessor_index, type, limits_.max_draws, absl::StrCat(what, " ", key));
+      if (!values.ok()) return values.status();
+      const size_t n = values->size() / (type == TINYGLTF_TYPE_VEC4 ? 4 : 3);
+      if (any && n != set.count) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(what, ": attribute counts differ (", set.count, " vs ", n, ")"));
+      }
+      set.count = n;
+      any = true;
+      *out = std::move(*values);
+    }
+    return set;
+  }
+
+  // OK if accessor `accessor` has `n` elements (POSITION's count);
+  // INVALID_ARGUMENT naming both counts otherwise, or a missing accessor.
+  absl::Status CheckSameCount(int accessor, size_t n, const std::string& what) const {
+    absl::StatusOr<uint64_t> count = AccessorCount(model_, accessor, what);
+    if (!count.ok()) return count.status();
+    if (*count != n) {
+      return absl::InvalidArgumentError(absl::StrCat(what, " (accessor ", accessor, ") has ",
+                                                     *count, " elements but POSITION has ", n));
+    }
+    return absl::OkStatus();
   }
 
   // Default morph weights of `mesh` drawn by `node`: node.weights, else
@@ -462,16 +481,12 @@ class Builder {
                                    int type) -> absl::StatusOr<std::vector<float>> {
       const int accessor = attribute(name);
       if (accessor == -1) return std::vector<float>();
-      absl::StatusOr<std::vector<float>> values =
-          ReadFloatAccessor(model_, accessor, type, max_vertices_, absl::StrCat(what, " ", name));
-      if (!values.ok()) return values.status();
-      const size_t components = type == TINYGLTF_TYPE_VEC2 ? 2 : type == TINYGLTF_TYPE_VEC3 ? 3 : 4;
-      if (values->size() != n * components) {
-        return absl::InvalidArgumentError(absl::StrCat(what, " ", name, " (accessor ", accessor,
-                                                       ") has ", values->size() / components,
-                                                       " elements but POSITION has ", n));
+      // The count is compared before reading: a NORMAL declaring 60,000,000
+      // elements next to a 3-vertex POSITION is refused unread (issue 23).
+      if (absl::Status s = CheckSameCount(accessor, n, absl::StrCat(what, " ", name)); !s.ok()) {
+        return s;
       }
-      return values;
+      return ReadFloatAccessor(model_, accessor, type, n, absl::StrCat(what, " ", name));
     };
 
     absl::StatusOr<std::vector<float>> normals = read_optional("NORMAL", TINYGLTF_TYPE_VEC3);
@@ -570,13 +585,10 @@ class Builder {
         auto it = prim.targets[t].find(name);
         if (it == prim.targets[t].end()) continue;
         const std::string target_what = absl::StrCat(what, " morph target ", t, " ", name);
+        if (absl::Status s = CheckSameCount(it->second, n, target_what); !s.ok()) return s;
         absl::StatusOr<std::vector<float>> deltas =
-            ReadFloatAccessor(model_, it->second, TINYGLTF_TYPE_VEC3, max_vertices_, target_what);
+            ReadFloatAccessor(model_, it->second, TINYGLTF_TYPE_VEC3, n, target_what);
         if (!deltas.ok()) return deltas.status();
-        if (deltas->size() != n * 3) {
-          return absl::InvalidArgumentError(absl::StrCat(target_what, " has ", deltas->size() / 3,
-                                                         " elements but POSITION has ", n));
-        }
         const bool position = name[0] == 'P';
         if (!position && normal_deltas->empty()) normal_deltas->assign(n, glm::vec3(0.0f));
         for (size_t i = 0; i < n; ++i) {

@@ -1,5 +1,6 @@
 #include "worker/scene/texture_decode.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -13,6 +14,9 @@
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_NO_STDIO
 #define STBI_NO_HDR
+// glTF images are PNG or JPEG (image.mimeType); no other decoder is built.
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
 #define STBI_MAX_DIMENSIONS (1 << 16)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"
@@ -25,50 +29,86 @@
 namespace impostor::gltf_internal {
 namespace {
 
-// Names a valid image container stb_image cannot decode, or nullptr.
-const char* UnsupportedFormat(std::span<const uint8_t> b) {
-  auto starts = [&](const char* magic, size_t n, size_t at = 0) {
-    return b.size() >= at + n && std::memcmp(b.data() + at, magic, n) == 0;
-  };
-  if (starts("\xABKTX 20\xBB\r\n\x1A\n", 12)) return "KTX2";
-  if (starts("\xABKTX 11\xBB\r\n\x1A\n", 12)) return "KTX";
-  if (starts("RIFF", 4) && starts("WEBP", 4, 8)) return "WebP";
-  if (starts("DDS ", 4)) return "DDS";
-  if (starts("\x76\x2F\x31\x01", 4)) return "OpenEXR";
+bool StartsWith(std::span<const uint8_t> b, const char* magic, size_t n, size_t at = 0) {
+  return b.size() >= at + n && std::memcmp(b.data() + at, magic, n) == 0;
+}
+
+// Names a recognised image container that is not PNG or JPEG, or nullptr.
+const char* OtherFormat(std::span<const uint8_t> b) {
+  if (StartsWith(b, "\xABKTX 20\xBB\r\n\x1A\n", 12)) return "KTX2";
+  if (StartsWith(b, "\xABKTX 11\xBB\r\n\x1A\n", 12)) return "KTX";
+  if (StartsWith(b, "RIFF", 4) && StartsWith(b, "WEBP", 4, 8)) return "WebP";
+  if (StartsWith(b, "DDS ", 4)) return "DDS";
+  if (StartsWith(b, "\x76\x2F\x31\x01", 4)) return "OpenEXR";
+  if (StartsWith(b, "GIF8", 4)) return "GIF";
+  if (StartsWith(b, "BM", 2)) return "BMP";
+  if (StartsWith(b, "8BPS", 4)) return "PSD";
+  if (StartsWith(b, "#?RADIANCE", 10) || StartsWith(b, "#?RGBE", 6)) return "Radiance HDR";
+  if (StartsWith(b, "\x53\x80\xF6\x34", 4)) return "PIC";
+  if (b.size() >= 2 && b[0] == 'P' && b[1] >= '1' && b[1] <= '7') return "PNM";
   return nullptr;
 }
 
+constexpr char kPngMagic[] = "\x89PNG\r\n\x1A\n";
+
 }  // namespace
 
-absl::StatusOr<DecodedImage> DecodeImageRgba8(std::span<const uint8_t> bytes, int max_dimension,
-                                              uint64_t max_bytes, std::string_view what) {
+absl::StatusOr<ImageHeader> ProbeImage(std::span<const uint8_t> bytes, std::string_view what) {
   if (bytes.empty() || bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
     return absl::InvalidArgumentError(
         absl::StrCat(std::string(what), ": encoded image has ", bytes.size(), " bytes"));
   }
-  const int size = static_cast<int>(bytes.size());
-  int width = 0, height = 0, channels = 0;
-  if (const char* format = UnsupportedFormat(bytes)) {
-    return absl::UnimplementedError(
-        absl::StrCat(std::string(what), ": ", format, " images are not supported"));
+  ImageHeader header;
+  if (StartsWith(bytes, kPngMagic, 8)) {
+    header.format = ImageHeader::Format::kPng;
+  } else if (StartsWith(bytes, "\xFF\xD8\xFF", 3)) {
+    header.format = ImageHeader::Format::kJpeg;
+  } else if (const char* format = OtherFormat(bytes)) {
+    return absl::UnimplementedError(absl::StrCat(
+        std::string(what), ": ", format, " images are not supported (glTF allows PNG and JPEG)"));
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat(std::string(what), ": not a PNG or JPEG image (unrecognised header)"));
   }
-  if (!stbi_info_from_memory(bytes.data(), size, &width, &height, &channels)) {
+  if (!stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &header.width,
+                             &header.height, &header.channels)) {
     return absl::InvalidArgumentError(absl::StrCat(std::string(what),
-                                                   ": cannot decode image (unsupported format or "
-                                                   "corrupt header: ",
+                                                   ": cannot decode image (corrupt header: ",
                                                    stbi_failure_reason(), ")"));
   }
+  header.bit_depth =
+      stbi_is_16_bit_from_memory(bytes.data(), static_cast<int>(bytes.size())) ? 16 : 8;
+  return header;
+}
+
+uint64_t PeakDecodeBytes(const ImageHeader& header) {
+  const uint64_t pixels = uint64_t(std::max(header.width, 0)) * uint64_t(std::max(header.height, 0));
+  const uint64_t c = static_cast<uint64_t>(std::clamp(header.channels, 1, 4));
+  if (header.format == ImageHeader::Format::kJpeg) return pixels * (3 * c + 8);
+  const uint64_t b = header.bit_depth == 16 ? 2 : 1;
+  return pixels * (3 * c * b + 4 * b + 8);
+}
+
+
+absl::StatusOr<DecodedImage> DecodeImageRgba8(std::span<const uint8_t> bytes, int max_dimension,
+                                              uint64_t max_bytes, std::string_view what) {
+  absl::StatusOr<ImageHeader> header = ProbeImage(bytes, what);
+  if (!header.ok()) return header.status();
+  const int size = static_cast<int>(bytes.size());
+  const int width = header->width, height = header->height, channels = header->channels;
   if (width > max_dimension || height > max_dimension) {
     return absl::ResourceExhaustedError(
         absl::StrCat(std::string(what), ": image is ", width, "x", height,
                      ", over GltfLoadLimits::max_texture_dimension = ", max_dimension));
   }
-  const uint64_t decoded_bytes = uint64_t{4} * width * height;
-  if (decoded_bytes > max_bytes) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat(std::string(what), ": decoding ", width, "x", height, " (", decoded_bytes,
-                     " bytes) would exceed GltfLoadLimits::max_texture_bytes (", max_bytes,
-                     " bytes left of the budget)"));
+  const uint64_t peak_bytes = PeakDecodeBytes(*header);
+  if (peak_bytes > max_bytes) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        std::string(what), ": decoding ", width, "x", height, " ",
+        header->format == ImageHeader::Format::kPng ? "PNG" : "JPEG", " (", channels,
+        " channels, ", header->bit_depth, "-bit) peaks at ", peak_bytes,
+        " bytes, over GltfLoadLimits::max_texture_bytes (", max_bytes,
+        " bytes left of the budget)"));
   }
   int w = 0, h = 0, n = 0;
   // stbi_load_* converts 16-bit data to 8 bits and expands to 4 channels.

@@ -227,6 +227,12 @@ struct BakeSettings {
   // [i * tile_size, (i + 1) * tile_size); each view's tile in the manifest
   // gives its layer. For engines that prefer arrays. Default: false.
   bool texture_array = false;
+  // Upload a buffer/image reached through a symbolic link that leads out of
+  // the model's folder. Not sent to the server; not part of the cache key.
+  // Default: false, and such a link is PERMISSION_DENIED naming the link and
+  // its target (a downloaded asset pack's "tex.png -> ~/.ssh/id_rsa" must
+  // not end up in the blob store). Links inside the folder always work.
+  bool follow_symlinks = false;
 };
 
 // What SubmitBake sent to the store.
