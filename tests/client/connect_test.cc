@@ -2,7 +2,6 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -32,13 +31,10 @@ TEST(Connect, NothingListeningIsUnavailableNamingTheAddress) {
   ClientOptions options;
   options.server = "127.0.0.1:" + std::to_string(UnusedPort());
   options.connect_timeout_seconds = 0.5;
-  const auto start = std::chrono::steady_clock::now();
   absl::StatusOr<std::unique_ptr<Client>> client = Client::Connect(options);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_FALSE(client.ok());
   EXPECT_EQ(client.status().code(), absl::StatusCode::kUnavailable) << client.status();
   EXPECT_NE(client.status().message().find(options.server), std::string::npos) << client.status();
-  EXPECT_LT(seconds, 5.0);
   std::optional<RpcErrorInfo> info = GetRpcErrorInfo(client.status());
   ASSERT_TRUE(info.has_value());
   EXPECT_EQ(info->server, options.server);

@@ -12,6 +12,7 @@
 #include "common/manifest_json.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
+#include "tests/integration/sdk_watch.h"
 #include "tests/integration/server_process.h"
 #include "tests/surfels/mesh_distance.h"
 #include "worker/scene/gltf_loader.h"
@@ -36,7 +37,7 @@ TEST(SurfelService, BakesAFoliageAssetWithTheVegetationPresetAndFetchesTheCloud)
   const auto start = std::chrono::steady_clock::now();
   auto submitted = (*client)->SubmitBake(AssetsDir() / kTree, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
-  auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+  auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
   ASSERT_TRUE(done.ok()) << done.status();
   ASSERT_EQ(done->state, sdk::JobState::kSucceeded) << done->error_message;
   const double bake_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
