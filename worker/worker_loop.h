@@ -37,8 +37,10 @@ struct WorkerOptions {
   // Limits on what a mesh may contain (triangles, texture sizes, ...).
   GltfLoadLimits load_limits;
   // Test hook: while this file exists, a bake pauses when it reaches its
-  // render stage (heartbeats continue). Lets tests kill processes at a known
-  // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
+  // render stage (heartbeats continue); when the file's first word is
+  // "render-chunk", it pauses after each rendered chunk instead (a cancel
+  // then lands between chunks). Lets tests kill processes at a known point
+  // of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
 };
 
