@@ -2,10 +2,6 @@
 // real impostor-server: `cache gc --verify`, the cache-directory fallback
 // order, pins held against another process, a corrupt download through
 // Cache::Get, and the C API's async get, lookup and prefetch.
-#include <sys/inotify.h>
-#include <poll.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -44,26 +40,6 @@ void FlipAByte(const fs::path& f, std::streamoff at = 100) {
   io.get(c);
   io.seekp(at);
   io.put(static_cast<char>(c ^ 0x20));
-}
-
-// Waits (inotify on `dir`) until `dir / name` exists.
-bool WaitForEntry(const fs::path& dir, const std::string& name, std::chrono::milliseconds timeout) {
-  fs::create_directories(dir);
-  const int watch = ::inotify_init1(IN_CLOEXEC | IN_NONBLOCK);
-  ::inotify_add_watch(watch, dir.c_str(), IN_CREATE | IN_MOVED_TO);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  bool found = false;
-  while (!(found = fs::exists(dir / name))) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) break;
-    pollfd p{watch, POLLIN, 0};
-    ::poll(&p, 1, static_cast<int>(left.count()));
-    char events[4096];
-    while (::read(watch, events, sizeof(events)) > 0) {
-    }
-  }
-  ::close(watch);
-  return found;
 }
 
 TEST(CacheCliPromises, GcVerifyDropsDamagedEntriesThatAMetadataCheckMisses) {
@@ -258,7 +234,8 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   // gone, it is answered from disk.
   const char* keys[] = {b.key.c_str()};
   impostor_cache_prefetch(cache, keys, 1);
-  EXPECT_TRUE(WaitForEntry(dir / "entries", b.key, kWatchTimeout)) << "prefetch never installed " << b.key;
+  EXPECT_TRUE(WaitForDirectory(dir / "entries", [&] { return fs::exists(dir / "entries" / b.key); }))
+      << "prefetch never installed " << b.key;
   server.Kill();
   impostor_result* result = nullptr;
   ASSERT_EQ(impostor_cache_get(cache, b.key.c_str(), &result), IMPOSTOR_OK) << impostor_last_error();

@@ -430,6 +430,25 @@ ToolRun RunTool(std::vector<std::string> argv, std::chrono::milliseconds timeout
   return run;
 }
 
+bool WaitForDirectory(const fs::path& dir, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  const int watch = ::inotify_init1(IN_CLOEXEC | IN_NONBLOCK);
+  if (watch >= 0) ::inotify_add_watch(watch, dir.c_str(), IN_CREATE | IN_MOVED_TO | IN_MODIFY | IN_CLOSE_WRITE);
+  bool reached = false;
+  // Watch first, then check: a change in between still wakes us.
+  while (!(reached = done()) && Clock::now() < deadline) {
+    pollfd p{watch, POLLIN, 0};
+    ::poll(&p, 1, std::min(Remaining(deadline), watch < 0 ? 100 : 1 << 30));
+    char events[4096];
+    while (watch >= 0 && ::read(watch, events, sizeof(events)) > 0) {
+    }
+  }
+  if (watch >= 0) ::close(watch);
+  return reached;
+}
+
 std::unique_ptr<grpc::ClientContext> ContextWithin(std::chrono::milliseconds timeout) {
   auto ctx = std::make_unique<grpc::ClientContext>();
   ctx->set_deadline(std::chrono::system_clock::now() + timeout);

@@ -180,6 +180,12 @@ struct ToolRun {
 ToolRun RunTool(std::vector<std::string> argv, std::chrono::milliseconds timeout = kExitTimeout,
                 std::vector<std::string> env = {});
 
+// Waits (inotify on `dir`, no polling) until `done()` holds; `done` is
+// checked at once and whenever an entry of `dir` is created, renamed into it
+// or written. False at the deadline.
+bool WaitForDirectory(const std::filesystem::path& dir, const std::function<bool()>& done,
+                      std::chrono::milliseconds timeout = kWatchTimeout);
+
 // A client context whose deadline is `timeout` from now.
 std::unique_ptr<grpc::ClientContext> ContextWithin(std::chrono::milliseconds timeout = kRpcTimeout);
 

@@ -100,6 +100,41 @@ TEST(StoreRpc, CorruptBlobsOnDiskAnswerDataLossAndAreQuarantined) {
   }
 }
 
+// A server killed mid-upload: the half-written blob never becomes visible,
+// its temporary file is removed at the next start, and the upload can be
+// made again.
+TEST(StoreRpc, AnUploadCutByAServerKillLeavesNothingVisible) {
+  ServerProcess server(/*local_workers=*/0);
+  const std::string bytes = RandomBytes(8 << 20, 77);
+  const v1::Digest digest = DigestOf(bytes);
+  const fs::path tmp = server.data_dir() / "tmp";
+  {
+    auto ctx = ContextWithin();
+    v1::UploadBlobResponse response;
+    auto writer = server.assets().UploadBlob(ctx.get(), &response);
+    v1::UploadBlobRequest chunk;
+    *chunk.mutable_digest() = digest;
+    chunk.set_data(bytes.substr(0, 1 << 20));
+    ASSERT_TRUE(writer->Write(chunk));
+    // The server has started writing its temporary file.
+    ASSERT_TRUE(WaitForDirectory(tmp, [&] { return !fs::is_empty(tmp) && fs::file_size(*fs::directory_iterator(tmp)) > 0; }))
+        << "no temporary file appeared in " << tmp;
+    server.Kill();
+    EXPECT_FALSE(writer->Finish().ok());
+  }
+  EXPECT_FALSE(fs::is_empty(tmp)) << "the kill left the temporary file (what the restart must clean up)";
+  EXPECT_FALSE(fs::exists(BlobFile(server, digest.hash())));
+
+  server.Restart();
+  EXPECT_TRUE(fs::is_empty(tmp)) << "leftovers are removed at start";
+  EXPECT_TRUE(IsMissing(server, digest)) << "a half-written blob must never be visible";
+  std::string got;
+  EXPECT_EQ(ReadBlob(server.assets(), digest, &got).error_code(), grpc::StatusCode::NOT_FOUND);
+  ASSERT_TRUE(UploadBytes(server.assets(), bytes, digest).ok());
+  ASSERT_TRUE(ReadBlob(server.assets(), digest, &got).ok());
+  EXPECT_TRUE(got == bytes);
+}
+
 TEST(StoreRpc, ACachedResultWithACorruptMapIsBakedAgain) {
   ServerProcess server(/*local_workers=*/0);
   const PublishedResult published = PublishResult(server, {64 << 10, 32 << 10, 16 << 10}, 7);

@@ -119,16 +119,17 @@ TEST(SurfelService, CliBakesSurfelsAndRefusesBadParametersClearly) {
        "unknown preset \\\"forest\\\""},
       {"budget on an atlas", {"bake", box, "--point-budget", "100", "--out", out.string()}, 1,
        "only for product PRODUCT_SURFELS"},
-      {"unknown product", {"bake", box, "--product", "voxels", "--out", out.string()}, 2, ""},
+      {"unknown product", {"bake", box, "--product", "voxels", "--out", out.string()}, 2,
+       "impostor: --product: unknown product \"voxels\""},
   };
   for (const CliCase& c : cases) {
     std::vector<std::string> argv = {(testing::BinaryDir() / "impostor").string()};
     argv.insert(argv.end(), c.args.begin(), c.args.end());
     for (const char* a : {"--server", server.address().c_str(), "--json"}) argv.push_back(a);
-    testing::ChildProcess cli(argv);
-    std::string stdout_text;
-    EXPECT_EQ(cli.Wait(&stdout_text), c.exit_code) << c.name << ": " << stdout_text;
-    EXPECT_NE(stdout_text.find(c.stdout_mentions), std::string::npos) << c.name << ": " << stdout_text;
+    // The reason of a failure is on stdout (--json) or on stderr (usage).
+    const testing::ToolRun run = testing::RunTool(argv);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.out << run.err;
+    EXPECT_NE((run.out + run.err).find(c.stdout_mentions), std::string::npos) << c.name << ": " << run.out << run.err;
   }
   auto manifest = ManifestFromJson(testing::ReadFileBytes(out / "manifest.json"));
   ASSERT_TRUE(manifest.ok()) << manifest.status();
