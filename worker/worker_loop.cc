@@ -22,6 +22,14 @@ namespace impostor {
 namespace fs = std::filesystem;
 namespace {
 
+// The first word of the test pause file ("" when absent).
+std::string ReadTestPauseMode(const fs::path& file) {
+  std::ifstream in(file);
+  std::string word;
+  in >> word;
+  return word;
+}
+
 using Clock = std::chrono::steady_clock;
 
 absl::Status FromGrpc(const grpc::Status& s, std::string_view rpc) {
@@ -282,7 +290,11 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
       report("render", f);  // so the server knows where it died
       CrashForTest();
     }
-    if (entered_stage && st == "render" && !options_.test_pause_file.empty()) {
+    // Test hook (WorkerOptions::test_pause_file): pause on entering the
+    // render stage, or after each rendered chunk when the file says
+    // "render-chunk".
+    if (st == "render" && !options_.test_pause_file.empty() &&
+        entered_stage != (ReadTestPauseMode(options_.test_pause_file) == "render-chunk")) {
       std::error_code ec;
       while (!cancelled && fs::exists(options_.test_pause_file, ec)) {
         std::this_thread::sleep_for(std::chrono::milliseconds(20));

@@ -67,8 +67,10 @@ struct WorkerOptions {
   // broken GPU would. Empty = off. Set from $IMPOSTOR_WORKER_TEST_FAIL_ON.
   std::string test_fail_on;
   // Test hook: while this file exists, a bake pauses when it reaches its
-  // render stage (heartbeats continue). Lets tests kill processes at a known
-  // point of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
+  // render stage (heartbeats continue); when the file's first word is
+  // "render-chunk", it pauses after each rendered chunk instead (a cancel
+  // then lands between chunks). Lets tests kill processes at a known point
+  // of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
 };
 

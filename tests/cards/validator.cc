@@ -8,7 +8,8 @@ namespace impostor::testing {
 
 ValidatorResult RunGltfValidator(const std::filesystem::path& file) {
   ValidatorResult r;
-  const std::string command = std::string("'") + IMPOSTOR_GLTF_VALIDATOR + "' '" + file.string() + "' 2>&1";
+  // Bounded: `timeout` ends a hung validator (exit 124, reported as a failure).
+  const std::string command = std::string("timeout 300 '") + IMPOSTOR_GLTF_VALIDATOR + "' '" + file.string() + "' 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return r;
   char buffer[4096];

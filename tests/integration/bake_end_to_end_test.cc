@@ -1,8 +1,5 @@
 // End to end: a real impostor-server with real impostor-worker processes on a
 // loopback port, baking real assets from ../shared/assets.
-#include <signal.h>
-#include <sys/wait.h>
-
 #include <future>
 #include <thread>
 
@@ -267,14 +264,13 @@ TEST(EndToEnd, IdenticalConcurrentSubmissionsShareOneBake) {
   const v1::Job other = testing::WatchToEnd(server.bake(), jb.job_id());
   ASSERT_EQ(other.state(), v1::JOB_STATE_SUCCEEDED) << other.error().message();
   EXPECT_EQ(other.result().maps(0).digest().hash(), done.result().maps(0).digest().hash());
-  int status = 0;
-  ASSERT_EQ(::waitpid(worker.pid(), &status, 0), worker.pid());
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  EXPECT_EQ(worker.Wait(), 0) << "--max-jobs=1: the worker leaves after its one job";
 
   grpc::ClientContext ctx;
   v1::LeaseJobRequest lease;
   lease.set_worker_id("probe");
   v1::LeaseJobResponse response;
+  ctx.set_deadline(std::chrono::system_clock::now() + testing::kRpcTimeout);
   ASSERT_TRUE(server.workers().LeaseJob(&ctx, lease, &response).ok());
   EXPECT_FALSE(response.has_job()) << "nothing else was queued";
 }
@@ -310,7 +306,7 @@ TEST(EndToEnd, MalformedGltfFailsWithInvalidArgumentAndTheWorkerKeepsServing) {
   const v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
   const v1::Job job = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64));
   EXPECT_EQ(testing::WatchToEnd(server.bake(), job.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
-  EXPECT_EQ(::waitpid(worker.pid(), nullptr, WNOHANG), 0) << "the worker process exited";
+  EXPECT_TRUE(worker.Running()) << "the worker process exited with " << worker.exit_code();
 }
 
 TEST(EndToEnd, UploadWithAWrongDigestIsRefused) {

@@ -79,20 +79,23 @@ v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
 bool PausedAtRender(const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING && j.stage() == "render"; }
 
 TEST(FarmSurvival, AJobWhoseWorkerIsKilledMidBakeIsBakedByAnother) {
-  testing::ServerProcess server(/*local_workers=*/0, {"--lease-timeout-s=2"});
+  // Lease 5 s against the workers' 1 s heartbeat: a live worker never loses
+  // its lease to a slow machine, only a dead one does.
+  testing::ServerProcess server(/*local_workers=*/0, {"--lease-timeout-s=5"});
   const fs::path pause = testing::NewTempDir("pause_worker_death") / "pause";
   Touch(pause);
-  auto doomed = StartWorker(server.address(), pause);
+  auto doomed = testing::StartWorker(server.address(), {}, {"IMPOSTOR_WORKER_TEST_PAUSE_FILE=" + pause.string()});
   const v1::MeshInput mesh =
       testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
   const v1::SubmitBakeResponse job = Submit(server.bake(), mesh, 2, 64);
-  ASSERT_TRUE(PausedAtRender(WatchUntil(server.bake(), job.job_id(), PausedAtRender)));
-  Kill9(*doomed);
+  ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server.bake(), job.job_id(), PausedAtRender)));
+  doomed->KillAndReap();
   fs::remove(pause);
-  auto rescuer = StartWorker(server.address(), pause);
+  auto rescuer = testing::StartWorker(server.address());
   const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
   EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
-  EXPECT_EQ(done.attempts(), 2u) << "the second lease, after the first worker's expired";
+  EXPECT_GE(done.attempts(), 2u) << "a second lease, after the first worker's expired";
+  EXPECT_GE(server.process().CountInLog("event=lease_expired"), 1) << server.process().Stderr();
   std::printf("farm survival: 1 job submitted, 1 worker killed mid-bake, %d completed (attempt %u)\n",
               done.state() == v1::JOB_STATE_SUCCEEDED ? 1 : 0, done.attempts());
 }
@@ -205,40 +208,43 @@ TEST(FarmSurvival, CancelStopsTheRunningBakeAndFreesTheWorker) {
   testing::ServerProcess server(/*local_workers=*/0);
   const fs::path pause = testing::NewTempDir("pause_cancel") / "pause";
   Touch(pause);
-  auto worker = StartWorker(server.address(), pause);
+  auto worker = testing::StartWorker(server.address(), {}, {"IMPOSTOR_WORKER_TEST_PAUSE_FILE=" + pause.string()});
   const v1::MeshInput helmet =
       testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
   const v1::SubmitBakeResponse big = Submit(server.bake(), helmet, 12, 2048);
-  ASSERT_TRUE(PausedAtRender(WatchUntil(server.bake(), big.job_id(), PausedAtRender)));
+  ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server.bake(), big.job_id(), PausedAtRender)));
 
   const v1::MeshInput box = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
   const v1::SubmitBakeResponse next = Submit(server.bake(), box, 2, 64);
   const auto cancel_time = std::chrono::steady_clock::now();
   {
-    grpc::ClientContext ctx;
+    auto ctx = testing::ContextWithin();
     v1::CancelJobRequest cancel;
     cancel.set_job_id(big.job_id());
     v1::Job cancelled;
-    ASSERT_TRUE(server.bake().CancelJob(&ctx, cancel, &cancelled).ok());
+    ASSERT_TRUE(server.bake().CancelJob(ctx.get(), cancel, &cancelled).ok());
     EXPECT_EQ(cancelled.state(), v1::JOB_STATE_CANCELLED);
   }
-  // The only worker leaves the cancelled bake and takes the next job.
-  const v1::Job leased = WatchUntil(server.bake(), next.job_id(),
-                                    [](const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING; });
+  // The only worker hears of the cancel on a heartbeat, leaves the bake
+  // (the pause file still exists: only the cancel can end the pause) and
+  // takes the next job.
+  const v1::Job leased = testing::WatchUntil(server.bake(), next.job_id(),
+                                             [](const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING; });
   const double freed_after = std::chrono::duration<double>(std::chrono::steady_clock::now() - cancel_time).count();
   EXPECT_EQ(leased.state(), v1::JOB_STATE_RUNNING);
-  EXPECT_LT(freed_after, 5.0) << "the worker should hear of the cancel within about a second";
+  EXPECT_TRUE(worker->WaitForLog("event=job_cancel_requested job=" + big.job_id())) << worker->Stderr();
   fs::remove(pause);
   EXPECT_EQ(testing::WatchToEnd(server.bake(), next.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
 
-  grpc::ClientContext ctx;
+  auto ctx = testing::ContextWithin();
   v1::SubmitBakeRequest lookup;
   *lookup.mutable_mesh() = helmet;
   lookup.mutable_parameters()->set_frames(12);
   lookup.mutable_parameters()->set_resolution(2048);
   v1::LookupBakeResponse found;
-  ASSERT_TRUE(server.bake().LookupBake(&ctx, lookup, &found).ok());
+  ASSERT_TRUE(server.bake().LookupBake(ctx.get(), lookup, &found).ok());
   EXPECT_FALSE(found.found()) << "the cancelled bake must not have run to the end";
+  // Informational (speed belongs in bench/): how long the worker took to let go.
   std::printf("farm survival: cancelled bake released its worker after %.2f s\n", freed_after);
 }
 
@@ -250,8 +256,7 @@ namespace {
 
 TEST(FarmLimits, AMeshOverTheWorkersTriangleLimitFailsNamingTheLimit) {
   testing::ServerProcess server(/*local_workers=*/0);
-  ChildProcess worker({(testing::BinaryDir() / "impostor-worker").string(), "--server=" + server.address(),
-                       "--max-triangles=1000", "--log-level=warn"});
+  auto worker = testing::StartWorker(server.address(), {"--max-triangles=1000"});
   const v1::MeshInput duck = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Duck/glTF-Binary/Duck.glb");
   const v1::SubmitBakeResponse job = Submit(server.bake(), duck, 2, 64);
   const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());

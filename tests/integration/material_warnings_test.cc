@@ -12,6 +12,7 @@
 #include "common/manifest_json.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
+#include "tests/integration/sdk_watch.h"
 #include "tests/integration/server_process.h"
 
 namespace impostor {
@@ -36,7 +37,7 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   const sdk::BakeSettings settings{.frames = 2, .resolution = 64};
   auto submitted = (*client)->SubmitBake(AssetsDir() / kPrimitiveModes, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
-  auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+  auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
   ASSERT_TRUE(done.ok()) << done.status();
   ASSERT_EQ(done->state, sdk::JobState::kSucceeded) << done->error_message;
   const fs::path out = testing::NewTempDir("warnings_fetch");
@@ -74,7 +75,7 @@ TEST(MaterialWarningsEndToEnd, MissingTextureFileFailsTheBakeNamingTheFile) {
   if (!submitted.ok()) {
     message = std::string(submitted.status().message());  // refused before upload
   } else {
-    auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+    auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
     ASSERT_TRUE(done.ok()) << done.status();
     EXPECT_EQ(done->state, sdk::JobState::kFailed);
     message = done->error_message;
@@ -92,7 +93,7 @@ TEST(MaterialWarningsEndToEnd, EmissiveMapIsBakedListedAndFetched) {
   settings.emissive = true;
   auto submitted = (*client)->SubmitBake(AssetsDir() / model, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
-  auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+  auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
   ASSERT_TRUE(done.ok()) << done.status();
   ASSERT_EQ(done->state, sdk::JobState::kSucceeded) << done->error_message;
   const fs::path out = testing::NewTempDir("emissive_fetch");

@@ -4,10 +4,12 @@
 #include <filesystem>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "common/manifest_json.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
+#include "tests/integration/sdk_watch.h"
 #include "tests/integration/server_process.h"
 
 namespace impostor {
@@ -29,7 +31,7 @@ TEST(SdkEndToEnd, BakesAGltfWithExternalFilesAndFetchesItVerified) {
   ASSERT_TRUE(submitted.ok()) << submitted.status();
   EXPECT_EQ(submitted->upload.files, 4) << "the .gltf, its .bin and two textures";
   EXPECT_EQ(submitted->upload.uploaded, 4);
-  auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+  auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
   ASSERT_TRUE(done.ok()) << done.status();
   ASSERT_EQ(done->state, sdk::JobState::kSucceeded) << done->error_message;
 
@@ -60,11 +62,21 @@ TEST(SdkEndToEnd, BakesAGltfWithExternalFilesAndFetchesItVerified) {
   EXPECT_GT(refetched->bytes_reused, 0);
 }
 
+// The --json line of `impostor bake` (the last line starting with '{').
+nlohmann::json BakeJson(const std::string& stdout_text) {
+  const size_t at = stdout_text.rfind("\n{", stdout_text.size() - 2);
+  const std::string line = stdout_text.substr(at == std::string::npos ? 0 : at + 1);
+  return nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
+}
+
 struct CliCase {
   const char* name;
   std::vector<std::string> args;  // after "impostor", --server added
   int exit_code;
-  const char* stdout_mentions;
+  // For exit 0: the --json line's "cached". Otherwise: what the one
+  // "impostor: ..." line on stderr must say.
+  bool cached;
+  const char* stderr_mentions;
 };
 
 TEST(CliEndToEnd, ExitCodesSayWhatHappened) {
@@ -73,13 +85,14 @@ TEST(CliEndToEnd, ExitCodesSayWhatHappened) {
   const std::string box = (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string();
   const CliCase cases[] = {
       {"bake succeeds", {"bake", box, "--frames", "2", "--resolution", "64", "--out", out.string(), "--json"}, 0,
-       "\"cached\""},
+       false, ""},
       {"bake again is cached", {"bake", box, "--frames", "2", "--resolution", "64", "--out", out.string(), "--json"},
-       0, "\"cached\":true"},
-      {"out-of-range frames", {"bake", box, "--frames", "80", "--out", out.string()}, 1, ""},
-      {"missing model", {"bake", "/nonexistent/model.glb", "--out", out.string()}, 4, ""},
-      {"unknown flag", {"bake", box, "--out", out.string(), "--colour", "red"}, 2, ""},
-      {"unreachable server", {"status", "job-x", "--server", "127.0.0.1:1"}, 3, ""},
+       0, true, ""},
+      {"out-of-range frames", {"bake", box, "--frames", "80", "--out", out.string()}, 1, false,
+       "impostor: bake failed: INVALID_ARGUMENT: parameters.frames: 80 is out of range"},
+      {"missing model", {"bake", "/nonexistent/model.glb", "--out", out.string()}, 4, false, "/nonexistent/model.glb"},
+      {"unknown flag", {"bake", box, "--out", out.string(), "--colour", "red"}, 2, false, "colour"},
+      {"unreachable server", {"status", "job-x", "--server", "127.0.0.1:1"}, 3, false, "127.0.0.1:1"},
   };
   for (const CliCase& c : cases) {
     std::vector<std::string> argv = {(testing::BinaryDir() / "impostor").string()};
@@ -88,10 +101,16 @@ TEST(CliEndToEnd, ExitCodesSayWhatHappened) {
       argv.push_back("--server");
       argv.push_back(server.address());
     }
-    testing::ChildProcess cli(argv);
-    std::string stdout_text;
-    EXPECT_EQ(cli.Wait(&stdout_text), c.exit_code) << c.name;
-    EXPECT_NE(stdout_text.find(c.stdout_mentions), std::string::npos) << c.name << ": " << stdout_text;
+    const testing::ToolRun run = testing::RunTool(argv);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << "\nstdout: " << run.out << "\nstderr: " << run.err;
+    if (c.exit_code == 0) {
+      const nlohmann::json line = BakeJson(run.out);
+      ASSERT_TRUE(line.is_object()) << c.name << ": no JSON line in " << run.out;
+      EXPECT_EQ(line.value("cached", !c.cached), c.cached) << c.name << ": " << line.dump();
+      EXPECT_EQ(line.value("cache_key", std::string()).size(), 64u) << c.name << ": " << line.dump();
+    } else {
+      EXPECT_NE(run.err.find(c.stderr_mentions), std::string::npos) << c.name << ": stderr: " << run.err;
+    }
   }
   EXPECT_TRUE(fs::exists(out / "albedo_alpha.png"));
   EXPECT_TRUE(fs::exists(out / "manifest.json"));

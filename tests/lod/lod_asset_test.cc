@@ -35,7 +35,9 @@ struct AssetCase {
 // the report beside the file.
 int Validate(const fs::path& glb, std::string* report) {
   const fs::path out = glb.string() + ".report.json";
-  const std::string cmd = std::string(IMPOSTOR_GLTF_VALIDATOR) + " '" + glb.string() + "' > '" + out.string() + "'";
+  // Bounded: `timeout` ends a hung validator (exit 124, a failure naming the file).
+  const std::string cmd =
+      "timeout 300 " + std::string(IMPOSTOR_GLTF_VALIDATOR) + " '" + glb.string() + "' > '" + out.string() + "'";
   const int rc = std::system(cmd.c_str());
   std::ifstream in(out);
   std::stringstream text;

@@ -137,9 +137,10 @@ TEST_F(LodBakeTest, TreeChainHasOrderedLevelsSharedTexturesAndThresholds) {
   // Every level validates.
   for (int i = 0; i < 3; ++i) {
     const fs::path glb = dir / m.lods(i).file();
-    const std::string cmd = std::string(IMPOSTOR_GLTF_VALIDATOR) + " '" + glb.string() + "' > /dev/null";
+    // Bounded: `timeout` ends a hung validator (exit 124).
+    const std::string cmd = "timeout 300 " + std::string(IMPOSTOR_GLTF_VALIDATOR) + " '" + glb.string() + "' > /dev/null";
     const int rc = std::system(cmd.c_str());
-    EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 0) << glb;
+    EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 0) << glb << ": validator exit " << (WIFEXITED(rc) ? WEXITSTATUS(rc) : -1);
   }
 
 #ifdef IMPOSTOR_HAVE_LOD_SDK

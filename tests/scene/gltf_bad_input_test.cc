@@ -219,7 +219,7 @@ std::vector<BadCase> Cases() {
 }
 
 TEST(GltfBadInputTest, EachCaseFailsWithANamedReason) {
-  if (!fs::exists(testing::AssetsDir())) GTEST_SKIP() << "no assets";
+  ASSERT_TRUE(fs::exists(testing::AssetsDir())) << "test assets missing: " << testing::AssetsDir();
   for (const BadCase& c : Cases()) {
     const fs::path dir = testing::MakeScratchDir("bad");
     const fs::path entry = c.make(dir);
@@ -233,10 +233,12 @@ TEST(GltfBadInputTest, EachCaseFailsWithANamedReason) {
 }
 
 // The Khronos glTF-Validator corpus: hundreds of malformed files. The loader
-// must return (ok, or an error with a message) quickly for every one.
+// must return (ok, or an error with a message) for every one; the slowest is
+// reported (a hang is caught by the test's ctest timeout; speed is bench/
+// material, not a pass/fail threshold on a shared machine).
 TEST(GltfBadInputTest, ValidatorCorpusNeverCrashesOrHangs) {
   const fs::path root = Asset("edge_cases/gltf-validator-tests");
-  if (!fs::exists(root)) GTEST_SKIP() << "no validator corpus";
+  ASSERT_TRUE(fs::exists(root)) << "validator corpus missing: " << root;
   // IMPOSTOR_VERBOSE_SWEEP=1 prints every file's outcome.
   const bool verbose = std::getenv("IMPOSTOR_VERBOSE_SWEEP") != nullptr;
   int ok = 0, failed = 0;
@@ -254,7 +256,6 @@ TEST(GltfBadInputTest, ValidatorCorpusNeverCrashesOrHangs) {
       slowest_ms = ms;
       slowest = rel;
     }
-    EXPECT_LT(ms, 5000.0) << rel;
     if (verbose) {
       std::printf("[ sweep  ] %s: %s\n", rel.c_str(),
                   scene.ok() ? "ok" : std::string(scene.status().message()).c_str());
@@ -296,14 +297,25 @@ TEST(GltfBadInputTest, MutatedFilesNeverCrash) {
                          "edge_cases/khronos/MeshPrimitiveModes/glTF/MeshPrimitiveModes.gltf"};
   std::mt19937 rng(1234);
   int mutants = 0, loaded = 0;
+  constexpr int kMutantsPerSeed = 150;
   for (const char* rel : seeds) {
     const fs::path src = Asset(rel);
-    if (!fs::exists(src)) continue;
+    // A missing seed would make this test pass without testing anything.
+    ASSERT_TRUE(fs::exists(src)) << "seed file missing: " << src;
     std::ifstream in(src, std::ios::binary);
     const std::string original((std::istreambuf_iterator<char>(in)), {});
+    ASSERT_FALSE(original.empty()) << rel;
     const fs::path dir = testing::MakeScratchDir("fuzz");
+    // The seed's own buffers and images beside it, so that mutants of a
+    // .gltf get past resolving its external files into the parts that read them.
+    for (const auto& sibling : fs::directory_iterator(src.parent_path())) {
+      if (sibling.is_regular_file() && sibling.path() != src) fs::copy_file(sibling.path(), dir / sibling.path().filename());
+    }
     const fs::path entry = dir / src.filename();
-    for (int i = 0; i < 150; ++i) {
+    WriteFile(entry, original);
+    const absl::StatusOr<Scene> unmutated = LoadGltfScene(entry);
+    ASSERT_TRUE(unmutated.ok()) << rel << ": the seed itself must load: " << unmutated.status();
+    for (int i = 0; i < kMutantsPerSeed; ++i) {
       std::string bytes = original;
       const int kind = static_cast<int>(rng() % 4);
       if (kind == 0) {  // flip a few bytes
@@ -328,13 +340,14 @@ TEST(GltfBadInputTest, MutatedFilesNeverCrash) {
       ++mutants;
       if (scene.ok()) {
         ++loaded;
-        for (uint32_t index : scene->indices) ASSERT_LT(index, scene->vertices.size()) << rel;
+        for (uint32_t index : scene->indices) ASSERT_LT(index, scene->vertices.size()) << rel << " mutant " << i;
       } else {
         EXPECT_FALSE(scene.status().message().empty()) << rel << " mutant " << i;
       }
     }
     fs::remove_all(dir);
   }
+  EXPECT_EQ(mutants, kMutantsPerSeed * static_cast<int>(std::size(seeds)));
   std::printf("[ info   ] %d mutants, %d still loaded\n", mutants, loaded);
 }
 

@@ -12,6 +12,7 @@
 #include "common/manifest_json.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
+#include "tests/integration/sdk_watch.h"
 #include "tests/integration/server_process.h"
 #include "tests/surfels/mesh_distance.h"
 #include "worker/scene/gltf_loader.h"
@@ -36,7 +37,7 @@ TEST(SurfelService, BakesAFoliageAssetWithTheVegetationPresetAndFetchesTheCloud)
   const auto start = std::chrono::steady_clock::now();
   auto submitted = (*client)->SubmitBake(AssetsDir() / kTree, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
-  auto done = (*client)->WatchJob(submitted->job_id, [](const sdk::JobUpdate&) {});
+  auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
   ASSERT_TRUE(done.ok()) << done.status();
   ASSERT_EQ(done->state, sdk::JobState::kSucceeded) << done->error_message;
   const double bake_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -118,16 +119,17 @@ TEST(SurfelService, CliBakesSurfelsAndRefusesBadParametersClearly) {
        "unknown preset \\\"forest\\\""},
       {"budget on an atlas", {"bake", box, "--point-budget", "100", "--out", out.string()}, 1,
        "only for product PRODUCT_SURFELS"},
-      {"unknown product", {"bake", box, "--product", "voxels", "--out", out.string()}, 2, ""},
+      {"unknown product", {"bake", box, "--product", "voxels", "--out", out.string()}, 2,
+       "impostor: --product: unknown product \"voxels\""},
   };
   for (const CliCase& c : cases) {
     std::vector<std::string> argv = {(testing::BinaryDir() / "impostor").string()};
     argv.insert(argv.end(), c.args.begin(), c.args.end());
     for (const char* a : {"--server", server.address().c_str(), "--json"}) argv.push_back(a);
-    testing::ChildProcess cli(argv);
-    std::string stdout_text;
-    EXPECT_EQ(cli.Wait(&stdout_text), c.exit_code) << c.name << ": " << stdout_text;
-    EXPECT_NE(stdout_text.find(c.stdout_mentions), std::string::npos) << c.name << ": " << stdout_text;
+    // The reason of a failure is on stdout (--json) or on stderr (usage).
+    const testing::ToolRun run = testing::RunTool(argv);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.out << run.err;
+    EXPECT_NE((run.out + run.err).find(c.stdout_mentions), std::string::npos) << c.name << ": " << run.out << run.err;
   }
   auto manifest = ManifestFromJson(testing::ReadFileBytes(out / "manifest.json"));
   ASSERT_TRUE(manifest.ok()) << manifest.status();
