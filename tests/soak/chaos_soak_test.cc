@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -146,7 +147,9 @@ TEST(ChaosSoak, NothingIsLostWhileWorkersAndTheServerAreKilled) {
   };
 
   // The driver: random kills, seeded so a failure can be replayed.
-  const unsigned seed = std::random_device{}();
+  // IMPOSTOR_CHAOS_SEED replays a run.
+  const char* seed_env = std::getenv("IMPOSTOR_CHAOS_SEED");
+  const unsigned seed = seed_env ? static_cast<unsigned>(std::strtoul(seed_env, nullptr, 10)) : std::random_device{}();
   std::printf("chaos soak: seed %u\n", seed);
   int worker_kills = 0, server_kills = 0;
   std::atomic<bool> driver_stop{false};
@@ -155,23 +158,23 @@ TEST(ChaosSoak, NothingIsLostWhileWorkersAndTheServerAreKilled) {
     // A restart that fails throws (the harness has already reported why);
     // the driver then stops striking and the test fails below.
     try {
-    std::mt19937 rng(seed);
-    const auto chaos_until = std::chrono::steady_clock::now() + kChaosFor;
-    while (!driver_stop && clients_done < kClients && std::chrono::steady_clock::now() < chaos_until) {
-      // The pause between blows is the chaos itself, not synchronisation.
-      std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(1500, 6000)(rng)));
-      if (std::uniform_int_distribution<int>(0, 3)(rng) == 0) {
-        server.Kill();
-        std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(200, 3000)(rng)));
-        server.Restart();
-        ++server_kills;
-      } else {
-        const size_t w = std::uniform_int_distribution<size_t>(0, workers.size() - 1)(rng);
-        workers[w]->KillAndReap();
-        workers[w] = testing::StartWorker(address, {"--heartbeat-s=1"});
-        ++worker_kills;
+      std::mt19937 rng(seed);
+      const auto chaos_until = std::chrono::steady_clock::now() + kChaosFor;
+      while (!driver_stop && clients_done < kClients && std::chrono::steady_clock::now() < chaos_until) {
+        // The pause between blows is the chaos itself, not synchronisation.
+        std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(1500, 6000)(rng)));
+        if (std::uniform_int_distribution<int>(0, 3)(rng) == 0) {
+          server.Kill();
+          std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(200, 3000)(rng)));
+          server.Restart();
+          ++server_kills;
+        } else {
+          const size_t w = std::uniform_int_distribution<size_t>(0, workers.size() - 1)(rng);
+          workers[w]->KillAndReap();
+          workers[w] = testing::StartWorker(address, {"--heartbeat-s=1"});
+          ++worker_kills;
+        }
       }
-    }
     } catch (...) {
       driver_failed = true;
     }
