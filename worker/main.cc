@@ -109,19 +109,19 @@ int main(int argc, char** argv) {
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
                             std::move(*renderer));
 
-  // SIGTERM/SIGINT: drain (no new job; the current one finishes within
-  // --drain-seconds or is handed back). A second signal hands it back now;
-  // a third ends the process at once.
+  // SIGTERM: drain (no new job; the current one finishes within
+  // --drain-seconds or is handed back). SIGINT (Ctrl-C, or the death of a
+  // supervising server) or a second SIGTERM: hand it back now. A third
+  // signal ends the process at once.
   std::thread([&] {
-    int sig = 0;
-    sigwait(&signals, &sig);
-    spdlog::info("event=draining signal={} drain_s={}", sig, drain_seconds);
-    loop.Drain(std::chrono::seconds(drain_seconds));
-    sigwait(&signals, &sig);
-    spdlog::info("event=draining signal={} drain_s=0", sig);
-    loop.Drain(std::chrono::seconds(0));
-    sigwait(&signals, &sig);
-    std::_Exit(1);
+    for (int received = 1;; ++received) {
+      int sig = 0;
+      sigwait(&signals, &sig);
+      if (received >= 3) std::_Exit(1);
+      const int budget = (sig == SIGTERM && received == 1) ? drain_seconds : 0;
+      spdlog::info("event=draining signal={} drain_s={}", sig, budget);
+      loop.Drain(std::chrono::seconds(budget));
+    }
   }).detach();
 
   spdlog::info("event=worker_ready server={}", absl::GetFlag(FLAGS_server));

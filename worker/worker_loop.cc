@@ -164,11 +164,17 @@ void WorkerLoop::Drain(std::chrono::seconds budget) {
 bool WorkerLoop::DrainDue() const { return drain_deadline_ && Clock::now() >= *drain_deadline_; }
 
 grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call) {
-  const auto give_up = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
+  const auto outage_end = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
+  // A draining worker does not wait out a long outage: past its drain
+  // deadline (and a moment for the last call) the lease expires by itself.
+  auto give_up = [&] {
+    std::lock_guard lock(job_mu_);
+    return drain_deadline_ ? std::min(outage_end, *drain_deadline_ + std::chrono::seconds(1)) : outage_end;
+  };
   auto backoff = std::chrono::milliseconds(200);
   while (true) {
     const grpc::Status s = call();
-    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up) return s;
+    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up()) return s;
     spdlog::warn("event=rpc_retry rpc={} error=\"{}\" retry_ms={}", std::string(rpc), s.error_message(),
                  backoff.count());
     channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
