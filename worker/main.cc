@@ -75,12 +75,12 @@ int main(int argc, char** argv) {
 
   const int drain_seconds = absl::GetFlag(FLAGS_drain_seconds);
   if (drain_seconds < 0 || drain_seconds > 3600) {
-    std::fprintf(stderr, "impostor-worker: --drain-seconds must be in 0..3600\n");
+    std::fprintf(stderr, "impostor-worker: --drain-seconds: %d is out of range 0..3600\n", drain_seconds);
     return 2;
   }
   const int max_outage_seconds = absl::GetFlag(FLAGS_max_outage_seconds);
   if (max_outage_seconds < 1 || max_outage_seconds > 86400) {
-    std::fprintf(stderr, "impostor-worker: --max-outage-seconds must be in 1..86400\n");
+    std::fprintf(stderr, "impostor-worker: --max-outage-seconds: %d is out of range 1..86400\n", max_outage_seconds);
     return 2;
   }
 

@@ -208,3 +208,19 @@ TEST(WorkerOutage, OutOfRangeDrainAndOutageFlagsAreUsageErrors) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(ServerFlags, OutOfRangeShutdownAndPauseFlagsAreUsageErrors) {
+  const fs::path data = testing::NewTempDir("server_bad_flags");
+  for (const char* flag : {"--shutdown-grace-seconds=0", "--shutdown-grace-seconds=3601", "--worker-failure-limit=-1",
+                           "--worker-failure-limit=1001", "--worker-pause-seconds=0"}) {
+    testing::ChildProcess server({(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                                  "--data=" + data.string(), flag});
+    EXPECT_EQ(server.Wait(), 2) << flag;
+  }
+}
+
+}  // namespace
+}  // namespace impostor
