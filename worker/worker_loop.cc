@@ -182,6 +182,17 @@ grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::fun
   }
 }
 
+absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
+  // A finished bake is worth keeping through a server restart: the lease
+  // survives it, so the upload and CompleteJob can go through afterwards.
+  absl::Status outcome;
+  RetryThroughOutage("UploadBlob", [&] {
+    outcome = UploadFile(*assets_, path, digest);
+    return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+  });
+  return outcome;
+}
+
 void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reason) {
   v1::ReleaseJobRequest r;
   r.set_job_id(job.job_id());
@@ -318,9 +329,9 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     progress("upload", 0.96);
     const auto t = Clock::now();
     for (const auto& map : result->manifest.maps()) {
-      if (outcome = UploadFile(*assets_, output_dir / map.file(), map.digest()); !outcome.ok()) break;
+      if (outcome = UploadThroughOutage(output_dir / map.file(), map.digest()); !outcome.ok()) break;
     }
-    if (outcome.ok()) outcome = UploadFile(*assets_, result->manifest_path, result->manifest.manifest_json());
+    if (outcome.ok()) outcome = UploadThroughOutage(result->manifest_path, result->manifest.manifest_json());
     result->manifest.mutable_timings()->set_store_seconds(std::chrono::duration<double>(Clock::now() - t).count());
   }
   {
