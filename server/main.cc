@@ -90,11 +90,11 @@ int main(int argc, char** argv) {
   if (max_attempts < 1 || max_attempts > 100) return Fail("--max-attempts: must be in 1..100");
 
   const int grace_s = absl::GetFlag(FLAGS_shutdown_grace_seconds);
-  if (grace_s < 1 || grace_s > 3600) return Fail("--shutdown-grace-seconds: must be in 1..3600");
+  if (grace_s < 1 || grace_s > 3600) return Fail("--shutdown-grace-seconds: " + std::to_string(grace_s) + " is out of range 1..3600");
   const int worker_failure_limit = absl::GetFlag(FLAGS_worker_failure_limit);
-  if (worker_failure_limit < 0 || worker_failure_limit > 1000) return Fail("--worker-failure-limit: must be in 0..1000");
+  if (worker_failure_limit < 0 || worker_failure_limit > 1000) return Fail("--worker-failure-limit: " + std::to_string(worker_failure_limit) + " is out of range 0..1000");
   const int worker_pause_s = absl::GetFlag(FLAGS_worker_pause_seconds);
-  if (worker_pause_s < 1 || worker_pause_s > 86400) return Fail("--worker-pause-seconds: must be in 1..86400");
+  if (worker_pause_s < 1 || worker_pause_s > 86400) return Fail("--worker-pause-seconds: " + std::to_string(worker_pause_s) + " is out of range 1..86400");
 
   const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
   const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);

@@ -61,7 +61,9 @@ pid_t WorkerSupervisor::Spawn(int index) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     // Only async-signal-safe calls between fork and exec.
-    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    // A worker whose server died hands its job back at once (SIGINT), not
+    // after a drain: nobody can take its result.
+    ::prctl(PR_SET_PDEATHSIG, SIGINT);
     // The server blocks SIGTERM/SIGINT for its signal thread; a worker
     // starts with none blocked.
     sigset_t none;

@@ -2,8 +2,8 @@
 // restarts any that exits, with exponential backoff (1 s doubling to 30 s)
 // when a worker keeps dying young. Children get SIGTERM when the supervisor
 // stops (they drain: finish or hand back their job), SIGKILL if they outlive
-// the stop deadline, and die with the server (PR_SET_PDEATHSIG) if it is
-// killed. Every exit is reported to `on_exit` with the worker's id and how
+// the stop deadline, and SIGINT (hand the job back now) if the server is
+// killed (PR_SET_PDEATHSIG). Every exit is reported to `on_exit` with the worker's id and how
 // it ended, so the scheduler can end a dead worker's lease at once.
 //
 // Thread-safety: Start and Stop from one thread; the supervisor owns one

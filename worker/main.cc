@@ -80,12 +80,12 @@ int main(int argc, char** argv) {
 
   const int drain_seconds = absl::GetFlag(FLAGS_drain_seconds);
   if (drain_seconds < 0 || drain_seconds > 3600) {
-    std::fprintf(stderr, "impostor-worker: --drain-seconds must be in 0..3600\n");
+    std::fprintf(stderr, "impostor-worker: --drain-seconds: %d is out of range 0..3600\n", drain_seconds);
     return 2;
   }
   const int max_outage_seconds = absl::GetFlag(FLAGS_max_outage_seconds);
   if (max_outage_seconds < 1 || max_outage_seconds > 86400) {
-    std::fprintf(stderr, "impostor-worker: --max-outage-seconds must be in 1..86400\n");
+    std::fprintf(stderr, "impostor-worker: --max-outage-seconds: %d is out of range 1..86400\n", max_outage_seconds);
     return 2;
   }
 
@@ -119,19 +119,19 @@ int main(int argc, char** argv) {
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
                             std::move(*renderer));
 
-  // SIGTERM/SIGINT: drain (no new job; the current one finishes within
-  // --drain-seconds or is handed back). A second signal hands it back now;
-  // a third ends the process at once.
+  // SIGTERM: drain (no new job; the current one finishes within
+  // --drain-seconds or is handed back). SIGINT (Ctrl-C, or the death of a
+  // supervising server) or a second SIGTERM: hand it back now. A third
+  // signal ends the process at once.
   std::thread([&] {
-    int sig = 0;
-    sigwait(&signals, &sig);
-    spdlog::info("event=draining signal={} drain_s={}", sig, drain_seconds);
-    loop.Drain(std::chrono::seconds(drain_seconds));
-    sigwait(&signals, &sig);
-    spdlog::info("event=draining signal={} drain_s=0", sig);
-    loop.Drain(std::chrono::seconds(0));
-    sigwait(&signals, &sig);
-    std::_Exit(1);
+    for (int received = 1;; ++received) {
+      int sig = 0;
+      sigwait(&signals, &sig);
+      if (received >= 3) std::_Exit(1);
+      const int budget = (sig == SIGTERM && received == 1) ? drain_seconds : 0;
+      spdlog::info("event=draining signal={} drain_s={}", sig, budget);
+      loop.Drain(std::chrono::seconds(budget));
+    }
   }).detach();
 
   spdlog::info("event=worker_ready server={}", absl::GetFlag(FLAGS_server));

@@ -194,16 +194,33 @@ void WorkerLoop::Drain(std::chrono::seconds budget) {
 bool WorkerLoop::DrainDue() const { return drain_deadline_ && Clock::now() >= *drain_deadline_; }
 
 grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call) {
-  const auto give_up = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
+  const auto outage_end = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
+  // A draining worker does not wait out a long outage: past its drain
+  // deadline (and a moment for the last call) the lease expires by itself.
+  auto give_up = [&] {
+    std::lock_guard lock(job_mu_);
+    return drain_deadline_ ? std::min(outage_end, *drain_deadline_ + std::chrono::seconds(1)) : outage_end;
+  };
   auto backoff = std::chrono::milliseconds(200);
   while (true) {
     const grpc::Status s = call();
-    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up) return s;
+    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up()) return s;
     spdlog::warn("event=rpc_retry rpc={} error=\"{}\" retry_ms={}", std::string(rpc), s.error_message(),
                  backoff.count());
     channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
   }
+}
+
+absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
+  // A finished bake is worth keeping through a server restart: the lease
+  // survives it, so the upload and CompleteJob can go through afterwards.
+  absl::Status outcome;
+  RetryThroughOutage("UploadBlob", [&] {
+    outcome = UploadFile(*assets_, path, digest);
+    return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+  });
+  return outcome;
 }
 
 void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reason) {
@@ -351,9 +368,9 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     progress("upload", 0.96);
     const auto t = Clock::now();
     for (const auto& map : result->manifest.maps()) {
-      if (outcome = UploadFile(*assets_, output_dir / map.file(), map.digest()); !outcome.ok()) break;
+      if (outcome = UploadThroughOutage(output_dir / map.file(), map.digest()); !outcome.ok()) break;
     }
-    if (outcome.ok()) outcome = UploadFile(*assets_, result->manifest_path, result->manifest.manifest_json());
+    if (outcome.ok()) outcome = UploadThroughOutage(result->manifest_path, result->manifest.manifest_json());
     result->manifest.mutable_timings()->set_store_seconds(std::chrono::duration<double>(Clock::now() - t).count());
   }
   {

@@ -90,6 +90,8 @@ class WorkerLoop {
 
  private:
   void ProcessJob(const v1::LeasedJob& job);
+  // Uploads one output file, retrying through an outage.
+  absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
   // Hands a lease back to the server (retrying through an outage).
   void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
   // Runs `call` until it answers something other than UNAVAILABLE or the

@@ -208,3 +208,61 @@ TEST(WorkerOutage, OutOfRangeDrainAndOutageFlagsAreUsageErrors) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(ServerFlags, OutOfRangeShutdownAndPauseFlagsAreUsageErrors) {
+  const fs::path data = testing::NewTempDir("server_bad_flags");
+  for (const char* flag : {"--shutdown-grace-seconds=0", "--shutdown-grace-seconds=3601", "--worker-failure-limit=-1",
+                           "--worker-failure-limit=1001", "--worker-pause-seconds=0"}) {
+    testing::ChildProcess server({(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                                  "--data=" + data.string(), flag});
+    EXPECT_EQ(server.Wait(), 2) << flag;
+  }
+}
+
+}  // namespace
+}  // namespace impostor
+
+namespace impostor {
+namespace {
+
+// The server is killed while a worker is mid-bake and comes back on the same
+// data directory and port: the worker's finished bake is uploaded and
+// completed under its old lease (which survived the restart) instead of
+// being dropped and baked again after the lease expires.
+TEST(WorkerOutage, AFinishedBakeIsDeliveredOnceTheServerIsBack) {
+  const std::string address = "127.0.0.1:" + std::to_string(testing::FreeLoopbackPort());
+  const fs::path data = testing::NewTempDir("outage_delivery_data");
+  auto server = std::make_unique<testing::ServerProcess>(0, data, address);
+  const fs::path pause = testing::NewTempDir("outage_delivery") / "pause";
+  testing::Touch(pause);
+  // The worker's log on its stdout, to see it retry the upload.
+  std::unique_ptr<testing::ChildProcess> worker;
+  {
+    testing::ScopedEnv env(std::map<std::string, std::string>{{kPauseEnv, pause.string()}});
+    worker = std::make_unique<testing::ChildProcess>(std::vector<std::string>{
+        "/bin/sh", "-c",
+        "exec " + (testing::BinaryDir() / "impostor-worker").string() + " --server=" + address +
+            " --name=patient --log-level=warn 2>&1"});
+  }
+  const v1::MeshInput mesh = testing::UploadGlb(server->assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server->bake(), mesh);
+  ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server->bake(), job.job_id(), PausedAtRender)));
+
+  ::kill(server->process().pid(), SIGKILL);
+  server->process().Terminate();  // reaps it
+  fs::remove(pause);              // the bake finishes while the server is away
+  // Its first retried call is the upload (not a FailJob of the bake).
+  const std::string retry = worker->ReadLineContaining("event=rpc_retry");
+  ASSERT_NE(retry.find("rpc=UploadBlob"), std::string::npos) << retry;
+  server = std::make_unique<testing::ServerProcess>(0, data, address);
+  const v1::Job done = testing::WatchToEnd(server->bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.attempts(), 1u) << "delivered under the first lease, not re-baked after it expired";
+  EXPECT_TRUE(StartsWith(done.worker_id(), "patient-")) << done.worker_id();
+}
+
+}  // namespace
+}  // namespace impostor

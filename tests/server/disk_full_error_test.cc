@@ -10,13 +10,13 @@
 namespace impostor {
 namespace {
 
-TEST(DiskFull, OnlyNoSpaceAndQuotaCount) {
+TEST(DiskFullError, OnlyNoSpaceAndQuotaCount) {
   EXPECT_TRUE(IsDiskFull(ENOSPC));
   EXPECT_TRUE(IsDiskFull(EDQUOT));
   for (int other : {0, EIO, EACCES, EROFS, ENOENT}) EXPECT_FALSE(IsDiskFull(other)) << other;
 }
 
-TEST(DiskFull, FreeBytesAsksTheNearestExistingFolder) {
+TEST(DiskFullError, FreeBytesAsksTheNearestExistingFolder) {
   const std::filesystem::path tmp = std::filesystem::temp_directory_path();
   const int64_t here = FreeBytes(tmp);
   EXPECT_GT(here, 0);
@@ -24,7 +24,7 @@ TEST(DiskFull, FreeBytesAsksTheNearestExistingFolder) {
   EXPECT_GT(FreeBytes(tmp / "not-created-yet" / "blob.tmp"), 0);
 }
 
-TEST(DiskFull, TheErrorNamesThePathTheCauseAndTheFreeSpace) {
+TEST(DiskFullError, TheErrorNamesThePathTheCauseAndTheFreeSpace) {
   const std::filesystem::path file = std::filesystem::temp_directory_path() / "x.tmp";
   const absl::Status s = DiskFullError("write", file, "No space left on device");
   EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted);
