@@ -5,6 +5,7 @@
 #include <fstream>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -166,6 +167,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   double fraction = 0.0;
   bool stage_changed = true;
   bool done = false;
+  Clock::time_point last_progress = Clock::now();  // stage or fraction last changed
 
   auto report = [&](const std::string& st, double f) {
     v1::ReportProgressRequest r;
@@ -186,10 +188,18 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     }
   };
   std::thread heartbeat([&] {
+    bool stalled = false;
     std::unique_lock lock(mu);
     while (!done) {
       wake.wait_for(lock, std::chrono::seconds(options_.heartbeat_seconds), [&] { return done || stage_changed; });
       if (done) break;
+      if (Clock::now() - last_progress > std::chrono::seconds(options_.stall_seconds)) {
+        // No progress: let the lease run out instead of renewing it.
+        if (!std::exchange(stalled, true)) {
+          spdlog::warn("event=job_stalled job={} stage={} seconds={}", job.job_id(), stage, options_.stall_seconds);
+        }
+        continue;
+      }
       const std::string st = stage;
       const double f = fraction;
       stage_changed = false;
@@ -203,6 +213,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     {
       std::lock_guard lock(mu);
       if (st != stage) stage_changed = entered_stage = true;
+      if (st != stage || f != fraction) last_progress = Clock::now();
       stage = std::string(st);
       fraction = f;
       if (stage_changed) wake.notify_all();
