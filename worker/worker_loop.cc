@@ -298,7 +298,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     const grpc::Status s = workers_->CompleteJob(ctx.get(), r, &resp);
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
-                 s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
+                 s.ok() ? "" : absl::StrCat(" error=\"", EscapeUntrusted(s.error_message()), "\""));
     // A refused result is failed now, with the reason, rather than left to
     // time out and be baked again three times (issue 23).
     if (ResultRefusedForGood(s.error_code())) {
