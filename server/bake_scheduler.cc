@@ -367,7 +367,7 @@ absl::StatusOr<v1::Job> BakeScheduler::CancelJob(const std::string& job_id) {
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
   if (IsTerminal(View(*r).state())) return View(*r);
-  spdlog::info("event=cancel job={}", job_id);
+  spdlog::info("event=cancel job=\"{}\"", EscapeUntrusted(job_id, 128));
   if (!r->leader_job_id.empty()) {
     // A follower leaves; the bake goes on for whoever else wants it.
     r->job.set_state(v1::JOB_STATE_CANCELLED);

@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -26,6 +27,7 @@ ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (
 ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
 ABSL_FLAG(int, max_jobs, 0, "Exit after this many jobs (0 = serve forever)");
 ABSL_FLAG(int, heartbeat_s, 1, "Seconds between lease renewals and cancel checks while baking (1..60)");
+ABSL_FLAG(int, stall_s, 1800, "Stop renewing a job whose progress has not moved for this many seconds (1..86400)");
 ABSL_FLAG(uint64_t, max_triangles, 20'000'000, "Largest mesh accepted, triangles as drawn (>= 1)");
 ABSL_FLAG(int, max_texture_dimension, 16384, "Largest texture side accepted, pixels (1..65536)");
 ABSL_FLAG(int, drain_seconds, 60,
@@ -104,6 +106,7 @@ int main(int argc, char** argv) {
                              .worker_id = worker_id,
                              .scratch_dir = scratch,
                              .heartbeat_seconds = heartbeat,
+                             .stall_seconds = std::clamp(absl::GetFlag(FLAGS_stall_s), 1, 86400),
                              .max_jobs = absl::GetFlag(FLAGS_max_jobs),
                              .load_limits = {.max_triangles = absl::GetFlag(FLAGS_max_triangles),
                                              .max_texture_dimension = absl::GetFlag(FLAGS_max_texture_dimension),

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -252,6 +253,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   double fraction = 0.0;
   bool stage_changed = true;
   bool done = false;
+  Clock::time_point last_progress = Clock::now();  // stage or fraction last changed
 
   auto report = [&](const std::string& st, double f) {
     v1::ReportProgressRequest r;
@@ -272,6 +274,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     }
   };
   std::thread heartbeat([&] {
+    bool stalled = false;
     std::unique_lock lock(mu);
     while (!done) {
       auto until = Clock::now() + std::chrono::seconds(options_.heartbeat_seconds);
@@ -280,6 +283,13 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
         return done || stage_changed || (!releasing && DrainDue());
       });
       if (done) break;
+      if (Clock::now() - last_progress > std::chrono::seconds(options_.stall_seconds)) {
+        // No progress: let the lease run out instead of renewing it.
+        if (!std::exchange(stalled, true)) {
+          spdlog::warn("event=job_stalled job={} stage={} seconds={}", job.job_id(), stage, options_.stall_seconds);
+        }
+        continue;
+      }
       if (!releasing && DrainDue()) {
         // Out of drain time: stop the bake; the lease is handed back below.
         spdlog::info("event=drain_deadline job={} stage={} action=release", job.job_id(), stage);
@@ -299,6 +309,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     {
       std::lock_guard lock(mu);
       if (st != stage) stage_changed = entered_stage = true;
+      if (st != stage || f != fraction) last_progress = Clock::now();
       stage = std::string(st);
       fraction = f;
       if (stage_changed) wake.notify_all();
@@ -396,7 +407,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     });
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
-                 s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
+                 s.ok() ? "" : absl::StrCat(" error=\"", EscapeUntrusted(s.error_message()), "\""));
     // A refused result is failed now, with the reason, rather than left to
     // time out and be baked again three times (issue 23).
     if (ResultRefusedForGood(s.error_code())) {

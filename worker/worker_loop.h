@@ -44,6 +44,11 @@ struct WorkerOptions {
   // the job was cancelled, so this bounds how long a cancelled bake runs on.
   // Default 1; range 1..60.
   int heartbeat_seconds = 1;
+  // A job whose stage and fraction have not changed for this many seconds
+  // is no longer renewed: its lease expires and the server requeues or
+  // fails it, rather than a stuck bake holding it forever (issue 23).
+  // Default 1800; range 1..86400.
+  int stall_seconds = 1800;
   // Stop after this many jobs (0 = never): used by tests and one-shot runs.
   int max_jobs = 0;
   // Limits on what a mesh may contain (triangles, texture sizes, ...).

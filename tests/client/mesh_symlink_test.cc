@@ -1,7 +1,7 @@
 // CollectMeshFiles and symbolic links (issue 23): a link that leads out of
 // the model's folder is refused, naming the link and its target, unless
 // CollectOptions::follow_symlinks (the CLI's --follow-symlinks); links that
-// stay inside the folder are followed.
+// stay inside the folder are followed. The flag's parsing is at the end.
 #include <unistd.h>
 
 #include <filesystem>
@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "client/cli/cli_args.h"
 #include "client/mesh_files.h"
 
 namespace impostor::sdk {
@@ -91,3 +92,20 @@ TEST_F(MeshSymlinkTest, LinksInsideTheFolderAreFollowed) {
 
 }  // namespace
 }  // namespace impostor::sdk
+
+// The CLI flag that sets CollectOptions::follow_symlinks (through
+// BakeSettings::follow_symlinks), for bake and bake-batch; off by default,
+// refused where it means nothing.
+namespace impostor::cli {
+namespace {
+
+TEST(FollowSymlinksFlag, BakeAndBakeBatchTakeItOthersRefuseIt) {
+  EXPECT_FALSE(ParseCliArgs({"bake", "m.gltf", "--out", "o"}, nullptr)->follow_symlinks);
+  EXPECT_TRUE(ParseCliArgs({"bake", "m.gltf", "--out", "o", "--follow-symlinks"}, nullptr)->follow_symlinks);
+  EXPECT_TRUE(ParseCliArgs({"bake-batch", "s.json", "--out", "o", "--follow-symlinks"}, nullptr)->follow_symlinks);
+  EXPECT_FALSE(ParseCliArgs({"status", "j1", "--follow-symlinks"}, nullptr).ok());
+  EXPECT_FALSE(ParseCliArgs({"bake", "m.gltf", "--out", "o", "--follow-symlinks=yes"}, nullptr).ok());
+}
+
+}  // namespace
+}  // namespace impostor::cli

@@ -208,6 +208,27 @@ TEST(HostileWorker, ScratchFoldersAreNamedByTheWorker) {
   EXPECT_TRUE(Alive(*worker));
 }
 
+// A bake that makes no progress (paused at render by the test hook) is no
+// longer renewed after --stall-s: its lease expires and, with one attempt
+// allowed, the server fails it; the lease used to be renewed for as long as
+// the worker lived (issue 23: a job stuck at "load" for minutes).
+TEST(HostileWorker, AJobThatStopsProgressingIsNotRenewed) {
+  ServerProcess server(/*local_workers=*/0, {"--lease-timeout-s=2", "--max-attempts=1"});
+  const fs::path dir = testing::NewTempDir("hostile_stall");
+  const fs::path pause = dir / "pause";
+  std::ofstream(pause) << "";
+  std::unique_ptr<ChildProcess> worker = StartWorker(server, dir / "worker.log", "--stall-s=1",
+                                                     "IMPOSTOR_WORKER_TEST_PAUSE_FILE='" + pause.string() + "'");
+  const fs::path box = testing::AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb";
+  const v1::Job job = testing::WatchToEnd(server.bake(), Submit(server, testing::UploadGlb(server.assets(), box), 104));
+  EXPECT_EQ(job.state(), v1::JOB_STATE_FAILED);
+  EXPECT_NE(job.error().message().find("stopped reporting and its lease expired"), std::string::npos)
+      << job.error().message();
+  fs::remove(pause);  // the paused bake ends; its late result is refused
+  EXPECT_NE(testing::ReadFileBytes(dir / "worker.log").find("event=job_stalled"), std::string::npos);
+  EXPECT_TRUE(Alive(*worker));
+}
+
 // The CLI's upload of a model whose texture is a link out of its folder.
 TEST(HostileWorker, CliRefusesASymlinkOutOfTheModelFolder) {
   const fs::path source = testing::AssetsDir() / "props_pbr/WaterBottle/glTF";

@@ -69,8 +69,9 @@ struct GltfLoadLimits {
 //                     default scene (naming the points/lines meshes when
 //                     only those exist).
 // Worked around, with a line in Scene::warnings: images in formats the
-// loader cannot decode (KTX2, WebP, DDS) are dropped and the material's
-// factors used; points/lines primitives are skipped when triangles remain;
+// loader does not decode (anything but PNG and JPEG: KTX2, WebP, DDS, GIF,
+// BMP, ...) are dropped and the material's factors used; points/lines
+// primitives are skipped when triangles remain;
 // a MASK material whose base colour image has no alpha channel; a texCoord
 // set other than 0 or 1 (set 0 used); skinned meshes are baked in their
 // bind pose.

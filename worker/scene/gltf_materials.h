@@ -30,8 +30,8 @@ class MaterialTable {
   // and decoding its textures on first use. INVALID_ARGUMENT for an
   // out-of-range material/texture/image/sampler index, a non-finite factor,
   // a missing or undecodable image; RESOURCE_EXHAUSTED when a texture limit
-  // is hit. Images in formats stb_image cannot read (KTX2, WebP, DDS) are
-  // dropped with a warning: the material keeps its factors.
+  // is hit. Images in formats other than PNG and JPEG (KTX2, WebP, DDS, GIF,
+  // BMP, ...) are dropped with a warning: the material keeps its factors.
   absl::StatusOr<int> Use(int gltf_index);
 
   // Whether any material converted so far reads TEXCOORD_1.

@@ -222,6 +222,7 @@ class CostWalk {
         header->height = image.height;
         header->channels = image.component;
       }
+      if (header->width <= 0 || header->height <= 0) continue;
       const uint64_t decoded = Mul(Mul(header->width, header->height), 4);
       cost_.texture_bytes = Add(cost_.texture_bytes, decoded);
       cost_.texture_peak_bytes = std::max(cost_.texture_peak_bytes, PeakDecodeBytes(*header));

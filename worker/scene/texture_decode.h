@@ -27,7 +27,7 @@ struct ImageHeader {
 
 // Reads the header of a PNG or JPEG. UNIMPLEMENTED (naming the format) for
 // a recognised container glTF does not allow or stb_image cannot decode
-// (KTX/KTX2, WebP, DDS, OpenEXR, GIF, BMP, TGA, PSD, ...); INVALID_ARGUMENT
+// (KTX/KTX2, WebP, DDS, OpenEXR, GIF, BMP, PSD, PIC, PNM); INVALID_ARGUMENT
 // (starting with `what`) for anything else that is not a readable PNG/JPEG
 // header.
 absl::StatusOr<ImageHeader> ProbeImage(std::span<const uint8_t> bytes, std::string_view what);
