@@ -384,6 +384,38 @@ TEST(BatchCli, JobsAreLeasedHighestPriorityFirst) {
   EXPECT_EQ(lease_priorities, (std::vector<int>{50, 0, -50})) << server.process().Stderr();
 }
 
+// Each result is downloaded as soon as its job finishes, not at the end of
+// the batch: one of two jobs is held at its render stage by a paused worker
+// while the other is baked, reported and already on disk.
+TEST(BatchCli, EachResultIsDownloadedAsSoonAsItFinishes) {
+  ServerProcess server(0);
+  const fs::path dir = NewTempDir("batch_per_result");
+  const fs::path pause = dir / "pause";
+  std::ofstream(pause) << "pause";
+  auto held = StartWorker(server.address(), {"--name=held"}, {"IMPOSTOR_WORKER_TEST_PAUSE_FILE=" + pause.string()});
+  ASSERT_TRUE(held->WaitForLog("event=worker_ready")) << held->Stderr();
+  const fs::path spec = WriteSpec(dir, {Asset("props_pbr/Box/glTF-Binary/Box.glb"),
+                                        Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb")});
+  ChildProcess batch({Impostor(), "bake-batch", spec.string(), "--out", (dir / "out").string(), "--server",
+                      server.address(), "--quiet"});
+  ASSERT_TRUE(server.process().WaitForLog("worker=held")) << server.process().Stderr();
+  auto free_worker = StartWorker(server.address(), {"--name=free"});
+  const std::string line = batch.ReadLineContaining("succeeded  ", kWatchTimeout);
+  ASSERT_FALSE(line.empty()) << "no asset finished; batch stderr: " << batch.Stderr();
+  const std::string name = line.find("  BoxTextured  ") != std::string::npos ? "BoxTextured" : "Box";
+  const std::string other = name == "Box" ? "BoxTextured" : "Box";
+  // The other job is still held, so the batch is not over; this one is on disk.
+  EXPECT_TRUE(batch.Running());
+  EXPECT_TRUE(fs::exists(dir / "out" / name / "manifest.json")) << line;
+  EXPECT_TRUE(fs::exists(dir / "out" / name / "albedo_alpha.png")) << line;
+  EXPECT_FALSE(fs::exists(dir / "out" / other / "manifest.json")) << "the held job cannot have finished";
+  fs::remove(pause);
+  std::string rest;
+  EXPECT_EQ(batch.Wait(&rest), 0) << rest << batch.Stderr();
+  EXPECT_NE(rest.find("succeeded  " + other + "  "), std::string::npos) << rest;
+  EXPECT_TRUE(fs::exists(dir / "out" / other / "manifest.json"));
+}
+
 TEST(BatchCli, MalformedInputIsAUsageErrorNamingTheEntryAndField) {
   const fs::path dir = NewTempDir("batch_bad_spec");
   const std::string box = Asset("props_pbr/Box/glTF-Binary/Box.glb").string();

@@ -144,9 +144,13 @@ ChildProcess::ChildProcess(std::vector<std::string> argv, ProcessOptions options
     if (log_fd >= 0) ::close(log_fd);
     return;
   }
+  // stdin is /dev/null: a child in its own process group that read the
+  // terminal would be stopped (SIGTTIN) when a test runs interactively.
+  const int null_fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
   pid_ = ::fork();
   if (pid_ == 0) {
     ::setpgid(0, 0);
+    if (null_fd >= 0) ::dup2(null_fd, STDIN_FILENO);
     ::dup2(fds[1], STDOUT_FILENO);
     if (log_fd >= 0) ::dup2(log_fd, STDERR_FILENO);
     ::execve(args[0], args.data(), envp.data());
@@ -154,6 +158,7 @@ ChildProcess::ChildProcess(std::vector<std::string> argv, ProcessOptions options
   }
   ::close(fds[1]);
   if (log_fd >= 0) ::close(log_fd);
+  if (null_fd >= 0) ::close(null_fd);
   stdout_fd_ = fds[0];
   if (pid_ < 0) {
     ADD_FAILURE() << "fork " << name_ << ": " << std::strerror(errno);
