@@ -40,24 +40,6 @@ std::unique_ptr<ChildProcess> StartWorker(const std::string& address, const std:
   return std::make_unique<ChildProcess>(argv);
 }
 
-v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
-                   const std::function<bool(const v1::Job&)>& done, int minutes) {
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(minutes));
-  v1::WatchJobRequest request;
-  request.set_job_id(job_id);
-  auto reader = bake.WatchJob(&ctx, request);
-  v1::Job job;
-  while (reader->Read(&job)) {
-    if (done(job)) {
-      ctx.TryCancel();
-      break;
-    }
-  }
-  reader->Finish();
-  return job;
-}
-
 v1::Job GetJob(v1::BakeService::Stub& bake, const std::string& job_id) {
   grpc::ClientContext ctx;
   v1::GetJobRequest request;

@@ -35,11 +35,6 @@ class ScopedEnv {
   std::map<std::string, std::optional<std::string>> saved_;
 };
 
-// Follows WatchJob until `done(job)` holds (returns that job) or the stream
-// ends (returns the last job seen). Gives up after `minutes`.
-v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
-                   const std::function<bool(const v1::Job&)>& done, int minutes = 3);
-
 // GetJob; a failed call is a test failure and an empty Job.
 v1::Job GetJob(v1::BakeService::Stub& bake, const std::string& job_id);
 
