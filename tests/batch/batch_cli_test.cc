@@ -398,7 +398,7 @@ TEST(BatchCli, EachResultIsDownloadedAsSoonAsItFinishes) {
                                         Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb")});
   ChildProcess batch({Impostor(), "bake-batch", spec.string(), "--out", (dir / "out").string(), "--server",
                       server.address(), "--quiet"});
-  ASSERT_TRUE(server.process().WaitForLog("worker=held")) << server.process().Stderr();
+  ASSERT_TRUE(server.process().WaitForLog("worker=\"held")) << server.process().Stderr();
   auto free_worker = StartWorker(server.address(), {"--name=free"});
   const std::string line = batch.ReadLineContaining("succeeded  ", kWatchTimeout);
   ASSERT_FALSE(line.empty()) << "no asset finished; batch stderr: " << batch.Stderr();
