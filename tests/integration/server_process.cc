@@ -393,6 +393,10 @@ void ServerProcess::Start() {
   listen_ = address_;
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(64 << 20);
+  // A private subchannel pool: gRPC otherwise shares one connection per
+  // address between channels, so a server restarted on the same address
+  // could hand this fresh channel the dead server's reset connection.
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   channel_ = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), args);
   if (!channel_->WaitForConnected(std::chrono::system_clock::now() + kStartTimeout)) {
     ADD_FAILURE() << "impostor-server at " << address_ << " printed its line but did not accept a connection within "
