@@ -20,6 +20,7 @@
 
 #include "tests/hostile/hostile_cases.h"
 #include "tests/integration/server_process.h"
+#include "tests/hostile/peak_rss.h"
 
 namespace impostor {
 namespace {
@@ -27,16 +28,6 @@ namespace {
 namespace fs = std::filesystem;
 using testing::ChildProcess;
 using testing::ServerProcess;
-
-// VmHWM of process `pid`, bytes (0 if unreadable).
-uint64_t PeakRss(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
 
 bool Alive(const ChildProcess& p) {
   int status = 0;
@@ -99,7 +90,7 @@ TEST(HostileWorker, CorpusFailsWithItsCodeAndTheWorkerServesOn) {
   }
   ASSERT_TRUE(Alive(*worker)) << "the worker died; its log ends:\n" << Tail(log);
   ExpectBoxBakes(server, 96);
-  const uint64_t peak = PeakRss(worker->pid());
+  const uint64_t peak = testing::PeakRss(worker->pid());
   ASSERT_GT(peak, 0u);
   EXPECT_LT(peak, testing::kPeakRssBound) << "worker peak RSS over the hostile corpus";
   std::printf("worker peak RSS over the hostile corpus and one bake: %.1f MiB\n", peak / 1048576.0);
@@ -125,7 +116,7 @@ TEST(HostileWorker, BombPastTheBudgetEndsTheChildNotTheWorker) {
   EXPECT_EQ(job.attempts(), 1u);
   ASSERT_TRUE(Alive(*worker)) << "the worker died; its log ends:\n" << Tail(log);
   ExpectBoxBakes(server, 80);
-  EXPECT_LT(PeakRss(worker->pid()), testing::kPeakRssBound);
+  EXPECT_LT(testing::PeakRss(worker->pid()), testing::kPeakRssBound);
 }
 
 TEST(HostileWorker, CollidingInputPathsAreRefusedAtSubmit) {

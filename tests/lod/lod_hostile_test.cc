@@ -13,20 +13,12 @@
 
 #include "worker/lod/lod_glb_writer.h"
 #include "worker/lod/lod_source.h"
+#include "tests/hostile/peak_rss.h"
 
 namespace impostor {
 namespace {
 
 namespace fs = std::filesystem;
-
-uint64_t PeakRss() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
 
 TEST(LodHostile, AnOversizedExtraAttributeIsDroppedUnread) {
   const fs::path dir = fs::temp_directory_path() / ("impostor_lod_hostile_" + std::to_string(::getpid()));
@@ -51,7 +43,7 @@ TEST(LodHostile, AnOversizedExtraAttributeIsDroppedUnread) {
   ASSERT_TRUE(glb.ok()) << glb.status();
   EXPECT_EQ(glb->find("_JUNK"), std::string::npos) << "the oversized attribute was written";
   EXPECT_NE(glb->find("POSITION"), std::string::npos);
-  EXPECT_LT(PeakRss(), uint64_t{512} << 20);
+  EXPECT_LT(testing::PeakRss(), uint64_t{512} << 20);
   fs::remove_all(dir);
 }
 

@@ -12,20 +12,12 @@
 
 #include "tests/hostile/hostile_cases.h"
 #include "tests/scene/test_assets.h"
+#include "tests/hostile/peak_rss.h"
 
 namespace impostor {
 namespace {
 
 namespace fs = std::filesystem;
-
-uint64_t PeakRss() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
 
 TEST(IsolatedLoadTest, RealAssetLoadsInTheChild) {
   const fs::path path = testing::Asset("props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
@@ -56,7 +48,7 @@ TEST(IsolatedLoadTest, BombPastTheBudgetEndsTheChildOnly) {
       testing::HostileCorpusDir() / "instancing_60m_no_bufferview.gltf", lax, isolation);
   EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
   EXPECT_NE(s.message().find("LoadIsolation::address_space_bytes"), std::string::npos) << s;
-  EXPECT_LT(PeakRss(), testing::kPeakRssBound);
+  EXPECT_LT(testing::PeakRss(), testing::kPeakRssBound);
 }
 
 TEST(IsolatedLoadTest, CancelledLoadEnds) {

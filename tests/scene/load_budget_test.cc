@@ -16,6 +16,7 @@
 #include "worker/scene/gltf_loader.h"
 #include "worker/scene/load_budget.h"
 #include "worker/scene/texture_decode.h"
+#include "tests/hostile/peak_rss.h"
 
 namespace impostor {
 namespace {
@@ -27,16 +28,6 @@ using gltf_internal::DecodeImageRgba8;
 using gltf_internal::ImageHeader;
 using gltf_internal::PeakDecodeBytes;
 using gltf_internal::ProbeImage;
-
-// VmHWM of this process, bytes (0 if /proc is unreadable).
-uint64_t PeakRss() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
 
 // Resets VmHWM to the current RSS (Linux >= 4.0), so the peak measured is
 // this test's, not that of whatever ran before it in the process.
@@ -63,7 +54,7 @@ TEST(LoadBudgetTest, EveryHostileFileIsRefusedBeforeItsAllocation) {
     const absl::StatusOr<Scene> from_memory = LoadGltfSceneFromMemory(ReadBytes(path), c.file);
     EXPECT_EQ(from_memory.status().code(), scene.status().code()) << c.file << ": " << from_memory.status();
   }
-  const uint64_t peak = PeakRss();
+  const uint64_t peak = testing::PeakRss();
   ASSERT_GT(peak, 0u) << "cannot read VmHWM";
   EXPECT_LT(peak, testing::kPeakRssBound) << "peak RSS while loading the hostile corpus";
 }
