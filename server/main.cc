@@ -22,10 +22,12 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "common/bake_request.h"
+#include "common/flag_help.h"
 #include "common/flag_names.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
+#include "server/server_help.h"
 #include "server/services.h"
 #include "server/worker_supervisor.h"
 
@@ -63,6 +65,8 @@ int Fail(const std::string& message) {
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::ShowAllFlagsInHelp();
+  // --help and --version are generated from the flag registry (common/flag_help.h).
+  if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::ServerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   // Logs go to stderr: stdout carries only the "listening on" line, and a

@@ -17,9 +17,11 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
+#include "common/flag_help.h"
 #include "common/flag_names.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
+#include "worker/worker_help.h"
 
 ABSL_FLAG(std::string, server, "localhost:50051", "HOST:PORT of impostor-server");
 ABSL_FLAG(std::string, name, "", "Worker name for logs and leases (default: host-pid)");
@@ -54,6 +56,8 @@ std::string EnvOrEmpty(const char* name) {
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
   impostor::ShowAllFlagsInHelp();
+  // --help and --version are generated from the flag registry (common/flag_help.h).
+  if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::WorkerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   // Blocked before any thread starts (Vulkan's, gRPC's), so only the

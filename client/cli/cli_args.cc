@@ -360,8 +360,8 @@ Usage:
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
       and of defaults, as bake's flags: layout, frames (or "auto"),
       resolution, product, preset, point_budget, ring_views, supersampling,
-      quality_views, emissive, texture_array, lod_ratios, lod_pixel_error, max_planes, tolerance, priority,
-      min_iou, min_psnr_db; an asset also has path
+      quality_views, emissive, texture_array, lod_ratios, lod_pixel_error,
+      max_planes, tolerance, priority, min_iou, min_psnr_db; an asset also has path
       (required, relative to SPEC's folder) and name (its folder in DIR,
       default the file name without extension). Uploads only the blobs the
       server lacks (one FindMissingBlobs for the batch), submits everything,
@@ -446,6 +446,15 @@ Environment:
   IMPOSTOR_CACHE_DIR  default for --cache-dir
   IMPOSTOR_LOG        spdlog level for diagnostics on stderr (e.g. debug; default off)
 )";
+}
+
+std::vector<std::string> AllFlags() {
+  std::set<std::string> flags;
+  for (const auto& [name, spec] : Commands()) {
+    flags.insert(spec.value_flags.begin(), spec.value_flags.end());
+    flags.insert(spec.bool_flags.begin(), spec.bool_flags.end());
+  }
+  return {flags.begin(), flags.end()};
 }
 
 }  // namespace impostor::cli

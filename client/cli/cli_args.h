@@ -111,6 +111,10 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
 // The text of `impostor --help`.
 std::string UsageText();
 
+// Every flag some command accepts ("--out", "--json", ...), sorted: what
+// UsageText() must document (tests/help).
+std::vector<std::string> AllFlags();
+
 }  // namespace impostor::cli
 
 #endif  // IMPOSTOR_CLIENT_CLI_CLI_ARGS_H_

@@ -1,0 +1,33 @@
+// The --help text of impostor-server: its usage and how its flags are
+// grouped. A flag is listed under the first group with a matching name
+// prefix; one matching none is listed under "Other" (common/flag_help.h), so
+// a new flag always shows up, and belongs here only to get a better heading.
+#ifndef IMPOSTOR_SERVER_SERVER_HELP_H_
+#define IMPOSTOR_SERVER_SERVER_HELP_H_
+
+#include "common/flag_help.h"
+
+namespace impostor {
+
+inline ProgramHelp ServerHelp() {
+  return {
+      .program = "impostor-server",
+      .usage = {"--data=DIR [--listen=HOST:PORT] [--local-workers=N] [flags]"},
+      .summary = "The bake farm's gRPC server: stores uploaded meshes and baked results (content-addressed, "
+                 "under --data), queues bake jobs and leases them to impostor-worker processes, which it can "
+                 "also start and supervise itself (--local-workers). Prints \"impostor-server listening on "
+                 "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM or SIGINT drains and stops it.",
+      .groups = {{"Listening", {"listen", "port_file", "http_", "tls_"}},
+                 {"Access control", {"auth", "token_"}},
+                 {"Storage", {"data", "store_", "max_blob_bytes"}},
+                 {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_"}},
+                 {"Workers", {"local_workers", "worker_"}},
+                 {"Shutdown and logging", {"shutdown_", "log_"}}},
+      .footer = "Exit status: 0 after a clean shutdown, 2 for a bad flag value (one line on stderr naming the flag "
+                "and its range).\nSee impostor-worker(1) and impostor(1).",
+  };
+}
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_SERVER_HELP_H_
