@@ -8,7 +8,10 @@ bash deploy/install-deps.sh
 bash deploy/build.sh
 BUILD_DIR=${BUILD_DIR:-build}
 cd "$BUILD_DIR"
-ctest --output-on-failure --timeout 900 -j 2 -LE soak
+ctest --output-on-failure --timeout 900 -j 2 -LE 'soak|packaging'
+# The Debian packages: built from this tree, installed with apt-get, a bake
+# through the unit's command line, then removed (deploy/package-test.sh).
+ctest --output-on-failure -L packaging
 # The bounded chaos soak (about 5 minutes) last, alone, with both cores.
 ctest --output-on-failure --timeout 900 -L soak
 cd - >/dev/null
