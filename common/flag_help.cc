@@ -119,7 +119,13 @@ void AppendFlag(std::string& out, const absl::CommandLineFlag& flag) {
   if (flag.DefaultValue().empty() && explains_default) {
     AppendWrapped(out, help + ".", kHelpColumn);
   } else {
-    AppendWrapped(out, absl::StrCat(help, ". Default: ", DefaultText(flag), "."), kHelpColumn);
+    // The default is never split across lines: its spaces are held as \x01
+    // while wrapping.
+    std::string value = DefaultText(flag);
+    std::replace(value.begin(), value.end(), ' ', '\x01');
+    const size_t from = out.size();
+    AppendWrapped(out, absl::StrCat(help, ". Default: ", value, "."), kHelpColumn);
+    std::replace(out.begin() + from, out.end(), '\x01', ' ');
   }
 }
 
