@@ -1,0 +1,184 @@
+"""Headless test of the Impostor Farm add-on, run inside Blender by
+run_blender_test.py against a real impostor-server:
+
+1. a mesh is baked through the add-on's operator (execute: synchronous);
+   the imported impostor object, its material's atlas image and the result's
+   files are checked, the files against the manifest's digests;
+2. the same bake through the threaded path the UI uses (BakeJob.start, the
+   modal operator's poll) is a cache hit;
+3. cards: the .glb is imported under the original;
+4. bad input (frames=1) becomes a Blender error report with the farm's message;
+5. the impostor is rendered with Cycles (kept as impostor_render.png in
+   $IMPOSTOR_ARTEFACT_DIR) and the render must show it.
+
+Any failed check raises, and Blender exits with 1 (--python-exit-code).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from pathlib import Path
+
+import bpy
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import impostor_farm  # noqa: E402
+from impostor_farm import bake_job, operators  # noqa: E402
+
+SERVER = os.environ["IMPOSTOR_TEST_SERVER"]
+ARTEFACTS = Path(os.environ["IMPOSTOR_ARTEFACT_DIR"])
+WORK = Path(os.environ["IMPOSTOR_TEST_WORK"])
+# Bound on one bake (a hang is a failure).
+BAKE_DEADLINE_S = 300
+
+
+def check(condition: bool, what: str) -> None:
+    if not condition:
+        raise AssertionError(what)
+    print(f"ok: {what}")
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def make_subject() -> bpy.types.Object:
+    """A red cone on a blue cube, away from the origin, the only selection."""
+    bpy.ops.object.select_all(action="SELECT")
+    bpy.ops.object.delete()  # the factory cube, light and camera
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(2.0, 1.0, 0.5))
+    cube = bpy.context.active_object
+    bpy.ops.mesh.primitive_cone_add(radius1=0.6, depth=1.5, location=(2.0, 1.0, 1.75))
+    cone = bpy.context.active_object
+    for obj, colour in ((cube, (0.1, 0.2, 0.9, 1.0)), (cone, (0.9, 0.1, 0.05, 1.0))):
+        mat = bpy.data.materials.new(f"{obj.name}_paint")
+        mat.use_nodes = True
+        mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = colour
+        obj.data.materials.append(mat)
+    bpy.ops.object.select_all(action="DESELECT")
+    cube.select_set(True)
+    cone.select_set(True)
+    cone.name = "Subject"
+    bpy.context.view_layer.objects.active = cone
+    bpy.ops.object.camera_add(location=(2.0, -6.0, 2.0), rotation=(1.45, 0.0, 0.0))
+    bpy.context.scene.camera = bpy.context.active_object
+    bpy.ops.object.select_all(action="DESELECT")
+    cube.select_set(True)
+    cone.select_set(True)
+    bpy.context.view_layer.objects.active = cone
+    return cone
+
+
+def configure(product: str = "atlas", frames: int = 4, resolution: int = 128) -> None:
+    s = bpy.context.scene.impostor_farm
+    s.server = SERVER
+    s.product = product
+    s.frames = frames
+    s.resolution = resolution
+    s.output_dir = str(WORK / "results")
+
+
+def check_atlas_import(original: bpy.types.Object) -> bpy.types.Object:
+    impostor = bpy.data.objects.get("Subject_impostor")
+    check(impostor is not None, "the impostor object Subject_impostor exists")
+    check(impostor.parent == original, "the impostor is parented to the original")
+    folder = Path(impostor["impostor_result_dir"])
+    manifest = json.loads((folder / "manifest.json").read_text())
+    check(impostor["impostor_cache_key"] == manifest["cache_key"], "the object names its cache key")
+    for m in manifest["maps"]:
+        path = folder / m["file"]
+        check(path.stat().st_size == m["digest"]["size_bytes"] and sha256(path) == m["digest"]["hash"],
+              f"{m['file']} matches the manifest's digest")
+    images = [n.image for n in impostor.active_material.node_tree.nodes if n.type == "TEX_IMAGE"]
+    check(len(images) == 1, "the impostor material has one image node")
+    image = images[0]
+    check(Path(bpy.path.abspath(image.filepath)) == folder / "albedo_alpha.png", "it shows albedo_alpha.png")
+    check(tuple(image.size) == (manifest["resolution"], manifest["resolution"]), "the atlas image loaded")
+    check(any(c.type == "TRACK_TO" and c.target == bpy.context.scene.camera for c in impostor.constraints),
+          "the impostor faces the scene camera")
+    bpy.context.view_layer.update()
+    centre = manifest["bounding_sphere"]["center"]
+    expected = (centre[0], -centre[2], centre[1])
+    got = impostor.matrix_world.translation
+    check(all(abs(a - b) < 1e-3 for a, b in zip(got, expected)),
+          f"the impostor sits at the bounding sphere's centre {expected} (got {tuple(got)})")
+    check(abs(got.x - 2.0) < 0.2 and abs(got.y - 1.0) < 0.2, "which is where the original was")
+    return impostor
+
+
+def render(impostor: bpy.types.Object, original_objects: list) -> None:
+    for o in original_objects:
+        o.hide_render = True
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 8
+    scene.cycles.use_denoising = False  # Debian builds Cycles without OpenImageDenoise
+    scene.cycles.device = "CPU"
+    scene.render.resolution_x = scene.render.resolution_y = 160
+    scene.render.film_transparent = True
+    bpy.ops.object.light_add(type="SUN", location=(0, -4, 6))
+    out = ARTEFACTS / "impostor_render.png"
+    scene.render.filepath = str(out)
+    bpy.ops.render.render(write_still=True)
+    check(out.exists(), f"the render was written to {out}")
+    img = bpy.data.images.load(str(out))
+    px = list(img.pixels)
+    alphas = px[3::4]
+    covered = sum(1 for a in alphas if a > 0.5)
+    check(covered > 0.01 * len(alphas), f"the impostor covers {covered} of {len(alphas)} rendered pixels")
+    reds = sum(1 for i in range(0, len(px), 4) if px[i + 3] > 0.5 and px[i] > px[i + 2] and px[i] > px[i + 1])
+    check(reds > 0, f"its red cone shows ({reds} red pixels)")
+
+
+def main() -> None:
+    impostor_farm.register()
+    original = make_subject()
+    originals = list(bpy.context.selected_objects)
+
+    # 1. The operator, synchronously.
+    configure()
+    check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected finished")
+    impostor = check_atlas_import(original)
+    first_key = impostor["impostor_cache_key"]
+
+    # 2. The threaded path of the UI: the same bake is a cache hit.
+    op_settings = operators._bake_settings(bpy.context.scene.impostor_farm)
+    model = bake_job.export_selection(WORK)
+    job = bake_job.BakeJob(server=SERVER, token_file="", tls_ca="", model=model, out_dir=WORK / "threaded",
+                           settings=op_settings)
+    job.start()
+    check(job.done.wait(BAKE_DEADLINE_S), "the threaded bake ended")
+    check(job.error is None, f"the threaded bake succeeded ({job.error})")
+    check(job.result.cached and job.result.cache_key == first_key, "it was a cache hit of the same key")
+    check(job.snapshot() == ("done", 1.0), "its last status is done")
+
+    # 3. Cards: the .glb imported under the original.
+    bpy.ops.object.select_all(action="DESELECT")
+    for o in originals:
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = original
+    configure(product="cards", frames=0, resolution=128)
+    check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected (cards) finished")
+    cards = [o for o in original.children if o.name.startswith("Subject_cards")]
+    check(len(cards) == 1, "the cards were imported under the original")
+    meshes = [o for o in [cards[0], *cards[0].children_recursive] if o.type == "MESH"]
+    check(meshes and len(meshes[0].data.polygons) >= 1, "the cards object has card quads")
+
+    # 4. A farm error is an error report with the farm's message.
+    configure(frames=1)
+    try:
+        bpy.ops.impostor.bake_selected()
+        raise AssertionError("frames=1 was accepted")
+    except RuntimeError as e:
+        check("INVALID_ARGUMENT" in str(e) and "frames" in str(e), f"the farm's error is reported: {e}")
+
+    # 5. One render of the impostor, kept as an artefact.
+    render(impostor, originals + cards + [c for o in cards for c in o.children_recursive])
+    print("ALL BLENDER CHECKS PASSED")
+
+
+main()
