@@ -8,8 +8,10 @@ run_blender_test.py against a real impostor-server:
    modal operator's poll) is a cache hit;
 3. cards: the .glb is imported under the original;
 4. bad input (frames=1) becomes a Blender error report with the farm's message;
-5. the impostor is rendered with Cycles (kept as impostor_render.png in
-   $IMPOSTOR_ARTEFACT_DIR) and the render must show it.
+5. lod-chain: the mesh levels and the impostor level are imported;
+6. the impostor is rendered with Cycles (kept as impostor_render.png in
+   $IMPOSTOR_ARTEFACT_DIR, next to original_render.png of the mesh) and its
+   silhouette must match the mesh's.
 
 Any failed check raises, and Blender exits with 1 (--python-exit-code).
 """
@@ -110,9 +112,23 @@ def check_atlas_import(original: bpy.types.Object) -> bpy.types.Object:
     return impostor
 
 
-def render(impostor: bpy.types.Object, original_objects: list) -> None:
-    for o in original_objects:
-        o.hide_render = True
+def render_mask(path: Path) -> list:
+    """Renders the scene camera's view to `path`; returns per-pixel coverage
+    (alpha > 0.5) and the pixels."""
+    bpy.context.scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    check(path.exists(), f"the render was written to {path}")
+    img = bpy.data.images.load(str(path))
+    px = list(img.pixels)
+    bpy.data.images.remove(img)
+    return [a > 0.5 for a in px[3::4]], px
+
+
+def render_and_compare(impostor: bpy.types.Object, original_objects: list) -> None:
+    """Renders the original and then the impostor from the scene camera: the
+    impostor's silhouette must match the mesh's (IoU over 0.6 at 4 x 4 frames
+    of 32 px; a blank or misplaced impostor scores near 0) and show the red
+    cone. Both renders are kept as artefacts."""
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 8
@@ -121,15 +137,17 @@ def render(impostor: bpy.types.Object, original_objects: list) -> None:
     scene.render.resolution_x = scene.render.resolution_y = 160
     scene.render.film_transparent = True
     bpy.ops.object.light_add(type="SUN", location=(0, -4, 6))
-    out = ARTEFACTS / "impostor_render.png"
-    scene.render.filepath = str(out)
-    bpy.ops.render.render(write_still=True)
-    check(out.exists(), f"the render was written to {out}")
-    img = bpy.data.images.load(str(out))
-    px = list(img.pixels)
-    alphas = px[3::4]
-    covered = sum(1 for a in alphas if a > 0.5)
-    check(covered > 0.01 * len(alphas), f"the impostor covers {covered} of {len(alphas)} rendered pixels")
+    impostor.hide_render = True
+    mesh_mask, _ = render_mask(ARTEFACTS / "original_render.png")
+    impostor.hide_render = False
+    for o in original_objects:
+        o.hide_render = True
+    mask, px = render_mask(ARTEFACTS / "impostor_render.png")
+    covered = sum(mask)
+    check(covered > 0.01 * len(mask), f"the impostor covers {covered} of {len(mask)} rendered pixels")
+    union = sum(1 for a, b in zip(mask, mesh_mask) if a or b)
+    iou = sum(1 for a, b in zip(mask, mesh_mask) if a and b) / max(union, 1)
+    check(iou > 0.6, f"the impostor's silhouette matches the mesh's (IoU {iou:.3f} > 0.6)")
     reds = sum(1 for i in range(0, len(px), 4) if px[i + 3] > 0.5 and px[i] > px[i + 2] and px[i] > px[i + 1])
     check(reds > 0, f"its red cone shows ({reds} red pixels)")
 
@@ -157,16 +175,14 @@ def main() -> None:
     check(job.snapshot() == ("done", 1.0), "its last status is done")
 
     # 3. Cards: the .glb imported under the original.
-    bpy.ops.object.select_all(action="DESELECT")
-    for o in originals:
-        o.select_set(True)
-    bpy.context.view_layer.objects.active = original
     configure(product="cards", frames=0, resolution=128)
     check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected (cards) finished")
     cards = [o for o in original.children if o.name.startswith("Subject_cards")]
     check(len(cards) == 1, "the cards were imported under the original")
     meshes = [o for o in [cards[0], *cards[0].children_recursive] if o.type == "MESH"]
     check(meshes and len(meshes[0].data.polygons) >= 1, "the cards object has card quads")
+    check(sorted(o.name for o in bpy.context.selected_objects) == sorted(o.name for o in originals)
+          and bpy.context.view_layer.objects.active == original, "the user's selection is back")
 
     # 4. A farm error is an error report with the farm's message.
     configure(frames=1)
@@ -176,8 +192,18 @@ def main() -> None:
     except RuntimeError as e:
         check("INVALID_ARGUMENT" in str(e) and "frames" in str(e), f"the farm's error is reported: {e}")
 
-    # 5. One render of the impostor, kept as an artefact.
-    render(impostor, originals + cards + [c for o in cards for c in o.children_recursive])
+    # 5. LOD chain: the mesh levels as .glb and the impostor level as a quad.
+    configure(product="lod-chain", frames=4, resolution=128)
+    check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected (lod-chain) finished")
+    lods = sorted(o.name for o in original.children if o.name.startswith("Subject_LOD"))
+    check(lods == ["Subject_LOD0", "Subject_LOD1", "Subject_LOD2", "Subject_LOD3_impostor"],
+          f"the LOD levels were imported under the original: {lods}")
+    lod0 = bpy.data.objects["Subject_LOD0"]
+    check(sorted(o.type for o in lod0.children) == ["MESH", "MESH"], "LOD0 holds the cube and the cone")
+
+    # 6. One render of the impostor (and one of the mesh), kept as artefacts.
+    extra = [o for o in original.children if o.name.startswith(("Subject_cards", "Subject_LOD"))]
+    render_and_compare(impostor, originals + extra + [c for o in extra for c in o.children_recursive])
     print("ALL BLENDER CHECKS PASSED")
 
 

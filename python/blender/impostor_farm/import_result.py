@@ -103,17 +103,25 @@ def _numpy_bool_alias() -> None:
 
 def import_glb(context: bpy.types.Context, path: Path, name: str,
                original: Optional[bpy.types.Object]) -> List[bpy.types.Object]:
-    """The objects of a .glb, through Blender's glTF importer, parented to `original`."""
+    """The objects of a .glb, through Blender's glTF importer, under one object
+    called `name` (the .glb's root node, or an empty holding its roots),
+    parented to `original`."""
     _numpy_bool_alias()
     before = set(bpy.data.objects)
     bpy.ops.import_scene.gltf(filepath=str(path))
     new = [o for o in bpy.data.objects if o not in before]
     roots = [o for o in new if o.parent is None]
-    for i, o in enumerate(roots):
-        o.name = name if len(roots) == 1 else f"{name}.{i}"
     context.view_layer.update()
-    for o in roots:
-        _parent_keep_world(o, original)
+    if len(roots) == 1:
+        roots[0].name = name
+        top = roots[0]
+    else:  # several nodes: one empty named after the level holds them
+        top = bpy.data.objects.new(name, None)
+        _link_like(top, original, context)
+        for o in roots:
+            _parent_keep_world(o, top)
+        new.append(top)
+    _parent_keep_world(top, original)
     return new
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
-from typing import Any, Dict, Optional, Set
+from typing import Any, Dict, List, Optional, Set
 
 import bpy
 
@@ -43,6 +43,7 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
     _job: Optional[BakeJob] = None
     _timer: Any = None
     _original_name: str = ""
+    _selection: List[str] = []
     active: Optional[BakeJob] = None  # the bake the cancel operator stops
 
     @classmethod
@@ -59,6 +60,7 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
         original = context.active_object if context.active_object in context.selected_objects \
             else context.selected_objects[0]
         self._original_name = original.name
+        self._selection = [o.name for o in context.selected_objects]
         export_dir = Path(tempfile.mkdtemp(prefix="impostor-export-"))
         try:
             model = export_selection(export_dir)
@@ -77,6 +79,15 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
             return {"CANCELLED"}
         original = bpy.data.objects.get(self._original_name)
         objects, warnings = import_result(context, job.result.dir, self._original_name, original)
+        # The glTF importer selects what it imported; the user's selection
+        # (what the next bake exports) comes back.
+        for o in context.selected_objects:
+            o.select_set(False)
+        for name in self._selection:
+            if name in bpy.data.objects:
+                bpy.data.objects[name].select_set(True)
+        if original is not None:
+            context.view_layer.objects.active = original
         for w in warnings:
             self.report({"WARNING"}, w)
         quality = job.result.quality or {}
