@@ -27,8 +27,8 @@ packages=(
   clang-14 libclang-rt-14-dev
   # Python client (python/) and its tests; Blender 3.4 for the add-on's
   # headless test (python/blender; about 80 s to download and install) and
-  # numpy, which Blender's glTF exporter needs
-  python3-grpcio python3-protobuf python3-pytest python3-setuptools blender python3-numpy
+  # numpy, which Blender's glTF exporter needs; Xvfb for its UI test
+  python3-grpcio python3-protobuf python3-pytest python3-setuptools blender python3-numpy xvfb xauth
 )
 
 export DEBIAN_FRONTEND=noninteractive
