@@ -33,7 +33,7 @@ class BuildPyWithStubs(build_py):
             raise SystemExit("impostor: protoc and grpc_python_plugin are needed "
                              "(apt-get install protobuf-compiler protobuf-compiler-grpc)")
         subprocess.run(
-            [protoc, f"--proto_path={proto_dir}", f"--python_out={self.build_lib}",
+            [protoc, f"--proto_path={proto_dir}", f"--python_out={self.build_lib}", f"--pyi_out={self.build_lib}",
              f"--grpc_out={self.build_lib}", f"--plugin=protoc-gen-grpc={plugin}",
              *[str(proto_dir / "impostor" / "v1" / f"{p}.proto") for p in PROTOS]],
             check=True)

@@ -26,7 +26,7 @@ _MAX_BACKOFF_S = 1.0
 
 def backoff_delay(attempt: int) -> float:
     """Seconds to wait after the `attempt`-th failure in a row (1-based)."""
-    delay = min(_INITIAL_BACKOFF_S * (2 ** max(0, attempt - 1)), _MAX_BACKOFF_S)
+    delay = min(_INITIAL_BACKOFF_S * 2.0 ** max(0, attempt - 1), _MAX_BACKOFF_S)
     return delay - random.uniform(0, delay / 5)
 
 

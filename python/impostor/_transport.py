@@ -112,8 +112,9 @@ class Transport:
         except BaseException:
             self._channel.close()
             raise
-        self.bake = bake_service_pb2_grpc.BakeServiceStub(self._channel)
-        self.assets = asset_service_pb2_grpc.AssetServiceStub(self._channel)
+        # The generated stubs are untyped (grpc_python_plugin writes no .pyi).
+        self.bake = bake_service_pb2_grpc.BakeServiceStub(self._channel)  # type: ignore[no-untyped-call]
+        self.assets = asset_service_pb2_grpc.AssetServiceStub(self._channel)  # type: ignore[no-untyped-call]
 
     def close(self) -> None:
         self._channel.close()

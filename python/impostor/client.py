@@ -315,7 +315,8 @@ class Client:
 
     def _get_result(self, cache_key: str) -> "pb.Manifest":
         t = self._transport
-        return t.unary("GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key))
+        manifest: pb.Manifest = t.unary("GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key))
+        return manifest
 
     def get_manifest(self, cache_key: str) -> Dict[str, Any]:
         """The manifest.json of the result baked under `cache_key`, parsed,

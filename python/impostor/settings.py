@@ -14,6 +14,14 @@ LAYOUTS = ("octahedral", "hemi-octahedral", "azimuth-elevation", "ring-top", "bi
 PRODUCTS = ("atlas", "surfels", "lod-chain", "cards")
 
 
+def _named_value(field: str, name: str, values: Dict[str, Any]) -> Any:
+    """The enum value called `name`; INVALID_ARGUMENT listing the names otherwise."""
+    if name not in values:
+        expected = ", ".join(n for n in values if n)
+        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f'{field}: unknown {field} "{name}"; expected {expected}')
+    return values[name]
+
+
 def _set_field(message: Any, name: str, value: Any) -> None:
     """message.name = value; a value of the wrong type or out of the field's
     range is INVALID_ARGUMENT naming the setting."""
@@ -85,33 +93,21 @@ class BakeSettings:
         from .v1 import types_pb2 as pb
 
         p = pb.BakeParameters()
-        layouts: Dict[str, int] = {
+        p.layout = _named_value("layout", self.layout, {
             "": pb.LAYOUT_UNSPECIFIED,
             "octahedral": pb.LAYOUT_OCTAHEDRAL,
             "hemi-octahedral": pb.LAYOUT_HEMI_OCTAHEDRAL,
             "azimuth-elevation": pb.LAYOUT_AZIMUTH_ELEVATION,
             "ring-top": pb.LAYOUT_RING_TOP,
             "billboard": pb.LAYOUT_BILLBOARD,
-        }
-        if self.layout not in layouts:
-            raise ImpostorError(
-                grpc.StatusCode.INVALID_ARGUMENT,
-                f'layout: unknown layout "{self.layout}"; expected {", ".join(LAYOUTS)}',
-            )
-        p.layout = layouts[self.layout]
-        products: Dict[str, int] = {
+        })
+        p.product = _named_value("product", self.product, {
             "": pb.PRODUCT_UNSPECIFIED,
             "atlas": pb.PRODUCT_UNSPECIFIED,  # the server's default
             "surfels": pb.PRODUCT_SURFELS,
             "lod-chain": pb.PRODUCT_LOD_CHAIN,
             "cards": pb.PRODUCT_CARDS,
-        }
-        if self.product not in products:
-            raise ImpostorError(
-                grpc.StatusCode.INVALID_ARGUMENT,
-                f'product: unknown product "{self.product}"; expected {", ".join(PRODUCTS)}',
-            )
-        p.product = products[self.product]
+        })
         for name in ("frames", "resolution", "preset", "ring_views", "supersampling", "point_budget",
                      "lod_pixel_error", "max_planes", "tolerance", "quality_views", "emissive",
                      "texture_array"):
