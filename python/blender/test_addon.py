@@ -166,6 +166,15 @@ def main() -> None:
     except RuntimeError as e:
         check("INVALID_ARGUMENT" in str(e) and "frames" in str(e), f"the farm's error is reported: {e}")
 
+    # An unreachable farm is reported within about a second (connection refused).
+    configure()
+    bpy.context.scene.impostor_farm.server = "127.0.0.1:1"
+    try:
+        bpy.ops.impostor.bake_selected()
+        raise AssertionError("a bake against 127.0.0.1:1 succeeded")
+    except RuntimeError as e:
+        check("UNAVAILABLE" in str(e) and "127.0.0.1:1" in str(e), f"an unreachable farm is reported: {e}")
+
     # 5. LOD chain: the mesh levels as .glb and the impostor level as a quad.
     configure(product="lod-chain", frames=4, resolution=128)
     check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected (lod-chain) finished")

@@ -161,6 +161,43 @@ class Steps:
     def screenshot_after_redraw(self):
         # One timer tick later: the viewport has redrawn in camera view.
         screenshot("blender_ui_result.png")
+        return self.start_cancelled_bake
+
+    def start_cancelled_bake(self):
+        """Cancel bake: a second bake (other settings, so no cache hit), held
+        at render, is cancelled from the panel's button."""
+        for name in (self.original, "Cube"):
+            bpy.data.objects[name].hide_set(False)
+            bpy.data.objects[name].select_set(True)
+        bpy.context.view_layer.objects.active = bpy.data.objects[self.original]
+        self.objects_before = set(bpy.data.objects.keys())
+        bpy.context.scene.impostor_farm.frames = 6
+        PAUSE.write_text("pause")
+        return self.invoke_again
+
+    def invoke_again(self):
+        window, area, region, _ = view3d()
+        with bpy.context.temp_override(window=window, area=area, region=region):
+            check(bpy.ops.impostor.bake_selected("INVOKE_DEFAULT") == {"RUNNING_MODAL"}, "the second bake runs")
+        return self.cancel_at_render
+
+    def cancel_at_render(self):
+        s = bpy.context.scene.impostor_farm
+        if not (s.running and "render" in s.status):
+            return False
+        with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+            check(not bpy.ops.impostor.bake_selected.poll(), "Bake selected is disabled while a bake runs")
+            check(bpy.ops.impostor.cancel_bake() == {"FINISHED"}, "Cancel bake clicked")
+        return self.wait_for_cancelled
+
+    def wait_for_cancelled(self):
+        s = bpy.context.scene.impostor_farm
+        if s.running:
+            return False
+        PAUSE.unlink()
+        check(s.status == "cancelled", f"the panel says the bake was cancelled ({s.status!r})")
+        check(set(bpy.data.objects.keys()) == self.objects_before, "nothing was imported")
+        check(IMPOSTOR_OT_bake_selected.active is None, "no bake is active any more")
         return True
 
 

@@ -26,13 +26,14 @@ from typing import List, Optional
 _SYSTEM_PYTHON = "/usr/bin/python3"
 
 
-def _system_site_dirs() -> List[str]:
-    """The system python3's site-packages folders, when its version is ours."""
-    if not os.path.exists(_SYSTEM_PYTHON):
+def system_site_dirs(system_python: str = _SYSTEM_PYTHON) -> List[str]:
+    """The site-packages folders of `system_python` when its major.minor
+    version is ours (compiled modules such as grpc's then load); else []."""
+    if not os.path.exists(system_python):
         return []
     try:
         out = subprocess.run(
-            [_SYSTEM_PYTHON, "-c",
+            [system_python, "-c",
              "import sys, site; print('%d.%d' % sys.version_info[:2]); print('\\n'.join(site.getsitepackages()))"],
             capture_output=True, text=True, timeout=10, check=True,
         ).stdout.splitlines()
@@ -55,7 +56,7 @@ def ensure_client(client_folder: str = "") -> Optional[str]:
     try:
         importlib.import_module("grpc")
     except ImportError:
-        for d in _system_site_dirs():
+        for d in system_site_dirs():
             _add_path(d)
         try:
             importlib.import_module("grpc")

@@ -74,8 +74,12 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
     def _finish(self, context: bpy.types.Context, job: BakeJob) -> Set[str]:
         s = settings_of(context)
         if job.error is not None:
-            s.status = "failed"
-            self.report({"ERROR"}, _error_text(job.error))
+            if getattr(getattr(job.error, "code", None), "name", "") == "CANCELLED":
+                s.status = "cancelled"
+                self.report({"WARNING"}, "Impostor farm: the bake was cancelled")
+            else:
+                s.status = "failed"
+                self.report({"ERROR"}, _error_text(job.error))
             return {"CANCELLED"}
         original = bpy.data.objects.get(self._original_name)
         objects, warnings = import_result(context, job.result.dir, self._original_name, original)
