@@ -8,7 +8,8 @@ baked from:
 - lod-chain: every mesh level (lodN.glb) through the glTF importer, and the
   impostor level as an atlas quad;
 - surfels: surfels.ply through Blender's PLY importer;
-each parented to the original (world placement kept).
+each parented to the original (world placement kept), replacing what an
+earlier bake of the same original imported under the same name.
 
 The exported selection was in world space (the glTF exporter applies object
 transforms and turns Z-up into Y-up), so the manifest's coordinates are
@@ -46,6 +47,16 @@ def _link_like(obj: bpy.types.Object, original: Optional[bpy.types.Object], cont
         c.objects.link(obj)
 
 
+def replace_previous(name: str, original: Optional[bpy.types.Object]) -> None:
+    """Removes the result an earlier bake imported under `original` as `name`
+    (with everything below it), so baking again replaces it."""
+    old = bpy.data.objects.get(name)
+    if old is None or original is None or old.parent != original:
+        return
+    for o in [*old.children_recursive, old]:
+        bpy.data.objects.remove(o, do_unlink=True)
+
+
 def nearest_frame(manifest: Dict[str, Any], toward_camera: Vector) -> int:
     """Index of the baked view whose direction is nearest `toward_camera` (Blender axes)."""
     d = Vector((toward_camera.x, toward_camera.z, -toward_camera.y)).normalized()
@@ -68,6 +79,7 @@ def create_atlas_impostor(context: bpy.types.Context, manifest: Dict[str, Any], 
         warnings.append(f"layout {manifest.get('layout')}: the impostor shows the frame nearest the camera "
                         f"at import time ({fixed}); use octahedral or hemi-octahedral for a frame per view")
 
+    replace_previous(name, original)
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([(-r, -r, 0), (r, -r, 0), (r, r, 0), (-r, r, 0)], [], [(0, 1, 2, 3)])
     uv = mesh.uv_layers.new(name="UVMap")
@@ -107,6 +119,7 @@ def import_glb(context: bpy.types.Context, path: Path, name: str,
     called `name` (the .glb's root node, or an empty holding its roots),
     parented to `original`."""
     _numpy_bool_alias()
+    replace_previous(name, original)
     before = set(bpy.data.objects)
     bpy.ops.import_scene.gltf(filepath=str(path))
     new = [o for o in bpy.data.objects if o not in before]
@@ -149,6 +162,7 @@ def import_result(context: bpy.types.Context, folder: Path, base_name: str,
                 objects.append(obj)
                 warnings += w
     elif product == "surfels":
+        replace_previous(f"{base_name}_surfels", original)
         before = set(bpy.data.objects)
         bpy.ops.import_mesh.ply(filepath=str(folder / manifest["surfels"]["ply_file"]))
         for o in (o for o in bpy.data.objects if o not in before):
