@@ -8,7 +8,8 @@ run_blender_test.py against a real impostor-server:
    modal operator's poll) is a cache hit;
 3. cards: the .glb is imported under the original;
 4. bad input (frames=1) becomes a Blender error report with the farm's message;
-5. lod-chain: the mesh levels and the impostor level are imported;
+5. lod-chain: the mesh levels and the impostor level are imported; surfels:
+   the .ply's points, in Blender's axes where the original was;
 6. the impostor is rendered with Cycles (kept as impostor_render.png in
    $IMPOSTOR_ARTEFACT_DIR, next to original_render.png of the mesh) and its
    silhouette must match the mesh's;
@@ -191,8 +192,30 @@ def main() -> None:
     lod0 = bpy.data.objects["Subject_LOD0"]
     check(sorted(o.type for o in lod0.children) == ["MESH", "MESH"], "LOD0 holds the cube and the cone")
 
+    # Surfels: the point cloud's .ply as a mesh of points, in Blender's axes.
+    configure(product="surfels", frames=4, resolution=128)
+    check(bpy.ops.impostor.bake_selected() == {"FINISHED"}, "Bake selected (surfels) finished")
+    cloud = bpy.data.objects.get("Subject_surfels")
+    check(cloud is not None and cloud.parent == original, "the surfel cloud was imported under the original")
+    folder = Path(bpy.context.scene.impostor_farm.output_dir)
+    manifests = [json.loads(p.read_text()) for p in folder.glob("*/manifest.json")]
+    surfels = next(m["surfels"] for m in manifests if m.get("product") == "surfels")
+    check(len(cloud.data.vertices) == surfels["point_count"] > 0,
+          f"it has the manifest's {surfels['point_count']} points")
+    bpy.context.view_layer.update()
+    world = [cloud.matrix_world @ v.co for v in cloud.data.vertices]
+    lo, hi = surfels["bounds_min"], surfels["bounds_max"]  # glTF axes: Blender (x, -z, y)
+    expected_lo = (lo[0], -hi[2], lo[1])
+    expected_hi = (hi[0], -lo[2], hi[1])
+    got_lo = tuple(min(p[i] for p in world) for i in range(3))
+    got_hi = tuple(max(p[i] for p in world) for i in range(3))
+    check(all(abs(a - b) < 1e-3 for a, b in zip(got_lo + got_hi, expected_lo + expected_hi)),
+          f"the points fill the manifest's box in Blender's axes ({got_lo}..{got_hi})")
+    check(abs((got_lo[0] + got_hi[0]) / 2 - 2.0) < 0.1 and abs((got_lo[1] + got_hi[1]) / 2 - 1.0) < 0.1,
+          "where the original was")
+
     # 6. One render of the impostor (and one of the mesh), kept as artefacts.
-    extra = [o for o in original.children if o.name.startswith(("Subject_cards", "Subject_LOD"))]
+    extra = [o for o in original.children if o.name.startswith(("Subject_cards", "Subject_LOD", "Subject_surfels"))]
     others = extra + [c for o in extra for c in o.children_recursive]
     render_and_compare(impostor, originals, others, "")
 
