@@ -25,6 +25,10 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
   clang-14 libclang-rt-14-dev
+  # Python client (python/) and its tests; Blender 3.4 for the add-on's
+  # headless test (python/blender; about 80 s to download and install) and
+  # numpy, which Blender's glTF exporter needs; Xvfb for its UI test
+  python3-grpcio python3-protobuf python3-pytest python3-mypy python3-pip python3-setuptools python3-wheel blender python3-numpy xvfb xauth
 )
 
 export DEBIAN_FRONTEND=noninteractive

@@ -1,0 +1,191 @@
+"""Blob transfer: uploading what the store lacks of some models (as
+client/mesh_upload.cc) and downloading a blob to a file, resumed at the byte
+offset after a break and verified against its digest (as
+client/blob_download.cc)."""
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Dict, Iterator, List, Sequence, Set, Tuple
+
+import grpc
+
+from ._mesh_files import MeshFile, MeshFiles, digest_file
+from ._transport import Transport
+from .errors import ImpostorError
+from .results import UploadStats
+from .v1 import asset_service_pb2 as asset_pb
+from .v1 import types_pb2 as pb
+
+UPLOAD_CHUNK_BYTES = 1 << 20  # the server takes chunks of at most 4 MiB
+MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
+
+_Key = Tuple[str, int]
+
+
+def _digest(f: MeshFile) -> "pb.Digest":
+    return pb.Digest(hash=f.hash, size_bytes=f.size_bytes)
+
+
+def mesh_input(files: MeshFiles) -> "pb.MeshInput":
+    """The MeshInput of a model whose files are (or will be) in the store."""
+    mesh = pb.MeshInput()
+    mesh.entry.path = files.entry.relative_path
+    mesh.entry.digest.CopyFrom(_digest(files.entry))
+    for f in files.files:
+        mesh.files.add(path=f.relative_path, digest=_digest(f))
+    return mesh
+
+
+def _upload_once(transport: Transport, blob: MeshFile) -> None:
+    def chunks() -> Iterator[asset_pb.UploadBlobRequest]:
+        with open(blob.local_path, "rb") as f:
+            first = True
+            while True:
+                data = f.read(UPLOAD_CHUNK_BYTES)
+                if first:
+                    yield asset_pb.UploadBlobRequest(digest=_digest(blob), data=data)
+                    first = False
+                elif data:
+                    yield asset_pb.UploadBlobRequest(data=data)
+                if not data:
+                    return
+
+    transport.upload_blob(chunks(), blob.size_bytes)
+
+
+def _upload_with_retry(transport: Transport, blob: MeshFile) -> None:
+    # The server keeps only complete blobs: every retry starts over.
+    retry = transport.retry_policy()
+    while True:
+        try:
+            _upload_once(transport, blob)
+            return
+        except ImpostorError as e:
+            if not retry.should_retry(e):
+                raise
+
+
+def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> List[UploadStats]:
+    """Uploads every distinct blob of `models` the server lacks, once (one
+    FindMissingBlobs per 10,000 blobs). Returns each model's UploadStats (an
+    upload counts for the first model that has the blob)."""
+    blobs: List[MeshFile] = []
+    first_user: List[int] = []
+    seen: Set[_Key] = set()
+    stats: List[Dict[str, int]] = []
+    for m, model in enumerate(models):
+        s = {"files": 0, "uploaded": 0, "bytes_total": 0, "bytes_uploaded": 0}
+        for f in model.all():
+            s["files"] += 1
+            s["bytes_total"] += f.size_bytes
+            if (f.hash, f.size_bytes) not in seen:
+                seen.add((f.hash, f.size_bytes))
+                blobs.append(f)
+                first_user.append(m)
+        stats.append(s)
+    missing: Set[_Key] = set()
+    for begin in range(0, len(blobs), MAX_FIND_MISSING_DIGESTS):
+        request = asset_pb.FindMissingBlobsRequest(
+            digests=[_digest(b) for b in blobs[begin : begin + MAX_FIND_MISSING_DIGESTS]]
+        )
+        response = transport.unary("FindMissingBlobs", transport.assets.FindMissingBlobs, request)
+        missing.update((d.hash, d.size_bytes) for d in response.missing)
+    for blob, m in zip(blobs, first_user):
+        if (blob.hash, blob.size_bytes) in missing:
+            _upload_with_retry(transport, blob)
+            stats[m]["uploaded"] += 1
+            stats[m]["bytes_uploaded"] += blob.size_bytes
+    return [UploadStats(**s) for s in stats]
+
+
+def already_there(path: Path, digest: "pb.Digest") -> bool:
+    """True when `path` already holds exactly the blob `digest`."""
+    try:
+        if not path.is_file() or path.stat().st_size != digest.size_bytes:
+            return False  # cheap check first
+        return digest_file(path)[0] == digest.hash
+    except OSError:
+        return False
+
+
+def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path) -> None:
+    """Writes the blob to `path` atomically (a temporary file renamed into
+    place once every byte arrived and matched the digest). A broken stream is
+    resumed where it stopped; bytes arriving start the failure count over.
+    Raises ImpostorError: DATA_LOSS when the bytes do not match the digest,
+    or the RPC's error."""
+    name = f"{digest.hash}/{digest.size_bytes}"
+    sha = hashlib.sha256()
+    received = 0
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as out:
+            retry = transport.retry_policy()
+            while True:
+                start = received
+                try:
+                    request = asset_pb.ReadBlobRequest(digest=digest, offset=received)
+                    for chunk in transport.read_blob(request, digest.size_bytes - received):
+                        if chunk.offset != received:
+                            raise ImpostorError(
+                                grpc.StatusCode.DATA_LOSS,
+                                f"ReadBlob {name}: chunk at offset {chunk.offset}, expected {received}",
+                            )
+                        if len(chunk.data) > digest.size_bytes - received:
+                            raise ImpostorError(
+                                grpc.StatusCode.DATA_LOSS,
+                                f"ReadBlob {name}: server sent more than the blob's {digest.size_bytes} bytes",
+                            )
+                        sha.update(chunk.data)
+                        out.write(chunk.data)
+                        received += len(chunk.data)
+                    if received == digest.size_bytes:
+                        break
+                    # Ended OK but short: treated like a broken stream.
+                    error = ImpostorError(
+                        grpc.StatusCode.UNAVAILABLE,
+                        f"ReadBlob {name}: stream ended after {received} of {digest.size_bytes} bytes",
+                    )
+                except ImpostorError as e:
+                    if e.code == grpc.StatusCode.DATA_LOSS and e.rpc is None:
+                        raise
+                    error = e
+                if received > start:
+                    retry.made_progress()
+                if not retry.should_retry(error):
+                    raise error
+            out.flush()
+            os.fsync(out.fileno())
+        if sha.hexdigest() != digest.hash:
+            raise ImpostorError(
+                grpc.StatusCode.DATA_LOSS, f"{path}: ReadBlob {name}: received bytes hash to {sha.hexdigest()}"
+            )
+        os.replace(tmp_name, path)
+    except BaseException:
+        try:
+            os.unlink(tmp_name)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def download_blob_to_bytes(transport: Transport, digest: "pb.Digest") -> bytes:
+    """The blob's bytes, verified (small blobs: manifests)."""
+    retry = transport.retry_policy()
+    while True:
+        try:
+            data = b"".join(
+                c.data for c in transport.read_blob(asset_pb.ReadBlobRequest(digest=digest), digest.size_bytes)
+            )
+            break
+        except ImpostorError as e:
+            if not retry.should_retry(e):
+                raise
+    if len(data) != digest.size_bytes or hashlib.sha256(data).hexdigest() != digest.hash:
+        raise ImpostorError(
+            grpc.StatusCode.DATA_LOSS, f"ReadBlob {digest.hash}/{digest.size_bytes}: received bytes do not match"
+        )
+    return data

@@ -1,0 +1,215 @@
+"""The gRPC side of the Client: the channel, its credentials and metadata,
+and every RPC with the retry policy applied (the Python twin of
+client/transport.cc). The rest of the package never sees a grpc.RpcError."""
+from __future__ import annotations
+
+import os
+import queue
+import time
+from typing import Any, Callable, Iterator, List, Optional, Sequence, Tuple
+
+import grpc
+
+from ._retry import ConnectionEvent, ConnectionMonitor, RetryPolicy
+from .errors import ImpostorError, rpc_error
+from .v1 import asset_service_pb2_grpc, bake_service_pb2_grpc
+
+# ReadBlob sends at most 1 MiB per message; the margin is for manifests.
+_MAX_RECEIVE_BYTES = 64 << 20
+# A stream's deadline grows by one second per this many bytes.
+_STREAM_BYTES_PER_SECOND = 256 * 1024
+_MAX_OUTAGE_SECONDS = 86400.0
+# gRPC's default reconnect backoff grows to 120 s, so a server back after a
+# restart would go unnoticed for minutes; try every second at most. A private
+# subchannel pool: a fresh channel never inherits a dead server's connection.
+_CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
+    ("grpc.max_receive_message_length", _MAX_RECEIVE_BYTES),
+    ("grpc.initial_reconnect_backoff_ms", 200),
+    ("grpc.max_reconnect_backoff_ms", 1000),
+    ("grpc.min_reconnect_backoff_ms", 1000),
+    ("grpc.keepalive_time_ms", 310 * 1000),
+    ("grpc.keepalive_timeout_ms", 20 * 1000),
+    ("grpc.use_local_subchannel_pool", 1),
+]
+
+
+def _read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as e:
+        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"{what}: cannot read {path}: {e.strerror}") from None
+
+
+def resolve_token(token: Optional[str], token_file: Optional["str | os.PathLike[str]"]) -> Optional[str]:
+    """The bearer token: `token`, else the first line of `token_file`, else
+    $IMPOSTOR_TOKEN, else None. INVALID_ARGUMENT for an unreadable or empty file."""
+    if token:
+        return token.strip()
+    if token_file:
+        text = _read_bytes(token_file, "token_file").decode("utf-8", "replace").strip()
+        if not text:
+            raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"token_file: {token_file} is empty")
+        return text.splitlines()[0].strip()
+    return os.environ.get("IMPOSTOR_TOKEN") or None
+
+
+class Transport:
+    """One channel to one server and its RPCs. Thread-safe (grpc stubs are)."""
+
+    def __init__(
+        self,
+        server: str,
+        *,
+        token: Optional[str],
+        tls_ca: Optional["str | os.PathLike[str]"],
+        tls_cert: Optional["str | os.PathLike[str]"],
+        tls_key: Optional["str | os.PathLike[str]"],
+        rpc_timeout_seconds: float,
+        max_attempts: int,
+        max_outage_seconds: float,
+        connect_timeout_seconds: float,
+        client_id: str,
+        on_connection_change: Optional[Callable[[ConnectionEvent], None]],
+    ) -> None:
+        def invalid(message: str) -> ImpostorError:
+            return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
+
+        if not server:
+            raise invalid("server: required")
+        if not rpc_timeout_seconds > 0:
+            raise invalid(f"rpc_timeout_seconds: must be > 0, got {rpc_timeout_seconds}")
+        if not connect_timeout_seconds > 0:
+            raise invalid(f"connect_timeout_seconds: must be > 0, got {connect_timeout_seconds}")
+        if max_attempts < 1:
+            raise invalid(f"max_attempts: must be >= 1, got {max_attempts}")
+        if not 0 <= max_outage_seconds <= _MAX_OUTAGE_SECONDS:
+            raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {max_outage_seconds}")
+        if (tls_cert is None) != (tls_key is None):
+            raise invalid("tls_cert and tls_key: give both (client certificate for mTLS) or neither")
+        self.server = server
+        self.rpc_timeout_seconds = rpc_timeout_seconds
+        self.max_attempts = max_attempts
+        self.max_outage_seconds = max_outage_seconds
+        self.monitor = ConnectionMonitor(server, max_outage_seconds, on_connection_change)
+        metadata: List[Tuple[str, str]] = []
+        if token:
+            metadata.append(("authorization", f"Bearer {token}"))
+        if client_id:
+            metadata.append(("impostor-client-id", client_id[:128]))
+        self._metadata: Sequence[Tuple[str, str]] = tuple(metadata)
+        if tls_ca is not None or tls_cert is not None:
+            credentials = grpc.ssl_channel_credentials(
+                root_certificates=_read_bytes(tls_ca, "tls_ca") if tls_ca is not None else None,
+                private_key=_read_bytes(tls_key, "tls_key") if tls_key is not None else None,
+                certificate_chain=_read_bytes(tls_cert, "tls_cert") if tls_cert is not None else None,
+            )
+            self._channel = grpc.secure_channel(server, credentials, options=_CHANNEL_OPTIONS)
+        else:
+            self._channel = grpc.insecure_channel(server, options=_CHANNEL_OPTIONS)
+        try:
+            self._wait_ready(connect_timeout_seconds)
+        except BaseException:
+            self._channel.close()
+            raise
+        # The generated stubs are untyped (grpc_python_plugin writes no .pyi).
+        self.bake = bake_service_pb2_grpc.BakeServiceStub(self._channel)  # type: ignore[no-untyped-call]
+        self.assets = asset_service_pb2_grpc.AssetServiceStub(self._channel)  # type: ignore[no-untyped-call]
+
+    def close(self) -> None:
+        self._channel.close()
+
+    def _wait_ready(self, timeout: float) -> None:
+        """Waits for READY, but gives up a second after the first refusal: a
+        script should hear "nobody there" at once, not after the whole timeout."""
+        states: "queue.Queue[grpc.ChannelConnectivity]" = queue.Queue()
+        self._channel.subscribe(states.put, try_to_connect=True)
+        try:
+            deadline = time.monotonic() + timeout
+            refused_at: Optional[float] = None
+            state = grpc.ChannelConnectivity.IDLE
+            while True:
+                limit = deadline if refused_at is None else min(deadline, refused_at + 1.0)
+                remaining = limit - time.monotonic()
+                if remaining <= 0:
+                    break
+                try:
+                    state = states.get(timeout=remaining)
+                except queue.Empty:
+                    break
+                if state == grpc.ChannelConnectivity.READY:
+                    self.monitor.note_answer()
+                    return
+                if state == grpc.ChannelConnectivity.TRANSIENT_FAILURE and refused_at is None:
+                    refused_at = time.monotonic()
+            why = (
+                "connection refused; is impostor-server running there?"
+                if refused_at is not None
+                else f"no impostor server answered within {timeout:g} s (channel {state.name})"
+            )
+            raise ImpostorError(
+                grpc.StatusCode.UNAVAILABLE,
+                f"Connect to {self.server}: {why}",
+                server_message=why,
+                rpc="Connect",
+                server=self.server,
+            )
+        finally:
+            self._channel.unsubscribe(states.put)
+
+    def note(self, error: grpc.RpcError, rpc: str) -> ImpostorError:
+        """The ImpostorError of a failed call, noted by the connection monitor."""
+        converted = rpc_error(error, rpc, self.server)
+        if converted.code == grpc.StatusCode.UNAVAILABLE:
+            self.monitor.note_failure(converted)
+        elif converted.code not in (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED):
+            # Said by the server (our own side says deadlines and cancels).
+            self.monitor.note_answer()
+        return converted
+
+    def retry_policy(self) -> RetryPolicy:
+        return RetryPolicy(self.max_attempts, self.max_outage_seconds, self.monitor)
+
+    def unary(self, rpc: str, method: Callable[..., Any], request: Any) -> Any:
+        """Calls a unary RPC, retried as RetryPolicy decides."""
+        retry = self.retry_policy()
+        while True:
+            try:
+                response = method(request, timeout=self.rpc_timeout_seconds, metadata=self._metadata)
+            except grpc.RpcError as e:
+                error = self.note(e, rpc)
+                if not retry.should_retry(error):
+                    raise error from None
+                continue
+            self.monitor.note_answer()
+            return response
+
+    def watch_job(self, request: Any) -> Iterator[Any]:
+        """One WatchJob stream (no deadline: a bake may take long). Raises
+        ImpostorError when it breaks; the caller resumes."""
+        try:
+            for job in self.bake.WatchJob(request, metadata=self._metadata):
+                self.monitor.note_answer()
+                yield job
+        except grpc.RpcError as e:
+            raise self.note(e, "WatchJob") from None
+
+    def read_blob(self, request: Any, remaining_bytes: int) -> Iterator[Any]:
+        """One ReadBlob stream; its deadline grows with the bytes it carries."""
+        timeout = self.rpc_timeout_seconds + remaining_bytes / _STREAM_BYTES_PER_SECOND
+        try:
+            for chunk in self.assets.ReadBlob(request, timeout=timeout, metadata=self._metadata):
+                self.monitor.note_answer()
+                yield chunk
+        except grpc.RpcError as e:
+            raise self.note(e, "ReadBlob") from None
+
+    def upload_blob(self, requests: Iterator[Any], size_bytes: int) -> Any:
+        """One UploadBlob stream (the caller restarts it from the first byte)."""
+        timeout = self.rpc_timeout_seconds + size_bytes / _STREAM_BYTES_PER_SECOND
+        try:
+            response = self.assets.UploadBlob(requests, timeout=timeout, metadata=self._metadata)
+        except grpc.RpcError as e:
+            raise self.note(e, "UploadBlob") from None
+        self.monitor.note_answer()
+        return response

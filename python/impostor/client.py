@@ -1,0 +1,455 @@
+"""Client: a connection to one impostor bake server.
+
+    import impostor
+    with impostor.Client("bake.example.com:50051", token_file="~/.impostor/token") as farm:
+        result = farm.bake("tree/scene.gltf", frames=12, resolution=2048,
+                           progress=lambda u: print(u.state, u.stage, f"{u.progress:.0%}"))
+        print(result.cache_key, result.quality["silhouette_iou_mean"], result.files)
+"""
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple, Union
+
+import grpc
+from google.protobuf import json_format
+
+from ._blobs import already_there, download_blob_to_bytes, download_blob_to_file, mesh_input, upload_meshes
+from ._mesh_files import MeshFiles, collect_mesh_files
+from ._retry import ConnectionEvent
+from ._transport import Transport, resolve_token
+from .errors import ImpostorError, status_code_from_int
+from .results import BakeResult, BatchSubmission, FetchResult, JobUpdate, LookupResult, SubmitResult
+from .settings import BakeSettings
+from .v1 import asset_service_pb2 as asset_pb
+from .v1 import bake_service_pb2 as bake_pb
+from .v1 import types_pb2 as pb
+
+PathLike = Union[str, "os.PathLike[str]"]
+ProgressCallback = Callable[[JobUpdate], None]
+#: A batch item: a model path, or (path, settings as a dict of bake settings).
+BatchItem = Union[PathLike, Tuple[PathLike, Mapping[str, Any]]]
+
+MANIFEST_FILE_NAME = "manifest.json"
+
+_STATE_NAMES = {
+    pb.JOB_STATE_QUEUED: "queued",
+    pb.JOB_STATE_RUNNING: "running",
+    pb.JOB_STATE_SUCCEEDED: "succeeded",
+    pb.JOB_STATE_FAILED: "failed",
+    pb.JOB_STATE_CANCELLED: "cancelled",
+}
+
+
+def _job_update(job: "pb.Job") -> JobUpdate:
+    return JobUpdate(
+        job_id=job.job_id,
+        cache_key=job.cache_key,
+        state=_STATE_NAMES.get(job.state, "unknown"),
+        progress=job.progress,
+        stage=job.stage,
+        error_code=job.error.code if job.HasField("error") else 0,
+        error_message=job.error.message if job.HasField("error") else "",
+        cached=job.cached,
+    )
+
+
+def _submit_result(response: "bake_pb.SubmitBakeResponse", upload: Any) -> SubmitResult:
+    failed = response.job.state == pb.JOB_STATE_FAILED
+    return SubmitResult(
+        job_id=response.job_id,
+        cache_key=response.cache_key,
+        cached=response.cached,
+        upload=upload,
+        error_code=response.job.error.code if failed else 0,
+        error_message=response.job.error.message if failed else "",
+    )
+
+
+def _check_manifest_files(manifest: "pb.Manifest", server: str, cache_key: str) -> None:
+    """A server's manifest names only distinct plain files with valid digests
+    (a result must never write outside its folder)."""
+    names: Set[str] = {MANIFEST_FILE_NAME}
+    problems: List[str] = []
+    digests = [("manifest_json", manifest.manifest_json)]
+    for i, m in enumerate(manifest.maps):
+        if not m.file or "/" in m.file or "\\" in m.file or m.file in (".", "..") or m.file in names:
+            problems.append(f'maps[{i}].file: "{m.file}" is not a distinct plain file name')
+        names.add(m.file)
+        digests.append((f"maps[{i}].digest", m.digest))
+    for field, d in digests:
+        if len(d.hash) != 64 or any(c not in "0123456789abcdef" for c in d.hash) or d.size_bytes < 0:
+            problems.append(f"{field}: malformed digest")
+    if problems:
+        raise ImpostorError(
+            grpc.StatusCode.INTERNAL, f"server {server} sent a bad result for {cache_key}: {problems[0]}"
+        )
+
+
+class Client:
+    """A connection to one bake server: upload, bake, follow, download.
+
+    Thread-safety: every method may be called from any thread, concurrently
+    (the Blender add-on bakes on a worker thread). The Client owns its
+    channel; close() it, or use it as a context manager.
+
+    Args:
+        server: "host:port" (any gRPC target string works).
+        token: bearer token, sent as "authorization: Bearer <token>" on every
+            call. Default: the first line of `token_file`, else
+            $IMPOSTOR_TOKEN, else none.
+        token_file: file holding the token.
+        tls_ca: PEM file of the CA that signed the server's certificate; the
+            connection then uses TLS. Default: plaintext.
+        tls_cert, tls_key: client certificate and key (PEM) for mutual TLS.
+        rpc_timeout_seconds: deadline of every unary RPC; streams get this plus
+            one second per 256 KiB; WatchJob has none. Default 30, > 0.
+        max_attempts: tries in all of a call failing with UNAVAILABLE or
+            DEADLINE_EXCEEDED, outside an outage, with backoff 100 ms, 200 ms,
+            ... capped at 1 s, minus up to 20% jitter. Default 5, >= 1.
+        max_outage_seconds: how long a server that answered once may stay
+            away (UNAVAILABLE) while calls keep retrying: uploads start over,
+            SubmitBake resends its request id, WatchJob resumes via GetJob,
+            downloads resume at their byte offset. 0 = max_attempts alone.
+            Default 300, range 0..86400.
+        connect_timeout_seconds: how long the constructor waits for the
+            server (about a second when the connection is refused). Default 10.
+        client_id: names this client to the server for per-client limits and
+            fairness (the "impostor-client-id" metadata). Default: none.
+        on_connection_change: called with a ConnectionEvent when the server
+            stops answering and when it answers again; must return quickly.
+
+    Raises:
+        ImpostorError: UNAVAILABLE when no server answers;
+            INVALID_ARGUMENT for out-of-range options or unreadable files.
+    """
+
+    def __init__(
+        self,
+        server: str = "localhost:50051",
+        *,
+        token: Optional[str] = None,
+        token_file: Optional[PathLike] = None,
+        tls_ca: Optional[PathLike] = None,
+        tls_cert: Optional[PathLike] = None,
+        tls_key: Optional[PathLike] = None,
+        rpc_timeout_seconds: float = 30.0,
+        max_attempts: int = 5,
+        max_outage_seconds: float = 300.0,
+        connect_timeout_seconds: float = 10.0,
+        client_id: str = "",
+        on_connection_change: Optional[Callable[[ConnectionEvent], None]] = None,
+    ) -> None:
+        self._transport = Transport(
+            server,
+            token=resolve_token(token, os.path.expanduser(token_file) if token_file else None),
+            tls_ca=tls_ca,
+            tls_cert=tls_cert,
+            tls_key=tls_key,
+            rpc_timeout_seconds=rpc_timeout_seconds,
+            max_attempts=max_attempts,
+            max_outage_seconds=max_outage_seconds,
+            connect_timeout_seconds=connect_timeout_seconds,
+            client_id=client_id,
+            on_connection_change=on_connection_change,
+        )
+
+    @property
+    def server(self) -> str:
+        return self._transport.server
+
+    def close(self) -> None:
+        """Closes the channel; calls in flight fail with CANCELLED."""
+        self._transport.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- submitting ---------------------------------------------------------
+
+    def _submit_one(self, files: MeshFiles, settings: BakeSettings, upload: Any) -> SubmitResult:
+        request = bake_pb.SubmitBakeRequest(mesh=mesh_input(files), parameters=settings.to_parameters())
+        settings.apply_scheduling(request)
+        # The same id on every retry: a retried submit never makes a second job.
+        request.request_id = secrets.token_hex(16)
+        t = self._transport
+        return _submit_result(t.unary("SubmitBake", t.bake.SubmitBake, request), upload)
+
+    def submit(self, model: PathLike, **settings: Any) -> SubmitResult:
+        """Uploads what the server lacks of `model` (a .gltf or .glb and every
+        file its buffers and images refer to by relative URI) and submits a bake.
+
+        `settings` are BakeSettings fields (layout, frames, resolution,
+        product, ...); an unknown name is INVALID_ARGUMENT.
+
+        Raises:
+            ImpostorError: NOT_FOUND / INVALID_ARGUMENT / PERMISSION_DENIED for
+                the model's files (see collect_mesh_files), INVALID_ARGUMENT
+                for an unknown layout or product, or an RPC's error (the
+                server's INVALID_ARGUMENT naming the field out of range,
+                RESOURCE_EXHAUSTED, ...).
+        """
+        parsed = BakeSettings.from_kwargs(settings)
+        parsed.to_parameters()  # settings errors before any upload
+        files = collect_mesh_files(model, parsed.follow_symlinks)
+        (upload,) = upload_meshes(self._transport, [files])
+        return self._submit_one(files, parsed, upload)
+
+    def submit_batch(
+        self,
+        items: Sequence[BatchItem],
+        on_submitted: Optional[Callable[[int, BatchSubmission], bool]] = None,
+    ) -> List[BatchSubmission]:
+        """Submits many bakes: hashes every item's files, uploads each blob the
+        server lacks once, then one SubmitBake per item in order. An item whose
+        files or settings are bad is not submitted and the others go on.
+
+        Args:
+            items: model paths, or (path, {setting: value}) pairs.
+            on_submitted: called with each item's index and outcome as soon as
+                it is known, in order; returning False stops the batch (the
+                rest get CANCELLED "not submitted: the batch stopped").
+
+        Returns:
+            One BatchSubmission per item.
+
+        Raises:
+            ImpostorError: an RPC's error for the whole batch when
+                FindMissingBlobs or an upload fails.
+        """
+        out: List[BatchSubmission] = [BatchSubmission() for _ in items]
+        prepared: List[Optional[Tuple[MeshFiles, BakeSettings]]] = []
+        for i, item in enumerate(items):
+            path, kwargs = (item[0], dict(item[1])) if isinstance(item, tuple) else (item, {})
+            try:
+                parsed = BakeSettings.from_kwargs(kwargs)
+                parsed.to_parameters()
+                prepared.append((collect_mesh_files(path, parsed.follow_symlinks), parsed))
+            except ImpostorError as e:
+                out[i] = BatchSubmission(error=e)
+                prepared.append(None)
+        ready = [(i, p) for i, p in enumerate(prepared) if p is not None]
+        stats = upload_meshes(self._transport, [p[0] for _, p in ready])
+        upload_of = {i: s for (i, _), s in zip(ready, stats)}
+        stopped = False
+        for i, p in enumerate(prepared):
+            if stopped:
+                out[i] = BatchSubmission(
+                    error=ImpostorError(grpc.StatusCode.CANCELLED, "not submitted: the batch stopped")
+                )
+                continue
+            if p is not None:
+                try:
+                    out[i] = BatchSubmission(result=self._submit_one(p[0], p[1], upload_of[i]))
+                except ImpostorError as e:
+                    out[i] = BatchSubmission(error=e)
+            if on_submitted is not None and not on_submitted(i, out[i]):
+                stopped = True
+        return out
+
+    # -- following jobs ----------------------------------------------------
+
+    def get_job(self, job_id: str) -> JobUpdate:
+        """The job's current state. Raises ImpostorError (NOT_FOUND, ...)."""
+        t = self._transport
+        return _job_update(t.unary("GetJob", t.bake.GetJob, bake_pb.GetJobRequest(job_id=job_id)))
+
+    def cancel(self, job_id: str) -> JobUpdate:
+        """Cancels a queued or running job; returns its state afterwards."""
+        t = self._transport
+        return _job_update(t.unary("CancelJob", t.bake.CancelJob, bake_pb.CancelJobRequest(job_id=job_id)))
+
+    def watch(self, job_id: str, progress: Optional[ProgressCallback] = None) -> JobUpdate:
+        """Follows a job until it is terminal and returns that state (a failed
+        bake is a returned JobUpdate, not an exception). `progress` is called
+        on the calling thread for each change, the terminal one included.
+        When the stream breaks (a server restart) it resumes with GetJob and a
+        new stream for as long as max_outage_seconds allows."""
+        last: Optional[JobUpdate] = None
+
+        def emit(update: JobUpdate) -> None:
+            nonlocal last
+            if last == update:
+                return  # a resumed stream repeats the current state
+            last = update
+            if progress is not None:
+                progress(update)
+
+        t = self._transport
+        retry = t.retry_policy()
+        while True:
+            got_any = False
+            try:
+                for job in t.watch_job(bake_pb.WatchJobRequest(job_id=job_id)):
+                    got_any = True
+                    emit(_job_update(job))
+                    if last is not None and last.terminal:
+                        return last
+                error = ImpostorError(
+                    grpc.StatusCode.UNAVAILABLE,
+                    f"WatchJob to {t.server}: stream for job {job_id} ended before the job finished",
+                    rpc="WatchJob",
+                    server=t.server,
+                )
+            except ImpostorError as e:
+                error = e
+            if got_any:
+                retry.made_progress()
+            if not retry.should_retry(error):
+                raise error
+            # GetJob rides out the rest of an outage itself (the same budget),
+            # so its failure is final: the budget is spent or the job is gone.
+            emit(self.get_job(job_id))
+            if last is not None and last.terminal:
+                return last
+
+    # -- results -----------------------------------------------------------
+
+    def _get_result(self, cache_key: str) -> "pb.Manifest":
+        t = self._transport
+        manifest: pb.Manifest = t.unary("GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key))
+        return manifest
+
+    def get_manifest(self, cache_key: str) -> Dict[str, Any]:
+        """The manifest.json of the result baked under `cache_key`, parsed,
+        without downloading its maps. Raises ImpostorError (NOT_FOUND, ...)."""
+        manifest = self._get_result(cache_key)
+        _check_manifest_files(manifest, self.server, cache_key)
+        parsed: Dict[str, Any] = json.loads(download_blob_to_bytes(self._transport, manifest.manifest_json))
+        return parsed
+
+    def fetch(self, cache_key: str, out_dir: PathLike) -> FetchResult:
+        """Downloads the result baked under `cache_key` into `out_dir` (created
+        if needed): every file the manifest lists (map images, .glb levels,
+        point buffers), then manifest.json last, so a manifest.json on disk
+        means its files are complete. Each file is verified against its
+        digest and written atomically; files already there with the right
+        digest are kept.
+
+        Raises:
+            ImpostorError: NOT_FOUND (nothing baked under the key),
+                INVALID_ARGUMENT (malformed key), DATA_LOSS (bytes do not
+                match), INTERNAL (a bad manifest or a local disk error).
+        """
+        start = time.monotonic()
+        manifest = self._get_result(cache_key)
+        _check_manifest_files(manifest, self.server, cache_key)
+        out = Path(out_dir)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise ImpostorError(grpc.StatusCode.INTERNAL, f"cannot create directory {out}: {e.strerror}") from None
+        wanted = [(out / m.file, m.digest) for m in manifest.maps]
+        wanted.append((out / MANIFEST_FILE_NAME, manifest.manifest_json))
+        downloaded = reused = 0
+        for path, digest in wanted:
+            if already_there(path, digest):
+                reused += digest.size_bytes
+                continue
+            try:
+                download_blob_to_file(self._transport, digest, path)
+            except OSError as e:
+                raise ImpostorError(grpc.StatusCode.INTERNAL, f"cannot write {path}: {e.strerror}") from None
+            downloaded += digest.size_bytes
+        return FetchResult(
+            dir=out,
+            manifest_path=out / MANIFEST_FILE_NAME,
+            files=[p for p, _ in wanted],
+            manifest=json.loads((out / MANIFEST_FILE_NAME).read_text()),
+            bytes_downloaded=downloaded,
+            bytes_reused=reused,
+            warnings=list(manifest.warnings),
+            seconds=time.monotonic() - start,
+        )
+
+    def lookup(self, model: PathLike, **settings: Any) -> LookupResult:
+        """Whether a result for this model at these settings is already baked,
+        without uploading or baking (only the files' digests are sent)."""
+        parsed = BakeSettings.from_kwargs(settings)
+        files = collect_mesh_files(model, parsed.follow_symlinks)
+        request = bake_pb.SubmitBakeRequest(mesh=mesh_input(files), parameters=parsed.to_parameters())
+        parsed.apply_scheduling(request)
+        t = self._transport
+        response = t.unary("LookupBake", t.bake.LookupBake, request)
+        manifest = (
+            json_format.MessageToDict(response.result, preserving_proto_field_name=True) if response.found else None
+        )
+        return LookupResult(cache_key=response.cache_key, found=response.found, manifest=manifest)
+
+    # -- the whole round trip ----------------------------------------------
+
+    def _finish(self, submitted: SubmitResult, out_dir: Optional[PathLike],
+                progress: Optional[ProgressCallback]) -> BakeResult:
+        job = self.watch(submitted.job_id, progress)
+        if job.state != "succeeded":
+            raise ImpostorError(
+                status_code_from_int(job.error_code) if job.error_code else grpc.StatusCode.UNKNOWN,
+                f"bake {job.job_id} {job.state}: {job.error_message}",
+                server_message=job.error_message,
+                job_id=job.job_id,
+                cache_key=job.cache_key,
+            )
+        target = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="impostor-"))
+        return BakeResult(job.cache_key, job, submitted, self.fetch(job.cache_key, target))
+
+    def bake(
+        self,
+        model: PathLike,
+        out_dir: Optional[PathLike] = None,
+        *,
+        progress: Optional[ProgressCallback] = None,
+        **settings: Any,
+    ) -> BakeResult:
+        """Submits `model`, follows the job and downloads the result.
+
+        Args:
+            model: a .gltf or .glb file.
+            out_dir: where the result's files go (created if needed).
+                Default: a new temporary folder.
+            progress: called with a JobUpdate on each change of the job.
+            **settings: BakeSettings fields, e.g. frames=12, resolution=1024.
+
+        Returns:
+            BakeResult with cache_key, manifest, quality and the files, each
+            verified against the manifest's digests.
+
+        Raises:
+            ImpostorError: as submit() and fetch(); and when the bake fails or
+                is cancelled, with the job's error code and message (job_id and
+                cache_key set; a quality-gate failure is FAILED_PRECONDITION and
+                its result can still be fetched).
+        """
+        return self._finish(self.submit(model, **settings), out_dir, progress)
+
+    def bake_batch(
+        self,
+        items: Sequence[BatchItem],
+        out_dir: PathLike,
+        *,
+        progress: Optional[Callable[[int, JobUpdate], None]] = None,
+    ) -> List[Union[BakeResult, ImpostorError]]:
+        """submit_batch(), then follows every job in item order and downloads
+        each result into out_dir/<index>_<model stem>. Returns, per item, its
+        BakeResult or the ImpostorError that stopped it; `progress` gets the
+        item's index and the JobUpdate."""
+        submissions = self.submit_batch(items)
+        results: List[Union[BakeResult, ImpostorError]] = []
+        for i, (item, s) in enumerate(zip(items, submissions)):
+            if s.error is not None or s.result is None:
+                results.append(s.error or ImpostorError(grpc.StatusCode.UNKNOWN, "not submitted"))
+                continue
+            path = Path(item[0] if isinstance(item, tuple) else item)
+            callback = (lambda u, i=i: progress(i, u)) if progress is not None else None
+            try:
+                results.append(self._finish(s.result, Path(out_dir) / f"{i}_{path.stem}", callback))
+            except ImpostorError as e:
+                results.append(e)
+        return results

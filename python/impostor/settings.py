@@ -1,0 +1,133 @@
+"""What to bake: BakeSettings, the Python twin of the C++ SDK's
+impostor::sdk::BakeSettings (client/include/impostor/client.h documents every
+field's meaning, default and range; the server checks the ranges)."""
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Dict, List, Mapping, Optional
+
+import grpc
+
+from .errors import ImpostorError
+
+LAYOUTS = ("octahedral", "hemi-octahedral", "azimuth-elevation", "ring-top", "billboard")
+PRODUCTS = ("atlas", "surfels", "lod-chain", "cards")
+
+
+def _named_value(field: str, name: str, values: Dict[str, Any]) -> Any:
+    """The enum value called `name`; INVALID_ARGUMENT listing the names otherwise."""
+    if name not in values:
+        expected = ", ".join(n for n in values if n)
+        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f'{field}: unknown {field} "{name}"; expected {expected}')
+    return values[name]
+
+
+def _set_field(message: Any, name: str, value: Any) -> None:
+    """message.name = value; a value of the wrong type or out of the field's
+    range is INVALID_ARGUMENT naming the setting."""
+    try:
+        if isinstance(value, (list, tuple)):
+            getattr(message, name).extend(value)
+        else:
+            setattr(message, name, value)
+    except (TypeError, ValueError) as e:
+        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"{name}: {value!r} is not valid here ({e})") from None
+
+
+@dataclasses.dataclass
+class BakeSettings:
+    """What to bake. Zero, empty and None mean "the server's default".
+
+    layout: "octahedral" (default), "hemi-octahedral", "azimuth-elevation",
+        "ring-top" or "billboard"; "" = the server's default.
+    frames: frames per atlas axis; 0 = default (12). Server range 2..64.
+    resolution: atlas side in pixels; 0 = default (2048). Range 64..16384.
+    product: "atlas" (default), "surfels", "lod-chain" or "cards".
+    ring_views, supersampling, preset, point_budget, lod_ratios,
+    lod_pixel_error, max_planes, tolerance, quality_views, emissive,
+    texture_array, frames_auto: as BakeSettings in the C++ SDK.
+    priority: -100..100, higher runs first; not part of the cache key.
+    min_iou, min_psnr_db: quality gate (the job fails with
+        FAILED_PRECONDITION below them); not part of the cache key.
+    follow_symlinks: upload files reached through a symbolic link that leads
+        out of the model's folder (default: refuse with PERMISSION_DENIED).
+    """
+
+    layout: str = "octahedral"
+    frames: int = 0
+    resolution: int = 0
+    product: str = "atlas"
+    ring_views: Optional[int] = None
+    supersampling: Optional[int] = None
+    preset: str = ""
+    point_budget: Optional[int] = None
+    lod_ratios: List[float] = dataclasses.field(default_factory=list)
+    lod_pixel_error: Optional[float] = None
+    max_planes: Optional[int] = None
+    tolerance: Optional[float] = None
+    quality_views: Optional[int] = None
+    emissive: bool = False
+    texture_array: bool = False
+    frames_auto: bool = False
+    priority: int = 0
+    min_iou: Optional[float] = None
+    min_psnr_db: Optional[float] = None
+    follow_symlinks: bool = False
+
+    @classmethod
+    def from_kwargs(cls, settings: Mapping[str, Any]) -> "BakeSettings":
+        """BakeSettings from keyword arguments; an unknown name is INVALID_ARGUMENT
+        naming it and the known ones."""
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(settings) - known)
+        if unknown:
+            raise ImpostorError(
+                grpc.StatusCode.INVALID_ARGUMENT,
+                f"unknown bake setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}",
+            )
+        return cls(**dict(settings))
+
+    def to_parameters(self) -> Any:
+        """The impostor.v1.BakeParameters message; INVALID_ARGUMENT for an
+        unknown layout or product."""
+        from .v1 import types_pb2 as pb
+
+        p = pb.BakeParameters()
+        p.layout = _named_value("layout", self.layout, {
+            "": pb.LAYOUT_UNSPECIFIED,
+            "octahedral": pb.LAYOUT_OCTAHEDRAL,
+            "hemi-octahedral": pb.LAYOUT_HEMI_OCTAHEDRAL,
+            "azimuth-elevation": pb.LAYOUT_AZIMUTH_ELEVATION,
+            "ring-top": pb.LAYOUT_RING_TOP,
+            "billboard": pb.LAYOUT_BILLBOARD,
+        })
+        p.product = _named_value("product", self.product, {
+            "": pb.PRODUCT_UNSPECIFIED,
+            "atlas": pb.PRODUCT_UNSPECIFIED,  # the server's default
+            "surfels": pb.PRODUCT_SURFELS,
+            "lod-chain": pb.PRODUCT_LOD_CHAIN,
+            "cards": pb.PRODUCT_CARDS,
+        })
+        for name in ("frames", "resolution", "preset", "ring_views", "supersampling", "point_budget",
+                     "lod_pixel_error", "max_planes", "tolerance", "quality_views", "emissive",
+                     "texture_array"):
+            value = getattr(self, name)
+            if value is not None:
+                _set_field(p, name, value)
+        _set_field(p, "lod_ratios", self.lod_ratios)
+        # frames_auto's target is the request's gate: one pair of thresholds.
+        if self.frames_auto:
+            p.frames_auto = True
+            if self.min_iou is not None:
+                p.auto_target.min_iou = self.min_iou
+            if self.min_psnr_db is not None:
+                p.auto_target.min_psnr_db = self.min_psnr_db
+        return p
+
+    def apply_scheduling(self, request: Any) -> None:
+        """Sets the SubmitBakeRequest's priority and quality gate."""
+        request.priority = self.priority
+        if self.min_iou is not None:
+            request.gate.min_iou = self.min_iou
+        if self.min_psnr_db is not None:
+            request.gate.min_psnr_db = self.min_psnr_db

@@ -1,0 +1,133 @@
+"""A real impostor-server (with --local-workers) for tests: started on port 0,
+restarted on the same address and data folder, killed with SIGKILL.
+
+Readiness is an event, never a sleep: the server prints "impostor-server
+listening on HOST:PORT" on stdout once its port is bound (the same moment it
+writes --port-file), and a reader thread hands that line over. Each server
+runs in its own session, so teardown also ends local workers a SIGKILLed
+server left behind.
+"""
+from __future__ import annotations
+
+import os
+import queue
+import signal
+import subprocess
+import threading
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence
+
+# Generous bound for one start on a loaded 2-core machine; reaching it is a
+# failure (a hang), not a timing measurement.
+START_DEADLINE_S = 90
+
+
+def bin_dir() -> Path:
+    value = os.environ.get("IMPOSTOR_BIN_DIR")
+    if not value:
+        raise RuntimeError("IMPOSTOR_BIN_DIR is not set (ctest sets it to the folder of impostor-server)")
+    return Path(value)
+
+
+def assets_dir() -> Path:
+    value = os.environ.get("IMPOSTOR_TEST_ASSETS_DIR")
+    if not value:
+        raise RuntimeError("IMPOSTOR_TEST_ASSETS_DIR is not set (ctest sets it to ../shared/assets)")
+    return Path(value)
+
+
+class FarmServer:
+    """impostor-server with `local_workers` workers on `data_dir`."""
+
+    def __init__(
+        self,
+        data_dir: Path,
+        *,
+        local_workers: int = 1,
+        extra_args: Sequence[str] = (),
+        env: Optional[Dict[str, str]] = None,
+    ) -> None:
+        self.data_dir = data_dir
+        self.local_workers = local_workers
+        self.extra_args = list(extra_args)
+        self.env = dict(os.environ, **(env or {}))
+        self.listen = "127.0.0.1:0"
+        self.address = ""
+        self.log_path = data_dir.parent / f"{data_dir.name}.server.log"
+        self._process: Optional[subprocess.Popen[bytes]] = None
+        self._sessions: List[int] = []  # process groups to end at stop()
+        self.start()
+
+    def start(self) -> None:
+        port_file = self.data_dir.parent / f"{self.data_dir.name}.port"
+        argv = [
+            str(bin_dir() / "impostor-server"),
+            f"--listen={self.listen}",
+            f"--data={self.data_dir}",
+            f"--local-workers={self.local_workers}",
+            f"--port-file={port_file}",
+            "--log-level=info",
+            *self.extra_args,
+        ]
+        log = open(self.log_path, "ab")
+        self._process = subprocess.Popen(
+            argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log,
+            env=self.env, start_new_session=True,
+        )
+        log.close()
+        self._sessions.append(self._process.pid)
+        lines: "queue.Queue[Optional[str]]" = queue.Queue()
+        stdout = self._process.stdout
+        assert stdout is not None
+
+        def pump() -> None:  # also keeps the pipe drained for the server's life
+            for raw in stdout:
+                lines.put(raw.decode(errors="replace"))
+            lines.put(None)
+
+        threading.Thread(target=pump, daemon=True).start()
+        while True:
+            try:
+                line = lines.get(timeout=START_DEADLINE_S)
+            except queue.Empty:
+                raise RuntimeError(f"impostor-server printed no 'listening on' line within {START_DEADLINE_S} s; "
+                                   f"log: {self.log_path}\n{self.log_tail()}") from None
+            if line is None:
+                raise RuntimeError(f"impostor-server exited ({self._process.wait()}) before listening; "
+                                   f"log: {self.log_path}\n{self.log_tail()}")
+            if "listening on" in line:
+                self.address = line.strip().rsplit(" ", 1)[-1]
+                break
+        # Restarts keep the address clients know.
+        self.listen = self.address
+
+    @property
+    def port(self) -> int:
+        return int(self.address.rsplit(":", 1)[1])
+
+    def kill9(self) -> None:
+        """SIGKILL to the server alone (its local workers live on, orphaned)."""
+        assert self._process is not None
+        self._process.kill()
+        self._process.wait()
+
+    def restart(self) -> None:
+        """Starts the server again on the same address and data folder."""
+        self.start()
+
+    def stop(self) -> None:
+        """Ends every process this server started, orphans included."""
+        for pgid in self._sessions:
+            try:
+                os.killpg(pgid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        if self._process is not None:
+            self._process.wait()
+        self._sessions.clear()
+
+    def log_tail(self, lines: int = 30) -> str:
+        try:
+            return "\n".join(self.log_path.read_text(errors="replace").splitlines()[-lines:])
+        except OSError:
+            return ""

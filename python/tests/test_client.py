@@ -1,0 +1,313 @@
+"""The Python client against a real impostor-server and worker: bake, cache
+hit, fetch, lookup, batch, and bad input (local and the server's status)."""
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+from typing import List
+
+import grpc
+import pytest
+
+import impostor
+from conftest import sha256_file
+from farm_process import FarmServer
+
+TREE = "vegetation/TreeLowPoly_RicardoSanchez/scene.gltf"  # .gltf + .bin + 2 textures
+BOX = "props_pbr/Box/glTF-Binary/Box.glb"
+DUCK = "props_pbr/Duck/glTF-Binary/Duck.glb"
+# Quick on the software renderer, with a small quality pass.
+SMALL = dict(frames=4, resolution=128, quality_views=4)
+
+
+def assert_files_match_manifest(result_dir: Path, manifest: dict) -> None:
+    """Every file the manifest lists is on disk with its digest's hash and size."""
+    assert manifest["maps"], "manifest lists no files"
+    for m in manifest["maps"]:
+        path = result_dir / m["file"]
+        assert path.stat().st_size == m["digest"]["size_bytes"], m["file"]
+        assert sha256_file(path) == m["digest"]["hash"], m["file"]
+
+
+@pytest.fixture(scope="module")
+def client(farm: FarmServer) -> impostor.Client:
+    with impostor.Client(farm.address) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def tree_bake(client: impostor.Client, assets: Path, tmp_path_factory: pytest.TempPathFactory):
+    updates: List[impostor.JobUpdate] = []
+    result = client.bake(assets / TREE, tmp_path_factory.mktemp("tree"), progress=updates.append, **SMALL)
+    return result, updates
+
+
+def test_bake_uploads_every_file_and_downloads_a_verified_result(tree_bake) -> None:
+    result, updates = tree_bake
+    assert re.fullmatch(r"[0-9a-f]{64}", result.cache_key)
+    assert not result.cached
+    assert result.submit.upload == impostor.UploadStats(
+        files=4, uploaded=4, bytes_total=result.submit.upload.bytes_total,
+        bytes_uploaded=result.submit.upload.bytes_total)
+    assert result.manifest["cache_key"] == result.cache_key
+    assert result.manifest["frames"] == 4 and result.manifest["resolution"] == 128
+    assert {m["semantic"] for m in result.manifest["maps"]} >= {"albedo_alpha", "normal_depth", "orm"}
+    assert_files_match_manifest(result.dir, result.manifest)
+    assert [p.name for p in result.files][-1] == "manifest.json"
+    assert json.loads(result.files[-1].read_text()) == result.manifest
+    assert result.quality is not None and result.quality["views"] == 4
+    assert 0 < result.quality["silhouette_iou_mean"] <= 1
+    # Progress: every update is a change, the last the terminal one.
+    assert updates[-1].state == "succeeded" and updates[-1].progress == 1
+    assert all(a != b for a, b in zip(updates, updates[1:]))
+    assert any(u.state == "running" for u in updates)
+
+
+def test_same_bake_again_is_a_cache_hit_without_uploads(client, assets, tree_bake, tmp_path) -> None:
+    first, _ = tree_bake
+    updates: List[impostor.JobUpdate] = []
+    again = client.bake(assets / TREE, tmp_path, progress=updates.append, **SMALL)
+    assert again.cached
+    assert again.cache_key == first.cache_key
+    assert again.submit.upload.uploaded == 0 and again.submit.upload.files == 4
+    assert [u.state for u in updates] == ["succeeded"] and updates[0].cached
+    assert again.manifest["maps"] == first.manifest["maps"]
+    assert_files_match_manifest(tmp_path, again.manifest)
+
+
+def test_fetch_downloads_then_reuses_files_already_there(client, tree_bake, tmp_path) -> None:
+    first, _ = tree_bake
+    fetched = client.fetch(first.cache_key, tmp_path / "a")
+    total = sum(m["digest"]["size_bytes"] for m in fetched.manifest["maps"])
+    assert fetched.bytes_reused == 0 and fetched.bytes_downloaded > total
+    assert_files_match_manifest(tmp_path / "a", fetched.manifest)
+    assert [p.name for p in fetched.files] == [p.name for p in first.files]
+    # A damaged file is downloaded again, the intact ones are kept.
+    damaged = tmp_path / "a" / "albedo_alpha.png"
+    damaged.write_bytes(b"not a png")
+    again = client.fetch(first.cache_key, tmp_path / "a")
+    size = next(m["digest"]["size_bytes"] for m in fetched.manifest["maps"] if m["file"] == "albedo_alpha.png")
+    assert again.bytes_downloaded == size
+    assert again.bytes_reused == fetched.bytes_downloaded - size
+    assert_files_match_manifest(tmp_path / "a", again.manifest)
+
+
+def test_get_manifest_matches_the_fetched_one(client, tree_bake) -> None:
+    first, _ = tree_bake
+    assert client.get_manifest(first.cache_key) == first.manifest
+
+
+def test_lookup_finds_a_result_only_once_baked(client, assets, tmp_path) -> None:
+    settings = dict(frames=6, resolution=96, quality_views=0)
+    before = client.lookup(assets / BOX, **settings)
+    assert not before.found and before.manifest is None
+    assert re.fullmatch(r"[0-9a-f]{64}", before.cache_key)
+    baked = client.bake(assets / BOX, tmp_path, **settings)
+    assert baked.cache_key == before.cache_key
+    after = client.lookup(assets / BOX, **settings)
+    assert after.found and after.cache_key == before.cache_key
+    assert after.manifest is not None and after.manifest["cache_key"] == before.cache_key
+    # Other settings are another key.
+    assert client.lookup(assets / BOX, frames=8, resolution=96, quality_views=0).cache_key != before.cache_key
+
+
+def test_batch_bakes_good_items_and_reports_bad_ones(client, assets, tmp_path) -> None:
+    settings = dict(frames=3, resolution=64, quality_views=0)
+    items = [
+        (assets / BOX, settings),
+        (assets / "no/such/model.glb", settings),
+        (assets / DUCK, settings),
+        (assets / BOX, dict(settings, layout="cubic")),
+        (assets / BOX, settings),  # the same bake as item 0
+    ]
+    results = client.bake_batch(items, tmp_path, progress=lambda i, u: None)
+    assert isinstance(results[0], impostor.BakeResult)
+    assert isinstance(results[2], impostor.BakeResult)
+    assert isinstance(results[4], impostor.BakeResult)
+    assert results[4].cache_key == results[0].cache_key != results[2].cache_key
+    assert isinstance(results[1], impostor.ImpostorError) and results[1].code == grpc.StatusCode.NOT_FOUND
+    assert "no/such/model.glb" in results[1].message
+    assert isinstance(results[3], impostor.ImpostorError) and results[3].code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "layout" in results[3].message
+    for r in (results[0], results[2]):
+        assert_files_match_manifest(r.dir, r.manifest)
+    assert results[0].dir == tmp_path / "0_Box" and results[2].dir == tmp_path / "2_Duck"
+
+
+def test_batch_stops_when_the_callback_says_so(client, assets) -> None:
+    settings = dict(frames=3, resolution=64, quality_views=0)
+    seen: List[int] = []
+
+    def on_submitted(index: int, submission: impostor.BatchSubmission) -> bool:
+        seen.append(index)
+        return index < 1
+
+    out = client.submit_batch([(assets / BOX, settings)] * 4, on_submitted)
+    assert seen == [0, 1]
+    assert out[0].result is not None and out[1].result is not None
+    assert [o.error.code for o in out[2:]] == [grpc.StatusCode.CANCELLED] * 2
+    for o in out[:2]:
+        assert client.watch(o.result.job_id).state == "succeeded"
+
+
+@pytest.mark.parametrize(
+    "settings, field",
+    [
+        (dict(frames=1), "frames"),
+        (dict(frames=65), "frames"),
+        (dict(resolution=32), "resolution"),
+        (dict(frames=4, resolution=128, supersampling=9), "supersampling"),
+        (dict(product="cards", frames=4), "frames"),
+        (dict(priority=101), "priority"),
+    ],
+    ids=["frames-too-few", "frames-too-many", "resolution-too-small", "supersampling", "cards-with-frames",
+         "priority"],
+)
+def test_bad_settings_carry_the_servers_status(client, assets, settings, field) -> None:
+    with pytest.raises(impostor.ImpostorError) as caught:
+        client.submit(assets / BOX, **settings)
+    e = caught.value
+    assert e.code == grpc.StatusCode.INVALID_ARGUMENT, e
+    assert e.rpc == "SubmitBake" and e.server == client.server and e.is_rpc_error
+    assert field in e.server_message, e.server_message
+    assert e.server_message in e.message
+
+
+@pytest.mark.parametrize(
+    "model, settings, code, words",
+    [
+        ("no/such.glb", {}, grpc.StatusCode.NOT_FOUND, "not found"),
+        ("LICENSES", {}, grpc.StatusCode.INVALID_ARGUMENT, "not a regular file"),
+        ("MANIFEST.md", {}, grpc.StatusCode.INVALID_ARGUMENT, "expected a .gltf or .glb"),
+        ("edge_cases/gltf-validator-tests/base/data/glb/invalid_magic.glb", {}, grpc.StatusCode.INVALID_ARGUMENT, "magic"),
+        ("edge_cases/gltf-validator-tests/base/data/json/invalid_syntax.gltf", {}, grpc.StatusCode.INVALID_ARGUMENT,
+         "invalid JSON"),
+        ("edge_cases/gltf-validator-tests/base/data/buffer/not_found.gltf", {}, grpc.StatusCode.NOT_FOUND, "buffers[0].uri"),
+        ("edge_cases/missing_textures/BoxTextured_png_removed/BoxTextured.gltf", {}, grpc.StatusCode.NOT_FOUND,
+         "CesiumLogoFlat.png"),
+        (BOX, {"layout": "cubic"}, grpc.StatusCode.INVALID_ARGUMENT, "layout"),
+        (BOX, {"product": "voxels"}, grpc.StatusCode.INVALID_ARGUMENT, "product"),
+        (BOX, {"framez": 4}, grpc.StatusCode.INVALID_ARGUMENT, "framez"),
+        (BOX, {"frames": -1}, grpc.StatusCode.INVALID_ARGUMENT, "frames"),
+    ],
+    ids=["missing", "directory", "not-gltf", "bad-glb-magic", "bad-json", "missing-buffer", "missing-texture",
+         "layout", "product", "unknown-setting", "negative-frames"],
+)
+def test_bad_local_input_is_refused_before_any_rpc(client, assets, model, settings, code, words) -> None:
+    with pytest.raises(impostor.ImpostorError) as caught:
+        client.submit(assets / model, **settings)
+    assert caught.value.code == code, caught.value
+    assert words in caught.value.message
+    assert not caught.value.is_rpc_error
+
+
+def test_a_uri_leaving_the_model_folder_is_refused(client, tmp_path) -> None:
+    (tmp_path / "m.gltf").write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "../x.bin"}]}))
+    with pytest.raises(impostor.ImpostorError) as caught:
+        client.submit(tmp_path / "m.gltf")
+    assert caught.value.code == grpc.StatusCode.INVALID_ARGUMENT and '".."' in caught.value.message
+
+
+def test_a_symlink_out_of_the_folder_is_refused(client, assets, tmp_path) -> None:
+    (tmp_path / "m.gltf").write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "x.bin"}]}))
+    (tmp_path / "x.bin").symlink_to(assets / "MANIFEST.md")
+    with pytest.raises(impostor.ImpostorError) as caught:
+        client.submit(tmp_path / "m.gltf")
+    assert caught.value.code == grpc.StatusCode.PERMISSION_DENIED and "symbolic link" in caught.value.message
+
+
+def test_quality_gate_failure_raises_with_the_jobs_code(client, assets, tree_bake, tmp_path) -> None:
+    first, _ = tree_bake
+    with pytest.raises(impostor.ImpostorError) as caught:
+        client.bake(assets / TREE, tmp_path, min_psnr_db=100, **SMALL)
+    e = caught.value
+    assert e.code == grpc.StatusCode.FAILED_PRECONDITION, e
+    assert e.cache_key == first.cache_key and e.job_id  # the gate is not part of the key
+    assert "psnr" in e.message.lower()
+    # The result is still there for inspection.
+    assert_files_match_manifest(tmp_path / "gated", client.fetch(e.cache_key, tmp_path / "gated").manifest)
+
+
+@pytest.mark.parametrize(
+    "call, code",
+    [
+        (lambda c: c.fetch("0" * 64, "/nonexistent/never"), grpc.StatusCode.NOT_FOUND),
+        (lambda c: c.fetch("not-a-key", "/nonexistent/never"), grpc.StatusCode.INVALID_ARGUMENT),
+        (lambda c: c.get_job("no-such-job"), grpc.StatusCode.NOT_FOUND),
+        (lambda c: c.watch(""), grpc.StatusCode.INVALID_ARGUMENT),
+        (lambda c: c.get_manifest("0" * 64), grpc.StatusCode.NOT_FOUND),
+    ],
+    ids=["fetch-unknown-key", "fetch-malformed-key", "get-unknown-job", "watch-empty-id", "manifest-unknown-key"],
+)
+def test_rpc_errors_carry_the_servers_code(client, call, code) -> None:
+    with pytest.raises(impostor.ImpostorError) as caught:
+        call(client)
+    assert caught.value.code == code, caught.value
+    assert caught.value.is_rpc_error and caught.value.server == client.server
+
+
+def test_connecting_to_nothing_is_unavailable(tmp_path) -> None:
+    import socket
+
+    with socket.socket() as s:  # a port nobody listens on: bound, never listening
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+        with pytest.raises(impostor.ImpostorError) as caught:
+            impostor.Client(f"127.0.0.1:{port}", connect_timeout_seconds=30)
+    assert caught.value.code == grpc.StatusCode.UNAVAILABLE
+    assert "refused" in caught.value.message and caught.value.rpc == "Connect"
+
+
+@pytest.mark.parametrize(
+    "kwargs, words",
+    [
+        (dict(max_attempts=0), "max_attempts"),
+        (dict(max_outage_seconds=-1), "max_outage_seconds"),
+        (dict(max_outage_seconds=86401), "max_outage_seconds"),
+        (dict(rpc_timeout_seconds=0), "rpc_timeout_seconds"),
+        (dict(tls_cert="c.pem"), "tls_key"),
+        (dict(token_file="/nonexistent/token"), "token_file"),
+        (dict(tls_ca="/nonexistent/ca.pem"), "tls_ca"),
+    ],
+    ids=["attempts", "outage-negative", "outage-too-long", "timeout", "cert-without-key", "token-file",
+         "tls-ca"],
+)
+def test_bad_client_options_are_invalid_argument(farm, kwargs, words) -> None:
+    with pytest.raises(impostor.ImpostorError) as caught:
+        impostor.Client(farm.address, **kwargs)
+    assert caught.value.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert words in caught.value.message
+
+
+def test_token_and_client_id_reach_the_wire_as_metadata(tmp_path) -> None:
+    """The token travels as "authorization: Bearer <token>" on every call, as
+    the server's auth layer reads it: seen here by a stand-in BakeService."""
+    from concurrent import futures
+
+    from impostor.v1 import bake_service_pb2_grpc, types_pb2
+
+    seen: List[dict] = []
+
+    class Recorder(bake_service_pb2_grpc.BakeServiceServicer):
+        def GetJob(self, request, context):  # noqa: N802 (gRPC's name)
+            seen.append(dict(context.invocation_metadata()))
+            return types_pb2.Job(job_id=request.job_id, state=types_pb2.JOB_STATE_QUEUED)
+
+    server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
+    bake_service_pb2_grpc.add_BakeServiceServicer_to_server(Recorder(), server)
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    try:
+        token_file = tmp_path / "token"
+        token_file.write_text("s3cret-token\nignored second line\n")
+        with impostor.Client(f"127.0.0.1:{port}", token_file=token_file, client_id="ci-nightly") as c:
+            assert c.get_job("j1").state == "queued"
+        with impostor.Client(f"127.0.0.1:{port}", token="explicit", token_file=token_file) as c:
+            c.get_job("j2")
+    finally:
+        server.stop(None)
+    assert seen[0]["authorization"] == "Bearer s3cret-token"
+    assert seen[0]["impostor-client-id"] == "ci-nightly"
+    assert seen[1]["authorization"] == "Bearer explicit"
