@@ -412,6 +412,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   absl::Status outcome = result.status();
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
+    spdlog::info("event=job_upload job={} files={}", job.job_id(), result->manifest.maps_size() + 1);
     const auto t = Clock::now();
     for (const auto& map : result->manifest.maps()) {
       if (outcome = UploadThroughOutage(output_dir / map.file(), map.digest()); !outcome.ok()) break;

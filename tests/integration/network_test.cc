@@ -1,6 +1,7 @@
 // The farm over a network that misbehaves, with real processes:
-//  - a worker whose input download is cut by a server restart resumes it
-//    within --max-outage-seconds and bakes the job on its first attempt;
+//  - a worker whose input download, or output upload, is cut by a server
+//    restart resumes it within --max-outage-seconds and finishes the job on
+//    its first attempt;
 //  - connections cut (not a kill: the server keeps running) between the CLI
 //    and the server and between the worker and the server, mid-watch and
 //    mid-transfer: the bake completes, byte-identical to an uncut run;
@@ -84,6 +85,25 @@ std::string SubmittedJobId(const std::string& cli_stderr) {
   return std::regex_search(cli_stderr, m, kLine) ? m[1].str() : "";
 }
 
+// The server dies under a worker's transfer (through `proxy`) and comes back
+// on its address: the job must then finish on the attempt it was on, with
+// one of `rpcs` retried through the outage and no attempt failed.
+void RestartUnderTheWorker(ServerProcess& server, TcpProxy& proxy, ChildProcess& worker, const std::string& job_id,
+                           const std::vector<std::string>& rpcs) {
+  server.Kill();
+  proxy.CutAll();
+  server.Restart();
+  const v1::Job done = testing::WatchToEnd(server.bake(), job_id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.DebugString();
+  EXPECT_EQ(done.attempts(), 1u) << "the outage cost an attempt";
+  EXPECT_EQ(worker.Wait(), 0);
+  int retries = 0;
+  for (const std::string& rpc : rpcs) retries += worker.CountInLog("event=rpc_retry rpc=" + rpc);
+  EXPECT_GE(retries, 1) << worker.Stderr();
+  EXPECT_EQ(worker.CountInLog("event=job_failed"), 0) << worker.Stderr();
+  EXPECT_EQ(worker.CountInLog("event=job_start"), 1) << worker.Stderr();
+}
+
 TEST(WorkerOutage, InputDownloadCutByAServerRestartResumesOnTheFirstAttempt) {
   ServerProcess server(0);
   // The model, and a 3 MiB input file the worker must download too (the
@@ -107,18 +127,28 @@ TEST(WorkerOutage, InputDownloadCutByAServerRestartResumesOnTheFirstAttempt) {
   ASSERT_EQ(mid.state(), v1::JOB_STATE_RUNNING) << mid.DebugString();
   EXPECT_EQ(mid.attempts(), 1u);
 
-  // The server dies under the download and comes back on its address.
-  server.Kill();
-  proxy.CutAll();
-  server.Restart();
+  RestartUnderTheWorker(server, proxy, *worker, submitted.job_id(), {"ReadBlob"});
+}
 
-  const v1::Job done = testing::WatchToEnd(server.bake(), submitted.job_id());
-  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.DebugString();
-  EXPECT_EQ(done.attempts(), 1u) << "the cut download cost an attempt";
-  EXPECT_EQ(worker->Wait(), 0);
-  EXPECT_GE(worker->CountInLog("event=rpc_retry rpc=ReadBlob"), 1) << worker->Stderr();
-  EXPECT_EQ(worker->CountInLog("event=job_failed"), 0) << worker->Stderr();
-  EXPECT_EQ(worker->CountInLog("event=job_start"), 1) << worker->Stderr();
+TEST(WorkerOutage, OutputUploadCutByAServerRestartCompletesOnTheFirstAttempt) {
+  ServerProcess server(0);
+  const fs::path pause = testing::NewTempDir("upload_outage") / "pause";
+  testing::Touch(pause);
+  const v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / kBoxTextured);
+  const v1::SubmitBakeResponse submitted = testing::SubmitSmall(server.bake(), mesh);
+  TcpProxy proxy(server.address());
+  auto worker = testing::StartWorker(proxy.address(), "upload-worker",
+                                     {"--max-jobs=1", "--max-outage-seconds=120", "--log-level=info"},
+                                     {{kPauseEnv, pause.string()}});
+  testing::WatchUntil(server.bake(), submitted.job_id(),
+                      [](const v1::Job& j) { return j.state() == v1::JOB_STATE_RUNNING && j.stage() == "render"; });
+
+  // From here nothing the worker sends reaches the server: its outputs are
+  // on their way when the server dies.
+  proxy.FreezeAfter(0, TcpProxy::Direction::kToServer);
+  fs::remove(pause);
+  ASSERT_TRUE(worker->WaitForLog("event=job_upload ", 1, kFreezeDeadline)) << worker->Stderr();
+  RestartUnderTheWorker(server, proxy, *worker, submitted.job_id(), {"UploadBlob", "CompleteJob"});
 }
 
 TEST(CutConnection, BakeCompletesByteIdenticalWhenClientAndWorkerConnectionsAreCut) {
