@@ -11,15 +11,9 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "client/local_io_error.h"
 
 namespace impostor::sdk {
-namespace {
-
-absl::Status ErrnoError(std::string_view what, const std::filesystem::path& path, int err) {
-  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(err)));
-}
-
-}  // namespace
 
 AtomicFileWriter::AtomicFileWriter(std::filesystem::path destination, std::filesystem::path temp_path, int fd)
     : destination_(std::move(destination)), temp_path_(std::move(temp_path)), fd_(fd) {}
@@ -32,7 +26,7 @@ absl::StatusOr<std::unique_ptr<AtomicFileWriter>> AtomicFileWriter::Create(const
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   const int fd = mkstemp(buf.data());
-  if (fd < 0) return ErrnoError("cannot create a file in", dir, errno);
+  if (fd < 0) return LocalIoError("cannot create a file in", dir, errno);
   // mkstemp makes it 0600; a result is meant to be read like any file. (Not
   // 0666 & ~umask: reading the umask means setting it, which races with
   // other threads.)
@@ -47,7 +41,9 @@ absl::Status AtomicFileWriter::Append(std::string_view data) {
     const ssize_t n = ::write(fd_, data.data(), data.size());
     if (n < 0) {
       if (errno == EINTR) continue;
-      return ErrnoError("cannot write", temp_path_, errno);
+      // The destination names what the user asked for; the temporary file
+      // is gone once the caller aborts.
+      return LocalIoError("cannot write", destination_, errno);
     }
     data.remove_prefix(static_cast<size_t>(n));
   }
@@ -55,12 +51,12 @@ absl::Status AtomicFileWriter::Append(std::string_view data) {
 }
 
 absl::Status AtomicFileWriter::Commit() {
-  if (::fsync(fd_) != 0) return ErrnoError("cannot sync", temp_path_, errno);
+  if (::fsync(fd_) != 0) return LocalIoError("cannot sync", destination_, errno);
   const int fd = fd_;
   fd_ = -1;
-  if (::close(fd) != 0) return ErrnoError("cannot close", temp_path_, errno);
+  if (::close(fd) != 0) return LocalIoError("cannot close", temp_path_, errno);
   if (::rename(temp_path_.c_str(), destination_.c_str()) != 0) {
-    return ErrnoError(absl::StrCat("cannot rename ", temp_path_.string(), " to"), destination_, errno);
+    return LocalIoError(absl::StrCat("cannot rename ", temp_path_.string(), " to"), destination_, errno);
   }
   done_ = true;
   return absl::OkStatus();

@@ -1,5 +1,11 @@
 #include <cmath>
+#include <map>
+#include <mutex>
+#include <string>
 
+#include <spdlog/spdlog.h>
+
+#include "common/log_escape.h"
 #include "server/grpc_status.h"
 #include "server/services.h"
 
@@ -31,6 +37,42 @@ std::string ClientId(const grpc::ServerContext& context) {
   return peer;
 }
 
+// Open WatchJob streams, in all and per connection (peer address and
+// port: one client process's channel), logged (debug) as each opens and
+// closes: clients promise to hold few at once (bake-batch at most 8), and
+// tests read the counts from the log to hold them to it.
+class OpenWatch {
+ public:
+  OpenWatch(const grpc::ServerContext& context, const std::string& job_id)
+      : client_(ClientId(context)), peer_(context.peer()), job_id_(job_id) {
+    Log("watch_open", +1);
+  }
+  ~OpenWatch() { Log("watch_close", -1); }
+  OpenWatch(const OpenWatch&) = delete;
+  OpenWatch& operator=(const OpenWatch&) = delete;
+
+ private:
+  void Log(std::string_view event, int delta) {
+    if (!spdlog::should_log(spdlog::level::debug)) return;
+    int mine, all;
+    {
+      static std::mutex mu;
+      static std::map<std::string, int> per_peer;
+      static int total = 0;
+      std::lock_guard lock(mu);
+      mine = per_peer[peer_] += delta;
+      if (mine == 0) per_peer.erase(peer_);
+      all = total += delta;
+    }
+    spdlog::debug("event={} client=\"{}\" peer=\"{}\" peer_watches={} open_watches={} job=\"{}\"", event,
+                  EscapeUntrusted(client_), EscapeUntrusted(peer_), mine, all, EscapeUntrusted(job_id_, 128));
+  }
+
+  const std::string client_;
+  const std::string peer_;
+  const std::string& job_id_;
+};
+
 }  // namespace
 
 grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
@@ -51,6 +93,7 @@ grpc::Status BakeServiceImpl::LookupBake(grpc::ServerContext*, const v1::SubmitB
 
 grpc::Status BakeServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                        grpc::ServerWriter<v1::Job>* writer) {
+  const OpenWatch open_watch(*context, request->job_id());
   std::optional<v1::Job> last;
   while (!context->IsCancelled()) {
     // A stopping server ends the stream so the client reconnects to the

@@ -6,21 +6,13 @@
 #ifndef IMPOSTOR_SERVER_DISK_FULL_H_
 #define IMPOSTOR_SERVER_DISK_FULL_H_
 
-#include <cstdint>
 #include <filesystem>
 #include <string_view>
 
 #include "absl/status/status.h"
+#include "common/disk_space.h"  // IsDiskFull, FreeBytes
 
 namespace impostor {
-
-// True for the errno values of a full filesystem or an exhausted quota
-// (ENOSPC, EDQUOT).
-bool IsDiskFull(int error_number);
-
-// Bytes an unprivileged writer may still use on the filesystem holding
-// `path` (its nearest existing ancestor); -1 when unknown.
-int64_t FreeBytes(const std::filesystem::path& path);
 
 // RESOURCE_EXHAUSTED: "<what> <path>: <cause> (N bytes free on its
 // filesystem); free space or raise the quota: the server recovers by

@@ -50,6 +50,11 @@ ABSL_FLAG(int, worker_failure_limit, 3,
 ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+// Store cap (issue 24): how long an upload no job or result refers to yet is
+// spared by eviction, so a client has time to submit the bake that uses it.
+ABSL_FLAG(int64_t, store_eviction_grace_seconds, 600,
+          "With --store-max-bytes: uploads younger than this many seconds that no job or result uses yet are "
+          "never evicted (0..86400)");
 
 namespace {
 
@@ -107,6 +112,11 @@ int main(int argc, char** argv) {
     return Fail("--max-pending-jobs, --max-pending-per-client and --max-blob-bytes must be >= 1");
   }
 
+  const int64_t eviction_grace_s = absl::GetFlag(FLAGS_store_eviction_grace_seconds);
+  if (eviction_grace_s < 0 || eviction_grace_s > 86400) {
+    return Fail("--store-eviction-grace-seconds: " + std::to_string(eviction_grace_s) + " is out of range 0..86400");
+  }
+
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
   auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
@@ -120,6 +130,7 @@ int main(int argc, char** argv) {
        .max_pending_jobs = max_pending_jobs,
        .max_pending_per_client = max_pending_per_client,
        .store_max_bytes = std::max<int64_t>(0, absl::GetFlag(FLAGS_store_max_bytes)),
+       .eviction_grace_ms = eviction_grace_s * 1000,
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000});
 

@@ -45,8 +45,16 @@ std::unique_ptr<grpc::ClientContext> ContextWithDeadline(std::chrono::seconds ti
   return ctx;
 }
 
-// Downloads one blob to `path`, verifying its digest as it goes.
-absl::Status DownloadBlob(v1::AssetService::Stub& assets, const v1::Digest& digest, const fs::path& path) {
+// An input blob arriving in pieces: the bytes go to `out` and through
+// `hash`, so a ReadBlob cut off midway (a server restart) resumes at
+// `received` instead of from zero.
+struct InputSink {
+  std::ofstream out;
+  Sha256 hash;
+  int64_t received = 0;
+};
+
+absl::Status OpenInput(const fs::path& path, InputSink& sink) {
   // The error_code overload: a path another input holds as a file used to
   // throw here and terminate the worker (issue 23).
   std::error_code ec;
@@ -55,24 +63,37 @@ absl::Status DownloadBlob(v1::AssetService::Stub& assets, const v1::Digest& dige
     return absl::InvalidArgumentError(
         absl::StrCat("cannot create the folder for input ", path.filename().string(), ": ", ec.message()));
   }
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return absl::InternalError(absl::StrCat("cannot create ", path.string()));
+  sink.out.open(path, std::ios::binary | std::ios::trunc);
+  if (!sink.out) return absl::InternalError(absl::StrCat("cannot create ", path.string()));
+  return absl::OkStatus();
+}
+
+// One ReadBlob of `digest` from sink.received on.
+absl::Status ReadBlobInto(v1::AssetService::Stub& assets, const v1::Digest& digest, InputSink& sink) {
   v1::ReadBlobRequest request;
   *request.mutable_digest() = digest;
+  request.set_offset(sink.received);
   auto ctx = ContextWithDeadline(std::chrono::seconds(600));
   auto reader = assets.ReadBlob(ctx.get(), request);
   v1::ReadBlobResponse chunk;
-  Sha256 hash;
-  int64_t received = 0;
   while (reader->Read(&chunk)) {
-    hash.Update(chunk.data());
-    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
-    received += static_cast<int64_t>(chunk.data().size());
+    if (chunk.offset() != sink.received) {
+      ctx->TryCancel();
+      reader->Finish();
+      return absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " sent offset ", chunk.offset(),
+                                              ", expected ", sink.received));
+    }
+    sink.hash.Update(chunk.data());
+    sink.out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
+    sink.received += static_cast<int64_t>(chunk.data().size());
   }
-  if (auto s = FromGrpc(reader->Finish(), "ReadBlob"); !s.ok()) return s;
-  out.close();
-  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
-  if (received != digest.size_bytes() || hash.FinishHex() != digest.hash()) {
+  return FromGrpc(reader->Finish(), "ReadBlob");
+}
+
+absl::Status FinishInput(const v1::Digest& digest, const fs::path& path, InputSink& sink) {
+  sink.out.close();
+  if (!sink.out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
+  if (sink.received != digest.size_bytes() || sink.hash.FinishHex() != digest.hash()) {
     return absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " arrived corrupt"));
   }
   return absl::OkStatus();
@@ -213,6 +234,20 @@ grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::fun
   }
 }
 
+absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const fs::path& path) {
+  // The lease survives a server restart, so the inputs are worth waiting
+  // for: the download resumes where it was cut off, within the outage budget.
+  InputSink sink;
+  if (absl::Status s = OpenInput(path, sink); !s.ok()) return s;
+  absl::Status outcome;
+  RetryThroughOutage("ReadBlob", [&] {
+    outcome = ReadBlobInto(*assets_, digest, sink);
+    return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+  });
+  if (!outcome.ok()) return outcome;
+  return FinishInput(digest, path, sink);
+}
+
 absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
   // A finished bake is worth keeping through a server restart: the lease
   // survives it, so the upload and CompleteJob can go through afterwards.
@@ -345,10 +380,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     // paths (validated above: no absolute paths, no "..").
     const fs::path entry = input_dir / fs::path(job.mesh().entry().path()).filename();
     const auto t = Clock::now();
-    if (auto s = DownloadBlob(*assets_, job.mesh().entry().digest(), entry); !s.ok()) return s;
+    if (auto s = DownloadThroughOutage(job.mesh().entry().digest(), entry); !s.ok()) return s;
     for (const auto& f : job.mesh().files()) {
       if (cancelled) return absl::CancelledError("cancelled while downloading");
-      if (auto s = DownloadBlob(*assets_, f.digest(), input_dir / f.path()); !s.ok()) return s;
+      if (auto s = DownloadThroughOutage(f.digest(), input_dir / f.path()); !s.ok()) return s;
     }
     const double download_seconds = std::chrono::duration<double>(Clock::now() - t).count();
     // Untrusted bytes meet the loader in a child process first (issue 23).
@@ -377,6 +412,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   absl::Status outcome = result.status();
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
+    spdlog::info("event=job_upload job={} files={}", job.job_id(), result->manifest.maps_size() + 1);
     const auto t = Clock::now();
     for (const auto& map : result->manifest.maps()) {
       if (outcome = UploadThroughOutage(output_dir / map.file(), map.digest()); !outcome.ok()) break;

@@ -95,6 +95,9 @@ class WorkerLoop {
 
  private:
   void ProcessJob(const v1::LeasedJob& job);
+  // Downloads one input blob to `path`, verified, resuming through an
+  // outage (within max_outage_seconds).
+  absl::Status DownloadThroughOutage(const v1::Digest& digest, const std::filesystem::path& path);
   // Uploads one output file, retrying through an outage.
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
   // Hands a lease back to the server (retrying through an outage).

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "client/local_io_error.h"
 #include "common/sha256.h"
 
 namespace impostor::sdk {
@@ -24,10 +25,6 @@ namespace fs = std::filesystem;
 
 constexpr char kFormatFileName[] = "FORMAT";
 constexpr char kFormatText[] = "impostor-cache 1\n";
-
-absl::Status ErrnoError(std::string_view what, const fs::path& path, int err) {
-  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(err)));
-}
 
 bool IsPlainName(const std::string& name) {
   return !name.empty() && name != "." && name != ".." && name != kEntryRecordName &&
@@ -77,9 +74,9 @@ absl::Status CacheLayout::Init() const {
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     out << kFormatText;
-    if (!out.flush()) return ErrnoError("cannot write", temp, errno);
+    if (!out.flush()) return LocalIoError("cannot write", temp, errno);
   }
-  if (::rename(temp.c_str(), format.c_str()) != 0) return ErrnoError("cannot create", format, errno);
+  if (::rename(temp.c_str(), format.c_str()) != 0) return LocalIoError("cannot create", format, errno);
   return absl::OkStatus();
 }
 
@@ -155,7 +152,7 @@ absl::StatusOr<EntryRecord> ReadEntryRecord(const fs::path& dir) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     if (errno == ENOENT || errno == ENOTDIR) return absl::NotFoundError(absl::StrCat(path.string(), ": absent"));
-    return ErrnoError("cannot read", path, errno);
+    return LocalIoError("cannot read", path, errno);
   }
   std::stringstream text;
   text << in.rdbuf();
@@ -168,7 +165,7 @@ absl::Status RecordFileIdentities(const fs::path& dir, EntryRecord& record) {
   for (EntryFile& f : record.files) {
     struct stat st;
     const fs::path path = dir / f.name;
-    if (::stat(path.c_str(), &st) != 0) return ErrnoError("cannot stat", path, errno);
+    if (::stat(path.c_str(), &st) != 0) return LocalIoError("cannot stat", path, errno);
     f.inode = st.st_ino;
     f.mtime_ns = MtimeNs(st);
   }
@@ -181,7 +178,7 @@ absl::Status CheckEntryFiles(const fs::path& dir, EntryRecord& record, FileCheck
     struct stat st;
     if (::stat(path.c_str(), &st) != 0) {
       if (errno == ENOENT || errno == ENOTDIR) return absl::NotFoundError(absl::StrCat(path.string(), ": missing"));
-      return ErrnoError("cannot stat", path, errno);
+      return LocalIoError("cannot stat", path, errno);
     }
     if (static_cast<int64_t>(st.st_size) != f.size_bytes) {
       return absl::DataLossError(
@@ -219,7 +216,7 @@ absl::Status RemoveEntryDir(const CacheLayout& layout, const fs::path& dir) {
                                                             dir.filename().string());
   if (::rename(dir.c_str(), trash.c_str()) != 0) {
     if (errno == ENOENT) return absl::OkStatus();
-    return ErrnoError(absl::StrCat("cannot move ", dir.string(), " to"), trash, errno);
+    return LocalIoError(absl::StrCat("cannot move ", dir.string(), " to"), trash, errno);
   }
   std::error_code ec;
   fs::remove_all(trash, ec);  // leftovers are collected by garbage collection
@@ -228,11 +225,11 @@ absl::Status RemoveEntryDir(const CacheLayout& layout, const fs::path& dir) {
 
 absl::Status SyncDir(const fs::path& dir) {
   const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return ErrnoError("cannot open", dir, errno);
+  if (fd < 0) return LocalIoError("cannot open", dir, errno);
   const int rc = ::fsync(fd);
   const int err = errno;
   ::close(fd);
-  if (rc != 0) return ErrnoError("cannot sync", dir, err);
+  if (rc != 0) return LocalIoError("cannot sync", dir, err);
   return absl::OkStatus();
 }
 

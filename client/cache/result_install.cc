@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "client/local_io_error.h"
 #include "client/result_fetch.h"
 #include "common/manifest_json.h"
 
@@ -20,10 +21,6 @@ namespace impostor::sdk {
 namespace {
 
 namespace fs = std::filesystem;
-
-absl::Status ErrnoError(std::string_view what, const fs::path& path, int err) {
-  return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(err)));
-}
 
 // Removes a staging directory unless released (installed).
 class StagingDir {
@@ -44,7 +41,7 @@ class StagingDir {
 
 absl::Status WriteSynced(const fs::path& path, const std::string& text) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return ErrnoError("cannot create", path, errno);
+  if (fd < 0) return LocalIoError("cannot create", path, errno);
   std::string_view data = text;
   while (!data.empty()) {
     const ssize_t n = ::write(fd, data.data(), data.size());
@@ -52,16 +49,16 @@ absl::Status WriteSynced(const fs::path& path, const std::string& text) {
     if (n < 0) {
       const int err = errno;
       ::close(fd);
-      return ErrnoError("cannot write", path, err);
+      return LocalIoError("cannot write", path, err);
     }
     data.remove_prefix(static_cast<size_t>(n));
   }
   if (::fsync(fd) != 0) {
     const int err = errno;
     ::close(fd);
-    return ErrnoError("cannot sync", path, err);
+    return LocalIoError("cannot sync", path, err);
   }
-  if (::close(fd) != 0) return ErrnoError("cannot close", path, errno);
+  if (::close(fd) != 0) return LocalIoError("cannot close", path, errno);
   return absl::OkStatus();
 }
 
@@ -92,11 +89,11 @@ EntryRecord RecordOf(const std::string& key, const v1::Manifest& manifest) {
   return record;
 }
 
-}  // namespace
-
-absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
-                                                  const std::string& key, const DownloadHooks& hooks,
-                                                  const std::atomic<bool>* cancel) {
+// DownloadAndInstall, which gives back the space of `partials` (those this
+// call completed) when the disk is full.
+absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& layout, const std::string& key,
+                                       const DownloadHooks& hooks, const std::atomic<bool>* cancel,
+                                       std::vector<fs::path>& partials) {
   absl::StatusOr<v1::Manifest> manifest = transport.GetResult(key);
   if (!manifest.ok()) return manifest.status();
   if (absl::Status s = CheckManifestFiles(*manifest); !s.ok()) {
@@ -110,7 +107,6 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
 
   InstallOutcome outcome;
   outcome.record = RecordOf(key, *manifest);
-  std::vector<fs::path> partials;
   for (const EntryFile& f : outcome.record.files) {
     v1::Digest digest;
     digest.set_hash(f.sha256);
@@ -124,14 +120,14 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   }
 
   std::string pattern = (layout.StagingDir() / absl::StrCat(key, ".XXXXXX")).string();
-  if (::mkdtemp(pattern.data()) == nullptr) return ErrnoError("cannot create a directory in", layout.StagingDir(), errno);
+  if (::mkdtemp(pattern.data()) == nullptr) return LocalIoError("cannot create a directory in", layout.StagingDir(), errno);
   StagingDir staging(pattern);
   // Hard links: the partial file becomes the installed file without a copy,
   // and two maps with equal bytes may share one partial.
   for (size_t i = 0; i < partials.size(); ++i) {
     const fs::path target = staging.path() / outcome.record.files[i].name;
     if (::link(partials[i].c_str(), target.c_str()) != 0) {
-      return ErrnoError(absl::StrCat("cannot link ", partials[i].string(), " to"), target, errno);
+      return LocalIoError(absl::StrCat("cannot link ", partials[i].string(), " to"), target, errno);
     }
   }
   // Identities are those of the linked files, which the partials' removal
@@ -145,7 +141,7 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   const fs::path entry = layout.EntryDir(key);
   if (::rename(staging.path().c_str(), entry.c_str()) != 0) {
     const int err = errno;
-    if (err != EEXIST && err != ENOTEMPTY) return ErrnoError(absl::StrCat("cannot install ", key, " as"), entry, err);
+    if (err != EEXIST && err != ENOTEMPTY) return LocalIoError(absl::StrCat("cannot install ", key, " as"), entry, err);
     // Someone (another process) installed it first; theirs is as good.
     absl::StatusOr<EntryRecord> theirs = ReadEntryRecord(entry);
     if (!theirs.ok()) {
@@ -164,6 +160,24 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   }
   spdlog::debug("cache: installed {} ({} bytes downloaded, {} resumed)", key, outcome.bytes_downloaded,
                 outcome.bytes_resumed);
+  return outcome;
+}
+
+}  // namespace
+
+absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
+                                                  const std::string& key, const DownloadHooks& hooks,
+                                                  const std::atomic<bool>* cancel) {
+  std::vector<fs::path> partials;
+  absl::StatusOr<InstallOutcome> outcome = Install(transport, layout, key, hooks, cancel, partials);
+  if (!outcome.ok() && IsLocalDiskFull(outcome.status())) {
+    // Complete partial files would hold the very space that is missing,
+    // and a result is useless without all its files: nothing stays behind.
+    for (const fs::path& partial : partials) {
+      std::error_code ec;
+      fs::remove(partial, ec);
+    }
+  }
   return outcome;
 }
 

@@ -28,7 +28,10 @@ struct InstallOutcome {
 
 // GetResult, download, verify, install. Errors: NOT_FOUND (nothing baked
 // under the key), DATA_LOSS (bytes or manifest that do not match), INTERNAL
-// (a malformed manifest, local disk), CANCELLED, or an RPC's error.
+// (a malformed manifest, local disk), RESOURCE_EXHAUSTED (the cache's disk
+// or quota is full: the message names the path and the free space, and no
+// partial or staged file of this result is left), CANCELLED, or an RPC's
+// error.
 absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
                                                   const std::atomic<bool>* cancel);

@@ -3,7 +3,6 @@
 // RESOURCE_EXHAUSTED naming the path and the free space and leaves nothing
 // behind; reads, result lookups and cache hits go on; once space is freed
 // uploads work again without a restart.
-#include <sys/mount.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -19,6 +18,7 @@
 
 #include "common/sha256.h"
 #include "tests/integration/server_process.h"
+#include "tests/integration/tmpfs_mount.h"
 
 namespace impostor {
 namespace {
@@ -31,25 +31,6 @@ std::string RandomBytes(size_t n, uint32_t seed) {
   for (char& c : s) c = static_cast<char>(rng());
   return s;
 }
-
-// Unmounts on scope exit, also when an assertion returns early.
-class TmpfsMount {
- public:
-  explicit TmpfsMount(fs::path dir) : dir_(std::move(dir)) {
-    mounted_ = ::mount("tmpfs", dir_.c_str(), "tmpfs", 0, "size=8m") == 0;
-    if (!mounted_) error_ = std::strerror(errno);
-  }
-  ~TmpfsMount() {
-    if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
-  }
-  bool mounted() const { return mounted_; }
-  const std::string& error() const { return error_; }
-
- private:
-  fs::path dir_;
-  bool mounted_ = false;
-  std::string error_;
-};
 
 grpc::Status Upload(testing::ServerProcess& server, const std::string& bytes) {
   return testing::UploadBytes(server.assets(), bytes, testing::DigestOf(bytes));
@@ -65,7 +46,7 @@ v1::SubmitBakeRequest RequestFor(const v1::Digest& mesh) {
 TEST(DiskFull, AFullDataDirectoryRefusesWritesCleanlyServesReadsAndRecovers) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a tmpfs for the data directory";
   const fs::path mount_dir = testing::NewTempDir("disk_full_mount");
-  TmpfsMount tmpfs(mount_dir);
+  testing::TmpfsMount tmpfs(mount_dir);
   if (!tmpfs.mounted()) GTEST_SKIP() << "cannot mount a tmpfs on " << mount_dir << ": " << tmpfs.error();
   // Space the test gives back at the end.
   const fs::path filler = mount_dir / "filler";

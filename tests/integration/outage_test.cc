@@ -39,10 +39,10 @@
 #include <nlohmann/json.hpp>
 
 #include "client/cache/cache_testing.h"
-#include "common/sha256.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
 #include "tests/cache/published_result.h"
+#include "tests/integration/result_digest.h"
 #include "tests/integration/server_process.h"
 #include "tests/integration/tcp_proxy.h"
 
@@ -91,26 +91,6 @@ std::string ReadAll(const fs::path& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-// The SHA-256 of every file of a result directory, by file name. For
-// manifest.json, of its JSON without "timings_seconds": the only part of a
-// result that differs between two bakes of the same input (every map is
-// byte-identical).
-std::map<std::string, std::string> HashDir(const fs::path& dir) {
-  std::map<std::string, std::string> out;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    if (!entry.is_regular_file()) continue;
-    std::string bytes = ReadAll(entry.path());
-    if (entry.path().filename() == "manifest.json") {
-      nlohmann::json manifest = nlohmann::json::parse(bytes, nullptr, /*allow_exceptions=*/false);
-      if (manifest.is_object()) manifest.erase("timings_seconds");
-      bytes = manifest.dump();
-    }
-    out[entry.path().filename().string()] = Sha256Hex(bytes);
-  }
-  return out;
 }
 
 // A child process of the `impostor` CLI: stdout to a file, stderr read line
@@ -214,7 +194,7 @@ std::map<std::string, std::string> ResultDigests(sdk::Client& client, const std:
   const fs::path dir = testing::NewTempDir("outage_reference_" + key.substr(0, 12));
   auto fetched = client.Fetch(key, dir);
   EXPECT_TRUE(fetched.ok()) << fetched.status();
-  return HashDir(dir);
+  return testing::HashResultDir(dir);
 }
 
 // Polls GetJob until `job_id` satisfies `done`; the job as last seen, or
@@ -445,12 +425,12 @@ void RideOutAnOutage(int outage_seconds) {
   getter.join();
 
   EXPECT_EQ(bake_exit, 0) << bake.stderr_text();
-  EXPECT_EQ(HashDir(out + "/bake"), reference.at(kBakeAsset)) << "bake";
+  EXPECT_EQ(testing::HashResultDir(out + "/bake"), reference.at(kBakeAsset)) << "bake";
   EXPECT_EQ(batch_exit, 0) << batch.stdout_text() << batch.stderr_text();
   for (const std::string& asset : kBatchAssets) {
-    EXPECT_EQ(HashDir(out + "/batch/" + fs::path(asset).stem().string()), reference.at(asset)) << asset;
+    EXPECT_EQ(testing::HashResultDir(out + "/batch/" + fs::path(asset).stem().string()), reference.at(asset)) << asset;
   }
-  EXPECT_EQ(HashDir(out + "/batch/" + cached_name), reference.at(kCachedAsset)) << kCachedAsset;
+  EXPECT_EQ(testing::HashResultDir(out + "/batch/" + cached_name), reference.at(kCachedAsset)) << kCachedAsset;
   EXPECT_EQ(fetch_exit, 0) << fetch.stderr_text();
   for (const auto& [file, bytes] : published.files) {
     EXPECT_EQ(ReadAll(fs::path(out) / "fetch" / file), bytes) << "fetch: " << file;

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -203,6 +204,58 @@ TEST(StoreRpc, TheCapEvictsLeastRecentlyUsedResultsButNeverPinnedOnesNorYoungUpl
   EXPECT_NE(malformed.error_message().find("cache_key"), std::string::npos) << malformed.error_message();
   EXPECT_EQ(Pin(server, std::string(64, 'e'), true).error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(Pin(server, b.key, true).error_code(), grpc::StatusCode::NOT_FOUND) << "an evicted result";
+}
+
+TEST(StoreRpc, AnUnusedUploadIsEvictedOnlyAfterItsGraceAndAPinnedResultNever) {
+  // A result is about 170 KiB; the cap is below even one: only the pin
+  // keeps that one.
+  const std::vector<int64_t> maps = {100 << 10, 50 << 10, 20 << 10};
+  const std::string cap = "--store-max-bytes=" + std::to_string(150 << 10);
+  const std::string loose = RandomBytes(64 << 10, 300);  // an upload no job refers to
+
+  // Without a cap: a result, pinned, and the upload.
+  std::optional<ServerProcess> server;
+  server.emplace(/*local_workers=*/0);
+  const fs::path data = server->data_dir();
+  const PublishedResult pinned = PublishResult(*server, maps, 301);
+  ASSERT_TRUE(Pin(*server, pinned.key, true).ok());
+  ASSERT_TRUE(UploadBytes(server->assets(), loose, DigestOf(loose)).ok());
+
+  // With the cap and a grace longer than the test: the pass that evicts a
+  // new result (after looking at unused blobs first) spares the upload.
+  server.reset();
+  server.emplace(/*local_workers=*/0, data, "127.0.0.1:0",
+                 std::vector<std::string>{cap, "--store-eviction-grace-seconds=3600"});
+  const PublishedResult victim = PublishResult(*server, maps, 302);
+  ASSERT_TRUE(server->process().WaitForLog("event=evict_result cache_key=" + victim.key))
+      << server->process().Stderr();
+  EXPECT_FALSE(IsMissing(*server, DigestOf(loose))) << "evicted within its grace";
+  EXPECT_TRUE(GetResult(*server, pinned.key).ok());
+
+  // A one-second grace, which the upload is past: it goes; the pinned
+  // result stays, although the store stays over its cap.
+  server.reset();
+  server.emplace(/*local_workers=*/0, data, "127.0.0.1:0",
+                 std::vector<std::string>{cap, "--store-eviction-grace-seconds=1"});
+  ASSERT_TRUE(server->process().WaitForLog("event=store_evicted ")) << server->process().Stderr();
+  EXPECT_TRUE(IsMissing(*server, DigestOf(loose))) << server->process().Stderr();
+  EXPECT_TRUE(GetResult(*server, pinned.key).ok());
+  for (const auto& [name, bytes] : pinned.files) {
+    EXPECT_FALSE(IsMissing(*server, DigestOf(bytes))) << "a blob of the pinned result was evicted: " << name;
+  }
+  EXPECT_EQ(server->process().CountInLog("event=evict_result"), 0) << server->process().Stderr();
+}
+
+TEST(StoreRpc, TheEvictionGraceFlagRefusesValuesOutOfRange) {
+  const fs::path data = NewTempDir("grace_flag");
+  for (const char* bad : {"-1", "86401"}) {
+    const ToolRun run = RunTool({(BinaryDir() / "impostor-server").string(), "--data", data.string(),
+                                 "--listen", "127.0.0.1:0", std::string("--store-eviction-grace-seconds=") + bad});
+    EXPECT_EQ(run.exit_code, 2) << run.err;
+    EXPECT_NE(run.err.find("--store-eviction-grace-seconds: " + std::string(bad) + " is out of range 0..86400"),
+              std::string::npos)
+        << run.err;
+  }
 }
 
 // Submits a unique tiny model as `client` (empty: no metadata).

@@ -270,6 +270,9 @@ class Cache {
   // connect_timeout_seconds; after max_outage_seconds when it went away
   // during the download), DATA_LOSS (the
   // server's bytes do not match their digests), INTERNAL (local disk),
+  // RESOURCE_EXHAUSTED (the cache's disk or quota is full: the message names
+  // the path and the free space; nothing half-written is left, results
+  // already cached are still served, and a Get once space returns works),
   // CANCELLED (the Cache is being destroyed), or an RPC's error.
   absl::StatusOr<CachedResult> Get(const std::string& cache_key);
 

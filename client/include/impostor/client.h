@@ -401,8 +401,9 @@ class Client {
   // to a temporary file in out_dir, verified against its SHA-256 and size,
   // then renamed into place; files already there with the right digest are
   // kept. Errors: NOT_FOUND (nothing baked under that key), DATA_LOSS (a
-  // download did not match its digest), INTERNAL (cannot write out_dir), or
-  // an RPC's error.
+  // download did not match its digest), INTERNAL (cannot write out_dir),
+  // RESOURCE_EXHAUSTED (out_dir's disk or quota is full: names the file and
+  // the free space; the temporary file is removed), or an RPC's error.
   absl::StatusOr<FetchResult> Fetch(const std::string& cache_key,
                                     const std::filesystem::path& out_dir);
 
