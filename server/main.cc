@@ -27,6 +27,7 @@
 #include "server/blob_store.h"
 #include "server/job_store.h"
 #include "server/services.h"
+#include "server/tls_credentials.h"
 #include "server/worker_supervisor.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
@@ -48,6 +49,13 @@ ABSL_FLAG(int, worker_failure_limit, 3,
 ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+// Transport security (README "Securing a farm: TLS"; server/tls_credentials.h).
+ABSL_FLAG(std::string, tls_cert, "", "Serve TLS with this certificate chain (PEM, leaf first; needs --tls-key)");
+ABSL_FLAG(std::string, tls_key, "", "Private key of --tls-cert (PEM, unencrypted)");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "Mutual TLS: clients must present a certificate issued by this CA (PEM; needs --tls-cert)");
+ABSL_FLAG(int, tls_reload_seconds, 5,
+          "How often the TLS files are checked for a renewed certificate, key or client CA (1..3600)");
 
 namespace {
 
@@ -103,8 +111,35 @@ int main(int argc, char** argv) {
     return Fail("--max-pending-jobs, --max-pending-per-client and --max-blob-bytes must be >= 1");
   }
 
+  // TLS: the files are checked here so that a bad flag stops the start with
+  // its name, rather than every handshake failing later.
+  const impostor::ServerTlsOptions tls{.cert_file = absl::GetFlag(FLAGS_tls_cert),
+                                       .key_file = absl::GetFlag(FLAGS_tls_key),
+                                       .client_ca_file = absl::GetFlag(FLAGS_tls_client_ca),
+                                       .reload_seconds = absl::GetFlag(FLAGS_tls_reload_seconds)};
+  auto listen_credentials = impostor::MakeServerCredentials(tls);
+  if (!listen_credentials.ok()) return Fail(std::string(listen_credentials.status().message()));
+
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
+  // With TLS, --local-workers reach the server through a Unix socket in a
+  // directory only this user may enter, not through the TLS port: they need
+  // no certificate (mutual TLS would otherwise need a client certificate the
+  // server cannot issue), and no other user on the host can reach the socket.
+  std::string local_worker_socket;
+  if (tls.enabled() && local_workers > 0) {
+    const std::filesystem::path run_dir = std::filesystem::path(data) / "run";
+    std::filesystem::create_directories(run_dir, ec);
+    std::filesystem::permissions(run_dir, std::filesystem::perms::owner_all, ec);
+    if (ec) return Fail("--data: cannot make " + run_dir.string() + " private: " + ec.message());
+    local_worker_socket = (run_dir / "local-workers.sock").string();
+    // sockaddr_un holds 107 bytes of path.
+    if (local_worker_socket.size() > 107) {
+      return Fail("--data: " + local_worker_socket + " is longer than a Unix socket path may be (107 bytes); "
+                  "use a shorter --data with --tls-cert and --local-workers");
+    }
+  }
+
   auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
   if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
   auto jobs = impostor::JobStore::Open(std::filesystem::path(data) / "jobs.sqlite3");
@@ -127,7 +162,11 @@ int main(int argc, char** argv) {
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), *listen_credentials, &port);
+  // Local workers' private socket (see above); its directory guards it.
+  if (!local_worker_socket.empty()) {
+    builder.AddListeningPort("unix:" + local_worker_socket, grpc::InsecureServerCredentials());
+  }
   builder.SetMaxReceiveMessageSize(16 << 20);
   builder.RegisterService(&asset_service);
   builder.RegisterService(&bake_service);
@@ -139,6 +178,10 @@ int main(int argc, char** argv) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
                impostor::BakerVersion());
+  if (tls.enabled()) {
+    spdlog::info("event=tls mode={} cert={} client_ca={} reload_s={}", tls.client_ca_file.empty() ? "tls" : "mutual",
+                 tls.cert_file, tls.client_ca_file.empty() ? "-" : tls.client_ca_file, tls.reload_seconds);
+  }
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {
@@ -160,7 +203,9 @@ int main(int argc, char** argv) {
     // Local workers drain within half the grace period, so a job that cannot
     // finish is handed back while the server can still take it.
     supervisor = std::make_unique<impostor::WorkerSupervisor>(
-        worker_binary, connect_host + ":" + std::to_string(port), local_workers,
+        worker_binary,
+        local_worker_socket.empty() ? connect_host + ":" + std::to_string(port) : "unix:" + local_worker_socket,
+        local_workers,
         std::vector<std::string>{"--drain-seconds=" + std::to_string(grace_s / 2)},
         [&scheduler](const std::string& worker_id, const std::string& how) {
           if (auto s = scheduler.WorkerDied(worker_id, how); !s.ok()) {

@@ -5,12 +5,14 @@
 #include <string>
 #include <vector>
 
+#include <grpc/support/log.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "client/cli/cli_args.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
+#include "common/tls_files.h"
 
 namespace {
 
@@ -21,6 +23,12 @@ void SetUpLogging() {
   spdlog::set_default_logger(logger);
   const char* level = std::getenv("IMPOSTOR_LOG");
   spdlog::set_level(level != nullptr ? spdlog::level::from_str(level) : spdlog::level::off);
+  // gRPC's own log lines (e.g. "Handshake failed ..." for every TLS retry)
+  // go to the same diagnostics, so that a failure stays the one line that
+  // says why (the SDK puts gRPC's reason into it).
+  gpr_set_log_function([](gpr_log_func_args* args) {
+    spdlog::debug("grpc {}:{}: {}", args->file, args->line, args->message);
+  });
 }
 
 }  // namespace
@@ -32,6 +40,14 @@ int main(int argc, char** argv) {
   absl::StatusOr<CliArgs> parsed = ParseCliArgs(args, std::getenv("IMPOSTOR_SERVER"));
   if (!parsed.ok()) {
     return Fail(kExitUsage, std::string(parsed.status().message()) + " (see 'impostor --help')");
+  }
+  // TLS files are read here so that a bad one is a usage error naming its
+  // flag (the SDK would name its ClientOptions field).
+  if (!parsed->tls_ca.empty()) {
+    absl::StatusOr<impostor::ClientTlsPem> tls = impostor::ReadClientTlsFiles(
+        {.ca = parsed->tls_ca, .cert = parsed->tls_cert, .key = parsed->tls_key},
+        {.ca = "--tls-ca", .cert = "--tls-cert", .key = "--tls-key"});
+    if (!tls.ok()) return Fail(kExitUsage, std::string(tls.status().message()));
   }
   switch (parsed->command) {
     case Command::kHelp:
