@@ -23,6 +23,7 @@
 #include "absl/flags/usage.h"
 #include "common/bake_request.h"
 #include "common/flag_names.h"
+#include "common/grpc_log.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
@@ -79,6 +80,8 @@ int main(int argc, char** argv) {
   ::signal(SIGPIPE, SIG_IGN);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
+  // gRPC's lines (a refused TLS handshake, ...) in the same format.
+  impostor::RouteGrpcLogsToSpdlog();
 
   // Blocked before any thread starts (gRPC's, the supervisor's), so every
   // thread inherits the mask and only the watcher below receives them.

@@ -18,6 +18,7 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
 #include "common/flag_names.h"
+#include "common/grpc_log.h"
 #include "common/tls_channel.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
@@ -82,6 +83,8 @@ int main(int argc, char** argv) {
   std::string name = absl::GetFlag(FLAGS_name);
   const std::string worker_id = absl::StrCat(name.empty() ? host : name, "-", ::getpid());
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ worker " + worker_id + " %v");
+  // gRPC's lines (a refused TLS handshake, ...) in the same format.
+  impostor::RouteGrpcLogsToSpdlog();
   const int heartbeat = absl::GetFlag(FLAGS_heartbeat_s);
   if (heartbeat < 1 || heartbeat > 60) {
     std::fprintf(stderr, "impostor-worker: --heartbeat-s must be in 1..60\n");

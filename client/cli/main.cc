@@ -5,13 +5,13 @@
 #include <string>
 #include <vector>
 
-#include <grpc/support/log.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "client/cli/cli_args.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
+#include "common/grpc_log.h"
 #include "common/tls_files.h"
 
 namespace {
@@ -26,9 +26,7 @@ void SetUpLogging() {
   // gRPC's own log lines (e.g. "Handshake failed ..." for every TLS retry)
   // go to the same diagnostics, so that a failure stays the one line that
   // says why (the SDK puts gRPC's reason into it).
-  gpr_set_log_function([](gpr_log_func_args* args) {
-    spdlog::debug("grpc {}:{}: {}", args->file, args->line, args->message);
-  });
+  impostor::RouteGrpcLogsToSpdlog();
 }
 
 }  // namespace
