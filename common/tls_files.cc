@@ -6,7 +6,11 @@
 #include <openssl/pem.h>
 #include <openssl/x509.h>
 
+#include <openssl/asn1.h>
+
 #include <cerrno>
+#include <chrono>
+#include <ctime>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -110,6 +114,41 @@ absl::Status CheckKeyMatchesCertificate(absl::string_view cert_name, const std::
   return absl::OkStatus();
 }
 
+absl::StatusOr<int64_t> CertificateNotAfter(const std::string& cert_pem) {
+  X509Ptr cert = FirstCertificate(cert_pem);
+  if (!cert) return absl::InvalidArgumentError("no PEM certificate");
+  std::tm tm{};
+  if (ASN1_TIME_to_tm(X509_get0_notAfter(cert.get()), &tm) != 1) {
+    ERR_clear_error();
+    return absl::InvalidArgumentError("the certificate's notAfter time is malformed");
+  }
+  return static_cast<int64_t>(::timegm(&tm));
+}
+
+std::string FormatUtc(int64_t unix_seconds) {
+  const std::time_t t = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%d %H:%M:%S UTC", &tm);
+  return text;
+}
+
+absl::Status CheckNotExpired(absl::string_view name, const std::string& path, const std::string& cert_pem,
+                             int64_t now_unix_seconds) {
+  absl::StatusOr<int64_t> not_after = CertificateNotAfter(cert_pem);
+  if (!not_after.ok()) return Bad(name, path, not_after.status().message());
+  if (*not_after < now_unix_seconds) {
+    return Bad(name, path, absl::StrCat("expired on ", FormatUtc(*not_after), "; renew it"));
+  }
+  return absl::OkStatus();
+}
+
+static int64_t NowUnixSeconds() {
+  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 absl::StatusOr<ClientTlsPem> ReadClientTlsFiles(const TlsFilePaths& paths, const TlsFileNames& names) {
   if (!paths.cert.empty() && paths.key.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(names.cert, ": needs ", names.key, " too (mutual TLS)"));
@@ -131,6 +170,7 @@ absl::StatusOr<ClientTlsPem> ReadClientTlsFiles(const TlsFilePaths& paths, const
   absl::StatusOr<std::string> key = ReadPrivateKeyFile(names.key, paths.key);
   if (!key.ok()) return key.status();
   if (absl::Status s = CheckKeyMatchesCertificate(names.cert, *cert, names.key, *key); !s.ok()) return s;
+  if (absl::Status s = CheckNotExpired(names.cert, paths.cert, *cert, NowUnixSeconds()); !s.ok()) return s;
   pem.cert = std::move(*cert);
   pem.key = std::move(*key);
   return pem;

@@ -8,6 +8,7 @@
 #ifndef IMPOSTOR_COMMON_TLS_FILES_H_
 #define IMPOSTOR_COMMON_TLS_FILES_H_
 
+#include <cstdint>
 #include <string>
 #include "absl/strings/string_view.h"
 
@@ -31,6 +32,20 @@ absl::StatusOr<std::string> ReadPrivateKeyFile(absl::string_view name, const std
 // match <key_name>: ..."). Both must have passed the reads above.
 absl::Status CheckKeyMatchesCertificate(absl::string_view cert_name, const std::string& cert_pem,
                                         absl::string_view key_name, const std::string& key_pem);
+
+// When the first certificate of `cert_pem` stops being valid, seconds since
+// the Unix epoch. INVALID_ARGUMENT when it holds no certificate.
+absl::StatusOr<int64_t> CertificateNotAfter(const std::string& cert_pem);
+
+// OK unless the first certificate of `cert_pem` has expired by
+// `now_unix_seconds`: then INVALID_ARGUMENT "<name>: <path>: expired on
+// 2026-11-22 14:26:11 UTC; renew it" (a certificate that can never be
+// accepted is refused where it is configured, not in every handshake).
+absl::Status CheckNotExpired(absl::string_view name, const std::string& path, const std::string& cert_pem,
+                             int64_t now_unix_seconds);
+
+// "2026-11-22 14:26:11 UTC".
+std::string FormatUtc(int64_t unix_seconds);
 
 // The files one side of a TLS connection needs, as the flags name them.
 // An empty path means "not given".
@@ -60,7 +75,7 @@ struct ClientTlsPem {
 //  - cert and key come together (mutual TLS) and need a CA: a client that
 //    presents a certificate to a server it does not verify makes no sense;
 //  - every file given is readable PEM of the right kind;
-//  - the key matches the certificate.
+//  - the key matches the certificate, which has not expired.
 // INVALID_ARGUMENT naming the field at fault. Callers skip this (plaintext)
 // when `paths` is all empty.
 absl::StatusOr<ClientTlsPem> ReadClientTlsFiles(const TlsFilePaths& paths, const TlsFileNames& names);

@@ -131,16 +131,9 @@ int main(int argc, char** argv) {
   // server cannot issue), and no other user on the host can reach the socket.
   std::string local_worker_socket;
   if (tls.enabled() && local_workers > 0) {
-    const std::filesystem::path run_dir = std::filesystem::path(data) / "run";
-    std::filesystem::create_directories(run_dir, ec);
-    std::filesystem::permissions(run_dir, std::filesystem::perms::owner_all, ec);
-    if (ec) return Fail("--data: cannot make " + run_dir.string() + " private: " + ec.message());
-    local_worker_socket = (run_dir / "local-workers.sock").string();
-    // sockaddr_un holds 107 bytes of path.
-    if (local_worker_socket.size() > 107) {
-      return Fail("--data: " + local_worker_socket + " is longer than a Unix socket path may be (107 bytes); "
-                  "use a shorter --data with --tls-cert and --local-workers");
-    }
+    auto socket = impostor::PrepareLocalWorkerSocket(data);
+    if (!socket.ok()) return Fail(std::string(socket.status().message()));
+    local_worker_socket = *socket;
   }
 
   auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
@@ -181,10 +174,7 @@ int main(int argc, char** argv) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
                impostor::BakerVersion());
-  if (tls.enabled()) {
-    spdlog::info("event=tls mode={} cert={} client_ca={} reload_s={}", tls.client_ca_file.empty() ? "tls" : "mutual",
-                 tls.cert_file, tls.client_ca_file.empty() ? "-" : tls.client_ca_file, tls.reload_seconds);
-  }
+  impostor::LogServerTls(tls);
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {

@@ -13,6 +13,7 @@
 #ifndef IMPOSTOR_SERVER_TLS_CREDENTIALS_H_
 #define IMPOSTOR_SERVER_TLS_CREDENTIALS_H_
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -48,6 +49,21 @@ absl::Status ValidateServerTls(const ServerTlsOptions& options);
 // Insecure credentials when TLS is off; otherwise watched TLS credentials
 // as described above. Runs ValidateServerTls first (same errors).
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(const ServerTlsOptions& options);
+
+// Logs the TLS settings once at start ("event=tls mode=tls|mutual cert=...
+// cert_expires=..."), and "event=tls_cert_expiring_soon" when the
+// certificate has fewer than 30 days left: an expired certificate is the
+// usual way a TLS service stops. Nothing when TLS is off.
+void LogServerTls(const ServerTlsOptions& options);
+
+// With TLS, --local-workers dial the server through a Unix socket,
+// <data>/run/local-workers.sock, in a directory only the server's user may
+// enter (made here, mode 0700), instead of the TLS port: they need no
+// certificate (under mutual TLS they would need one the server cannot
+// issue), and no other user of the host can reach the socket. Returns the
+// socket's path; INVALID_ARGUMENT naming --data when the directory cannot
+// be made private or the path is too long for a socket (107 bytes).
+absl::StatusOr<std::string> PrepareLocalWorkerSocket(const std::filesystem::path& data);
 
 }  // namespace impostor
 

@@ -79,6 +79,7 @@ class TlsClientOptionsTest : public ::testing::Test {
     ca_ = new CertFiles(pki.MakeCa("ca"));
     client_ = new CertFiles(pki.MakeClientCert("client", *ca_));
     other_ = new CertFiles(pki.MakeClientCert("other", *ca_));
+    expired_ = new CertFiles(pki.MakeClientCert("expired", *ca_, /*days=*/-1));
     std::ofstream(*dir_ / "not_pem.txt") << "hello\n";
   }
   static void TearDownTestSuite() {
@@ -86,6 +87,7 @@ class TlsClientOptionsTest : public ::testing::Test {
     delete ca_;
     delete client_;
     delete other_;
+    delete expired_;
     delete dir_;
   }
 
@@ -108,6 +110,8 @@ class TlsClientOptionsTest : public ::testing::Test {
         {"server name without CA", "", "", "", "bake.lan", "tls_server_name: needs"},
         {"key of another certificate", ca_->cert.string(), client_->cert.string(), other_->key.string(), "",
          "tls_cert_file does not match"},
+        {"expired client certificate", ca_->cert.string(), expired_->cert.string(), expired_->key.string(), "",
+         "tls_cert_file: " + expired_->cert.string() + ": expired on "},
         {"cert missing", ca_->cert.string(), missing, client_->key.string(), "", "tls_cert_file: " + missing},
     };
   }
@@ -116,11 +120,13 @@ class TlsClientOptionsTest : public ::testing::Test {
   static CertFiles* ca_;
   static CertFiles* client_;
   static CertFiles* other_;
+  static CertFiles* expired_;
 };
 fs::path* TlsClientOptionsTest::dir_ = nullptr;
 CertFiles* TlsClientOptionsTest::ca_ = nullptr;
 CertFiles* TlsClientOptionsTest::client_ = nullptr;
 CertFiles* TlsClientOptionsTest::other_ = nullptr;
+CertFiles* TlsClientOptionsTest::expired_ = nullptr;
 
 TEST_F(TlsClientOptionsTest, ClientConnectRefusesBadSettingsNamingTheField) {
   for (const Case& c : BadCases()) {

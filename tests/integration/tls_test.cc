@@ -83,6 +83,9 @@ TEST_F(TlsFarm, BakesThroughTlsWithAWorkerOverTls) {
   ServerProcess server(/*local_workers=*/0, TlsFlags(/*mutual=*/false), ChannelTls{.ca_file = ca_.cert.string()});
   auto worker = testing::StartWorker(server.address(), {"--tls-ca=" + ca_.cert.string(), "--max-jobs=1"});
   ASSERT_TRUE(worker->WaitForLog("event=tls mode=tls")) << worker->Stderr();
+  // The test certificate is valid for two days: the server says so at start.
+  EXPECT_EQ(server.process().CountInLog("cert_expires="), 1) << server.process().Stderr();
+  EXPECT_EQ(server.process().CountInLog("event=tls_cert_expiring_soon"), 1) << server.process().Stderr();
 
   const fs::path out = testing::NewTempDir("tls_bake_out");
   const testing::ToolRun bake =

@@ -29,6 +29,7 @@ class ServerTlsTest : public ::testing::Test {
     ca_ = new CertFiles(pki.MakeCa("ca"));
     server_ = new CertFiles(pki.MakeServerCert("server", *ca_));
     other_ = new CertFiles(pki.MakeServerCert("other", *ca_));
+    expired_ = new CertFiles(pki.MakeServerCert("expired", *ca_, "DNS:localhost", /*days=*/-1));
     std::ofstream(*dir_ / "not_pem.txt") << "hello\n";
     std::ofstream(*dir_ / "empty.pem");
     // A key under a passphrase: a service cannot type it at start.
@@ -43,17 +44,20 @@ class ServerTlsTest : public ::testing::Test {
     delete ca_;
     delete server_;
     delete other_;
+    delete expired_;
     delete dir_;
   }
   static fs::path* dir_;
   static CertFiles* ca_;
   static CertFiles* server_;
   static CertFiles* other_;
+  static CertFiles* expired_;
 };
 fs::path* ServerTlsTest::dir_ = nullptr;
 CertFiles* ServerTlsTest::ca_ = nullptr;
 CertFiles* ServerTlsTest::server_ = nullptr;
 CertFiles* ServerTlsTest::other_ = nullptr;
+CertFiles* ServerTlsTest::expired_ = nullptr;
 
 TEST_F(ServerTlsTest, RefusesWhatCannotWorkNamingTheFlag) {
   const std::string cert = server_->cert.string();
@@ -75,6 +79,8 @@ TEST_F(ServerTlsTest, RefusesWhatCannotWorkNamingTheFlag) {
       {"cert not PEM", {.cert_file = (*dir_ / "not_pem.txt").string(), .key_file = key}, "--tls-cert: " + (*dir_ / "not_pem.txt").string() + ": holds no PEM certificate"},
       {"key is a certificate", {.cert_file = cert, .key_file = cert}, "--tls-key: " + cert + ": holds no PEM private key"},
       {"encrypted key", {.cert_file = cert, .key_file = (*dir_ / "encrypted.key").string()}, "--tls-key: " + (*dir_ / "encrypted.key").string() + ": is encrypted with a passphrase"},
+      {"expired certificate", {.cert_file = expired_->cert.string(), .key_file = expired_->key.string()},
+       "--tls-cert: " + expired_->cert.string() + ": expired on "},
       {"key of another certificate", {.cert_file = cert, .key_file = other_->key.string()}, "--tls-cert does not match --tls-key"},
       {"client CA missing", {.cert_file = cert, .key_file = key, .client_ca_file = missing}, "--tls-client-ca: " + missing + ": cannot read"},
       {"client CA not PEM", {.cert_file = cert, .key_file = key, .client_ca_file = (*dir_ / "not_pem.txt").string()}, "--tls-client-ca: "},
@@ -110,6 +116,24 @@ TEST_F(ServerTlsTest, AcceptsPlaintextTlsAndMutualTls) {
     EXPECT_NE(*credentials, nullptr) << c.name;
     EXPECT_EQ(c.options.enabled(), std::string(c.name) != "plaintext") << c.name;
   }
+}
+
+TEST_F(ServerTlsTest, LocalWorkerSocketLivesInAPrivateDirectory) {
+  const fs::path data = *dir_ / "data";
+  fs::create_directories(data / "run");
+  fs::permissions(data / "run", fs::perms::all);  // as if left open before
+  absl::StatusOr<std::string> socket = PrepareLocalWorkerSocket(data);
+  ASSERT_TRUE(socket.ok()) << socket.status();
+  EXPECT_EQ(*socket, (data / "run" / "local-workers.sock").string());
+  EXPECT_EQ(fs::status(data / "run").permissions() & fs::perms::all, fs::perms::owner_all);
+
+  // A data directory so deep that the socket's path cannot be bound.
+  const fs::path deep = *dir_ / std::string(100, 'd');
+  absl::StatusOr<std::string> too_long = PrepareLocalWorkerSocket(deep);
+  ASSERT_FALSE(too_long.ok());
+  EXPECT_EQ(too_long.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(too_long.status().message().find("--data: "), std::string::npos) << too_long.status();
+  EXPECT_NE(too_long.status().message().find("(107 bytes)"), std::string::npos) << too_long.status();
 }
 
 }  // namespace

@@ -47,26 +47,26 @@ CertFiles TestPki::MakeCa(const std::string& name) {
   return ca;
 }
 
-CertFiles TestPki::MakeLeaf(const std::string& name, const CertFiles& ca, const std::string& extensions) {
+CertFiles TestPki::MakeLeaf(const std::string& name, const CertFiles& ca, const std::string& extensions, int days) {
   CertFiles leaf{dir_ / (name + ".crt"), dir_ / (name + ".key")};
   const fs::path csr = dir_ / (name + ".csr");
   const fs::path ext = dir_ / (name + ".ext");
   std::ofstream(ext) << "basicConstraints=CA:FALSE\n" << extensions;
   if (!Run("openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -subj '/CN=" + name + "' -keyout " +
            Quote(leaf.key) + " -out " + Quote(csr)) ||
-      !Run("openssl x509 -req -days 2 -in " + Quote(csr) + " -CA " + Quote(ca.cert) + " -CAkey " + Quote(ca.key) +
+      !Run("openssl x509 -req -days " + std::to_string(days) + " -in " + Quote(csr) + " -CA " + Quote(ca.cert) + " -CAkey " + Quote(ca.key) +
            " -CAcreateserial -extfile " + Quote(ext) + " -out " + Quote(leaf.cert))) {
     return {};
   }
   return leaf;
 }
 
-CertFiles TestPki::MakeServerCert(const std::string& name, const CertFiles& ca, const std::string& san) {
-  return MakeLeaf(name, ca, "extendedKeyUsage=serverAuth\nsubjectAltName=" + san + "\n");
+CertFiles TestPki::MakeServerCert(const std::string& name, const CertFiles& ca, const std::string& san, int days) {
+  return MakeLeaf(name, ca, "extendedKeyUsage=serverAuth\nsubjectAltName=" + san + "\n", days);
 }
 
-CertFiles TestPki::MakeClientCert(const std::string& name, const CertFiles& ca) {
-  return MakeLeaf(name, ca, "extendedKeyUsage=clientAuth\n");
+CertFiles TestPki::MakeClientCert(const std::string& name, const CertFiles& ca, int days) {
+  return MakeLeaf(name, ca, "extendedKeyUsage=clientAuth\n", days);
 }
 
 }  // namespace impostor::testing

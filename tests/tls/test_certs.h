@@ -28,16 +28,17 @@ class TestPki {
   CertFiles MakeCa(const std::string& name);
   // A server certificate "<name>" signed by `ca`, for localhost and
   // 127.0.0.1 (subjectAltName) unless `san` says otherwise
-  // ("DNS:bake.studio.lan").
+  // ("DNS:bake.studio.lan"), valid for `days` (-1: expired yesterday).
   CertFiles MakeServerCert(const std::string& name, const CertFiles& ca,
-                           const std::string& san = "DNS:localhost,IP:127.0.0.1");
-  // A client certificate "<name>" (extendedKeyUsage clientAuth) signed by `ca`.
-  CertFiles MakeClientCert(const std::string& name, const CertFiles& ca);
+                           const std::string& san = "DNS:localhost,IP:127.0.0.1", int days = 2);
+  // A client certificate "<name>" (extendedKeyUsage clientAuth) signed by
+  // `ca`, valid for `days` (-1: expired yesterday).
+  CertFiles MakeClientCert(const std::string& name, const CertFiles& ca, int days = 2);
 
   const std::filesystem::path& dir() const { return dir_; }
 
  private:
-  CertFiles MakeLeaf(const std::string& name, const CertFiles& ca, const std::string& extensions);
+  CertFiles MakeLeaf(const std::string& name, const CertFiles& ca, const std::string& extensions, int days);
   bool Run(const std::string& command);
 
   std::filesystem::path dir_;
