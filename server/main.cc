@@ -174,7 +174,7 @@ int main(int argc, char** argv) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
                impostor::BakerVersion());
-  impostor::LogServerTls(tls);
+  impostor::LogServerTls(tls, host);
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {

@@ -66,8 +66,20 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(c
   return grpc::experimental::TlsServerCredentials(options);
 }
 
-void LogServerTls(const ServerTlsOptions& o) {
-  if (!o.enabled()) return;
+bool IsLoopbackHost(const std::string& host) {
+  return host == "localhost" || host == "::1" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
+         host.rfind("unix:", 0) == 0 || host.rfind("unix-abstract:", 0) == 0;
+}
+
+void LogServerTls(const ServerTlsOptions& o, const std::string& listen_host) {
+  if (!o.enabled()) {
+    if (!IsLoopbackHost(listen_host)) {
+      spdlog::warn("event=plaintext_listener host={} note=\"no TLS: traffic to this port can be read and altered on "
+                   "the network; see --tls-cert\"",
+                   listen_host);
+    }
+    return;
+  }
   absl::StatusOr<int64_t> not_after = absl::UnknownError("unread");
   if (absl::StatusOr<std::string> pem = ReadCertificateFile("--tls-cert", o.cert_file); pem.ok()) {
     not_after = CertificateNotAfter(*pem);

@@ -53,8 +53,13 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(c
 // Logs the TLS settings once at start ("event=tls mode=tls|mutual cert=...
 // cert_expires=..."), and "event=tls_cert_expiring_soon" when the
 // certificate has fewer than 30 days left: an expired certificate is the
-// usual way a TLS service stops. Nothing when TLS is off.
-void LogServerTls(const ServerTlsOptions& options);
+// usual way a TLS service stops. Without TLS on a `listen_host` other than
+// loopback (or a Unix socket), warns "event=plaintext_listener": anyone
+// who can reach the port reads and writes in the clear.
+void LogServerTls(const ServerTlsOptions& options, const std::string& listen_host);
+
+// True for "localhost", 127.0.0.0/8, "::1" / "[::1]" and "unix:..." hosts.
+bool IsLoopbackHost(const std::string& host);
 
 // With TLS, --local-workers dial the server through a Unix socket,
 // <data>/run/local-workers.sock, in a directory only the server's user may

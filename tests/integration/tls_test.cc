@@ -148,6 +148,15 @@ TEST_F(TlsFarm, MutualTlsRefusesClientsWithoutATrustedCertificate) {
         << c.name << ": " << client.status();
   }
 
+  // A worker with a certificate from another CA never gets to lease (the
+  // forged-result attack of issue 14 stops at the handshake).
+  auto intruder = testing::StartWorker(server.address(),
+                                       {"--tls-ca=" + ca_.cert.string(), "--tls-cert=" + foreign_client_.cert.string(),
+                                        "--tls-key=" + foreign_client_.key.string(), "--max-outage-seconds=1"});
+  EXPECT_EQ(intruder->Wait(), 1) << intruder->Stderr();
+  EXPECT_GE(intruder->CountInLog("event=lease_failed"), 1) << intruder->Stderr();
+  EXPECT_NE(intruder->Stderr().find("unreachable"), std::string::npos) << intruder->Stderr();
+
   // The CLI says the same in its one line.
   const testing::ToolRun run =
       RunTool({Impostor(), "status", "j1", "--server=" + server.address(), "--tls-ca=" + ca_.cert.string()});
@@ -220,10 +229,17 @@ TEST_F(TlsFarm, PlaintextAndWrongCaClientsAreRefusedSayingWhy) {
 
 TEST_F(TlsFarm, TlsClientOfAPlaintextServerIsToldItDoesNotSpeakTls) {
   ServerProcess server(/*local_workers=*/0);
+  // Plaintext on loopback is the quickstart: no warning.
+  EXPECT_EQ(server.process().CountInLog("event=plaintext_listener"), 0) << server.process().Stderr();
   auto client = sdk::Client::Connect(Options(server.address(), ca_.cert.string()));
   ASSERT_FALSE(client.ok());
   EXPECT_EQ(client.status().code(), absl::StatusCode::kUnavailable) << client.status();
   EXPECT_NE(client.status().message().find("does not speak TLS"), std::string::npos) << client.status();
+}
+
+TEST_F(TlsFarm, PlaintextOnTheNetworkIsWarnedAbout) {
+  ServerProcess server(/*local_workers=*/0, testing::NewTempDir("plaintext_network_data"), "0.0.0.0:0");
+  EXPECT_EQ(server.process().CountInLog("event=plaintext_listener host=0.0.0.0"), 1) << server.process().Stderr();
 }
 
 // Replaces `dest` with `source`'s bytes in one rename, as an operator

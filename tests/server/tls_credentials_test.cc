@@ -118,6 +118,15 @@ TEST_F(ServerTlsTest, AcceptsPlaintextTlsAndMutualTls) {
   }
 }
 
+TEST(ServerTlsListen, LoopbackHosts) {
+  for (const char* host : {"localhost", "127.0.0.1", "127.1.2.3", "::1", "[::1]", "unix:/run/impostor.sock"}) {
+    EXPECT_TRUE(IsLoopbackHost(host)) << host;
+  }
+  for (const char* host : {"0.0.0.0", "[::]", "", "10.0.0.5", "bake.studio.lan", "128.0.0.1", "localhost.evil"}) {
+    EXPECT_FALSE(IsLoopbackHost(host)) << host;
+  }
+}
+
 TEST_F(ServerTlsTest, LocalWorkerSocketLivesInAPrivateDirectory) {
   const fs::path data = *dir_ / "data";
   fs::create_directories(data / "run");
