@@ -12,12 +12,12 @@
 
 #include <memory>
 #include <string>
-#include "absl/strings/string_view.h"
 
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/support/channel_arguments.h>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "common/tls_files.h"
 
 namespace impostor {
