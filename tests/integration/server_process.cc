@@ -415,6 +415,7 @@ void ServerProcess::Start() {
   // address between channels, so a server restarted on the same address
   // could hand this fresh channel the dead server's reset connection.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  if (!tls_.server_name.empty()) args.SetSslTargetNameOverride(tls_.server_name);
   channel_ = grpc::CreateCustomChannel(address_, CredentialsFor(tls_), args);
   if (!channel_->WaitForConnected(std::chrono::system_clock::now() + kStartTimeout)) {
     ADD_FAILURE() << "impostor-server at " << address_ << " printed its line but did not accept a connection within "

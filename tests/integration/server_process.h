@@ -130,6 +130,9 @@ struct ChannelTls {
   std::string ca_file;
   std::string cert_file;
   std::string key_file;
+  // The name the server's certificate carries, when not the dial address's
+  // host (the ssl target name override). Empty = that host.
+  std::string server_name;
 };
 
 // Channel credentials for `tls` (insecure when it is empty).

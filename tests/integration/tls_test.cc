@@ -227,6 +227,37 @@ TEST_F(TlsFarm, PlaintextAndWrongCaClientsAreRefusedSayingWhy) {
   }
 }
 
+TEST_F(TlsFarm, ServerNameOverrideReachesACertificateIssuedForAnotherName) {
+  // A certificate for the farm's DNS name only, dialled by IP address (a
+  // tunnel, a host without DNS).
+  TestPki pki(pki_dir_);
+  const CertFiles named = pki.MakeServerCert("bake-studio-lan", ca_, "DNS:bake.studio.lan");
+  ASSERT_FALSE(named.cert.empty());
+  ServerProcess server(/*local_workers=*/0,
+                       {"--tls-cert=" + named.cert.string(), "--tls-key=" + named.key.string()},
+                       ChannelTls{.ca_file = ca_.cert.string(), .server_name = "bake.studio.lan"});
+
+  auto without = sdk::Client::Connect(Options(server.address(), ca_.cert.string()));
+  ASSERT_FALSE(without.ok());
+  EXPECT_NE(without.status().message().find("tls_server_name"), std::string::npos) << without.status();
+
+  sdk::ClientOptions options = Options(server.address(), ca_.cert.string());
+  options.tls_server_name = "bake.studio.lan";
+  auto with = sdk::Client::Connect(options);
+  ASSERT_TRUE(with.ok()) << with.status();
+  EXPECT_EQ((*with)->GetJob("j1").status().code(), absl::StatusCode::kNotFound);
+
+  sdk::CacheOptions cache_options;
+  cache_options.server = server.address();
+  cache_options.dir = testing::NewTempDir("server_name_cache");
+  cache_options.max_outage_seconds = 0;
+  cache_options.tls_ca_file = ca_.cert.string();
+  cache_options.tls_server_name = "bake.studio.lan";
+  auto cache = sdk::Cache::Open(cache_options);
+  ASSERT_TRUE(cache.ok()) << cache.status();
+  EXPECT_EQ((*cache)->Get(std::string(64, '0')).status().code(), absl::StatusCode::kNotFound);
+}
+
 TEST_F(TlsFarm, TlsClientOfAPlaintextServerIsToldItDoesNotSpeakTls) {
   ServerProcess server(/*local_workers=*/0);
   // Plaintext on loopback is the quickstart: no warning.
