@@ -14,6 +14,7 @@
 #include "client/connection_monitor.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
+#include "common/tls_channel.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
 
@@ -83,6 +84,47 @@ const char* StateName(grpc_connectivity_state state) {
   return "?";
 }
 
+// Why the channel's connection failed, when TLS is the reason: a sentence
+// for Connect's error, or "" when it is not about TLS (nothing listening).
+// The channel keeps its last connection error; a call that does not wait for
+// READY fails at once with it.
+std::string DescribeTlsFailure(grpc::Channel& channel, bool uses_tls) {
+  v1::BakeService::Stub probe(std::shared_ptr<grpc::ChannelInterface>(&channel, [](grpc::ChannelInterface*) {}));
+  grpc::ClientContext context;
+  context.set_wait_for_ready(false);
+  context.set_deadline(DeadlineAfter(1.0));
+  v1::GetJobRequest request;
+  v1::Job job;
+  const grpc::Status status = probe.GetJob(&context, request, &job);
+  const std::string& last = status.error_message();
+  spdlog::debug("connect probe: {} {}", static_cast<int>(status.error_code()), last);
+  const auto has = [&last](std::string_view text) { return last.find(text) != std::string::npos; };
+  if (uses_tls) {
+    if (has("certificate verify failed")) {
+      return absl::StrCat("TLS handshake failed: the server's certificate is not signed by the CA given "
+                          "(--tls-ca / tls_ca_file) (", last, ")");
+    }
+    if (has("No match found for server name") || has("Peer name")) {
+      return absl::StrCat("TLS handshake failed: the server's certificate does not carry the name dialled; give "
+                          "the name it carries with --tls-server-name / tls_server_name (", last, ")");
+    }
+    if (has("wrong version number") || has("packet length too long") || has("http request")) {
+      return absl::StrCat("TLS handshake failed: the server does not speak TLS; connect without --tls-ca (", last,
+                          ")");
+    }
+    if (has("Handshake") || has("handshake") || has("SSL") || has("certificate") || has("Socket closed")) {
+      return absl::StrCat("TLS handshake failed (a server run with --tls-client-ca needs a client certificate "
+                          "it trusts: --tls-cert/--tls-key) (", last, ")");
+    }
+    return "";
+  }
+  if (has("Socket closed") || has("Connection reset") || has("connection closed") || has("EOF")) {
+    return absl::StrCat("the server closed the connection; if it serves TLS, connect with its CA "
+                        "(--tls-ca / tls_ca_file) (", last, ")");
+  }
+  return "";
+}
+
 // Reports every RPC to TransportHooks::on_rpc as its first message leaves.
 class RpcObserver : public grpc::experimental::Interceptor {
  public:
@@ -139,15 +181,27 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kInitialReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kMaxReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kMinConnectTimeoutMs);
+  // Transport security (README "Securing a farm: TLS").
+  const ClientTls tls{.files = {.ca = options.tls_ca_file, .cert = options.tls_cert_file, .key = options.tls_key_file},
+                      .server_name = options.tls_server_name};
+  absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> credentials =
+      MakeChannelCredentials(tls,
+                             {.files = {.ca = "ClientOptions.tls_ca_file",
+                                        .cert = "ClientOptions.tls_cert_file",
+                                        .key = "ClientOptions.tls_key_file"},
+                              .server_name = "ClientOptions.tls_server_name"},
+                             &args);
+  if (!credentials.ok()) return credentials.status();
+
   auto stubs = std::make_unique<Stubs>(options);
   stubs->hooks = hooks;
   if (stubs->hooks.on_rpc) {
     std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
     interceptors.push_back(std::make_unique<RpcObserverFactory>(&stubs->hooks));
     stubs->channel = grpc::experimental::CreateCustomChannelWithInterceptors(
-        options.server, grpc::InsecureChannelCredentials(), args, std::move(interceptors));
+        options.server, *credentials, args, std::move(interceptors));
   } else {
-    stubs->channel = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+    stubs->channel = grpc::CreateCustomChannel(options.server, *credentials, args);
   }
   // Wait for READY, but give up early when the connection is refused
   // outright: a CI job or a game should hear "nobody there" in about a
@@ -171,6 +225,13 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
     state = stubs->channel->GetState(/*try_to_connect=*/true);
   }
   if (state != GRPC_CHANNEL_READY) {
+    // A failed TLS handshake (or a plaintext client of a TLS server) looks
+    // like a refusal to the channel's state; its last error tells them apart.
+    if (refused) {
+      if (std::string tls_problem = DescribeTlsFailure(*stubs->channel, UsesTls(tls)); !tls_problem.empty()) {
+        return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server, tls_problem);
+      }
+    }
     return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server,
                         refused ? std::string("connection refused; is impostor-server running there?")
                                      : absl::StrCat("no impostor server answered within ",

@@ -24,11 +24,13 @@
 #include "common/bake_request.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/grpc_log.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
 #include "server/server_help.h"
 #include "server/services.h"
+#include "server/tls_credentials.h"
 #include "server/worker_supervisor.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
@@ -55,6 +57,13 @@ ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 ABSL_FLAG(int64_t, store_eviction_grace_seconds, 600,
           "With --store-max-bytes: uploads younger than this many seconds that no job or result uses yet are "
           "never evicted (0..86400)");
+// Transport security (README "Securing a farm: TLS"; server/tls_credentials.h).
+ABSL_FLAG(std::string, tls_cert, "", "Serve TLS with this certificate chain (PEM, leaf first; needs --tls-key)");
+ABSL_FLAG(std::string, tls_key, "", "Private key of --tls-cert (PEM, unencrypted)");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "Mutual TLS: clients must present a certificate issued by this CA (PEM; needs --tls-cert)");
+ABSL_FLAG(int, tls_reload_seconds, 5,
+          "How often the TLS files are checked for a renewed certificate, key or client CA (1..3600)");
 
 namespace {
 
@@ -80,6 +89,8 @@ int main(int argc, char** argv) {
   ::signal(SIGPIPE, SIG_IGN);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
+  // gRPC's lines (a refused TLS handshake, ...) in the same format.
+  impostor::RouteGrpcLogsToSpdlog();
 
   // Blocked before any thread starts (gRPC's, the supervisor's), so every
   // thread inherits the mask and only the watcher below receives them.
@@ -116,9 +127,28 @@ int main(int argc, char** argv) {
   if (eviction_grace_s < 0 || eviction_grace_s > 86400) {
     return Fail("--store-eviction-grace-seconds: " + std::to_string(eviction_grace_s) + " is out of range 0..86400");
   }
+  // TLS: the files are checked here so that a bad flag stops the start with
+  // its name, rather than every handshake failing later.
+  const impostor::ServerTlsOptions tls{.cert_file = absl::GetFlag(FLAGS_tls_cert),
+                                       .key_file = absl::GetFlag(FLAGS_tls_key),
+                                       .client_ca_file = absl::GetFlag(FLAGS_tls_client_ca),
+                                       .reload_seconds = absl::GetFlag(FLAGS_tls_reload_seconds)};
+  auto listen_credentials = impostor::MakeServerCredentials(tls);
+  if (!listen_credentials.ok()) return Fail(std::string(listen_credentials.status().message()));
 
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
+  // With TLS, --local-workers reach the server through a Unix socket in a
+  // directory only this user may enter, not through the TLS port: they need
+  // no certificate (mutual TLS would otherwise need a client certificate the
+  // server cannot issue), and no other user on the host can reach the socket.
+  std::string local_worker_socket;
+  if (tls.enabled() && local_workers > 0) {
+    auto socket = impostor::PrepareLocalWorkerSocket(data);
+    if (!socket.ok()) return Fail(std::string(socket.status().message()));
+    local_worker_socket = *socket;
+  }
+
   auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
   if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
   auto jobs = impostor::JobStore::Open(std::filesystem::path(data) / "jobs.sqlite3");
@@ -142,7 +172,11 @@ int main(int argc, char** argv) {
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), *listen_credentials, &port);
+  // Local workers' private socket (see above); its directory guards it.
+  if (!local_worker_socket.empty()) {
+    builder.AddListeningPort("unix:" + local_worker_socket, grpc::InsecureServerCredentials());
+  }
   builder.SetMaxReceiveMessageSize(16 << 20);
   builder.RegisterService(&asset_service);
   builder.RegisterService(&bake_service);
@@ -154,6 +188,7 @@ int main(int argc, char** argv) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
                impostor::BakerVersion());
+  impostor::LogServerTls(tls, host);
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {
@@ -175,7 +210,9 @@ int main(int argc, char** argv) {
     // Local workers drain within half the grace period, so a job that cannot
     // finish is handed back while the server can still take it.
     supervisor = std::make_unique<impostor::WorkerSupervisor>(
-        worker_binary, connect_host + ":" + std::to_string(port), local_workers,
+        worker_binary,
+        local_worker_socket.empty() ? connect_host + ":" + std::to_string(port) : "unix:" + local_worker_socket,
+        local_workers,
         std::vector<std::string>{"--drain-seconds=" + std::to_string(grace_s / 2)},
         [&scheduler](const std::string& worker_id, const std::string& how) {
           if (auto s = scheduler.WorkerDied(worker_id, how); !s.ok()) {

@@ -19,6 +19,8 @@
 #include "absl/strings/str_cat.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/grpc_log.h"
+#include "common/tls_channel.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 #include "worker/worker_help.h"
@@ -42,6 +44,13 @@ ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rl
 ABSL_FLAG(uint64_t, load_memory_mb, 8192, "Address space the isolated load may add, MiB (>= 64)");
 ABSL_FLAG(int, load_cpu_s, 300, "CPU seconds the isolated load may use (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+// Transport security (README "Securing a farm: TLS"): TLS when --tls-ca is
+// given; --tls-cert/--tls-key add a client certificate for mutual TLS.
+ABSL_FLAG(std::string, tls_ca, "", "Connect with TLS, trusting only this CA bundle (PEM) for the server's certificate");
+ABSL_FLAG(std::string, tls_cert, "", "Mutual TLS: this worker's certificate chain (PEM; needs --tls-key, --tls-ca)");
+ABSL_FLAG(std::string, tls_key, "", "Mutual TLS: private key of --tls-cert (PEM, unencrypted)");
+ABSL_FLAG(std::string, tls_server_name, "",
+          "Name the server's certificate must carry, when it differs from the host in --server");
 
 namespace {
 
@@ -78,6 +87,8 @@ int main(int argc, char** argv) {
   std::string name = absl::GetFlag(FLAGS_name);
   const std::string worker_id = absl::StrCat(name.empty() ? host : name, "-", ::getpid());
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ worker " + worker_id + " %v");
+  // gRPC's lines (a refused TLS handshake, ...) in the same format.
+  impostor::RouteGrpcLogsToSpdlog();
   const int heartbeat = absl::GetFlag(FLAGS_heartbeat_s);
   if (heartbeat < 1 || heartbeat > 60) {
     std::fprintf(stderr, "impostor-worker: --heartbeat-s must be in 1..60\n");
@@ -93,6 +104,25 @@ int main(int argc, char** argv) {
   if (max_outage_seconds < 1 || max_outage_seconds > 86400) {
     std::fprintf(stderr, "impostor-worker: --max-outage-seconds: %d is out of range 1..86400\n", max_outage_seconds);
     return 2;
+  }
+
+  // TLS files are read and checked before the GPU is touched: a bad flag
+  // fails at once, naming itself.
+  grpc::ChannelArguments unused_args;
+  const impostor::ClientTls tls{.files = {.ca = absl::GetFlag(FLAGS_tls_ca),
+                                          .cert = absl::GetFlag(FLAGS_tls_cert),
+                                          .key = absl::GetFlag(FLAGS_tls_key)},
+                                .server_name = absl::GetFlag(FLAGS_tls_server_name)};
+  auto credentials = impostor::MakeChannelCredentials(
+      tls, {.files = {.ca = "--tls-ca", .cert = "--tls-cert", .key = "--tls-key"}, .server_name = "--tls-server-name"},
+      &unused_args);
+  if (!credentials.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(credentials.status().message()).c_str());
+    return 2;
+  }
+
+  if (impostor::UsesTls(tls)) {
+    spdlog::info("event=tls mode={} ca={}", tls.files.cert.empty() ? "tls" : "mutual", tls.files.ca);
   }
 
   auto renderer = impostor::AtlasRenderer::Create(absl::GetFlag(FLAGS_device));
@@ -123,7 +153,9 @@ int main(int argc, char** argv) {
                              .max_outage_seconds = max_outage_seconds,
                              .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),
                              .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
-                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
+                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),
+                             .channel_credentials = *credentials,
+                             .tls_server_name = tls.server_name},
                             std::move(*renderer));
 
   // SIGTERM: drain (no new job; the current one finishes within

@@ -151,7 +151,10 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 200);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 200);
-  channel_ = grpc::CreateCustomChannel(options_.server, grpc::InsecureChannelCredentials(), args);
+  if (!options_.tls_server_name.empty()) args.SetSslTargetNameOverride(options_.tls_server_name);
+  channel_ = grpc::CreateCustomChannel(
+      options_.server,
+      options_.channel_credentials ? options_.channel_credentials : grpc::InsecureChannelCredentials(), args);
   workers_ = v1::WorkerService::NewStub(channel_);
   assets_ = v1::AssetService::NewStub(channel_);
 }

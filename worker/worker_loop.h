@@ -77,6 +77,12 @@ struct WorkerOptions {
   // then lands between chunks). Lets tests kill processes at a known point
   // of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
+  // Transport security of the channel to `server` (common/tls_channel.h,
+  // from --tls-ca/--tls-cert/--tls-key). Null = plaintext.
+  std::shared_ptr<grpc::ChannelCredentials> channel_credentials;
+  // --tls-server-name: the name the server's certificate must carry when it
+  // differs from the host in `server`. Empty = that host.
+  std::string tls_server_name;
 };
 
 class WorkerLoop {

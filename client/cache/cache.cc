@@ -36,6 +36,7 @@
 #include "client/mesh_files.h"
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
+#include "common/tls_files.h"
 
 namespace impostor::sdk {
 namespace {
@@ -78,6 +79,17 @@ absl::Status ValidateOptions(const CacheOptions& o) {
   }
   if (!(o.offline_retry_seconds >= 0)) return bad("offline_retry_seconds", o.offline_retry_seconds, ">= 0");
   if (!(o.partial_max_age_seconds >= 0)) return bad("partial_max_age_seconds", o.partial_max_age_seconds, ">= 0");
+  // TLS files are checked at Open, not at the first miss: a cache that
+  // could never connect should say so at once.
+  if (o.tls_ca_file.empty() && !o.tls_server_name.empty()) {
+    return absl::InvalidArgumentError("CacheOptions.tls_server_name: needs CacheOptions.tls_ca_file");
+  }
+  if (!o.tls_ca_file.empty() || !o.tls_cert_file.empty() || !o.tls_key_file.empty()) {
+    absl::StatusOr<ClientTlsPem> tls = ReadClientTlsFiles(
+        {.ca = o.tls_ca_file, .cert = o.tls_cert_file, .key = o.tls_key_file},
+        {.ca = "CacheOptions.tls_ca_file", .cert = "CacheOptions.tls_cert_file", .key = "CacheOptions.tls_key_file"});
+    if (!tls.ok()) return tls.status();
+  }
   return absl::OkStatus();
 }
 
@@ -89,6 +101,10 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.max_outage_seconds = o.max_outage_seconds;
   c.on_connection_change = o.on_connection_change;
   c.connect_timeout_seconds = o.connect_timeout_seconds;
+  c.tls_ca_file = o.tls_ca_file;
+  c.tls_cert_file = o.tls_cert_file;
+  c.tls_key_file = o.tls_key_file;
+  c.tls_server_name = o.tls_server_name;
   return c;
 }
 

@@ -57,6 +57,7 @@ void impostor_cache_options_init(impostor_cache_options* options) {
   options->rpc_timeout_seconds = defaults.rpc_timeout_seconds;
   options->max_attempts = defaults.max_attempts;
   options->max_outage_seconds = defaults.max_outage_seconds;
+  // TLS: off (the memset left the tls_* pointers NULL).
 }
 
 impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out) {
@@ -74,6 +75,11 @@ impostor_status impostor_cache_open(const impostor_cache_options* options, impos
   o.rpc_timeout_seconds = options->rpc_timeout_seconds;
   o.max_attempts = options->max_attempts;
   o.max_outage_seconds = options->max_outage_seconds;
+  // TLS (see impostor_c.h).
+  if (options->tls_ca_file != nullptr) o.tls_ca_file = options->tls_ca_file;
+  if (options->tls_cert_file != nullptr) o.tls_cert_file = options->tls_cert_file;
+  if (options->tls_key_file != nullptr) o.tls_key_file = options->tls_key_file;
+  if (options->tls_server_name != nullptr) o.tls_server_name = options->tls_server_name;
   auto cache = impostor::sdk::Cache::Open(o);
   if (!cache.ok()) return Report(cache.status());
   *out = new impostor_cache{std::move(*cache)};

@@ -120,6 +120,22 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--follow-symlinks") out.follow_symlinks = true;
       continue;
     }
+    // Transport security: every command that takes --server takes these.
+    if (spec.value_flags.contains("--server") && (flag == "--tls-ca" || flag == "--tls-cert" ||
+                                                  flag == "--tls-key" || flag == "--tls-server-name")) {
+      if (!value.has_value()) {
+        if (i + 1 >= args.size() || args[i + 1].rfind("--", 0) == 0) {
+          return Usage(absl::StrCat(flag, ": missing value"));
+        }
+        value = args[++i];
+      }
+      if (value->empty()) return Usage(absl::StrCat(flag, ": missing value"));
+      (flag == "--tls-ca"     ? out.tls_ca
+       : flag == "--tls-cert" ? out.tls_cert
+       : flag == "--tls-key"  ? out.tls_key
+                              : out.tls_server_name) = *value;
+      continue;
+    }
     if (!spec.value_flags.contains(flag)) {
       return Usage(absl::StrCat("unknown flag ", flag, " for '", name, "'"));
     }
@@ -250,6 +266,15 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       (flag == "--frames" ? out.frames : out.resolution) = *n;
     }
   }
+  // TLS flags that cannot work together.
+  if (out.tls_cert.empty() != out.tls_key.empty()) {
+    return Usage(out.tls_cert.empty() ? "--tls-key: needs --tls-cert too (mutual TLS)"
+                                      : "--tls-cert: needs --tls-key too (mutual TLS)");
+  }
+  if (out.tls_ca.empty() && !out.tls_cert.empty()) {
+    return Usage("--tls-cert and --tls-key: need --tls-ca (the CA that signed the server's certificate)");
+  }
+  if (out.tls_ca.empty() && !out.tls_server_name.empty()) return Usage("--tls-server-name: needs --tls-ca");
   // A LOD chain's impostor defaults to the hemisphere (the server's choice).
   if (out.product == "lod-chain" && !layout_given) out.layout.clear();
   if (spec.target_name == nullptr) {
@@ -426,6 +451,14 @@ Common flags:
                       the server goes away and one "impostor: server ... is
                       back after S s" when it returns (not with --quiet).
                       A server that never answered fails at once (exit 3).
+  --tls-ca FILE       (every command that takes --server) connect with TLS,
+                      trusting only the CA certificate(s) in FILE (PEM)
+  --tls-cert FILE --tls-key FILE  mutual TLS: present this client
+                      certificate and its key (PEM) to a server run with
+                      --tls-client-ca; both or neither, with --tls-ca
+  --tls-server-name NAME  the name the server's certificate carries, when it
+                      differs from the host in --server (an IP address, a
+                      tunnel); needs --tls-ca. See README "Securing a farm: TLS"
   --json              print one JSON object on stdout instead of text; bake prints
                       {model, cache_key, job_id, cached, out_dir, manifest, files,
                       wall_seconds, uploaded_bytes, error}

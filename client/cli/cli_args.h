@@ -100,6 +100,16 @@ struct CliArgs {
   std::string cache_dir;
   std::optional<int64_t> max_bytes;
   bool verify = false;
+  // Transport security (commands that talk to the server; README "Securing
+  // a farm: TLS"): --tls-ca FILE (TLS, trusting that CA), --tls-cert FILE
+  // and --tls-key FILE (mutual TLS; both or neither, and they need
+  // --tls-ca), --tls-server-name NAME (the name the server's certificate
+  // carries, when it differs from --server's host; needs --tls-ca). The
+  // pairing is checked here; the files when connecting. Empty = not given.
+  std::string tls_ca;
+  std::string tls_cert;
+  std::string tls_key;
+  std::string tls_server_name;
 };
 
 // Parses argv without argv[0]. `env_server` is $IMPOSTOR_SERVER (nullptr or

@@ -33,6 +33,11 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
   options.client_id = args.client_id;
   options.max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options.on_connection_change = PrintEvents(args);
+  // Transport security (README "Securing a farm: TLS").
+  options.tls_ca_file = args.tls_ca;
+  options.tls_cert_file = args.tls_cert;
+  options.tls_key_file = args.tls_key;
+  options.tls_server_name = args.tls_server_name;
   return options;
 }
 
@@ -40,6 +45,11 @@ void ApplyConnectionOptions(const CliArgs& args, double default_outage_seconds, 
   options->server = args.server;
   options->max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options->on_connection_change = PrintEvents(args);
+  // Transport security (README "Securing a farm: TLS").
+  options->tls_ca_file = args.tls_ca;
+  options->tls_cert_file = args.tls_cert;
+  options->tls_key_file = args.tls_key;
+  options->tls_server_name = args.tls_server_name;
 }
 
 std::string ConnectionLine(const sdk::ConnectionEvent& event) {

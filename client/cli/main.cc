@@ -11,6 +11,8 @@
 #include "client/cli/cli_args.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
+#include "common/grpc_log.h"
+#include "common/tls_files.h"
 
 namespace {
 
@@ -21,6 +23,10 @@ void SetUpLogging() {
   spdlog::set_default_logger(logger);
   const char* level = std::getenv("IMPOSTOR_LOG");
   spdlog::set_level(level != nullptr ? spdlog::level::from_str(level) : spdlog::level::off);
+  // gRPC's own log lines (e.g. "Handshake failed ..." for every TLS retry)
+  // go to the same diagnostics, so that a failure stays the one line that
+  // says why (the SDK puts gRPC's reason into it).
+  impostor::RouteGrpcLogsToSpdlog();
 }
 
 }  // namespace
@@ -32,6 +38,14 @@ int main(int argc, char** argv) {
   absl::StatusOr<CliArgs> parsed = ParseCliArgs(args, std::getenv("IMPOSTOR_SERVER"));
   if (!parsed.ok()) {
     return Fail(kExitUsage, std::string(parsed.status().message()) + " (see 'impostor --help')");
+  }
+  // TLS files are read here so that a bad one is a usage error naming its
+  // flag (the SDK would name its ClientOptions field).
+  if (!parsed->tls_ca.empty()) {
+    absl::StatusOr<impostor::ClientTlsPem> tls = impostor::ReadClientTlsFiles(
+        {.ca = parsed->tls_ca, .cert = parsed->tls_cert, .key = parsed->tls_key},
+        {.ca = "--tls-ca", .cert = "--tls-cert", .key = "--tls-key"});
+    if (!tls.ok()) return Fail(kExitUsage, std::string(tls.status().message()));
   }
   switch (parsed->command) {
     case Command::kHelp:

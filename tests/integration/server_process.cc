@@ -366,6 +366,24 @@ ServerProcess::ServerProcess(int local_workers, fs::path data_dir, const std::st
   Start();
 }
 
+ServerProcess::ServerProcess(int local_workers, std::vector<std::string> extra_args, ChannelTls tls)
+    : local_workers_(local_workers), extra_args_(std::move(extra_args)), listen_("127.0.0.1:0"), tls_(std::move(tls)) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  data_dir_ = NewTempDir(info ? std::string(info->test_suite_name()) + "_" + info->name() : "server");
+  Start();
+}
+
+std::shared_ptr<grpc::ChannelCredentials> CredentialsFor(const ChannelTls& tls) {
+  if (tls.ca_file.empty()) return grpc::InsecureChannelCredentials();
+  grpc::SslCredentialsOptions options;
+  options.pem_root_certs = ReadFileBytes(tls.ca_file);
+  if (!tls.cert_file.empty()) {
+    options.pem_cert_chain = ReadFileBytes(tls.cert_file);
+    options.pem_private_key = ReadFileBytes(tls.key_file);
+  }
+  return grpc::SslCredentials(options);
+}
+
 void ServerProcess::Start() {
   std::vector<std::string> argv = {(BinaryDir() / "impostor-server").string(),
                                    "--listen=" + listen_,
@@ -397,7 +415,8 @@ void ServerProcess::Start() {
   // address between channels, so a server restarted on the same address
   // could hand this fresh channel the dead server's reset connection.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  channel_ = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), args);
+  if (!tls_.server_name.empty()) args.SetSslTargetNameOverride(tls_.server_name);
+  channel_ = grpc::CreateCustomChannel(address_, CredentialsFor(tls_), args);
   if (!channel_->WaitForConnected(std::chrono::system_clock::now() + kStartTimeout)) {
     ADD_FAILURE() << "impostor-server at " << address_ << " printed its line but did not accept a connection within "
                   << Seconds(kStartTimeout);

@@ -123,6 +123,21 @@ std::filesystem::path BinaryDir();  // where impostor-server & co. live
 std::filesystem::path AssetsDir();  // ../shared/assets
 std::filesystem::path NewTempDir(const std::string& name);
 
+// How a test's own channel reaches a server that serves TLS: the CA it
+// trusts and, for mutual TLS, the client certificate it presents (PEM file
+// paths). All empty = plaintext.
+struct ChannelTls {
+  std::string ca_file;
+  std::string cert_file;
+  std::string key_file;
+  // The name the server's certificate carries, when not the dial address's
+  // host (the ssl target name override). Empty = that host.
+  std::string server_name;
+};
+
+// Channel credentials for `tls` (insecure when it is empty).
+std::shared_ptr<grpc::ChannelCredentials> CredentialsFor(const ChannelTls& tls);
+
 // impostor-server on 127.0.0.1:<port the kernel picked> with its own data
 // directory, ready to serve when the constructor returns: it has printed its
 // "listening on" line (after binding) and a channel to it is connected.
@@ -136,6 +151,9 @@ class ServerProcess {
   // e.g. to restart one where a killed one was, with its blobs and results.
   ServerProcess(int local_workers, std::filesystem::path data_dir, const std::string& listen,
                 std::vector<std::string> extra_args = {});
+  // A server started with TLS flags in `extra_args` (--tls-cert, ...): the
+  // harness's channel connects with `tls`.
+  ServerProcess(int local_workers, std::vector<std::string> extra_args, ChannelTls tls);
   const std::string& address() const { return address_; }
   const std::filesystem::path& data_dir() const { return data_dir_; }
   std::shared_ptr<grpc::Channel> channel() const { return channel_; }
@@ -157,6 +175,7 @@ class ServerProcess {
   int local_workers_ = 0;
   std::vector<std::string> extra_args_;
   std::string listen_;
+  ChannelTls tls_;
   std::filesystem::path data_dir_;
   std::unique_ptr<ChildProcess> process_;
   std::string address_;

@@ -136,6 +136,17 @@ struct CacheOptions {
   // deleted when the cache opens and by Cache::CollectGarbage.
   // Default: 7 days. Range: >= 0.
   double partial_max_age_seconds = 7 * 24 * 3600;
+
+  // Transport security, as the ClientOptions fields of the same names
+  // (README "Securing a farm: TLS"): tls_ca_file set = TLS trusting only
+  // that CA; tls_cert_file + tls_key_file = mutual TLS; tls_server_name =
+  // the name the server's certificate carries when it differs from the host
+  // in `server`. Open checks the files (INVALID_ARGUMENT naming the field).
+  // Default: all empty = plaintext.
+  std::string tls_ca_file;
+  std::string tls_cert_file;
+  std::string tls_key_file;
+  std::string tls_server_name;
 };
 
 // One file of a cached result.

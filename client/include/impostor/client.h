@@ -60,7 +60,7 @@ struct ConnectionEvent {
 struct ClientOptions {
   // Address of the bake server as "host:port" (any gRPC target string works,
   // e.g. "dns:///bake.example.com:50051" or "unix:/run/impostor.sock").
-  // The connection is plaintext (no TLS).
+  // The connection is plaintext unless tls_ca_file is set.
   // Default: "localhost:50051".
   std::string server = "localhost:50051";
 
@@ -113,6 +113,28 @@ struct ClientOptions {
   // connection's address, which every client on one host shares.
   // Default: empty. At most 128 bytes are used.
   std::string client_id;
+
+  // Transport security (README "Securing a farm: TLS"). Connect reads and
+  // checks these files (INVALID_ARGUMENT naming the field when one is
+  // missing, not PEM, or a key does not match its certificate); a
+  // handshake that fails (wrong CA, a name the certificate does not carry,
+  // a server without TLS, mutual TLS without a certificate) is UNAVAILABLE
+  // from Connect, saying so.
+  //
+  // CA bundle (PEM file) that the server's certificate must chain to; set =
+  // TLS, trusting only this CA (not the system's roots). Default: empty =
+  // plaintext.
+  std::string tls_ca_file;
+  // Mutual TLS: this client's certificate chain and its private key (PEM
+  // files, key unencrypted), for a server run with --tls-client-ca. Both or
+  // neither; they need tls_ca_file. Default: empty = no client certificate.
+  std::string tls_cert_file;
+  std::string tls_key_file;
+  // The name the server's certificate must carry, when it differs from the
+  // host in `server` (e.g. dialling an IP address or an SSH tunnel's
+  // localhost for a certificate issued to bake.studio.lan). Needs
+  // tls_ca_file. Default: empty = the host in `server`.
+  std::string tls_server_name;
 };
 
 // What to bake. Zero and empty values mean "the server's default", which the

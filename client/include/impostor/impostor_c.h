@@ -81,6 +81,17 @@ typedef struct impostor_cache_options {
    * (0 = max_attempts alone decides). Added after max_attempts: callers that
    * fill the struct with impostor_cache_options_init get the default. */
   double max_outage_seconds;
+  /* Transport security, as CacheOptions' tls_* fields (README "Securing a
+   * farm: TLS"): paths of PEM files, NULL = not given. tls_ca_file set =
+   * TLS trusting only that CA; tls_cert_file + tls_key_file = mutual TLS;
+   * tls_server_name = the name the server's certificate carries when it
+   * differs from the host in `server`. All NULL (the default) = plaintext.
+   * impostor_cache_open checks the files (IMPOSTOR_INVALID_ARGUMENT naming
+   * the field). Added after max_outage_seconds, as above. */
+  const char* tls_ca_file;
+  const char* tls_cert_file;
+  const char* tls_key_file;
+  const char* tls_server_name;
 } impostor_cache_options;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);
