@@ -129,6 +129,12 @@ void HttpFrontend::AnnounceAddress() const {
 
 void HttpFrontend::Route() {
   httplib::Server& s = *server_;
+  // SO_REUSEADDR only: the library's default adds SO_REUSEPORT, which would
+  // let a second server share a port already in use instead of failing.
+  s.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   s.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
     const HttpAuthorization auth =
         AuthorizeRequest({.method = req.method, .path = req.path, .authorization = req.get_header_value("Authorization")});
