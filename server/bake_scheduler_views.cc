@@ -80,6 +80,9 @@ absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::stri
   auto r = jobs_->GetStoredResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
+  auto job = jobs_->OldestJobWithKey(cache_key);
+  if (!job.ok()) return job.status();
+  (*r)->source_job_id = *job;
   return std::move(**r);
 }
 

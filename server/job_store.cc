@@ -482,6 +482,16 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ListResults(int li
   return out;
 }
 
+absl::StatusOr<std::string> JobStore::OldestJobWithKey(const std::string& cache_key) {
+  Statement st(db_, "SELECT job_id FROM jobs WHERE cache_key = ?1 ORDER BY created_ms LIMIT 1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::string();
+  if (rc != SQLITE_ROW) return st.Error("query job by key");
+  return st.Text(0);
+}
+
 absl::StatusOr<std::optional<JobStore::StoredResult>> JobStore::GetStoredResult(const std::string& cache_key) {
   Statement st(db_, absl::StrCat("SELECT ", kResultColumns, " FROM results WHERE cache_key = ?1").c_str());
   if (auto s = st.prepared(); !s.ok()) return s;

@@ -100,6 +100,7 @@ class JobStore {
     bool pinned = false;
     int64_t created_ms = 0;    // when it was first stored (Unix ms)
     int64_t last_used_ms = 0;  // last cache hit or fetch (Unix ms)
+    std::string source_job_id;  // GetStoredResult only: OldestJobWithKey
   };
   // Every result, least recently used first.
   absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse();
@@ -123,6 +124,9 @@ class JobStore {
   };
   // Results newest first (created_ms, then cache_key, descending).
   absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after);
+  // The oldest job with this cache key ("" when none): where a result's mesh
+  // came from.
+  absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key);
   // One result with its pin and times.
   absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key);
 

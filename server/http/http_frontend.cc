@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/log_escape.h"
 #include "server/http/api_params.h"
+#include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
 #include "server/http/json_api.h"
 #include "server/metrics/rpc_metrics_interceptor.h"
@@ -288,6 +289,12 @@ void HttpFrontend::Route() {
         res.set_content(std::move(*bytes), ContentTypeFor(name));
         return absl::OkStatus();
       });
+
+  // The runtime shader, for the viewer's WebGL2 impostor (GLSL ES 3.00
+  // accepts it unchanged once a #version and precision lines are prepended).
+  s.Get("/runtime/impostor_runtime.glsl", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(kImpostorRuntimeGlsl, "text/plain; charset=utf-8");
+  });
 
   // Dashboard pages: static HTML that reads the API.
   auto page = [this, &s](const std::string& pattern, const std::string& file) {

@@ -92,6 +92,7 @@ nlohmann::json ResultJson(const JobStore::StoredResult& result) {
           {"pinned", result.pinned},
           {"created_ms", result.created_ms},
           {"last_used_ms", result.last_used_ms},
+          {"job_id", result.source_job_id},
           {"manifest", ProtoJson(result.manifest)}};
 }
 
