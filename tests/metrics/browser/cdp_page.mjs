@@ -7,9 +7,13 @@
 // Usage: node --experimental-websocket cdp_page.mjs --chromium PATH --url URL
 //          --until JS_EXPR [--eval JS_EXPR] [--screenshot FILE] [--timeout-ms N]
 //          [--width W --height H]
+//          [--first JS_EXPR --first-screenshot FILE --then-delete PATH]
+// With --first: wait for it, screenshot, delete PATH (e.g. a worker's pause
+// file, so the farm moves on), then wait for --until on the same page:
+// checks that the page follows the farm live, without a reload.
 // Exit code 0 when the condition held before the deadline, 1 otherwise.
 import { spawn } from 'node:child_process';
-import { mkdtempSync, readFileSync, writeFileSync, existsSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, writeFileSync, existsSync, rmSync, unlinkSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 
@@ -79,22 +83,32 @@ async function main() {
     if (r.exceptionDetails) throw new Error(`${expr}: ${r.exceptionDetails.exception?.description ?? r.exceptionDetails.text}`);
     return r.result.value;
   };
-  while (true) {
-    let held = false;
-    try { held = Boolean(await evaluate(args.until)); } catch { held = false; }  // page still loading
-    if (held) break;
-    if (Date.now() > deadline) {
-      out.error = `condition not met before the deadline: ${args.until}`;
-      break;
+  const waitFor = async (expr) => {
+    while (true) {
+      let held = false;
+      try { held = Boolean(await evaluate(expr)); } catch { held = false; }  // page still loading
+      if (held) return true;
+      if (Date.now() > deadline) {
+        out.error = `condition not met before the deadline: ${expr}`;
+        return false;
+      }
+      await sleep(200);
     }
-    await sleep(200);
+  };
+  const screenshot = async (file) => {
+    const shot = await send('Page.captureScreenshot', { format: 'png' });
+    writeFileSync(file, Buffer.from(shot.data, 'base64'));
+  };
+  let held = true;
+  if (args.first) {
+    held = await waitFor(args.first);
+    if (held && args['first-screenshot']) await screenshot(args['first-screenshot']);
+    if (args['then-delete']) unlinkSync(args['then-delete']);
   }
+  if (held) await waitFor(args.until);
   out.ok = !out.error;
   if (args.eval) out.value = await evaluate(args.eval);
-  if (args.screenshot) {
-    const shot = await send('Page.captureScreenshot', { format: 'png' });
-    writeFileSync(args.screenshot, Buffer.from(shot.data, 'base64'));
-  }
+  if (args.screenshot) await screenshot(args.screenshot);
   finish(out.ok ? 0 : 1);
 }
 main().catch((e) => { out.error = String(e && e.message ? e.message : e); finish(1); });
