@@ -21,6 +21,7 @@ const VERTEX = `
 uniform mat4 u_view_projection;  // object space -> clip
 uniform vec3 u_eye;              // eye, radius units from the centre
 uniform vec4 u_sphere;           // centre xyz, radius w (object space)
+uniform int u_ortho;             // 1: the card fills the viewport (a bake-like orthographic view)
 out vec3 v_ray_origin;
 out vec3 v_ray_dir;
 void main() {
@@ -30,8 +31,9 @@ void main() {
   vec2 c = corners[gl_VertexID];
   vec3 p = c.x * card.right + c.y * card.up + view_dir;
   v_ray_origin = p;
-  v_ray_dir = p - u_eye;
-  gl_Position = u_view_projection * vec4(u_sphere.xyz + p * u_sphere.w, 1.0);
+  // Orthographic: parallel rays along the view, as impostor_runtime_view.comp.
+  v_ray_dir = u_ortho != 0 ? -view_dir : p - u_eye;
+  gl_Position = u_ortho != 0 ? vec4(c, 0.0, 1.0) : u_view_projection * vec4(u_sphere.xyz + p * u_sphere.w, 1.0);
 }`;
 
 const FRAGMENT = `
@@ -116,7 +118,14 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
   const radius = manifest.bounding_sphere.radius;
   return {
     options,
-    draw(viewProjection, eye) {
+    // The orthographic view the CPU reference renderer draws
+    // (RenderImpostorView): direction `dir` (unit, centre -> camera), the
+    // card framing the bounding sphere, rays parallel (eye far away).
+    drawOrthographic(dir) {
+      const far = 1e5;
+      this.draw(new Float32Array(16), centre.map((c, i) => c + dir[i] * radius * far), true);
+    },
+    draw(viewProjection, eye, ortho = false) {
       gl.viewport(0, 0, canvas.width, canvas.height);
       gl.clearColor(0, 0, 0, 0);
       gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
@@ -124,6 +133,7 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
       gl.uniformMatrix4fv(u('u_view_projection'), false, viewProjection);
       gl.uniform3f(u('u_eye'), (eye[0] - centre[0]) / radius, (eye[1] - centre[1]) / radius, (eye[2] - centre[2]) / radius);
       gl.uniform4f(u('u_sphere'), centre[0], centre[1], centre[2], radius);
+      gl.uniform1i(u('u_ortho'), ortho ? 1 : 0);
       gl.uniform4i(u('u_layout'), kind, manifest.frames, ringViews, manifest.tile_size);
       gl.uniform4i(u('u_mode'), options.blend, options.parallax ? 1 : 0, textures[2] ? 1 : 0, options.debug);
       ['u_albedo', 'u_normal_depth', 'u_orm'].forEach((name, i) => {

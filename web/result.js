@@ -99,11 +99,30 @@ async function showViewer(result) {
   document.body.dataset.viewerReady = '1';
 }
 
+// ?ortho=AZ,EL&size=N: only the impostor, orthographic along that direction
+// into an N x N canvas, exposed as window.impostorPng (tests compare it with
+// the CPU reference renderer).
+async function showOrthographic(result, spec, size) {
+  const [az, elev] = spec.split(',').map((v) => THREE.MathUtils.degToRad(Number(v)));
+  const canvas = document.getElementById('impostor');
+  canvas.width = canvas.height = size;
+  canvas.style.width = canvas.style.height = `${size}px`;
+  const impostor = await createImpostorRenderer(canvas, result.manifest, fileUrl);
+  const blend = new URLSearchParams(location.search).get('blend');
+  if (blend !== null) impostor.options.blend = Number(blend);
+  impostor.drawOrthographic([Math.sin(az) * Math.cos(elev), Math.sin(elev), Math.cos(az) * Math.cos(elev)]);
+  window.impostorPng = canvas.toDataURL('image/png');
+  document.body.dataset.viewerReady = '1';
+}
+
 async function main() {
   document.body.dataset.viewerStage = 'start';
   const result = await getJson(`/api/v1/results/${key}`);
   showStatic(result);
-  if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
+  const query = new URLSearchParams(location.search);
+  if (query.get('ortho')) {
+    await showOrthographic(result, query.get('ortho'), Number(query.get('size') || 128));
+  } else if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
     await showViewer(result);
   } else {
     document.body.dataset.viewerReady = 'n/a';
