@@ -21,6 +21,9 @@ packages=(
   libspdlog-dev libfmt-dev libabsl-dev libssl-dev libsqlite3-dev
   # Batch bake specs in YAML (impostor bake-batch)
   libyaml-cpp-dev
+  # HTTP side of the server (--http-listen: metrics, JSON API, dashboard);
+  # chromium runs the dashboard's headless browser tests
+  libcpp-httplib-dev chromium
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
@@ -43,3 +46,7 @@ if ! command -v npm >/dev/null 2>&1; then
 fi
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 (cd "$repo_root/tools/gltf_validator" && npm ci --no-audit --no-fund --loglevel=error)
+
+# The dashboard's three.js (web/package-lock.json), served by impostor-server
+# from web/node_modules so the pages work without internet access.
+(cd "$repo_root/web" && npm ci --no-audit --no-fund --loglevel=error)

@@ -25,6 +25,11 @@ bool IsTerminal(v1::JobState s) {
 
 BlobDigest ToDigest(const v1::Digest& d) { return {d.hash(), d.size_bytes()}; }
 
+SchedulerObserver* NoObserver() {
+  static SchedulerObserver none;
+  return &none;
+}
+
 int64_t SystemNowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
@@ -65,7 +70,8 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
     : jobs_(jobs), blobs_(blobs), options_([&] {
         if (!options.now_ms) options.now_ms = SystemNowMs;
         return options;
-      }()) {}
+      }()),
+      observer_(NoObserver()) {}
 
 absl::Status BakeScheduler::Save(JobRecord& record) {
   record.job.set_updated_ms(options_.now_ms());
@@ -234,6 +240,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
       *response.mutable_job() = View(first);
       spdlog::info("event=submit job={} cache_key={} outcome=retry request_id={}", first.job.job_id(), key,
                    request.request_id());
+      observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kRetry);
       return response;
     }
   }
@@ -286,6 +293,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     *response.mutable_job()->mutable_result() = std::move(**cached);
     spdlog::info("event=submit job={} cache_key={} outcome=cache_hit state={}", record.job.job_id(), key,
                  v1::JobState_Name(record.job.state()));
+    observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kCacheHit);
     return response;
   }
 
@@ -323,6 +331,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     *response.mutable_job() = View(record);
     spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
                  record.leader_job_id);
+    observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kSharedBake);
     return response;
   }
 
@@ -335,6 +344,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   *response.mutable_job() = record.job;
   spdlog::info("event=submit job={} cache_key={} outcome=queued layout={} frames={} resolution={}",
                record.job.job_id(), key, static_cast<int>(params->layout()), params->frames(), params->resolution());
+  observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kQueued);
   return response;
 }
 
@@ -470,6 +480,9 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
     }
     spdlog::info("event=evict_result cache_key={}", key);
   }
+  if (stats.blobs_removed > 0 || stats.results_removed > 0) {
+    observer_->OnEvicted(stats.blobs_removed, stats.results_removed, stats.bytes_freed);
+  }
   if (stats.blobs_removed > 0) {
     spdlog::info("event=store_evicted blobs={} results={} bytes={} store_bytes={} cap={}", stats.blobs_removed,
                  stats.results_removed, stats.bytes_freed, blobs_->total_bytes(), cap);
@@ -507,6 +520,17 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     return absl::InvalidArgumentError(absl::StrCat("wait_seconds: ", request.wait_seconds(), " is over the limit of 60"));
   }
   std::unique_lock lock(mu_);
+  NoteWorkerSeen(request.worker_id());
+  workers_[request.worker_id()].device = request.device().substr(0, 256);
+  // Counted as polling while it waits here (destroyed before `lock`).
+  ++workers_[request.worker_id()].polling;
+  struct PollEnd {
+    std::map<std::string, WorkerSeen>* workers;
+    const std::string& id;
+    ~PollEnd() {
+      if (auto it = workers->find(id); it != workers->end() && it->second.polling > 0) --it->second.polling;
+    }
+  } poll_end{&workers_, request.worker_id()};
   while (true) {
     if (shutdown_) return absl::UnavailableError("LeaseJob: the server is shutting down; lease from the next one");
     std::optional<JobRecord> none;
@@ -538,6 +562,8 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       spdlog::info("event=lease job={} worker=\"{}\" attempt={} priority={} client=\"{}\"", r.job.job_id(),
                    EscapeUntrusted(request.worker_id()), r.job.attempts(), r.lease_priority,
                    EscapeUntrusted(r.client_id));
+      observer_->OnLease(request.worker_id(), r.parameters.product(), r.job.attempts(),
+                         std::max<int64_t>(0, now - r.job.created_ms()) / 1000.0);
       return std::optional<v1::LeasedJob>(std::move(leased));
     }
     const auto now = std::chrono::steady_clock::now();
@@ -594,6 +620,7 @@ absl::StatusOr<v1::ReportProgressResponse> BakeScheduler::ReportProgress(const v
   if (r->job.state() != v1::JOB_STATE_RUNNING) {
     return absl::FailedPreconditionError(absl::StrCat("job ", request.job_id(), " is no longer running"));
   }
+  NoteWorkerSeen(r->worker_id);
   r->lease_deadline_ms = options_.now_ms() + options_.lease_timeout_ms;
   r->job.set_progress(request.progress());
   if (!request.stage().empty()) r->job.set_stage(request.stage().substr(0, 64));
@@ -628,6 +655,8 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   if (auto s = Save(*r); !s.ok()) return s;
   if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
   streaks_.erase(r->worker_id);
+  NoteWorkerSeen(r->worker_id);
+  observer_->OnComplete(r->worker_id, m);
   spdlog::info("event=complete job={} cache_key={} worker=\"{}\" seconds={:.2f}", r->job.job_id(), m.cache_key(),
                EscapeUntrusted(r->worker_id), m.timings().total_seconds());
   return absl::OkStatus();
@@ -657,6 +686,8 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
                  EscapeUntrusted(request.error().message()));
     // Bad input is the job's fault; anything retryable may be the worker's.
     if (request.retryable()) NoteWorkerFailure(r->worker_id, r->job.job_id());
+    NoteWorkerSeen(r->worker_id);
+    observer_->OnFail(r->worker_id, r->parameters.product(), retry);
   }
   if (auto s = Save(*r); !s.ok()) return s;
   return SettleFollowers(*r);
@@ -712,6 +743,7 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
   spdlog::warn("event=lease_expired job={} worker=\"{}\" stage=\"{}\" attempts={} requeued={} how=\"{}\"",
                r.job.job_id(), EscapeUntrusted(worker), EscapeUntrusted(stage), r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED,
                how.empty() ? std::string("stopped reporting") : std::string(how));
+  observer_->OnLeaseLost(worker, r.parameters.product());
   if (auto s = Save(r); !s.ok()) return s;
   return SettleFollowers(r);
 }

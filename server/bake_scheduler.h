@@ -27,6 +27,7 @@
 #include "impostor/v1/worker_service.pb.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
+#include "server/scheduler_observer.h"
 
 namespace impostor {
 
@@ -144,6 +145,64 @@ class BakeScheduler {
 
   const SchedulerOptions& options() const { return options_; }
 
+  // --- Observing the farm (metrics, the HTTP adapter in server/http/) ---
+  // Events go to `observer` (not owned; null = none) from now on. Call it
+  // before the services start; it must outlive the scheduler's use.
+  void SetObserver(SchedulerObserver* observer);
+
+  // Rows of the job table per stored state (a follower counts as QUEUED
+  // until its shared bake ends).
+  absl::StatusOr<std::map<v1::JobState, int64_t>> JobCountsByState();
+  // A job as the dashboard shows it: what the requester sees, plus who asked
+  // and what for.
+  struct JobListing {
+    v1::Job job;  // as GetJob (result attached once SUCCEEDED)
+    std::string client_id;
+    std::string leader_job_id;  // set when it shares another job's bake
+    int32_t lease_priority = 0;
+    v1::MeshInput mesh;
+    v1::BakeParameters parameters;  // normalised
+  };
+  // Jobs newest first, of `state` (JOB_STATE_UNSPECIFIED = every state), at
+  // most `limit`, strictly after `after` in that order. Results are not
+  // attached (see DescribeJob).
+  absl::StatusOr<std::vector<JobListing>> ListJobs(v1::JobState state, int limit,
+                                                   const std::optional<JobStore::JobCursor>& after);
+  // One job with its result. INVALID_ARGUMENT (empty id), NOT_FOUND.
+  absl::StatusOr<JobListing> DescribeJob(const std::string& job_id);
+  // Baked results newest first, at most `limit`, strictly after `after`.
+  absl::StatusOr<std::vector<JobStore::StoredResult>> ListResults(int limit,
+                                                                  const std::optional<JobStore::ResultCursor>& after);
+  // A result as stored, without verifying its blobs or counting a use (a
+  // look must not change eviction order). INVALID_ARGUMENT, NOT_FOUND.
+  absl::StatusOr<JobStore::StoredResult> PeekResult(const std::string& cache_key);
+
+  // A worker the scheduler has heard from since it started (LeaseJob and the
+  // reports under its leases), or that holds a running job.
+  struct WorkerInfo {
+    std::string worker_id;
+    std::string device;  // LeaseJobRequest.device of its last lease call
+    // "busy" (holds a running job), "paused" (failed too many jobs in a
+    // row), "idle" (polling for work or heard from within the lease
+    // timeout), "offline" (not heard from since).
+    std::string state;
+    int64_t last_seen_ms = 0;     // Unix ms; 0 = not since this server started
+    std::vector<std::string> job_ids;  // running jobs it holds
+    int64_t paused_until_ms = 0;
+  };
+  // Every known worker, by id. At most kMaxTrackedWorkers heard-from workers
+  // are remembered (the least recently seen idle one is forgotten first).
+  absl::StatusOr<std::vector<WorkerInfo>> Workers();
+  static constexpr size_t kMaxTrackedWorkers = 1024;
+  static constexpr std::string_view WorkerStateName(int i) {
+    constexpr std::string_view kNames[] = {"busy", "paused", "idle", "offline"};
+    return kNames[i];
+  }
+
+  // OK while the scheduler takes work: not shutting down and the job
+  // database answers. UNAVAILABLE otherwise, saying why.
+  absl::Status CheckReady();
+
  private:
   absl::StatusOr<JobRecord> LoadJob(const std::string& job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The result for `key` if present with all of its blobs; a result whose
@@ -204,6 +263,16 @@ class BakeScheduler {
     int64_t paused_until_ms = 0;
   };
   std::map<std::string, WorkerStreak> streaks_ ABSL_GUARDED_BY(mu_);
+  // Workers heard from (see Workers()). In memory only.
+  struct WorkerSeen {
+    std::string device;
+    int64_t last_seen_ms = 0;
+    int polling = 0;  // LeaseJob calls waiting now
+  };
+  void NoteWorkerSeen(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  std::map<std::string, WorkerSeen> workers_ ABSL_GUARDED_BY(mu_);
+  // Never null: a do-nothing observer until SetObserver.
+  SchedulerObserver* observer_ ABSL_GUARDED_BY(mu_);
 };
 
 // Random identifier: prefix + 32 hex characters.

@@ -419,4 +419,89 @@ absl::Status JobStore::DeleteResult(const std::string& cache_key) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<std::map<int, int64_t>> JobStore::CountByState() {
+  Statement st(db_, "SELECT state, COUNT(*) FROM jobs GROUP BY state");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  std::map<int, int64_t> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) out[static_cast<int>(st.Int(0))] = st.Int(1);
+  if (rc != SQLITE_DONE) return st.Error("count by state");
+  return out;
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::ListJobs(int state, int limit, const std::optional<JobCursor>& after) {
+  std::string sql = absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE 1");
+  if (state != 0) sql += " AND state = ?1";
+  if (after) sql += " AND (created_ms < ?2 OR (created_ms = ?2 AND job_id < ?3))";
+  sql += " ORDER BY created_ms DESC, job_id DESC LIMIT ?4";
+  return QueryMany(db_, sql, [&](Statement& st) {
+    if (state != 0) st.Bind(1, int64_t{state});
+    if (after) {
+      st.Bind(2, after->created_ms);
+      st.Bind(3, after->job_id);
+    }
+    st.Bind(4, int64_t{limit});
+  });
+}
+
+namespace {
+
+constexpr const char* kResultColumns = "cache_key, manifest, pinned, created_ms, last_used_ms";
+
+absl::StatusOr<JobStore::StoredResult> ReadResult(const Statement& st) {
+  JobStore::StoredResult r;
+  if (!r.manifest.ParseFromString(st.Blob(1))) return absl::DataLossError("result " + st.Text(0) + " does not parse");
+  r.pinned = st.Int(2) != 0;
+  r.created_ms = st.Int(3);
+  r.last_used_ms = st.Int(4);
+  return r;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ListResults(int limit,
+                                                                         const std::optional<ResultCursor>& after) {
+  std::string sql = absl::StrCat("SELECT ", kResultColumns, " FROM results");
+  if (after) sql += " WHERE created_ms < ?1 OR (created_ms = ?1 AND cache_key < ?2)";
+  sql += " ORDER BY created_ms DESC, cache_key DESC LIMIT ?3";
+  Statement st(db_, sql.c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  if (after) {
+    st.Bind(1, after->created_ms);
+    st.Bind(2, after->cache_key);
+  }
+  st.Bind(3, int64_t{limit});
+  std::vector<StoredResult> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) {
+    auto r = ReadResult(st);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  if (rc != SQLITE_DONE) return st.Error("list results");
+  return out;
+}
+
+absl::StatusOr<std::string> JobStore::OldestJobWithKey(const std::string& cache_key) {
+  Statement st(db_, "SELECT job_id FROM jobs WHERE cache_key = ?1 ORDER BY created_ms LIMIT 1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::string();
+  if (rc != SQLITE_ROW) return st.Error("query job by key");
+  return st.Text(0);
+}
+
+absl::StatusOr<std::optional<JobStore::StoredResult>> JobStore::GetStoredResult(const std::string& cache_key) {
+  Statement st(db_, absl::StrCat("SELECT ", kResultColumns, " FROM results WHERE cache_key = ?1").c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, cache_key);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::optional<StoredResult>();
+  if (rc != SQLITE_ROW) return st.Error("query result");
+  auto r = ReadResult(st);
+  if (!r.ok()) return r.status();
+  return std::optional<StoredResult>(std::move(*r));
+}
+
 }  // namespace impostor

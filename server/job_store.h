@@ -98,11 +98,37 @@ class JobStore {
   struct StoredResult {
     v1::Manifest manifest;
     bool pinned = false;
+    int64_t created_ms = 0;    // when it was first stored (Unix ms)
+    int64_t last_used_ms = 0;  // last cache hit or fetch (Unix ms)
+    std::string source_job_id;  // GetStoredResult only: OldestJobWithKey
   };
   // Every result, least recently used first.
   absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse();
   // Every QUEUED or RUNNING job.
   absl::StatusOr<std::vector<JobRecord>> Pending();
+
+  // --- Read-only listings for the HTTP adapter (server/http/) ---
+  // Rows per `state` column value.
+  absl::StatusOr<std::map<int, int64_t>> CountByState();
+  // Position in a newest-first listing: the last row of the previous page.
+  struct JobCursor {
+    int64_t created_ms = 0;
+    std::string job_id;
+  };
+  // Jobs newest first (created_ms, then job_id, both descending), of one
+  // state (0 = all), at most `limit`, strictly after `after`.
+  absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit, const std::optional<JobCursor>& after);
+  struct ResultCursor {
+    int64_t created_ms = 0;
+    std::string cache_key;
+  };
+  // Results newest first (created_ms, then cache_key, descending).
+  absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after);
+  // The oldest job with this cache key ("" when none): where a result's mesh
+  // came from.
+  absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key);
+  // One result with its pin and times.
+  absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key);
 
  private:
   explicit JobStore(sqlite3* db) : db_(db) {}

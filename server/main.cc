@@ -27,6 +27,7 @@
 #include "common/grpc_log.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
+#include "server/http/http_frontend.h"
 #include "server/job_store.h"
 #include "server/server_help.h"
 #include "server/services.h"
@@ -164,6 +165,11 @@ int main(int argc, char** argv) {
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000});
 
+  // HTTP: /metrics, /healthz, /readyz, the JSON API and the dashboard
+  // (--http-listen, off by default; server/http/http_frontend.h). Null when off.
+  auto http = impostor::HttpFrontend::StartFromFlags(&scheduler, blobs->get());
+  if (!http.ok()) return Fail(std::string(http.status().message()));
+
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler);
   impostor::WorkerServiceImpl worker_service(&scheduler);
@@ -181,6 +187,7 @@ int main(int argc, char** argv) {
   builder.RegisterService(&asset_service);
   builder.RegisterService(&bake_service);
   builder.RegisterService(&worker_service);
+  if (*http) builder.experimental().SetInterceptorCreators((*http)->InterceptorCreators());  // RPC metrics
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return Fail("--listen: cannot listen on " + absl::GetFlag(FLAGS_listen));
 
@@ -191,6 +198,7 @@ int main(int argc, char** argv) {
   impostor::LogServerTls(tls, host);
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
+  if (*http) (*http)->AnnounceAddress();
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {
     const std::string tmp = port_file + ".tmp";
     if (FILE* f = std::fopen(tmp.c_str(), "w")) {

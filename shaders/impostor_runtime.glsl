@@ -374,8 +374,13 @@ ImpostorBlend impostorBlendFramesLayout(ImpostorLayout atlas, vec3 view_dir, int
   }
   float length2 = dot(view_dir, view_dir);
   if (!(length2 > 0.0) || isinf(length2) || isnan(length2)) view_dir = vec3(0.0, 1.0, 0.0);
-  ImpostorBlend b = ring ? impostorBlendRingTop(atlas, ring_views, view_dir)
-                         : impostorBlendAzimuthElevation(atlas, view_dir, mode);
+  // if/else, not ?: : WebGL (the dashboard's viewer) forbids ?: on structs.
+  ImpostorBlend b;
+  if (ring) {
+    b = impostorBlendRingTop(atlas, ring_views, view_dir);
+  } else {
+    b = impostorBlendAzimuthElevation(atlas, view_dir, mode);
+  }
   impostorBlendNormalize(b);
   return b;
 }

@@ -1,0 +1,324 @@
+#include "server/http/http_frontend.h"
+
+#include <httplib.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "absl/flags/flag.h"
+#include "absl/strings/str_cat.h"
+#include "common/log_escape.h"
+#include "server/http/api_params.h"
+#include "server/http/impostor_runtime_glsl.h"  // generated
+#include "server/http/http_authorize.h"
+#include "server/http/json_api.h"
+#include "server/metrics/rpc_metrics_interceptor.h"
+
+#ifndef IMPOSTOR_WEB_DIR
+#define IMPOSTOR_WEB_DIR "web"
+#endif
+
+ABSL_FLAG(std::string, http_listen, "",
+          "HOST:PORT for /metrics, /healthz, /readyz, the JSON API and the dashboard; port 0 picks a free port "
+          "(empty = no HTTP)");
+ABSL_FLAG(std::string, http_static_dir, IMPOSTOR_WEB_DIR, "Directory of the dashboard's files (web/ of the sources)");
+
+namespace impostor {
+namespace {
+
+// Blobs served whole through the API at most this large (atlases are tens
+// of MB at most; a bigger blob is fetched over gRPC).
+constexpr int64_t kMaxServedBlobBytes = int64_t{512} << 20;
+
+int HttpStatusFor(const absl::Status& s) {
+  switch (s.code()) {
+    case absl::StatusCode::kInvalidArgument: return 400;
+    case absl::StatusCode::kNotFound: return 404;
+    case absl::StatusCode::kFailedPrecondition: return 409;
+    case absl::StatusCode::kResourceExhausted: return 413;
+    case absl::StatusCode::kUnavailable: return 503;
+    default: return 500;
+  }
+}
+
+std::string Dump(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+void SendJson(httplib::Response& res, const nlohmann::json& j) {
+  res.status = 200;
+  res.set_header("Cache-Control", "no-store");
+  res.set_content(Dump(j), "application/json");
+}
+
+void SendError(httplib::Response& res, const absl::Status& s) {
+  res.status = HttpStatusFor(s);
+  res.set_content(ErrorJson(res.status, std::string(s.message())), "application/json");
+}
+
+QueryParams Params(const httplib::Request& req) { return QueryParams(req.params.begin(), req.params.end()); }
+
+const char* ContentTypeFor(const std::string& file) {
+  auto ends = [&](std::string_view ext) {
+    return file.size() >= ext.size() && file.compare(file.size() - ext.size(), ext.size(), ext) == 0;
+  };
+  if (ends(".png")) return "image/png";
+  if (ends(".json") || ends(".gltf")) return "application/json";
+  if (ends(".glb")) return "model/gltf-binary";
+  if (ends(".jpg") || ends(".jpeg")) return "image/jpeg";
+  if (ends(".ktx2")) return "image/ktx2";
+  return "application/octet-stream";
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeScheduler* scheduler,
+                                                                           BlobStore* blobs) {
+  const std::string listen = absl::GetFlag(FLAGS_http_listen);
+  if (listen.empty()) return std::unique_ptr<HttpFrontend>();
+  auto address = ParseListenAddress(listen, "--http-listen");
+  if (!address.ok()) return address.status();
+  return Start(scheduler, blobs, {.listen = *address, .static_dir = absl::GetFlag(FLAGS_http_static_dir)});
+}
+
+HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options)
+    : scheduler_(scheduler),
+      blobs_(blobs),
+      options_(std::move(options)),
+      metrics_(scheduler, blobs),
+      server_(std::make_unique<httplib::Server>()) {}
+
+absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::Start(BakeScheduler* scheduler, BlobStore* blobs,
+                                                                  Options options) {
+  std::unique_ptr<HttpFrontend> http(new HttpFrontend(scheduler, blobs, std::move(options)));
+  http->Route();
+  const ListenAddress& a = http->options_.listen;
+  if (a.port == 0) {
+    http->port_ = http->server_->bind_to_any_port(a.host);
+    if (http->port_ <= 0) http->port_ = 0;
+  } else if (http->server_->bind_to_port(a.host, a.port)) {
+    http->port_ = a.port;
+  }
+  if (http->port_ == 0) {
+    return absl::UnavailableError(absl::StrCat("--http-listen: cannot listen on ", a.host, ":", a.port,
+                                               " (address in use, or not an address of this host)"));
+  }
+  scheduler->SetObserver(&http->metrics_);
+  http->thread_ = std::thread([server = http->server_.get()] { server->listen_after_bind(); });
+  spdlog::info("event=http_listening address={}:{} static_dir={}", a.host, http->port_,
+               http->options_.static_dir.string());
+  return http;
+}
+
+HttpFrontend::~HttpFrontend() {
+  scheduler_->SetObserver(nullptr);
+  server_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> HttpFrontend::InterceptorCreators() {
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> out;
+  out.push_back(std::make_unique<RpcMetricsInterceptorFactory>(&metrics_));
+  return out;
+}
+
+void HttpFrontend::AnnounceAddress() const {
+  std::printf("impostor-server http listening on %s:%d\n", options_.listen.host.c_str(), port_);
+  std::fflush(stdout);
+}
+
+void HttpFrontend::Route() {
+  httplib::Server& s = *server_;
+  // SO_REUSEADDR only: the library's default adds SO_REUSEPORT, which would
+  // let a second server share a port already in use instead of failing.
+  s.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  s.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+    const HttpAuthorization auth =
+        AuthorizeRequest({.method = req.method, .path = req.path, .authorization = req.get_header_value("Authorization")});
+    if (auth.allowed) return httplib::Server::HandlerResponse::Unhandled;
+    res.status = auth.status;
+    res.set_content(ErrorJson(auth.status, auth.message), "application/json");
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  s.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    if (!res.body.empty()) return;
+    if (res.status == 404) {
+      res.set_content(ErrorJson(404, absl::StrCat("no such path: ", EscapeUntrusted(req.path, 200))),
+                      "application/json");
+    }
+  });
+  s.set_logger([](const httplib::Request& req, const httplib::Response& res) {
+    if (res.status >= 500) {
+      spdlog::warn("event=http_error method={} path=\"{}\" status={}", req.method, EscapeUntrusted(req.path, 200),
+                   res.status);
+    } else {
+      spdlog::debug("event=http method={} path=\"{}\" status={}", req.method, EscapeUntrusted(req.path, 200),
+                    res.status);
+    }
+  });
+  if (std::filesystem::is_directory(options_.static_dir)) s.set_mount_point("/static", options_.static_dir.string());
+
+  s.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+    res.set_content(metrics_.Scrape(), "text/plain; version=0.0.4; charset=utf-8");
+  });
+  s.Get("/healthz", [](const httplib::Request&, httplib::Response& res) { res.set_content("ok\n", "text/plain"); });
+  s.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
+    const absl::Status ready = scheduler_->CheckReady();
+    res.status = ready.ok() ? 200 : 503;
+    res.set_content(ready.ok() ? "ready\n" : absl::StrCat("not ready: ", ready.message(), "\n"), "text/plain");
+  });
+
+  // Every API handler: check the query, then answer or map the status.
+  auto api = [this, &s](const std::string& pattern, std::set<std::string> known,
+                        std::function<absl::Status(const httplib::Request&, const QueryParams&, httplib::Response&)> fn) {
+    s.Get(pattern, [known = std::move(known), fn = std::move(fn)](const httplib::Request& req, httplib::Response& res) {
+      const QueryParams params = Params(req);
+      absl::Status st = CheckKnownParams(params, known);
+      if (st.ok()) st = fn(req, params, res);
+      if (!st.ok()) SendError(res, st);
+    });
+  };
+
+  api("/api/v1/summary", {}, [this](const httplib::Request&, const QueryParams&, httplib::Response& res) {
+    auto counts = scheduler_->JobCountsByState();
+    if (!counts.ok()) return counts.status();
+    auto workers = scheduler_->Workers();
+    if (!workers.ok()) return workers.status();
+    const int64_t now = std::chrono::duration_cast<std::chrono::milliseconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    SendJson(res, SummaryJson(*counts, *workers, metrics_.totals(), blobs_->total_bytes(), now));
+    return absl::OkStatus();
+  });
+  api("/api/v1/jobs", {"state", "page_size", "page_token"},
+      [this](const httplib::Request&, const QueryParams& params, httplib::Response& res) {
+        auto state = ParseStateFilter(params);
+        if (!state.ok()) return state.status();
+        auto size = ParsePageSize(params);
+        if (!size.ok()) return size.status();
+        auto after = ParseJobPageToken(params);
+        if (!after.ok()) return after.status();
+        auto jobs = scheduler_->ListJobs(*state, *size, *after);
+        if (!jobs.ok()) return jobs.status();
+        SendJson(res, JobsPageJson(*jobs, *size));
+        return absl::OkStatus();
+      });
+  api(R"(/api/v1/jobs/([^/]+))", {}, [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
+    auto job = scheduler_->DescribeJob(req.matches[1]);
+    if (!job.ok()) return job.status();
+    SendJson(res, JobJson(*job, true));
+    return absl::OkStatus();
+  });
+  // The mesh a job was submitted with, file by file (the viewer loads the
+  // original glTF from here): PATH is the entry's path or one of its files'.
+  api(R"(/api/v1/jobs/([^/]+)/mesh/(.+))", {},
+      [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
+        auto job = scheduler_->DescribeJob(req.matches[1]);
+        if (!job.ok()) return job.status();
+        const std::string path = req.matches[2];
+        const v1::InputFile* file = nullptr;
+        if (job->mesh.entry().path() == path) file = &job->mesh.entry();
+        for (const auto& f : job->mesh.files()) {
+          if (f.path() == path) file = &f;
+        }
+        if (file == nullptr) {
+          return absl::NotFoundError(absl::StrCat("path: job ", job->job.job_id(), " has no mesh file \"",
+                                                  EscapeUntrusted(path, 200), "\""));
+        }
+        if (file->digest().size_bytes() > kMaxServedBlobBytes) {
+          return absl::ResourceExhaustedError("mesh file is over the HTTP limit; fetch it over gRPC");
+        }
+        auto bytes = blobs_->ReadAll({file->digest().hash(), file->digest().size_bytes()});
+        if (!bytes.ok()) return bytes.status();
+        res.set_content(std::move(*bytes), ContentTypeFor(path));
+        return absl::OkStatus();
+      });
+  api("/api/v1/workers", {}, [this](const httplib::Request&, const QueryParams&, httplib::Response& res) {
+    auto workers = scheduler_->Workers();
+    if (!workers.ok()) return workers.status();
+    SendJson(res, WorkersJson(*workers, metrics_));
+    return absl::OkStatus();
+  });
+  api("/api/v1/results", {"page_size", "page_token"},
+      [this](const httplib::Request&, const QueryParams& params, httplib::Response& res) {
+        auto size = ParsePageSize(params);
+        if (!size.ok()) return size.status();
+        auto after = ParseResultPageToken(params);
+        if (!after.ok()) return after.status();
+        auto results = scheduler_->ListResults(*size, *after);
+        if (!results.ok()) return results.status();
+        SendJson(res, ResultsPageJson(*results, *size));
+        return absl::OkStatus();
+      });
+  api(R"(/api/v1/results/([^/]+))", {}, [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
+    auto result = scheduler_->PeekResult(req.matches[1]);
+    if (!result.ok()) return result.status();
+    SendJson(res, ResultJson(*result));
+    return absl::OkStatus();
+  });
+  // A result's files: manifest.json, its maps, and the product's own files.
+  api(R"(/api/v1/results/([^/]+)/files/([^/]+))", {},
+      [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
+        auto result = scheduler_->PeekResult(req.matches[1]);
+        if (!result.ok()) return result.status();
+        const v1::Manifest& m = result->manifest;
+        const std::string name = req.matches[2];
+        std::optional<v1::Digest> digest;
+        if (name == "manifest.json") digest = m.manifest_json();
+        for (const auto& map : m.maps()) {
+          if (map.file() == name) digest = map.digest();
+        }
+        if (m.has_cards() && m.cards().file() == name) digest = m.cards().digest();
+        for (const auto& lod : m.lods()) {
+          if (lod.file() == name) digest = lod.digest();
+        }
+        if (!digest) {
+          return absl::NotFoundError(
+              absl::StrCat("file: result ", m.cache_key(), " has no file \"", EscapeUntrusted(name, 200), "\""));
+        }
+        if (digest->size_bytes() > kMaxServedBlobBytes) {
+          return absl::ResourceExhaustedError("file is over the HTTP limit; fetch it over gRPC");
+        }
+        auto bytes = blobs_->ReadAll({digest->hash(), digest->size_bytes()});
+        if (!bytes.ok()) return bytes.status();
+        res.set_header("Cache-Control", "max-age=86400, immutable");  // content-addressed
+        res.set_content(std::move(*bytes), ContentTypeFor(name));
+        return absl::OkStatus();
+      });
+
+  // The runtime shader, for the viewer's WebGL2 impostor (GLSL ES 3.00
+  // accepts it unchanged once a #version and precision lines are prepended).
+  s.Get("/runtime/impostor_runtime.glsl", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(kImpostorRuntimeGlsl, "text/plain; charset=utf-8");
+  });
+
+  // Dashboard pages: static HTML that reads the API.
+  auto page = [this, &s](const std::string& pattern, const std::string& file) {
+    s.Get(pattern, [this, file](const httplib::Request&, httplib::Response& res) {
+      const std::filesystem::path path = options_.static_dir / file;
+      FILE* f = std::fopen(path.c_str(), "rb");
+      if (f == nullptr) {
+        res.status = 404;
+        res.set_content(ErrorJson(404, "dashboard file missing: " + path.string() + " (--http-static-dir)"),
+                        "application/json");
+        return;
+      }
+      std::string body;
+      char buf[65536];
+      size_t n;
+      while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) body.append(buf, n);
+      std::fclose(f);
+      res.set_header("Cache-Control", "no-store");
+      res.set_content(std::move(body), "text/html; charset=utf-8");
+    });
+  };
+  page("/", "index.html");
+  page(R"(/jobs/([^/]+))", "job.html");
+  page(R"(/results/([^/]+))", "result.html");
+}
+
+}  // namespace impostor

@@ -1,0 +1,126 @@
+// The dashboard in a real browser: Debian's headless Chromium (software
+// WebGL through SwiftShader) driven over the DevTools protocol by
+// tests/metrics/browser/cdp_page.mjs, against a real server and worker.
+// Screenshots are kept under build/test_artifacts/dashboard/.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::ServerProcess;
+
+const fs::path kArtifacts = fs::path(IMPOSTOR_TEST_ARTIFACTS_DIR) / "dashboard";
+const char* const kChromium = "/usr/bin/chromium";
+
+struct PageRun {
+  int exit_code = -1;
+  nlohmann::json report;  // {"ok", "value", "console_errors", "error"}
+};
+
+// Runs the DevTools driver; `extra` adds its optional flags.
+PageRun RunPage(const std::string& url, const std::string& until, std::vector<std::string> extra = {}) {
+  std::vector<std::string> argv = {"/usr/bin/node", "--experimental-websocket",
+                                   std::string(IMPOSTOR_SOURCE_DIR) + "/tests/metrics/browser/cdp_page.mjs",
+                                   "--chromium", kChromium, "--url", url, "--until", until, "--timeout-ms", "180000"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  const testing::ToolRun run = testing::RunTool(argv, std::chrono::seconds(240));
+  PageRun page;
+  page.exit_code = run.exit_code;
+  page.report = nlohmann::json::parse(run.out, nullptr, false);
+  EXPECT_FALSE(page.report.is_discarded()) << "driver output: " << run.out << "\n" << run.err;
+  if (page.report.is_discarded()) page.report = nlohmann::json::object();
+  return page;
+}
+
+class DashboardBrowser : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(kChromium)) << "chromium is not installed (deploy/install-deps.sh installs it)";
+    ASSERT_TRUE(fs::exists(std::string(IMPOSTOR_SOURCE_DIR) + "/web/node_modules/three/build/three.module.js"))
+        << "web/node_modules is missing: run (cd web && npm ci) (deploy/install-deps.sh does)";
+    fs::create_directories(kArtifacts);
+  }
+};
+
+int HttpPort(ServerProcess& server) {
+  const std::string line = server.process().ReadLineContaining("http listening on");
+  EXPECT_FALSE(line.empty());
+  return line.empty() ? 0 : std::stoi(line.substr(line.rfind(':') + 1));
+}
+
+TEST_F(DashboardBrowser, OverviewShowsARunningJobThenItsCompletionAndTheResultPageRenders) {
+  ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});
+  const std::string base = "http://127.0.0.1:" + std::to_string(HttpPort(server));
+  const fs::path pause = testing::NewTempDir("dashboard_pause") / "pause";
+  std::ofstream(pause) << "render\n";
+  auto worker = testing::StartWorker(server.address(), {}, {"IMPOSTOR_WORKER_TEST_PAUSE_FILE=" + pause.string()});
+
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() =
+      testing::UploadGlb(server.assets(), testing::AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  request.mutable_parameters()->set_frames(8);
+  request.mutable_parameters()->set_resolution(512);
+  request.set_priority(7);
+  v1::SubmitBakeResponse submitted;
+  auto ctx = testing::ContextWithin();
+  ctx->AddMetadata("impostor-client-id", "dashboard-test");
+  ASSERT_TRUE(server.bake().SubmitBake(ctx.get(), request, &submitted).ok());
+  const std::string id = submitted.job_id();
+  testing::WatchUntil(server.bake(), id, [](const v1::Job& j) { return j.stage() == "render"; });
+
+  // One page load: it must list the job as running, then (the driver
+  // deletes the pause file, the worker finishes) as finished, by polling.
+  const std::string running_row = "document.querySelector('[data-testid=running-jobs] a[href=\"/jobs/" + id + "\"]')";
+  const std::string finished_row = "document.querySelector('[data-testid=finished-jobs] a[href=\"/jobs/" + id + "\"]')";
+  const PageRun overview = RunPage(
+      base + "/", finished_row + " !== null && " + running_row + " === null",
+      {"--first", running_row + " !== null", "--first-screenshot", (kArtifacts / "overview_running.png").string(),
+       "--then-delete", pause.string(), "--screenshot", (kArtifacts / "overview_done.png").string(), "--eval",
+       "({errors: document.getElementById('errors').textContent, succeeded: "
+       "document.querySelector('[data-testid=count-succeeded] .v').textContent, row: " + finished_row +
+           ".closest('tr').textContent})"});
+  EXPECT_EQ(overview.exit_code, 0) << overview.report.dump();
+  EXPECT_EQ(overview.report["console_errors"], nlohmann::json::array()) << overview.report.dump();
+  EXPECT_EQ(overview.report["value"]["errors"], "") << overview.report.dump();
+  EXPECT_EQ(overview.report["value"]["succeeded"], "1") << overview.report.dump();
+  const std::string row = overview.report["value"].value("row", "");
+  EXPECT_NE(row.find("succeeded"), std::string::npos) << row;
+  EXPECT_NE(row.find("7"), std::string::npos) << "priority missing: " << row;
+  EXPECT_NE(row.find("dashboard-test"), std::string::npos) << "requester missing: " << row;
+  const v1::Job done = testing::WatchToEnd(server.bake(), id);
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+
+  // The result page: maps, quality, and both 3D views drawn.
+  const std::string covered =
+      "(id => { const c = document.getElementById(id); const t = document.createElement('canvas');"
+      " t.width = c.width; t.height = c.height; const g = t.getContext('2d'); g.drawImage(c, 0, 0);"
+      " const d = g.getImageData(0, 0, t.width, t.height).data; let n = 0;"
+      " for (let i = 0; i < d.length; i += 4) n += d[i + 3] > 0 && (d[i] + d[i + 1] + d[i + 2]) > 40;"
+      " return n / (t.width * t.height); })";
+  const PageRun result = RunPage(
+      base + "/results/" + done.cache_key() + "?camera=35,20,4", "document.body.dataset.viewerReady === '1'",
+      {"--screenshot", (kArtifacts / "result.png").string(), "--eval",
+       "({errors: document.getElementById('errors').textContent, mesh: " + covered + "('mesh'), impostor: " + covered +
+           "('impostor'), maps: document.querySelectorAll('.maps img').length})"});
+  EXPECT_EQ(result.exit_code, 0) << result.report.dump();
+  EXPECT_EQ(result.report["console_errors"], nlohmann::json::array()) << result.report.dump();
+  EXPECT_EQ(result.report["value"]["errors"], "") << result.report.dump();
+  EXPECT_GE(result.report["value"]["maps"].get<int>(), 3) << result.report.dump();
+  // The box fills a good part of both views from 4 radii away.
+  EXPECT_GT(result.report["value"]["mesh"].get<double>(), 0.05) << result.report.dump();
+  EXPECT_GT(result.report["value"]["impostor"].get<double>(), 0.05) << result.report.dump();
+  EXPECT_TRUE(fs::exists(kArtifacts / "overview_running.png"));
+  EXPECT_TRUE(fs::exists(kArtifacts / "result.png"));
+}
+
+}  // namespace
+}  // namespace impostor

@@ -1,0 +1,44 @@
+// One job: parameters, progress, stage timings, warnings, errors, attempts
+// and its worker, quality figures. Polls until the job ends.
+import { getJson, el, link, progressBar, replace, reportError } from './common.js';
+
+const POLL_MS = 2000;
+const jobId = decodeURIComponent(location.pathname.split('/').pop());
+
+function kv(pairs) {
+  const dl = el('dl', { class: 'kv' });
+  for (const [k, v] of pairs) dl.append(el('dt', {}, k), el('dd', {}, v instanceof Node ? v : String(v ?? '—')));
+  return dl;
+}
+
+async function refresh() {
+  const j = await getJson(`/api/v1/jobs/${encodeURIComponent(jobId)}`);
+  document.getElementById('title').textContent = j.job_id;
+  const terminal = ['succeeded', 'failed', 'cancelled'].includes(j.state);
+  replace('job', kv([
+    ['state', el('span', { class: `state-${j.state}`, 'data-testid': 'job-state' }, j.state)],
+    ['progress', progressBar(j.progress)], ['stage', j.stage], ['attempts', j.attempts], ['worker (last lease)', j.worker_id || '—'],
+    ['requester', j.requester || '—'], ['priority', `${j.priority} (queue runs it at ${j.lease_priority})`],
+    ['shares the bake of', j.leader_job_id ? link(`/jobs/${j.leader_job_id}`, j.leader_job_id) : '—'],
+    ['cache key', j.state === 'succeeded' ? link(`/results/${j.cache_key}`, j.cache_key) : j.cache_key],
+    ['cached', j.cached], ['created', new Date(j.created_ms).toLocaleString()], ['updated', new Date(j.updated_ms).toLocaleString()],
+    ['error', j.error && j.error.message ? `${j.error.code}: ${j.error.message}` : '—'],
+    ['mesh', `${j.mesh.entry.path} (${j.mesh.files.length} more files)`]]));
+  replace('params', kv(Object.entries(j.parameters).filter(([, v]) => v !== '' && v !== 0 && v !== false && !(Array.isArray(v) && !v.length))
+    .map(([k, v]) => [k, typeof v === 'object' ? JSON.stringify(v) : v])));
+  const r = j.result;
+  replace('timings', r ? kv(Object.entries(r.timings).map(([k, v]) => [k.replace('_seconds', ''), `${v.toFixed(3)} s`])) : el('span', { class: 'muted' }, 'no result yet'));
+  replace('quality', r && r.quality && r.quality.views ? kv(Object.entries(r.quality).filter(([, v]) => !Array.isArray(v) || v.length)
+    .map(([k, v]) => [k, typeof v === 'number' && !Number.isInteger(v) ? v.toFixed(4) : JSON.stringify(v)])) : el('span', { class: 'muted' }, '—'));
+  replace('warnings', r && r.warnings.length ? el('ul', {}, ...r.warnings.map((w) => el('li', {}, w))) : el('span', { class: 'muted' }, 'none'));
+  document.getElementById('updated').textContent = `updated ${new Date().toLocaleTimeString()}`;
+  return terminal;
+}
+
+async function loop() {
+  let terminal = false;
+  try { terminal = await refresh(); } catch (e) { reportError(String(e)); }
+  if (!terminal) setTimeout(loop, POLL_MS);
+  else document.body.dataset.final = '1';
+}
+loop();

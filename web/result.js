@@ -1,0 +1,131 @@
+// One result: the 3D viewer (the original mesh with three.js beside the
+// impostor drawn by the runtime shader, one orbit camera for both), the
+// quality block with the worst view, every map and the manifest.
+// ?camera=AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_IN_RADII fixes the camera (tests).
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { getJson, el, replace, reportError, bytes } from './common.js';
+import { createImpostorRenderer } from './impostor_gl.js';
+
+const key = decodeURIComponent(location.pathname.split('/').pop());
+const fileUrl = (name) => `/api/v1/results/${key}/files/${encodeURIComponent(name)}`;
+
+function kv(pairs) {
+  const dl = el('dl', { class: 'kv' });
+  for (const [k, v] of pairs) dl.append(el('dt', {}, k), el('dd', {}, v instanceof Node ? v : String(v)));
+  return dl;
+}
+
+function showStatic(result) {
+  const m = result.manifest;
+  document.getElementById('title').textContent = key;
+  const q = m.quality;
+  const quality = q && q.views ? [
+    ['blend', q.blend], ['held-out views', q.views],
+    ['silhouette IoU (min / mean)', `${q.silhouette_iou_min.toFixed(4)} / ${q.silhouette_iou_mean.toFixed(4)}`],
+    ['albedo PSNR dB (min / mean)', `${q.albedo_psnr_db_min.toFixed(2)} / ${q.albedo_psnr_db_mean.toFixed(2)}`],
+    ['albedo SSIM (min / mean)', `${q.albedo_ssim_min.toFixed(4)} / ${q.albedo_ssim_mean.toFixed(4)}`],
+    ['normal error deg (mean / max)', `${q.normal_error_deg_mean.toFixed(2)} / ${q.normal_error_deg_max.toFixed(2)}`],
+    ['depth error (mean / max)', `${q.depth_error_mean.toFixed(4)} / ${q.depth_error_max.toFixed(4)}`],
+    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : [['quality pass', 'not run for this bake']];
+  replace('quality', kv(quality));
+  const maps = el('div', { class: 'maps' });
+  for (const map of m.maps) {
+    if (!map.file.endsWith('.png')) continue;
+    maps.append(el('figure', {}, el('img', { src: fileUrl(map.file), alt: map.semantic, 'data-testid': `map-${map.semantic}` }),
+      el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.format} (${bytes(map.digest.size_bytes)})`)));
+  }
+  replace('maps', maps);
+  replace('manifest', kv([['product', m.product], ['layout', m.layout], ['frames', m.frames], ['resolution', m.resolution],
+    ['tile size', m.tile_size], ['device', m.device], ['baker', m.baker_version], ['triangles', m.mesh.triangles],
+    ['bake seconds', m.timings.total_seconds.toFixed(2)], ['pinned', result.pinned],
+    ['source job', result.job_id ? el('a', { href: `/jobs/${result.job_id}` }, result.job_id) : '—'],
+    ['manifest.json', el('a', { href: fileUrl('manifest.json') }, 'download')]]));
+}
+
+async function loadMesh(result) {
+  const job = await getJson(`/api/v1/jobs/${encodeURIComponent(result.job_id)}`);
+  const url = `/api/v1/jobs/${encodeURIComponent(result.job_id)}/mesh/${job.mesh.entry.path.split('/').map(encodeURIComponent).join('/')}`;
+  const gltf = await new GLTFLoader().loadAsync(url);
+  return gltf.scene;
+}
+
+async function showViewer(result) {
+  const m = result.manifest;
+  const meshCanvas = document.getElementById('mesh');
+  const impostorCanvas = document.getElementById('impostor');
+  const centre = new THREE.Vector3(...m.bounding_sphere.center);
+  const radius = m.bounding_sphere.radius;
+  const camera = new THREE.PerspectiveCamera(30, 1, radius * 0.05, radius * 100);
+  const fixed = new URLSearchParams(location.search).get('camera');
+  const [az, elev, dist] = fixed ? fixed.split(',').map(Number) : [35, 20, 4];
+  const a = THREE.MathUtils.degToRad(az), e = THREE.MathUtils.degToRad(elev);
+  camera.position.copy(centre).add(new THREE.Vector3(Math.sin(a) * Math.cos(e), Math.sin(e), Math.cos(a) * Math.cos(e)).multiplyScalar(dist * radius));
+  camera.lookAt(centre);
+
+  const renderer = new THREE.WebGLRenderer({ canvas: meshCanvas, antialias: true, preserveDrawingBuffer: true });
+  const scene = new THREE.Scene();
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 2.0));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.5);
+  sun.position.set(1, 2, 1.5);
+  scene.add(sun);
+  document.body.dataset.viewerStage = 'mesh';
+  scene.add(await loadMesh(result));
+  document.body.dataset.viewerStage = 'impostor';
+  const impostor = await createImpostorRenderer(impostorCanvas, m, fileUrl);
+  document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`;
+
+  const controls = new OrbitControls(camera, meshCanvas);
+  controls.target.copy(centre);
+  const controls2 = new OrbitControls(camera, impostorCanvas);
+  controls2.target.copy(centre);
+  const viewProjection = new THREE.Matrix4();
+  const draw = () => {
+    camera.updateMatrixWorld();
+    renderer.render(scene, camera);
+    viewProjection.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
+    impostor.draw(new Float32Array(viewProjection.elements), camera.position.toArray());
+  };
+  for (const c of [controls, controls2]) c.addEventListener('change', draw);
+  for (const [id, apply] of [['blend', (v) => { impostor.options.blend = Number(v); }],
+    ['debug', (v) => { impostor.options.debug = Number(v); }]]) {
+    const select = document.getElementById(id);
+    if (id === 'blend') select.value = String(impostor.options.blend);
+    select.addEventListener('change', () => { apply(select.value); draw(); });
+  }
+  document.getElementById('parallax').addEventListener('change', (ev) => { impostor.options.parallax = ev.target.checked; draw(); });
+  draw();
+  document.body.dataset.viewerReady = '1';
+}
+
+// ?ortho=AZ,EL&size=N: only the impostor, orthographic along that direction
+// into an N x N canvas, exposed as window.impostorPng (tests compare it with
+// the CPU reference renderer).
+async function showOrthographic(result, spec, size) {
+  const [az, elev] = spec.split(',').map((v) => THREE.MathUtils.degToRad(Number(v)));
+  const canvas = document.getElementById('impostor');
+  canvas.width = canvas.height = size;
+  canvas.style.width = canvas.style.height = `${size}px`;
+  const impostor = await createImpostorRenderer(canvas, result.manifest, fileUrl);
+  const blend = new URLSearchParams(location.search).get('blend');
+  if (blend !== null) impostor.options.blend = Number(blend);
+  impostor.drawOrthographic([Math.sin(az) * Math.cos(elev), Math.sin(elev), Math.cos(az) * Math.cos(elev)]);
+  window.impostorPng = canvas.toDataURL('image/png');
+  document.body.dataset.viewerReady = '1';
+}
+
+async function main() {
+  document.body.dataset.viewerStage = 'start';
+  const result = await getJson(`/api/v1/results/${key}`);
+  showStatic(result);
+  const query = new URLSearchParams(location.search);
+  if (query.get('ortho')) {
+    await showOrthographic(result, query.get('ortho'), Number(query.get('size') || 128));
+  } else if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
+    await showViewer(result);
+  } else {
+    document.body.dataset.viewerReady = 'n/a';
+  }
+}
+main().catch((e) => reportError(String(e && e.stack ? e.stack : e)));
