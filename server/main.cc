@@ -28,6 +28,13 @@
 #include "server/job_store.h"
 #include "server/services.h"
 #include "server/worker_supervisor.h"
+// Identity and roles (issue 14).
+#include "server/auth_mode.h"
+#include "server/authenticator.h"
+#include "server/authorized_services.h"
+#include "server/call_principals.h"
+#include "server/token_command.h"
+#include "server/token_store.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
@@ -48,6 +55,10 @@ ABSL_FLAG(int, worker_failure_limit, 3,
 ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+// Identity and roles (issue 14).
+ABSL_FLAG(std::string, auth, "",
+          "none or token: whether callers need a bearer token (`impostor-server token create`). Default: token "
+          "unless --listen is a loopback address; none is refused on other addresses");
 
 namespace {
 
@@ -61,6 +72,10 @@ int Fail(const std::string& message) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // `impostor-server token ...` manages tokens on a data directory.
+  if (argc > 1 && std::string(argv[1]) == "token") {
+    return impostor::RunTokenCommand(std::vector<std::string>(argv + 2, argv + argc));
+  }
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::ShowAllFlagsInHelp();
   impostor::UnderscoreFlagNames(argc, argv);
@@ -103,6 +118,9 @@ int main(int argc, char** argv) {
     return Fail("--max-pending-jobs, --max-pending-per-client and --max-blob-bytes must be >= 1");
   }
 
+  auto auth_mode = impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen));
+  if (!auth_mode.ok()) return Fail(std::string(auth_mode.status().message()));
+
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
   auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
@@ -119,9 +137,25 @@ int main(int argc, char** argv) {
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000});
 
+  // Identity (issue 14): with --auth token every call passes the
+  // AccessGuard (authorized_services.h) before reaching a service.
+  std::unique_ptr<impostor::TokenStore> token_store;
+  std::unique_ptr<impostor::Authenticator> authenticator;
+  if (*auth_mode == impostor::AuthMode::kToken) {
+    auto opened = impostor::OpenSqliteTokenStore(data);
+    if (!opened.ok()) return Fail(std::string(opened.status().message()));
+    token_store = std::move(*opened);
+    authenticator = std::make_unique<impostor::Authenticator>(token_store.get());
+  }
+  impostor::CallPrincipals principals;
+  impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals);
+
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
-  impostor::BakeServiceImpl bake_service(&scheduler);
-  impostor::WorkerServiceImpl worker_service(&scheduler);
+  impostor::BakeServiceImpl bake_service(&scheduler, &principals);
+  impostor::WorkerServiceImpl worker_service(&scheduler, &principals);
+  impostor::AuthorizedAssetService authorized_assets(&access_guard, &asset_service);
+  impostor::AuthorizedBakeService authorized_bakes(&access_guard, &bake_service);
+  impostor::AuthorizedWorkerService authorized_workers(&access_guard, &worker_service);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -129,16 +163,16 @@ int main(int argc, char** argv) {
   int port = 0;
   builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
   builder.SetMaxReceiveMessageSize(16 << 20);
-  builder.RegisterService(&asset_service);
-  builder.RegisterService(&bake_service);
-  builder.RegisterService(&worker_service);
+  builder.RegisterService(&authorized_assets);
+  builder.RegisterService(&authorized_bakes);
+  builder.RegisterService(&authorized_workers);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return Fail("--listen: cannot listen on " + absl::GetFlag(FLAGS_listen));
 
   const std::string listen = absl::GetFlag(FLAGS_listen);
   const std::string host = listen.substr(0, listen.rfind(':'));
-  spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
-               impostor::BakerVersion());
+  spdlog::info("event=listening address={}:{} data={} baker_version={} auth={}", host, port, data,
+               impostor::BakerVersion(), token_store ? "token" : "none");
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (const std::string port_file = absl::GetFlag(FLAGS_port_file); !port_file.empty()) {
@@ -159,9 +193,16 @@ int main(int argc, char** argv) {
     const std::string connect_host = (host == "0.0.0.0" || host == "[::]" || host.empty()) ? "127.0.0.1" : host;
     // Local workers drain within half the grace period, so a job that cannot
     // finish is handed back while the server can still take it.
+    std::vector<std::string> worker_args{"--drain-seconds=" + std::to_string(grace_s / 2)};
+    // With tokens, local workers get a worker token minted here, through a
+    // file only this user can read (never the secret on a command line).
+    if (token_store) {
+      auto token_file = impostor::MintLocalWorkerToken(token_store.get(), data);
+      if (!token_file.ok()) return Fail(std::string(token_file.status().message()));
+      worker_args.push_back("--token-file=" + token_file->string());
+    }
     supervisor = std::make_unique<impostor::WorkerSupervisor>(
-        worker_binary, connect_host + ":" + std::to_string(port), local_workers,
-        std::vector<std::string>{"--drain-seconds=" + std::to_string(grace_s / 2)},
+        worker_binary, connect_host + ":" + std::to_string(port), local_workers, worker_args,
         [&scheduler](const std::string& worker_id, const std::string& how) {
           if (auto s = scheduler.WorkerDied(worker_id, how); !s.ok()) {
             spdlog::error("event=worker_death_not_recorded worker={} error=\"{}\"", worker_id, s.ToString());
