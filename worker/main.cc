@@ -18,6 +18,7 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
 #include "common/flag_names.h"
+#include "common/token_source.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 
@@ -40,6 +41,9 @@ ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rl
 ABSL_FLAG(uint64_t, load_memory_mb, 8192, "Address space the isolated load may add, MiB (>= 64)");
 ABSL_FLAG(int, load_cpu_s, 300, "CPU seconds the isolated load may use (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+// Identity (issue 14).
+ABSL_FLAG(std::string, token_file, "",
+          "File holding this worker's bearer token (role worker); else $IMPOSTOR_TOKEN. The file wins");
 
 namespace {
 
@@ -91,6 +95,14 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // Identity (issue 14): checked before the GPU starts, so a bad token file
+  // fails at once.
+  auto token = impostor::ResolveToken(absl::GetFlag(FLAGS_token_file), "", std::getenv(impostor::kTokenEnvVar));
+  if (!token.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(token.status().message()).c_str());
+    return 2;
+  }
+
   auto renderer = impostor::AtlasRenderer::Create(absl::GetFlag(FLAGS_device));
   if (!renderer.ok()) {
     std::fprintf(stderr, "impostor-worker: no usable Vulkan device: %s\n", renderer.status().ToString().c_str());
@@ -119,7 +131,8 @@ int main(int argc, char** argv) {
                              .max_outage_seconds = max_outage_seconds,
                              .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),
                              .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
-                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE")},
+                             .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),
+                             .token = *token},
                             std::move(*renderer));
 
   // SIGTERM: drain (no new job; the current one finishes within

@@ -77,6 +77,9 @@ struct WorkerOptions {
   // then lands between chunks). Lets tests kill processes at a known point
   // of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
+  // Bearer token sent on every call (issue 14); empty = none (a server with
+  // --auth none).
+  std::string token;
 };
 
 class WorkerLoop {

@@ -89,6 +89,8 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.max_outage_seconds = o.max_outage_seconds;
   c.on_connection_change = o.on_connection_change;
   c.connect_timeout_seconds = o.connect_timeout_seconds;
+  c.token_file = o.token_file;
+  c.token = o.token;
   return c;
 }
 

@@ -74,6 +74,8 @@ impostor_status impostor_cache_open(const impostor_cache_options* options, impos
   o.rpc_timeout_seconds = options->rpc_timeout_seconds;
   o.max_attempts = options->max_attempts;
   o.max_outage_seconds = options->max_outage_seconds;
+  if (options->token_file != nullptr) o.token_file = options->token_file;
+  if (options->token != nullptr) o.token = options->token;
   auto cache = impostor::sdk::Cache::Open(o);
   if (!cache.ok()) return Report(cache.status());
   *out = new impostor_cache{std::move(*cache)};

@@ -136,6 +136,11 @@ struct CacheOptions {
   // deleted when the cache opens and by Cache::CollectGarbage.
   // Default: 7 days. Range: >= 0.
   double partial_max_age_seconds = 7 * 24 * 3600;
+
+  // Identity (issue 14): as ClientOptions::token_file and ::token (the file
+  // wins, then the token, then $IMPOSTOR_TOKEN). Default: empty.
+  std::string token_file;
+  std::string token;
 };
 
 // One file of a cached result.

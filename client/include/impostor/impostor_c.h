@@ -80,6 +80,11 @@ typedef struct impostor_cache_options {
    * (0 = max_attempts alone decides). Added after max_attempts: callers that
    * fill the struct with impostor_cache_options_init get the default. */
   double max_outage_seconds;
+  /* Identity (issue 14): a file holding the bearer token, or the token
+   * itself; NULL = none (then $IMPOSTOR_TOKEN is used). The file wins.
+   * Added after max_outage_seconds; init sets both NULL. */
+  const char* token_file;
+  const char* token;
 } impostor_cache_options;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);

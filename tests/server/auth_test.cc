@@ -1,0 +1,293 @@
+// Identity and roles (issue 14), in process: the token store on a real
+// SQLite file, the authenticator with a fake clock (expiry, revocation seen
+// after the TTL), the role table, --auth and --expires-in parsing, and the
+// clients' token sources.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "common/token_source.h"
+#include "server/access_policy.h"
+#include "server/auth_mode.h"
+#include "server/authenticator.h"
+#include "server/token_command.h"
+#include "server/token_store.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("impostor_auth_" + std::to_string(::getpid()) + "_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(TokenSecret, HasTheDocumentedShapeAndIsFresh) {
+  std::set<std::string> seen;
+  for (int i = 0; i < 100; ++i) {
+    const std::string t = NewTokenSecret();
+    EXPECT_TRUE(IsWellFormedToken(t)) << t;
+    EXPECT_EQ(t.size(), 4u + 43u);
+    seen.insert(t);
+  }
+  EXPECT_EQ(seen.size(), 100u);
+}
+
+TEST(TokenSecret, MalformedTokensAreToldApart) {
+  const std::string good = NewTokenSecret();
+  struct Case {
+    const char* name;
+    std::string token;
+  } cases[] = {
+      {"empty", ""},
+      {"no prefix", good.substr(4)},
+      {"other prefix", "tok_" + good.substr(4)},
+      {"one short", good.substr(0, good.size() - 1)},
+      {"one long", good + "A"},
+      {"bad character", good.substr(0, 10) + "+" + good.substr(11)},
+      {"space inside", good.substr(0, 10) + " " + good.substr(11)},
+  };
+  for (const Case& c : cases) EXPECT_FALSE(IsWellFormedToken(c.token)) << c.name;
+}
+
+TEST(TokenName, Validation) {
+  EXPECT_TRUE(ValidateTokenName("render-node-01.studio_a").ok());
+  EXPECT_FALSE(ValidateTokenName("").ok());
+  EXPECT_FALSE(ValidateTokenName(std::string(65, 'a')).ok());
+  EXPECT_FALSE(ValidateTokenName("a b").ok());
+  EXPECT_FALSE(ValidateTokenName("a/b").ok());
+  EXPECT_FALSE(ValidateTokenName("\"quoted\"").ok());
+}
+
+TEST(TokenStore, InsertFindListRevokeAndReuseTheName) {
+  auto store = OpenSqliteTokenStore(TempDir("store"));
+  ASSERT_TRUE(store.ok()) << store.status();
+  const std::string secret = NewTokenSecret();
+  TokenRecord r{.name = "ci", .role = Role::kSubmitter, .secret_hash = TokenHash(secret), .created_ms = 1000,
+                .expires_ms = 5000};
+  ASSERT_TRUE((*store)->Insert(r).ok());
+  TokenRecord twin = r;
+  twin.secret_hash = TokenHash(NewTokenSecret());
+  EXPECT_EQ((*store)->Insert(twin).code(), absl::StatusCode::kAlreadyExists);
+
+  auto found = (*store)->FindByHash(TokenHash(secret));
+  ASSERT_TRUE(found.ok() && found->has_value());
+  EXPECT_EQ((*found)->name, "ci");
+  EXPECT_EQ((*found)->role, Role::kSubmitter);
+  EXPECT_EQ((*found)->expires_ms, 5000);
+  auto missing = (*store)->FindByHash(TokenHash(NewTokenSecret()));
+  ASSERT_TRUE(missing.ok());
+  EXPECT_FALSE(missing->has_value());
+
+  EXPECT_EQ((*store)->Revoke("nobody", 2000).code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE((*store)->Revoke("ci", 2000).ok());
+  EXPECT_EQ((*store)->Revoke("ci", 2001).code(), absl::StatusCode::kNotFound);
+  // The name is free again for a successor; the revoked one stays listed.
+  ASSERT_TRUE((*store)->Insert(twin).ok());
+  auto all = (*store)->List();
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ(all->size(), 2u);
+  EXPECT_EQ((*all)[0].revoked_ms, 2000);
+  EXPECT_EQ((*all)[1].revoked_ms, 0);
+  // The secret is nowhere in the database file.
+  std::ifstream db(fs::path(TempDir("unused")).parent_path() /
+                   ("impostor_auth_" + std::to_string(::getpid()) + "_store") / "tokens.sqlite3", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(db)), {});
+  EXPECT_EQ(bytes.find(secret.substr(4)), std::string::npos);
+}
+
+class AuthenticatorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto s = OpenSqliteTokenStore(TempDir(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    ASSERT_TRUE(s.ok()) << s.status();
+    store_ = std::move(*s);
+  }
+  std::string Add(const std::string& name, Role role, int64_t expires_ms = 0) {
+    const std::string secret = NewTokenSecret();
+    EXPECT_TRUE(store_->Insert({.name = name, .role = role, .secret_hash = TokenHash(secret), .created_ms = now_,
+                                .expires_ms = expires_ms})
+                    .ok());
+    return secret;
+  }
+  absl::StatusOr<Principal> Call(Authenticator& a, const std::string& header) { return a.Authenticate(&header); }
+
+  std::unique_ptr<TokenStore> store_;
+  int64_t now_ = 1'700'000'000'000;
+};
+
+TEST_F(AuthenticatorTest, EachRefusalNamesItsReasonAndNeverTheSecret) {
+  Authenticator auth(store_.get(), 2000, [this] { return now_; });
+  const std::string expired = Add("old", Role::kReader, now_ + 10);
+  const std::string revoked = Add("gone", Role::kReader);
+  ASSERT_TRUE(store_->Revoke("gone", now_).ok());
+  const std::string unknown = NewTokenSecret();
+  now_ += 100;
+  struct Case {
+    const char* name;
+    const std::string* header;
+    std::string value;
+    const char* reason;
+    std::string secret;
+  } cases[] = {
+      {"no header", nullptr, "", "no token", ""},
+      {"basic auth", &cases[1].value, "Basic dXNlcjpwYXNz", "malformed authorization", ""},
+      {"bearer without token", &cases[2].value, "Bearer ", "malformed token", ""},
+      {"not our format", &cases[3].value, "Bearer abc.def.ghi", "malformed token", "abc.def.ghi"},
+      {"unknown", &cases[4].value, "Bearer " + unknown, "unknown token", unknown},
+      {"expired", &cases[5].value, "Bearer " + expired, "expired token: 'old'", expired},
+      {"revoked", &cases[6].value, "Bearer " + revoked, "revoked token: 'gone'", revoked},
+  };
+  for (const Case& c : cases) {
+    auto p = auth.Authenticate(c.header);
+    ASSERT_FALSE(p.ok()) << c.name;
+    EXPECT_EQ(p.status().code(), absl::StatusCode::kUnauthenticated) << c.name;
+    EXPECT_NE(p.status().message().find(c.reason), std::string::npos) << c.name << ": " << p.status();
+    if (!c.secret.empty()) EXPECT_EQ(p.status().message().find(c.secret), std::string::npos) << c.name;
+  }
+}
+
+TEST_F(AuthenticatorTest, ValidTokenGivesItsPrincipal) {
+  Authenticator auth(store_.get(), 2000, [this] { return now_; });
+  const std::string secret = Add("artist", Role::kSubmitter);
+  auto p = Call(auth, "Bearer " + secret);
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->name, "artist");
+  EXPECT_EQ(p->role, Role::kSubmitter);
+  auto listed = store_->List();
+  ASSERT_TRUE(listed.ok());
+  EXPECT_EQ((*listed)[0].last_used_ms, now_);
+}
+
+TEST_F(AuthenticatorTest, RevocationIsSeenOnceTheTtlPasses) {
+  Authenticator auth(store_.get(), 2000, [this] { return now_; });
+  const std::string secret = Add("worker-7", Role::kWorker);
+  ASSERT_TRUE(Call(auth, "Bearer " + secret).ok());
+  ASSERT_TRUE(store_->Revoke("worker-7", now_).ok());
+  now_ += 1999;  // still cached
+  EXPECT_TRUE(Call(auth, "Bearer " + secret).ok());
+  now_ += 1;
+  auto p = Call(auth, "Bearer " + secret);
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.status().code(), absl::StatusCode::kUnauthenticated);
+}
+
+TEST_F(AuthenticatorTest, ExpiryNeedsNoDatabaseRead) {
+  Authenticator auth(store_.get(), 60'000, [this] { return now_; });
+  const std::string secret = Add("temp", Role::kReader, now_ + 500);
+  ASSERT_TRUE(Call(auth, "Bearer " + secret).ok());
+  now_ += 500;
+  auto p = Call(auth, "Bearer " + secret);
+  ASSERT_FALSE(p.ok());
+  EXPECT_NE(p.status().message().find("expired"), std::string::npos);
+}
+
+// The role table, cell by cell for the method level (per-object checks are
+// exercised against a real server in tests/integration/auth_test.cc).
+TEST(AccessPolicy, RoleTable) {
+  const std::string a = "/impostor.v1.AssetService/", b = "/impostor.v1.BakeService/",
+                    w = "/impostor.v1.WorkerService/";
+  struct Row {
+    std::string method;
+    bool reader, submitter, worker;
+  } rows[] = {
+      {a + "GetResult", true, true, false},        {a + "ReadBlob", true, true, true},
+      {a + "FindMissingBlobs", false, true, true}, {a + "UploadBlob", false, true, true},
+      {a + "PinResult", false, false, false},      {b + "LookupBake", true, true, false},
+      {b + "SubmitBake", false, true, false},      {b + "WatchJob", false, true, false},
+      {b + "GetJob", false, true, false},          {b + "CancelJob", false, true, false},
+      {w + "LeaseJob", false, false, true},        {w + "ReportProgress", false, false, true},
+      {w + "CompleteJob", false, false, true},     {w + "FailJob", false, false, true},
+      {w + "ReleaseJob", false, false, true},      {"/impostor.v1.AdminService/Purge", false, false, false},
+  };
+  for (const Row& row : rows) {
+    for (auto [role, allowed] : {std::pair{Role::kReader, row.reader}, std::pair{Role::kSubmitter, row.submitter},
+                                 std::pair{Role::kWorker, row.worker}, std::pair{Role::kAdmin, true}}) {
+      const absl::Status s = AuthorizeMethod({"t", role}, row.method);
+      EXPECT_EQ(s.ok(), allowed) << row.method << " as " << RoleName(role) << ": " << s;
+      if (!s.ok()) {
+        EXPECT_EQ(s.code(), absl::StatusCode::kPermissionDenied);
+        EXPECT_NE(s.message().find("needs role"), std::string::npos) << s;
+        EXPECT_NE(s.message().find("admin"), std::string::npos) << s;
+      }
+    }
+  }
+  // Every rule in the table is a row above.
+  EXPECT_EQ(AccessRules().size(), std::size(rows) - 1);
+}
+
+TEST(AuthMode, DefaultsAndRefusals) {
+  struct Case {
+    const char* flag;
+    const char* listen;
+    bool ok;
+    AuthMode mode;
+  } cases[] = {
+      {"", "localhost:50051", true, AuthMode::kNone},     {"", "127.0.0.1:0", true, AuthMode::kNone},
+      {"", "[::1]:50051", true, AuthMode::kNone},         {"", "0.0.0.0:50051", true, AuthMode::kToken},
+      {"", "farm.studio:50051", true, AuthMode::kToken},  {"", "127.evil.com:1", true, AuthMode::kToken},
+      {"token", "127.0.0.1:0", true, AuthMode::kToken},   {"none", "127.0.0.2:1", true, AuthMode::kNone},
+      {"none", "0.0.0.0:50051", false, AuthMode::kNone},  {"none", "[::]:50051", false, AuthMode::kNone},
+      {"maybe", "127.0.0.1:0", false, AuthMode::kNone},
+  };
+  for (const Case& c : cases) {
+    auto m = ResolveAuthMode(c.flag, c.listen);
+    EXPECT_EQ(m.ok(), c.ok) << c.flag << " " << c.listen;
+    if (m.ok()) EXPECT_EQ(*m, c.mode) << c.flag << " " << c.listen;
+  }
+  auto refused = ResolveAuthMode("none", "10.0.0.5:50051");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("not a loopback address"), std::string::npos);
+}
+
+TEST(ExpiresIn, ParsesUnitsAndRefusesTheRest) {
+  EXPECT_EQ(*ParseExpiresIn("90d"), int64_t{90} * 86'400'000);
+  EXPECT_EQ(*ParseExpiresIn("12h"), int64_t{12} * 3'600'000);
+  EXPECT_EQ(*ParseExpiresIn("30m"), 30 * 60'000);
+  EXPECT_EQ(*ParseExpiresIn("1s"), 1000);
+  for (const char* bad : {"", "d", "0d", "-1d", "1w", "1.5d", "90", "3651d", "99999999999d", " 1d"}) {
+    auto r = ParseExpiresIn(bad);
+    EXPECT_FALSE(r.ok()) << bad;
+    if (!r.ok()) EXPECT_NE(r.status().message().find("--expires-in"), std::string::npos);
+  }
+}
+
+TEST(TokenSource, FileWinsThenTokenThenEnvironment) {
+  const fs::path dir = TempDir("source");
+  const fs::path file = dir / "token";
+  std::ofstream(file) << "  imp_from_file  \nsecond line ignored\n";
+  EXPECT_EQ(*ResolveToken(file.string(), "imp_direct", "imp_env"), "imp_from_file");
+  EXPECT_EQ(*ResolveToken("", "imp_direct", "imp_env"), "imp_direct");
+  EXPECT_EQ(*ResolveToken("", "", "imp_env"), "imp_env");
+  EXPECT_EQ(*ResolveToken("", "", nullptr), "");
+
+  std::ofstream(dir / "empty") << "\n";
+  std::ofstream(dir / "spaced") << "imp_a imp_b\n";
+  std::ofstream(dir / "huge") << std::string(5000, 'a');
+  struct Case {
+    const char* name;
+    fs::path file;
+    const char* expected;
+  } cases[] = {{"missing", dir / "nope", "cannot read"},
+               {"empty", dir / "empty", "is empty"},
+               {"two tokens", dir / "spaced", "space or control"},
+               {"huge", dir / "huge", "over 4096 bytes"}};
+  for (const Case& c : cases) {
+    auto r = ResolveToken(c.file.string(), "", "imp_env");
+    ASSERT_FALSE(r.ok()) << c.name;
+    EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(r.status().message().find(c.expected), std::string::npos) << c.name << ": " << r.status();
+    EXPECT_EQ(r.status().message().find("imp_a"), std::string::npos) << c.name;
+  }
+}
+
+}  // namespace
+}  // namespace impostor
