@@ -19,9 +19,9 @@ std::string Method(const char* service, const char* name) { return absl::StrCat(
 }  // namespace
 
 grpc::Status AccessGuard::Run(grpc::ServerContext* context, std::string_view method, const std::string& object,
-                              const std::function<grpc::Status()>& handler,
+                              const Handler& handler,
                               const std::function<std::string()>& describe) {
-  if (authenticator_ == nullptr) return handler();
+  if (authenticator_ == nullptr) return handler(Principal{});
   const auto& metadata = context->client_metadata();
   std::string header;
   const auto it = metadata.find("authorization");
@@ -45,7 +45,7 @@ grpc::Status AccessGuard::Run(grpc::ServerContext* context, std::string_view met
   grpc::Status status;
   {
     CallPrincipals::Scope scope(principals_, context, *principal);
-    status = handler();
+    status = handler(*principal);
   }
   if (rule == nullptr || rule->changes_state) {
     const std::string what = describe ? describe() : object;
@@ -93,39 +93,65 @@ absl::Status AccessGuard::CheckObject(const Principal& principal, std::string_vi
   return absl::OkStatus();
 }
 
+absl::Status AccessGuard::CheckSubmitQuota(const Principal& principal) {
+  if (quotas_ == nullptr || principal.role == Role::kAdmin) return absl::OkStatus();
+  auto pending = scheduler_->CountPendingOwnedBy(principal.name);
+  if (!pending.ok()) return pending.status();
+  return quotas_->CheckSubmit(principal.name, *pending);
+}
+
+void AccessGuard::RecordBake(const Principal& principal) {
+  if (quotas_ != nullptr && principal.role != Role::kAdmin) quotas_->RecordBake(principal.name);
+}
+
+absl::Status AccessGuard::CheckUploadQuota(const Principal& principal) {
+  if (quotas_ == nullptr || principal.role == Role::kAdmin) return absl::OkStatus();
+  return quotas_->CheckUpload(principal.name);
+}
+
+void AccessGuard::RecordUpload(const Principal& principal, int64_t bytes) {
+  if (quotas_ != nullptr && principal.role != Role::kAdmin) quotas_->RecordUpload(principal.name, bytes);
+}
+
 // ---- AssetService ----
 
 grpc::Status AuthorizedAssetService::FindMissingBlobs(grpc::ServerContext* context,
                                                       const v1::FindMissingBlobsRequest* request,
                                                       v1::FindMissingBlobsResponse* response) {
   return guard_->Run(context, Method(kAsset, "FindMissingBlobs"), "",
-                     [&] { return inner_->FindMissingBlobs(context, request, response); });
+                     [&](const Principal&) { return inner_->FindMissingBlobs(context, request, response); });
 }
 
 grpc::Status AuthorizedAssetService::UploadBlob(grpc::ServerContext* context,
                                                 grpc::ServerReader<v1::UploadBlobRequest>* reader,
                                                 v1::UploadBlobResponse* response) {
   return guard_->Run(
-      context, Method(kAsset, "UploadBlob"), "", [&] { return inner_->UploadBlob(context, reader, response); },
+      context, Method(kAsset, "UploadBlob"), "",
+      [&](const Principal& principal) {
+        if (auto quota = guard_->CheckUploadQuota(principal); !quota.ok()) return ToGrpc(quota);
+        grpc::Status status = inner_->UploadBlob(context, reader, response);
+        if (status.ok() && !response->already_present()) guard_->RecordUpload(principal, response->digest().size_bytes());
+        return status;
+      },
       [&] { return response->digest().hash(); });
 }
 
 grpc::Status AuthorizedAssetService::ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
                                               grpc::ServerWriter<v1::ReadBlobResponse>* writer) {
   return guard_->Run(context, Method(kAsset, "ReadBlob"), request->digest().hash(),
-                     [&] { return inner_->ReadBlob(context, request, writer); });
+                     [&](const Principal&) { return inner_->ReadBlob(context, request, writer); });
 }
 
 grpc::Status AuthorizedAssetService::GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,
                                                v1::Manifest* response) {
   return guard_->Run(context, Method(kAsset, "GetResult"), request->cache_key(),
-                     [&] { return inner_->GetResult(context, request, response); });
+                     [&](const Principal&) { return inner_->GetResult(context, request, response); });
 }
 
 grpc::Status AuthorizedAssetService::PinResult(grpc::ServerContext* context, const v1::PinResultRequest* request,
                                                v1::PinResultResponse* response) {
   return guard_->Run(context, Method(kAsset, "PinResult"), request->cache_key(),
-                     [&] { return inner_->PinResult(context, request, response); });
+                     [&](const Principal&) { return inner_->PinResult(context, request, response); });
 }
 
 // ---- BakeService ----
@@ -133,32 +159,38 @@ grpc::Status AuthorizedAssetService::PinResult(grpc::ServerContext* context, con
 grpc::Status AuthorizedBakeService::SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                                                v1::SubmitBakeResponse* response) {
   return guard_->Run(
-      context, Method(kBake, "SubmitBake"), "", [&] { return inner_->SubmitBake(context, request, response); },
+      context, Method(kBake, "SubmitBake"), "",
+      [&](const Principal& principal) {
+        if (auto quota = guard_->CheckSubmitQuota(principal); !quota.ok()) return ToGrpc(quota);
+        grpc::Status status = inner_->SubmitBake(context, request, response);
+        if (status.ok() && !response->cached()) guard_->RecordBake(principal);
+        return status;
+      },
       [&] { return absl::StrCat(response->job_id(), " cache_key=", response->cache_key()); });
 }
 
 grpc::Status AuthorizedBakeService::LookupBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                                                v1::LookupBakeResponse* response) {
   return guard_->Run(context, Method(kBake, "LookupBake"), "",
-                     [&] { return inner_->LookupBake(context, request, response); });
+                     [&](const Principal&) { return inner_->LookupBake(context, request, response); });
 }
 
 grpc::Status AuthorizedBakeService::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                              grpc::ServerWriter<v1::Job>* writer) {
   return guard_->Run(context, Method(kBake, "WatchJob"), request->job_id(),
-                     [&] { return inner_->WatchJob(context, request, writer); });
+                     [&](const Principal&) { return inner_->WatchJob(context, request, writer); });
 }
 
 grpc::Status AuthorizedBakeService::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
                                            v1::Job* response) {
   return guard_->Run(context, Method(kBake, "GetJob"), request->job_id(),
-                     [&] { return inner_->GetJob(context, request, response); });
+                     [&](const Principal&) { return inner_->GetJob(context, request, response); });
 }
 
 grpc::Status AuthorizedBakeService::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                               v1::Job* response) {
   return guard_->Run(context, Method(kBake, "CancelJob"), request->job_id(),
-                     [&] { return inner_->CancelJob(context, request, response); });
+                     [&](const Principal&) { return inner_->CancelJob(context, request, response); });
 }
 
 // ---- WorkerService ----
@@ -166,7 +198,7 @@ grpc::Status AuthorizedBakeService::CancelJob(grpc::ServerContext* context, cons
 grpc::Status AuthorizedWorkerService::LeaseJob(grpc::ServerContext* context, const v1::LeaseJobRequest* request,
                                                v1::LeaseJobResponse* response) {
   return guard_->Run(
-      context, Method(kWorker, "LeaseJob"), "", [&] { return inner_->LeaseJob(context, request, response); },
+      context, Method(kWorker, "LeaseJob"), "", [&](const Principal&) { return inner_->LeaseJob(context, request, response); },
       [&] { return response->has_job() ? response->job().job_id() : std::string("none"); });
 }
 
@@ -174,27 +206,27 @@ grpc::Status AuthorizedWorkerService::ReportProgress(grpc::ServerContext* contex
                                                      const v1::ReportProgressRequest* request,
                                                      v1::ReportProgressResponse* response) {
   return guard_->Run(context, Method(kWorker, "ReportProgress"), request->job_id(),
-                     [&] { return inner_->ReportProgress(context, request, response); });
+                     [&](const Principal&) { return inner_->ReportProgress(context, request, response); });
 }
 
 grpc::Status AuthorizedWorkerService::CompleteJob(grpc::ServerContext* context, const v1::CompleteJobRequest* request,
                                                   v1::CompleteJobResponse* response) {
   return guard_->Run(
       context, Method(kWorker, "CompleteJob"), request->job_id(),
-      [&] { return inner_->CompleteJob(context, request, response); },
+      [&](const Principal&) { return inner_->CompleteJob(context, request, response); },
       [&] { return absl::StrCat(request->job_id(), " cache_key=", request->result().cache_key()); });
 }
 
 grpc::Status AuthorizedWorkerService::FailJob(grpc::ServerContext* context, const v1::FailJobRequest* request,
                                               v1::FailJobResponse* response) {
   return guard_->Run(context, Method(kWorker, "FailJob"), request->job_id(),
-                     [&] { return inner_->FailJob(context, request, response); });
+                     [&](const Principal&) { return inner_->FailJob(context, request, response); });
 }
 
 grpc::Status AuthorizedWorkerService::ReleaseJob(grpc::ServerContext* context, const v1::ReleaseJobRequest* request,
                                                  v1::ReleaseJobResponse* response) {
   return guard_->Run(context, Method(kWorker, "ReleaseJob"), request->job_id(),
-                     [&] { return inner_->ReleaseJob(context, request, response); });
+                     [&](const Principal&) { return inner_->ReleaseJob(context, request, response); });
 }
 
 }  // namespace impostor

@@ -34,6 +34,7 @@
 #include "server/bake_scheduler.h"
 #include "server/call_principals.h"
 #include "server/services.h"
+#include "server/token_quotas.h"
 
 namespace impostor {
 
@@ -41,8 +42,12 @@ class AccessGuard {
  public:
   // `authenticator` null = --auth none: every call runs as the anonymous
   // admin, without checks or audit. All pointers must outlive the guard.
-  AccessGuard(Authenticator* authenticator, BakeScheduler* scheduler, CallPrincipals* principals)
-      : authenticator_(authenticator), scheduler_(scheduler), principals_(principals) {}
+  // `quotas` (may be null: none) apply to non-admin tokens.
+  AccessGuard(Authenticator* authenticator, BakeScheduler* scheduler, CallPrincipals* principals,
+              TokenQuotas* quotas = nullptr)
+      : authenticator_(authenticator), scheduler_(scheduler), principals_(principals), quotas_(quotas) {}
+
+  using Handler = std::function<grpc::Status(const Principal&)>;
 
   // Authenticates and authorises the call to `method` on `object` (a job
   // id or a blob hash, as the method's rule needs; may be empty), runs
@@ -50,8 +55,16 @@ class AccessGuard {
   // `describe` (optional) names what the call touched, read after the
   // handler (e.g. the job SubmitBake created).
   grpc::Status Run(grpc::ServerContext* context, std::string_view method, const std::string& object,
-                   const std::function<grpc::Status()>& handler,
+                   const Handler& handler,
                    const std::function<std::string()>& describe = {});
+
+ public:
+  // Quotas (token_quotas.h) around SubmitBake and UploadBlob: the check
+  // before, the record after a call that succeeded.
+  absl::Status CheckSubmitQuota(const Principal& principal);
+  void RecordBake(const Principal& principal);
+  absl::Status CheckUploadQuota(const Principal& principal);
+  void RecordUpload(const Principal& principal, int64_t bytes);
 
  private:
   // OK, or PERMISSION_DENIED naming what the principal may not touch.
@@ -60,6 +73,7 @@ class AccessGuard {
   Authenticator* const authenticator_;
   BakeScheduler* const scheduler_;
   CallPrincipals* const principals_;
+  TokenQuotas* const quotas_;
 };
 
 class AuthorizedAssetService final : public v1::AssetService::Service {

@@ -609,7 +609,9 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   std::lock_guard lock(mu_);
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
-  const v1::Manifest& m = request.result();
+  v1::Manifest m = request.result();
+  // Who baked it is the server's word, not the worker's (purge --worker).
+  m.set_baked_by(r->lease_holder);
   if (m.cache_key() != r->job.cache_key()) {
     return absl::InvalidArgumentError(absl::StrCat("result.cache_key: ", m.cache_key().substr(0, 80),
                                                    " differs from the job's ", r->job.cache_key()));
@@ -767,6 +769,11 @@ absl::StatusOr<std::string> BakeScheduler::JobOwner(const std::string& job_id) {
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
   return r->owner;
+}
+
+absl::StatusOr<int64_t> BakeScheduler::CountPendingOwnedBy(const std::string& owner) {
+  std::lock_guard lock(mu_);
+  return jobs_->CountPendingOwnedBy(owner);
 }
 
 absl::StatusOr<bool> BakeScheduler::IsResultBlob(const std::string& hash) {

@@ -152,6 +152,8 @@ class BakeScheduler {
   // The token name that submitted `job_id` ('' for jobs from before tokens);
   // INVALID_ARGUMENT for an empty id, NOT_FOUND for an unknown job.
   absl::StatusOr<std::string> JobOwner(const std::string& job_id);
+  // QUEUED or RUNNING jobs the token `owner` submitted (per-token quota).
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
   // True when a result lists the blob (its manifest.json or a map).
   absl::StatusOr<bool> IsResultBlob(const std::string& hash);
   // True when `hash` is an input file of a job whose lease `lease_holder`

@@ -416,6 +416,16 @@ absl::StatusOr<bool> JobStore::IsResultBlob(const std::string& hash) {
   return false;
 }
 
+absl::StatusOr<int64_t> JobStore::CountPendingOwnedBy(const std::string& owner) {
+  Statement st(db_, "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0 AND owner = ?3");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  st.Bind(3, owner);
+  if (st.Step() != SQLITE_ROW) return st.Error("count pending of owner");
+  return st.Int(0);
+}
+
 absl::StatusOr<std::vector<JobRecord>> JobStore::RunningLeasedBy(const std::string& lease_holder) {
   return QueryMany(db_,
                    absl::StrCat("SELECT ", kJobColumns,

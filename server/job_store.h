@@ -113,6 +113,8 @@ class JobStore {
   // True when some result lists a blob with this hash (its manifest.json or
   // one of its maps).
   absl::StatusOr<bool> IsResultBlob(const std::string& hash);
+  // QUEUED or RUNNING jobs (not cancelled by their requester) of `owner`.
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
   // RUNNING leaders whose lease is held by the token `lease_holder`.
   absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder);
 

@@ -33,7 +33,9 @@
 #include "server/authenticator.h"
 #include "server/authorized_services.h"
 #include "server/call_principals.h"
+#include "server/purge_command.h"
 #include "server/token_command.h"
+#include "server/token_quotas.h"
 #include "server/token_store.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
@@ -59,6 +61,10 @@ ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 ABSL_FLAG(std::string, auth, "",
           "none or token: whether callers need a bearer token (`impostor-server token create`). Default: token "
           "unless --listen is a loopback address; none is refused on other addresses");
+ABSL_FLAG(int64_t, token_max_pending_jobs, 1000, "Queued or running jobs per token (not admin) (>= 1)");
+ABSL_FLAG(int64_t, token_max_upload_bytes_per_day, int64_t{100} << 30,
+          "Bytes a token (not admin) may upload in any 24 hours (>= 1)");
+ABSL_FLAG(int64_t, token_max_bakes_per_hour, 1000, "Bakes (non-cached submits) per token (not admin) per hour (>= 1)");
 
 namespace {
 
@@ -75,6 +81,10 @@ int main(int argc, char** argv) {
   // `impostor-server token ...` manages tokens on a data directory.
   if (argc > 1 && std::string(argv[1]) == "token") {
     return impostor::RunTokenCommand(std::vector<std::string>(argv + 2, argv + argc));
+  }
+  // `impostor-server purge --worker NAME` drops what a compromised worker baked.
+  if (argc > 1 && std::string(argv[1]) == "purge") {
+    return impostor::RunPurgeCommand(std::vector<std::string>(argv + 2, argv + argc));
   }
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::ShowAllFlagsInHelp();
@@ -120,6 +130,14 @@ int main(int argc, char** argv) {
 
   auto auth_mode = impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen));
   if (!auth_mode.ok()) return Fail(std::string(auth_mode.status().message()));
+  const impostor::QuotaOptions quota_options{
+      .max_pending_jobs = absl::GetFlag(FLAGS_token_max_pending_jobs),
+      .max_upload_bytes_per_day = absl::GetFlag(FLAGS_token_max_upload_bytes_per_day),
+      .max_bakes_per_hour = absl::GetFlag(FLAGS_token_max_bakes_per_hour)};
+  if (quota_options.max_pending_jobs < 1 || quota_options.max_upload_bytes_per_day < 1 ||
+      quota_options.max_bakes_per_hour < 1) {
+    return Fail("--token-max-pending-jobs, --token-max-upload-bytes-per-day and --token-max-bakes-per-hour must be >= 1");
+  }
 
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
@@ -148,7 +166,8 @@ int main(int argc, char** argv) {
     authenticator = std::make_unique<impostor::Authenticator>(token_store.get());
   }
   impostor::CallPrincipals principals;
-  impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals);
+  impostor::TokenQuotas quotas(quota_options);
+  impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals, &quotas);
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler, &principals);

@@ -370,6 +370,148 @@ TEST_F(AuthServer, AuditLinesNameTokenRoleRpcAndOutcome) {
   EXPECT_TRUE(server_->process().WaitForLog("event=audit token=\"admin-1\" role=admin rpc=SubmitBake"));
 }
 
+TEST_F(AuthServer, PurgeByWorkerDropsWhatItBakedSoTheKeysBakeAgain) {
+  for (const char* node : {"node-a", "node-b"}) tokens_[node] = CreateToken(server_->data_dir(), "worker", node);
+  // One result baked by each worker: the admin submits, the worker completes.
+  std::map<std::string, PublishedResult> baked;
+  uint32_t seed = 1410;
+  for (const char* node : {"node-a", "node-b"}) {
+    ASSERT_FALSE(SubmitFake(Bearer("admin"), seed).empty());
+    server_->UseToken(tokens_[node]);
+    baked[node] = CompleteNextJob(*server_, {100, 100, 100}, seed);
+    ++seed;
+  }
+  server_->UseToken(tokens_["admin"]);
+  {
+    auto ctx = ContextWithAuthorization(Bearer("reader"));
+    v1::GetResultRequest request;
+    request.set_cache_key(baked["node-b"].key);
+    v1::Manifest manifest;
+    ASSERT_TRUE(assets_->GetResult(ctx.get(), request, &manifest).ok());
+    EXPECT_EQ(manifest.baked_by(), "node-b");
+  }
+
+  // Purged while the server runs.
+  const std::string server_bin = (BinaryDir() / "impostor-server").string();
+  const ToolRun purge =
+      RunTool({server_bin, "purge", "--worker", "node-a", "--data", server_->data_dir().string()}, kStartTimeout);
+  ASSERT_EQ(purge.exit_code, 0) << purge.err;
+  EXPECT_EQ(purge.out, baked["node-a"].key + "\n");
+  EXPECT_NE(purge.err.find("dropped 1 result(s) baked by 'node-a'"), std::string::npos) << purge.err;
+
+  EXPECT_EQ(GetResult(Bearer("reader"), baked["node-a"].key).error_code(), StatusCode::NOT_FOUND);
+  EXPECT_TRUE(GetResult(Bearer("reader"), baked["node-b"].key).ok());
+  // Its blobs are no longer a result's: readers cannot fetch them.
+  EXPECT_EQ(Read(Bearer("reader"), DigestOf(baked["node-a"].files.at("albedo_alpha.png"))).error_code(),
+            StatusCode::PERMISSION_DENIED);
+  // The same request bakes again instead of answering from the cache.
+  const std::string again = SubmitFake(Bearer("admin"), 1410);
+  auto ctx = ContextWithAuthorization(Bearer("admin"));
+  v1::GetJobRequest get;
+  get.set_job_id(again);
+  v1::Job job;
+  ASSERT_TRUE(bake_->GetJob(ctx.get(), get, &job).ok());
+  EXPECT_FALSE(job.cached());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_QUEUED);
+
+  struct Case {
+    const char* name;
+    std::vector<std::string> args;
+    const char* message;
+  } cases[] = {
+      {"no worker", {"purge", "--data", server_->data_dir().string()}, "--worker: required"},
+      {"bad worker", {"purge", "--worker", "a/b", "--data", server_->data_dir().string()}, "--worker:"},
+      {"no data", {"purge", "--worker", "node-a"}, "--data: required"},
+      {"not a data dir", {"purge", "--worker", "node-a", "--data", "/nonexistent"}, "holds no job database"},
+      {"unknown flag", {"purge", "--worker", "node-a", "--all"}, "unknown argument \"--all\""},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> argv = {server_bin};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const ToolRun run = RunTool(argv, kStartTimeout);
+    EXPECT_EQ(run.exit_code, 2) << c.name << ": " << run.err;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << c.name << ": " << run.err;
+  }
+}
+
+TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
+  ServerProcess server(0, {"--auth=token", "--token-max-pending-jobs=2", "--token-max-bakes-per-hour=3",
+                           "--token-max-upload-bytes-per-day=1000"});
+  const std::string ci = CreateToken(server.data_dir(), "submitter", "ci");
+  const std::string uploader = CreateToken(server.data_dir(), "submitter", "uploader");
+  const std::string admin = CreateToken(server.data_dir(), "admin", "ops");
+  auto assets = v1::AssetService::NewStub(server.channel());
+  auto bake = v1::BakeService::NewStub(server.channel());
+  auto upload = [&](const std::string& token, const std::string& bytes) {
+    auto ctx = ContextWithAuthorization("Bearer " + token);
+    v1::UploadBlobResponse response;
+    auto writer = assets->UploadBlob(ctx.get(), &response);
+    v1::UploadBlobRequest chunk;
+    *chunk.mutable_digest() = DigestOf(bytes);
+    chunk.set_data(bytes);
+    writer->Write(chunk);
+    writer->WritesDone();
+    return writer->Finish();
+  };
+  std::vector<std::string> jobs;
+  auto submit = [&](const std::string& token, uint32_t seed) {
+    const std::string model = "glTF" + RandomBytes(64, seed);
+    EXPECT_TRUE(upload(token, model).ok());
+    v1::SubmitBakeRequest request;
+    request.mutable_mesh()->mutable_entry()->set_path("model.glb");
+    *request.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
+    auto ctx = ContextWithAuthorization("Bearer " + token);
+    v1::SubmitBakeResponse response;
+    const grpc::Status s = bake->SubmitBake(ctx.get(), request, &response);
+    if (s.ok()) jobs.push_back(response.job_id());
+    return s;
+  };
+
+  // Pending jobs per token (no worker: they stay queued).
+  ASSERT_TRUE(submit(ci, 1).ok());
+  ASSERT_TRUE(submit(ci, 2).ok());
+  grpc::Status s = submit(ci, 3);
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("pending jobs of token 'ci': 2 queued or running, the limit per token is 2"),
+            std::string::npos)
+      << s.error_message();
+  EXPECT_TRUE(submit(admin, 4).ok()) << "admins are exempt";
+  EXPECT_TRUE(submit(admin, 5).ok());
+  EXPECT_TRUE(submit(admin, 6).ok());
+
+  // Bakes per hour count what was submitted, cancelled or not.
+  for (size_t i = 0; i < 2; ++i) {
+    auto ctx = ContextWithAuthorization("Bearer " + ci);
+    v1::CancelJobRequest cancel;
+    cancel.set_job_id(jobs[i]);
+    v1::Job job;
+    ASSERT_TRUE(bake->CancelJob(ctx.get(), cancel, &job).ok());
+  }
+  ASSERT_TRUE(submit(ci, 7).ok());
+  s = submit(ci, 8);
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("bakes of token 'ci': 3 in the last hour, the limit per token is 3 per hour"),
+            std::string::npos)
+      << s.error_message();
+
+  // Upload bytes per day: checked as an upload starts.
+  EXPECT_TRUE(upload(uploader, RandomBytes(600, 9)).ok());
+  EXPECT_TRUE(upload(uploader, RandomBytes(600, 10)).ok());
+  s = upload(uploader, RandomBytes(10, 11));
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("uploads of token 'uploader': 1200 bytes in the last 24 hours, the limit per "
+                                   "token is 1000 bytes per day"),
+            std::string::npos)
+      << s.error_message();
+  EXPECT_TRUE(upload(admin, RandomBytes(10, 12)).ok());
+
+  const ToolRun bad = RunTool({(BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                               "--data=" + server.data_dir().string() + "-bad", "--token-max-pending-jobs=0"},
+                              kStartTimeout);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--token-max-pending-jobs"), std::string::npos) << bad.err;
+}
+
 TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
   const fs::path data = NewTempDir("auth_commands");
   const std::string server = (BinaryDir() / "impostor-server").string();

@@ -16,6 +16,7 @@
 #include "server/auth_mode.h"
 #include "server/authenticator.h"
 #include "server/token_command.h"
+#include "server/token_quotas.h"
 #include "server/token_store.h"
 
 namespace impostor {
@@ -287,6 +288,42 @@ TEST(TokenSource, FileWinsThenTokenThenEnvironment) {
     EXPECT_NE(r.status().message().find(c.expected), std::string::npos) << c.name << ": " << r.status();
     EXPECT_EQ(r.status().message().find("imp_a"), std::string::npos) << c.name;
   }
+}
+
+}  // namespace
+}  // namespace impostor
+
+namespace impostor {
+namespace {
+
+TEST(TokenQuotas, WindowsSlideAndRefusalsNameCountAndLimit) {
+  int64_t now = 1'700'000'000'000;
+  TokenQuotas quotas({.max_pending_jobs = 2, .max_upload_bytes_per_day = 1000, .max_bakes_per_hour = 2},
+                     [&] { return now; });
+  EXPECT_TRUE(quotas.CheckSubmit("ci", 1).ok());
+  absl::Status s = quotas.CheckSubmit("ci", 2);
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(s.message().find("pending jobs of token 'ci': 2 queued or running, the limit per token is 2"),
+            std::string::npos)
+      << s;
+
+  quotas.RecordBake("ci");
+  now += 1000;
+  quotas.RecordBake("ci");
+  s = quotas.CheckSubmit("ci", 0);
+  EXPECT_NE(s.message().find("bakes of token 'ci': 2 in the last hour"), std::string::npos) << s;
+  EXPECT_TRUE(quotas.CheckSubmit("other", 0).ok()) << "quotas are per token";
+  now += 3'600'000 - 1000;  // the first bake leaves the window
+  EXPECT_TRUE(quotas.CheckSubmit("ci", 0).ok());
+
+  quotas.RecordUpload("ci", 999);
+  EXPECT_TRUE(quotas.CheckUpload("ci").ok());
+  quotas.RecordUpload("ci", 1);
+  s = quotas.CheckUpload("ci");
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(s.message().find("1000 bytes in the last 24 hours, the limit per token is 1000"), std::string::npos) << s;
+  now += 24 * 3'600'000;
+  EXPECT_TRUE(quotas.CheckUpload("ci").ok());
 }
 
 }  // namespace
