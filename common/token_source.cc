@@ -38,8 +38,8 @@ absl::StatusOr<std::string> ResolveToken(const std::string& token_file, const st
     in.read(text.data(), static_cast<std::streamsize>(text.size()));
     text.resize(static_cast<size_t>(in.gcount()));
     if (text.size() > kMaxTokenFileBytes) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--token-file: ", token_file, " is over ", kMaxTokenFileBytes, " bytes; it should hold one token"));
+      return absl::InvalidArgumentError(absl::StrCat("--token-file: ", token_file, " is over ", kMaxTokenFileBytes,
+                                                     " bytes; it should hold one token"));
     }
     std::string line = Trim(text.substr(0, text.find('\n')));
     if (line.empty()) return absl::InvalidArgumentError(absl::StrCat("--token-file: ", token_file, " is empty"));

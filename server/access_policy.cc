@@ -56,8 +56,9 @@ absl::Status AuthorizeMethod(const Principal& principal, std::string_view method
     for (Role r : rule->roles) absl::StrAppend(&needed, std::string(RoleName(r)), " or ");
   }
   absl::StrAppend(&needed, "admin");
-  return absl::PermissionDeniedError(absl::StrCat(std::string(method), " needs role ", needed, "; token '", principal.name,
-                                                  "' has role ", std::string(RoleName(principal.role))));
+  return absl::PermissionDeniedError(absl::StrCat(std::string(method), " needs role ", needed, "; token '",
+                                                  principal.name, "' has role ",
+                                                  std::string(RoleName(principal.role))));
 }
 
 }  // namespace impostor

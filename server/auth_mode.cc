@@ -22,11 +22,13 @@ absl::StatusOr<AuthMode> ResolveAuthMode(std::string_view flag, std::string_view
   if (flag.empty()) return loopback ? AuthMode::kNone : AuthMode::kToken;
   if (flag == "token") return AuthMode::kToken;
   if (flag != "none") {
-    return absl::InvalidArgumentError(absl::StrCat("--auth: \"", std::string(flag), "\" is not a mode; expected none or token"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--auth: \"", std::string(flag), "\" is not a mode; expected none or token"));
   }
   if (!loopback) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "--auth none: refused on ", std::string(listen), ", which is not a loopback address: anyone who can reach the port "
+        "--auth none: refused on ", std::string(listen),
+        ", which is not a loopback address: anyone who can reach the port "
         "could bake, read every asset and publish forged results. Use --auth token (the default there) or listen "
         "on 127.0.0.1"));
   }

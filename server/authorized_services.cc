@@ -19,8 +19,7 @@ std::string Method(const char* service, const char* name) { return absl::StrCat(
 }  // namespace
 
 grpc::Status AccessGuard::Run(grpc::ServerContext* context, std::string_view method, const std::string& object,
-                              const Handler& handler,
-                              const std::function<std::string()>& describe) {
+                              const Handler& handler, const std::function<std::string()>& describe) {
   if (authenticator_ == nullptr) return handler(Principal{});
   const auto& metadata = context->client_metadata();
   std::string header;
@@ -30,7 +29,8 @@ grpc::Status AccessGuard::Run(grpc::ServerContext* context, std::string_view met
   const std::string rpc(method.substr(method.rfind('/') + 1));
   if (!principal.ok()) {
     spdlog::warn("event=auth_refused rpc={} peer=\"{}\" code={} reason=\"{}\"", rpc, EscapeUntrusted(context->peer()),
-                 absl::StatusCodeToString(principal.status().code()), EscapeUntrusted(std::string(principal.status().message())));
+                 absl::StatusCodeToString(principal.status().code()),
+                 EscapeUntrusted(std::string(principal.status().message())));
     return ToGrpc(principal.status());
   }
   absl::Status allowed = AuthorizeMethod(*principal, method);
@@ -66,9 +66,9 @@ absl::Status AccessGuard::CheckObject(const Principal& principal, std::string_vi
       auto owner = scheduler_->JobOwner(object);
       // An unknown or empty id: the handler answers NOT_FOUND /
       // INVALID_ARGUMENT as it always did.
-      if (!owner.ok()) return absl::IsNotFound(owner.status()) || absl::IsInvalidArgument(owner.status())
-                                 ? absl::OkStatus()
-                                 : owner.status();
+      if (!owner.ok())
+        return absl::IsNotFound(owner.status()) || absl::IsInvalidArgument(owner.status()) ? absl::OkStatus()
+                                                                                           : owner.status();
       if (*owner == principal.name) return absl::OkStatus();
       return absl::PermissionDeniedError(absl::StrCat("job_id: job ", object, " was not submitted by token '",
                                                       principal.name, "'; only its submitter or an admin may see it"));
@@ -78,16 +78,16 @@ absl::Status AccessGuard::CheckObject(const Principal& principal, std::string_vi
         auto held = scheduler_->IsInputOfLeasedJob(principal.name, object);
         if (!held.ok()) return held.status();
         if (*held) return absl::OkStatus();
-        return absl::PermissionDeniedError(
-            absl::StrCat("digest: blob ", object.substr(0, 64), " is not an input of a job token '", principal.name,
-                         "' holds; workers read the inputs of their leased jobs only"));
+        return absl::PermissionDeniedError(absl::StrCat("digest: blob ", object.substr(0, 64),
+                                                        " is not an input of a job token '", principal.name,
+                                                        "' holds; workers read the inputs of their leased jobs only"));
       }
       auto result = scheduler_->IsResultBlob(object);
       if (!result.ok()) return result.status();
       if (*result) return absl::OkStatus();
-      return absl::PermissionDeniedError(absl::StrCat("digest: blob ", object.substr(0, 64),
-                                                      " is not part of a baked result; role ",
-                                                      std::string(RoleName(principal.role)), " may read result blobs only"));
+      return absl::PermissionDeniedError(
+          absl::StrCat("digest: blob ", object.substr(0, 64), " is not part of a baked result; role ",
+                       std::string(RoleName(principal.role)), " may read result blobs only"));
     }
   }
   return absl::OkStatus();
@@ -130,7 +130,8 @@ grpc::Status AuthorizedAssetService::UploadBlob(grpc::ServerContext* context,
       [&](const Principal& principal) {
         if (auto quota = guard_->CheckUploadQuota(principal); !quota.ok()) return ToGrpc(quota);
         grpc::Status status = inner_->UploadBlob(context, reader, response);
-        if (status.ok() && !response->already_present()) guard_->RecordUpload(principal, response->digest().size_bytes());
+        if (status.ok() && !response->already_present())
+          guard_->RecordUpload(principal, response->digest().size_bytes());
         return status;
       },
       [&] { return response->digest().hash(); });
@@ -198,7 +199,8 @@ grpc::Status AuthorizedBakeService::CancelJob(grpc::ServerContext* context, cons
 grpc::Status AuthorizedWorkerService::LeaseJob(grpc::ServerContext* context, const v1::LeaseJobRequest* request,
                                                v1::LeaseJobResponse* response) {
   return guard_->Run(
-      context, Method(kWorker, "LeaseJob"), "", [&](const Principal&) { return inner_->LeaseJob(context, request, response); },
+      context, Method(kWorker, "LeaseJob"), "",
+      [&](const Principal&) { return inner_->LeaseJob(context, request, response); },
       [&] { return response->has_job() ? response->job().job_id() : std::string("none"); });
 }
 

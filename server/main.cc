@@ -136,7 +136,8 @@ int main(int argc, char** argv) {
       .max_bakes_per_hour = absl::GetFlag(FLAGS_token_max_bakes_per_hour)};
   if (quota_options.max_pending_jobs < 1 || quota_options.max_upload_bytes_per_day < 1 ||
       quota_options.max_bakes_per_hour < 1) {
-    return Fail("--token-max-pending-jobs, --token-max-upload-bytes-per-day and --token-max-bakes-per-hour must be >= 1");
+    return Fail(
+        "--token-max-pending-jobs, --token-max-upload-bytes-per-day and --token-max-bakes-per-hour must be >= 1");
   }
 
   std::error_code ec;

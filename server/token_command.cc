@@ -159,8 +159,8 @@ absl::StatusOr<std::filesystem::path> MintLocalWorkerToken(TokenStore* store, co
   constexpr char kName[] = "local-workers";
   if (auto s = store->Revoke(kName, NowMs()); !s.ok() && !absl::IsNotFound(s)) return s;
   const std::string secret = NewTokenSecret();
-  if (auto s = store->Insert({.name = kName, .role = Role::kWorker, .secret_hash = TokenHash(secret),
-                              .created_ms = NowMs()});
+  if (auto s = store->Insert(
+          {.name = kName, .role = Role::kWorker, .secret_hash = TokenHash(secret), .created_ms = NowMs()});
       !s.ok()) {
     return s;
   }

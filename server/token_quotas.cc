@@ -37,8 +37,7 @@ absl::Status TokenQuotas::CheckSubmit(const std::string& token, int64_t pending)
   }
   std::lock_guard lock(mu_);
   return WindowLimit(bakes_[token], kHourMs, options_.max_bakes_per_hour,
-                     absl::StrCat("bakes of token '", token, "': "), " in the last hour",
-                     " per hour; retry later");
+                     absl::StrCat("bakes of token '", token, "': "), " in the last hour", " per hour; retry later");
 }
 
 void TokenQuotas::RecordBake(const std::string& token) {
@@ -49,17 +48,14 @@ void TokenQuotas::RecordBake(const std::string& token) {
 absl::Status TokenQuotas::CheckUpload(const std::string& token) {
   std::lock_guard lock(mu_);
   return WindowLimit(uploads_[token], kDayMs, options_.max_upload_bytes_per_day,
-                     absl::StrCat("uploads of token '", token, "': "), " bytes in the last 24 hours",
-                     " bytes per day");
+                     absl::StrCat("uploads of token '", token, "': "), " bytes in the last 24 hours", " bytes per day");
 }
 
-absl::Status TokenQuotas::WindowLimit(std::deque<std::pair<int64_t, int64_t>>& window, int64_t window_ms,
-                                      int64_t limit, const std::string& what, const char* span,
-                                      const char* unit) {
+absl::Status TokenQuotas::WindowLimit(std::deque<std::pair<int64_t, int64_t>>& window, int64_t window_ms, int64_t limit,
+                                      const std::string& what, const char* span, const char* unit) {
   const int64_t used = Sum(window, window_ms);
   if (used < limit) return absl::OkStatus();
-  return absl::ResourceExhaustedError(
-      absl::StrCat(what, used, span, ", the limit per token is ", limit, unit));
+  return absl::ResourceExhaustedError(absl::StrCat(what, used, span, ", the limit per token is ", limit, unit));
 }
 
 void TokenQuotas::RecordUpload(const std::string& token, int64_t bytes) {

@@ -81,7 +81,8 @@ class SqliteTokenStore final : public TokenStore {
 
   absl::Status Insert(const TokenRecord& r) override {
     std::lock_guard lock(mu_);
-    Statement st(db_, "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)");
+    Statement st(db_,
+                 "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)");
     if (!st.ok()) return st.Error("prepare");
     st.Bind(1, r.secret_hash);
     st.Bind(2, r.name);
@@ -155,10 +156,14 @@ class SqliteTokenStore final : public TokenStore {
 
 std::string_view RoleName(Role role) {
   switch (role) {
-    case Role::kReader: return "reader";
-    case Role::kSubmitter: return "submitter";
-    case Role::kWorker: return "worker";
-    case Role::kAdmin: return "admin";
+    case Role::kReader:
+      return "reader";
+    case Role::kSubmitter:
+      return "submitter";
+    case Role::kWorker:
+      return "worker";
+    case Role::kAdmin:
+      return "admin";
   }
   return "unknown";
 }
@@ -207,8 +212,8 @@ absl::Status ValidateTokenName(std::string_view name) {
     return absl::InvalidArgumentError(absl::StrCat("--name: must be 1..64 characters, got ", name.size()));
   }
   for (char c : name) {
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' ||
-                    c == '_' || c == '.';
+    const bool ok =
+        (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_' || c == '.';
     if (!ok) return absl::InvalidArgumentError("--name: only letters, digits, '.', '_' and '-' are allowed");
   }
   return absl::OkStatus();

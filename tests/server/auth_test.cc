@@ -1,7 +1,9 @@
 // Identity and roles (issue 14), in process: the token store on a real
 // SQLite file, the authenticator with a fake clock (expiry, revocation seen
-// after the TTL), the role table, --auth and --expires-in parsing, and the
-// clients' token sources.
+// after the TTL), the role table, --auth and --expires-in parsing, the
+// clients' token sources, the quota windows, and the job database's
+// migration from before tokens.
+#include <sqlite3.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -15,6 +17,7 @@
 #include "server/access_policy.h"
 #include "server/auth_mode.h"
 #include "server/authenticator.h"
+#include "server/job_store.h"
 #include "server/token_command.h"
 #include "server/token_quotas.h"
 #include "server/token_store.h"
@@ -152,7 +155,9 @@ TEST_F(AuthenticatorTest, EachRefusalNamesItsReasonAndNeverTheSecret) {
     ASSERT_FALSE(p.ok()) << c.name;
     EXPECT_EQ(p.status().code(), absl::StatusCode::kUnauthenticated) << c.name;
     EXPECT_NE(p.status().message().find(c.reason), std::string::npos) << c.name << ": " << p.status();
-    if (!c.secret.empty()) EXPECT_EQ(p.status().message().find(c.secret), std::string::npos) << c.name;
+    if (!c.secret.empty()) {
+      EXPECT_EQ(p.status().message().find(c.secret), std::string::npos) << c.name;
+    }
   }
 }
 
@@ -242,7 +247,9 @@ TEST(AuthMode, DefaultsAndRefusals) {
   for (const Case& c : cases) {
     auto m = ResolveAuthMode(c.flag, c.listen);
     EXPECT_EQ(m.ok(), c.ok) << c.flag << " " << c.listen;
-    if (m.ok()) EXPECT_EQ(*m, c.mode) << c.flag << " " << c.listen;
+    if (m.ok()) {
+      EXPECT_EQ(*m, c.mode) << c.flag << " " << c.listen;
+    }
   }
   auto refused = ResolveAuthMode("none", "10.0.0.5:50051");
   ASSERT_FALSE(refused.ok());
@@ -257,7 +264,9 @@ TEST(ExpiresIn, ParsesUnitsAndRefusesTheRest) {
   for (const char* bad : {"", "d", "0d", "-1d", "1w", "1.5d", "90", "3651d", "99999999999d", " 1d"}) {
     auto r = ParseExpiresIn(bad);
     EXPECT_FALSE(r.ok()) << bad;
-    if (!r.ok()) EXPECT_NE(r.status().message().find("--expires-in"), std::string::npos);
+    if (!r.ok()) {
+      EXPECT_NE(r.status().message().find("--expires-in"), std::string::npos);
+    }
   }
 }
 
@@ -324,6 +333,85 @@ TEST(TokenQuotas, WindowsSlideAndRefusalsNameCountAndLimit) {
   EXPECT_NE(s.message().find("1000 bytes in the last 24 hours, the limit per token is 1000"), std::string::npos) << s;
   now += 24 * 3'600'000;
   EXPECT_TRUE(quotas.CheckUpload("ci").ok());
+}
+
+}  // namespace
+}  // namespace impostor
+
+namespace impostor {
+namespace {
+
+// A job database from before tokens (no owner/lease_holder columns, no
+// result_blobs table) opens with its jobs and results intact, its jobs
+// owned by nobody, and its results' blobs readable as result blobs.
+TEST(JobStoreMigration, DatabaseFromBeforeTokensKeepsWorking) {
+  const fs::path dir = TempDir("migration");
+  const fs::path file = dir / "jobs.sqlite3";
+  v1::Manifest manifest;
+  manifest.set_cache_key(std::string(64, 'a'));
+  manifest.mutable_manifest_json()->set_hash(std::string(64, 'b'));
+  manifest.add_maps()->mutable_digest()->set_hash(std::string(64, 'c'));
+  v1::Job job;
+  job.set_job_id("job-old");
+  job.set_cache_key(manifest.cache_key());
+  job.set_state(v1::JOB_STATE_QUEUED);
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
+    const char* old_schema = R"sql(
+      CREATE TABLE jobs (job_id TEXT PRIMARY KEY, cache_key TEXT NOT NULL, state INTEGER NOT NULL,
+        created_ms INTEGER NOT NULL, lease_id TEXT NOT NULL DEFAULT '', lease_deadline_ms INTEGER NOT NULL DEFAULT 0,
+        worker_id TEXT NOT NULL DEFAULT '', job BLOB NOT NULL, request BLOB NOT NULL,
+        leader_job_id TEXT NOT NULL DEFAULT '', requester_cancelled INTEGER NOT NULL DEFAULT 0,
+        client_id TEXT NOT NULL DEFAULT '', priority INTEGER NOT NULL DEFAULT 0,
+        request_id TEXT NOT NULL DEFAULT '', lease_expiries INTEGER NOT NULL DEFAULT 0);
+      CREATE TABLE results (cache_key TEXT PRIMARY KEY, manifest BLOB NOT NULL, created_ms INTEGER NOT NULL,
+        last_used_ms INTEGER NOT NULL DEFAULT 0, pinned INTEGER NOT NULL DEFAULT 0);)sql";
+    ASSERT_EQ(sqlite3_exec(db, old_schema, nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+    sqlite3_stmt* st = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "INSERT INTO results (cache_key, manifest, created_ms) VALUES (?1, ?2, 1)", -1,
+                                 &st, nullptr),
+              SQLITE_OK);
+    const std::string m = manifest.SerializeAsString();
+    sqlite3_bind_text(st, 1, manifest.cache_key().c_str(), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st, 2, m.data(), static_cast<int>(m.size()), SQLITE_TRANSIENT);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+    sqlite3_finalize(st);
+    ASSERT_EQ(sqlite3_prepare_v2(db,
+                                 "INSERT INTO jobs (job_id, cache_key, state, created_ms, job, request, client_id) "
+                                 "VALUES ('job-old', ?1, 1, 1, ?2, x'', 'ci')",
+                                 -1, &st, nullptr),
+              SQLITE_OK);
+    const std::string j = job.SerializeAsString();
+    sqlite3_bind_text(st, 1, manifest.cache_key().c_str(), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st, 2, j.data(), static_cast<int>(j.size()), SQLITE_TRANSIENT);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+    sqlite3_finalize(st);
+    sqlite3_close(db);
+  }
+  auto store = JobStore::Open(file);
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto old = (*store)->Get("job-old");
+  ASSERT_TRUE(old.ok() && old->has_value()) << old.status();
+  EXPECT_EQ((*old)->owner, "");
+  EXPECT_EQ((*old)->client_id, "ci");
+  EXPECT_TRUE(*(*store)->IsResultBlob(std::string(64, 'b')));
+  EXPECT_TRUE(*(*store)->IsResultBlob(std::string(64, 'c')));
+  EXPECT_FALSE(*(*store)->IsResultBlob(std::string(64, 'd')));
+  auto result = (*store)->GetResult(manifest.cache_key());
+  ASSERT_TRUE(result.ok() && result->has_value());
+  EXPECT_EQ((*result)->baked_by(), "");
+  // New rows carry the new columns.
+  JobRecord fresh = **old;
+  fresh.job.set_job_id("job-new");
+  fresh.owner = "artist";
+  fresh.lease_holder = "node-1";
+  ASSERT_TRUE((*store)->Insert(fresh).ok());
+  EXPECT_EQ((*(*store)->Get("job-new"))->owner, "artist");
+  EXPECT_EQ(*(*store)->CountPendingOwnedBy("artist"), 1);
+  // A purged result's blobs are no longer result blobs.
+  ASSERT_TRUE((*store)->DeleteResult(manifest.cache_key()).ok());
+  EXPECT_FALSE(*(*store)->IsResultBlob(std::string(64, 'c')));
 }
 
 }  // namespace
