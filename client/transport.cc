@@ -1,6 +1,7 @@
 #include "client/transport.h"
 
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <utility>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "client/retry.h"
 #include "client/rpc_error.h"
 #include "common/tls_channel.h"
+#include "common/token_source.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
 
@@ -164,6 +166,11 @@ struct Transport::Stubs {
   std::shared_ptr<grpc::Channel> channel;
   std::unique_ptr<v1::BakeService::Stub> bake;
   std::unique_ptr<v1::AssetService::Stub> asset;
+  // Identity (issue 14): "Bearer <token>", or empty for no token.
+  std::string authorization;
+  void AddToken(grpc::ClientContext& context) const {
+    if (!authorization.empty()) context.AddMetadata("authorization", authorization);
+  }
 };
 
 Transport::Transport(ClientOptions options, std::unique_ptr<Stubs> stubs)
@@ -195,6 +202,9 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
 
   auto stubs = std::make_unique<Stubs>(options);
   stubs->hooks = hooks;
+  auto token = ResolveToken(options.token_file, options.token, std::getenv(kTokenEnvVar));
+  if (!token.ok()) return token.status();
+  if (!token->empty()) stubs->authorization = "Bearer " + *token;
   if (stubs->hooks.on_rpc) {
     std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
     interceptors.push_back(std::make_unique<RpcObserverFactory>(&stubs->hooks));
@@ -265,6 +275,7 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
   RetryPolicy retry(options_, stubs_->monitor);
   while (true) {
     grpc::ClientContext context;
+    stubs_->AddToken(context);
     context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds));
     if (!options_.client_id.empty()) context.AddMetadata("impostor-client-id", options_.client_id);
     Response response;
@@ -319,6 +330,7 @@ absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBak
 absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& digest,
                                                              const ChunkSource& next_chunk) {
   grpc::ClientContext context;
+  stubs_->AddToken(context);
   context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds +
                                      static_cast<double>(digest.size_bytes()) / kStreamBytesPerSecond));
   v1::UploadBlobResponse response;
@@ -357,6 +369,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
 absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
                                  const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk) {
   grpc::ClientContext context;
+  stubs_->AddToken(context);
   const double remaining = static_cast<double>(digest.size_bytes() - offset);
   context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds + std::max(0.0, remaining) / kStreamBytesPerSecond));
   v1::ReadBlobRequest request;
@@ -377,6 +390,7 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
 
 absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {
   grpc::ClientContext context;
+  stubs_->AddToken(context);
   v1::WatchJobRequest request;
   request.set_job_id(job_id);
   std::unique_ptr<grpc::ClientReader<v1::Job>> reader = stubs_->bake->WatchJob(&context, request);

@@ -207,7 +207,7 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const st
 }
 
 absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBakeRequest& request,
-                                                             const std::string& client_id) {
+                                                             const std::string& client_id, const std::string& owner) {
   if (auto s = ValidateMeshInput(request.mesh()); !s.ok()) return s;
   auto params = NormalizeParameters(request.parameters());
   if (!params.ok()) return params.status();
@@ -269,6 +269,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   record.job.set_created_ms(now);
   record.job.set_updated_ms(now);
   record.client_id = requester;
+  record.owner = owner;
   record.request_id = request.request_id();
   record.job.set_priority(request.priority());
   record.lease_priority = request.priority();
@@ -514,7 +515,8 @@ bool BakeScheduler::shutting_down() {
 
 absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::LeaseJobRequest& request,
                                                                    Deadline deadline,
-                                                                   const std::function<bool()>& caller_gone) {
+                                                                   const std::function<bool()>& caller_gone,
+                                                                   const std::string& lease_holder) {
   if (request.worker_id().empty()) return absl::InvalidArgumentError("worker_id: required");
   if (request.wait_seconds() > 60) {
     return absl::InvalidArgumentError(absl::StrCat("wait_seconds: ", request.wait_seconds(), " is over the limit of 60"));
@@ -548,6 +550,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       r.lease_id = NewId("lease-");
       r.lease_deadline_ms = now + options_.lease_timeout_ms;
       r.worker_id = request.worker_id();
+      r.lease_holder = lease_holder;
       r.job.set_worker_id(request.worker_id());
       if (auto s = Save(r); !s.ok()) return s;
       last_served_[r.client_id] = ++lease_sequence_;
@@ -633,7 +636,9 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   std::lock_guard lock(mu_);
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
-  const v1::Manifest& m = request.result();
+  v1::Manifest m = request.result();
+  // Who baked it is the server's word, not the worker's (purge --worker).
+  m.set_baked_by(r->lease_holder);
   if (m.cache_key() != r->job.cache_key()) {
     return absl::InvalidArgumentError(absl::StrCat("result.cache_key: ", m.cache_key().substr(0, 80),
                                                    " differs from the job's ", r->job.cache_key()));
@@ -789,6 +794,36 @@ absl::Status BakeScheduler::ExpireLeases() {
     if (auto s = LoseLease(r, ""); !s.ok()) return s;
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> BakeScheduler::JobOwner(const std::string& job_id) {
+  std::lock_guard lock(mu_);
+  auto r = LoadJob(job_id);
+  if (!r.ok()) return r.status();
+  return r->owner;
+}
+
+absl::StatusOr<int64_t> BakeScheduler::CountPendingOwnedBy(const std::string& owner) {
+  std::lock_guard lock(mu_);
+  return jobs_->CountPendingOwnedBy(owner);
+}
+
+absl::StatusOr<bool> BakeScheduler::IsResultBlob(const std::string& hash) {
+  std::lock_guard lock(mu_);
+  return jobs_->IsResultBlob(hash);
+}
+
+absl::StatusOr<bool> BakeScheduler::IsInputOfLeasedJob(const std::string& lease_holder, const std::string& hash) {
+  std::lock_guard lock(mu_);
+  auto held = jobs_->RunningLeasedBy(lease_holder);
+  if (!held.ok()) return held.status();
+  for (const JobRecord& r : *held) {
+    if (r.mesh.entry().digest().hash() == hash) return true;
+    for (const auto& f : r.mesh.files()) {
+      if (f.digest().hash() == hash) return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace impostor

@@ -80,8 +80,10 @@ class BakeScheduler {
 
   // See BakeService.SubmitBake for outcomes and codes. `client_id` names the
   // requester for per-client limits (may be empty).
+  // `owner` is the submitting token's name ('' without tokens), recorded
+  // with the job (JobOwner).
   absl::StatusOr<v1::SubmitBakeResponse> Submit(const v1::SubmitBakeRequest& request,
-                                                const std::string& client_id = "");
+                                                const std::string& client_id = "", const std::string& owner = "");
   // See BakeService.LookupBake.
   absl::StatusOr<v1::LookupBakeResponse> Lookup(const v1::SubmitBakeRequest& request);
   // NOT_FOUND for an unknown job; INVALID_ARGUMENT for an empty id.
@@ -117,8 +119,10 @@ class BakeScheduler {
   // clients alternate whatever their queue lengths), then the oldest job.
   // `caller_gone` is polled about once a second; when it turns true the
   // wait ends with no job.
+  // `lease_holder` is the leasing worker token's name ('' without tokens).
   absl::StatusOr<std::optional<v1::LeasedJob>> Lease(const v1::LeaseJobRequest& request, Deadline deadline,
-                                                     const std::function<bool()>& caller_gone);
+                                                     const std::function<bool()>& caller_gone,
+                                                     const std::string& lease_holder = "");
   absl::StatusOr<v1::ReportProgressResponse> ReportProgress(const v1::ReportProgressRequest& request);
   absl::Status Complete(const v1::CompleteJobRequest& request);
   absl::Status Fail(const v1::FailJobRequest& request);
@@ -202,6 +206,17 @@ class BakeScheduler {
   // OK while the scheduler takes work: not shutting down and the job
   // database answers. UNAVAILABLE otherwise, saying why.
   absl::Status CheckReady();
+  // Questions the authorisation layer asks about objects (access_policy.h).
+  // The token name that submitted `job_id` ('' for jobs from before tokens);
+  // INVALID_ARGUMENT for an empty id, NOT_FOUND for an unknown job.
+  absl::StatusOr<std::string> JobOwner(const std::string& job_id);
+  // QUEUED or RUNNING jobs the token `owner` submitted (per-token quota).
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
+  // True when a result lists the blob (its manifest.json or a map).
+  absl::StatusOr<bool> IsResultBlob(const std::string& hash);
+  // True when `hash` is an input file of a job whose lease `lease_holder`
+  // holds now.
+  absl::StatusOr<bool> IsInputOfLeasedJob(const std::string& lease_holder, const std::string& hash);
 
  private:
   absl::StatusOr<JobRecord> LoadJob(const std::string& job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

@@ -77,7 +77,10 @@ class OpenWatch {
 
 grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                                          v1::SubmitBakeResponse* response) {
-  auto r = scheduler_->Submit(*request, ClientId(*context));
+  // With tokens, per-client limits and fairness count inside the token:
+  // the impostor-client-id label cannot make one token look like another.
+  const std::string owner = principals_ ? principals_->Of(context).name : std::string();
+  auto r = scheduler_->Submit(*request, owner.empty() ? ClientId(*context) : owner + "/" + ClientId(*context), owner);
   if (!r.ok()) return ToGrpc(r.status());
   *response = std::move(*r);
   return grpc::Status::OK;

@@ -50,6 +50,10 @@ constexpr Migration kMigrations[] = {
     {"priority", "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0"},
     {"request_id", "ALTER TABLE jobs ADD COLUMN request_id TEXT NOT NULL DEFAULT ''"},
     {"lease_expiries", "ALTER TABLE jobs ADD COLUMN lease_expiries INTEGER NOT NULL DEFAULT 0"},
+    // Issue 14: the token names of the submitter and of the worker holding
+    // the lease ('' for jobs from before tokens, or with --auth none).
+    {"owner", "ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT ''"},
+    {"lease_holder", "ALTER TABLE jobs ADD COLUMN lease_holder TEXT NOT NULL DEFAULT ''"},
 };
 // Indexes over migrated columns: created after the migrations.
 constexpr const char* kLateIndexes =
@@ -57,11 +61,17 @@ constexpr const char* kLateIndexes =
     // One job per (requester, request id): a retried submit finds it, and a
     // second insert could only be a scheduler bug.
     "CREATE UNIQUE INDEX IF NOT EXISTS jobs_by_request ON jobs (client_id, request_id) WHERE request_id != '';"
-    "CREATE INDEX IF NOT EXISTS jobs_by_worker ON jobs (worker_id, state);";
+    "CREATE INDEX IF NOT EXISTS jobs_by_worker ON jobs (worker_id, state);"
+    "CREATE INDEX IF NOT EXISTS jobs_by_holder ON jobs (lease_holder, state);"
+    // Which blobs belong to a result (its manifest.json and maps): who may
+    // read a blob depends on it (access_policy.h). Filled by PutResult;
+    // an older database is filled from its results at Open.
+    "CREATE TABLE IF NOT EXISTS result_blobs (hash TEXT NOT NULL, cache_key TEXT NOT NULL, "
+    "PRIMARY KEY (hash, cache_key));";
 
 constexpr const char* kJobColumns =
     "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
-    "requester_cancelled, client_id, priority, request_id, lease_expiries";
+    "requester_cancelled, client_id, priority, request_id, lease_expiries, owner, lease_holder";
 
 // RAII prepared statement.
 class Statement {
@@ -122,6 +132,8 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
   r.gate = request.gate();
   r.request_id = st.Text(13);
   r.lease_expiries = static_cast<int32_t>(st.Int(14));
+  r.owner = st.Text(15);
+  r.lease_holder = st.Text(16);
   return r;
 }
 
@@ -198,7 +210,22 @@ absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::
     sqlite3_close(db);
     return absl::InternalError(absl::StrCat("cannot index ", file.string(), ": ", msg));
   }
-  return std::unique_ptr<JobStore>(new JobStore(db));
+  auto store = std::unique_ptr<JobStore>(new JobStore(db));
+  if (auto s = store->BackfillResultBlobs(); !s.ok()) return s;
+  return store;
+}
+
+absl::Status JobStore::BackfillResultBlobs() {
+  Statement any(db_, "SELECT (SELECT COUNT(*) FROM result_blobs), (SELECT COUNT(*) FROM results)");
+  if (auto s = any.prepared(); !s.ok()) return s;
+  if (any.Step() != SQLITE_ROW) return any.Error("count result blobs");
+  if (any.Int(0) > 0 || any.Int(1) == 0) return absl::OkStatus();
+  auto results = ResultsByLastUse();
+  if (!results.ok()) return results.status();
+  for (const StoredResult& r : *results) {
+    if (auto s = IndexResultBlobs(r.manifest); !s.ok()) return s;
+  }
+  return absl::OkStatus();
 }
 
 JobStore::~JobStore() { sqlite3_close(db_); }
@@ -227,6 +254,8 @@ void BindJob(Statement& st, const JobRecord& r) {
   st.Bind(13, int64_t{r.lease_priority});
   st.Bind(14, r.request_id);
   st.Bind(15, int64_t{r.lease_expiries});
+  st.Bind(16, r.owner);
+  st.Bind(17, r.lease_holder);
 }
 
 }  // namespace
@@ -234,7 +263,8 @@ void BindJob(Statement& st, const JobRecord& r) {
 absl::Status JobStore::Insert(const JobRecord& record) {
   Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
                     "worker_id, job, request, leader_job_id, requester_cancelled, client_id, priority, request_id, "
-                    "lease_expiries) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)");
+                    "lease_expiries, owner, lease_holder) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, "
+                    "?15, ?16, ?17)");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("insert job");
@@ -245,7 +275,7 @@ absl::Status JobStore::Update(const JobRecord& record) {
   Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
                     "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9, leader_job_id = ?10, "
                     "requester_cancelled = ?11, client_id = ?12, priority = ?13, request_id = ?14, "
-                    "lease_expiries = ?15 WHERE job_id = ?1");
+                    "lease_expiries = ?15, owner = ?16, lease_holder = ?17 WHERE job_id = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
   if (st.Step() != SQLITE_DONE) return st.Error("update job");
@@ -355,7 +385,55 @@ absl::Status JobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
   st.BindBlob(2, manifest.SerializeAsString());
   st.Bind(3, now_ms);
   if (st.Step() != SQLITE_DONE) return st.Error("insert result");
+  return IndexResultBlobs(manifest);
+}
+
+absl::Status JobStore::IndexResultBlobs(const v1::Manifest& manifest) {
+  Statement clear(db_, "DELETE FROM result_blobs WHERE cache_key = ?1");
+  if (auto s = clear.prepared(); !s.ok()) return s;
+  clear.Bind(1, manifest.cache_key());
+  if (clear.Step() != SQLITE_DONE) return clear.Error("index result blobs");
+  std::vector<std::string> hashes = {manifest.manifest_json().hash()};
+  for (const auto& map : manifest.maps()) hashes.push_back(map.digest().hash());
+  for (const std::string& hash : hashes) {
+    if (hash.empty()) continue;
+    Statement st(db_, "INSERT OR IGNORE INTO result_blobs (hash, cache_key) VALUES (?1, ?2)");
+    if (auto s = st.prepared(); !s.ok()) return s;
+    st.Bind(1, hash);
+    st.Bind(2, manifest.cache_key());
+    if (st.Step() != SQLITE_DONE) return st.Error("index result blobs");
+  }
   return absl::OkStatus();
+}
+
+absl::StatusOr<bool> JobStore::IsResultBlob(const std::string& hash) {
+  Statement st(db_, "SELECT 1 FROM result_blobs WHERE hash = ?1 LIMIT 1");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, hash);
+  const int rc = st.Step();
+  if (rc == SQLITE_ROW) return true;
+  if (rc != SQLITE_DONE) return st.Error("query result blobs");
+  return false;
+}
+
+absl::StatusOr<int64_t> JobStore::CountPendingOwnedBy(const std::string& owner) {
+  Statement st(db_, "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0 AND owner = ?3");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+  st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  st.Bind(3, owner);
+  if (st.Step() != SQLITE_ROW) return st.Error("count pending of owner");
+  return st.Int(0);
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobStore::RunningLeasedBy(const std::string& lease_holder) {
+  return QueryMany(db_,
+                   absl::StrCat("SELECT ", kJobColumns,
+                                " FROM jobs WHERE lease_holder = ?1 AND state = ?2 AND leader_job_id = ''"),
+                   [&](Statement& st) {
+                     st.Bind(1, lease_holder);
+                     st.Bind(2, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+                   });
 }
 
 absl::StatusOr<std::optional<v1::Manifest>> JobStore::GetResult(const std::string& cache_key) {
@@ -416,6 +494,10 @@ absl::Status JobStore::DeleteResult(const std::string& cache_key) {
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
   if (st.Step() != SQLITE_DONE) return st.Error("delete result");
+  Statement blobs(db_, "DELETE FROM result_blobs WHERE cache_key = ?1");
+  if (auto s = blobs.prepared(); !s.ok()) return s;
+  blobs.Bind(1, cache_key);
+  if (blobs.Step() != SQLITE_DONE) return blobs.Error("delete result blobs");
   return absl::OkStatus();
 }
 

@@ -54,6 +54,12 @@ struct JobRecord {
   // error a job that keeps killing its workers ends with. Column
   // `lease_expiries`.
   int32_t lease_expiries = 0;
+  // The token name that submitted the job ('' without tokens): only it (or
+  // an admin) may watch, get or cancel the job. Column `owner`.
+  std::string owner;
+  // The token name of the worker holding the lease ('' when none or without
+  // tokens): it may read the job's input blobs. Column `lease_holder`.
+  std::string lease_holder;
 };
 
 class JobStore {
@@ -129,9 +135,20 @@ class JobStore {
   absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key);
   // One result with its pin and times.
   absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key);
+  // True when some result lists a blob with this hash (its manifest.json or
+  // one of its maps).
+  absl::StatusOr<bool> IsResultBlob(const std::string& hash);
+  // QUEUED or RUNNING jobs (not cancelled by their requester) of `owner`.
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
+  // RUNNING leaders whose lease is held by the token `lease_holder`.
+  absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder);
 
  private:
   explicit JobStore(sqlite3* db) : db_(db) {}
+  // Rewrites the result_blobs rows of one result.
+  absl::Status IndexResultBlobs(const v1::Manifest& manifest);
+  // A database from before result_blobs: index every result once.
+  absl::Status BackfillResultBlobs();
   sqlite3* db_;
 };
 

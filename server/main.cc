@@ -33,6 +33,15 @@
 #include "server/services.h"
 #include "server/tls_credentials.h"
 #include "server/worker_supervisor.h"
+// Identity and roles (issue 14).
+#include "server/auth_mode.h"
+#include "server/authenticator.h"
+#include "server/authorized_services.h"
+#include "server/call_principals.h"
+#include "server/purge_command.h"
+#include "server/token_command.h"
+#include "server/token_quotas.h"
+#include "server/token_store.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
@@ -65,6 +74,14 @@ ABSL_FLAG(std::string, tls_client_ca, "",
           "Mutual TLS: clients must present a certificate issued by this CA (PEM; needs --tls-cert)");
 ABSL_FLAG(int, tls_reload_seconds, 5,
           "How often the TLS files are checked for a renewed certificate, key or client CA (1..3600)");
+// Identity and roles (issue 14).
+ABSL_FLAG(std::string, auth, "",
+          "none or token: whether callers need a bearer token (`impostor-server token create`). Default: token "
+          "unless --listen is a loopback address; none is refused on other addresses");
+ABSL_FLAG(int64_t, token_max_pending_jobs, 1000, "Queued or running jobs per token (not admin) (>= 1)");
+ABSL_FLAG(int64_t, token_max_upload_bytes_per_day, int64_t{100} << 30,
+          "Bytes a token (not admin) may upload in any 24 hours (>= 1)");
+ABSL_FLAG(int64_t, token_max_bakes_per_hour, 1000, "Bakes (non-cached submits) per token (not admin) per hour (>= 1)");
 
 namespace {
 
@@ -78,6 +95,14 @@ int Fail(const std::string& message) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // `impostor-server token ...` manages tokens on a data directory.
+  if (argc > 1 && std::string(argv[1]) == "token") {
+    return impostor::RunTokenCommand(std::vector<std::string>(argv + 2, argv + argc));
+  }
+  // `impostor-server purge --worker NAME` drops what a compromised worker baked.
+  if (argc > 1 && std::string(argv[1]) == "purge") {
+    return impostor::RunPurgeCommand(std::vector<std::string>(argv + 2, argv + argc));
+  }
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::ShowAllFlagsInHelp();
   // --help and --version are generated from the flag registry (common/flag_help.h).
@@ -136,6 +161,17 @@ int main(int argc, char** argv) {
                                        .reload_seconds = absl::GetFlag(FLAGS_tls_reload_seconds)};
   auto listen_credentials = impostor::MakeServerCredentials(tls);
   if (!listen_credentials.ok()) return Fail(std::string(listen_credentials.status().message()));
+  auto auth_mode = impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen));
+  if (!auth_mode.ok()) return Fail(std::string(auth_mode.status().message()));
+  const impostor::QuotaOptions quota_options{
+      .max_pending_jobs = absl::GetFlag(FLAGS_token_max_pending_jobs),
+      .max_upload_bytes_per_day = absl::GetFlag(FLAGS_token_max_upload_bytes_per_day),
+      .max_bakes_per_hour = absl::GetFlag(FLAGS_token_max_bakes_per_hour)};
+  if (quota_options.max_pending_jobs < 1 || quota_options.max_upload_bytes_per_day < 1 ||
+      quota_options.max_bakes_per_hour < 1) {
+    return Fail(
+        "--token-max-pending-jobs, --token-max-upload-bytes-per-day and --token-max-bakes-per-hour must be >= 1");
+  }
 
   std::error_code ec;
   std::filesystem::create_directories(data, ec);
@@ -169,10 +205,26 @@ int main(int argc, char** argv) {
   // (--http-listen, off by default; server/http/http_frontend.h). Null when off.
   auto http = impostor::HttpFrontend::StartFromFlags(&scheduler, blobs->get());
   if (!http.ok()) return Fail(std::string(http.status().message()));
+  // Identity (issue 14): with --auth token every call passes the
+  // AccessGuard (authorized_services.h) before reaching a service.
+  std::unique_ptr<impostor::TokenStore> token_store;
+  std::unique_ptr<impostor::Authenticator> authenticator;
+  if (*auth_mode == impostor::AuthMode::kToken) {
+    auto opened = impostor::OpenSqliteTokenStore(data);
+    if (!opened.ok()) return Fail(std::string(opened.status().message()));
+    token_store = std::move(*opened);
+    authenticator = std::make_unique<impostor::Authenticator>(token_store.get());
+  }
+  impostor::CallPrincipals principals;
+  impostor::TokenQuotas quotas(quota_options);
+  impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals, &quotas);
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
-  impostor::BakeServiceImpl bake_service(&scheduler);
-  impostor::WorkerServiceImpl worker_service(&scheduler);
+  impostor::BakeServiceImpl bake_service(&scheduler, &principals);
+  impostor::WorkerServiceImpl worker_service(&scheduler, &principals);
+  impostor::AuthorizedAssetService authorized_assets(&access_guard, &asset_service);
+  impostor::AuthorizedBakeService authorized_bakes(&access_guard, &bake_service);
+  impostor::AuthorizedWorkerService authorized_workers(&access_guard, &worker_service);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -184,17 +236,17 @@ int main(int argc, char** argv) {
     builder.AddListeningPort("unix:" + local_worker_socket, grpc::InsecureServerCredentials());
   }
   builder.SetMaxReceiveMessageSize(16 << 20);
-  builder.RegisterService(&asset_service);
-  builder.RegisterService(&bake_service);
-  builder.RegisterService(&worker_service);
+  builder.RegisterService(&authorized_assets);
+  builder.RegisterService(&authorized_bakes);
+  builder.RegisterService(&authorized_workers);
   if (*http) builder.experimental().SetInterceptorCreators((*http)->InterceptorCreators());  // RPC metrics
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return Fail("--listen: cannot listen on " + absl::GetFlag(FLAGS_listen));
 
   const std::string listen = absl::GetFlag(FLAGS_listen);
   const std::string host = listen.substr(0, listen.rfind(':'));
-  spdlog::info("event=listening address={}:{} data={} baker_version={}", host, port, data,
-               impostor::BakerVersion());
+  spdlog::info("event=listening address={}:{} data={} baker_version={} auth={}", host, port, data,
+               impostor::BakerVersion(), token_store ? "token" : "none");
   impostor::LogServerTls(tls, host);
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
@@ -217,11 +269,18 @@ int main(int argc, char** argv) {
     const std::string connect_host = (host == "0.0.0.0" || host == "[::]" || host.empty()) ? "127.0.0.1" : host;
     // Local workers drain within half the grace period, so a job that cannot
     // finish is handed back while the server can still take it.
+    std::vector<std::string> worker_args{"--drain-seconds=" + std::to_string(grace_s / 2)};
+    // With tokens, local workers get a worker token minted here, through a
+    // file only this user can read (never the secret on a command line).
+    if (token_store) {
+      auto token_file = impostor::MintLocalWorkerToken(token_store.get(), data);
+      if (!token_file.ok()) return Fail(std::string(token_file.status().message()));
+      worker_args.push_back("--token-file=" + token_file->string());
+    }
     supervisor = std::make_unique<impostor::WorkerSupervisor>(
         worker_binary,
         local_worker_socket.empty() ? connect_host + ":" + std::to_string(port) : "unix:" + local_worker_socket,
-        local_workers,
-        std::vector<std::string>{"--drain-seconds=" + std::to_string(grace_s / 2)},
+        local_workers, worker_args,
         [&scheduler](const std::string& worker_id, const std::string& how) {
           if (auto s = scheduler.WorkerDied(worker_id, how); !s.ok()) {
             spdlog::error("event=worker_death_not_recorded worker={} error=\"{}\"", worker_id, s.ToString());

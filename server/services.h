@@ -10,6 +10,7 @@
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
+#include "server/call_principals.h"
 
 namespace impostor {
 
@@ -35,7 +36,10 @@ class AssetServiceImpl final : public v1::AssetService::Service {
 
 class BakeServiceImpl final : public v1::BakeService::Service {
  public:
-  explicit BakeServiceImpl(BakeScheduler* scheduler) : scheduler_(scheduler) {}
+  // `principals` (null without tokens) names the caller of SubmitBake: the
+  // job's owner, and the scope of its impostor-client-id label.
+  explicit BakeServiceImpl(BakeScheduler* scheduler, CallPrincipals* principals = nullptr)
+      : scheduler_(scheduler), principals_(principals) {}
 
   grpc::Status SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                           v1::SubmitBakeResponse* response) override;
@@ -49,11 +53,14 @@ class BakeServiceImpl final : public v1::BakeService::Service {
 
  private:
   BakeScheduler* const scheduler_;
+  CallPrincipals* const principals_;
 };
 
 class WorkerServiceImpl final : public v1::WorkerService::Service {
  public:
-  explicit WorkerServiceImpl(BakeScheduler* scheduler) : scheduler_(scheduler) {}
+  // `principals` (null without tokens) names the worker token that leases.
+  explicit WorkerServiceImpl(BakeScheduler* scheduler, CallPrincipals* principals = nullptr)
+      : scheduler_(scheduler), principals_(principals) {}
 
   grpc::Status LeaseJob(grpc::ServerContext* context, const v1::LeaseJobRequest* request,
                         v1::LeaseJobResponse* response) override;
@@ -68,6 +75,7 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
 
  private:
   BakeScheduler* const scheduler_;
+  CallPrincipals* const principals_;
 };
 
 }  // namespace impostor

@@ -6,7 +6,8 @@ namespace impostor {
 grpc::Status WorkerServiceImpl::LeaseJob(grpc::ServerContext* context, const v1::LeaseJobRequest* request,
                                          v1::LeaseJobResponse* response) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(request->wait_seconds());
-  auto job = scheduler_->Lease(*request, deadline, [context] { return context->IsCancelled(); });
+  const std::string holder = principals_ ? principals_->Of(context).name : std::string();
+  auto job = scheduler_->Lease(*request, deadline, [context] { return context->IsCancelled(); }, holder);
   if (!job.ok()) return ToGrpc(job.status());
   if (job->has_value()) *response->mutable_job() = std::move(**job);
   return grpc::Status::OK;

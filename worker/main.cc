@@ -21,6 +21,7 @@
 #include "common/flag_names.h"
 #include "common/grpc_log.h"
 #include "common/tls_channel.h"
+#include "common/token_source.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 #include "worker/worker_help.h"
@@ -51,6 +52,9 @@ ABSL_FLAG(std::string, tls_cert, "", "Mutual TLS: this worker's certificate chai
 ABSL_FLAG(std::string, tls_key, "", "Mutual TLS: private key of --tls-cert (PEM, unencrypted)");
 ABSL_FLAG(std::string, tls_server_name, "",
           "Name the server's certificate must carry, when it differs from the host in --server");
+// Identity (issue 14).
+ABSL_FLAG(std::string, token_file, "",
+          "File holding this worker's bearer token (role worker); else $IMPOSTOR_TOKEN. The file wins");
 
 namespace {
 
@@ -125,6 +129,14 @@ int main(int argc, char** argv) {
     spdlog::info("event=tls mode={} ca={}", tls.files.cert.empty() ? "tls" : "mutual", tls.files.ca);
   }
 
+  // Identity (issue 14): checked before the GPU starts, so a bad token file
+  // fails at once.
+  auto token = impostor::ResolveToken(absl::GetFlag(FLAGS_token_file), "", std::getenv(impostor::kTokenEnvVar));
+  if (!token.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(token.status().message()).c_str());
+    return 2;
+  }
+
   auto renderer = impostor::AtlasRenderer::Create(absl::GetFlag(FLAGS_device));
   if (!renderer.ok()) {
     std::fprintf(stderr, "impostor-worker: no usable Vulkan device: %s\n", renderer.status().ToString().c_str());
@@ -156,6 +168,7 @@ int main(int argc, char** argv) {
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),
                              .channel_credentials = *credentials,
                              .tls_server_name = tls.server_name},
+                             .token = *token},
                             std::move(*renderer));
 
   // SIGTERM: drain (no new job; the current one finishes within

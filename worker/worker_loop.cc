@@ -14,6 +14,7 @@
 #include "common/log_escape.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
+#include "worker/bearer_token.h"
 #include "worker/bake/cards_bake.h"
 #include "worker/bake/lod_bake.h"
 #include "worker/bake/surfel_bake.h"
@@ -152,9 +153,13 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 200);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 200);
   if (!options_.tls_server_name.empty()) args.SetSslTargetNameOverride(options_.tls_server_name);
-  channel_ = grpc::CreateCustomChannel(
+  // Identity (issue 14): the token goes on every call of the channel.
+  std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+  if (auto token = BearerTokenInterceptor(options_.token)) interceptors.push_back(std::move(token));
+  channel_ = grpc::experimental::CreateCustomChannelWithInterceptors(
       options_.server,
-      options_.channel_credentials ? options_.channel_credentials : grpc::InsecureChannelCredentials(), args);
+      options_.channel_credentials ? options_.channel_credentials : grpc::InsecureChannelCredentials(), args,
+      std::move(interceptors));
   workers_ = v1::WorkerService::NewStub(channel_);
   assets_ = v1::AssetService::NewStub(channel_);
 }
@@ -172,6 +177,11 @@ absl::Status WorkerLoop::Run() {
     v1::LeaseJobResponse response;
     auto ctx = ContextWithDeadline(std::chrono::seconds(15));
     const grpc::Status s = workers_->LeaseJob(ctx.get(), request, &response);
+    // A refused token is no outage: waiting will not make it valid.
+    if (s.error_code() == grpc::StatusCode::UNAUTHENTICATED || s.error_code() == grpc::StatusCode::PERMISSION_DENIED) {
+      return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
+                          absl::StrCat("LeaseJob: ", s.error_message(), " (check --token-file / IMPOSTOR_TOKEN)"));
+    }
     if (!s.ok()) {
       const auto now = Clock::now();
       if (!outage_since) outage_since = now;

@@ -83,6 +83,9 @@ struct WorkerOptions {
   // --tls-server-name: the name the server's certificate must carry when it
   // differs from the host in `server`. Empty = that host.
   std::string tls_server_name;
+  // Bearer token sent on every call (issue 14); empty = none (a server with
+  // --auth none).
+  std::string token;
 };
 
 class WorkerLoop {

@@ -105,6 +105,8 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.tls_cert_file = o.tls_cert_file;
   c.tls_key_file = o.tls_key_file;
   c.tls_server_name = o.tls_server_name;
+  c.token_file = o.token_file;
+  c.token = o.token;
   return c;
 }
 

@@ -80,6 +80,8 @@ impostor_status impostor_cache_open(const impostor_cache_options* options, impos
   if (options->tls_cert_file != nullptr) o.tls_cert_file = options->tls_cert_file;
   if (options->tls_key_file != nullptr) o.tls_key_file = options->tls_key_file;
   if (options->tls_server_name != nullptr) o.tls_server_name = options->tls_server_name;
+  if (options->token_file != nullptr) o.token_file = options->token_file;
+  if (options->token != nullptr) o.token = options->token;
   auto cache = impostor::sdk::Cache::Open(o);
   if (!cache.ok()) return Report(cache.status());
   *out = new impostor_cache{std::move(*cache)};

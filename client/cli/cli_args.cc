@@ -136,6 +136,14 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
                               : out.tls_server_name) = *value;
       continue;
     }
+    // Identity (issue 14): --token-file on every command that talks to the
+    // server (those that take --server).
+    if (flag == "--token-file" && spec.value_flags.contains("--server")) {
+      if (!value.has_value() && i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) value = args[++i];
+      if (!value.has_value() || value->empty()) return Usage("--token-file: missing value");
+      out.token_file = *value;
+      continue;
+    }
     if (!spec.value_flags.contains(flag)) {
       return Usage(absl::StrCat("unknown flag ", flag, " for '", name, "'"));
     }
@@ -462,6 +470,9 @@ Common flags:
   --json              print one JSON object on stdout instead of text; bake prints
                       {model, cache_key, job_id, cached, out_dir, manifest, files,
                       wall_seconds, uploaded_bytes, error}
+  --token-file FILE   (every command that takes --server) the bearer token for a
+                      server with tokens (`impostor-server token create`); the
+                      file wins over $IMPOSTOR_TOKEN
   Flags take their value as "--flag VALUE" or "--flag=VALUE"; "--" ends the flags.
 
 Exit codes:
@@ -477,6 +488,7 @@ Every failure prints exactly one line "impostor: <reason>" on stderr.
 Environment:
   IMPOSTOR_SERVER     default for --server
   IMPOSTOR_CACHE_DIR  default for --cache-dir
+  IMPOSTOR_TOKEN      the bearer token when --token-file is not given
   IMPOSTOR_LOG        spdlog level for diagnostics on stderr (e.g. debug; default off)
 )";
 }

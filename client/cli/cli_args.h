@@ -46,6 +46,9 @@ struct CliArgs {
   bool keep_going = false;
   // --client-id: names this client to the server for fairness and limits.
   std::string client_id;
+  // --token-file FILE (commands that talk to the server): the bearer token
+  // (issue 14); unset = $IMPOSTOR_TOKEN, else none. Read by the SDK.
+  std::string token_file;
   // --max-outage-seconds (commands that talk to the server): how long to
   // keep retrying while the server is away, 0..86400 (checked here); unset =
   // the command's default (kBakeOutageSeconds or kInteractiveOutageSeconds).

@@ -31,6 +31,7 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
   sdk::ClientOptions options;
   options.server = args.server;
   options.client_id = args.client_id;
+  options.token_file = args.token_file;
   options.max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options.on_connection_change = PrintEvents(args);
   // Transport security (README "Securing a farm: TLS").
@@ -43,6 +44,7 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
 
 void ApplyConnectionOptions(const CliArgs& args, double default_outage_seconds, sdk::CacheOptions* options) {
   options->server = args.server;
+  options->token_file = args.token_file;
   options->max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options->on_connection_change = PrintEvents(args);
   // Transport security (README "Securing a farm: TLS").

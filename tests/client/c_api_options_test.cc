@@ -22,6 +22,9 @@ TEST(CApiOptions, DefaultsMirrorCacheOptions) {
   EXPECT_EQ(o.max_outage_seconds, 30);
   EXPECT_EQ(o.max_attempts, defaults.max_attempts);
   EXPECT_EQ(o.rpc_timeout_seconds, defaults.rpc_timeout_seconds);
+  // Identity (issue 14): no token unless given (then $IMPOSTOR_TOKEN).
+  EXPECT_EQ(o.token_file, nullptr);
+  EXPECT_EQ(o.token, nullptr);
 }
 
 TEST(CApiOptions, OutageBudgetIsChecked) {

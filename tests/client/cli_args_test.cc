@@ -164,3 +164,38 @@ TEST(UsageText, DocumentsEveryExitCode) {
 
 }  // namespace
 }  // namespace impostor::cli
+
+namespace impostor::cli {
+namespace {
+
+// Identity (issue 14): --token-file on every command that talks to the
+// server, nowhere else.
+TEST(ParseCliArgs, TokenFile) {
+  struct Case {
+    std::vector<std::string> args;
+    bool ok;
+    const char* error;
+  } cases[] = {
+      {{"bake", "m.glb", "--out", "d", "--token-file", "t"}, true, ""},
+      {{"bake-batch", "s.json", "--out", "d", "--token-file=t"}, true, ""},
+      {{"fetch", "k", "--out", "d", "--token-file", "t"}, true, ""},
+      {{"status", "j", "--token-file", "t"}, true, ""},
+      {{"cache", "get", "k", "--token-file", "t"}, true, ""},
+      {{"cache", "ls", "--token-file", "t"}, false, "unknown flag --token-file"},
+      {{"status", "j", "--token-file"}, false, "--token-file: missing value"},
+      {{"status", "j", "--token-file="}, false, "--token-file: missing value"},
+      {{"status", "j", "--token-file", "--json"}, false, "--token-file: missing value"},
+  };
+  for (const Case& c : cases) {
+    auto parsed = ParseCliArgs(c.args, nullptr);
+    EXPECT_EQ(parsed.ok(), c.ok) << c.args[0] << " " << c.args.back() << ": " << parsed.status();
+    if (parsed.ok()) {
+      EXPECT_EQ(parsed->token_file, "t");
+    } else {
+      EXPECT_NE(parsed.status().message().find(c.error), std::string::npos) << parsed.status();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace impostor::cli

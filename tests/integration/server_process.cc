@@ -21,6 +21,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <grpcpp/support/client_interceptor.h>
 #include <gtest/gtest.h>
 
 #include "common/sha256.h"
@@ -96,6 +97,34 @@ std::string LastLines(const std::string& text, int lines) {
   }
   return text.substr(pos == 0 ? 0 : pos + 1);
 }
+
+// Sends the harness's token on every call of a ServerProcess's channel
+// (the worker has the same in worker/bearer_token.cc, which the many test
+// binaries built from this file do not link).
+class TokenInterceptor : public grpc::experimental::Interceptor {
+ public:
+  explicit TokenInterceptor(const std::string* header) : header_(header) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(grpc::experimental::InterceptionHookPoints::PRE_SEND_INITIAL_METADATA)) {
+      methods->GetSendInitialMetadata()->emplace("authorization", *header_);
+    }
+    methods->Proceed();
+  }
+
+ private:
+  const std::string* header_;
+};
+
+class TokenInterceptorFactory : public grpc::experimental::ClientInterceptorFactoryInterface {
+ public:
+  explicit TokenInterceptorFactory(const std::string& token) : header_("Bearer " + token) {}
+  grpc::experimental::Interceptor* CreateClientInterceptor(grpc::experimental::ClientRpcInfo*) override {
+    return new TokenInterceptor(&header_);
+  }
+
+ private:
+  const std::string header_;
+};
 
 bool CurrentTestFailed() {
   const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -409,6 +438,10 @@ void ServerProcess::Start() {
   address_ = line.substr(line.rfind(' ') + 1);
   // Restarts keep the address the clients know.
   listen_ = address_;
+  Connect();
+}
+
+void ServerProcess::Connect() {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(64 << 20);
   // A private subchannel pool: gRPC otherwise shares one connection per
@@ -416,7 +449,10 @@ void ServerProcess::Start() {
   // could hand this fresh channel the dead server's reset connection.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   if (!tls_.server_name.empty()) args.SetSslTargetNameOverride(tls_.server_name);
-  channel_ = grpc::CreateCustomChannel(address_, CredentialsFor(tls_), args);
+  std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+  if (!token_.empty()) interceptors.push_back(std::make_unique<TokenInterceptorFactory>(token_));
+  channel_ = grpc::experimental::CreateCustomChannelWithInterceptors(address_, CredentialsFor(tls_), args,
+                                                                     std::move(interceptors));
   if (!channel_->WaitForConnected(std::chrono::system_clock::now() + kStartTimeout)) {
     ADD_FAILURE() << "impostor-server at " << address_ << " printed its line but did not accept a connection within "
                   << Seconds(kStartTimeout);
@@ -435,6 +471,29 @@ void ServerProcess::Restart() {
   Kill();
   process_.reset();
   Start();
+}
+
+void ServerProcess::UseToken(const std::string& token) {
+  token_ = token;
+  Connect();
+}
+
+std::string CreateToken(const fs::path& data_dir, const std::string& role, const std::string& name,
+                        const std::string& expires_in) {
+  std::vector<std::string> argv = {(BinaryDir() / "impostor-server").string(), "token", "create",
+                                   "--data=" + data_dir.string(), "--role=" + role, "--name=" + name};
+  if (!expires_in.empty()) argv.push_back("--expires-in=" + expires_in);
+  const ToolRun run = RunTool(argv, kStartTimeout);
+  EXPECT_EQ(run.exit_code, 0) << "token create " << role << " " << name << ": " << run.err;
+  std::string secret = run.out.substr(0, run.out.find('\n'));
+  return run.exit_code == 0 ? secret : "";
+}
+
+std::unique_ptr<grpc::ClientContext> ContextWithAuthorization(const std::string& authorization,
+                                                              std::chrono::milliseconds timeout) {
+  auto ctx = ContextWithin(timeout);
+  if (!authorization.empty()) ctx->AddMetadata("authorization", authorization);
+  return ctx;
 }
 
 std::unique_ptr<ChildProcess> StartWorker(const std::string& server_address, std::vector<std::string> extra_args,

@@ -169,8 +169,14 @@ class ServerProcess {
   // as the constructor.
   void Restart();
 
+  // Identity (issue 14): from now on (and after Restart) the harness's
+  // channel and stubs send "authorization: Bearer <token>".
+  void UseToken(const std::string& token);
+
  private:
   void Start();
+  void Connect();
+  std::string token_;
 
   int local_workers_ = 0;
   std::vector<std::string> extra_args_;
@@ -184,6 +190,16 @@ class ServerProcess {
   std::unique_ptr<v1::AssetService::Stub> assets_;
   std::unique_ptr<v1::WorkerService::Stub> workers_;
 };
+
+// Identity (issue 14). Runs `impostor-server token create` on `data_dir`
+// (the server may be running); returns the secret, or "" after failing the
+// test with the tool's message. `expires_in` e.g. "1s"; "" = never.
+std::string CreateToken(const std::filesystem::path& data_dir, const std::string& role, const std::string& name,
+                        const std::string& expires_in = "");
+// A context whose deadline is `timeout` from now and whose "authorization"
+// metadata is `authorization` (sent as is; "" = none).
+std::unique_ptr<grpc::ClientContext> ContextWithAuthorization(const std::string& authorization,
+                                                              std::chrono::milliseconds timeout = kRpcTimeout);
 
 // impostor-worker against `server_address`, its stderr in its log.
 // `extra_args` e.g. {"--max-jobs=1"}; `env` e.g. the pause-file hook.

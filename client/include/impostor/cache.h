@@ -147,6 +147,10 @@ struct CacheOptions {
   std::string tls_cert_file;
   std::string tls_key_file;
   std::string tls_server_name;
+  // Identity (issue 14): as ClientOptions::token_file and ::token (the file
+  // wins, then the token, then $IMPOSTOR_TOKEN). Default: empty.
+  std::string token_file;
+  std::string token;
 };
 
 // One file of a cached result.

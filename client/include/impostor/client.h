@@ -135,6 +135,15 @@ struct ClientOptions {
   // localhost for a certificate issued to bake.studio.lan). Needs
   // tls_ca_file. Default: empty = the host in `server`.
   std::string tls_server_name;
+  // Identity (issue 14): the bearer token sent with every call
+  // ("authorization: Bearer <token>") to a server that runs with
+  // --auth token. Taken from `token_file` (a file holding the token on its
+  // first line) if set, else `token`, else the IMPOSTOR_TOKEN environment
+  // variable; none = no token (a loopback server with --auth none).
+  // Connect answers INVALID_ARGUMENT for an unreadable or empty file.
+  // Default: empty.
+  std::string token_file;
+  std::string token;
 };
 
 // What to bake. Zero and empty values mean "the server's default", which the

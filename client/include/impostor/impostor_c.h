@@ -92,6 +92,11 @@ typedef struct impostor_cache_options {
   const char* tls_cert_file;
   const char* tls_key_file;
   const char* tls_server_name;
+  /* Identity (issue 14): a file holding the bearer token, or the token
+   * itself; NULL = none (then $IMPOSTOR_TOKEN is used). The file wins.
+   * Added after max_outage_seconds; init sets both NULL. */
+  const char* token_file;
+  const char* token;
 } impostor_cache_options;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);

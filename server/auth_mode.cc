@@ -1,0 +1,38 @@
+#include "server/auth_mode.h"
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor {
+
+bool IsLoopbackHost(std::string_view host) {
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (host == "localhost" || host == "::1") return true;
+  if (host.substr(0, 4) != "127.") return false;
+  // 127.a.b.c: digits and dots only.
+  for (char c : host) {
+    if (!(c == '.' || (c >= '0' && c <= '9'))) return false;
+  }
+  return true;
+}
+
+absl::StatusOr<AuthMode> ResolveAuthMode(std::string_view flag, std::string_view listen) {
+  const size_t colon = listen.rfind(':');
+  const std::string_view host = colon == std::string_view::npos ? listen : listen.substr(0, colon);
+  const bool loopback = IsLoopbackHost(host);
+  if (flag.empty()) return loopback ? AuthMode::kNone : AuthMode::kToken;
+  if (flag == "token") return AuthMode::kToken;
+  if (flag != "none") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--auth: \"", std::string(flag), "\" is not a mode; expected none or token"));
+  }
+  if (!loopback) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--auth none: refused on ", std::string(listen),
+        ", which is not a loopback address: anyone who can reach the port "
+        "could bake, read every asset and publish forged results. Use --auth token (the default there) or listen "
+        "on 127.0.0.1"));
+  }
+  return AuthMode::kNone;
+}
+
+}  // namespace impostor

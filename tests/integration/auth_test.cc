@@ -1,0 +1,583 @@
+// Identity and roles against a real impostor-server with --auth token
+// (issue 14): the whole role x RPC matrix, refusals of every kind of bad
+// credential, ownership of jobs, revocation and expiry seen by a running
+// server, `impostor-server token` bad inputs, --auth none refused off
+// loopback. Results are published through WorkerService (no GPU); the
+// forged-result attack with a real worker is in auth_bake_test.cc.
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/cache/published_result.h"
+#include "tests/integration/server_process.h"
+
+namespace impostor::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// A server with tokens and one token per role; the harness's own stubs
+// carry the admin token.
+class AuthServer : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    server_ = std::make_unique<ServerProcess>(0, std::vector<std::string>{"--auth=token"});
+    for (const char* role : {"admin", "reader", "submitter", "worker"}) {
+      tokens_[role] = CreateToken(server_->data_dir(), role, std::string(role) + "-1");
+      ASSERT_FALSE(tokens_[role].empty());
+    }
+    server_->UseToken(tokens_["admin"]);
+    // A plain channel: each call below sets its own authorization.
+    grpc::ChannelArguments args;
+    args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+    channel_ = grpc::CreateCustomChannel(server_->address(), grpc::InsecureChannelCredentials(), args);
+    assets_ = v1::AssetService::NewStub(channel_);
+    bake_ = v1::BakeService::NewStub(channel_);
+    workers_ = v1::WorkerService::NewStub(channel_);
+  }
+
+  std::string Bearer(const std::string& role) { return "Bearer " + tokens_[role]; }
+
+  // Uploads a unique fake model with `authorization` and submits it;
+  // returns the job id ("" after a failed expectation).
+  std::string SubmitFake(const std::string& authorization, uint32_t seed) {
+    const std::string model = "glTF" + RandomBytes(64, seed);
+    v1::SubmitBakeRequest submit;
+    submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
+    *submit.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
+    EXPECT_TRUE(Upload(authorization, model).ok());
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::SubmitBakeResponse submitted;
+    const grpc::Status s = bake_->SubmitBake(ctx.get(), submit, &submitted);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    return submitted.job_id();
+  }
+
+  grpc::Status Upload(const std::string& authorization, const std::string& bytes) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::UploadBlobResponse response;
+    auto writer = assets_->UploadBlob(ctx.get(), &response);
+    v1::UploadBlobRequest chunk;
+    *chunk.mutable_digest() = DigestOf(bytes);
+    chunk.set_data(bytes);
+    writer->Write(chunk);
+    writer->WritesDone();
+    return writer->Finish();
+  }
+
+  grpc::Status Read(const std::string& authorization, const v1::Digest& digest) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::ReadBlobRequest request;
+    *request.mutable_digest() = digest;
+    auto reader = assets_->ReadBlob(ctx.get(), request);
+    v1::ReadBlobResponse chunk;
+    while (reader->Read(&chunk)) {
+    }
+    return reader->Finish();
+  }
+
+  grpc::Status Watch(const std::string& authorization, const std::string& job_id) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::WatchJobRequest request;
+    request.set_job_id(job_id);
+    auto reader = bake_->WatchJob(ctx.get(), request);
+    v1::Job job;
+    while (reader->Read(&job)) {
+    }
+    return reader->Finish();
+  }
+
+  grpc::Status GetJob(const std::string& authorization, const std::string& job_id) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::GetJobRequest request;
+    request.set_job_id(job_id);
+    v1::Job job;
+    return bake_->GetJob(ctx.get(), request, &job);
+  }
+
+  grpc::Status GetResult(const std::string& authorization, const std::string& key) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::GetResultRequest request;
+    request.set_cache_key(key);
+    v1::Manifest manifest;
+    return assets_->GetResult(ctx.get(), request, &manifest);
+  }
+
+  // Calls `rpc` with `authorization` and a request chosen so that an
+  // allowed caller gets a known code (see kMatrix).
+  grpc::Status Call(const std::string& rpc, const std::string& authorization) {
+    auto ctx = ContextWithAuthorization(authorization);
+    if (rpc == "FindMissingBlobs") {
+      v1::FindMissingBlobsRequest request;
+      *request.add_digests() = result_blob_;
+      v1::FindMissingBlobsResponse response;
+      return assets_->FindMissingBlobs(ctx.get(), request, &response);
+    }
+    if (rpc == "UploadBlob") return Upload(authorization, "matrix upload");
+    if (rpc == "ReadBlob") return Read(authorization, result_blob_);
+    if (rpc == "GetResult") return GetResult(authorization, result_key_);
+    if (rpc == "PinResult") {
+      v1::PinResultRequest request;
+      request.set_cache_key(result_key_);
+      request.set_pinned(true);
+      v1::PinResultResponse response;
+      return assets_->PinResult(ctx.get(), request, &response);
+    }
+    if (rpc == "LookupBake") {
+      v1::LookupBakeResponse response;
+      return bake_->LookupBake(ctx.get(), v1::SubmitBakeRequest(), &response);
+    }
+    if (rpc == "SubmitBake") {
+      v1::SubmitBakeResponse response;
+      return bake_->SubmitBake(ctx.get(), v1::SubmitBakeRequest(), &response);
+    }
+    if (rpc == "WatchJob") return Watch(authorization, admin_job_);
+    if (rpc == "GetJob") return GetJob(authorization, admin_job_);
+    if (rpc == "CancelJob") {
+      v1::CancelJobRequest request;
+      request.set_job_id(admin_job_);
+      v1::Job job;
+      return bake_->CancelJob(ctx.get(), request, &job);
+    }
+    if (rpc == "LeaseJob") {
+      v1::LeaseJobRequest request;
+      request.set_worker_id("matrix");
+      request.set_wait_seconds(0);
+      v1::LeaseJobResponse response;
+      return workers_->LeaseJob(ctx.get(), request, &response);
+    }
+    if (rpc == "ReportProgress") {
+      v1::ReportProgressRequest request;
+      request.set_job_id(admin_job_);
+      request.set_lease_id("lease-none");
+      v1::ReportProgressResponse response;
+      return workers_->ReportProgress(ctx.get(), request, &response);
+    }
+    if (rpc == "CompleteJob") {
+      v1::CompleteJobRequest request;
+      request.set_job_id(admin_job_);
+      request.set_lease_id("lease-none");
+      v1::CompleteJobResponse response;
+      return workers_->CompleteJob(ctx.get(), request, &response);
+    }
+    if (rpc == "FailJob") {
+      v1::FailJobRequest request;
+      request.set_job_id(admin_job_);
+      request.set_lease_id("lease-none");
+      v1::FailJobResponse response;
+      return workers_->FailJob(ctx.get(), request, &response);
+    }
+    if (rpc == "ReleaseJob") {
+      v1::ReleaseJobRequest request;
+      request.set_job_id(admin_job_);
+      request.set_lease_id("lease-none");
+      v1::ReleaseJobResponse response;
+      return workers_->ReleaseJob(ctx.get(), request, &response);
+    }
+    ADD_FAILURE() << "no such rpc in the test: " << rpc;
+    return grpc::Status::CANCELLED;
+  }
+
+  // A published result (owned by nobody: results are shared) and a finished
+  // job the admin submitted and cancelled (so WatchJob ends at once).
+  void MakeObjects() {
+    const PublishedResult published = PublishResult(*server_, {100, 200, 300}, 14);
+    result_key_ = published.key;
+    result_blob_ = DigestOf(published.files.at("albedo_alpha.png"));
+    admin_job_ = SubmitFake(Bearer("admin"), 1400);
+    auto ctx = ContextWithAuthorization(Bearer("admin"));
+    v1::CancelJobRequest cancel;
+    cancel.set_job_id(admin_job_);
+    v1::Job job;
+    ASSERT_TRUE(bake_->CancelJob(ctx.get(), cancel, &job).ok());
+  }
+
+  std::unique_ptr<ServerProcess> server_;
+  std::map<std::string, std::string> tokens_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::AssetService::Stub> assets_;
+  std::unique_ptr<v1::BakeService::Stub> bake_;
+  std::unique_ptr<v1::WorkerService::Stub> workers_;
+  std::string result_key_;
+  v1::Digest result_blob_;
+  std::string admin_job_;
+};
+
+using grpc::StatusCode;
+constexpr StatusCode kDenied = StatusCode::PERMISSION_DENIED;
+
+// The role x RPC matrix. `admin` is the code an allowed caller gets for the
+// request Call() sends; the other columns are that same code when the role
+// may make the call, PERMISSION_DENIED when it may not.
+struct MatrixRow {
+  const char* rpc;
+  StatusCode admin;
+  StatusCode reader, submitter, worker;
+};
+const MatrixRow kMatrix[] = {
+    {"FindMissingBlobs", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
+    {"UploadBlob", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
+    // A result blob: readers and submitters read results; a worker reads
+    // only the inputs of the job it holds.
+    {"ReadBlob", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
+    {"GetResult", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
+    {"PinResult", StatusCode::OK, kDenied, kDenied, kDenied},
+    {"LookupBake", StatusCode::INVALID_ARGUMENT, StatusCode::INVALID_ARGUMENT, StatusCode::INVALID_ARGUMENT, kDenied},
+    {"SubmitBake", StatusCode::INVALID_ARGUMENT, kDenied, StatusCode::INVALID_ARGUMENT, kDenied},
+    // The admin's job: a submitter may follow its own jobs only.
+    {"WatchJob", StatusCode::OK, kDenied, kDenied, kDenied},
+    {"GetJob", StatusCode::OK, kDenied, kDenied, kDenied},
+    {"CancelJob", StatusCode::OK, kDenied, kDenied, kDenied},
+    {"LeaseJob", StatusCode::OK, kDenied, kDenied, StatusCode::OK},
+    {"ReportProgress", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
+    {"CompleteJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
+    {"FailJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
+    {"ReleaseJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
+};
+
+TEST_F(AuthServer, RoleByRpcMatrix) {
+  MakeObjects();
+  for (const MatrixRow& row : kMatrix) {
+    for (auto [role, expected] : {std::pair<std::string, StatusCode>{"admin", row.admin}, {"reader", row.reader},
+                                  {"submitter", row.submitter}, {"worker", row.worker}}) {
+      const grpc::Status s = Call(row.rpc, Bearer(role));
+      EXPECT_EQ(s.error_code(), expected) << row.rpc << " as " << role << ": " << s.error_message();
+      if (s.error_code() == kDenied) {
+        EXPECT_NE(s.error_message().find(role == "worker" && std::string(row.rpc) == "ReadBlob" ? "inputs" : "admin"),
+                  std::string::npos)
+            << row.rpc << " as " << role << ": " << s.error_message();
+        EXPECT_EQ(s.error_message().find(tokens_[role]), std::string::npos) << "secret echoed";
+      }
+    }
+  }
+}
+
+TEST_F(AuthServer, EveryRpcRefusesBadCredentialsNamingTheReason) {
+  MakeObjects();
+  const std::string expired = CreateToken(server_->data_dir(), "admin", "short-lived", "1s");
+  const std::string revoked = CreateToken(server_->data_dir(), "admin", "revoked-1");
+  ASSERT_EQ(RunTool({(BinaryDir() / "impostor-server").string(), "token", "revoke",
+                     "--data=" + server_->data_dir().string(), "--name=revoked-1"})
+                .exit_code,
+            0);
+  // Expiry is wall-clock: wait (bounded) until the server says so.
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  while (GetResult("Bearer " + expired, result_key_).error_code() != StatusCode::UNAUTHENTICATED &&
+         Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const std::string unknown = "imp_" + std::string(43, 'Q');
+  struct Credential {
+    const char* name;
+    std::string header;
+    const char* reason;
+    std::string secret;  // must not appear in the message
+  } credentials[] = {
+      {"no token", "", "no token", ""},
+      {"basic auth", "Basic YWRtaW46YWRtaW4=", "malformed authorization", "YWRtaW46YWRtaW4="},
+      {"malformed token", "Bearer hunter2", "malformed token", "hunter2"},
+      {"unknown token", "Bearer " + unknown, "unknown token", unknown},
+      {"expired token", "Bearer " + expired, "expired token: 'short-lived'", expired},
+      {"revoked token", "Bearer " + revoked, "revoked token: 'revoked-1'", revoked},
+  };
+  for (const Credential& c : credentials) {
+    for (const MatrixRow& row : kMatrix) {
+      const grpc::Status s = Call(row.rpc, c.header);
+      EXPECT_EQ(s.error_code(), StatusCode::UNAUTHENTICATED) << row.rpc << " with " << c.name << ": "
+                                                            << s.error_message();
+      EXPECT_NE(s.error_message().find(c.reason), std::string::npos) << row.rpc << " with " << c.name << ": "
+                                                                     << s.error_message();
+      if (!c.secret.empty()) {
+        EXPECT_EQ(s.error_message().find(c.secret), std::string::npos) << row.rpc << " with " << c.name;
+      }
+    }
+  }
+  // Audit: refusals are logged, secrets never.
+  const std::string log = server_->process().Stderr();
+  EXPECT_NE(log.find("event=auth_refused"), std::string::npos);
+  for (const auto& [role, secret] : tokens_) EXPECT_EQ(log.find(secret), std::string::npos) << role;
+  EXPECT_EQ(log.find(expired), std::string::npos);
+}
+
+TEST_F(AuthServer, SubmittersSeeTheirOwnJobsOnly) {
+  const std::string other = CreateToken(server_->data_dir(), "submitter", "other-artist");
+  const std::string mine = SubmitFake(Bearer("submitter"), 1401);
+  ASSERT_FALSE(mine.empty());
+  EXPECT_TRUE(GetJob(Bearer("submitter"), mine).ok());
+  EXPECT_TRUE(GetJob(Bearer("admin"), mine).ok());
+  const grpc::Status s = GetJob("Bearer " + other, mine);
+  EXPECT_EQ(s.error_code(), StatusCode::PERMISSION_DENIED) << s.error_message();
+  EXPECT_NE(s.error_message().find("was not submitted by token 'other-artist'"), std::string::npos)
+      << s.error_message();
+  EXPECT_EQ(Watch("Bearer " + other, mine).error_code(), StatusCode::PERMISSION_DENIED);
+  // Unknown jobs stay NOT_FOUND for everyone allowed to ask.
+  EXPECT_EQ(GetJob(Bearer("submitter"), "job-nonexistent").error_code(), StatusCode::NOT_FOUND);
+
+  // A worker reads the inputs of the job it holds, and nothing else.
+  auto ctx = ContextWithAuthorization(Bearer("worker"));
+  v1::LeaseJobRequest lease;
+  lease.set_worker_id("w");
+  v1::LeaseJobResponse leased;
+  ASSERT_TRUE(workers_->LeaseJob(ctx.get(), lease, &leased).ok());
+  ASSERT_TRUE(leased.has_job());
+  EXPECT_TRUE(Read(Bearer("worker"), leased.job().mesh().entry().digest()).ok());
+  const std::string other_worker = CreateToken(server_->data_dir(), "worker", "worker-2");
+  EXPECT_EQ(Read("Bearer " + other_worker, leased.job().mesh().entry().digest()).error_code(),
+            StatusCode::PERMISSION_DENIED);
+  // Readers and submitters never read inputs (unreleased meshes).
+  EXPECT_EQ(Read(Bearer("reader"), leased.job().mesh().entry().digest()).error_code(), StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(Read(Bearer("submitter"), leased.job().mesh().entry().digest()).error_code(),
+            StatusCode::PERMISSION_DENIED);
+}
+
+TEST_F(AuthServer, RevocationTakesEffectOnARunningServerWithinSeconds) {
+  MakeObjects();
+  const std::string token = CreateToken(server_->data_dir(), "reader", "game-client");
+  ASSERT_TRUE(GetResult("Bearer " + token, result_key_).ok());  // now cached by the server
+  const ToolRun revoke = RunTool({(BinaryDir() / "impostor-server").string(), "token", "revoke",
+                                  "--data=" + server_->data_dir().string(), "--name=game-client"});
+  ASSERT_EQ(revoke.exit_code, 0) << revoke.err;
+  // The promise is "within a few seconds" (the server re-validates every 2 s).
+  const auto deadline = Clock::now() + std::chrono::seconds(10);
+  grpc::Status s;
+  while ((s = GetResult("Bearer " + token, result_key_)).ok() && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(s.error_code(), StatusCode::UNAUTHENTICATED) << s.error_message();
+  EXPECT_NE(s.error_message().find("revoked token: 'game-client'"), std::string::npos) << s.error_message();
+  // `token list` shows it revoked, with a last-used time, and no secrets.
+  const ToolRun list = RunTool({(BinaryDir() / "impostor-server").string(), "token", "list",
+                                "--data=" + server_->data_dir().string()});
+  ASSERT_EQ(list.exit_code, 0) << list.err;
+  EXPECT_NE(list.out.find("game-client"), std::string::npos);
+  EXPECT_NE(list.out.find("revoked"), std::string::npos);
+  EXPECT_EQ(list.out.find("imp_"), std::string::npos) << list.out;
+}
+
+TEST_F(AuthServer, AuditLinesNameTokenRoleRpcAndOutcome) {
+  MakeObjects();
+  EXPECT_EQ(Call("PinResult", Bearer("reader")).error_code(), kDenied);
+  EXPECT_TRUE(server_->process().WaitForLog("event=audit token=\"reader-1\" role=reader rpc=PinResult"));
+  EXPECT_TRUE(server_->process().WaitForLog("event=audit token=\"admin-1\" role=admin rpc=CancelJob object=\"" +
+                                            admin_job_ + "\" outcome=OK"));
+  EXPECT_TRUE(server_->process().WaitForLog("event=audit token=\"admin-1\" role=admin rpc=SubmitBake"));
+}
+
+TEST_F(AuthServer, PurgeByWorkerDropsWhatItBakedSoTheKeysBakeAgain) {
+  for (const char* node : {"node-a", "node-b"}) tokens_[node] = CreateToken(server_->data_dir(), "worker", node);
+  // One result baked by each worker: the admin submits, the worker completes.
+  std::map<std::string, PublishedResult> baked;
+  uint32_t seed = 1410;
+  for (const char* node : {"node-a", "node-b"}) {
+    ASSERT_FALSE(SubmitFake(Bearer("admin"), seed).empty());
+    server_->UseToken(tokens_[node]);
+    baked[node] = CompleteNextJob(*server_, {100, 100, 100}, seed);
+    ++seed;
+  }
+  server_->UseToken(tokens_["admin"]);
+  {
+    auto ctx = ContextWithAuthorization(Bearer("reader"));
+    v1::GetResultRequest request;
+    request.set_cache_key(baked["node-b"].key);
+    v1::Manifest manifest;
+    ASSERT_TRUE(assets_->GetResult(ctx.get(), request, &manifest).ok());
+    EXPECT_EQ(manifest.baked_by(), "node-b");
+  }
+
+  // Purged while the server runs.
+  const std::string server_bin = (BinaryDir() / "impostor-server").string();
+  const ToolRun purge =
+      RunTool({server_bin, "purge", "--worker", "node-a", "--data", server_->data_dir().string()}, kStartTimeout);
+  ASSERT_EQ(purge.exit_code, 0) << purge.err;
+  EXPECT_EQ(purge.out, baked["node-a"].key + "\n");
+  EXPECT_NE(purge.err.find("dropped 1 result(s) baked by 'node-a'"), std::string::npos) << purge.err;
+
+  EXPECT_EQ(GetResult(Bearer("reader"), baked["node-a"].key).error_code(), StatusCode::NOT_FOUND);
+  EXPECT_TRUE(GetResult(Bearer("reader"), baked["node-b"].key).ok());
+  // Its blobs are no longer a result's: readers cannot fetch them.
+  EXPECT_EQ(Read(Bearer("reader"), DigestOf(baked["node-a"].files.at("albedo_alpha.png"))).error_code(),
+            StatusCode::PERMISSION_DENIED);
+  // The same request bakes again instead of answering from the cache.
+  const std::string again = SubmitFake(Bearer("admin"), 1410);
+  auto ctx = ContextWithAuthorization(Bearer("admin"));
+  v1::GetJobRequest get;
+  get.set_job_id(again);
+  v1::Job job;
+  ASSERT_TRUE(bake_->GetJob(ctx.get(), get, &job).ok());
+  EXPECT_FALSE(job.cached());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_QUEUED);
+
+  struct Case {
+    const char* name;
+    std::vector<std::string> args;
+    const char* message;
+  } cases[] = {
+      {"no worker", {"purge", "--data", server_->data_dir().string()}, "--worker: required"},
+      {"bad worker", {"purge", "--worker", "a/b", "--data", server_->data_dir().string()}, "--worker:"},
+      {"no data", {"purge", "--worker", "node-a"}, "--data: required"},
+      {"not a data dir", {"purge", "--worker", "node-a", "--data", "/nonexistent"}, "holds no job database"},
+      {"unknown flag", {"purge", "--worker", "node-a", "--all"}, "unknown argument \"--all\""},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> argv = {server_bin};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const ToolRun run = RunTool(argv, kStartTimeout);
+    EXPECT_EQ(run.exit_code, 2) << c.name << ": " << run.err;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << c.name << ": " << run.err;
+  }
+}
+
+TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
+  ServerProcess server(0, {"--auth=token", "--token-max-pending-jobs=2", "--token-max-bakes-per-hour=3",
+                           "--token-max-upload-bytes-per-day=1000"});
+  const std::string ci = CreateToken(server.data_dir(), "submitter", "ci");
+  const std::string uploader = CreateToken(server.data_dir(), "submitter", "uploader");
+  const std::string admin = CreateToken(server.data_dir(), "admin", "ops");
+  auto assets = v1::AssetService::NewStub(server.channel());
+  auto bake = v1::BakeService::NewStub(server.channel());
+  auto upload = [&](const std::string& token, const std::string& bytes) {
+    auto ctx = ContextWithAuthorization("Bearer " + token);
+    v1::UploadBlobResponse response;
+    auto writer = assets->UploadBlob(ctx.get(), &response);
+    v1::UploadBlobRequest chunk;
+    *chunk.mutable_digest() = DigestOf(bytes);
+    chunk.set_data(bytes);
+    writer->Write(chunk);
+    writer->WritesDone();
+    return writer->Finish();
+  };
+  std::vector<std::string> jobs;
+  auto submit = [&](const std::string& token, uint32_t seed) {
+    const std::string model = "glTF" + RandomBytes(64, seed);
+    EXPECT_TRUE(upload(token, model).ok());
+    v1::SubmitBakeRequest request;
+    request.mutable_mesh()->mutable_entry()->set_path("model.glb");
+    *request.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
+    auto ctx = ContextWithAuthorization("Bearer " + token);
+    v1::SubmitBakeResponse response;
+    const grpc::Status s = bake->SubmitBake(ctx.get(), request, &response);
+    if (s.ok()) jobs.push_back(response.job_id());
+    return s;
+  };
+
+  // Pending jobs per token (no worker: they stay queued).
+  ASSERT_TRUE(submit(ci, 1).ok());
+  ASSERT_TRUE(submit(ci, 2).ok());
+  grpc::Status s = submit(ci, 3);
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("pending jobs of token 'ci': 2 queued or running, the limit per token is 2"),
+            std::string::npos)
+      << s.error_message();
+  EXPECT_TRUE(submit(admin, 4).ok()) << "admins are exempt";
+  EXPECT_TRUE(submit(admin, 5).ok());
+  EXPECT_TRUE(submit(admin, 6).ok());
+
+  // Bakes per hour count what was submitted, cancelled or not.
+  for (size_t i = 0; i < 2; ++i) {
+    auto ctx = ContextWithAuthorization("Bearer " + ci);
+    v1::CancelJobRequest cancel;
+    cancel.set_job_id(jobs[i]);
+    v1::Job job;
+    ASSERT_TRUE(bake->CancelJob(ctx.get(), cancel, &job).ok());
+  }
+  ASSERT_TRUE(submit(ci, 7).ok());
+  s = submit(ci, 8);
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("bakes of token 'ci': 3 in the last hour, the limit per token is 3 per hour"),
+            std::string::npos)
+      << s.error_message();
+
+  // Upload bytes per day: checked as an upload starts.
+  EXPECT_TRUE(upload(uploader, RandomBytes(600, 9)).ok());
+  EXPECT_TRUE(upload(uploader, RandomBytes(600, 10)).ok());
+  s = upload(uploader, RandomBytes(10, 11));
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("uploads of token 'uploader': 1200 bytes in the last 24 hours, the limit per "
+                                   "token is 1000 bytes per day"),
+            std::string::npos)
+      << s.error_message();
+  EXPECT_TRUE(upload(admin, RandomBytes(10, 12)).ok());
+
+  const ToolRun bad = RunTool({(BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                               "--data=" + server.data_dir().string() + "-bad", "--token-max-pending-jobs=0"},
+                              kStartTimeout);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--token-max-pending-jobs"), std::string::npos) << bad.err;
+}
+
+TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
+  const fs::path data = NewTempDir("auth_commands");
+  const std::string server = (BinaryDir() / "impostor-server").string();
+  struct Case {
+    const char* name;
+    std::vector<std::string> args;
+    int exit_code;
+    const char* message;
+  } cases[] = {
+      {"no subcommand", {"token"}, 2, "missing subcommand"},
+      {"unknown subcommand", {"token", "mint"}, 2, "unknown subcommand \"mint\""},
+      {"no data", {"token", "list"}, 2, "--data: required"},
+      {"data missing", {"token", "list", "--data=/nonexistent/dir"}, 2, "is not a directory"},
+      {"no role", {"token", "create", "--data=" + data.string(), "--name=a"}, 2, "--role: required"},
+      {"bad role", {"token", "create", "--data=" + data.string(), "--name=a", "--role=root"}, 2, "is not a role"},
+      {"no name", {"token", "create", "--data=" + data.string(), "--role=reader"}, 2, "--name: required"},
+      {"bad name", {"token", "create", "--data=" + data.string(), "--role=reader", "--name=a b"}, 2, "--name:"},
+      {"bad expiry", {"token", "create", "--data=" + data.string(), "--role=reader", "--name=a", "--expires-in=soon"},
+       2, "--expires-in"},
+      {"zero expiry", {"token", "create", "--data=" + data.string(), "--role=reader", "--name=a", "--expires-in=0d"},
+       2, "--expires-in"},
+      {"unknown flag", {"token", "list", "--data=" + data.string(), "--json"}, 2, "unknown argument \"--json\""},
+      {"flag twice", {"token", "revoke", "--data=" + data.string(), "--name=a", "--name=b"}, 2, "given twice"},
+      {"missing value", {"token", "revoke", "--data=" + data.string(), "--name"}, 2, "--name: missing value"},
+      {"revoke unknown", {"token", "revoke", "--data=" + data.string(), "--name=nobody"}, 1, "no live token"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> argv = {server};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const ToolRun run = RunTool(argv, kStartTimeout);
+    EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.err;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << c.name << ": " << run.err;
+    EXPECT_EQ(run.out, "") << c.name;
+  }
+  // Create prints exactly one line, the secret; a second live token with
+  // the same name is refused.
+  const ToolRun created =
+      RunTool({server, "token", "create", "--data=" + data.string(), "--role=worker", "--name=node-1"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  EXPECT_EQ(created.out.size(), 4u + 43u + 1u) << created.out;
+  EXPECT_EQ(created.out.rfind("imp_", 0), 0u);
+  const ToolRun again =
+      RunTool({server, "token", "create", "--data=" + data.string(), "--role=worker", "--name=node-1"});
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("a live token named 'node-1' exists"), std::string::npos) << again.err;
+}
+
+TEST(AuthServerMode, NoneIsRefusedOffLoopbackAndTokenIsTheDefaultThere) {
+  const fs::path data = NewTempDir("auth_mode");
+  const std::string server = (BinaryDir() / "impostor-server").string();
+  const ToolRun none = RunTool({server, "--listen=0.0.0.0:0", "--data=" + data.string(), "--auth=none"}, kStartTimeout);
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("not a loopback address"), std::string::npos) << none.err;
+  // Off loopback the default is token: an anonymous call is refused.
+  ServerProcess open_farm(0, data, "0.0.0.0:0");
+  EXPECT_TRUE(open_farm.process().WaitForLog("auth=token"));
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  auto channel = grpc::CreateCustomChannel(open_farm.address(), grpc::InsecureChannelCredentials(), args);
+  auto ctx = ContextWithin();
+  v1::LeaseJobRequest lease;
+  lease.set_worker_id("intruder");
+  v1::LeaseJobResponse response;
+  EXPECT_EQ(v1::WorkerService::NewStub(channel)->LeaseJob(ctx.get(), lease, &response).error_code(),
+            StatusCode::UNAUTHENTICATED);
+}
+
+}  // namespace
+}  // namespace impostor::testing
