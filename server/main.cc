@@ -201,10 +201,6 @@ int main(int argc, char** argv) {
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000});
 
-  // HTTP: /metrics, /healthz, /readyz, the JSON API and the dashboard
-  // (--http-listen, off by default; server/http/http_frontend.h). Null when off.
-  auto http = impostor::HttpFrontend::StartFromFlags(&scheduler, blobs->get());
-  if (!http.ok()) return Fail(std::string(http.status().message()));
   // Identity (issue 14): with --auth token every call passes the
   // AccessGuard (authorized_services.h) before reaching a service.
   std::unique_ptr<impostor::TokenStore> token_store;
@@ -218,6 +214,11 @@ int main(int argc, char** argv) {
   impostor::CallPrincipals principals;
   impostor::TokenQuotas quotas(quota_options);
   impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals, &quotas);
+
+  // HTTP: /metrics, /healthz, /readyz, the JSON API and the dashboard
+  // (--http-listen, off by default; server/http/http_frontend.h). Null when off.
+  auto http = impostor::HttpFrontend::StartFromFlags(&scheduler, blobs->get(), authenticator.get());
+  if (!http.ok()) return Fail(std::string(http.status().message()));
 
   impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
   impostor::BakeServiceImpl bake_service(&scheduler, &principals);

@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
                              .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),
                              .channel_credentials = *credentials,
-                             .tls_server_name = tls.server_name},
+                             .tls_server_name = tls.server_name,
                              .token = *token},
                             std::move(*renderer));
 

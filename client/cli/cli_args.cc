@@ -498,6 +498,11 @@ std::vector<std::string> AllFlags() {
   for (const auto& [name, spec] : Commands()) {
     flags.insert(spec.value_flags.begin(), spec.value_flags.end());
     flags.insert(spec.bool_flags.begin(), spec.bool_flags.end());
+    // Accepted by every command that takes --server (parsed before the
+    // per-command table, see ParseCliArgs).
+    if (spec.value_flags.contains("--server")) {
+      flags.insert({"--tls-ca", "--tls-cert", "--tls-key", "--tls-server-name", "--token-file"});
+    }
   }
   return {flags.begin(), flags.end()};
 }

@@ -1,9 +1,75 @@
 #include "server/http/http_authorize.h"
 
-namespace impostor {
+#include <string_view>
 
-HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request) {
-  // No identity layer yet: every request is allowed (see the header).
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+
+namespace impostor {
+namespace {
+
+bool IsOpenPath(std::string_view path) { return path == "/healthz" || path == "/readyz" || path == "/login"; }
+
+// A dashboard page a person opens in a browser (not the API, not /metrics,
+// not the page's own scripts): refused requests go to the login form.
+bool IsBrowserPage(const HttpRequestInfo& request) {
+  const std::string_view p = request.path;
+  return request.method == "GET" &&
+         (p == "/" || absl::StartsWith(p, "/jobs/") || absl::StartsWith(p, "/results/"));
+}
+
+// "/api/v1/jobs/ID/mesh/..." -> ID; "" for any other path.
+std::string MeshJobId(std::string_view path) {
+  if (!absl::ConsumePrefix(&path, "/api/v1/jobs/")) return "";
+  const size_t slash = path.find('/');
+  if (slash == std::string_view::npos || !absl::StartsWith(path.substr(slash), "/mesh/")) return "";
+  return std::string(path.substr(0, slash));
+}
+
+HttpAuthorization Refuse(int status, std::string message, bool to_login = false) {
+  return {.allowed = false, .status = status, .message = std::move(message), .to_login = to_login};
+}
+
+}  // namespace
+
+std::string CookieValue(const std::string& cookie_header, const std::string& name) {
+  for (std::string_view part : absl::StrSplit(cookie_header, ';')) {
+    part = absl::StripAsciiWhitespace(part);
+    if (absl::ConsumePrefix(&part, name) && absl::ConsumePrefix(&part, "=")) return std::string(part);
+  }
+  return "";
+}
+
+HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator* authenticator,
+                                   BakeScheduler* scheduler) {
+  if (authenticator == nullptr || IsOpenPath(request.path)) return {};
+  // The header wins over the cookie, as a token file wins on the clients.
+  std::string authorization = request.authorization;
+  if (authorization.empty()) {
+    if (const std::string cookie = CookieValue(request.cookie, kTokenCookie); !cookie.empty()) {
+      authorization = "Bearer " + cookie;
+    }
+  }
+  auto principal = authenticator->Authenticate(authorization.empty() ? nullptr : &authorization);
+  if (!principal.ok()) {
+    return Refuse(401, std::string(principal.status().message()), IsBrowserPage(request));
+  }
+  if (principal->role == Role::kWorker) {
+    return Refuse(403, absl::StrCat("token \"", principal->name,
+                                    "\" has role worker; the dashboard, the JSON API and /metrics need a reader, "
+                                    "submitter or admin token"));
+  }
+  if (const std::string job_id = MeshJobId(request.path); !job_id.empty() && principal->role != Role::kAdmin) {
+    auto owner = scheduler->JobOwner(job_id);
+    if (owner.ok() && *owner != principal->name) {
+      return Refuse(403, absl::StrCat("a job's mesh files: only the token that submitted the job or an admin may "
+                                      "read them (this is token \"",
+                                      principal->name, "\", role ", RoleName(principal->role), ")"));
+    }
+    // NOT_FOUND and the like: the route answers them.
+  }
   return {};
 }
 

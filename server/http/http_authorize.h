@@ -1,14 +1,20 @@
 // The one place where an HTTP request is allowed or refused, before any
-// route runs. Today everything is allowed: the farm has no identity yet.
-// When token auth lands (--auth token), this checks the request's bearer
-// token (Authorization header, or a cookie set by the dashboard's token
-// prompt) for the reader role and refuses with 401 otherwise; every page,
-// API call and /metrics goes through it (only /healthz and /readyz may stay
-// open for load balancers).
+// route runs. With --auth none (loopback only) everything is allowed, as on
+// the gRPC side. With --auth token every page, API call and /metrics needs a
+// reader, submitter or admin token, from the Authorization header
+// ("Bearer <token>", what Prometheus' `authorization.credentials_file`
+// sends) or from the `impostor_token` cookie that /login sets for a browser;
+// only /healthz, /readyz and /login stay open (load balancers, the login
+// form). A job's uploaded mesh (/api/v1/jobs/ID/mesh/...) is a studio's
+// unreleased asset: only its submitter or an admin may read it, as with
+// ReadBlob of inputs over gRPC.
 #ifndef IMPOSTOR_SERVER_HTTP_HTTP_AUTHORIZE_H_
 #define IMPOSTOR_SERVER_HTTP_HTTP_AUTHORIZE_H_
 
 #include <string>
+
+#include "server/authenticator.h"
+#include "server/bake_scheduler.h"
 
 namespace impostor {
 
@@ -16,15 +22,25 @@ struct HttpRequestInfo {
   std::string method;         // "GET"
   std::string path;           // "/api/v1/jobs"
   std::string authorization;  // the Authorization header, "" when absent
+  std::string cookie;         // the Cookie header, "" when absent
 };
 
 struct HttpAuthorization {
   bool allowed = true;
-  int status = 200;     // 401 or 403 when refused
-  std::string message;  // why, when refused
+  int status = 200;      // 401 or 403 when refused
+  std::string message;   // why, when refused (never the secret)
+  bool to_login = false;  // a browser page: send it to /login instead
 };
 
-HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request);
+// The cookie /login sets and AuthorizeRequest reads.
+inline constexpr char kTokenCookie[] = "impostor_token";
+
+// `authenticator` null = --auth none. `scheduler` answers who owns a job.
+HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator* authenticator,
+                                   BakeScheduler* scheduler);
+
+// The value of cookie `name` in a Cookie header, "" when absent.
+std::string CookieValue(const std::string& cookie_header, const std::string& name);
 
 }  // namespace impostor
 

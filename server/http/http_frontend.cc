@@ -12,6 +12,7 @@
 #include "server/http/api_params.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
+#include "server/http/login_page.h"
 #include "server/http/json_api.h"
 #include "server/metrics/rpc_metrics_interceptor.h"
 
@@ -74,12 +75,14 @@ const char* ContentTypeFor(const std::string& file) {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeScheduler* scheduler,
-                                                                           BlobStore* blobs) {
+                                                                           BlobStore* blobs,
+                                                                           Authenticator* authenticator) {
   const std::string listen = absl::GetFlag(FLAGS_http_listen);
   if (listen.empty()) return std::unique_ptr<HttpFrontend>();
   auto address = ParseListenAddress(listen, "--http-listen");
   if (!address.ok()) return address.status();
-  return Start(scheduler, blobs, {.listen = *address, .static_dir = absl::GetFlag(FLAGS_http_static_dir)});
+  return Start(scheduler, blobs,
+               {.listen = *address, .static_dir = absl::GetFlag(FLAGS_http_static_dir), .authenticator = authenticator});
 }
 
 HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options)
@@ -136,13 +139,42 @@ void HttpFrontend::Route() {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
-  s.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
-    const HttpAuthorization auth =
-        AuthorizeRequest({.method = req.method, .path = req.path, .authorization = req.get_header_value("Authorization")});
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    const HttpAuthorization auth = AuthorizeRequest({.method = req.method,
+                                                     .path = req.path,
+                                                     .authorization = req.get_header_value("Authorization"),
+                                                     .cookie = req.get_header_value("Cookie")},
+                                                    options_.authenticator, scheduler_);
     if (auth.allowed) return httplib::Server::HandlerResponse::Unhandled;
+    if (auth.to_login) {
+      res.set_redirect("/login", 303);
+      return httplib::Server::HandlerResponse::Handled;
+    }
     res.status = auth.status;
+    if (auth.status == 401) res.set_header("WWW-Authenticate", "Bearer realm=\"impostor\"");
     res.set_content(ErrorJson(auth.status, auth.message), "application/json");
     return httplib::Server::HandlerResponse::Handled;
+  });
+  // The login form: open to all; a good token becomes an HttpOnly cookie.
+  s.Get("/login", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(LoginPageHtml(""), "text/html; charset=utf-8");
+  });
+  s.Post("/login", [this](const httplib::Request& req, httplib::Response& res) {
+    if (options_.authenticator == nullptr) {
+      res.set_redirect("/", 303);  // --auth none: nothing to sign in to
+      return;
+    }
+    const std::string token = req.get_param_value("token");
+    const HttpAuthorization auth = AuthorizeRequest(
+        {.method = "GET", .path = "/api/v1/summary", .authorization = token.empty() ? "" : "Bearer " + token},
+        options_.authenticator, scheduler_);
+    if (!auth.allowed) {
+      res.status = auth.status;
+      res.set_content(LoginPageHtml(auth.message), "text/html; charset=utf-8");
+      return;
+    }
+    res.set_header("Set-Cookie", TokenCookieHeader(token));
+    res.set_redirect("/", 303);
   });
   s.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;

@@ -8,7 +8,8 @@
 // state of its own.
 //
 // Every request passes through AuthorizeRequest (http_authorize.h) first:
-// the single place where a token check goes.
+// the single place where a token check goes (with --auth token: a reader,
+// submitter or admin token; /login sets it as a cookie for browsers).
 //
 // Threads: the HTTP library serves requests on its own thread pool; the
 // object may be destroyed from any thread (it stops the server and joins).
@@ -24,6 +25,7 @@
 #include <grpcpp/support/server_interceptor.h>
 
 #include "absl/status/statusor.h"
+#include "server/authenticator.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
 #include "server/http/listen_address.h"
@@ -41,13 +43,17 @@ class HttpFrontend {
     ListenAddress listen;
     // The dashboard's files (web/ of the source tree by default).
     std::filesystem::path static_dir;
+    // --auth token: every request but /healthz, /readyz and /login needs a
+    // token this checks. Null = --auth none. Must outlive the frontend.
+    Authenticator* authenticator = nullptr;
   };
 
   // Reads --http-listen and --http-static-dir: nullptr when --http-listen is
   // empty (HTTP off); INVALID_ARGUMENT naming the flag for a malformed
   // value, UNAVAILABLE when the address cannot be bound. On success the
   // server is listening and the scheduler reports to its metrics.
-  static absl::StatusOr<std::unique_ptr<HttpFrontend>> StartFromFlags(BakeScheduler* scheduler, BlobStore* blobs);
+  static absl::StatusOr<std::unique_ptr<HttpFrontend>> StartFromFlags(BakeScheduler* scheduler, BlobStore* blobs,
+                                                                      Authenticator* authenticator);
   static absl::StatusOr<std::unique_ptr<HttpFrontend>> Start(BakeScheduler* scheduler, BlobStore* blobs,
                                                              Options options);
   ~HttpFrontend();

@@ -1,0 +1,143 @@
+// The HTTP side of a farm run with --auth token (issues 14 and 16): nothing
+// but /healthz, /readyz and /login answers without a token; reader,
+// submitter and admin tokens see the dashboard, the API and /metrics, a
+// worker token does not; /login turns a good token into an HttpOnly cookie;
+// a job's uploaded mesh is readable only by its submitter or an admin.
+#include <httplib.h>
+
+#include <gtest/gtest.h>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor {
+namespace {
+
+using testing::AssetsDir;
+using testing::ContextWithin;
+using testing::CreateToken;
+using testing::ServerProcess;
+
+int HttpPort(ServerProcess& server) {
+  const std::string line = server.process().ReadLineContaining("http listening on");
+  EXPECT_FALSE(line.empty()) << "no \"http listening on\" line";
+  return line.empty() ? 0 : std::stoi(line.substr(line.rfind(':') + 1));
+}
+
+struct Http {
+  explicit Http(int port) : client("127.0.0.1", port) { client.set_read_timeout(30, 0); }
+  // GET with "Authorization: Bearer <token>" ("" = none) and a Cookie header.
+  httplib::Result Get(const std::string& path, const std::string& token = "", const std::string& cookie = "") {
+    httplib::Headers headers;
+    if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+    if (!cookie.empty()) headers.emplace("Cookie", cookie);
+    return client.Get(path.c_str(), headers);
+  }
+  int Status(const std::string& path, const std::string& token = "") {
+    auto res = Get(path, token);
+    return res ? res->status : -1;
+  }
+  httplib::Client client;
+};
+
+class HttpAuth : public ::testing::Test {
+ protected:
+  HttpAuth() : server_(/*local_workers=*/0, {"--auth=token", "--http-listen=127.0.0.1:0"}), http_(HttpPort(server_)) {}
+  ServerProcess server_;
+  Http http_;
+};
+
+TEST_F(HttpAuth, NothingButHealthAndLoginAnswersWithoutAToken) {
+  EXPECT_EQ(http_.Status("/healthz"), 200);
+  EXPECT_EQ(http_.Status("/readyz"), 200);
+  EXPECT_EQ(http_.Status("/login"), 200);
+  for (const char* path : {"/metrics", "/api/v1/summary", "/api/v1/jobs", "/api/v1/workers", "/api/v1/results"}) {
+    auto res = http_.Get(path);
+    ASSERT_TRUE(res) << path;
+    EXPECT_EQ(res->status, 401) << path;
+    EXPECT_NE(res->get_header_value("WWW-Authenticate").find("Bearer"), std::string::npos) << path;
+    EXPECT_NE(res->body.find("no token"), std::string::npos) << path << ": " << res->body;
+  }
+  // A browser page goes to the login form instead.
+  auto page = http_.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 303);
+  EXPECT_EQ(page->get_header_value("Location"), "/login");
+}
+
+TEST_F(HttpAuth, ReaderSubmitterAndAdminSeeTheFarmAWorkerTokenDoesNot) {
+  for (const char* role : {"reader", "submitter", "admin"}) {
+    const std::string token = CreateToken(server_.data_dir(), role, std::string("http-") + role);
+    ASSERT_FALSE(token.empty());
+    EXPECT_EQ(http_.Status("/metrics", token), 200) << role;
+    EXPECT_EQ(http_.Status("/api/v1/summary", token), 200) << role;
+    EXPECT_EQ(http_.Status("/api/v1/jobs", token), 200) << role;
+  }
+  const std::string worker = CreateToken(server_.data_dir(), "worker", "http-worker");
+  auto res = http_.Get("/api/v1/summary", worker);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403);
+  EXPECT_NE(res->body.find("role worker"), std::string::npos) << res->body;
+  EXPECT_EQ(res->body.find(worker), std::string::npos) << "the secret is echoed";
+
+  const std::string unknown = "imp_AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA";
+  res = http_.Get("/metrics", unknown);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 401);
+  EXPECT_EQ(res->body.find(unknown), std::string::npos) << "the secret is echoed";
+}
+
+TEST_F(HttpAuth, LoginSetsAnHttpOnlyCookieThatOpensThePagesAndRefusesABadToken) {
+  const std::string reader = CreateToken(server_.data_dir(), "reader", "browser");
+  auto bad = http_.client.Post("/login", "token=imp_not-a-real-token", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 401);
+  EXPECT_TRUE(bad->get_header_value("Set-Cookie").empty());
+  EXPECT_NE(bad->body.find("id=\"login-error\""), std::string::npos) << bad->body;
+
+  auto good = http_.client.Post("/login", "token=" + reader, "application/x-www-form-urlencoded");
+  ASSERT_TRUE(good);
+  EXPECT_EQ(good->status, 303);
+  EXPECT_EQ(good->get_header_value("Location"), "/");
+  const std::string set_cookie = good->get_header_value("Set-Cookie");
+  EXPECT_EQ(set_cookie.rfind("impostor_token=" + reader + ";", 0), 0u) << set_cookie;
+  EXPECT_NE(set_cookie.find("HttpOnly"), std::string::npos);
+  EXPECT_NE(set_cookie.find("SameSite=Strict"), std::string::npos);
+
+  const std::string cookie = "theme=dark; impostor_token=" + reader;
+  auto summary = http_.Get("/api/v1/summary", "", cookie);
+  ASSERT_TRUE(summary);
+  EXPECT_EQ(summary->status, 200) << summary->body;
+  auto page = http_.Get("/", "", cookie);
+  ASSERT_TRUE(page);
+  EXPECT_NE(page->status, 303);
+  EXPECT_NE(page->status, 401);
+}
+
+TEST_F(HttpAuth, AJobsMeshIsReadableOnlyByItsSubmitterOrAnAdmin) {
+  const std::string owner = CreateToken(server_.data_dir(), "submitter", "mesh-owner");
+  const std::string other = CreateToken(server_.data_dir(), "submitter", "someone-else");
+  const std::string reader = CreateToken(server_.data_dir(), "reader", "mesh-reader");
+  const std::string admin = CreateToken(server_.data_dir(), "admin", "mesh-admin");
+  server_.UseToken(owner);
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = testing::UploadGlb(server_.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  request.mutable_parameters()->set_frames(4);
+  request.mutable_parameters()->set_resolution(128);
+  v1::SubmitBakeResponse submitted;
+  const grpc::Status s = server_.bake().SubmitBake(ContextWithin().get(), request, &submitted);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+
+  const std::string mesh = "/api/v1/jobs/" + submitted.job_id() + "/mesh/" + request.mesh().entry().path();
+  EXPECT_EQ(http_.Status(mesh, owner), 200);
+  EXPECT_EQ(http_.Status(mesh, admin), 200);
+  EXPECT_EQ(http_.Status(mesh, other), 403);
+  auto res = http_.Get(mesh, reader);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 403);
+  EXPECT_NE(res->body.find("only the token that submitted the job or an admin"), std::string::npos) << res->body;
+  // The job itself (no mesh bytes) is on the dashboard for every reader.
+  EXPECT_EQ(http_.Status("/api/v1/jobs/" + submitted.job_id(), reader), 200);
+}
+
+}  // namespace
+}  // namespace impostor
