@@ -1,7 +1,8 @@
 // One result: the 3D viewer (the original mesh with three.js beside the
 // impostor drawn by the runtime shader, one orbit camera for both), the
 // quality block with the worst view, every map and the manifest.
-// ?camera=AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_IN_RADII fixes the camera (tests).
+// ?camera=AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_IN_RADII fixes the camera (tests);
+// ?mask=1 draws the mesh as a white silhouette (tests).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -72,6 +73,11 @@ async function showViewer(result) {
   scene.add(sun);
   document.body.dataset.viewerStage = 'mesh';
   scene.add(await loadMesh(result));
+  // ?mask=1: the mesh flat white on black (tests compare its silhouette with
+  // the impostor's coverage, e.g. to catch a mirrored impostor).
+  if (new URLSearchParams(location.search).get('mask') === '1') {
+    scene.overrideMaterial = new THREE.MeshBasicMaterial({ color: 0xffffff, side: THREE.DoubleSide });
+  }
   document.body.dataset.viewerStage = 'impostor';
   const impostor = await createImpostorRenderer(impostorCanvas, m, fileUrl);
   document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`;

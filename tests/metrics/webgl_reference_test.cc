@@ -2,8 +2,10 @@
 // shaders/impostor_runtime.glsl in headless Chromium on SwiftShader) against
 // the CPU reference renderer (common/runtime/reference_renderer.h) for the
 // same orthographic camera, for every layout: silhouette IoU >= 0.98 and
-// albedo PSNR >= 30 dB over the shared silhouette (azimuth-elevation: 26 dB
-// for now, see LayoutCase::min_psnr_db). Both images are kept in
+// albedo PSNR >= 30 dB over the shared silhouette (the issue's floor; they
+// measure 78-84 dB, at most 1 level apart) and under 1% of shared pixels off
+// by more than 16 levels (a one-sided rim at the silhouette is how a
+// straight/premultiplied alpha mix-up shows). Both images are kept in
 // build/test_artifacts/dashboard/ (webgl_LAYOUT.png, reference_LAYOUT.png).
 #include <cmath>
 #include <filesystem>
@@ -52,10 +54,17 @@ std::string Base64Decode(const std::string& in) {
   return out;
 }
 
-// RGBA pixels of a PNG file, as 8 or 16 bit per channel.
+// RGBA pixels of a PNG file, as 8 or 16 bit per channel, exactly as stored.
+// UnassociatedAlpha: without it OIIO premultiplies RGB by A on read (with a
+// gamma), darkening the atlas's partially covered edge texels (MSAA coverage
+// 64/128/191) and scaling normals by depth, while the bake, the reference
+// renderer and the browser all use straight alpha; that alone cost the
+// azimuth-elevation view 52 dB (26.3 -> 78.0).
 template <typename T>
 std::vector<T> ReadRgba(const fs::path& file, int* width, int* height) {
-  auto in = OIIO::ImageInput::open(file.string());
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(file.string(), &config);
   EXPECT_TRUE(in) << file;
   if (!in) return {};
   const OIIO::ImageSpec& spec = in->spec();
@@ -70,7 +79,9 @@ std::vector<T> ReadRgba(const fs::path& file, int* width, int* height) {
 void WriteRgba8(const fs::path& file, const std::vector<uint8_t>& pixels, int width, int height) {
   auto out = OIIO::ImageOutput::create(file.string());
   if (!out) return;
-  out->open(file.string(), OIIO::ImageSpec(width, height, 4, OIIO::TypeDesc::UINT8));
+  OIIO::ImageSpec spec(width, height, 4, OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // keep RGB as given (no division by A)
+  out->open(file.string(), spec);
   out->write_image(OIIO::TypeDesc::UINT8, pixels.data());
   out->close();
 }
@@ -81,13 +92,10 @@ struct LayoutCase {
   LayoutKind kind;
   uint32_t frames;      // 0: derived by the server
   uint32_t ring_views;  // ring-top only
-  // Albedo PSNR floor. The issue asks 30 dB for every layout; the
-  // azimuth-elevation view measures 26.3 dB (WebGL brighter by ~3.8 levels
-  // on average, 8.5% of pixels off by more than 16): the cause is not found
-  // yet, so its floor is held just under what it measures, and the report
-  // lists it as open. The other layouts measure 30.7..49.5 dB.
-  double min_psnr_db;
 };
+
+constexpr double kMinPsnrDb = 30;        // the issue's floor, every layout
+constexpr double kMaxLargeFraction = 0.01;  // of shared pixels off by > 16 levels
 
 TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
   ASSERT_TRUE(fs::exists("/usr/bin/chromium")) << "chromium is not installed (deploy/install-deps.sh)";
@@ -102,11 +110,11 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
       testing::UploadGlb(server.assets(), testing::AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
 
   const LayoutCase cases[] = {
-      {"octahedral", v1::LAYOUT_OCTAHEDRAL, LayoutKind::kOctahedral, 8, 0, 30.0},
-      {"hemi-octahedral", v1::LAYOUT_HEMI_OCTAHEDRAL, LayoutKind::kHemiOctahedral, 8, 0, 30.0},
-      {"azimuth-elevation", v1::LAYOUT_AZIMUTH_ELEVATION, LayoutKind::kAzimuthElevation, 9, 0, 26.0},
-      {"ring-top", v1::LAYOUT_RING_TOP, LayoutKind::kRingTop, 0, 12, 30.0},
-      {"billboard", v1::LAYOUT_BILLBOARD, LayoutKind::kBillboard, 0, 0, 30.0},
+      {"octahedral", v1::LAYOUT_OCTAHEDRAL, LayoutKind::kOctahedral, 8, 0},
+      {"hemi-octahedral", v1::LAYOUT_HEMI_OCTAHEDRAL, LayoutKind::kHemiOctahedral, 8, 0},
+      {"azimuth-elevation", v1::LAYOUT_AZIMUTH_ELEVATION, LayoutKind::kAzimuthElevation, 9, 0},
+      {"ring-top", v1::LAYOUT_RING_TOP, LayoutKind::kRingTop, 0, 12},
+      {"billboard", v1::LAYOUT_BILLBOARD, LayoutKind::kBillboard, 0, 0},
   };
   // Submit all first: the worker bakes them one after another.
   std::vector<std::string> jobs;
@@ -209,7 +217,9 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
     const double mse = squared_error / (3.0 * std::max(both, 1));
     const double psnr = mse > 0 ? 10 * std::log10(1.0 / mse) : 99;
     EXPECT_GE(iou, 0.98) << "silhouette IoU; images in " << kArtifacts;
-    EXPECT_GE(psnr, c.min_psnr_db) << "albedo PSNR over the shared silhouette; images in " << kArtifacts;
+    EXPECT_GE(psnr, kMinPsnrDb) << "albedo PSNR over the shared silhouette; images in " << kArtifacts;
+    EXPECT_LE(static_cast<double>(large) / std::max(both, 1), kMaxLargeFraction)
+        << "shared pixels off by more than 16 levels; images in " << kArtifacts;
     std::printf("%s: IoU %.4f, albedo PSNR %.2f dB, mean difference %.2f levels, %.1f%% of pixels off by > 16\n",
                 c.name, iou, psnr, bias / (3.0 * std::max(both, 1)), 100.0 * large / std::max(both, 1));
   }
