@@ -22,6 +22,19 @@ set(_deploy ${CMAKE_SOURCE_DIR}/deploy)
 if(TARGET impostor-server)
   install(FILES ${_deploy}/systemd/impostor-server.service DESTINATION /lib/systemd/system COMPONENT server)
   install(FILES ${_deploy}/debian/server.conf DESTINATION /etc/impostor COMPONENT server)
+  # The dashboard (--http-listen) finds its files here (share/impostor/web
+  # beside bin/): the pages, and the pinned three.js build and addons they
+  # import (web/node_modules, from `npm ci` in deploy/install-deps.sh).
+  set(_web ${CMAKE_SOURCE_DIR}/web)
+  set(_web_dest ${CMAKE_INSTALL_DATADIR}/impostor/web)
+  install(DIRECTORY ${_web}/ DESTINATION ${_web_dest} COMPONENT server
+    PATTERN node_modules EXCLUDE PATTERN package.json EXCLUDE PATTERN package-lock.json EXCLUDE)
+  if(EXISTS ${_web}/node_modules/three/build)
+    install(DIRECTORY ${_web}/node_modules/three/build DESTINATION ${_web_dest}/node_modules/three COMPONENT server)
+    install(DIRECTORY ${_web}/node_modules/three/examples/jsm DESTINATION ${_web_dest}/node_modules/three/examples
+      COMPONENT server)
+    install(FILES ${_web}/node_modules/three/LICENSE DESTINATION ${_web_dest}/node_modules/three COMPONENT server)
+  endif()
 endif()
 if(TARGET impostor-worker)
   install(FILES ${_deploy}/systemd/impostor-worker@.service DESTINATION /lib/systemd/system COMPONENT worker)

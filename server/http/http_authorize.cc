@@ -2,7 +2,6 @@
 
 #include <string_view>
 
-#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
@@ -17,14 +16,16 @@ bool IsOpenPath(std::string_view path) { return path == "/healthz" || path == "/
 bool IsBrowserPage(const HttpRequestInfo& request) {
   const std::string_view p = request.path;
   return request.method == "GET" &&
-         (p == "/" || absl::StartsWith(p, "/jobs/") || absl::StartsWith(p, "/results/"));
+         (p == "/" || p.starts_with("/jobs/") || p.starts_with("/results/"));
 }
 
 // "/api/v1/jobs/ID/mesh/..." -> ID; "" for any other path.
 std::string MeshJobId(std::string_view path) {
-  if (!absl::ConsumePrefix(&path, "/api/v1/jobs/")) return "";
+  constexpr std::string_view kPrefix = "/api/v1/jobs/";
+  if (!path.starts_with(kPrefix)) return "";
+  path.remove_prefix(kPrefix.size());
   const size_t slash = path.find('/');
-  if (slash == std::string_view::npos || !absl::StartsWith(path.substr(slash), "/mesh/")) return "";
+  if (slash == std::string_view::npos || !path.substr(slash).starts_with("/mesh/")) return "";
   return std::string(path.substr(0, slash));
 }
 
@@ -35,7 +36,7 @@ HttpAuthorization Refuse(int status, std::string message, bool to_login = false)
 }  // namespace
 
 std::string CookieValue(const std::string& cookie_header, const std::string& name) {
-  for (std::string_view part : absl::StrSplit(cookie_header, ';')) {
+  for (absl::string_view part : absl::StrSplit(cookie_header, ';')) {
     part = absl::StripAsciiWhitespace(part);
     if (absl::ConsumePrefix(&part, name) && absl::ConsumePrefix(&part, "=")) return std::string(part);
   }
@@ -66,7 +67,7 @@ HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator
     if (owner.ok() && *owner != principal->name) {
       return Refuse(403, absl::StrCat("a job's mesh files: only the token that submitted the job or an admin may "
                                       "read them (this is token \"",
-                                      principal->name, "\", role ", RoleName(principal->role), ")"));
+                                      principal->name, "\", role ", std::string(RoleName(principal->role)), ")"));
     }
     // NOT_FOUND and the like: the route answers them.
   }

@@ -23,7 +23,9 @@
 ABSL_FLAG(std::string, http_listen, "",
           "HOST:PORT for /metrics, /healthz, /readyz, the JSON API and the dashboard; port 0 picks a free port "
           "(empty = no HTTP)");
-ABSL_FLAG(std::string, http_static_dir, IMPOSTOR_WEB_DIR, "Directory of the dashboard's files (web/ of the sources)");
+ABSL_FLAG(std::string, http_static_dir, "",
+          "Directory of the dashboard's files (default: share/impostor/web of the installation the binary is in, "
+          "else web/ of the source tree it was built from)");
 
 namespace impostor {
 namespace {
@@ -74,6 +76,24 @@ const char* ContentTypeFor(const std::string& file) {
 
 }  // namespace
 
+namespace {
+
+// --http-static-dir, or where the dashboard's files are: installed beside
+// the binary (/usr/bin/../share/impostor/web from the package), else the
+// source tree of a build-tree binary.
+std::filesystem::path StaticDirFromFlag() {
+  if (std::string dir = absl::GetFlag(FLAGS_http_static_dir); !dir.empty()) return dir;
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const std::filesystem::path installed = exe.parent_path().parent_path() / "share" / "impostor" / "web";
+    if (std::filesystem::is_directory(installed, ec)) return installed;
+  }
+  return IMPOSTOR_WEB_DIR;
+}
+
+}  // namespace
+
 absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeScheduler* scheduler,
                                                                            BlobStore* blobs,
                                                                            Authenticator* authenticator) {
@@ -82,7 +102,7 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeS
   auto address = ParseListenAddress(listen, "--http-listen");
   if (!address.ok()) return address.status();
   return Start(scheduler, blobs,
-               {.listen = *address, .static_dir = absl::GetFlag(FLAGS_http_static_dir), .authenticator = authenticator});
+               {.listen = *address, .static_dir = StaticDirFromFlag(), .authenticator = authenticator});
 }
 
 HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options)
