@@ -74,7 +74,7 @@ set(CPACK_DEBIAN_PACKAGE_SECTION misc)
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 
 set(CPACK_DEBIAN_SERVER_PACKAGE_NAME impostor-server)
-set(CPACK_DEBIAN_SERVER_PACKAGE_DEPENDS "adduser")
+set(CPACK_DEBIAN_SERVER_PACKAGE_DEPENDS "adduser, libpq5")
 set(CPACK_DEBIAN_SERVER_DESCRIPTION "impostor bake farm: the gRPC server (blob store, job queue, worker leases)")
 set(CPACK_DEBIAN_SERVER_PACKAGE_CONTROL_EXTRA
   ${_deploy}/debian/postinst ${_deploy}/debian/postrm ${_scripts}/server/prerm ${_scripts}/server/conffiles)

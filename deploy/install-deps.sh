@@ -19,6 +19,9 @@ packages=(
   fonts-dejavu-core
   # Infrastructure
   libspdlog-dev libfmt-dev libabsl-dev libssl-dev libsqlite3-dev
+  # Several head nodes on one PostgreSQL (issue 15): libpq for the server,
+  # the PostgreSQL 15 server for the tests that start their own database
+  libpq-dev postgresql-15
   # Batch bake specs in YAML (impostor bake-batch)
   libyaml-cpp-dev
   # HTTP side of the server (--http-listen: metrics, JSON API, dashboard);

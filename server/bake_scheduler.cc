@@ -71,11 +71,21 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
         if (!options.now_ms) options.now_ms = SystemNowMs;
         return options;
       }()),
-      observer_(NoObserver()) {}
+      observer_(NoObserver()) {
+  // Jobs other servers change on a shared database wake our waiters too.
+  jobs_->SetChangeCallback([this] {
+    std::lock_guard lock(mu_);
+    ++changes_;
+    changed_.notify_all();
+  });
+}
+
+BakeScheduler::~BakeScheduler() { jobs_->SetChangeCallback(nullptr); }
 
 absl::Status BakeScheduler::Save(JobRecord& record) {
   record.job.set_updated_ms(options_.now_ms());
   if (auto s = jobs_->Update(record); !s.ok()) return s;
+  ++record.row_version;
   ++changes_;
   changed_.notify_all();
   return absl::OkStatus();
@@ -316,29 +326,45 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
     }
   }
 
-  auto active = jobs_->ActiveWithKey(key);
-  if (!active.ok()) return active.status();
-  if (active->has_value()) {
-    // Identical request in flight: follow its bake instead of baking again.
-    record.leader_job_id = (*active)->job.job_id();
+  // Another server may insert the key's bake between our look and our
+  // insert: the store's one-active-bake-per-key constraint refuses ours,
+  // and the second look finds theirs to follow.
+  for (int attempt = 0;; ++attempt) {
+    auto active = jobs_->ActiveWithKey(key);
+    if (!active.ok()) return active.status();
+    if (active->has_value()) {
+      // Identical request in flight: follow its bake instead of baking again.
+      record.leader_job_id = (*active)->job.job_id();
+      record.job.set_state(v1::JOB_STATE_QUEUED);
+      record.job.set_stage("queued");
+      if (auto s = jobs_->Insert(record); !s.ok()) return s;
+      ++changes_;
+      changed_.notify_all();
+      // The shared bake runs at the highest priority anyone waiting asked for.
+      absl::Status refreshed = RefreshLeasePriority(**active);
+      if (absl::IsAborted(refreshed)) {
+        // Another server changed the leader since we read it: once more on
+        // a fresh read.
+        auto fresh = LoadJob((*active)->job.job_id());
+        refreshed = fresh.ok() ? RefreshLeasePriority(*fresh) : fresh.status();
+      }
+      if (!refreshed.ok()) return refreshed;
+      response.set_job_id(record.job.job_id());
+      *response.mutable_job() = View(record);
+      spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
+                   record.leader_job_id);
+      observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kSharedBake);
+      return response;
+    }
+
     record.job.set_state(v1::JOB_STATE_QUEUED);
     record.job.set_stage("queued");
-    if (auto s = jobs_->Insert(record); !s.ok()) return s;
-    ++changes_;
-    changed_.notify_all();
-    // The shared bake runs at the highest priority anyone waiting asked for.
-    if (auto s = RefreshLeasePriority(**active); !s.ok()) return s;
-    response.set_job_id(record.job.job_id());
-    *response.mutable_job() = View(record);
-    spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
-                 record.leader_job_id);
-    observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kSharedBake);
-    return response;
+    if (auto s = jobs_->Insert(record); !s.ok()) {
+      if (absl::IsAlreadyExists(s) && attempt < 3) continue;
+      return s;
+    }
+    break;
   }
-
-  record.job.set_state(v1::JOB_STATE_QUEUED);
-  record.job.set_stage("queued");
-  if (auto s = jobs_->Insert(record); !s.ok()) return s;
   ++changes_;
   changed_.notify_all();
   response.set_job_id(record.job.job_id());
@@ -430,6 +456,10 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
   const int64_t cap = options_.store_max_bytes;
   if (cap <= 0 || blobs_->total_bytes() <= cap) return stats;
   std::lock_guard lock(mu_);
+  // One server on a shared database evicts; the others skip.
+  auto maintainer = jobs_->HoldMaintenanceLock();
+  if (!maintainer.ok()) return maintainer.status();
+  if (!*maintainer) return stats;
   // What must stay: every input of a queued or running job.
   std::set<std::string> needed;
   auto pending = jobs_->Pending();
@@ -533,27 +563,37 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       if (auto it = workers->find(id); it != workers->end() && it->second.polling > 0) --it->second.polling;
     }
   } poll_end{&workers_, request.worker_id()};
+  int lost_claims = 0;
   while (true) {
     if (shutdown_) return absl::UnavailableError("LeaseJob: the server is shutting down; lease from the next one");
-    std::optional<JobRecord> none;
-    absl::StatusOr<std::optional<JobRecord>> next = none;
+    absl::StatusOr<std::vector<std::string>> candidates = std::vector<std::string>();
     // A paused worker waits as if the queue were empty.
-    if (!IsPaused(request.worker_id())) next = NextToLease();
-    if (!next.ok()) return next.status();
-    if (next->has_value()) {
-      JobRecord& r = **next;
+    if (!IsPaused(request.worker_id())) candidates = LeaseCandidates();
+    if (!candidates.ok()) return candidates.status();
+    std::optional<JobRecord> claimed;
+    if (!candidates->empty()) {
       const int64_t now = options_.now_ms();
-      r.job.set_state(v1::JOB_STATE_RUNNING);
-      r.job.set_attempts(r.job.attempts() + 1);
-      r.job.set_progress(0.0f);
-      r.job.set_stage("leased");
-      r.lease_id = NewId("lease-");
-      r.lease_deadline_ms = now + options_.lease_timeout_ms;
-      r.worker_id = request.worker_id();
-      r.lease_holder = lease_holder;
-      r.job.set_worker_id(request.worker_id());
-      if (auto s = Save(r); !s.ok()) return s;
-      last_served_[r.client_id] = ++lease_sequence_;
+      // The claim is atomic in the store: when another server took every
+      // candidate first, look again at once (the queue moved).
+      auto got = jobs_->ClaimQueued(*candidates, {.lease_id = NewId("lease-"),
+                                                  .lease_deadline_ms = now + options_.lease_timeout_ms,
+                                                  .worker_id = request.worker_id(),
+                                                  .lease_holder = lease_holder,
+                                                  .now_ms = now});
+      if (!got.ok()) return got.status();
+      if (!got->has_value() && ++lost_claims < 16) continue;
+      claimed = std::move(*got);
+    }
+    if (claimed.has_value()) {
+      JobRecord& r = *claimed;
+      const int64_t now = options_.now_ms();
+      ++changes_;
+      changed_.notify_all();
+      if (auto s = jobs_->NoteServed(r.client_id); !s.ok()) {
+        // Only fairness depends on it: the lease stands.
+        spdlog::warn("event=note_served_failed client=\"{}\" error=\"{}\"", EscapeUntrusted(r.client_id),
+                     std::string(s.message()));
+      }
       v1::LeasedJob leased;
       leased.set_job_id(r.job.job_id());
       leased.set_lease_id(r.lease_id);
@@ -577,23 +617,28 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
 }
 
-absl::StatusOr<std::optional<JobRecord>> BakeScheduler::NextToLease() {
+absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates() {
   auto heads = jobs_->QueueHeadsPerClient();
   if (!heads.ok()) return heads.status();
-  if (heads->empty()) return std::optional<JobRecord>();
-  if (heads->size() == 1) return std::optional<JobRecord>(std::move(heads->front()));
+  std::vector<std::string> ids;
+  if (heads->size() <= 1) {
+    for (const JobRecord& r : *heads) ids.push_back(r.job.job_id());
+    return ids;
+  }
   auto running = jobs_->RunningPerClient();
   if (!running.ok()) return running.status();
+  auto last_served = jobs_->LastServed();
+  if (!last_served.ok()) return last_served.status();
   auto rank = [&](const JobRecord& r) {
     const auto busy = running->find(r.client_id);
-    const auto served = last_served_.find(r.client_id);
+    const auto served = last_served->find(r.client_id);
     return std::make_tuple(busy == running->end() ? int64_t{0} : busy->second,
-                           served == last_served_.end() ? uint64_t{0} : served->second, r.job.created_ms(),
+                           served == last_served->end() ? int64_t{0} : served->second, r.job.created_ms(),
                            r.job.job_id());
   };
-  auto best = std::min_element(heads->begin(), heads->end(),
-                               [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
-  return std::optional<JobRecord>(std::move(*best));
+  std::sort(heads->begin(), heads->end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
+  for (const JobRecord& r : *heads) ids.push_back(r.job.job_id());
+  return ids;
 }
 
 absl::StatusOr<JobRecord> BakeScheduler::HeldLease(const std::string& job_id, const std::string& lease_id) {
@@ -788,6 +833,10 @@ bool BakeScheduler::WorkerPaused(const std::string& worker_id) {
 
 absl::Status BakeScheduler::ExpireLeases() {
   std::lock_guard lock(mu_);
+  // One server on a shared database sweeps; the others skip.
+  auto maintainer = jobs_->HoldMaintenanceLock();
+  if (!maintainer.ok()) return maintainer.status();
+  if (!*maintainer) return absl::OkStatus();
   auto expired = jobs_->ExpiredLeases(options_.now_ms());
   if (!expired.ok()) return expired.status();
   for (JobRecord& r : *expired) {

@@ -77,6 +77,7 @@ class BakeScheduler {
 
   // `jobs` and `blobs` must outlive the scheduler.
   BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions options);
+  ~BakeScheduler();
 
   // See BakeService.SubmitBake for outcomes and codes. `client_id` names the
   // requester for per-client limits (may be empty).
@@ -245,8 +246,9 @@ class BakeScheduler {
   // Sets a queued or running leader's lease priority to the highest
   // priority among its live requesters and saves it when that changed.
   absl::Status RefreshLeasePriority(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // The queued leader Lease should hand out next (see Lease), if any.
-  absl::StatusOr<std::optional<JobRecord>> NextToLease() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The queued leaders Lease should hand out, best first (see Lease): one
+  // per client at the highest queued priority.
+  absl::StatusOr<std::vector<std::string>> LeaseCandidates() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Cancels the leader's bake when neither its requester nor any follower
   // wants it any more.
   absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -266,11 +268,9 @@ class BakeScheduler {
   std::condition_variable changed_;
   uint64_t changes_ ABSL_GUARDED_BY(mu_) = 0;
   bool shutdown_ ABSL_GUARDED_BY(mu_) = false;
-  // Fairness between clients: the lease sequence number at which each
-  // client was last served. In memory only: after a restart every client
-  // starts even, which is fair too.
-  std::map<std::string, uint64_t> last_served_ ABSL_GUARDED_BY(mu_);
-  uint64_t lease_sequence_ ABSL_GUARDED_BY(mu_) = 0;
+  // Fairness between clients (which was served least recently) lives in
+  // the JobStore (NoteServed, LastServed): shared by every server on one
+  // database and kept across restarts.
   // Per worker: the different jobs it failed in a row, and until when it is
   // paused (Unix ms). In memory only: a restart forgives every worker.
   struct WorkerStreak {

@@ -1,15 +1,18 @@
-// Durable job and result records in an embedded SQLite database
-// (DIR/jobs.sqlite3, WAL journal, synchronous=FULL), so a server restart
-// loses no accepted job and no baked result.
+// Durable job and result records: the interface every storage engine
+// implements, so one scheduler logic (BakeScheduler) runs on either.
+// Engines: SqliteJobStore (sqlite_job_store.h, embedded, one server) and
+// PostgresJobStore (postgres/postgres_job_store.h, several replicas on one
+// database). OpenJobStore (job_store_factory.h) picks one from the flags.
 //
 // Plain persistence: no scheduling policy lives here (see BakeScheduler).
-// Thread-safety: not thread-safe; the owner serialises calls (BakeScheduler
-// holds its mutex around every call).
+// Thread-safety: an engine need not be thread-safe; the owner serialises
+// calls (BakeScheduler holds its mutex around every call).
 #ifndef IMPOSTOR_SERVER_JOB_STORE_H_
 #define IMPOSTOR_SERVER_JOB_STORE_H_
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -20,8 +23,6 @@
 #include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
 #include "impostor/v1/worker_service.pb.h"
-
-struct sqlite3;
 
 namespace impostor {
 
@@ -60,47 +61,80 @@ struct JobRecord {
   // The token name of the worker holding the lease ('' when none or without
   // tokens): it may read the job's input blobs. Column `lease_holder`.
   std::string lease_holder;
+  // Bumped by every Update: an Update whose row_version differs from the
+  // stored one changes nothing (ABORTED), so a replica acting on a stale
+  // read (another server leased, completed or cancelled the job since)
+  // cannot overwrite the newer state. Column `row_version`.
+  int64_t row_version = 0;
 };
+
+// What ClaimQueued writes into the job it leases.
+struct LeaseGrant {
+  std::string lease_id;
+  int64_t lease_deadline_ms = 0;
+  std::string worker_id;
+  std::string lease_holder;
+  int64_t now_ms = 0;
+};
+
+// `record` as ClaimQueued leaves it (state, attempts, progress, stage,
+// lease, worker); for engines.
+void ApplyLeaseGrant(JobRecord& record, const LeaseGrant& grant);
 
 class JobStore {
  public:
-  // Opens or creates the database. INTERNAL with SQLite's message on failure.
+  // Opens or creates an SQLite database file (SqliteJobStore): the
+  // embedded engine, kept here so callers that only know a data directory
+  // need not name the engine. INTERNAL with SQLite's message on failure.
   static absl::StatusOr<std::unique_ptr<JobStore>> Open(const std::filesystem::path& file);
-  ~JobStore();
+  virtual ~JobStore() = default;
 
-  absl::Status Insert(const JobRecord& record);
-  // Writes every field of an existing job. NOT_FOUND if absent.
-  absl::Status Update(const JobRecord& record);
-  absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id);
+  // Stores a new job. ALREADY_EXISTS when the job id, or its (client_id,
+  // request_id), is taken, or when it is a QUEUED or RUNNING leader and
+  // another one with its cache key exists (one bake per key, whichever
+  // server inserts first: a unique index, not an in-process map).
+  virtual absl::Status Insert(const JobRecord& record) = 0;
+  // Writes every field of an existing job, if its stored row_version is
+  // record.row_version (and stores row_version + 1). NOT_FOUND if absent;
+  // ABORTED if it changed since it was read.
+  virtual absl::Status Update(const JobRecord& record) = 0;
+  // Leases the first job of `job_ids` (in that order of preference) that is
+  // still a QUEUED leader, in one atomic step that two servers never both
+  // win: state RUNNING, attempts + 1, progress 0, stage "leased", the
+  // grant's lease, worker and holder, updated at grant.now_ms. The leased
+  // record (with its new row_version), or none when every one was taken.
+  virtual absl::StatusOr<std::optional<JobRecord>> ClaimQueued(const std::vector<std::string>& job_ids,
+                                                               const LeaseGrant& grant) = 0;
+  virtual absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id) = 0;
   // The oldest QUEUED leader.
-  absl::StatusOr<std::optional<JobRecord>> OldestQueued();
+  virtual absl::StatusOr<std::optional<JobRecord>> OldestQueued() = 0;
   // For the highest lease priority among QUEUED leaders: the oldest QUEUED
   // leader of each client at that priority (one per client, any order).
   // Empty when nothing is queued.
-  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient();
+  virtual absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient() = 0;
   // RUNNING leaders per client_id (clients with none are absent).
-  absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient();
+  virtual absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() = 0;
   // A QUEUED or RUNNING leader with this cache key.
-  absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key);
+  virtual absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) = 0;
   // Followers of `leader_job_id` that are still QUEUED or RUNNING.
-  absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id);
+  virtual absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id) = 0;
   // QUEUED or RUNNING rows, of one client or (client_id empty) of everyone.
-  absl::StatusOr<int64_t> CountPending(const std::string& client_id);
+  virtual absl::StatusOr<int64_t> CountPending(const std::string& client_id) = 0;
   // The job a submit with this (client_id, request_id) created, if any.
-  absl::StatusOr<std::optional<JobRecord>> FindByRequestId(const std::string& client_id,
-                                                           const std::string& request_id);
+  virtual absl::StatusOr<std::optional<JobRecord>> FindByRequestId(const std::string& client_id,
+                                                           const std::string& request_id) = 0;
   // RUNNING leaders leased to `worker_id`.
-  absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id);
+  virtual absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id) = 0;
   // RUNNING jobs whose lease deadline is before `now_ms`.
-  absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms);
+  virtual absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms) = 0;
 
-  absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms);
-  absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key);
-  absl::Status DeleteResult(const std::string& cache_key);
+  virtual absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms) = 0;
+  virtual absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key) = 0;
+  virtual absl::Status DeleteResult(const std::string& cache_key) = 0;
   // Records a use of the result (cache hit, GetResult) for LRU eviction.
-  absl::Status TouchResult(const std::string& cache_key, int64_t now_ms);
+  virtual absl::Status TouchResult(const std::string& cache_key, int64_t now_ms) = 0;
   // Sets or clears the pin; false when no result has that key.
-  absl::StatusOr<bool> PinResult(const std::string& cache_key, bool pinned);
+  virtual absl::StatusOr<bool> PinResult(const std::string& cache_key, bool pinned) = 0;
   struct StoredResult {
     v1::Manifest manifest;
     bool pinned = false;
@@ -109,13 +143,13 @@ class JobStore {
     std::string source_job_id;  // GetStoredResult only: OldestJobWithKey
   };
   // Every result, least recently used first.
-  absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse();
+  virtual absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse() = 0;
   // Every QUEUED or RUNNING job.
-  absl::StatusOr<std::vector<JobRecord>> Pending();
+  virtual absl::StatusOr<std::vector<JobRecord>> Pending() = 0;
 
   // --- Read-only listings for the HTTP adapter (server/http/) ---
   // Rows per `state` column value.
-  absl::StatusOr<std::map<int, int64_t>> CountByState();
+  virtual absl::StatusOr<std::map<int, int64_t>> CountByState() = 0;
   // Position in a newest-first listing: the last row of the previous page.
   struct JobCursor {
     int64_t created_ms = 0;
@@ -123,33 +157,42 @@ class JobStore {
   };
   // Jobs newest first (created_ms, then job_id, both descending), of one
   // state (0 = all), at most `limit`, strictly after `after`.
-  absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit, const std::optional<JobCursor>& after);
+  virtual absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit, const std::optional<JobCursor>& after) = 0;
   struct ResultCursor {
     int64_t created_ms = 0;
     std::string cache_key;
   };
   // Results newest first (created_ms, then cache_key, descending).
-  absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after);
+  virtual absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after) = 0;
   // The oldest job with this cache key ("" when none): where a result's mesh
   // came from.
-  absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key);
+  virtual absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key) = 0;
   // One result with its pin and times.
-  absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key);
+  virtual absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key) = 0;
   // True when some result lists a blob with this hash (its manifest.json or
   // one of its maps).
-  absl::StatusOr<bool> IsResultBlob(const std::string& hash);
+  virtual absl::StatusOr<bool> IsResultBlob(const std::string& hash) = 0;
   // QUEUED or RUNNING jobs (not cancelled by their requester) of `owner`.
-  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
+  virtual absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner) = 0;
   // RUNNING leaders whose lease is held by the token `lease_holder`.
-  absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder);
+  virtual absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder) = 0;
 
- private:
-  explicit JobStore(sqlite3* db) : db_(db) {}
-  // Rewrites the result_blobs rows of one result.
-  absl::Status IndexResultBlobs(const v1::Manifest& manifest);
-  // A database from before result_blobs: index every result once.
-  absl::Status BackfillResultBlobs();
-  sqlite3* db_;
+  // --- Shared between servers on one database (issue 15) ---
+  // Fairness history: records that `client_id` was just served a lease
+  // (a sequence number higher than every earlier one).
+  virtual absl::Status NoteServed(const std::string& client_id) = 0;
+  // The sequence number of each client's last lease (absent: never).
+  virtual absl::StatusOr<std::map<std::string, int64_t>> LastServed() = 0;
+  // True while this server is the one that runs farm-wide maintenance
+  // (lease-expiry sweeps, store-cap eviction, retention): exactly one
+  // server on a database at a time; another takes over when it dies. An
+  // engine with one server per database answers true.
+  virtual absl::StatusOr<bool> HoldMaintenanceLock() = 0;
+  // `callback` runs (on any thread) whenever another server may have
+  // changed a job, so waiters re-check at once; null stops it. Returns
+  // once a running callback has finished. Engines with one server per
+  // database have no one else to hear from.
+  virtual void SetChangeCallback(std::function<void()> callback) {}
 };
 
 }  // namespace impostor

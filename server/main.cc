@@ -29,6 +29,7 @@
 #include "server/blob_store.h"
 #include "server/http/http_frontend.h"
 #include "server/job_store.h"
+#include "server/job_store_factory.h"
 #include "server/server_help.h"
 #include "server/services.h"
 #include "server/tls_credentials.h"
@@ -45,6 +46,16 @@
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
+// Issue 15: several head nodes on one PostgreSQL database and one blob store.
+ABSL_FLAG(std::string, database, "",
+          "Job database URL, postgresql://USER:PASSWORD@HOST:PORT/DB?... (several servers may share it); "
+          "default: SQLite in --data");
+ABSL_FLAG(std::string, blob_dir, "",
+          "Blob store directory (holds cas/ and tmp/; a shared filesystem when several servers share "
+          "--database); default: --data");
+ABSL_FLAG(int, database_pool_size, 8, "PostgreSQL connections per server (1..64)");
+ABSL_FLAG(int, database_statement_timeout_ms, 10000,
+          "PostgreSQL statement timeout in milliseconds (100..600000)");
 ABSL_FLAG(int, local_workers, 0, "Number of impostor-worker processes to run and keep alive (0..64)");
 ABSL_FLAG(std::string, worker_binary, "", "Worker executable for --local-workers (default: next to this binary)");
 ABSL_FLAG(int, lease_timeout_s, 30, "Seconds without a worker report before its job is queued again (1..3600)");
@@ -186,9 +197,22 @@ int main(int argc, char** argv) {
     local_worker_socket = *socket;
   }
 
-  auto blobs = impostor::BlobStore::Open(data, max_blob_bytes);
+  const std::string blob_dir = absl::GetFlag(FLAGS_blob_dir).empty() ? data : absl::GetFlag(FLAGS_blob_dir);
+  auto blobs = impostor::BlobStore::Open(blob_dir, max_blob_bytes);
   if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
-  auto jobs = impostor::JobStore::Open(std::filesystem::path(data) / "jobs.sqlite3");
+  const impostor::JobStoreConfig store_config{
+      .database_url = absl::GetFlag(FLAGS_database),
+      .data_dir = data,
+      .pool_size = absl::GetFlag(FLAGS_database_pool_size),
+      .statement_timeout_ms = absl::GetFlag(FLAGS_database_statement_timeout_ms)};
+  if (store_config.pool_size < 1 || store_config.pool_size > 64) {
+    return Fail("--database-pool-size: " + std::to_string(store_config.pool_size) + " is out of range 1..64");
+  }
+  if (store_config.statement_timeout_ms < 100 || store_config.statement_timeout_ms > 600000) {
+    return Fail("--database-statement-timeout-ms: " + std::to_string(store_config.statement_timeout_ms) +
+                " is out of range 100..600000");
+  }
+  auto jobs = impostor::OpenJobStore(store_config);
   if (!jobs.ok()) return Fail(std::string(jobs.status().message()));
   impostor::BakeScheduler scheduler(
       jobs->get(), blobs->get(),

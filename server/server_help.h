@@ -19,7 +19,7 @@ inline ProgramHelp ServerHelp() {
                  "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM or SIGINT drains and stops it.",
       .groups = {{"Listening", {"listen", "port_file", "http_", "tls_"}},
                  {"Access control", {"auth", "token_"}},
-                 {"Storage", {"data", "store_", "max_blob_bytes"}},
+                 {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes"}},
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_"}},
                  {"Workers", {"local_workers", "worker_"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},

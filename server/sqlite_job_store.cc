@@ -1,4 +1,4 @@
-#include "server/job_store.h"
+#include "server/sqlite_job_store.h"
 
 #include <sqlite3.h>
 
@@ -69,9 +69,22 @@ constexpr const char* kLateIndexes =
     "CREATE TABLE IF NOT EXISTS result_blobs (hash TEXT NOT NULL, cache_key TEXT NOT NULL, "
     "PRIMARY KEY (hash, cache_key));";
 
+// Versioned migrations (table schema_version), applied in order at Open
+// after the column migrations above (which bring any older database to
+// version 1). A database whose version is above kSchemaVersion was written
+// by a newer server: Open refuses it rather than guess.
+constexpr const char* kVersionedMigrations[] = {
+    // 2 (issue 15): compare-and-swap updates, one active bake per cache key
+    // as a constraint, fairness history that survives restarts.
+    "ALTER TABLE jobs ADD COLUMN row_version INTEGER NOT NULL DEFAULT 0;"
+    "CREATE UNIQUE INDEX jobs_active_leader_key ON jobs (cache_key) WHERE leader_job_id = '' AND state IN (1, 2);"
+    "CREATE TABLE client_served (client_id TEXT PRIMARY KEY, served_seq INTEGER NOT NULL);",
+};
+constexpr int kSchemaVersion = 1 + static_cast<int>(std::size(kVersionedMigrations));
+
 constexpr const char* kJobColumns =
     "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
-    "requester_cancelled, client_id, priority, request_id, lease_expiries, owner, lease_holder";
+    "requester_cancelled, client_id, priority, request_id, lease_expiries, owner, lease_holder, row_version";
 
 // RAII prepared statement.
 class Statement {
@@ -134,6 +147,7 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
   r.lease_expiries = static_cast<int32_t>(st.Int(14));
   r.owner = st.Text(15);
   r.lease_holder = st.Text(16);
+  r.row_version = st.Int(17);
   return r;
 }
 
@@ -166,9 +180,54 @@ absl::StatusOr<std::vector<JobRecord>> QueryMany(sqlite3* db, const std::string&
   return out;
 }
 
+// FAILED_PRECONDITION when a newer server has migrated the database past
+// what this one knows.
+absl::Status CheckSchemaVersion(sqlite3* db, const std::filesystem::path& file) {
+  Statement st(db, "SELECT MAX(version) FROM schema_version");
+  if (!st.prepared().ok()) return absl::OkStatus();  // no table yet: version 0 or 1
+  if (st.Step() != SQLITE_ROW) return st.Error("read schema version");
+  const int64_t version = st.Int(0);
+  if (version > kSchemaVersion) {
+    return absl::FailedPreconditionError(absl::StrCat(file.string(), ": schema version ", version,
+                                                      " is newer than this server knows (", kSchemaVersion,
+                                                      "); run the newer impostor-server or restore a backup"));
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
+absl::Status SqliteJobStore::MigrateVersions(const std::filesystem::path& file) {
+  char* err = nullptr;
+  auto exec = [&](const std::string& sql, const std::string& what) -> absl::Status {
+    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) == SQLITE_OK) return absl::OkStatus();
+    std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    return absl::InternalError(absl::StrCat("cannot migrate ", file.string(), " (", what, "): ", msg));
+  };
+  if (auto s = exec("CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL)", "schema_version");
+      !s.ok()) {
+    return s;
+  }
+  Statement st(db_, "SELECT COALESCE(MAX(version), 1) FROM schema_version");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  if (st.Step() != SQLITE_ROW) return st.Error("read schema version");
+  const int64_t version = st.Int(0);
+  for (int v = static_cast<int>(version) + 1; v <= kSchemaVersion; ++v) {
+    if (auto s = exec("BEGIN IMMEDIATE", "begin"); !s.ok()) return s;
+    if (auto s = exec(kVersionedMigrations[v - 2], absl::StrCat("to version ", v)); !s.ok()) return s;
+    if (auto s = exec(absl::StrCat("DELETE FROM schema_version; INSERT INTO schema_version VALUES (", v, ")"),
+                      "record version");
+        !s.ok()) {
+      return s;
+    }
+    if (auto s = exec("COMMIT", "commit"); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::unique_ptr<SqliteJobStore>> SqliteJobStore::Open(const std::filesystem::path& file) {
   sqlite3* db = nullptr;
   if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
       SQLITE_OK) {
@@ -177,6 +236,10 @@ absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::
     return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
   }
   sqlite3_busy_timeout(db, 5000);
+  if (auto s = CheckSchemaVersion(db, file); !s.ok()) {
+    sqlite3_close(db);
+    return s;
+  }
   char* err = nullptr;
   if (sqlite3_exec(db, kSchema, nullptr, nullptr, &err) != SQLITE_OK) {
     std::string msg = err ? err : "unknown error";
@@ -210,12 +273,13 @@ absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::
     sqlite3_close(db);
     return absl::InternalError(absl::StrCat("cannot index ", file.string(), ": ", msg));
   }
-  auto store = std::unique_ptr<JobStore>(new JobStore(db));
+  auto store = std::unique_ptr<SqliteJobStore>(new SqliteJobStore(db));
   if (auto s = store->BackfillResultBlobs(); !s.ok()) return s;
+  if (auto s = store->MigrateVersions(file); !s.ok()) return s;
   return store;
 }
 
-absl::Status JobStore::BackfillResultBlobs() {
+absl::Status SqliteJobStore::BackfillResultBlobs() {
   Statement any(db_, "SELECT (SELECT COUNT(*) FROM result_blobs), (SELECT COUNT(*) FROM results)");
   if (auto s = any.prepared(); !s.ok()) return s;
   if (any.Step() != SQLITE_ROW) return any.Error("count result blobs");
@@ -228,7 +292,7 @@ absl::Status JobStore::BackfillResultBlobs() {
   return absl::OkStatus();
 }
 
-JobStore::~JobStore() { sqlite3_close(db_); }
+SqliteJobStore::~SqliteJobStore() { sqlite3_close(db_); }
 
 namespace {
 
@@ -260,41 +324,53 @@ void BindJob(Statement& st, const JobRecord& r) {
 
 }  // namespace
 
-absl::Status JobStore::Insert(const JobRecord& record) {
+absl::Status SqliteJobStore::Insert(const JobRecord& record) {
   Statement st(db_, "INSERT INTO jobs (job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, "
                     "worker_id, job, request, leader_job_id, requester_cancelled, client_id, priority, request_id, "
                     "lease_expiries, owner, lease_holder) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, "
                     "?15, ?16, ?17)");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
-  if (st.Step() != SQLITE_DONE) return st.Error("insert job");
+  if (st.Step() != SQLITE_DONE) {
+    if (sqlite3_extended_errcode(db_) == SQLITE_CONSTRAINT_UNIQUE ||
+        sqlite3_extended_errcode(db_) == SQLITE_CONSTRAINT_PRIMARYKEY) {
+      return absl::AlreadyExistsError(absl::StrCat("job ", record.job.job_id(), ": ", sqlite3_errmsg(db_)));
+    }
+    return st.Error("insert job");
+  }
   return absl::OkStatus();
 }
 
-absl::Status JobStore::Update(const JobRecord& record) {
+absl::Status SqliteJobStore::Update(const JobRecord& record) {
   Statement st(db_, "UPDATE jobs SET cache_key = ?2, state = ?3, created_ms = ?4, lease_id = ?5, "
                     "lease_deadline_ms = ?6, worker_id = ?7, job = ?8, request = ?9, leader_job_id = ?10, "
                     "requester_cancelled = ?11, client_id = ?12, priority = ?13, request_id = ?14, "
-                    "lease_expiries = ?15, owner = ?16, lease_holder = ?17 WHERE job_id = ?1");
+                    "lease_expiries = ?15, owner = ?16, lease_holder = ?17, row_version = ?18 + 1 "
+                    "WHERE job_id = ?1 AND row_version = ?18");
   if (auto s = st.prepared(); !s.ok()) return s;
   BindJob(st, record);
+  st.Bind(18, record.row_version);
   if (st.Step() != SQLITE_DONE) return st.Error("update job");
-  if (sqlite3_changes(db_) == 0) return absl::NotFoundError(absl::StrCat("job ", record.job.job_id(), " not found"));
-  return absl::OkStatus();
+  if (sqlite3_changes(db_) > 0) return absl::OkStatus();
+  auto now = Get(record.job.job_id());
+  if (!now.ok()) return now.status();
+  if (!now->has_value()) return absl::NotFoundError(absl::StrCat("job ", record.job.job_id(), " not found"));
+  return absl::AbortedError(absl::StrCat("job ", record.job.job_id(), " changed since it was read (version ",
+                                         record.row_version, ", now ", (*now)->row_version, "); retry"));
 }
 
-absl::StatusOr<std::optional<JobRecord>> JobStore::Get(const std::string& job_id) {
+absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::Get(const std::string& job_id) {
   return QueryOne(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE job_id = ?1"),
                   [&](Statement& st) { st.Bind(1, job_id); });
 }
 
-absl::StatusOr<std::optional<JobRecord>> JobStore::OldestQueued() {
+absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::OldestQueued() {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND leader_job_id = '' ORDER BY created_ms, rowid LIMIT 1"),
                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::QueueHeadsPerClient() {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::QueueHeadsPerClient() {
   return QueryMany(db_,
                    absl::StrCat("SELECT ", kJobColumns, " FROM (SELECT ", kJobColumns,
                                 ", ROW_NUMBER() OVER (PARTITION BY client_id ORDER BY created_ms, rowid) AS n "
@@ -304,7 +380,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::QueueHeadsPerClient() {
                    [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
 }
 
-absl::StatusOr<std::map<std::string, int64_t>> JobStore::RunningPerClient() {
+absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::RunningPerClient() {
   Statement st(db_, "SELECT client_id, COUNT(*) FROM jobs WHERE state = ?1 AND leader_job_id = '' GROUP BY client_id");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
@@ -315,7 +391,7 @@ absl::StatusOr<std::map<std::string, int64_t>> JobStore::RunningPerClient() {
   return out;
 }
 
-absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::string& cache_key) {
+absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns,
                                " FROM jobs WHERE cache_key = ?1 AND state IN (?2, ?3) AND leader_job_id = '' "
@@ -327,7 +403,7 @@ absl::StatusOr<std::optional<JobRecord>> JobStore::ActiveWithKey(const std::stri
                   });
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::ActiveFollowers(const std::string& leader_job_id) {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::ActiveFollowers(const std::string& leader_job_id) {
   return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE leader_job_id = ?1 AND state IN (?2, ?3)"),
                    [&](Statement& st) {
                      st.Bind(1, leader_job_id);
@@ -336,7 +412,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::ActiveFollowers(const std::stri
                    });
 }
 
-absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
+absl::StatusOr<int64_t> SqliteJobStore::CountPending(const std::string& client_id) {
   Statement st(db_, client_id.empty()
                         ? "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0"
                         : "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0 "
@@ -349,7 +425,7 @@ absl::StatusOr<int64_t> JobStore::CountPending(const std::string& client_id) {
   return st.Int(0);
 }
 
-absl::StatusOr<std::optional<JobRecord>> JobStore::FindByRequestId(const std::string& client_id,
+absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::FindByRequestId(const std::string& client_id,
                                                                    const std::string& request_id) {
   return QueryOne(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE client_id = ?1 AND request_id = ?2"),
                   [&](Statement& st) {
@@ -358,7 +434,7 @@ absl::StatusOr<std::optional<JobRecord>> JobStore::FindByRequestId(const std::st
                   });
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::RunningOnWorker(const std::string& worker_id) {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::RunningOnWorker(const std::string& worker_id) {
   return QueryMany(db_,
                    absl::StrCat("SELECT ", kJobColumns,
                                 " FROM jobs WHERE worker_id = ?1 AND state = ?2 AND leader_job_id = ''"),
@@ -368,7 +444,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::RunningOnWorker(const std::stri
                    });
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::ExpiredLeases(int64_t now_ms) {
   return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND lease_deadline_ms < ?2"),
                    [&](Statement& st) {
                      st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
@@ -376,7 +452,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::ExpiredLeases(int64_t now_ms) {
                    });
 }
 
-absl::Status JobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
+absl::Status SqliteJobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
   Statement st(db_, "INSERT INTO results (cache_key, manifest, created_ms, last_used_ms) VALUES (?1, ?2, ?3, ?3) "
                     "ON CONFLICT (cache_key) DO UPDATE SET manifest = excluded.manifest, "
                     "last_used_ms = excluded.last_used_ms");
@@ -388,7 +464,7 @@ absl::Status JobStore::PutResult(const v1::Manifest& manifest, int64_t now_ms) {
   return IndexResultBlobs(manifest);
 }
 
-absl::Status JobStore::IndexResultBlobs(const v1::Manifest& manifest) {
+absl::Status SqliteJobStore::IndexResultBlobs(const v1::Manifest& manifest) {
   Statement clear(db_, "DELETE FROM result_blobs WHERE cache_key = ?1");
   if (auto s = clear.prepared(); !s.ok()) return s;
   clear.Bind(1, manifest.cache_key());
@@ -406,7 +482,7 @@ absl::Status JobStore::IndexResultBlobs(const v1::Manifest& manifest) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<bool> JobStore::IsResultBlob(const std::string& hash) {
+absl::StatusOr<bool> SqliteJobStore::IsResultBlob(const std::string& hash) {
   Statement st(db_, "SELECT 1 FROM result_blobs WHERE hash = ?1 LIMIT 1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, hash);
@@ -416,7 +492,7 @@ absl::StatusOr<bool> JobStore::IsResultBlob(const std::string& hash) {
   return false;
 }
 
-absl::StatusOr<int64_t> JobStore::CountPendingOwnedBy(const std::string& owner) {
+absl::StatusOr<int64_t> SqliteJobStore::CountPendingOwnedBy(const std::string& owner) {
   Statement st(db_, "SELECT COUNT(*) FROM jobs WHERE state IN (?1, ?2) AND requester_cancelled = 0 AND owner = ?3");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
@@ -426,7 +502,7 @@ absl::StatusOr<int64_t> JobStore::CountPendingOwnedBy(const std::string& owner) 
   return st.Int(0);
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::RunningLeasedBy(const std::string& lease_holder) {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::RunningLeasedBy(const std::string& lease_holder) {
   return QueryMany(db_,
                    absl::StrCat("SELECT ", kJobColumns,
                                 " FROM jobs WHERE lease_holder = ?1 AND state = ?2 AND leader_job_id = ''"),
@@ -436,7 +512,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::RunningLeasedBy(const std::stri
                    });
 }
 
-absl::StatusOr<std::optional<v1::Manifest>> JobStore::GetResult(const std::string& cache_key) {
+absl::StatusOr<std::optional<v1::Manifest>> SqliteJobStore::GetResult(const std::string& cache_key) {
   Statement st(db_, "SELECT manifest FROM results WHERE cache_key = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -448,7 +524,7 @@ absl::StatusOr<std::optional<v1::Manifest>> JobStore::GetResult(const std::strin
   return std::optional<v1::Manifest>(std::move(m));
 }
 
-absl::Status JobStore::TouchResult(const std::string& cache_key, int64_t now_ms) {
+absl::Status SqliteJobStore::TouchResult(const std::string& cache_key, int64_t now_ms) {
   Statement st(db_, "UPDATE results SET last_used_ms = ?2 WHERE cache_key = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -457,7 +533,7 @@ absl::Status JobStore::TouchResult(const std::string& cache_key, int64_t now_ms)
   return absl::OkStatus();
 }
 
-absl::StatusOr<bool> JobStore::PinResult(const std::string& cache_key, bool pinned) {
+absl::StatusOr<bool> SqliteJobStore::PinResult(const std::string& cache_key, bool pinned) {
   Statement st(db_, "UPDATE results SET pinned = ?2 WHERE cache_key = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -466,7 +542,7 @@ absl::StatusOr<bool> JobStore::PinResult(const std::string& cache_key, bool pinn
   return sqlite3_changes(db_) > 0;
 }
 
-absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ResultsByLastUse() {
+absl::StatusOr<std::vector<JobStore::StoredResult>> SqliteJobStore::ResultsByLastUse() {
   Statement st(db_, "SELECT cache_key, manifest, pinned FROM results ORDER BY last_used_ms, created_ms");
   if (auto s = st.prepared(); !s.ok()) return s;
   std::vector<StoredResult> out;
@@ -481,7 +557,7 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ResultsByLastUse()
   return out;
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::Pending() {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::Pending() {
   return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state IN (?1, ?2)"),
                    [&](Statement& st) {
                      st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
@@ -489,7 +565,7 @@ absl::StatusOr<std::vector<JobRecord>> JobStore::Pending() {
                    });
 }
 
-absl::Status JobStore::DeleteResult(const std::string& cache_key) {
+absl::Status SqliteJobStore::DeleteResult(const std::string& cache_key) {
   Statement st(db_, "DELETE FROM results WHERE cache_key = ?1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -501,7 +577,7 @@ absl::Status JobStore::DeleteResult(const std::string& cache_key) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<std::map<int, int64_t>> JobStore::CountByState() {
+absl::StatusOr<std::map<int, int64_t>> SqliteJobStore::CountByState() {
   Statement st(db_, "SELECT state, COUNT(*) FROM jobs GROUP BY state");
   if (auto s = st.prepared(); !s.ok()) return s;
   std::map<int, int64_t> out;
@@ -511,7 +587,7 @@ absl::StatusOr<std::map<int, int64_t>> JobStore::CountByState() {
   return out;
 }
 
-absl::StatusOr<std::vector<JobRecord>> JobStore::ListJobs(int state, int limit, const std::optional<JobCursor>& after) {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::ListJobs(int state, int limit, const std::optional<JobCursor>& after) {
   std::string sql = absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE 1");
   if (state != 0) sql += " AND state = ?1";
   if (after) sql += " AND (created_ms < ?2 OR (created_ms = ?2 AND job_id < ?3))";
@@ -541,7 +617,7 @@ absl::StatusOr<JobStore::StoredResult> ReadResult(const Statement& st) {
 
 }  // namespace
 
-absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ListResults(int limit,
+absl::StatusOr<std::vector<JobStore::StoredResult>> SqliteJobStore::ListResults(int limit,
                                                                          const std::optional<ResultCursor>& after) {
   std::string sql = absl::StrCat("SELECT ", kResultColumns, " FROM results");
   if (after) sql += " WHERE created_ms < ?1 OR (created_ms = ?1 AND cache_key < ?2)";
@@ -564,7 +640,7 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> JobStore::ListResults(int li
   return out;
 }
 
-absl::StatusOr<std::string> JobStore::OldestJobWithKey(const std::string& cache_key) {
+absl::StatusOr<std::string> SqliteJobStore::OldestJobWithKey(const std::string& cache_key) {
   Statement st(db_, "SELECT job_id FROM jobs WHERE cache_key = ?1 ORDER BY created_ms LIMIT 1");
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -574,7 +650,7 @@ absl::StatusOr<std::string> JobStore::OldestJobWithKey(const std::string& cache_
   return st.Text(0);
 }
 
-absl::StatusOr<std::optional<JobStore::StoredResult>> JobStore::GetStoredResult(const std::string& cache_key) {
+absl::StatusOr<std::optional<JobStore::StoredResult>> SqliteJobStore::GetStoredResult(const std::string& cache_key) {
   Statement st(db_, absl::StrCat("SELECT ", kResultColumns, " FROM results WHERE cache_key = ?1").c_str());
   if (auto s = st.prepared(); !s.ok()) return s;
   st.Bind(1, cache_key);
@@ -584,6 +660,61 @@ absl::StatusOr<std::optional<JobStore::StoredResult>> JobStore::GetStoredResult(
   auto r = ReadResult(st);
   if (!r.ok()) return r.status();
   return std::optional<StoredResult>(std::move(*r));
+}
+
+}  // namespace impostor
+
+namespace impostor {
+
+absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::ClaimQueued(const std::vector<std::string>& job_ids,
+                                                                     const LeaseGrant& grant) {
+  // One process owns the file, so a transaction is enough to make the
+  // check-and-set atomic.
+  if (sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) != SQLITE_OK) {
+    return absl::InternalError(absl::StrCat("sqlite claim: ", sqlite3_errmsg(db_)));
+  }
+  auto finish = [&](bool commit) {
+    sqlite3_exec(db_, commit ? "COMMIT" : "ROLLBACK", nullptr, nullptr, nullptr);
+  };
+  for (const std::string& id : job_ids) {
+    auto r = Get(id);
+    if (!r.ok()) {
+      finish(false);
+      return r.status();
+    }
+    if (!r->has_value() || (*r)->job.state() != v1::JOB_STATE_QUEUED || !(*r)->leader_job_id.empty()) continue;
+    JobRecord& claimed = **r;
+    ApplyLeaseGrant(claimed, grant);
+    if (auto s = Update(claimed); !s.ok()) {
+      finish(false);
+      return s;
+    }
+    ++claimed.row_version;
+    finish(true);
+    return std::move(*r);
+  }
+  finish(true);
+  return std::optional<JobRecord>();
+}
+
+absl::Status SqliteJobStore::NoteServed(const std::string& client_id) {
+  Statement st(db_, "INSERT INTO client_served (client_id, served_seq) VALUES "
+                    "(?1, (SELECT COALESCE(MAX(served_seq), 0) + 1 FROM client_served)) "
+                    "ON CONFLICT (client_id) DO UPDATE SET served_seq = excluded.served_seq");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, client_id);
+  if (st.Step() != SQLITE_DONE) return st.Error("note served");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::LastServed() {
+  Statement st(db_, "SELECT client_id, served_seq FROM client_served");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  std::map<std::string, int64_t> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) out[st.Text(0)] = st.Int(1);
+  if (rc != SQLITE_DONE) return st.Error("read served");
+  return out;
 }
 
 }  // namespace impostor

@@ -404,6 +404,8 @@ TEST(JobStoreMigration, DatabaseFromBeforeTokensKeepsWorking) {
   // New rows carry the new columns.
   JobRecord fresh = **old;
   fresh.job.set_job_id("job-new");
+  // Another key: one queued bake per cache key is a constraint (issue 15).
+  fresh.job.set_cache_key(std::string(64, 'e'));
   fresh.owner = "artist";
   fresh.lease_holder = "node-1";
   ASSERT_TRUE((*store)->Insert(fresh).ok());

@@ -1,0 +1,26 @@
+#include "server/job_store.h"
+
+#include "server/sqlite_job_store.h"
+
+namespace impostor {
+
+absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
+  auto store = SqliteJobStore::Open(file);
+  if (!store.ok()) return store.status();
+  return std::unique_ptr<JobStore>(std::move(*store));
+}
+
+void ApplyLeaseGrant(JobRecord& r, const LeaseGrant& grant) {
+  r.job.set_state(v1::JOB_STATE_RUNNING);
+  r.job.set_attempts(r.job.attempts() + 1);
+  r.job.set_progress(0.0f);
+  r.job.set_stage("leased");
+  r.job.set_worker_id(grant.worker_id);
+  r.job.set_updated_ms(grant.now_ms);
+  r.lease_id = grant.lease_id;
+  r.lease_deadline_ms = grant.lease_deadline_ms;
+  r.worker_id = grant.worker_id;
+  r.lease_holder = grant.lease_holder;
+}
+
+}  // namespace impostor

@@ -1,0 +1,36 @@
+// Picks the job store engine from the server's flags: --database with a
+// postgresql:// (or postgres://) URL opens PostgreSQL; without it, SQLite in
+// the data directory (DIR/jobs.sqlite3), as before there were two engines.
+#ifndef IMPOSTOR_SERVER_JOB_STORE_FACTORY_H_
+#define IMPOSTOR_SERVER_JOB_STORE_FACTORY_H_
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "absl/status/statusor.h"
+#include "server/job_store.h"
+
+namespace impostor {
+
+struct JobStoreConfig {
+  // --database: '' = SQLite under data_dir; else a postgresql:// URL.
+  std::string database_url;
+  // --data: where the SQLite file lives.
+  std::string data_dir;
+  // PostgreSQL only: connections in the pool and the per-statement limit.
+  int pool_size = 8;
+  int statement_timeout_ms = 10'000;
+};
+
+// True for the URL schemes the PostgreSQL engine takes.
+bool IsPostgresUrl(std::string_view url);
+
+// The engine `config` names, opened and migrated. INVALID_ARGUMENT naming
+// --database for a URL of another scheme; the engine's error otherwise
+// (a PostgreSQL URL is named without its password).
+absl::StatusOr<std::unique_ptr<JobStore>> OpenJobStore(const JobStoreConfig& config);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_JOB_STORE_FACTORY_H_

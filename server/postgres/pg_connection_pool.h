@@ -1,0 +1,128 @@
+// A small pool of libpq connections to one PostgreSQL database, with the
+// reconnect an SRE expects: a statement that finds its connection broken
+// (the database restarted, a network blip) reconnects and runs again, with
+// backoff, for up to `reconnect_window_ms`, so a database restart costs a
+// reconnect rather than a failed RPC or a lost job. Every connection gets
+// the statement timeout. Errors name the URL without its password.
+//
+// Thread-safety: thread-safe; each Run borrows one connection.
+#ifndef IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_
+#define IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+struct pg_conn;
+struct pg_result;
+
+namespace impostor {
+
+// Statement parameters: text values, or bytes sent in binary format
+// (bytea). Numbered $1, $2, ... in the order added.
+class PgParams {
+ public:
+  PgParams& Text(std::string v) { return Add(std::move(v), 0); }
+  PgParams& Bytes(std::string v) { return Add(std::move(v), 1); }
+  PgParams& Int(int64_t v) { return Add(std::to_string(v), 0); }
+  // A text[] literal of `items` (for "= ANY($n::text[])").
+  PgParams& TextArray(const std::vector<std::string>& items);
+  size_t size() const { return values_.size(); }
+  const std::vector<std::string>& values() const { return values_; }
+  const std::vector<int>& formats() const { return formats_; }
+
+ private:
+  PgParams& Add(std::string v, int format) {
+    values_.push_back(std::move(v));
+    formats_.push_back(format);
+    return *this;
+  }
+  std::vector<std::string> values_;
+  std::vector<int> formats_;
+};
+
+// The rows of one statement (text format).
+class PgRows {
+ public:
+  explicit PgRows(pg_result* r) : r_(r, &Clear) {}
+  int size() const;
+  int changed() const;  // rows an INSERT/UPDATE/DELETE touched
+  std::string Text(int row, int col) const;
+  int64_t Int(int row, int col) const;
+  std::string Bytes(int row, int col) const;  // a bytea column, decoded
+  bool IsNull(int row, int col) const;
+
+ private:
+  static void Clear(pg_result* r);
+  std::shared_ptr<pg_result> r_;
+};
+
+// One borrowed connection, for statements that must share a session (a
+// transaction).
+class PgSession {
+ public:
+  // Runs `sql` with `params`. Errors: ALREADY_EXISTS (unique violation),
+  // DEADLINE_EXCEEDED (statement timeout), ABORTED (serialisation failure
+  // or deadlock), UNAVAILABLE (connection lost), INTERNAL (anything else),
+  // each naming `what` and the redacted URL.
+  absl::StatusOr<PgRows> Exec(const std::string& what, const std::string& sql, const PgParams& params = {});
+  pg_conn* raw() const { return conn_; }
+
+ private:
+  friend class PgConnectionPool;
+  PgSession(pg_conn* conn, const std::string* url) : conn_(conn), url_(url) {}
+  pg_conn* conn_;
+  const std::string* url_;  // redacted
+};
+
+class PgConnectionPool {
+ public:
+  struct Options {
+    std::string url;
+    int size = 8;
+    int statement_timeout_ms = 10'000;
+    int64_t reconnect_window_ms = 30'000;
+  };
+  // Connects once to check the URL: UNAVAILABLE naming the redacted URL
+  // and libpq's reason when the database cannot be reached.
+  static absl::StatusOr<std::unique_ptr<PgConnectionPool>> Open(const Options& options);
+  ~PgConnectionPool();
+
+  // Runs `body` on one connection. When the connection turns out broken
+  // (UNAVAILABLE), the connection is re-made and `body` runs again from the
+  // start, until `reconnect_window_ms` has passed; so `body` must be
+  // restartable (a whole transaction, or one statement).
+  absl::Status Run(const std::function<absl::Status(PgSession&)>& body);
+  // One statement through Run.
+  absl::StatusOr<PgRows> Exec(const std::string& what, const std::string& sql, const PgParams& params = {});
+  // `body` inside BEGIN ... COMMIT (ROLLBACK when it fails), through Run.
+  absl::Status Transaction(const std::function<absl::Status(PgSession&)>& body);
+
+  // A fresh connection outside the pool (LISTEN, advisory locks), with
+  // the statement timeout set. Caller owns it (PQfinish).
+  absl::StatusOr<pg_conn*> Connect() const;
+  const std::string& redacted_url() const { return redacted_url_; }
+
+ private:
+  explicit PgConnectionPool(Options options);
+  absl::StatusOr<pg_conn*> Borrow();
+  void Return(pg_conn* conn);
+
+  const Options options_;
+  const std::string redacted_url_;
+  std::mutex mu_;
+  std::condition_variable available_;
+  std::vector<pg_conn*> idle_;
+  int open_ = 0;  // connections made and not closed (idle + borrowed)
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_

@@ -1,0 +1,117 @@
+// The shared engine: JobStore on PostgreSQL, for any number of server
+// replicas on one database (issue 15).
+//
+// - Schema: versioned migrations (schema_version), applied at Open under an
+//   advisory lock so replicas starting together migrate once; a database
+//   newer than this binary is refused (FAILED_PRECONDITION).
+// - Claims: ClaimQueued is one guarded statement, UPDATE ... WHERE job_id =
+//   (SELECT ... FOR UPDATE SKIP LOCKED LIMIT 1) RETURNING ..., so two
+//   replicas never lease one job; every Update is compare-and-swap on
+//   row_version; one active bake per cache key is a partial unique index.
+// - Wake-ups: a trigger NOTIFYs `impostor_jobs` on every job change; a
+//   listener thread on its own connection runs the change callback.
+// - Maintenance: HoldMaintenanceLock holds a session advisory lock on its
+//   own connection; when that replica dies its session ends and the next
+//   replica to ask gets it.
+// - Connections: a pool with a statement timeout and reconnects
+//   (pg_connection_pool.h); errors name the URL without its password.
+//
+// Thread-safety: thread-safe (the pool serialises per connection); the
+// scheduler still serialises its calls.
+#ifndef IMPOSTOR_SERVER_POSTGRES_POSTGRES_JOB_STORE_H_
+#define IMPOSTOR_SERVER_POSTGRES_POSTGRES_JOB_STORE_H_
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "server/job_store.h"
+#include "server/postgres/pg_connection_pool.h"
+
+namespace impostor {
+
+// The schema version this binary writes (see kMigrations in the .cc).
+int PostgresSchemaVersion();
+// The advisory lock key HoldMaintenanceLock takes (for operators and tests:
+// `SELECT pid FROM pg_locks WHERE locktype = 'advisory'`).
+int64_t PostgresMaintenanceLockKey();
+
+class PostgresJobStore : public JobStore {
+ public:
+  struct Options {
+    std::string url;
+    int pool_size = 8;
+    int statement_timeout_ms = 10'000;
+    int64_t reconnect_window_ms = 30'000;
+  };
+  // Connects, migrates and starts the listener. UNAVAILABLE naming the
+  // redacted URL when the database cannot be reached; FAILED_PRECONDITION
+  // when its schema is newer than this binary.
+  static absl::StatusOr<std::unique_ptr<PostgresJobStore>> Open(const Options& options);
+  ~PostgresJobStore() override;
+
+  absl::Status Insert(const JobRecord& record) override;
+  absl::Status Update(const JobRecord& record) override;
+  absl::StatusOr<std::optional<JobRecord>> ClaimQueued(const std::vector<std::string>& job_ids,
+                                                       const LeaseGrant& grant) override;
+  absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id) override;
+  absl::StatusOr<std::optional<JobRecord>> OldestQueued() override;
+  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient() override;
+  absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() override;
+  absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) override;
+  absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id) override;
+  absl::StatusOr<int64_t> CountPending(const std::string& client_id) override;
+  absl::StatusOr<std::optional<JobRecord>> FindByRequestId(const std::string& client_id,
+                                                           const std::string& request_id) override;
+  absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id) override;
+  absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms) override;
+  absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms) override;
+  absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key) override;
+  absl::Status DeleteResult(const std::string& cache_key) override;
+  absl::Status TouchResult(const std::string& cache_key, int64_t now_ms) override;
+  absl::StatusOr<bool> PinResult(const std::string& cache_key, bool pinned) override;
+  absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse() override;
+  absl::StatusOr<std::vector<JobRecord>> Pending() override;
+  absl::StatusOr<std::map<int, int64_t>> CountByState() override;
+  absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit,
+                                                  const std::optional<JobCursor>& after) override;
+  absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after) override;
+  absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key) override;
+  absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key) override;
+  absl::StatusOr<bool> IsResultBlob(const std::string& hash) override;
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner) override;
+  absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder) override;
+  absl::Status NoteServed(const std::string& client_id) override;
+  absl::StatusOr<std::map<std::string, int64_t>> LastServed() override;
+  absl::StatusOr<bool> HoldMaintenanceLock() override;
+  void SetChangeCallback(std::function<void()> callback) override;
+
+ private:
+  explicit PostgresJobStore(std::unique_ptr<PgConnectionPool> pool) : pool_(std::move(pool)) {}
+  absl::Status Migrate();
+  absl::StatusOr<std::optional<JobRecord>> QueryOne(const std::string& what, const std::string& sql,
+                                                    const PgParams& params);
+  absl::StatusOr<std::vector<JobRecord>> QueryMany(const std::string& what, const std::string& sql,
+                                                   const PgParams& params);
+  // A new connection that has run LISTEN impostor_jobs.
+  absl::StatusOr<pg_conn*> ListenConnection();
+  void Listen(pg_conn* conn);  // the listener thread's body; owns `conn`
+
+  std::unique_ptr<PgConnectionPool> pool_;
+
+  std::mutex maintenance_mu_;
+  pg_conn* maintenance_conn_ = nullptr;  // holds the advisory lock while alive
+  bool maintenance_held_ = false;
+
+  std::mutex callback_mu_;
+  std::function<void()> callback_;
+  std::atomic<bool> stop_{false};
+  std::thread listener_;
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_POSTGRES_POSTGRES_JOB_STORE_H_

@@ -1,0 +1,72 @@
+// The embedded engine: JobStore on one SQLite file (DIR/jobs.sqlite3, WAL
+// journal, synchronous=FULL), so a server restart loses no accepted job and
+// no baked result. One server process owns the file.
+//
+// Thread-safety: not thread-safe; the owner serialises calls.
+#ifndef IMPOSTOR_SERVER_SQLITE_JOB_STORE_H_
+#define IMPOSTOR_SERVER_SQLITE_JOB_STORE_H_
+
+#include <filesystem>
+#include <memory>
+
+#include "server/job_store.h"
+
+struct sqlite3;
+
+namespace impostor {
+
+class SqliteJobStore : public JobStore {
+ public:
+  // Opens or creates the database and brings its schema up to date.
+  // INTERNAL with SQLite's message on failure.
+  static absl::StatusOr<std::unique_ptr<SqliteJobStore>> Open(const std::filesystem::path& file);
+  ~SqliteJobStore() override;
+
+  absl::Status Insert(const JobRecord& record) override;
+  absl::Status Update(const JobRecord& record) override;
+  absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id) override;
+  absl::StatusOr<std::optional<JobRecord>> OldestQueued() override;
+  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient() override;
+  absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() override;
+  absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) override;
+  absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id) override;
+  absl::StatusOr<int64_t> CountPending(const std::string& client_id) override;
+  absl::StatusOr<std::optional<JobRecord>> FindByRequestId(const std::string& client_id, const std::string& request_id) override;
+  absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id) override;
+  absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms) override;
+  absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms) override;
+  absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key) override;
+  absl::Status DeleteResult(const std::string& cache_key) override;
+  absl::Status TouchResult(const std::string& cache_key, int64_t now_ms) override;
+  absl::StatusOr<bool> PinResult(const std::string& cache_key, bool pinned) override;
+  absl::StatusOr<std::vector<StoredResult>> ResultsByLastUse() override;
+  absl::StatusOr<std::vector<JobRecord>> Pending() override;
+  absl::StatusOr<std::map<int, int64_t>> CountByState() override;
+  absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit, const std::optional<JobCursor>& after) override;
+  absl::StatusOr<std::vector<StoredResult>> ListResults(int limit, const std::optional<ResultCursor>& after) override;
+  absl::StatusOr<std::string> OldestJobWithKey(const std::string& cache_key) override;
+  absl::StatusOr<std::optional<StoredResult>> GetStoredResult(const std::string& cache_key) override;
+  absl::StatusOr<bool> IsResultBlob(const std::string& hash) override;
+  absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner) override;
+  absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder) override;
+  absl::StatusOr<std::optional<JobRecord>> ClaimQueued(const std::vector<std::string>& job_ids,
+                                                       const LeaseGrant& grant) override;
+  absl::Status NoteServed(const std::string& client_id) override;
+  absl::StatusOr<std::map<std::string, int64_t>> LastServed() override;
+  // One server per file: always the maintainer.
+  absl::StatusOr<bool> HoldMaintenanceLock() override { return true; }
+
+ private:
+  // Applies the versioned migrations past the stored schema_version.
+  absl::Status MigrateVersions(const std::filesystem::path& file);
+  explicit SqliteJobStore(sqlite3* db) : db_(db) {}
+  // Rewrites the result_blobs rows of one result.
+  absl::Status IndexResultBlobs(const v1::Manifest& manifest);
+  // A database from before result_blobs: index every result once.
+  absl::Status BackfillResultBlobs();
+  sqlite3* db_;
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_SQLITE_JOB_STORE_H_
