@@ -57,8 +57,11 @@ absl::StatusOr<PgRows> PgSession::Exec(const std::string& what, const std::strin
     values.push_back(v.data());
     lengths.push_back(static_cast<int>(v.size()));
   }
-  PGresult* r = PQexecParams(conn_, sql.c_str(), static_cast<int>(params.size()), nullptr, values.data(),
-                             lengths.data(), params.formats().data(), 0);
+  // Without parameters, the simple protocol: it also runs several
+  // statements at once (migrations).
+  PGresult* r = params.size() == 0 ? PQexec(conn_, sql.c_str())
+                                   : PQexecParams(conn_, sql.c_str(), static_cast<int>(params.size()), nullptr,
+                                                  values.data(), lengths.data(), params.formats().data(), 0);
   PgRows rows(r);
   const ExecStatusType st = r ? PQresultStatus(r) : PGRES_FATAL_ERROR;
   if (st == PGRES_COMMAND_OK || st == PGRES_TUPLES_OK) return rows;
