@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/disk_full.h"
+#include "server/sqlite_open.h"
 #include "impostor/v1/bake_service.pb.h"
 
 namespace impostor {
@@ -169,21 +170,10 @@ absl::StatusOr<std::vector<JobRecord>> QueryMany(sqlite3* db, const std::string&
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
-      SQLITE_OK) {
-    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
-  }
-  sqlite3_busy_timeout(db, 5000);
+  auto opened = OpenSqliteDatabase(file, kSchema);
+  if (!opened.ok()) return opened.status();
+  sqlite3* db = *opened;
   char* err = nullptr;
-  if (sqlite3_exec(db, kSchema, nullptr, nullptr, &err) != SQLITE_OK) {
-    std::string msg = err ? err : "unknown error";
-    sqlite3_free(err);
-    sqlite3_close(db);
-    return absl::InternalError(absl::StrCat("cannot initialise ", file.string(), ": ", msg));
-  }
   for (const Migration& m : kMigrations) {
     Statement has(db, "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name = ?1");
     if (auto s = has.prepared(); !s.ok()) {
