@@ -212,7 +212,10 @@ TEST(AccessPolicy, RoleTable) {
       {b + "GetJob", false, true, false},          {b + "CancelJob", false, true, false},
       {w + "LeaseJob", false, false, true},        {w + "ReportProgress", false, false, true},
       {w + "CompleteJob", false, false, true},     {w + "FailJob", false, false, true},
-      {w + "ReleaseJob", false, false, true},      {"/impostor.v1.AdminService/Purge", false, false, false},
+      {w + "ReleaseJob", false, false, true},
+      {"/impostor.v1.AdminService/PurgeWorkerResults", false, false, false},
+      // Not in the table: admin only.
+      {"/impostor.v1.AdminService/Purge", false, false, false},
   };
   for (const Row& row : rows) {
     for (auto [role, allowed] : {std::pair{Role::kReader, row.reader}, std::pair{Role::kSubmitter, row.submitter},
@@ -226,8 +229,11 @@ TEST(AccessPolicy, RoleTable) {
       }
     }
   }
-  // Every rule in the table is a row above.
+  // Every rule in the table is a row above (the last is not a rule).
   EXPECT_EQ(AccessRules().size(), std::size(rows) - 1);
+  const MethodRule* purge = FindRule("/impostor.v1.AdminService/PurgeWorkerResults");
+  ASSERT_NE(purge, nullptr);
+  EXPECT_TRUE(purge->changes_state) << "purges are audited";
 }
 
 TEST(AuthMode, DefaultsAndRefusals) {
