@@ -17,6 +17,7 @@
 #include "client/rpc_error.h"
 #include "common/tls_channel.h"
 #include "common/token_source.h"
+#include "impostor/v1/admin_service.grpc.pb.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
 
@@ -324,6 +325,15 @@ absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) 
 absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {
   return CallUnary<v1::LookupBakeResponse>("LookupBake", [&](auto* ctx, auto* resp) {
     return stubs_->bake->LookupBake(ctx, request, resp);
+  });
+}
+
+absl::StatusOr<v1::PurgeWorkerResultsResponse> Transport::PurgeWorkerResults(
+    const v1::PurgeWorkerResultsRequest& request) {
+  // A stub per call: administration is rare and stays off the hot path's Stubs.
+  auto admin = v1::AdminService::NewStub(stubs_->channel);
+  return CallUnary<v1::PurgeWorkerResultsResponse>("PurgeWorkerResults", [&](auto* ctx, auto* resp) {
+    return admin->PurgeWorkerResults(ctx, request, resp);
   });
 }
 

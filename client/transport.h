@@ -17,6 +17,7 @@
 #include "absl/status/statusor.h"
 #include "client/connection_monitor.h"
 #include "impostor/client.h"
+#include "impostor/v1/admin_service.pb.h"
 #include "impostor/v1/asset_service.pb.h"
 #include "impostor/v1/bake_service.pb.h"
 #include "impostor/v1/types.pb.h"
@@ -56,6 +57,8 @@ class Transport {
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
   absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
   absl::StatusOr<v1::LookupBakeResponse> LookupBake(const v1::SubmitBakeRequest& request);
+  // AdminService (admin tokens only; `impostor admin purge`).
+  absl::StatusOr<v1::PurgeWorkerResultsResponse> PurgeWorkerResults(const v1::PurgeWorkerResultsRequest& request);
 
   // Fills `data` (cleared before each call) with the next bytes to send and
   // returns true, or returns false once there are none left. A non-OK status

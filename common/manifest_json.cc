@@ -195,6 +195,8 @@ std::string ManifestToJson(const v1::Manifest& m) {
                           {"encode", t.encode_seconds()},     {"store", t.store_seconds()},
                           {"total", t.total_seconds()}};
   j["device"] = m.device();
+  // The server stamps it (server/manifest_stamp.h); workers leave it out.
+  if (!m.baked_by().empty()) j["baked_by"] = m.baked_by();
   if (m.product() == v1::PRODUCT_SURFELS) j["surfels"] = SurfelsJson(m.surfels());
   if (m.product() == v1::PRODUCT_CARDS) j["cards"] = CardsToJson(m.cards());
   if (m.product() == v1::PRODUCT_LOD_CHAIN) j["lods"] = LodLevelsToJson(m.lods());
@@ -275,6 +277,7 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
   if (absl::Status s = ReadQualityJson(j, &m); !s.ok()) return s;
   if (absl::Status s = ReadGeometryJson(j, &m); !s.ok()) return s;
   if (auto it = j.find("device"); it != j.end() && it->is_string()) m.set_device(it->get<std::string>());
+  if (auto it = j.find("baked_by"); it != j.end() && it->is_string()) m.set_baked_by(it->get<std::string>());
   if (auto it = j.find("mesh"); it != j.end() && it->is_object()) {
     m.mutable_mesh()->set_triangles(it->value("triangles", uint64_t{0}));
     m.mutable_mesh()->set_materials(it->value("materials", 0u));

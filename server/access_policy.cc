@@ -34,6 +34,8 @@ const std::vector<MethodRule>& AccessRules() {
       {"/impostor.v1.WorkerService/CompleteJob", {W}, ObjectCheck::kNone, true},
       {"/impostor.v1.WorkerService/FailJob", {W}, ObjectCheck::kNone, true},
       {"/impostor.v1.WorkerService/ReleaseJob", {W}, ObjectCheck::kNone, true},
+      // Administration: admin tokens only (no role listed), audited.
+      {"/impostor.v1.AdminService/PurgeWorkerResults", {}, ObjectCheck::kNone, true},
   };
   return *rules;
 }

@@ -13,6 +13,7 @@ namespace {
 constexpr char kAsset[] = "/impostor.v1.AssetService/";
 constexpr char kBake[] = "/impostor.v1.BakeService/";
 constexpr char kWorker[] = "/impostor.v1.WorkerService/";
+constexpr char kAdmin[] = "/impostor.v1.AdminService/";
 
 std::string Method(const char* service, const char* name) { return absl::StrCat(service, name); }
 
@@ -229,6 +230,20 @@ grpc::Status AuthorizedWorkerService::ReleaseJob(grpc::ServerContext* context, c
                                                  v1::ReleaseJobResponse* response) {
   return guard_->Run(context, Method(kWorker, "ReleaseJob"), request->job_id(),
                      [&](const Principal&) { return inner_->ReleaseJob(context, request, response); });
+}
+
+// ---- AdminService ----
+
+grpc::Status AuthorizedAdminService::PurgeWorkerResults(grpc::ServerContext* context,
+                                                        const v1::PurgeWorkerResultsRequest* request,
+                                                        v1::PurgeWorkerResultsResponse* response) {
+  return guard_->Run(
+      context, Method(kAdmin, "PurgeWorkerResults"), request->worker(),
+      [&](const Principal&) { return inner_->PurgeWorkerResults(context, request, response); },
+      [&] {
+        return absl::StrCat("worker=", request->worker(), " results=", response->cache_keys_size(),
+                            " blobs_removed=", response->blobs_removed());
+      });
 }
 
 }  // namespace impostor

@@ -1,4 +1,4 @@
-// The identity layer in front of the three impostor.v1 services (issue 14):
+// The identity layer in front of the impostor.v1 services (issue 14):
 // every call is authenticated (bearer token -> Principal), checked against
 // the role table (access_policy.h) and, where the table says so, against
 // the object it touches (own job; readable blob), before the real service's
@@ -30,6 +30,7 @@
 #include <string>
 #include <string_view>
 
+#include "impostor/v1/admin_service.grpc.pb.h"
 #include "server/authenticator.h"
 #include "server/bake_scheduler.h"
 #include "server/call_principals.h"
@@ -130,6 +131,17 @@ class AuthorizedWorkerService final : public v1::WorkerService::Service {
  private:
   AccessGuard* const guard_;
   v1::WorkerService::Service* const inner_;
+};
+
+class AuthorizedAdminService final : public v1::AdminService::Service {
+ public:
+  AuthorizedAdminService(AccessGuard* guard, v1::AdminService::Service* inner) : guard_(guard), inner_(inner) {}
+  grpc::Status PurgeWorkerResults(grpc::ServerContext* context, const v1::PurgeWorkerResultsRequest* request,
+                                  v1::PurgeWorkerResultsResponse* response) override;
+
+ private:
+  AccessGuard* const guard_;
+  v1::AdminService::Service* const inner_;
 };
 
 }  // namespace impostor

@@ -1,4 +1,5 @@
 #include "server/bake_scheduler.h"
+#include "server/manifest_stamp.h"
 
 #include <openssl/rand.h>
 
@@ -691,6 +692,12 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   if (m.maps_size() == 0) return absl::InvalidArgumentError("result.maps: empty");
   if (!blobs_->Contains(ToDigest(m.manifest_json()))) {
     return absl::FailedPreconditionError("result.manifest_json: blob is not in the store; upload it first");
+  }
+  // ... and in the manifest.json clients install (server/manifest_stamp.h).
+  if (!m.baked_by().empty()) {
+    auto stamped = StampBakedBy(*blobs_, m.manifest_json(), m.baked_by());
+    if (!stamped.ok()) return stamped.status();
+    *m.mutable_manifest_json() = *stamped;
   }
   for (int i = 0; i < m.maps_size(); ++i) {
     if (!blobs_->Contains(ToDigest(m.maps(i).digest()))) {

@@ -107,6 +107,24 @@ class BakeScheduler {
   // already under it.
   absl::StatusOr<EvictionStats> EnforceStoreCap();
 
+  // What PurgeResultsBakedBy did (AdminService.PurgeWorkerResults).
+  struct PurgeStats {
+    std::vector<std::string> cache_keys;  // results dropped, least recently used first
+    int64_t blobs_removed = 0;
+    int64_t bytes_freed = 0;
+    int64_t blobs_kept = 0;  // still listed by another result, a pending job's input, or in the grace
+  };
+  // Drops every result whose Manifest.baked_by is `worker` (issue 14: a
+  // compromised worker), so those keys bake again, and removes the blobs only
+  // those results listed, under EnforceStoreCap's rules: never a blob
+  // another result lists, an input of a queued or running job, or one
+  // younger than options().eviction_grace_ms (a bake about to complete may
+  // have found it present). A download already streaming keeps its open
+  // file. INVALID_ARGUMENT naming `worker` and its limits; INTERNAL on a
+  // database or disk error (what was dropped so far stays dropped).
+  // (bake_scheduler_purge.cc)
+  absl::StatusOr<PurgeStats> PurgeResultsBakedBy(const std::string& worker);
+
   // Counter bumped on every job change.
   uint64_t change_count();
   // Blocks until the counter differs from `seen`, `deadline` passes or

@@ -39,6 +39,7 @@
 #include "server/authenticator.h"
 #include "server/authorized_services.h"
 #include "server/call_principals.h"
+#include "server/admin_service.h"
 #include "server/purge_command.h"
 #include "server/token_command.h"
 #include "server/token_quotas.h"
@@ -236,7 +237,14 @@ int main(int argc, char** argv) {
     authenticator = std::make_unique<impostor::Authenticator>(token_store.get());
   }
   impostor::CallPrincipals principals;
-  impostor::TokenQuotas quotas(quota_options);
+  // Quota windows live in the token database, so a restart forgives nothing.
+  std::unique_ptr<impostor::QuotaLedger> quota_ledger;
+  if (token_store) {
+    auto ledger = impostor::OpenSqliteQuotaLedger(data);
+    if (!ledger.ok()) return Fail(std::string(ledger.status().message()));
+    quota_ledger = std::move(*ledger);
+  }
+  impostor::TokenQuotas quotas(quota_options, {}, std::move(quota_ledger));
   impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals, &quotas);
 
   // HTTP: /metrics, /healthz, /readyz, the JSON API and the dashboard
@@ -250,6 +258,9 @@ int main(int argc, char** argv) {
   impostor::AuthorizedAssetService authorized_assets(&access_guard, &asset_service);
   impostor::AuthorizedBakeService authorized_bakes(&access_guard, &bake_service);
   impostor::AuthorizedWorkerService authorized_workers(&access_guard, &worker_service);
+  // Administration (issue 14): admin tokens only, e.g. purging a worker's results.
+  impostor::AdminServiceImpl admin_service(&scheduler);
+  impostor::AuthorizedAdminService authorized_admin(&access_guard, &admin_service);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -264,6 +275,7 @@ int main(int argc, char** argv) {
   builder.RegisterService(&authorized_assets);
   builder.RegisterService(&authorized_bakes);
   builder.RegisterService(&authorized_workers);
+  builder.RegisterService(&authorized_admin);
   if (*http) builder.experimental().SetInterceptorCreators((*http)->InterceptorCreators());  // RPC metrics
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return Fail("--listen: cannot listen on " + absl::GetFlag(FLAGS_listen));

@@ -4,7 +4,9 @@
 // the server running (the job database is WAL and the server reads results
 // from it on every request) or stopped. The blobs only those results used
 // stay until the store cap evicts unreferenced blobs; readers can no longer
-// read them (they belong to no result).
+// read them (they belong to no result). This command cannot delete them
+// safely beside a running server (uploads in progress, the server's store
+// size); the admin RPC (`impostor admin purge`, AdminService) does both.
 #ifndef IMPOSTOR_SERVER_PURGE_COMMAND_H_
 #define IMPOSTOR_SERVER_PURGE_COMMAND_H_
 

@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/disk_full.h"
+#include "server/sqlite_open.h"
 #include "impostor/v1/bake_service.pb.h"
 
 namespace impostor {
@@ -228,14 +229,10 @@ absl::Status SqliteJobStore::MigrateVersions(const std::filesystem::path& file) 
 }
 
 absl::StatusOr<std::unique_ptr<SqliteJobStore>> SqliteJobStore::Open(const std::filesystem::path& file) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
-      SQLITE_OK) {
-    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
-  }
-  sqlite3_busy_timeout(db, 5000);
+  // No schema yet: the version check must see the file as it was found.
+  auto opened = OpenSqliteDatabase(file, "");
+  if (!opened.ok()) return opened.status();
+  sqlite3* db = *opened;
   if (auto s = CheckSchemaVersion(db, file); !s.ok()) {
     sqlite3_close(db);
     return s;

@@ -5,24 +5,27 @@
 //  - pending jobs: queued or running jobs the token submitted, counted in
 //    the job database (BakeScheduler::CountPendingOwnedBy), so durable;
 //  - upload bytes per day and bakes (non-cached submits) per hour: sliding
-//    windows kept in memory (a restart forgives them). An upload is checked
-//    when it starts, so the last one may pass the limit by one blob.
+//    windows of events kept in a QuotaLedger. The server's ledger is the
+//    token database (tokens.sqlite3), so a restart forgives nothing. An
+//    upload is checked when it starts, so the last one may pass the limit
+//    by one blob.
 // Refusals are RESOURCE_EXHAUSTED naming the token, the count and the limit.
 //
-// Thread-safety: every method may be called from any thread.
+// Thread-safety: every method of TokenQuotas and of the ledgers may be
+// called from any thread.
 #ifndef IMPOSTOR_SERVER_TOKEN_QUOTAS_H_
 #define IMPOSTOR_SERVER_TOKEN_QUOTAS_H_
 
+#include <atomic>
 #include <cstdint>
-#include <deque>
+#include <filesystem>
 #include <functional>
-#include <map>
-#include <mutex>
+#include <memory>
 #include <string>
-#include <utility>
+#include <string_view>
 
-#include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 
 namespace impostor {
 
@@ -34,33 +37,54 @@ struct QuotaOptions {
   int64_t max_bakes_per_hour = 1000;
 };
 
+// Where the windows' events live: (token, kind, Unix ms, amount) rows. The
+// SQLite engine shares the token database; a PostgreSQL engine (shared
+// state of several servers) implements the same three calls.
+class QuotaLedger {
+ public:
+  virtual ~QuotaLedger() = default;
+  // Adds an event of `amount` for `token`'s `kind` ("bakes", "upload_bytes").
+  virtual absl::Status Record(const std::string& token, std::string_view kind, int64_t at_ms, int64_t amount) = 0;
+  // The sum of `token`'s `kind` events later than `after_ms`.
+  virtual absl::StatusOr<int64_t> Sum(const std::string& token, std::string_view kind, int64_t after_ms) = 0;
+  // Drops every event at or before `up_to_ms` (none can count any more).
+  virtual absl::Status Forget(int64_t up_to_ms) = 0;
+};
+
+// Events in memory (tests; a server without a data directory).
+std::unique_ptr<QuotaLedger> NewInMemoryQuotaLedger();
+// Events in DIR/tokens.sqlite3, table quota_events. INTERNAL naming the
+// file when it cannot be opened.
+absl::StatusOr<std::unique_ptr<QuotaLedger>> OpenSqliteQuotaLedger(const std::filesystem::path& data_dir);
+
 class TokenQuotas {
  public:
-  explicit TokenQuotas(QuotaOptions options, std::function<int64_t()> now_ms = {});
+  // `now_ms`: Unix ms (empty = the system clock). `ledger`: null = in memory.
+  explicit TokenQuotas(QuotaOptions options, std::function<int64_t()> now_ms = {},
+                       std::unique_ptr<QuotaLedger> ledger = nullptr);
 
   const QuotaOptions& options() const { return options_; }
-  // `pending`: the token's queued or running jobs now.
+  // `pending`: the token's queued or running jobs now. RESOURCE_EXHAUSTED
+  // over a limit; the ledger's error when it cannot be read.
   absl::Status CheckSubmit(const std::string& token, int64_t pending);
   void RecordBake(const std::string& token);
   absl::Status CheckUpload(const std::string& token);
   void RecordUpload(const std::string& token, int64_t bytes);
 
  private:
-  // Sum of the window's entries younger than `window_ms`, dropping older ones.
-  int64_t Sum(std::deque<std::pair<int64_t, int64_t>>& window, int64_t window_ms) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   int64_t Now() const;
   // RESOURCE_EXHAUSTED "<what><used><span>, the limit per token is
   // <limit><unit>" once the window's sum reaches `limit`.
-  absl::Status WindowLimit(std::deque<std::pair<int64_t, int64_t>>& window, int64_t window_ms, int64_t limit,
-                           const std::string& what, const char* span, const char* unit)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::Status WindowLimit(const std::string& token, std::string_view kind, int64_t window_ms, int64_t limit,
+                           const std::string& what, const char* span, const char* unit);
+  // Records an event (a failure is logged: the call it counts succeeded) and
+  // forgets day-old events about once a minute.
+  void Record(const std::string& token, std::string_view kind, int64_t amount);
 
   const QuotaOptions options_;
   const std::function<int64_t()> now_ms_;
-  std::mutex mu_;
-  // Per token: (Unix ms, amount) entries, oldest first.
-  std::map<std::string, std::deque<std::pair<int64_t, int64_t>>> uploads_ ABSL_GUARDED_BY(mu_);
-  std::map<std::string, std::deque<std::pair<int64_t, int64_t>>> bakes_ ABSL_GUARDED_BY(mu_);
+  const std::unique_ptr<QuotaLedger> ledger_;
+  std::atomic<int64_t> last_forget_ms_{0};
 };
 
 }  // namespace impostor

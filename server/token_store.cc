@@ -1,7 +1,6 @@
 #include "server/token_store.h"
 
 #include <openssl/rand.h>
-#include <sqlite3.h>
 
 #include <array>
 #include <cstdlib>
@@ -9,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/sha256.h"
+#include "server/sqlite_open.h"
 
 namespace impostor {
 namespace {
@@ -32,32 +32,10 @@ CREATE UNIQUE INDEX IF NOT EXISTS tokens_live_name ON tokens (name) WHERE revoke
 
 constexpr const char* kColumns = "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms";
 
-// RAII prepared statement (the job store has its own; this one is smaller).
-class Statement {
+// Every statement's errors name this store.
+class Statement : public SqliteStatement {
  public:
-  Statement(sqlite3* db, const char* sql) : db_(db) { rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr); }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-  bool ok() const { return rc_ == SQLITE_OK; }
-  void Bind(int i, const std::string& v) {
-    sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
-  }
-  void Bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
-  int Step() { return sqlite3_step(stmt_); }
-  std::string Text(int col) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, col));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
-  }
-  int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
-  absl::Status Error(std::string_view what) const {
-    return absl::InternalError(absl::StrCat("token store ", std::string(what), ": ", sqlite3_errmsg(db_)));
-  }
-
- private:
-  sqlite3* db_;
-  sqlite3_stmt* stmt_ = nullptr;
-  int rc_ = SQLITE_OK;
+  Statement(sqlite3* db, const char* sql) : SqliteStatement(db, sql, "token store") {}
 };
 
 absl::StatusOr<TokenRecord> ReadRecord(const Statement& st) {
@@ -220,25 +198,10 @@ absl::Status ValidateTokenName(std::string_view name) {
 }
 
 absl::StatusOr<std::unique_ptr<TokenStore>> OpenSqliteTokenStore(const std::filesystem::path& data_dir) {
-  const std::filesystem::path file = data_dir / "tokens.sqlite3";
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
-      SQLITE_OK) {
-    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
-  }
-  // `token create` and a running server share the file: wait out the
-  // other's write instead of failing.
-  sqlite3_busy_timeout(db, 5000);
-  char* err = nullptr;
-  if (sqlite3_exec(db, kSchema, nullptr, nullptr, &err) != SQLITE_OK) {
-    std::string msg = err ? err : "unknown error";
-    sqlite3_free(err);
-    sqlite3_close(db);
-    return absl::InternalError(absl::StrCat("cannot initialise ", file.string(), ": ", msg));
-  }
-  return std::unique_ptr<TokenStore>(new SqliteTokenStore(db));
+  // `token create` and a running server share the file (WAL).
+  auto db = OpenSqliteDatabase(data_dir / "tokens.sqlite3", kSchema);
+  if (!db.ok()) return db.status();
+  return std::unique_ptr<TokenStore>(new SqliteTokenStore(*db));
 }
 
 }  // namespace impostor

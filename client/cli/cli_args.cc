@@ -37,6 +37,8 @@ const std::map<std::string, CommandSpec>& Commands() {
       {"cache get", {Command::kCacheGet, {"--max-outage-seconds", "--server", "--cache-dir"}, {"--json", "--quiet"}, false, "KEY"}},
       {"cache ls", {Command::kCacheLs, {"--cache-dir"}, {"--json"}, false, nullptr}},
       {"cache gc", {Command::kCacheGc, {"--cache-dir", "--max-bytes"}, {"--json", "--verify"}, false, nullptr}},
+      // "admin VERB": administration, admin tokens only (issue 14).
+      {"admin purge", {Command::kAdminPurge, {"--max-outage-seconds", "--server", "--worker"}, {"--json"}, false, nullptr}},
   };
   return *commands;
 }
@@ -78,6 +80,11 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   if (name == "cache") {
     if (args.size() < 2 || args[1].rfind("-", 0) == 0) return Usage("'cache' needs a subcommand: get, ls or gc");
     command_name = "cache " + args[1];
+    first_arg = 2;
+  }
+  if (name == "admin") {
+    if (args.size() < 2 || args[1].rfind("-", 0) == 0) return Usage("'admin' needs a subcommand: purge");
+    command_name = "admin " + args[1];
     first_arg = 2;
   }
   auto it = Commands().find(command_name);
@@ -178,6 +185,11 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
     if (flag == "--client-id") {
       if (value->empty()) return Usage("--client-id: missing value");
       out.client_id = *value;
+      continue;
+    }
+    if (flag == "--worker") {
+      if (value->empty()) return Usage("--worker: missing value");
+      out.worker = *value;
       continue;
     }
     if (flag == "--cache-dir") {
@@ -283,6 +295,9 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
     return Usage("--tls-cert and --tls-key: need --tls-ca (the CA that signed the server's certificate)");
   }
   if (out.tls_ca.empty() && !out.tls_server_name.empty()) return Usage("--tls-server-name: needs --tls-ca");
+  if (out.command == Command::kAdminPurge && out.worker.empty()) {
+    return Usage("--worker: required (the worker token's name, as `impostor-server token list` shows)");
+  }
   // A LOD chain's impostor defaults to the hemisphere (the server's choice).
   if (out.product == "lod-chain" && !layout_given) out.layout.clear();
   if (spec.target_name == nullptr) {
@@ -442,13 +457,23 @@ Usage:
       --verify, re-hashes every result and drops damaged ones.
       --cache-dir DIR defaults to $IMPOSTOR_CACHE_DIR, else
       $XDG_CACHE_HOME/impostor, else ~/.cache/impostor.
+  impostor admin purge --worker NAME [--server HOST:PORT] [--json]
+                [--max-outage-seconds N]
+      Needs an admin token. Drops every result the worker token NAME baked
+      (a compromised worker), so those keys bake again, and deletes the blobs
+      only those results used (blobs another result or a queued job uses, or
+      published within the server's eviction grace, stay). Prints the purged
+      cache keys on stdout, one per line, and a summary on stderr.
+        --worker NAME the worker token's name (`impostor-server token list`)
+        --json        {worker, cache_keys, blobs_removed, bytes_freed,
+                      blobs_kept, error}
   impostor help | --help | -h
   impostor version
 
 Common flags:
   --server HOST:PORT  the bake server (default $IMPOSTOR_SERVER, else localhost:50051)
   --max-outage-seconds N  (bake, bake-batch, fetch, quality, status, cancel,
-                      cache get) when a server that answered goes away
+                      cache get, admin purge) when a server that answered goes away
                       (killed, restarting, refusing connections), keep
                       retrying with backoff for up to N seconds from the
                       first failure: uploads start over, a submit is resent

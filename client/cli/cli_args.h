@@ -21,7 +21,7 @@ enum ExitCode : int {
   kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
 };
 
-enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc, kQuality };
+enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc, kQuality, kAdminPurge };
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
@@ -113,6 +113,9 @@ struct CliArgs {
   std::string tls_cert;
   std::string tls_key;
   std::string tls_server_name;
+  // --worker NAME (admin purge): the worker token whose results to drop;
+  // required, its rules are the server's.
+  std::string worker;
 };
 
 // Parses argv without argv[0]. `env_server` is $IMPOSTOR_SERVER (nullptr or

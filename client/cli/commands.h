@@ -20,6 +20,8 @@ int RunCancel(const CliArgs& args);
 int RunCacheGet(const CliArgs& args);
 int RunCacheLs(const CliArgs& args);
 int RunCacheGc(const CliArgs& args);
+// impostor admin purge (admin_command.cc).
+int RunAdminPurge(const CliArgs& args);
 
 }  // namespace impostor::cli
 

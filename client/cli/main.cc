@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
     case Command::kCacheGet: return RunCacheGet(*parsed);
     case Command::kCacheLs: return RunCacheLs(*parsed);
     case Command::kCacheGc: return RunCacheGc(*parsed);
+    case Command::kAdminPurge: return RunAdminPurge(*parsed);
   }
   return kExitUsage;
 }

@@ -1,10 +1,8 @@
 """TLS and mutual TLS from the client's side (tls_ca, tls_cert, tls_key),
-against a stand-in BakeService on a TLS listener: the farm's own TLS
-listener is another change. Certificates: a throwaway CA made with the
-openssl CLI, the server's for "localhost"."""
+against a stand-in BakeService on a TLS listener (the real farm with TLS
+and tokens: test_auth_tls.py). Certificates: conftest's throwaway PKI."""
 from __future__ import annotations
 
-import subprocess
 from concurrent import futures
 from pathlib import Path
 from typing import Iterator, Tuple
@@ -14,27 +12,6 @@ import pytest
 
 import impostor
 from impostor.v1 import bake_service_pb2_grpc, types_pb2
-
-
-def openssl(*args: str, cwd: Path) -> None:
-    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)
-
-
-@pytest.fixture(scope="module")
-def pki(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    d = tmp_path_factory.mktemp("pki")
-    openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj", "/CN=test CA",
-            "-keyout", "ca.key", "-out", "ca.pem", cwd=d)
-    for name in ("server", "client"):
-        openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", f"/CN={name}", "-keyout", f"{name}.key",
-                "-out", f"{name}.csr", cwd=d)
-        (d / f"{name}.ext").write_text("subjectAltName=DNS:localhost,IP:127.0.0.1\n")
-        openssl("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
-                "-days", "2", "-extfile", f"{name}.ext", "-out", f"{name}.pem", cwd=d)
-    # A second CA that signed nothing here.
-    openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj", "/CN=other CA",
-            "-keyout", "other.key", "-out", "other.pem", cwd=d)
-    return d
 
 
 class Answering(bake_service_pb2_grpc.BakeServiceServicer):

@@ -199,3 +199,42 @@ TEST(ParseCliArgs, TokenFile) {
 
 }  // namespace
 }  // namespace impostor::cli
+
+namespace impostor::cli {
+namespace {
+
+// impostor admin purge --worker NAME (issue 14): the connection flags of
+// every server command, --worker required, no positional argument.
+TEST(ParseCliArgs, AdminPurge) {
+  auto parsed = ParseCliArgs({"admin", "purge", "--worker", "render-node-01", "--json", "--token-file", "a.token",
+                              "--server", "farm:50051", "--tls-ca", "ca.pem"},
+                             nullptr);
+  ASSERT_TRUE(parsed.ok()) << parsed.status();
+  EXPECT_EQ(parsed->command, Command::kAdminPurge);
+  EXPECT_EQ(parsed->worker, "render-node-01");
+  EXPECT_TRUE(parsed->json);
+  EXPECT_EQ(parsed->token_file, "a.token");
+  EXPECT_EQ(parsed->server, "farm:50051");
+  EXPECT_EQ(parsed->tls_ca, "ca.pem");
+  struct Case {
+    const char* name;
+    std::vector<std::string> args;
+    const char* error;
+  } cases[] = {
+      {"no verb", {"admin"}, "'admin' needs a subcommand: purge"},
+      {"unknown verb", {"admin", "wipe"}, "unknown command \"admin wipe\""},
+      {"no worker", {"admin", "purge"}, "--worker: required"},
+      {"empty worker", {"admin", "purge", "--worker="}, "--worker: missing value"},
+      {"positional", {"admin", "purge", "--worker", "w", "extra"}, "unexpected argument \"extra\""},
+      {"worker elsewhere", {"status", "j", "--worker", "w"}, "unknown flag --worker"},
+  };
+  for (const Case& c : cases) {
+    auto bad = ParseCliArgs(c.args, nullptr);
+    ASSERT_FALSE(bad.ok()) << c.name;
+    EXPECT_NE(bad.status().message().find(c.error), std::string::npos) << c.name << ": " << bad.status();
+  }
+  EXPECT_NE(UsageText().find("impostor admin purge --worker NAME"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace impostor::cli

@@ -6,14 +6,17 @@
 // forged-result attack with a real worker is in auth_bake_test.cc.
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "impostor/v1/admin_service.grpc.pb.h"
 #include "tests/cache/published_result.h"
 #include "tests/integration/server_process.h"
 
@@ -28,7 +31,7 @@ using Clock = std::chrono::steady_clock;
 class AuthServer : public ::testing::Test {
  protected:
   void SetUp() override {
-    server_ = std::make_unique<ServerProcess>(0, std::vector<std::string>{"--auth=token"});
+    server_ = std::make_unique<ServerProcess>(0, server_args_);
     for (const char* role : {"admin", "reader", "submitter", "worker"}) {
       tokens_[role] = CreateToken(server_->data_dir(), role, std::string(role) + "-1");
       ASSERT_FALSE(tokens_[role].empty());
@@ -41,6 +44,16 @@ class AuthServer : public ::testing::Test {
     assets_ = v1::AssetService::NewStub(channel_);
     bake_ = v1::BakeService::NewStub(channel_);
     workers_ = v1::WorkerService::NewStub(channel_);
+    admin_ = v1::AdminService::NewStub(channel_);
+  }
+
+  // AdminService.PurgeWorkerResults of `worker`, with `authorization`.
+  grpc::Status Purge(const std::string& authorization, const std::string& worker,
+                     v1::PurgeWorkerResultsResponse* response) {
+    auto ctx = ContextWithAuthorization(authorization);
+    v1::PurgeWorkerResultsRequest request;
+    request.set_worker(worker);
+    return admin_->PurgeWorkerResults(ctx.get(), request, response);
   }
 
   std::string Bearer(const std::string& role) { return "Bearer " + tokens_[role]; }
@@ -100,6 +113,18 @@ class AuthServer : public ::testing::Test {
     request.set_job_id(job_id);
     v1::Job job;
     return bake_->GetJob(ctx.get(), request, &job);
+  }
+
+  // The job (as the admin sees it) is a real bake waiting for a worker,
+  // not an answer from the cache.
+  void ExpectFreshBake(const std::string& job_id) {
+    auto ctx = ContextWithAuthorization(Bearer("admin"));
+    v1::GetJobRequest get;
+    get.set_job_id(job_id);
+    v1::Job job;
+    ASSERT_TRUE(bake_->GetJob(ctx.get(), get, &job).ok()) << job_id;
+    EXPECT_FALSE(job.cached());
+    EXPECT_EQ(job.state(), v1::JOB_STATE_QUEUED);
   }
 
   grpc::Status GetResult(const std::string& authorization, const std::string& key) {
@@ -181,6 +206,10 @@ class AuthServer : public ::testing::Test {
       v1::ReleaseJobResponse response;
       return workers_->ReleaseJob(ctx.get(), request, &response);
     }
+    if (rpc == "PurgeWorkerResults") {
+      v1::PurgeWorkerResultsResponse response;
+      return Purge(authorization, "nobody-baked-this", &response);
+    }
     ADD_FAILURE() << "no such rpc in the test: " << rpc;
     return grpc::Status::CANCELLED;
   }
@@ -199,12 +228,15 @@ class AuthServer : public ::testing::Test {
     ASSERT_TRUE(bake_->CancelJob(ctx.get(), cancel, &job).ok());
   }
 
+  // The server's flags (a derived fixture may add some before SetUp).
+  std::vector<std::string> server_args_{"--auth=token"};
   std::unique_ptr<ServerProcess> server_;
   std::map<std::string, std::string> tokens_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::AssetService::Stub> assets_;
   std::unique_ptr<v1::BakeService::Stub> bake_;
   std::unique_ptr<v1::WorkerService::Stub> workers_;
+  std::unique_ptr<v1::AdminService::Stub> admin_;
   std::string result_key_;
   v1::Digest result_blob_;
   std::string admin_job_;
@@ -240,6 +272,8 @@ const MatrixRow kMatrix[] = {
     {"CompleteJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
     {"FailJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
     {"ReleaseJob", StatusCode::FAILED_PRECONDITION, kDenied, kDenied, StatusCode::FAILED_PRECONDITION},
+    // Administration: a worker that baked nothing purges nothing (OK).
+    {"PurgeWorkerResults", StatusCode::OK, kDenied, kDenied, kDenied},
 };
 
 TEST_F(AuthServer, RoleByRpcMatrix) {
@@ -405,14 +439,7 @@ TEST_F(AuthServer, PurgeByWorkerDropsWhatItBakedSoTheKeysBakeAgain) {
   EXPECT_EQ(Read(Bearer("reader"), DigestOf(baked["node-a"].files.at("albedo_alpha.png"))).error_code(),
             StatusCode::PERMISSION_DENIED);
   // The same request bakes again instead of answering from the cache.
-  const std::string again = SubmitFake(Bearer("admin"), 1410);
-  auto ctx = ContextWithAuthorization(Bearer("admin"));
-  v1::GetJobRequest get;
-  get.set_job_id(again);
-  v1::Job job;
-  ASSERT_TRUE(bake_->GetJob(ctx.get(), get, &job).ok());
-  EXPECT_FALSE(job.cached());
-  EXPECT_EQ(job.state(), v1::JOB_STATE_QUEUED);
+  ExpectFreshBake(SubmitFake(Bearer("admin"), 1410));
 
   struct Case {
     const char* name;
@@ -432,6 +459,149 @@ TEST_F(AuthServer, PurgeByWorkerDropsWhatItBakedSoTheKeysBakeAgain) {
     EXPECT_EQ(run.exit_code, 2) << c.name << ": " << run.err;
     EXPECT_NE(run.err.find(c.message), std::string::npos) << c.name << ": " << run.err;
   }
+
+  // The admin RPC drops results too, but within the eviction grace (10 min
+  // by default) their blobs stay: a bake about to complete may have found
+  // them present.
+  v1::PurgeWorkerResultsResponse rpc;
+  const grpc::Status s = Purge(Bearer("admin"), "node-b", &rpc);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(rpc.cache_keys_size(), 1);
+  EXPECT_EQ(rpc.cache_keys(0), baked["node-b"].key);
+  EXPECT_EQ(rpc.blobs_removed(), 0);
+  EXPECT_EQ(rpc.blobs_kept(), 4) << "three maps and the stamped manifest.json";
+  EXPECT_EQ(GetResult(Bearer("reader"), baked["node-b"].key).error_code(), StatusCode::NOT_FOUND);
+}
+
+// A server whose eviction grace is 0, so a purge may delete blobs at once.
+class AuthServerNoGrace : public AuthServer {
+ protected:
+  AuthServerNoGrace() { server_args_.push_back("--store-eviction-grace-seconds=0"); }
+
+  fs::path CasPath(const std::string& bytes) const {
+    const std::string hash = DigestOf(bytes).hash();
+    return server_->data_dir() / "cas" / hash.substr(0, 2) / hash;
+  }
+};
+
+TEST_F(AuthServerNoGrace, PurgeRpcDropsResultsAndTheBlobsOnlyTheyUsed) {
+  for (const char* node : {"node-a", "node-b"}) tokens_[node] = CreateToken(server_->data_dir(), "worker", node);
+  // node-a bakes two results; node-b one whose maps are byte for byte those
+  // of node-a's second (same map seed), so those blobs are shared.
+  struct Bake {
+    const char* node;
+    uint32_t model_seed, map_seed;
+  } bakes[] = {{"node-a", 1420, 1420}, {"node-a", 1421, 1430}, {"node-b", 1422, 1430}};
+  std::vector<PublishedResult> results;
+  for (const Bake& b : bakes) {
+    ASSERT_FALSE(SubmitFake(Bearer("admin"), b.model_seed).empty());
+    server_->UseToken(tokens_[b.node]);
+    results.push_back(CompleteNextJob(*server_, {100, 200, 300}, b.map_seed));
+    server_->UseToken(tokens_["admin"]);
+  }
+  // The stamped manifest.json, as `impostor fetch` installs it, names the
+  // worker token (the worker's own text did not).
+  const fs::path token_file = server_->data_dir().parent_path() / (server_->data_dir().filename().string() + ".admin");
+  {
+    std::ofstream(token_file) << tokens_["admin"] << "\n";
+  }
+  const fs::path out = server_->data_dir().parent_path() / (server_->data_dir().filename().string() + "-fetch");
+  const std::string cli = (BinaryDir() / "impostor").string();
+  const ToolRun fetch = RunTool({cli, "fetch", results[2].key, "--out", out.string(), "--server", server_->address(),
+                                 "--token-file", token_file.string()},
+                                kStartTimeout);
+  ASSERT_EQ(fetch.exit_code, 0) << fetch.err;
+  const std::string manifest = ReadFileBytes(out / "manifest.json");
+  EXPECT_NE(manifest.find("\"baked_by\": \"node-b\""), std::string::npos) << manifest;
+  EXPECT_EQ(results[2].files.at("manifest.json").find("baked_by"), std::string::npos);
+  EXPECT_EQ(ReadFileBytes(out / "albedo_alpha.png"), results[2].files.at("albedo_alpha.png"));
+
+  v1::PurgeWorkerResultsResponse purged;
+  grpc::Status s = Purge(Bearer("admin"), "node-a", &purged);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  std::set<std::string> keys(purged.cache_keys().begin(), purged.cache_keys().end());
+  EXPECT_EQ(keys, (std::set<std::string>{results[0].key, results[1].key}));
+  // Removed: the first result's three maps and both stamped manifests; kept:
+  // the three maps node-b's result lists too.
+  EXPECT_EQ(purged.blobs_removed(), 5);
+  EXPECT_EQ(purged.blobs_kept(), 3);
+  // 100 + 200 + 300 bytes of maps and the two manifests, a few bytes longer
+  // stamped than as the worker wrote them.
+  const int64_t unstamped = 600 + static_cast<int64_t>(results[0].files.at("manifest.json").size() +
+                                                       results[1].files.at("manifest.json").size());
+  EXPECT_GT(purged.bytes_freed(), unstamped);
+  EXPECT_LT(purged.bytes_freed(), unstamped + 2 * 64);
+  for (const char* map : {"albedo_alpha.png", "normal_depth.png", "orm.png"}) {
+    EXPECT_FALSE(fs::exists(CasPath(results[0].files.at(map)))) << map << " of a purged result stayed";
+    EXPECT_TRUE(fs::exists(CasPath(results[1].files.at(map)))) << map << " that node-b's result lists was deleted";
+  }
+  EXPECT_EQ(GetResult(Bearer("reader"), results[0].key).error_code(), StatusCode::NOT_FOUND);
+  EXPECT_EQ(GetResult(Bearer("reader"), results[1].key).error_code(), StatusCode::NOT_FOUND);
+  EXPECT_TRUE(GetResult(Bearer("reader"), results[2].key).ok());
+  EXPECT_TRUE(Read(Bearer("reader"), DigestOf(results[2].files.at("orm.png"))).ok());
+  EXPECT_TRUE(server_->process().WaitForLog("event=audit token=\"admin-1\" role=admin rpc=PurgeWorkerResults "
+                                            "object=\"worker=node-a results=2 blobs_removed=5\" outcome=OK"));
+
+  // A second purge finds nothing; the purged key bakes afresh.
+  s = Purge(Bearer("admin"), "node-a", &purged);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(purged.cache_keys_size(), 0);
+  ExpectFreshBake(SubmitFake(Bearer("admin"), 1420));
+  server_->UseToken(tokens_["node-b"]);
+  const PublishedResult rebaked = CompleteNextJob(*server_, {100, 200, 300}, 1420);
+  server_->UseToken(tokens_["admin"]);
+  EXPECT_EQ(rebaked.key, results[0].key);
+  {
+    auto ctx = ContextWithAuthorization(Bearer("reader"));
+    v1::GetResultRequest request;
+    request.set_cache_key(rebaked.key);
+    v1::Manifest manifest;
+    ASSERT_TRUE(assets_->GetResult(ctx.get(), request, &manifest).ok());
+    EXPECT_EQ(manifest.baked_by(), "node-b");
+  }
+  EXPECT_TRUE(fs::exists(CasPath(results[0].files.at("albedo_alpha.png")))) << "the fresh bake uploaded it again";
+
+  // Bad input names the field and its limit.
+  struct Case {
+    const char* name;
+    std::string worker;
+    const char* message;
+  } cases[] = {
+      {"empty", "", "worker: must be 1..64 characters, got 0"},
+      {"too long", std::string(65, 'w'), "worker: must be 1..64 characters, got 65"},
+      {"bad character", "node/a", "worker: only letters, digits"},
+  };
+  for (const Case& c : cases) {
+    s = Purge(Bearer("admin"), c.worker, &purged);
+    EXPECT_EQ(s.error_code(), StatusCode::INVALID_ARGUMENT) << c.name;
+    EXPECT_NE(s.error_message().find(c.message), std::string::npos) << c.name << ": " << s.error_message();
+  }
+
+  // The CLI: `impostor admin purge`, exit codes and JSON like the others.
+  const std::vector<std::string> conn = {"--server", server_->address(), "--token-file", token_file.string()};
+  auto admin_purge = [&](std::vector<std::string> args, std::vector<std::string> env = {}) {
+    std::vector<std::string> argv = {cli, "admin", "purge"};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return RunTool(argv, kStartTimeout, std::move(env));
+  };
+  std::vector<std::string> args = conn;
+  args.insert(args.end(), {"--worker", "node-b", "--json"});
+  ToolRun run = admin_purge(args);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("\"worker\":\"node-b\""), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find(results[2].key), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find(rebaked.key), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("\"error\":null"), std::string::npos) << run.out;
+  run = admin_purge({"--server", server_->address(), "--worker", "node-b"}, {"IMPOSTOR_TOKEN=" + tokens_["reader"]});
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_NE(run.err.find("PERMISSION_DENIED"), std::string::npos) << run.err;
+  run = admin_purge({"--server", server_->address(), "--worker", std::string(65, 'w')},
+                    {"IMPOSTOR_TOKEN=" + tokens_["admin"]});
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_NE(run.err.find("worker: must be 1..64 characters"), std::string::npos) << run.err;
+  run = admin_purge(conn);
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--worker: required"), std::string::npos) << run.err;
 }
 
 TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
@@ -504,6 +674,22 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
             std::string::npos)
       << s.error_message();
   EXPECT_TRUE(upload(admin, RandomBytes(10, 12)).ok());
+
+  // The windows are in the token database: a restart forgives nothing.
+  server.Restart();
+  assets = v1::AssetService::NewStub(server.channel());
+  bake = v1::BakeService::NewStub(server.channel());
+  s = submit(ci, 13);
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("bakes of token 'ci': 3 in the last hour, the limit per token is 3 per hour"),
+            std::string::npos)
+      << s.error_message();
+  s = upload(uploader, RandomBytes(10, 14));
+  EXPECT_EQ(s.error_code(), StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("uploads of token 'uploader': 1200 bytes in the last 24 hours, the limit per "
+                                   "token is 1000 bytes per day"),
+            std::string::npos)
+      << s.error_message();
 
   const ToolRun bad = RunTool({(BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
                                "--data=" + server.data_dir().string() + "-bad", "--token-max-pending-jobs=0"},

@@ -3,11 +3,10 @@
 // submitter and admin tokens see the dashboard, the API and /metrics, a
 // worker token does not; /login turns a good token into an HttpOnly cookie;
 // a job's uploaded mesh is readable only by its submitter or an admin.
-#include <httplib.h>
-
 #include <gtest/gtest.h>
 
 #include "tests/integration/server_process.h"
+#include "tests/metrics/http_test_client.h"
 
 namespace impostor {
 namespace {
@@ -17,27 +16,8 @@ using testing::ContextWithin;
 using testing::CreateToken;
 using testing::ServerProcess;
 
-int HttpPort(ServerProcess& server) {
-  const std::string line = server.process().ReadLineContaining("http listening on");
-  EXPECT_FALSE(line.empty()) << "no \"http listening on\" line";
-  return line.empty() ? 0 : std::stoi(line.substr(line.rfind(':') + 1));
-}
-
-struct Http {
-  explicit Http(int port) : client("127.0.0.1", port) { client.set_read_timeout(30, 0); }
-  // GET with "Authorization: Bearer <token>" ("" = none) and a Cookie header.
-  httplib::Result Get(const std::string& path, const std::string& token = "", const std::string& cookie = "") {
-    httplib::Headers headers;
-    if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
-    if (!cookie.empty()) headers.emplace("Cookie", cookie);
-    return client.Get(path.c_str(), headers);
-  }
-  int Status(const std::string& path, const std::string& token = "") {
-    auto res = Get(path, token);
-    return res ? res->status : -1;
-  }
-  httplib::Client client;
-};
+using Http = testing::HttpTestClient;
+using testing::HttpPort;
 
 class HttpAuth : public ::testing::Test {
  protected:

@@ -2,14 +2,13 @@
 // scraped before and after a bake and a cache hit and every counter must
 // have moved by exactly what happened; the JSON API lists what the gRPC
 // side did; bad paths, parameters and flag values are refused.
-#include <httplib.h>
-
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "common/sha256.h"
 #include "tests/integration/server_process.h"
 #include "tests/metrics/exposition_parser.h"
+#include "tests/metrics/http_test_client.h"
 
 namespace impostor {
 namespace {
@@ -18,18 +17,12 @@ using testing::AssetsDir;
 using testing::ContextWithin;
 using testing::Exposition;
 using testing::ParseExposition;
+using testing::HttpPort;
 using testing::ServerProcess;
 
-// The HTTP port the server printed after its gRPC line.
-int HttpPort(ServerProcess& server) {
-  const std::string line = server.process().ReadLineContaining("http listening on");
-  EXPECT_FALSE(line.empty()) << "no \"http listening on\" line";
-  return line.empty() ? 0 : std::stoi(line.substr(line.rfind(':') + 1));
-}
-
-struct Http {
-  explicit Http(int port) : client("127.0.0.1", port) { client.set_read_timeout(30, 0); }
-  httplib::Result Get(const std::string& path) { return client.Get(path.c_str()); }
+// The test client plus /metrics parsed and JSON answers checked.
+struct Http : testing::HttpTestClient {
+  using HttpTestClient::HttpTestClient;
   Exposition Scrape() {
     auto res = Get("/metrics");
     EXPECT_TRUE(res && res->status == 200);
@@ -47,7 +40,6 @@ struct Http {
     EXPECT_EQ(res->get_header_value("Content-Type"), "application/json") << path;
     return nlohmann::json::parse(res->body, nullptr, false);
   }
-  httplib::Client client;
 };
 
 v1::SubmitBakeRequest BoxRequest(ServerProcess& server) {

@@ -212,7 +212,10 @@ TEST(AccessPolicy, RoleTable) {
       {b + "GetJob", false, true, false},          {b + "CancelJob", false, true, false},
       {w + "LeaseJob", false, false, true},        {w + "ReportProgress", false, false, true},
       {w + "CompleteJob", false, false, true},     {w + "FailJob", false, false, true},
-      {w + "ReleaseJob", false, false, true},      {"/impostor.v1.AdminService/Purge", false, false, false},
+      {w + "ReleaseJob", false, false, true},
+      {"/impostor.v1.AdminService/PurgeWorkerResults", false, false, false},
+      // Not in the table: admin only.
+      {"/impostor.v1.AdminService/Purge", false, false, false},
   };
   for (const Row& row : rows) {
     for (auto [role, allowed] : {std::pair{Role::kReader, row.reader}, std::pair{Role::kSubmitter, row.submitter},
@@ -226,8 +229,11 @@ TEST(AccessPolicy, RoleTable) {
       }
     }
   }
-  // Every rule in the table is a row above.
+  // Every rule in the table is a row above (the last is not a rule).
   EXPECT_EQ(AccessRules().size(), std::size(rows) - 1);
+  const MethodRule* purge = FindRule("/impostor.v1.AdminService/PurgeWorkerResults");
+  ASSERT_NE(purge, nullptr);
+  EXPECT_TRUE(purge->changes_state) << "purges are audited";
 }
 
 TEST(AuthMode, DefaultsAndRefusals) {
@@ -333,6 +339,56 @@ TEST(TokenQuotas, WindowsSlideAndRefusalsNameCountAndLimit) {
   EXPECT_NE(s.message().find("1000 bytes in the last 24 hours, the limit per token is 1000"), std::string::npos) << s;
   now += 24 * 3'600'000;
   EXPECT_TRUE(quotas.CheckUpload("ci").ok());
+}
+
+// The windows live in the token database: a new TokenQuotas on the same
+// directory (a restarted server) still counts what the old one recorded, and
+// the token store beside it is untouched.
+TEST(TokenQuotas, SqliteLedgerKeepsWindowsAcrossARestart) {
+  int64_t now = 1'700'000'000'000;
+  const fs::path dir = TempDir("quota_ledger");
+  const QuotaOptions options{.max_pending_jobs = 10, .max_upload_bytes_per_day = 1000, .max_bakes_per_hour = 2};
+  {
+    auto tokens = OpenSqliteTokenStore(dir);
+    ASSERT_TRUE(tokens.ok()) << tokens.status();
+    ASSERT_TRUE((*tokens)->Insert({.name = "ci", .secret_hash = TokenHash(NewTokenSecret())}).ok());
+    auto ledger = OpenSqliteQuotaLedger(dir);
+    ASSERT_TRUE(ledger.ok()) << ledger.status();
+    TokenQuotas quotas(options, [&] { return now; }, std::move(*ledger));
+    quotas.RecordBake("ci");
+    quotas.RecordBake("ci");
+    quotas.RecordUpload("ci", 1200);
+    quotas.RecordUpload("other", 5);
+  }
+  auto ledger = OpenSqliteQuotaLedger(dir);
+  ASSERT_TRUE(ledger.ok()) << ledger.status();
+  TokenQuotas quotas(options, [&] { return now; }, std::move(*ledger));
+  absl::Status s = quotas.CheckSubmit("ci", 0);
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
+  EXPECT_NE(s.message().find("bakes of token 'ci': 2 in the last hour, the limit per token is 2"), std::string::npos)
+      << s;
+  s = quotas.CheckUpload("ci");
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
+  EXPECT_NE(s.message().find("1200 bytes in the last 24 hours, the limit per token is 1000"), std::string::npos) << s;
+  EXPECT_TRUE(quotas.CheckUpload("other").ok());
+  now += 3'600'000;  // the bakes leave their window, the uploads not yet
+  EXPECT_TRUE(quotas.CheckSubmit("ci", 0).ok());
+  EXPECT_EQ(quotas.CheckUpload("ci").code(), absl::StatusCode::kResourceExhausted);
+  now += 23 * 3'600'000;
+  EXPECT_TRUE(quotas.CheckUpload("ci").ok());
+  // Recording a day later forgets the day-old events for good.
+  quotas.RecordUpload("ci", 1);
+  auto reopened = OpenSqliteQuotaLedger(dir);
+  ASSERT_TRUE(reopened.ok());
+  auto old_sum = (*reopened)->Sum("ci", "upload_bytes", 0);
+  ASSERT_TRUE(old_sum.ok()) << old_sum.status();
+  EXPECT_EQ(*old_sum, 1);
+  auto tokens = OpenSqliteTokenStore(dir);
+  ASSERT_TRUE(tokens.ok());
+  auto listed = (*tokens)->List();
+  ASSERT_TRUE(listed.ok());
+  ASSERT_EQ(listed->size(), 1u);
+  EXPECT_EQ((*listed)[0].name, "ci");
 }
 
 }  // namespace

@@ -1,0 +1,39 @@
+#include "server/sqlite_open.h"
+
+#include "absl/strings/str_cat.h"
+
+namespace impostor {
+
+absl::StatusOr<sqlite3*> OpenSqliteDatabase(const std::filesystem::path& file, const char* schema) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr) !=
+      SQLITE_OK) {
+    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    return absl::InternalError(absl::StrCat("cannot open ", file.string(), ": ", msg));
+  }
+  sqlite3_busy_timeout(db, 5000);
+  char* err = nullptr;
+  if (sqlite3_exec(db, schema, nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    sqlite3_close(db);
+    return absl::InternalError(absl::StrCat("cannot initialise ", file.string(), ": ", msg));
+  }
+  return db;
+}
+
+SqliteStatement::SqliteStatement(sqlite3* db, const char* sql, std::string_view store) : db_(db), store_(store) {
+  rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr);
+}
+
+std::string SqliteStatement::Text(int col) const {
+  const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, col));
+  return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
+}
+
+absl::Status SqliteStatement::Error(std::string_view what) const {
+  return absl::InternalError(absl::StrCat(store_, " ", std::string(what), ": ", sqlite3_errmsg(db_)));
+}
+
+}  // namespace impostor

@@ -1,0 +1,58 @@
+// What every SQLite file of the server shares (jobs.sqlite3, tokens.sqlite3):
+// how a connection is opened and a small prepared-statement wrapper.
+//
+// A connection from OpenSqliteDatabase is opened SQLITE_OPEN_NOMUTEX: its
+// owner serialises every use of it (one mutex per store). It waits up to
+// 5 s for another process's write (`impostor-server token ...` and
+// `purge` run beside a running server) instead of failing at once.
+#ifndef IMPOSTOR_SERVER_SQLITE_OPEN_H_
+#define IMPOSTOR_SERVER_SQLITE_OPEN_H_
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace impostor {
+
+// Opens `file` read-write (creating it) and runs `schema` (PRAGMAs, CREATE
+// ... IF NOT EXISTS). The caller owns the handle (sqlite3_close). INTERNAL
+// "cannot open FILE: ..." or "cannot initialise FILE: ..." with SQLite's
+// message.
+absl::StatusOr<sqlite3*> OpenSqliteDatabase(const std::filesystem::path& file, const char* schema);
+
+// RAII prepared statement for the stores' short queries. Errors name the
+// store (`what`, e.g. "token store") and SQLite's message.
+class SqliteStatement {
+ public:
+  SqliteStatement(sqlite3* db, const char* sql, std::string_view store);
+  ~SqliteStatement() { sqlite3_finalize(stmt_); }
+  SqliteStatement(const SqliteStatement&) = delete;
+  SqliteStatement& operator=(const SqliteStatement&) = delete;
+
+  bool ok() const { return rc_ == SQLITE_OK; }
+  void Bind(int i, const std::string& v) {
+    sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
+  }
+  void Bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
+  int Step() { return sqlite3_step(stmt_); }
+  std::string Text(int col) const;
+  int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
+  // INTERNAL "<store> <what>: <SQLite's message>".
+  absl::Status Error(std::string_view what) const;
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  int rc_ = SQLITE_OK;
+  std::string store_;
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_SQLITE_OPEN_H_
