@@ -15,6 +15,7 @@
 #include "common/bake_request.h"
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
+#include "server/attempt_history.h"
 
 namespace impostor {
 namespace {
@@ -100,6 +101,7 @@ v1::Job BakeScheduler::View(const JobRecord& record) {
       job.set_progress(l.progress());
       job.set_stage(l.stage());
       job.set_attempts(l.attempts());
+      CopyAttemptHistory(l, job);
       if (l.has_error()) *job.mutable_error() = l.error();
       job.set_updated_ms(std::max(job.updated_ms(), l.updated_ms()));
     }
@@ -157,6 +159,7 @@ absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::M
   for (JobRecord& f : *followers) {
     if (result != nullptr) {
       f.job.set_attempts(leader.job.attempts());
+      CopyAttemptHistory(leader.job, f.job);
       ApplyResult(f, *result);
       if (auto s = Save(f); !s.ok()) return s;
       continue;
@@ -165,6 +168,7 @@ absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::M
     f.job.set_progress(leader.job.progress());
     f.job.set_stage(leader.job.stage());
     f.job.set_attempts(leader.job.attempts());
+    CopyAttemptHistory(leader.job, f.job);
     if (leader.job.has_error()) *f.job.mutable_error() = leader.job.error();
     if (auto s = Save(f); !s.ok()) return s;
   }
@@ -176,6 +180,7 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   auto followers = jobs_->ActiveFollowers(leader.job.job_id());
   if (!followers.ok()) return followers.status();
   if (!followers->empty()) return absl::OkStatus();
+  CloseAttempt(leader.job, v1::JobAttempt::OUTCOME_CANCELLED, "cancelled by CancelJob", options_.now_ms());
   leader.job.set_state(v1::JOB_STATE_CANCELLED);
   leader.job.set_stage("cancelled");
   leader.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
@@ -552,6 +557,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       r.worker_id = request.worker_id();
       r.lease_holder = lease_holder;
       r.job.set_worker_id(request.worker_id());
+      OpenAttempt(r.job, request.worker_id(), workers_[request.worker_id()].device, now);
       if (auto s = Save(r); !s.ok()) return s;
       last_served_[r.client_id] = ++lease_sequence_;
       v1::LeasedJob leased;
@@ -655,6 +661,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   }
   // Even a cancelled job's result is good: keep it for the next request.
   if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_SUCCEEDED, "", options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) ApplyResult(*r, m);
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
@@ -672,6 +679,7 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
   r->lease_id.clear();
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
     if (retry) {
@@ -708,6 +716,7 @@ absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
   if (!r.ok()) return r.status();
   r->lease_id.clear();
   r->lease_deadline_ms = 0;
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_RELEASED, request.reason(), options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     // Handed back, not failed: the attempt does not count.
     r->job.set_attempts(r->job.attempts() > 0 ? r->job.attempts() - 1 : 0);
@@ -727,6 +736,11 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
   r.lease_id.clear();
   r.lease_deadline_ms = 0;
   ++r.lease_expiries;
+  CloseAttempt(r.job, v1::JobAttempt::OUTCOME_LEASE_EXPIRED,
+               how.empty() ? absl::StrCat("no report within the lease timeout of ", options_.lease_timeout_ms / 1000.0,
+                                          " s at stage ", stage)
+                           : how,
+               options_.now_ms());
   NoteWorkerFailure(worker, r.job.job_id());
   if (r.job.attempts() >= options_.max_attempts) {
     r.job.set_state(v1::JOB_STATE_FAILED);
