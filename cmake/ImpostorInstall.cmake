@@ -2,7 +2,9 @@
 # CONFIG)), a pkg-config file for the C API, and the three binaries.
 #
 # Install components (also the Debian packages' contents, cmake/ImpostorPackage.cmake):
-#   sdk     libimpostor.so, libimpostor_runtime.so, public headers, CMake and pkg-config files
+#   lib     libimpostor.so.X.Y*, libimpostor_runtime.so.X.Y* (the versioned shared objects)
+#   sdk     their libimpostor.so / libimpostor_runtime.so links, public headers, CMake and
+#           pkg-config files (install `lib` too: `sdk` alone has links to nothing)
 #   server  impostor-server        worker  impostor-worker        cli  impostor
 #
 # Why shared libraries: the SDK's private dependencies are gRPC, protobuf,
@@ -34,6 +36,9 @@ set(_impostor_includes
 set(_impostor_map ${CMAKE_SOURCE_DIR}/cmake/impostor_sdk.map)
 # 0.x: every minor version may change the ABI.
 set(_impostor_soversion ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
+# The runtime package's name follows the SONAME (Debian policy 8.1:
+# libimpostor.so.0.1 -> libimpostor0.1).
+set(IMPOSTOR_LIB_PACKAGE libimpostor${_impostor_soversion})
 
 if(TARGET impostor_cache AND TARGET impostor_client)
   # libimpostor.so: the C API's one source, plus every object of the client
@@ -88,8 +93,11 @@ foreach(_pair client:impostor_pkg_client cache:impostor_pkg_cache c:impostor_pkg
 endforeach()
 
 if(_impostor_export_targets)
+  # The versioned shared objects (libimpostor.so.X.Y*) are component `lib`,
+  # the runtime package libimpostorX.Y (cmake/ImpostorPackage.cmake); the
+  # unversioned .so link a linker needs goes with the headers in `sdk`.
   install(TARGETS ${_impostor_export_targets} EXPORT impostorTargets
-    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT sdk NAMELINK_COMPONENT sdk
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT lib NAMELINK_COMPONENT sdk
     INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
   install(FILES
       ${_impostor_headers_dir}/impostor/client.h

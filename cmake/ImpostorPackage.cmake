@@ -2,9 +2,13 @@
 #   impostor-server   /usr/bin/impostor-server, its unit, /etc/impostor/server.conf
 #   impostor-worker   /usr/bin/impostor-worker, its unit template, /etc/impostor/worker.conf
 #                     (Depends: mesa-vulkan-drivers: lavapipe when there is no GPU)
-#   impostor-cli      /usr/bin/impostor
-#   libimpostor-dev   the SDK: libimpostor.so, libimpostor_runtime.so, headers,
-#                     CMake package and pkg-config file
+#   impostor-cli      /usr/bin/impostor (Depends: libimpostorX.Y)
+#   libimpostorX.Y    the shared libraries: libimpostor.so.X.Y*, libimpostor_runtime.so.X.Y*
+#                     (named after the SONAME, Debian policy 8.1; shlibs file, ldconfig
+#                     run by its generated postinst/postrm)
+#   libimpostor-dev   the SDK: the libimpostor.so and libimpostor_runtime.so links,
+#                     headers, CMake package and pkg-config file (Depends: libimpostorX.Y
+#                     of the same version)
 # Each binary's man page goes with it. Server and worker create the system
 # user `impostor` and /var/lib/impostor (deploy/debian/postinst); removing
 # them leaves that directory alone. Library dependencies come from
@@ -63,7 +67,7 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "bake impostor atlases from glTF meshes on
 set(CPACK_PACKAGE_DIRECTORY ${CMAKE_BINARY_DIR}/packages)
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_GENERATOR DEB)
-set(CPACK_COMPONENTS_ALL server worker cli sdk)
+set(CPACK_COMPONENTS_ALL server worker cli lib sdk)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
@@ -86,12 +90,26 @@ set(CPACK_DEBIAN_WORKER_PACKAGE_CONTROL_EXTRA
   ${_deploy}/debian/postinst ${_deploy}/debian/postrm ${_scripts}/worker/prerm ${_scripts}/worker/conffiles)
 
 set(CPACK_DEBIAN_CLI_PACKAGE_NAME impostor-cli)
+# The CLI and the runtime library come from one build and are installed and
+# upgraded together: an exact version, as for -dev.
+set(CPACK_DEBIAN_CLI_PACKAGE_DEPENDS "${IMPOSTOR_LIB_PACKAGE} (= ${PROJECT_VERSION})")
 set(CPACK_DEBIAN_CLI_DESCRIPTION "impostor bake farm: the `impostor` command-line client")
+
+set(CPACK_DEBIAN_LIB_PACKAGE_NAME ${IMPOSTOR_LIB_PACKAGE})
+set(CPACK_DEBIAN_LIB_PACKAGE_SECTION libs)
+set(CPACK_DEBIAN_LIB_DESCRIPTION
+  "impostor bake farm SDK: shared libraries (libimpostor: client, cache, C API; libimpostor_runtime)")
+# DEBIAN/shlibs, so packages linking these libraries get the dependency from
+# dpkg-shlibdeps; ldconfig runs from the postinst/postrm CPack generates for
+# libraries under /usr/lib. (A global switch in CPack; only this package
+# has shared objects.)
+set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
 
 set(CPACK_DEBIAN_SDK_PACKAGE_NAME libimpostor-dev)
 set(CPACK_DEBIAN_SDK_PACKAGE_SECTION libdevel)
 # The public headers include Abseil's Status; the CMake package finds it.
-set(CPACK_DEBIAN_SDK_PACKAGE_DEPENDS "libabsl-dev")
+# The .so links point into the runtime package of exactly this version.
+set(CPACK_DEBIAN_SDK_PACKAGE_DEPENDS "libabsl-dev, ${IMPOSTOR_LIB_PACKAGE} (= ${PROJECT_VERSION})")
 set(CPACK_DEBIAN_SDK_DESCRIPTION
   "impostor bake farm SDK: C++ client, result cache, runtime math and C API (find_package(impostor), pkg-config impostor)")
 

@@ -3,7 +3,10 @@
 # the CI container; exits 77 = skipped otherwise):
 #  1. builds the packages from the already built tree (impostor_packages:
 #     no recompilation) and installs them with `apt-get install ./...deb`;
-#  2. checks the system user, /var/lib/impostor, /etc/impostor, man pages;
+#  2. checks the system user, /var/lib/impostor, /etc/impostor, man pages,
+#     and the shared libraries: in their own runtime package (libimpostorX.Y:
+#     the versioned files, a shlibs file, ldconfig knows them) that the CLI
+#     and libimpostor-dev depend on, -dev holding only the .so links;
 #  3. starts impostor-server and one impostor-worker with the ExecStart lines
 #     of their installed systemd units and the same environment files (no
 #     systemd in a container), as the impostor user, on a free port;
@@ -17,7 +20,11 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 BUILD_DIR=$(cd "${1:-${BUILD_DIR:-build}}" && pwd)
 MODEL=${MODEL:-$ROOT/../shared/assets/props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb}
-PACKAGES=(impostor-server impostor-worker impostor-cli libimpostor-dev)
+# The runtime library package is named after the SONAME, libimpostor.so.X.Y
+# (X.Y: the project's major.minor version).
+project_version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$BUILD_DIR/CMakeCache.txt")
+LIB_PACKAGE=libimpostor${project_version%.*}
+PACKAGES=(impostor-server impostor-worker impostor-cli "$LIB_PACKAGE" libimpostor-dev)
 
 if [ "$(id -u)" != 0 ] || ! command -v apt-get >/dev/null; then
   echo "package-test: needs root and apt-get; skipped"
@@ -58,6 +65,25 @@ for f in /etc/impostor/server.conf /etc/impostor/worker.conf /lib/systemd/system
     /usr/lib/cmake/impostor/impostorConfig.cmake /usr/lib/pkgconfig/impostor.pc; do
   [ -f "$f" ] || fail "missing $f"
 done
+echo "== The runtime library package $LIB_PACKAGE"
+lib_files=$(dpkg -L "$LIB_PACKAGE")
+for so in libimpostor libimpostor_runtime; do
+  soname=$(objdump -p /usr/lib/$so.so | sed -n 's/^ *SONAME *//p')
+  [[ "$soname" == "$so.so.0."* ]] || fail "$so.so: SONAME '$soname'"
+  grep -qx "/usr/lib/$soname" <<<"$lib_files" || fail "$LIB_PACKAGE lacks /usr/lib/$soname"
+  ldconfig -p | grep -q " $soname " || fail "ldconfig does not know $soname"
+  [ "$(dpkg -S "/usr/lib/$so.so" | cut -d: -f1)" = libimpostor-dev ] || fail "$so.so link not in libimpostor-dev"
+  if dpkg -L libimpostor-dev | grep -q "/usr/lib/$so.so\.[0-9]"; then fail "libimpostor-dev holds a versioned $so"; fi
+  # Debian naming: the package is the SONAME without .so, digits joined.
+  [ "$LIB_PACKAGE" = "$(sed 's/\.so\./ /; s/ //' <<<"${soname/_runtime/}")" ] || fail "$LIB_PACKAGE does not match $soname"
+done
+shlibs=$(dpkg-query --control-show "$LIB_PACKAGE" shlibs)
+grep -q "^libimpostor 0\.[0-9]* $LIB_PACKAGE " <<<"$shlibs" || fail "no shlibs line for libimpostor: $shlibs"
+for p in impostor-cli libimpostor-dev; do
+  dpkg-query -W -f='${Depends}' "$p" | grep -q "$LIB_PACKAGE (= " || fail "$p does not depend on $LIB_PACKAGE"
+done
+grep -q "ldconfig" <<<"$(dpkg-query --control-show "$LIB_PACKAGE" postinst)" || fail "$LIB_PACKAGE postinst runs no ldconfig"
+
 version=$(/usr/bin/impostor-server --version)
 [[ "$version" =~ ^impostor-server\ [0-9]+\.[0-9]+\.[0-9]+\ \(baker\ .+\)$ ]] || fail "--version: $version"
 

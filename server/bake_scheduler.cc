@@ -16,6 +16,7 @@
 #include "common/bake_request.h"
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
+#include "server/attempt_history.h"
 
 namespace impostor {
 namespace {
@@ -111,6 +112,7 @@ v1::Job BakeScheduler::View(const JobRecord& record) {
       job.set_progress(l.progress());
       job.set_stage(l.stage());
       job.set_attempts(l.attempts());
+      CopyAttemptHistory(l, job);
       if (l.has_error()) *job.mutable_error() = l.error();
       job.set_updated_ms(std::max(job.updated_ms(), l.updated_ms()));
     }
@@ -168,6 +170,7 @@ absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::M
   for (JobRecord& f : *followers) {
     if (result != nullptr) {
       f.job.set_attempts(leader.job.attempts());
+      CopyAttemptHistory(leader.job, f.job);
       ApplyResult(f, *result);
       if (auto s = Save(f); !s.ok()) return s;
       continue;
@@ -176,6 +179,7 @@ absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::M
     f.job.set_progress(leader.job.progress());
     f.job.set_stage(leader.job.stage());
     f.job.set_attempts(leader.job.attempts());
+    CopyAttemptHistory(leader.job, f.job);
     if (leader.job.has_error()) *f.job.mutable_error() = leader.job.error();
     if (auto s = Save(f); !s.ok()) return s;
   }
@@ -187,6 +191,7 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   auto followers = jobs_->ActiveFollowers(leader.job.job_id());
   if (!followers.ok()) return followers.status();
   if (!followers->empty()) return absl::OkStatus();
+  CloseAttempt(leader.job, v1::JobAttempt::OUTCOME_CANCELLED, "cancelled by CancelJob", options_.now_ms());
   leader.job.set_state(v1::JOB_STATE_CANCELLED);
   leader.job.set_stage("cancelled");
   leader.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
@@ -580,7 +585,8 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
                                                   .lease_deadline_ms = now + options_.lease_timeout_ms,
                                                   .worker_id = request.worker_id(),
                                                   .lease_holder = lease_holder,
-                                                  .now_ms = now});
+                                                  .now_ms = now,
+                                                  .device = workers_[request.worker_id()].device});
       if (!got.ok()) return got.status();
       if (!got->has_value() && ++lost_claims < 16) continue;
       claimed = std::move(*got);
@@ -707,6 +713,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   }
   // Even a cancelled job's result is good: keep it for the next request.
   if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_SUCCEEDED, "", options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) ApplyResult(*r, m);
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
@@ -724,6 +731,7 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
   r->lease_id.clear();
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
     if (retry) {
@@ -760,6 +768,7 @@ absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
   if (!r.ok()) return r.status();
   r->lease_id.clear();
   r->lease_deadline_ms = 0;
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_RELEASED, request.reason(), options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     // Handed back, not failed: the attempt does not count.
     r->job.set_attempts(r->job.attempts() > 0 ? r->job.attempts() - 1 : 0);
@@ -779,6 +788,11 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
   r.lease_id.clear();
   r.lease_deadline_ms = 0;
   ++r.lease_expiries;
+  CloseAttempt(r.job, v1::JobAttempt::OUTCOME_LEASE_EXPIRED,
+               how.empty() ? absl::StrCat("no report within the lease timeout of ", options_.lease_timeout_ms / 1000.0,
+                                          " s at stage ", stage)
+                           : how,
+               options_.now_ms());
   NoteWorkerFailure(worker, r.job.job_id());
   if (r.job.attempts() >= options_.max_attempts) {
     r.job.set_state(v1::JOB_STATE_FAILED);

@@ -1,5 +1,7 @@
 #include "server/job_store.h"
 
+#include "server/attempt_history.h"
+
 #include "server/sqlite_job_store.h"
 
 namespace impostor {
@@ -21,6 +23,7 @@ void ApplyLeaseGrant(JobRecord& r, const LeaseGrant& grant) {
   r.lease_deadline_ms = grant.lease_deadline_ms;
   r.worker_id = grant.worker_id;
   r.lease_holder = grant.lease_holder;
+  OpenAttempt(r.job, grant.worker_id, grant.device, grant.now_ms);
 }
 
 }  // namespace impostor

@@ -75,10 +75,11 @@ struct LeaseGrant {
   std::string worker_id;
   std::string lease_holder;
   int64_t now_ms = 0;
+  std::string device;  // the worker's LeaseJobRequest.device, for attempt_history
 };
 
 // `record` as ClaimQueued leaves it (state, attempts, progress, stage,
-// lease, worker); for engines.
+// lease, worker, a new attempt_history entry); for engines.
 void ApplyLeaseGrant(JobRecord& record, const LeaseGrant& grant);
 
 class JobStore {

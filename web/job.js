@@ -1,6 +1,6 @@
 // One job: parameters, progress, stage timings, warnings, errors, attempts
 // and its worker, quality figures. Polls until the job ends.
-import { getJson, el, link, progressBar, replace, reportError } from './common.js';
+import { getJson, el, link, progressBar, replace, reportError, table } from './common.js';
 
 const POLL_MS = 2000;
 const jobId = decodeURIComponent(location.pathname.split('/').pop());
@@ -9,6 +9,20 @@ function kv(pairs) {
   const dl = el('dl', { class: 'kv' });
   for (const [k, v] of pairs) dl.append(el('dt', {}, k), el('dd', {}, v instanceof Node ? v : String(v ?? '—')));
   return dl;
+}
+
+// Job.attempt_history (docs/http_api.md): one row per lease, oldest first.
+function attemptsTable(j) {
+  const history = j.attempt_history || [];
+  if (!history.length) return el('span', { class: 'muted' }, 'not leased yet');
+  const time = (ms) => (ms ? new Date(ms).toLocaleTimeString() : '—');
+  const rows = history.map((a) => [String(a.attempt), a.worker_id, a.device || '—', time(a.leased_ms), time(a.ended_ms),
+    a.ended_ms ? `${((a.ended_ms - a.leased_ms) / 1000).toFixed(1)} s` : '—',
+    el('td', { class: `state-${a.outcome === 'succeeded' ? 'succeeded' : a.outcome === 'running' ? 'running' : 'failed'}` }, a.outcome),
+    el('td', { class: 'wrap' }, a.message || '')]);
+  const t = table(['#', 'worker', 'device', 'leased', 'ended', 'held', 'outcome', 'message'], rows, 'attempts');
+  if (!j.attempt_history_dropped) return t;
+  return el('div', {}, el('span', { class: 'muted' }, `${j.attempt_history_dropped} older leases not kept`), t);
 }
 
 async function refresh() {
@@ -24,6 +38,7 @@ async function refresh() {
     ['cached', j.cached], ['created', new Date(j.created_ms).toLocaleString()], ['updated', new Date(j.updated_ms).toLocaleString()],
     ['error', j.error && j.error.message ? `${j.error.code}: ${j.error.message}` : '—'],
     ['mesh', `${j.mesh.entry.path} (${j.mesh.files.length} more files)`]]));
+  replace('attempts', attemptsTable(j));
   replace('params', kv(Object.entries(j.parameters).filter(([, v]) => v !== '' && v !== 0 && v !== false && !(Array.isArray(v) && !v.length))
     .map(([k, v]) => [k, typeof v === 'object' ? JSON.stringify(v) : v])));
   const r = j.result;

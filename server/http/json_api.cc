@@ -3,6 +3,7 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 
+#include "server/attempt_history.h"
 #include "server/http/api_params.h"
 
 namespace impostor {
@@ -51,6 +52,10 @@ nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_resul
   if (!with_result) job.clear_result();
   nlohmann::json j = ProtoJson(job);
   j["state"] = StateName(job.state());
+  // Outcomes as lower-case words, like `state`.
+  for (int i = 0; i < job.attempt_history_size() && i < static_cast<int>(j["attempt_history"].size()); ++i) {
+    j["attempt_history"][i]["outcome"] = AttemptOutcomeName(job.attempt_history(i).outcome());
+  }
   j["requester"] = listing.client_id;
   j["leader_job_id"] = listing.leader_job_id;
   j["lease_priority"] = listing.lease_priority;

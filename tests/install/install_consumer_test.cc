@@ -1,4 +1,4 @@
-// The SDK as a user gets it: `cmake --install --component sdk` into a staged
+// The SDK as a user gets it: `cmake --install --component lib` and `sdk` into a staged
 // prefix, then the stand-alone example projects (examples/consumer in C++,
 // examples/c in C, and the C example once more through pkg-config) are
 // configured and built against that prefix alone, and run against a real
@@ -37,9 +37,13 @@ class InstallTest : public ::testing::Test {
     fs::remove_all(work_);
     fs::create_directories(work_);
     prefix_ = work_ / "prefix";
-    const ToolRun install = RunTool({IMPOSTOR_CMAKE_COMMAND, "--install", IMPOSTOR_BUILD_DIR, "--component", "sdk",
-                                     "--prefix", prefix_.string()});
-    ASSERT_EQ(install.exit_code, 0) << Describe(install);
+    // `lib` (the versioned shared objects) and `sdk` (links, headers, CMake
+    // and pkg-config files): the contents of libimpostor0.1 + libimpostor-dev.
+    for (const char* component : {"lib", "sdk"}) {
+      const ToolRun install = RunTool({IMPOSTOR_CMAKE_COMMAND, "--install", IMPOSTOR_BUILD_DIR, "--component",
+                                       component, "--prefix", prefix_.string()});
+      ASSERT_EQ(install.exit_code, 0) << component << ": " << Describe(install);
+    }
   }
 
   // Configures and builds the example project in `source` against the

@@ -76,9 +76,10 @@ class SchedulerFixture : public ::testing::Test {
   }
 
   // One explicit lease; empty job_id when nothing is queued.
-  v1::LeasedJob Lease(const std::string& worker = "w1") {
+  v1::LeasedJob Lease(const std::string& worker = "w1", const std::string& device = "") {
     v1::LeaseJobRequest r;
     r.set_worker_id(worker);
+    r.set_device(device);
     auto job = scheduler_->Lease(r, std::chrono::steady_clock::now(), nullptr);
     EXPECT_TRUE(job.ok()) << job.status();
     return job.ok() && job->has_value() ? **job : v1::LeasedJob();
