@@ -15,6 +15,7 @@
 #include "common/bake_request.h"
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
+#include "common/sha256.h"
 
 namespace impostor {
 namespace {
@@ -33,6 +34,60 @@ SchedulerObserver* NoObserver() {
 int64_t SystemNowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+// Job ids of cache hits, which get no row: "hit-" + cache key + "-" + 32
+// hex characters (a hash of the requester and its request_id, so a retried
+// submit gets the same id; random without a request_id) + optionally "-" +
+// the owner token's name in hex (what JobOwner answers). The id grants
+// nothing: the result it names is readable by every reader already.
+constexpr std::string_view kHitPrefix = "hit-";
+constexpr size_t kHitTagChars = 32;
+
+std::string ToHex(std::string_view bytes) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned char b : bytes) {
+    out.push_back(kHex[b >> 4]);
+    out.push_back(kHex[b & 0xf]);
+  }
+  return out;
+}
+
+std::string HitJobId(const std::string& key, const std::string& requester, const std::string& request_id,
+                     const std::string& owner) {
+  std::string id = std::string(kHitPrefix) + key + "-";
+  if (request_id.empty()) {
+    id += NewId("").substr(0, kHitTagChars);
+  } else {
+    id += Sha256Hex(absl::StrCat(requester, "\n", request_id)).substr(0, kHitTagChars);
+  }
+  if (!owner.empty()) absl::StrAppend(&id, "-", ToHex(owner));
+  return id;
+}
+
+struct HitId {
+  std::string cache_key;
+  std::string owner;
+};
+
+std::optional<HitId> ParseHitJobId(std::string_view id) {
+  auto is_hex = [](std::string_view s) {
+    return std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+  };
+  if (id.substr(0, kHitPrefix.size()) != kHitPrefix) return std::nullopt;
+  id.remove_prefix(kHitPrefix.size());
+  if (id.size() < 64 + 1 + kHitTagChars || id[64] != '-') return std::nullopt;
+  HitId hit{std::string(id.substr(0, 64)), ""};
+  if (!IsSha256Hex(hit.cache_key) || !is_hex(id.substr(65, kHitTagChars))) return std::nullopt;
+  std::string_view owner = id.substr(65 + kHitTagChars);
+  if (owner.empty()) return hit;
+  if (owner[0] != '-' || owner.size() < 3 || owner.size() % 2 == 0 || !is_hex(owner.substr(1))) return std::nullopt;
+  for (size_t i = 1; i + 1 < owner.size(); i += 2) {
+    auto nibble = [](char c) { return c <= '9' ? c - '0' : c - 'a' + 10; };
+    hit.owner.push_back(static_cast<char>(nibble(owner[i]) * 16 + nibble(owner[i + 1])));
+  }
+  return hit;
 }
 
 }  // namespace
@@ -81,8 +136,16 @@ absl::Status BakeScheduler::Save(JobRecord& record) {
   return absl::OkStatus();
 }
 
+BakeScheduler::~BakeScheduler() {
+  std::lock_guard lock(mu_);
+  if (auto s = FlushTouchesLocked(); !s.ok()) {
+    spdlog::warn("event=touch_results_failed error=\"{}\"", std::string(s.status().message()));
+  }
+}
+
 absl::StatusOr<JobRecord> BakeScheduler::LoadJob(const std::string& job_id) {
   if (job_id.empty()) return absl::InvalidArgumentError("job_id: required");
+  if (auto hit = HitRecordFromId(job_id)) return std::move(*hit);
   auto r = jobs_->Get(job_id);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("job_id: no job \"", job_id.substr(0, 100), "\""));
@@ -185,12 +248,55 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   return Save(leader);
 }
 
-void BakeScheduler::TouchResult(const std::string& key) {
-  // Only eviction order depends on it: a failed write (a full disk) must not
-  // fail the read that caused it.
-  if (auto s = jobs_->TouchResult(key, options_.now_ms()); !s.ok()) {
-    spdlog::warn("event=touch_result_failed cache_key={} error=\"{}\"", key, std::string(s.message()));
+void BakeScheduler::TouchResult(const std::string& key) { touched_[key] = options_.now_ms(); }
+
+absl::StatusOr<int64_t> BakeScheduler::FlushTouchesLocked() {
+  if (touched_.empty()) return 0;
+  std::map<std::string, int64_t> batch;
+  batch.swap(touched_);
+  // Only eviction order depends on it: a failed write (a full disk) drops
+  // the batch rather than fail anything.
+  if (auto s = jobs_->TouchResults(batch); !s.ok()) return s;
+  return static_cast<int64_t>(batch.size());
+}
+
+absl::StatusOr<int64_t> BakeScheduler::FlushResultTouches() {
+  std::lock_guard lock(mu_);
+  return FlushTouchesLocked();
+}
+
+absl::StatusOr<int64_t> BakeScheduler::SweepFinishedJobs() {
+  if (options_.job_retention_ms <= 0) return 0;
+  const int64_t cutoff = options_.now_ms() - options_.job_retention_ms;
+  constexpr int kBatch = 500;
+  int64_t total = 0;
+  for (;;) {
+    // The lock is taken per batch: submits go on between batches.
+    std::lock_guard lock(mu_);
+    auto deleted = jobs_->DeleteFinishedJobsCreatedBefore(cutoff, kBatch);
+    if (!deleted.ok()) return deleted.status();
+    total += *deleted;
+    if (*deleted < kBatch) break;
   }
+  if (total > 0) spdlog::info("event=jobs_swept deleted={} created_before_ms={}", total, cutoff);
+  return total;
+}
+
+std::optional<JobRecord> BakeScheduler::HitRecordFromId(const std::string& job_id) {
+  const std::optional<HitId> hit = ParseHitJobId(job_id);
+  if (!hit) return std::nullopt;
+  // A hit lives as long as its result: once evicted, the id is unknown.
+  auto result = jobs_->GetResult(hit->cache_key);
+  if (!result.ok() || !result->has_value()) return std::nullopt;
+  JobRecord r;
+  r.job.set_job_id(job_id);
+  r.job.set_cache_key(hit->cache_key);
+  r.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  r.job.set_progress(1.0f);
+  r.job.set_stage("cached");
+  r.job.set_cached(true);
+  r.owner = hit->owner;
+  return r;
 }
 
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
@@ -276,13 +382,17 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   if (HasQualityGate(request.gate())) record.gate = request.gate();
   if (cached->has_value()) {
     TouchResult(key);
-    // A job record even for a hit, so GetJob/WatchJob work on every id.
     record.job.set_state(v1::JOB_STATE_SUCCEEDED);
     record.job.set_progress(1.0f);
     record.job.set_stage("cached");
     record.job.set_cached(true);
     ApplyResult(record, **cached);  // the gate judges a cached result too
-    if (auto s = jobs_->Insert(record); !s.ok()) {
+    // Without a gate the job id itself is the record (HitJobId): GetJob and
+    // WatchJob answer from it, and nothing needs a sync. A gated hit keeps
+    // its row (its outcome depends on the gate).
+    if (!HasQualityGate(record.gate)) {
+      record.job.set_job_id(HitJobId(key, requester, request.request_id(), owner));
+    } else if (auto s = jobs_->Insert(record); !s.ok()) {
       // A full disk must not stop cache hits: answer without the record
       // (GetJob on this id is then NOT_FOUND; the result is all it holds).
       if (!absl::IsResourceExhausted(s)) return s;
@@ -430,6 +540,8 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
   const int64_t cap = options_.store_max_bytes;
   if (cap <= 0 || blobs_->total_bytes() <= cap) return stats;
   std::lock_guard lock(mu_);
+  // Eviction orders results by use: write the uses noted in memory first.
+  if (auto s = FlushTouchesLocked(); !s.ok()) return s.status();
   // What must stay: every input of a queued or running job.
   std::set<std::string> needed;
   auto pending = jobs_->Pending();

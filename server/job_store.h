@@ -143,6 +143,16 @@ class JobStore {
   // RUNNING leaders whose lease is held by the token `lease_holder`.
   absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder);
 
+  // --- Serving speed (issue 18): batched LRU times, bounded job table ---
+  // Sets last_used_ms of each listed result (cache key -> Unix ms) in one
+  // transaction, so one sync covers a whole batch of cache hits. Keys with
+  // no result are skipped.
+  absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms);
+  // Deletes at most `limit` SUCCEEDED, FAILED or CANCELLED jobs created
+  // before `cutoff_ms`; returns how many. QUEUED and RUNNING rows stay
+  // whatever their age.
+  absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit);
+
  private:
   explicit JobStore(sqlite3* db) : db_(db) {}
   // Rewrites the result_blobs rows of one result.
