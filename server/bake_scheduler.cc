@@ -299,14 +299,33 @@ std::optional<JobRecord> BakeScheduler::HitRecordFromId(const std::string& job_i
   return r;
 }
 
-absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
-  auto result = jobs_->GetResult(key);
-  if (!result.ok() || !result->has_value()) return result;
-  const v1::Manifest& m = **result;
+bool BakeScheduler::BlobsIntact(const v1::Manifest& m) const {
   // Verified, not just present: a result whose bytes rotted is a miss.
   bool intact = blobs_->Verify(ToDigest(m.manifest_json())).ok();
   for (const auto& map : m.maps()) intact = intact && blobs_->Verify(ToDigest(map.digest())).ok();
-  if (intact) return result;
+  return intact;
+}
+
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(const std::string& key) {
+  std::optional<v1::Manifest> found;
+  {
+    // Only the database read holds the scheduler's lock: with many callers
+    // hitting the cache, the blob checks run side by side.
+    std::lock_guard lock(mu_);
+    auto result = jobs_->GetResult(key);
+    if (!result.ok() || !result->has_value()) return result;
+    found = std::move(*result);
+    TouchResult(key);
+  }
+  if (BlobsIntact(*found)) return found;
+  std::lock_guard lock(mu_);
+  return IntactResult(key);  // checks again: the result may have been baked anew meanwhile
+}
+
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
+  auto result = jobs_->GetResult(key);
+  if (!result.ok() || !result->has_value()) return result;
+  if (BlobsIntact(**result)) return result;
   spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
   if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
   return std::optional<v1::Manifest>();
@@ -465,12 +484,10 @@ absl::StatusOr<v1::LookupBakeResponse> BakeScheduler::Lookup(const v1::SubmitBak
   if (!params.ok()) return params.status();
   v1::LookupBakeResponse response;
   response.set_cache_key(ComputeCacheKey(request.mesh(), *params));
-  std::lock_guard lock(mu_);
-  auto cached = IntactResult(response.cache_key());
+  auto cached = ReadIntactResult(response.cache_key());
   if (!cached.ok()) return cached.status();
   if (cached->has_value()) {
     response.set_found(true);
-    TouchResult(response.cache_key());
     *response.mutable_result() = std::move(**cached);
   }
   return response;
@@ -514,11 +531,9 @@ absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_k
     return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
                                                     cache_key.substr(0, 80), "\""));
   }
-  std::lock_guard lock(mu_);
-  auto r = IntactResult(cache_key);
+  auto r = ReadIntactResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
-  TouchResult(cache_key);
   return std::move(**r);
 }
 

@@ -243,6 +243,10 @@ class BakeScheduler {
   // blobs are gone is dropped so the key bakes again.
   absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The same for the read-only hit paths (LookupBake, GetResult), which
+  // also count the use: takes the lock for the database only.
+  absl::StatusOr<std::optional<v1::Manifest>> ReadIntactResult(const std::string& key) ABSL_LOCKS_EXCLUDED(mu_);
+  bool BlobsIntact(const v1::Manifest& m) const;
   // Records a use of the result for LRU eviction, in memory until
   // FlushResultTouches.
   void TouchResult(const std::string& key) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
