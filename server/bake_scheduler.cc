@@ -16,6 +16,7 @@
 #include "common/bake_request.h"
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
+#include "common/sha256.h"
 #include "server/attempt_history.h"
 
 namespace impostor {
@@ -35,6 +36,60 @@ SchedulerObserver* NoObserver() {
 int64_t SystemNowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+// Job ids of cache hits, which get no row: "hit-" + cache key + "-" + 32
+// hex characters (a hash of the requester and its request_id, so a retried
+// submit gets the same id; random without a request_id) + optionally "-" +
+// the owner token's name in hex (what JobOwner answers). The id grants
+// nothing: the result it names is readable by every reader already.
+constexpr std::string_view kHitPrefix = "hit-";
+constexpr size_t kHitTagChars = 32;
+
+std::string ToHex(std::string_view bytes) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned char b : bytes) {
+    out.push_back(kHex[b >> 4]);
+    out.push_back(kHex[b & 0xf]);
+  }
+  return out;
+}
+
+std::string HitJobId(const std::string& key, const std::string& requester, const std::string& request_id,
+                     const std::string& owner) {
+  std::string id = std::string(kHitPrefix) + key + "-";
+  if (request_id.empty()) {
+    id += NewId("").substr(0, kHitTagChars);
+  } else {
+    id += Sha256Hex(absl::StrCat(requester, "\n", request_id)).substr(0, kHitTagChars);
+  }
+  if (!owner.empty()) absl::StrAppend(&id, "-", ToHex(owner));
+  return id;
+}
+
+struct HitId {
+  std::string cache_key;
+  std::string owner;
+};
+
+std::optional<HitId> ParseHitJobId(std::string_view id) {
+  auto is_hex = [](std::string_view s) {
+    return std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+  };
+  if (id.substr(0, kHitPrefix.size()) != kHitPrefix) return std::nullopt;
+  id.remove_prefix(kHitPrefix.size());
+  if (id.size() < 64 + 1 + kHitTagChars || id[64] != '-') return std::nullopt;
+  HitId hit{std::string(id.substr(0, 64)), ""};
+  if (!IsSha256Hex(hit.cache_key) || !is_hex(id.substr(65, kHitTagChars))) return std::nullopt;
+  std::string_view owner = id.substr(65 + kHitTagChars);
+  if (owner.empty()) return hit;
+  if (owner[0] != '-' || owner.size() < 3 || owner.size() % 2 == 0 || !is_hex(owner.substr(1))) return std::nullopt;
+  for (size_t i = 1; i + 1 < owner.size(); i += 2) {
+    auto nibble = [](char c) { return c <= '9' ? c - '0' : c - 'a' + 10; };
+    hit.owner.push_back(static_cast<char>(nibble(owner[i]) * 16 + nibble(owner[i + 1])));
+  }
+  return hit;
 }
 
 }  // namespace
@@ -93,8 +148,16 @@ absl::Status BakeScheduler::Save(JobRecord& record) {
   return absl::OkStatus();
 }
 
+BakeScheduler::~BakeScheduler() {
+  std::lock_guard lock(mu_);
+  if (auto s = FlushTouchesLocked(); !s.ok()) {
+    spdlog::warn("event=touch_results_failed error=\"{}\"", std::string(s.status().message()));
+  }
+}
+
 absl::StatusOr<JobRecord> BakeScheduler::LoadJob(const std::string& job_id) {
   if (job_id.empty()) return absl::InvalidArgumentError("job_id: required");
+  if (auto hit = HitRecordFromId(job_id)) return std::move(*hit);
   auto r = jobs_->Get(job_id);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("job_id: no job \"", job_id.substr(0, 100), "\""));
@@ -201,22 +264,91 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   return Save(leader);
 }
 
-void BakeScheduler::TouchResult(const std::string& key) {
-  // Only eviction order depends on it: a failed write (a full disk) must not
-  // fail the read that caused it.
-  if (auto s = jobs_->TouchResult(key, options_.now_ms()); !s.ok()) {
-    spdlog::warn("event=touch_result_failed cache_key={} error=\"{}\"", key, std::string(s.message()));
+void BakeScheduler::TouchResult(const std::string& key) { touched_[key] = options_.now_ms(); }
+
+absl::StatusOr<int64_t> BakeScheduler::FlushTouchesLocked() {
+  if (touched_.empty()) return 0;
+  std::map<std::string, int64_t> batch;
+  batch.swap(touched_);
+  // Only eviction order depends on it: a failed write (a full disk) drops
+  // the batch rather than fail anything.
+  if (auto s = jobs_->TouchResults(batch); !s.ok()) return s;
+  return static_cast<int64_t>(batch.size());
+}
+
+absl::StatusOr<int64_t> BakeScheduler::FlushResultTouches() {
+  std::lock_guard lock(mu_);
+  return FlushTouchesLocked();
+}
+
+absl::StatusOr<int64_t> BakeScheduler::SweepFinishedJobs() {
+  if (options_.job_retention_ms <= 0) return 0;
+  const int64_t cutoff = options_.now_ms() - options_.job_retention_ms;
+  constexpr int kBatch = 500;
+  int64_t total = 0;
+  {
+    // One server on a shared database sweeps; the others skip.
+    std::lock_guard lock(mu_);
+    auto maintainer = jobs_->HoldMaintenanceLock();
+    if (!maintainer.ok()) return maintainer.status();
+    if (!*maintainer) return total;
   }
+  for (;;) {
+    // The lock is taken per batch: submits go on between batches.
+    std::lock_guard lock(mu_);
+    auto deleted = jobs_->DeleteFinishedJobsCreatedBefore(cutoff, kBatch);
+    if (!deleted.ok()) return deleted.status();
+    total += *deleted;
+    if (*deleted < kBatch) break;
+  }
+  if (total > 0) spdlog::info("event=jobs_swept deleted={} created_before_ms={}", total, cutoff);
+  return total;
+}
+
+std::optional<JobRecord> BakeScheduler::HitRecordFromId(const std::string& job_id) {
+  const std::optional<HitId> hit = ParseHitJobId(job_id);
+  if (!hit) return std::nullopt;
+  // A hit lives as long as its result: once evicted, the id is unknown.
+  auto result = jobs_->GetResult(hit->cache_key);
+  if (!result.ok() || !result->has_value()) return std::nullopt;
+  JobRecord r;
+  r.job.set_job_id(job_id);
+  r.job.set_cache_key(hit->cache_key);
+  r.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  r.job.set_progress(1.0f);
+  r.job.set_stage("cached");
+  r.job.set_cached(true);
+  r.owner = hit->owner;
+  return r;
+}
+
+bool BakeScheduler::BlobsIntact(const v1::Manifest& m) const {
+  // Verified, not just present: a result whose bytes rotted is a miss.
+  bool intact = blobs_->Verify(ToDigest(m.manifest_json())).ok();
+  for (const auto& map : m.maps()) intact = intact && blobs_->Verify(ToDigest(map.digest())).ok();
+  return intact;
+}
+
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(const std::string& key) {
+  std::optional<v1::Manifest> found;
+  {
+    // Only the database read holds the scheduler's lock: with many callers
+    // hitting the cache, the blob checks run side by side.
+    std::lock_guard lock(mu_);
+    auto result = jobs_->GetResult(key);
+    if (!result.ok() || !result->has_value()) return result;
+    found = std::move(*result);
+    TouchResult(key);
+  }
+  if (BlobsIntact(*found)) return found;
+  std::lock_guard lock(mu_);
+  return IntactResult(key);  // checks again: the result may have been baked anew meanwhile
 }
 
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
   auto result = jobs_->GetResult(key);
   if (!result.ok() || !result->has_value()) return result;
-  const v1::Manifest& m = **result;
-  // Verified, not just present: a result whose bytes rotted is a miss.
-  bool intact = blobs_->Verify(ToDigest(m.manifest_json())).ok();
-  for (const auto& map : m.maps()) intact = intact && blobs_->Verify(ToDigest(map.digest())).ok();
-  if (intact) return result;
+  if (BlobsIntact(**result)) return result;
   spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
   if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
   return std::optional<v1::Manifest>();
@@ -292,13 +424,17 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   if (HasQualityGate(request.gate())) record.gate = request.gate();
   if (cached->has_value()) {
     TouchResult(key);
-    // A job record even for a hit, so GetJob/WatchJob work on every id.
     record.job.set_state(v1::JOB_STATE_SUCCEEDED);
     record.job.set_progress(1.0f);
     record.job.set_stage("cached");
     record.job.set_cached(true);
     ApplyResult(record, **cached);  // the gate judges a cached result too
-    if (auto s = jobs_->Insert(record); !s.ok()) {
+    // Without a gate the job id itself is the record (HitJobId): GetJob and
+    // WatchJob answer from it, and nothing needs a sync. A gated hit keeps
+    // its row (its outcome depends on the gate).
+    if (!HasQualityGate(record.gate)) {
+      record.job.set_job_id(HitJobId(key, requester, request.request_id(), owner));
+    } else if (auto s = jobs_->Insert(record); !s.ok()) {
       // A full disk must not stop cache hits: answer without the record
       // (GetJob on this id is then NOT_FOUND; the result is all it holds).
       if (!absl::IsResourceExhausted(s)) return s;
@@ -387,12 +523,10 @@ absl::StatusOr<v1::LookupBakeResponse> BakeScheduler::Lookup(const v1::SubmitBak
   if (!params.ok()) return params.status();
   v1::LookupBakeResponse response;
   response.set_cache_key(ComputeCacheKey(request.mesh(), *params));
-  std::lock_guard lock(mu_);
-  auto cached = IntactResult(response.cache_key());
+  auto cached = ReadIntactResult(response.cache_key());
   if (!cached.ok()) return cached.status();
   if (cached->has_value()) {
     response.set_found(true);
-    TouchResult(response.cache_key());
     *response.mutable_result() = std::move(**cached);
   }
   return response;
@@ -436,11 +570,9 @@ absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_k
     return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
                                                     cache_key.substr(0, 80), "\""));
   }
-  std::lock_guard lock(mu_);
-  auto r = IntactResult(cache_key);
+  auto r = ReadIntactResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
-  TouchResult(cache_key);
   return std::move(**r);
 }
 
@@ -466,6 +598,8 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
   auto maintainer = jobs_->HoldMaintenanceLock();
   if (!maintainer.ok()) return maintainer.status();
   if (!*maintainer) return stats;
+  // Eviction orders results by use: write the uses noted in memory first.
+  if (auto s = FlushTouchesLocked(); !s.ok()) return s.status();
   // What must stay: every input of a queued or running job.
   std::set<std::string> needed;
   auto pending = jobs_->Pending();

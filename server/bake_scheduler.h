@@ -67,6 +67,10 @@ struct SchedulerOptions {
   // count. Defaults 3 and 5 minutes; 0 = never pause.
   int worker_failure_limit = 3;
   int64_t worker_pause_ms = 5 * 60'000;
+  // Finished (SUCCEEDED, FAILED, CANCELLED) job records created longer ago
+  // than this are deleted by SweepFinishedJobs, so the database stays
+  // bounded. Default 7 days; 0 = keep for ever.
+  int64_t job_retention_ms = int64_t{7} * 24 * 3600'000;
   // Wall clock in Unix epoch milliseconds; tests substitute a fake.
   std::function<int64_t()> now_ms;
 };
@@ -77,6 +81,7 @@ class BakeScheduler {
 
   // `jobs` and `blobs` must outlive the scheduler.
   BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions options);
+  // Writes the result use times still held in memory (FlushResultTouches).
   ~BakeScheduler();
 
   // See BakeService.SubmitBake for outcomes and codes. `client_id` names the
@@ -161,6 +166,19 @@ class BakeScheduler {
   // deadline has passed. Called periodically by the server.
   absl::Status ExpireLeases();
 
+  // --- Serving speed (issue 18) ---
+  // A cache hit (SubmitBake, LookupBake, GetResult) notes the result's use
+  // time in memory only: a sync per hit would cap hits at the disk's sync
+  // rate. This writes the noted times in one transaction; the server calls
+  // it periodically and at shutdown, eviction before it orders results, and
+  // the destructor. A crash loses at most one period of use times, which
+  // only shifts eviction order. Returns how many results were written.
+  absl::StatusOr<int64_t> FlushResultTouches();
+  // Deletes finished job records older than options().job_retention_ms
+  // (nothing when it is 0), in batches so callers are not held up long.
+  // Returns how many.
+  absl::StatusOr<int64_t> SweepFinishedJobs();
+
   // Wakes every waiter; later waits return at once, and Lease answers
   // UNAVAILABLE so long-polling workers reconnect to the next server.
   void Shutdown();
@@ -243,8 +261,18 @@ class BakeScheduler {
   // blobs are gone is dropped so the key bakes again.
   absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // Records a use of the result for LRU eviction; failures are logged only.
+  // The same for the read-only hit paths (LookupBake, GetResult), which
+  // also count the use: takes the lock for the database only.
+  absl::StatusOr<std::optional<v1::Manifest>> ReadIntactResult(const std::string& key) ABSL_LOCKS_EXCLUDED(mu_);
+  bool BlobsIntact(const v1::Manifest& m) const;
+  // Records a use of the result for LRU eviction, in memory until
+  // FlushResultTouches.
   void TouchResult(const std::string& key) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::StatusOr<int64_t> FlushTouchesLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Cache hits without a quality gate get no job row (a row costs a sync):
+  // their job id says everything GetJob must answer (see HitJobId), and
+  // LoadJob rebuilds the record from it while the result exists.
+  std::optional<JobRecord> HitRecordFromId(const std::string& job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::StatusOr<JobRecord> HeldLease(const std::string& job_id, const std::string& lease_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::Status Save(JobRecord& record) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -304,6 +332,8 @@ class BakeScheduler {
   };
   void NoteWorkerSeen(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   std::map<std::string, WorkerSeen> workers_ ABSL_GUARDED_BY(mu_);
+  // Result use times not yet written (cache key -> Unix ms).
+  std::map<std::string, int64_t> touched_ ABSL_GUARDED_BY(mu_);
   // Never null: a do-nothing observer until SetObserver.
   SchedulerObserver* observer_ ABSL_GUARDED_BY(mu_);
 };

@@ -68,7 +68,14 @@ absl::StatusOr<BakeScheduler::JobListing> BakeScheduler::DescribeJob(const std::
 absl::StatusOr<std::vector<JobStore::StoredResult>> BakeScheduler::ListResults(
     int limit, const std::optional<JobStore::ResultCursor>& after) {
   std::lock_guard lock(mu_);
-  return jobs_->ListResults(limit, after);
+  auto results = jobs_->ListResults(limit, after);
+  if (!results.ok()) return results;
+  // Uses noted in memory and not yet written (FlushResultTouches).
+  for (auto& r : *results) {
+    auto it = touched_.find(r.manifest.cache_key());
+    if (it != touched_.end()) r.last_used_ms = std::max(r.last_used_ms, it->second);
+  }
+  return results;
 }
 
 absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::string& cache_key) {
@@ -83,6 +90,9 @@ absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::stri
   auto job = jobs_->OldestJobWithKey(cache_key);
   if (!job.ok()) return job.status();
   (*r)->source_job_id = *job;
+  if (auto it = touched_.find(cache_key); it != touched_.end()) {
+    (*r)->last_used_ms = std::max((*r)->last_used_ms, it->second);
+  }
   return std::move(**r);
 }
 

@@ -194,6 +194,16 @@ class JobStore {
   // once a running callback has finished. Engines with one server per
   // database have no one else to hear from.
   virtual void SetChangeCallback(std::function<void()> callback) {}
+
+  // --- Serving speed (issue 18): batched LRU times, bounded job table ---
+  // Sets last_used_ms of each listed result (cache key -> Unix ms) in one
+  // transaction, so one sync covers a whole batch of cache hits. Keys with
+  // no result are skipped.
+  virtual absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms) = 0;
+  // Deletes at most `limit` SUCCEEDED, FAILED or CANCELLED jobs created
+  // before `cutoff_ms`; returns how many. QUEUED and RUNNING rows stay
+  // whatever their age.
+  virtual absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) = 0;
 };
 
 }  // namespace impostor

@@ -94,6 +94,11 @@ ABSL_FLAG(int64_t, token_max_pending_jobs, 1000, "Queued or running jobs per tok
 ABSL_FLAG(int64_t, token_max_upload_bytes_per_day, int64_t{100} << 30,
           "Bytes a token (not admin) may upload in any 24 hours (>= 1)");
 ABSL_FLAG(int64_t, token_max_bakes_per_hour, 1000, "Bakes (non-cached submits) per token (not admin) per hour (>= 1)");
+// Serving speed (issue 18).
+ABSL_FLAG(int, job_retention_days, 7,
+          "Finished job records older than this many days are deleted (0 = keep for ever; 0..36500)");
+ABSL_FLAG(int, result_touch_flush_seconds, 10,
+          "Result use times (LRU eviction order) are written at most this often, and at shutdown (1..3600)");
 
 namespace {
 
@@ -165,6 +170,14 @@ int main(int argc, char** argv) {
   if (eviction_grace_s < 0 || eviction_grace_s > 86400) {
     return Fail("--store-eviction-grace-seconds: " + std::to_string(eviction_grace_s) + " is out of range 0..86400");
   }
+  const int job_retention_days = absl::GetFlag(FLAGS_job_retention_days);
+  if (job_retention_days < 0 || job_retention_days > 36500) {
+    return Fail("--job-retention-days: " + std::to_string(job_retention_days) + " is out of range 0..36500");
+  }
+  const int touch_flush_s = absl::GetFlag(FLAGS_result_touch_flush_seconds);
+  if (touch_flush_s < 1 || touch_flush_s > 3600) {
+    return Fail("--result-touch-flush-seconds: " + std::to_string(touch_flush_s) + " is out of range 1..3600");
+  }
   // TLS: the files are checked here so that a bad flag stops the start with
   // its name, rather than every handshake failing later.
   const impostor::ServerTlsOptions tls{.cert_file = absl::GetFlag(FLAGS_tls_cert),
@@ -224,7 +237,8 @@ int main(int argc, char** argv) {
        .store_max_bytes = std::max<int64_t>(0, absl::GetFlag(FLAGS_store_max_bytes)),
        .eviction_grace_ms = eviction_grace_s * 1000,
        .worker_failure_limit = worker_failure_limit,
-       .worker_pause_ms = int64_t{worker_pause_s} * 1000});
+       .worker_pause_ms = int64_t{worker_pause_s} * 1000,
+       .job_retention_ms = int64_t{job_retention_days} * 24 * 3600 * 1000});
 
   // Identity (issue 14): with --auth token every call passes the
   // AccessGuard (authorized_services.h) before reaching a service.
@@ -334,7 +348,8 @@ int main(int argc, char** argv) {
   //    clients and workers reconnect to the next server;
   // 3. gRPC stops accepting calls and lets in-flight ones finish until the
   //    deadline, then cancels them.
-  // Every accepted job is in the database already: nothing to flush.
+  // Every accepted job is in the database already; result use times are
+  // flushed once the server has stopped (below).
   std::thread signal_thread([&] {
     int sig = 0;
     sigwait(&signals, &sig);
@@ -355,10 +370,26 @@ int main(int argc, char** argv) {
   // Lease expiry and the store cap are checked once a second.
   std::thread reaper([&] {
     uint64_t seen = scheduler.change_count();
+    auto next_touch_flush = std::chrono::steady_clock::now() + std::chrono::seconds(touch_flush_s);
+    auto next_sweep = std::chrono::steady_clock::now();
     while (!g_stop) {
       if (auto s = scheduler.ExpireLeases(); !s.ok()) spdlog::error("event=expire_leases_failed error=\"{}\"", s.ToString());
       if (auto s = scheduler.EnforceStoreCap(); !s.ok()) {
         spdlog::error("event=eviction_failed error=\"{}\"", s.status().ToString());
+      }
+      // Serving speed (issue 18): batched use times, bounded job table.
+      const auto now = std::chrono::steady_clock::now();
+      if (now >= next_touch_flush) {
+        next_touch_flush = now + std::chrono::seconds(touch_flush_s);
+        if (auto s = scheduler.FlushResultTouches(); !s.ok()) {
+          spdlog::warn("event=touch_results_failed error=\"{}\"", s.status().ToString());
+        }
+      }
+      if (now >= next_sweep) {
+        next_sweep = now + std::chrono::minutes(10);
+        if (auto s = scheduler.SweepFinishedJobs(); !s.ok()) {
+          spdlog::error("event=job_sweep_failed error=\"{}\"", s.status().ToString());
+        }
       }
       seen = scheduler.WaitForChange(seen, std::chrono::steady_clock::now() + std::chrono::seconds(1));
     }
@@ -368,6 +399,12 @@ int main(int argc, char** argv) {
   if (supervisor) supervisor->Stop();
   reaper.join();
   signal_thread.join();
+  // Every call has ended: the last result use times go to the database.
+  if (auto s = scheduler.FlushResultTouches(); !s.ok()) {
+    spdlog::warn("event=touch_results_failed error=\"{}\"", s.status().ToString());
+  } else {
+    spdlog::info("event=touch_results_flushed results={}", *s);
+  }
   spdlog::info("event=stopped");
   return 0;
 }

@@ -714,4 +714,40 @@ absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::LastServed() {
   return out;
 }
 
+// --- Serving speed (issue 18) ---
+
+absl::Status SqliteJobStore::TouchResults(const std::map<std::string, int64_t>& last_used_ms) {
+  if (last_used_ms.empty()) return absl::OkStatus();
+  if (sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) != SQLITE_OK) {
+    return absl::InternalError(absl::StrCat("sqlite begin: ", sqlite3_errmsg(db_)));
+  }
+  absl::Status status;
+  for (auto it = last_used_ms.begin(); status.ok() && it != last_used_ms.end(); ++it) {
+    Statement st(db_, "UPDATE results SET last_used_ms = MAX(last_used_ms, ?2) WHERE cache_key = ?1");
+    status = st.prepared();
+    if (!status.ok()) break;
+    st.Bind(1, it->first);
+    st.Bind(2, it->second);
+    if (st.Step() != SQLITE_DONE) status = st.Error("touch results");
+  }
+  if (status.ok() && sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) == SQLITE_OK) return status;
+  if (status.ok()) status = absl::InternalError(absl::StrCat("sqlite commit: ", sqlite3_errmsg(db_)));
+  sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  return status;
+}
+
+absl::StatusOr<int64_t> SqliteJobStore::DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) {
+  Statement st(db_,
+               "DELETE FROM jobs WHERE job_id IN (SELECT job_id FROM jobs WHERE state IN (?1, ?2, ?3) "
+               "AND created_ms < ?4 LIMIT ?5)");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, int64_t{v1::JOB_STATE_SUCCEEDED});
+  st.Bind(2, int64_t{v1::JOB_STATE_FAILED});
+  st.Bind(3, int64_t{v1::JOB_STATE_CANCELLED});
+  st.Bind(4, cutoff_ms);
+  st.Bind(5, int64_t{limit});
+  if (st.Step() != SQLITE_DONE) return st.Error("delete finished jobs");
+  return int64_t{sqlite3_changes(db_)};
+}
+
 }  // namespace impostor

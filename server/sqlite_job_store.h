@@ -53,6 +53,9 @@ class SqliteJobStore : public JobStore {
                                                        const LeaseGrant& grant) override;
   absl::Status NoteServed(const std::string& client_id) override;
   absl::StatusOr<std::map<std::string, int64_t>> LastServed() override;
+  // Serving speed (issue 18).
+  absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms) override;
+  absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) override;
   // One server per file: always the maintainer.
   absl::StatusOr<bool> HoldMaintenanceLock() override { return true; }
 

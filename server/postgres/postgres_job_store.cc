@@ -642,4 +642,28 @@ void PostgresJobStore::Listen(pg_conn* conn) {
   if (conn != nullptr) PQfinish(conn);
 }
 
+// --- Serving speed (issue 18) ---
+
+absl::Status PostgresJobStore::TouchResults(const std::map<std::string, int64_t>& last_used_ms) {
+  if (last_used_ms.empty()) return absl::OkStatus();
+  return pool_->Transaction([&](PgSession& db) -> absl::Status {
+    for (const auto& [key, ms] : last_used_ms) {
+      auto r = db.Exec("touch results", "UPDATE results SET last_used_ms = GREATEST(last_used_ms, $2) WHERE cache_key = $1",
+                       PgParams().Text(key).Int(ms));
+      if (!r.ok()) return r.status();
+    }
+    return absl::OkStatus();
+  });
+}
+
+absl::StatusOr<int64_t> PostgresJobStore::DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) {
+  auto rows = pool_->Exec("delete finished jobs",
+                          absl::StrCat("DELETE FROM jobs WHERE job_id IN (SELECT job_id FROM jobs WHERE state IN (",
+                                       int{v1::JOB_STATE_SUCCEEDED}, ", ", int{v1::JOB_STATE_FAILED}, ", ",
+                                       int{v1::JOB_STATE_CANCELLED}, ") AND created_ms < $1 LIMIT $2)"),
+                          PgParams().Int(cutoff_ms).Int(limit));
+  if (!rows.ok()) return rows.status();
+  return static_cast<int64_t>(rows->changed());
+}
+
 }  // namespace impostor

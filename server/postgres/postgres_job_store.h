@@ -86,6 +86,9 @@ class PostgresJobStore : public JobStore {
   absl::StatusOr<std::vector<JobRecord>> RunningLeasedBy(const std::string& lease_holder) override;
   absl::Status NoteServed(const std::string& client_id) override;
   absl::StatusOr<std::map<std::string, int64_t>> LastServed() override;
+  // Serving speed (issue 18).
+  absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms) override;
+  absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) override;
   absl::StatusOr<bool> HoldMaintenanceLock() override;
   void SetChangeCallback(std::function<void()> callback) override;
 
