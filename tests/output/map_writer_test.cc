@@ -81,5 +81,28 @@ TEST_F(MapWriterTest, ErrorsAreStatuses) {
   EXPECT_FALSE(ReadPng(junk).ok());
 }
 
+// The maps are written at kPngCompressionLevel, not libpng's default 6: the
+// zlib stream header of the first IDAT chunk records the level class
+// (FLEVEL, RFC 1950: 1 = levels 2..5, 2 = level 6).
+TEST_F(MapWriterTest, MapsUseTheFasterCompressionLevel) {
+  static_assert(kPngCompressionLevel >= 2 && kPngCompressionLevel <= 5, "FLEVEL 1 below");
+  const int w = 64, h = 64;
+  std::vector<uint16_t> pixels(w * h * 4);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint16_t>(i * 977);
+  const fs::path path = Scratch("normal_depth.png");
+  ASSERT_TRUE(WritePngRgba16(path, pixels, w, h).ok());
+  const std::string bytes = Bytes(path);
+  const size_t idat = bytes.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  ASSERT_GT(bytes.size(), idat + 6);
+  const auto cmf = static_cast<uint8_t>(bytes[idat + 4]), flg = static_cast<uint8_t>(bytes[idat + 5]);
+  EXPECT_EQ(cmf & 0x0f, 8) << "deflate";
+  EXPECT_EQ((cmf * 256 + flg) % 31, 0) << "a zlib header";
+  EXPECT_EQ(flg >> 6, 1) << "FLEVEL of zlib levels 2..5";
+  const absl::StatusOr<PngImage> read = ReadPng(path);
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(read->pixels16, pixels);
+}
+
 }  // namespace
 }  // namespace impostor

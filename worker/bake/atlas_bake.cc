@@ -113,11 +113,13 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   const int ss = p.has_supersampling() ? static_cast<int>(p.supersampling()) : 1;
   std::vector<FrameCamera> render_cameras = cameras;
   for (FrameCamera& c : render_cameras) c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
+  renderer.set_supersampling(ss);
   auto atlas = renderer.Render(
       *scene, sphere, render_cameras, resolution * ss,
       [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
   renderer.set_cancel_flag(nullptr);
   renderer.set_emissive(false);
+  renderer.set_supersampling(1);
   if (!atlas.ok()) return atlas.status();
   if (ss > 1) {
     AtlasMaps maps{atlas->width, atlas->height, std::move(atlas->albedo_alpha), std::move(atlas->normal_depth),

@@ -92,13 +92,21 @@ class AtlasRenderer {
   // (AtlasImages::emissive). Off by default: it costs a fourth target.
   void set_emissive(bool on) { emissive_ = on; }
 
+  // The supersampling factor of the tiles later Render calls get (the
+  // caller scales them and filters the maps down): with 2 or more, textures
+  // are sampled trilinear with a sharpening mip bias instead of
+  // anisotropically (gpu/texture_filter.h says why). 1 by default.
+  void set_supersampling(int factor) { supersampling_ = factor; }
+
  protected:
   bool cancel_requested() const { return cancel_flag_ != nullptr && cancel_flag_->load(); }
   bool emissive_requested() const { return emissive_; }
+  int supersampling() const { return supersampling_; }
 
  private:
   const std::atomic<bool>* cancel_flag_ = nullptr;
   bool emissive_ = false;
+  int supersampling_ = 1;
 };
 
 }  // namespace impostor

@@ -20,6 +20,7 @@
 #include "worker/gpu/command_runner.h"
 #include "worker/gpu/render_validation.h"
 #include "worker/gpu/scene_resources.h"
+#include "worker/gpu/texture_filter.h"
 #include "worker/gpu/vk_check.h"
 #include "worker/gpu/vulkan_context.h"
 
@@ -148,7 +149,9 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
 
   auto phase_start = std::chrono::steady_clock::now();
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(resources,
-                                SceneResources::Upload(*ctx_, runner_, pipeline_, scene));
+                                SceneResources::Upload(*ctx_, runner_, pipeline_, scene,
+                                                       gpu::TextureFilterFor(supersampling(),
+                                                                             ctx_->max_anisotropy())));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(targets,
                                 AtlasTargets::Create(*ctx_, static_cast<uint32_t>(atlas_size),
                                                      emissive_requested()));

@@ -32,16 +32,17 @@ absl::StatusOr<VkSampler> SceneResources::SamplerFor(const VulkanContext& ctx, i
   if (it != samplers_.end()) return it->second.get();
   VkSamplerCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-  // Trilinear (+ anisotropic where available): atlas tiles nearly always
-  // show textures minified.
+  // Trilinear (+ anisotropic or a mip bias, texture_filter.h): atlas tiles
+  // nearly always show textures minified.
   info.magFilter = VK_FILTER_LINEAR;
   info.minFilter = VK_FILTER_LINEAR;
   info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
   info.addressModeU = AddressMode(wrap_s);
   info.addressModeV = AddressMode(wrap_t);
   info.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-  info.anisotropyEnable = ctx.max_anisotropy() > 1.0f ? VK_TRUE : VK_FALSE;
-  info.maxAnisotropy = ctx.max_anisotropy() > 1.0f ? ctx.max_anisotropy() : 1.0f;
+  info.anisotropyEnable = filter_.anisotropy ? VK_TRUE : VK_FALSE;
+  info.maxAnisotropy = filter_.max_anisotropy;
+  info.mipLodBias = filter_.mip_lod_bias;
   info.minLod = 0.0f;
   info.maxLod = VK_LOD_CLAMP_NONE;
   VkSampler sampler = VK_NULL_HANDLE;
@@ -53,8 +54,10 @@ absl::StatusOr<VkSampler> SceneResources::SamplerFor(const VulkanContext& ctx, i
 absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const VulkanContext& ctx,
                                                                        CommandRunner& runner,
                                                                        const BakePipeline& pipeline,
-                                                                       const Scene& scene) {
+                                                                       const Scene& scene,
+                                                                       const TextureFilter& filter) {
   std::unique_ptr<SceneResources> res(new SceneResources());
+  res->filter_ = filter;
   StagingUploader uploader(ctx, runner);
 
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(

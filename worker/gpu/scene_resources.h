@@ -21,6 +21,7 @@
 #include "worker/gpu/command_runner.h"
 #include "worker/gpu/gpu_buffer.h"
 #include "worker/gpu/staging_uploader.h"
+#include "worker/gpu/texture_filter.h"
 #include "worker/gpu/vk_handle.h"
 #include "worker/gpu/vulkan_context.h"
 #include "worker/scene/scene.h"
@@ -30,10 +31,12 @@ namespace impostor::gpu {
 class SceneResources {
  public:
   // Uploads `scene` (already validated) and waits for the copies to finish.
+  // Every sampler filters as `filter` says (texture_filter.h).
   static absl::StatusOr<std::unique_ptr<SceneResources>> Upload(const VulkanContext& ctx,
                                                                 CommandRunner& runner,
                                                                 const BakePipeline& pipeline,
-                                                                const Scene& scene);
+                                                                const Scene& scene,
+                                                                const TextureFilter& filter);
 
   VkBuffer vertex_buffer() const { return vertices_.buffer(); }
   VkBuffer index_buffer() const { return indices_.buffer(); }
@@ -44,6 +47,7 @@ class SceneResources {
   SceneResources() = default;
   absl::StatusOr<VkSampler> SamplerFor(const VulkanContext& ctx, int wrap_s, int wrap_t);
 
+  TextureFilter filter_;
   GpuBuffer vertices_;
   GpuBuffer indices_;
   GpuBuffer material_uniforms_;  // MaterialUniforms per material, aligned

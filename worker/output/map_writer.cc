@@ -29,6 +29,7 @@ absl::Status WritePng(const std::filesystem::path& path, const void* pixels, siz
   // Our fourth channel is coverage or depth, not associated alpha: without
   // this OIIO divides RGB by A on write.
   spec.attribute("oiio:UnassociatedAlpha", 1);
+  spec.attribute("png:compressionLevel", kPngCompressionLevel);
   if (!out->open(name, spec)) {
     return absl::InternalError(absl::StrCat("cannot create '", name, "': ", out->geterror()));
   }

@@ -17,6 +17,13 @@
 
 namespace impostor {
 
+// zlib level of every map written here. Measured on DamagedHelmet's
+// 2048 px maps (albedo, normal_depth, orm; CPU seconds, one core): level 6
+// (libpng's default) 2.67 s for 22.5 MB, 4: 1.71 s / 22.9 MB, 3: 1.48 s /
+// 23.7 MB, 1: 1.46 s / 24.2 MB. Level 3 encodes 45% faster for 5% more bytes;
+// below it the bytes grow with no time saved.
+inline constexpr int kPngCompressionLevel = 3;
+
 // Writes `pixels` (width * height * 4 values, rows top to bottom) as an
 // 8-bit RGBA PNG at `path` (overwritten). INVALID_ARGUMENT if the sizes do
 // not match or width/height < 1; INTERNAL with OpenImageIO's message if the

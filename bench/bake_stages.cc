@@ -1,0 +1,120 @@
+// bake_stages: one atlas bake in process (BakeAtlas, the worker's own
+// pipeline, no server) with the stage timings the bake records, each as
+// wall time and as process CPU time (all threads, lavapipe's included), so a
+// profile on a busy machine can still be read: CPU seconds hardly move when
+// other processes compete for the cores, wall seconds do.
+//
+//   bake_stages [--frames N] [--resolution R] [--supersampling S]
+//               [--quality-views K] [--repeat N] [--keep DIR] [ASSET.glb]
+//
+// Meant to run under `perf record -g`. Not a test: prints figures.
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/bake_request.h"
+#include "worker/bake/atlas_bake.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double CpuSeconds() {
+  rusage u{};
+  ::getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-6;
+}
+
+// Records when each stage starts (progress callback), in wall and CPU time.
+struct StageClock {
+  struct Mark {
+    std::string stage;
+    double wall, cpu;
+  };
+  std::vector<Mark> marks;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  double cpu_start = CpuSeconds();
+  void Note(std::string_view stage) {
+    if (!marks.empty() && marks.back().stage == stage) return;
+    marks.push_back({std::string(stage), Wall(), CpuSeconds() - cpu_start});
+  }
+  double Wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_level(spdlog::level::info);
+  uint32_t frames = 12, resolution = 2048;
+  int supersampling = -1, quality_views = -1, repeat = 1;
+  fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+  fs::path keep;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (a == "--frames" && has_value) frames = static_cast<uint32_t>(std::stoul(argv[++i]));
+    else if (a == "--resolution" && has_value) resolution = static_cast<uint32_t>(std::stoul(argv[++i]));
+    else if (a == "--supersampling" && has_value) supersampling = std::stoi(argv[++i]);
+    else if (a == "--quality-views" && has_value) quality_views = std::stoi(argv[++i]);
+    else if (a == "--repeat" && has_value) repeat = std::stoi(argv[++i]);
+    else if (a == "--keep" && has_value) keep = argv[++i];
+    else asset = a;
+  }
+  impostor::v1::BakeParameters in;
+  in.set_layout(impostor::v1::LAYOUT_OCTAHEDRAL);
+  in.set_frames(frames);
+  in.set_resolution(resolution);
+  if (supersampling >= 0) in.set_supersampling(static_cast<uint32_t>(supersampling));
+  if (quality_views >= 0) in.set_quality_views(static_cast<uint32_t>(quality_views));
+  auto p = impostor::NormalizeParameters(in);
+  if (!p.ok()) {
+    std::fprintf(stderr, "bake_stages: %s\n", std::string(p.status().message()).c_str());
+    return 2;
+  }
+  auto renderer = impostor::AtlasRenderer::Create();
+  if (!renderer.ok()) {
+    std::fprintf(stderr, "bake_stages: %s\n", std::string(renderer.status().message()).c_str());
+    return 1;
+  }
+  const fs::path scratch = keep.empty() ? fs::temp_directory_path() / absl::StrCat("impostor_bake_stages_", getpid())
+                                        : keep;
+  const std::atomic<bool> cancelled{false};
+  std::printf("bake_stages: %s, %u x %u frames, %u px, supersampling %u, %u quality views, on %s\n",
+              asset.filename().c_str(), frames, frames, resolution, p->supersampling(),
+              p->has_quality_views() ? p->quality_views() : 16u, (*renderer)->device().name.c_str());
+  for (int r = 0; r < repeat; ++r) {
+    fs::remove_all(scratch);
+    fs::create_directories(scratch);
+    impostor::AtlasBakeRequest request{.entry_file = asset,
+                                       .parameters = *p,
+                                       .cache_key = absl::StrCat("bake_stages ", asset.string()),
+                                       .output_dir = scratch,
+                                       .load_limits = {}};
+    StageClock clock;
+    auto baked = impostor::BakeAtlas(
+        request, **renderer, [&](std::string_view stage, double) { clock.Note(stage); }, cancelled);
+    const double wall = clock.Wall(), cpu = CpuSeconds() - clock.cpu_start;
+    if (!baked.ok()) {
+      std::fprintf(stderr, "bake_stages: %s\n", baked.status().ToString().c_str());
+      return 1;
+    }
+    const auto& t = baked->manifest.timings();
+    std::printf("run %d: wall %.2f s (cpu %.2f s); recorded: load %.2f render %.2f readback %.2f encode %.2f\n", r,
+                wall, cpu, t.load_seconds(), t.render_seconds(), t.readback_seconds(), t.encode_seconds());
+    clock.marks.push_back({"end", wall, cpu});
+    for (size_t i = 0; i + 1 < clock.marks.size(); ++i) {
+      const auto& m = clock.marks[i];
+      const auto& n = clock.marks[i + 1];
+      std::printf("  from %-8s wall %6.2f s  cpu %6.2f s\n", m.stage.c_str(), n.wall - m.wall, n.cpu - m.cpu);
+    }
+  }
+  if (keep.empty()) fs::remove_all(scratch);
+  return 0;
+}

@@ -1,0 +1,48 @@
+// The texture filtering rule of the bake (worker/gpu/texture_filter.h):
+// supersampled bakes sample trilinear with a sharpening bias, single-sample
+// bakes anisotropically where the device allows it.
+#include "worker/gpu/texture_filter.h"
+
+#include <gtest/gtest.h>
+
+namespace impostor::gpu {
+namespace {
+
+TEST(TextureFilter, SupersampledBakesUseBiasedTrilinearOnEveryDevice) {
+  for (int factor : {2, 3, 4}) {
+    for (float device : {0.0f, 1.0f, 8.0f, 16.0f}) {
+      const TextureFilter f = TextureFilterFor(factor, device);
+      EXPECT_FALSE(f.anisotropy) << factor << " " << device;
+      EXPECT_EQ(f.max_anisotropy, 1.0f);
+      EXPECT_EQ(f.mip_lod_bias, kSupersampledLodBias);
+    }
+  }
+  EXPECT_LT(kSupersampledLodBias, 0.0f);  // sharper, never blurrier
+}
+
+TEST(TextureFilter, SingleSampleBakesKeepTheDevicesAnisotropy) {
+  const TextureFilter f = TextureFilterFor(1, 8.0f);
+  EXPECT_TRUE(f.anisotropy);
+  EXPECT_EQ(f.max_anisotropy, 8.0f);
+  EXPECT_EQ(f.mip_lod_bias, 0.0f);
+}
+
+TEST(TextureFilter, NoAnisotropyWhereTheDeviceHasNone) {
+  for (float device : {0.0f, 1.0f}) {
+    const TextureFilter f = TextureFilterFor(1, device);
+    EXPECT_FALSE(f.anisotropy);
+    EXPECT_EQ(f.max_anisotropy, 1.0f);
+    EXPECT_EQ(f.mip_lod_bias, 0.0f);
+  }
+}
+
+TEST(TextureFilter, FactorsBelowOneCountAsNoSupersampling) {
+  for (int factor : {0, -3}) {
+    const TextureFilter f = TextureFilterFor(factor, 8.0f);
+    EXPECT_TRUE(f.anisotropy) << factor;
+    EXPECT_EQ(f.mip_lod_bias, 0.0f);
+  }
+}
+
+}  // namespace
+}  // namespace impostor::gpu
