@@ -7,6 +7,7 @@
 #include <future>
 #include <numbers>
 #include <thread>
+#include <utility>
 
 #include <glm/geometric.hpp>
 #include <spdlog/spdlog.h>
@@ -127,19 +128,36 @@ absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const Imposto
                                                const QualityPassOptions& o, const std::vector<Reconstruction>& modes,
                                                AtlasRenderer& renderer) {
   const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
+  const float step = 2.0f * std::numbers::pi_v<float> / static_cast<float>(o.orbit_steps);
+  auto at = [&](float azimuth) {
+    return glm::vec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation), std::cos(elevation) * std::cos(azimuth));
+  };
+  // Every step (orbit_pairs 0 or >= orbit_steps): n views, step i compares
+  // views i and i + 1. Sampled: pair k compares the views at azimuth
+  // k * 360 / orbit_pairs and one step further.
+  const bool every_step = o.orbit_pairs <= 0 || o.orbit_pairs >= o.orbit_steps;
   std::vector<glm::vec3> orbit;
-  for (int i = 0; i < o.orbit_steps; ++i) {
-    const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(i) / static_cast<float>(o.orbit_steps);
-    orbit.push_back({std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
-                     std::cos(elevation) * std::cos(azimuth)});
+  std::vector<std::pair<int, int>> steps;
+  if (every_step) {
+    for (int i = 0; i < o.orbit_steps; ++i) {
+      orbit.push_back(at(step * static_cast<float>(i)));
+      steps.emplace_back(i, (i + 1) % o.orbit_steps);
+    }
+  } else {
+    for (int k = 0; k < o.orbit_pairs; ++k) {
+      const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(k) / static_cast<float>(o.orbit_pairs);
+      orbit.push_back(at(azimuth));
+      orbit.push_back(at(azimuth + step));
+      steps.emplace_back(2 * k, 2 * k + 1);
+    }
   }
   auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, renderer);
   if (!mesh.ok()) return mesh.status();
-  const int n = o.orbit_steps;
+  const int n = static_cast<int>(steps.size());
   std::vector<double> mesh_change(n);
   double mesh_mean = 0;
   for (int i = 0; i < n; ++i) {
-    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[i].Pixels(), (*mesh)[(i + 1) % n].Pixels());
+    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[steps[i].first].Pixels(), (*mesh)[steps[i].second].Pixels());
     mesh_mean += mesh_change[i] / n;
   }
   const double floor = std::max(0.25 * mesh_mean, 0.5 / 255.0);
@@ -148,7 +166,8 @@ absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const Imposto
     const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend, mode);
     double pop = 0;
     for (int i = 0; i < n; ++i) {
-      const double change = MeanAbsoluteAlbedoChange(impostor[i].Pixels(), impostor[(i + 1) % n].Pixels());
+      const double change =
+          MeanAbsoluteAlbedoChange(impostor[steps[i].first].Pixels(), impostor[steps[i].second].Pixels());
       pop = std::max(pop, change / std::max(mesh_change[i], floor));
     }
     pops.push_back(pop);

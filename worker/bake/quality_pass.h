@@ -72,6 +72,12 @@ struct QualityPassOptions {
   // `orbit_elevation_deg` above the horizon, `orbit_pixels` on a side
   // (small: the pop is about changes, not detail). 0 steps = no pop.
   int orbit_steps = 360;
+  // Steps measured: 0 (or >= orbit_steps) = every step of the orbit;
+  // otherwise `orbit_pairs` steps spread evenly around it (each still one
+  // 360 / orbit_steps degree step), which renders 2 * orbit_pairs views
+  // instead of orbit_steps. 36 (every 10 degrees) keeps the pass cheap with
+  // the depth reconstruction, about 10 x plain's cost per pixel.
+  int orbit_pairs = 36;
   int orbit_pixels = 64;
   float orbit_elevation_deg = 20.0f;
   BlendMode blend = BlendMode::kTriangle3;
