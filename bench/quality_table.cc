@@ -7,6 +7,7 @@
 //
 //   build/bin/quality_table [--out docs/quality.md] [--resolution 1024]
 //                           [--frames 8,12,16] [--only SUBSTRING]
+//                           [--layouts hemi-octahedral,billboard]
 //
 // Held-out directions are seeded from "<asset> <layout> <frames>
 // <resolution>" (the quality pass takes any key), so the table is the same
@@ -20,7 +21,9 @@
 #include <string>
 #include <vector>
 
+#include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
+#include <sstream>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -59,8 +62,17 @@ struct Row {
   uint32_t frames = 0;
   impostor::v1::AtlasQuality quality;
   double seconds = 0;
+  double pass_seconds = 0;  // the quality pass's share (its event=quality_pass log line)
   std::string error;
 };
+
+// The last `seconds=` of an event=quality_pass line in `log`, or 0.
+double PassSeconds(const std::string& log) {
+  const size_t event = log.rfind("event=quality_pass ");
+  if (event == std::string::npos) return 0;
+  const size_t at = log.find(" seconds=", event);
+  return at == std::string::npos ? 0 : std::atof(log.c_str() + at + 9);
+}
 
 std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
   for (int i = 1; i + 1 < argc; ++i) {
@@ -84,11 +96,16 @@ std::vector<uint32_t> ParseList(const std::string& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  spdlog::set_level(spdlog::level::warn);
+  // The quality pass logs its own time at info; capture it per bake.
+  std::ostringstream log;
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("quality_table", std::make_shared<spdlog::sinks::ostream_sink_mt>(log)));
+  spdlog::set_level(spdlog::level::info);
   const fs::path out_path = Flag(argc, argv, "--out", IMPOSTOR_BENCH_SOURCE_DIR "/docs/quality.md");
   const uint32_t resolution = static_cast<uint32_t>(std::stoul(Flag(argc, argv, "--resolution", "1024")));
   const std::vector<uint32_t> frame_counts = ParseList(Flag(argc, argv, "--frames", "8,12,16"));
   const std::string only = Flag(argc, argv, "--only", "");
+  const std::string layouts = Flag(argc, argv, "--layouts", "");  // manifest names, comma separated; empty = all
   const fs::path assets = std::getenv("IMPOSTOR_ASSETS_DIR") != nullptr ? fs::path(std::getenv("IMPOSTOR_ASSETS_DIR"))
                                                                          : fs::path(IMPOSTOR_BENCH_ASSETS_DIR);
 
@@ -108,35 +125,45 @@ int main(int argc, char** argv) {
                     "`, baker ", std::string(impostor::BakerVersion()), ", atlas ", resolution, " px.\n\n",
                     "Every row is one bake by the worker's own pipeline. The quality pass renders the mesh from 16 "
                     "held-out view directions that are not baked frames (spread over the layout's domain) and the "
-                    "impostor for the same cameras with the CPU reference renderer (3-frame triangle blend, no "
-                    "parallax), both unlit, each view ",
+                    "impostor for the same cameras with the CPU reference renderer (3-frame triangle blend) in both "
+                    "runtime reconstructions (docs/runtime.md): **depth** (the default; every blended frame samples "
+                    "the common surface point, frames that did not see it drop out) and **plain** (flat virtual "
+                    "planes), both unlit, each view ",
                     rows.empty() ? 0u : rows.front().quality.view_pixels(),
-                    " px. IoU: silhouette intersection over union. PSNR and SSIM: albedo over the union of both "
-                    "silhouettes, composited over black (a silhouette miss costs its full colour). Normal: mean angle "
-                    "between the normals where both cover. Depth: mean depth difference where both cover, in "
-                    "radii. Pop: the largest change of the impostor between neighbouring 1 degree steps of an orbit "
-                    "at 20 degrees elevation relative to the mesh's own change (1.0 = as smooth as the mesh). "
-                    "Format of every figure: manifest_format.md (`quality`).\n\n",
+                    " px. Each cell is depth / plain. IoU: silhouette intersection over union. PSNR and SSIM: albedo "
+                    "over the pixels both renders cover (colour fidelity; silhouette misses are IoU's and the "
+                    "boundary error's). Boundary: mean distance in view pixels between the two silhouettes' "
+                    "boundaries. Union PSNR: the format-1 figure, over the union of both silhouettes composited over "
+                    "black. Normal: mean angle between the normals where both cover. Pop: the largest change of the "
+                    "impostor between neighbouring 1 degree steps of an orbit at 20 degrees elevation relative to "
+                    "the mesh's own change (1.0 = as smooth as the mesh). Pass: the quality pass's share of the "
+                    "bake's wall time (both modes and both orbits). Format of every figure: manifest_format.md "
+                    "(`quality`).\n\n",
                     "| asset | kind | layout | frames | IoU mean | IoU min | PSNR mean (dB) | PSNR min (dB) | SSIM mean "
-                    "| normal mean (deg) | depth mean (r) | pop | bake + pass (s) |\n",
-                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                    "| boundary (px) | union PSNR (dB) | normal mean (deg) | pop | bake + pass (s) | pass share |\n",
+                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (const Row& r : rows) {
       const auto& q = r.quality;
       if (!r.error.empty()) {
         absl::StrAppend(&md, "| ", r.asset, " | ", r.kind, " | ", r.layout, " | ", r.frames, " | failed: ", r.error,
-                        " | | | | | | | | |\n");
+                        " | | | | | | | | | | |\n");
         continue;
       }
-      absl::StrAppend(&md, absl::StrFormat("| %s | %s | %s | %u | %.3f | %.3f | %.1f | %.1f | %.3f | %.1f | %.3f | "
-                                           "%.2f | %.1f |\n",
-                                           r.asset, r.kind, r.layout, r.frames, q.silhouette_iou_mean(),
-                                           q.silhouette_iou_min(), q.albedo_psnr_db_mean(), q.albedo_psnr_db_min(),
-                                           q.albedo_ssim_mean(), q.normal_error_deg_mean(), q.depth_error_mean(),
-                                           q.pop(), r.seconds));
+      const auto& p = q.plain();
+      absl::StrAppend(
+          &md, absl::StrFormat("| %s | %s | %s | %u | %.3f / %.3f | %.3f / %.3f | %.1f / %.1f | %.1f / %.1f | "
+                               "%.3f / %.3f | %.2f / %.2f | %.1f / %.1f | %.1f / %.1f | %.2f / %.2f | %.1f | %.0f %% |\n",
+                               r.asset, r.kind, r.layout, r.frames, q.silhouette_iou_mean(), p.silhouette_iou_mean(),
+                               q.silhouette_iou_min(), p.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(),
+                               p.albedo_psnr_shared_db_mean(), q.albedo_psnr_shared_db_min(),
+                               p.albedo_psnr_shared_db_min(), q.albedo_ssim_shared_mean(), p.albedo_ssim_shared_mean(),
+                               q.boundary_error_px_mean(), p.boundary_error_px_mean(), q.albedo_psnr_union_db_mean(),
+                               p.albedo_psnr_union_db_mean(), q.normal_error_deg_mean(), p.normal_error_deg_mean(),
+                               q.pop(), p.pop(), r.seconds, r.seconds > 0 ? 100.0 * r.pass_seconds / r.seconds : 0.0));
     }
     if (!complete) absl::StrAppend(&md, "\n(incomplete: the run is still going or was stopped)\n");
     absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table` ",
-                    "(writes this file; `--resolution`, `--frames 8,12,16` and `--only NAME` narrow it).\n");
+                    "(writes this file; `--resolution`, `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it).\n");
     std::ofstream out(out_path, std::ios::trunc);
     out << md;
     out.close();
@@ -160,6 +187,10 @@ int main(int argc, char** argv) {
     configs.push_back({impostor::v1::LAYOUT_BILLBOARD, 0});
     for (const Config& config : configs) {
       const auto layout = config.layout;
+      const std::string name(impostor::LayoutJsonName(layout));
+      if (!layouts.empty() && absl::StrCat(",", layouts, ",").find(absl::StrCat(",", name, ",")) == std::string::npos) {
+        continue;
+      }
       {
         BakeParameters in;
         in.set_layout(layout);
@@ -187,16 +218,21 @@ int main(int argc, char** argv) {
         const auto start = std::chrono::steady_clock::now();
         auto baked = impostor::BakeAtlas(request, **renderer, [](std::string_view, double) {}, cancelled);
         row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        row.pass_seconds = PassSeconds(log.str());
+        log.str("");
         if (baked.ok()) {
           row.quality = baked->manifest.quality();
         } else {
           row.error = std::string(baked.status().message());
         }
         const auto& q = row.quality;
-        std::fprintf(stderr, "%-20s %-16s %2u frames: IoU %.4f PSNR %.2f dB SSIM %.3f pop %.2f (%.1f s)%s%s\n",
-                     asset.name, row.layout.c_str(), frames, q.silhouette_iou_mean(), q.albedo_psnr_db_mean(),
-                     q.albedo_ssim_mean(), q.pop(), row.seconds, row.error.empty() ? "" : " error: ",
-                     row.error.c_str());
+        std::fprintf(stderr,
+                     "%-20s %-16s %2u frames: depth IoU %.4f PSNR %.2f dB SSIM %.3f pop %.2f | plain IoU %.4f PSNR "
+                     "%.2f dB pop %.2f (%.1f s, pass %.1f s)%s%s\n",
+                     asset.name, row.layout.c_str(), frames, q.silhouette_iou_mean(), q.albedo_psnr_shared_db_mean(),
+                     q.albedo_ssim_shared_mean(), q.pop(), q.plain().silhouette_iou_mean(),
+                     q.plain().albedo_psnr_shared_db_mean(), q.plain().pop(), row.seconds, row.pass_seconds,
+                     row.error.empty() ? "" : " error: ", row.error.c_str());
         rows.push_back(std::move(row));
         write_table(rows, false);
       }

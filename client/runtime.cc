@@ -2,11 +2,15 @@
 // implementation, shared with the baker and the reference renderer).
 #include "impostor/runtime.h"
 
+#include <algorithm>
+#include <array>
+
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 #include "common/atlas_layout.h"
 #include "common/frame_camera.h"
+#include "common/runtime/depth_reconstruction.h"
 #include "common/runtime/frame_blend.h"
 #include "common/runtime/virtual_plane.h"
 
@@ -184,6 +188,59 @@ void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, cons
 
 void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]) {
   FrameUvToAtlasUv(AtlasLayout{Layout::kOctahedral, frames, 0}, resolution, frame, uv, atlas_uv);
+}
+
+std::optional<Reconstruction> ReconstructionFromName(std::string_view name) {
+  auto mode = ParseReconstruction(name);
+  if (!mode.ok()) return std::nullopt;
+  return *mode == impostor::Reconstruction::kDepth ? Reconstruction::kDepth : Reconstruction::kPlain;
+}
+
+std::string_view ReconstructionName(Reconstruction mode) {
+  return impostor::ReconstructionName(mode == Reconstruction::kDepth ? impostor::Reconstruction::kDepth
+                                                                     : impostor::Reconstruction::kPlain);
+}
+
+DepthReconstruction ReconstructDepth(const AtlasLayout& layout, const FrameBlend& blend, const float sphere_center[3],
+                                     float sphere_radius, const float ray_origin[3], const float ray_dir[3],
+                                     const FrameSurfaceReader& read) {
+  DepthReconstruction out;
+  const float len = glm::length(Vec(ray_dir));
+  if (!(sphere_radius > 0.0f) || !(len > 0.0f)) return out;
+  const int count = std::clamp(blend.count, 0, 4);
+  std::array<FrameCamera, 4> cameras;
+  std::array<DepthEntry, 4> entries;
+  for (int i = 0; i < count; ++i) {
+    cameras[i] = CameraOf(layout, blend.entries[i].frame);
+    entries[i] = {&cameras[i], blend.entries[i].weight};
+  }
+  const glm::vec3 origin = (Vec(ray_origin) - Vec(sphere_center)) / sphere_radius;
+  const glm::vec3 ray = Vec(ray_dir) / len;
+  // Coverage and surface height at frame coordinates st.
+  const auto surface = [&](int entry, glm::vec2 st, float* height) {
+    float depth = 1.0f;
+    const float alpha = read(entry, (st.x + 1.0f) * 0.5f, (1.0f - st.y) * 0.5f, &depth);
+    *height = 1.0f - 2.0f * depth;
+    return alpha;
+  };
+  const DepthPixel pixel = impostor::ReconstructDepth(
+      entries, count, origin, ray,
+      [&](int entry) {
+        return IntersectFrameHeightField(cameras[entry], origin, ray, [&](glm::vec2 st, float* height) {
+          return surface(entry, st, height) >= 0.5f;
+        });
+      },
+      surface);
+  out.coverage = pixel.coverage;
+  float total = 0.0f;
+  for (int i = 0; i < count; ++i) total += pixel.samples[i].used ? pixel.samples[i].weight : 0.0f;
+  for (int i = 0; i < count; ++i) {
+    const DepthSampleAt& s = pixel.samples[i];
+    if (!s.used || !(total > 0.0f)) continue;
+    out.uv[i] = {true, (s.st.x + 1.0f) * 0.5f, (1.0f - s.st.y) * 0.5f};
+    out.weight[i] = s.weight / total;
+  }
+  return out;
 }
 
 }  // namespace impostor::sdk

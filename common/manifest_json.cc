@@ -213,9 +213,11 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
   Reader r;
   v1::Manifest m;
   m.set_format_version(r.Get<uint32_t>(j, "format_version", ""));
-  if (r.error().empty() && m.format_version() != kManifestFormatVersion) {
+  if (r.error().empty() &&
+      (m.format_version() < kOldestManifestFormatVersion || m.format_version() > kManifestFormatVersion)) {
     return absl::InvalidArgumentError(absl::StrCat("manifest.json: format_version ", m.format_version(),
-                                                   " is not supported (expected ", kManifestFormatVersion, ")"));
+                                                   " is not supported (expected ", kOldestManifestFormatVersion,
+                                                   "..", kManifestFormatVersion, ")"));
   }
   // "product" is absent from manifests written before products existed.
   if (auto it = j.find("product"); it != j.end()) {

@@ -12,7 +12,11 @@
 
 namespace impostor {
 
-inline constexpr uint32_t kManifestFormatVersion = 1;
+inline constexpr uint32_t kManifestFormatVersion = 2;
+// Format 2 (issue 17) renamed the quality block's union colour figures
+// (albedo_psnr_union_db_*, albedo_ssim_union_*) and added the shared ones;
+// format 1 manifests still read (their union figures under the old names).
+inline constexpr uint32_t kOldestManifestFormatVersion = 1;
 
 // Pretty-printed JSON (2-space indent, trailing newline). `manifest_json`
 // (the digest of this very text) is left out.

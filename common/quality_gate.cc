@@ -43,9 +43,9 @@ absl::Status CheckQualityGate(const v1::QualityGate& gate, const v1::Manifest& r
                         gate.min_iou()));
   }
   if (gate.has_min_psnr_db()) {
-    const bool ok = q.albedo_psnr_db_mean() >= gate.min_psnr_db();
+    const bool ok = q.albedo_psnr_shared_db_mean() >= gate.min_psnr_db();
     failed |= !ok;
-    add(absl::StrFormat("albedo PSNR %.1f dB %s min_psnr_db %g", q.albedo_psnr_db_mean(), ok ? ">=" : "<",
+    add(absl::StrFormat("albedo PSNR %.1f dB %s min_psnr_db %g", q.albedo_psnr_shared_db_mean(), ok ? ">=" : "<",
                         gate.min_psnr_db()));
   }
   if (!failed) return absl::OkStatus();

@@ -18,7 +18,7 @@ bool HasQualityGate(const v1::QualityGate& gate);
 absl::Status ValidateQualityGate(const v1::QualityGate& gate, const char* field = "gate");
 
 // OK when no threshold is set, or when result.quality() meets every one set
-// (silhouette_iou_mean >= min_iou, albedo_psnr_db_mean >= min_psnr_db).
+// (silhouette_iou_mean >= min_iou, albedo_psnr_shared_db_mean >= min_psnr_db: colour over the pixels both renders cover, manifest format 2).
 // FAILED_PRECONDITION otherwise, giving every measured value against its
 // threshold, e.g. "quality gate: silhouette IoU 0.912 < min_iou 0.95; albedo
 // PSNR 31.2 dB >= min_psnr_db 30", or "quality gate: the result has no quality

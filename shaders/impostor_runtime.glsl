@@ -31,6 +31,10 @@
 //   ImpostorBlend b = impostorBlendFramesLayout(atlas, view_dir, mode);
 //   ImpostorSurface s = impostorShadeLayout(albedo_tex, normal_depth_tex,
 //       orm_tex, has_orm, atlas, tile_size, b, ray_origin, ray_dir, parallax);
+// or, choosing the reconstruction (IMPOSTOR_RECONSTRUCT_DEPTH removes the
+// ghosting between frames; docs/runtime.md lists the cost of each mode):
+//   ImpostorSurface s = impostorReconstructLayout(albedo_tex, normal_depth_tex,
+//       orm_tex, has_orm, atlas, tile_size, b, ray_origin, ray_dir, mode);
 // (`layout` is a GLSL keyword, hence `atlas`.)
 //   if (s.alpha < 0.5) discard;
 // where ray_origin/ray_dir are the fragment's view ray in object space
@@ -50,6 +54,13 @@ const int IMPOSTOR_BLEND_TRIANGLE3 = 0;
 const int IMPOSTOR_BLEND_BILINEAR4 = 1;
 const int IMPOSTOR_PARALLAX_STEPS = 16;       // kParallaxSteps
 const int IMPOSTOR_PARALLAX_REFINEMENTS = 4;  // kParallaxRefinements
+// Reconstruction modes (common/runtime/depth_reconstruction.h): plain flat
+// virtual planes, plain with the parallax march, depth (common surface point,
+// disocclusion weights).
+const int IMPOSTOR_RECONSTRUCT_PLAIN = 0;
+const int IMPOSTOR_RECONSTRUCT_PARALLAX = 1;
+const int IMPOSTOR_RECONSTRUCT_DEPTH = 2;
+const float IMPOSTOR_DEPTH_AGREEMENT = 0.05;  // kDepthAgreement, radius units
 
 // ---- direction <-> layout square (common/atlas_layout.cc) ----
 
@@ -498,14 +509,15 @@ ImpostorSample impostorSampleTile(sampler2D albedo_tex, sampler2D normal_depth_t
 }
 
 // Parallax: marches the ray through the frame's depth (see virtual_plane.h).
-// Returns the sample point (xy) and validity (z).
-vec3 impostorIntersectFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
-                                       ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
+// Returns the sample point (xy), validity (z) and the point's height along
+// the frame direction (w, radius units).
+vec4 impostorMarchFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                   ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
   float above = 1.0;
   for (int i = 0; i <= IMPOSTOR_PARALLAX_STEPS; ++i) {
     float h = 1.0 - 2.0 * float(i) / float(IMPOSTOR_PARALLAX_STEPS);
     vec3 hit = impostorIntersectFramePlane(frame, origin, ray, h);
-    if (hit.z == 0.0) return hit;
+    if (hit.z == 0.0) return vec4(hit, 0.0);
     ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
     if (!(s.alpha >= 0.5 && h <= 1.0 - 2.0 * s.depth)) {
       above = h;
@@ -523,9 +535,23 @@ vec3 impostorIntersectFrameHeightField(sampler2D albedo_tex, sampler2D normal_de
         above = mid;
       }
     }
-    return hit;
+    return vec4(hit, below);
   }
-  return vec3(0.0);
+  return vec4(0.0);
+}
+
+// The same, point and validity only.
+vec3 impostorIntersectFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                       ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
+  return impostorMarchFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame, origin, ray).xyz;
+}
+
+// Depth mode's agreement weight (DepthAgreement): 1 while the frame's surface
+// height at the point is within half the tolerance of the point's own
+// height, 0 beyond the tolerance (the frame did not see the point).
+float impostorDepthAgreement(float surface_height, float point_height) {
+  float diff = abs(surface_height - point_height);
+  return clamp((IMPOSTOR_DEPTH_AGREEMENT - diff) / (0.5 * IMPOSTOR_DEPTH_AGREEMENT), 0.0, 1.0);
 }
 
 // ---- the blended surface (RenderImpostorView, per pixel) ----
@@ -536,41 +562,165 @@ struct ImpostorSurface {
   vec3 normal;    // object space, unit (zero where empty)
   vec3 position;  // blended surface point, radius units from the centre
   vec3 orm;
+  vec4 weights;   // per blend entry: its share of the shading (sums to 1 where covered)
 };
+
+// Running sums of one pixel's blend (PixelBlend in the C++).
+struct ImpostorAccum {
+  float alpha;    // coverage, sum of weight * alpha
+  float covered;  // sum of the shading weights
+  vec3 albedo, normal, orm, position;
+  vec4 weights;
+};
+
+ImpostorAccum impostorEmptyAccum() {
+  return ImpostorAccum(0.0, 0.0, vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0), vec4(0.0));
+}
+
+void impostorAccumAdd(inout ImpostorAccum a, int entry, float w, ImpostorSample s, ImpostorFrameCamera frame,
+                      vec2 st) {
+  if (w <= 0.0) return;
+  a.covered += w;
+  a.albedo += w * s.albedo;
+  a.normal += w * s.normal;
+  a.orm += w * s.orm;
+  a.position += w * (st.x * frame.right + st.y * frame.up + (1.0 - 2.0 * s.depth) * frame.direction);
+  a.weights[entry] += w;
+}
+
+ImpostorSurface impostorAccumSurface(ImpostorAccum a) {
+  ImpostorSurface out_surface;
+  out_surface.alpha = a.alpha;
+  float inv = a.covered > 0.0 ? 1.0 / a.covered : 0.0;
+  out_surface.albedo = a.albedo * inv;
+  out_surface.orm = a.orm * inv;
+  out_surface.position = a.position * inv;
+  out_surface.weights = a.weights * inv;
+  float len = length(a.normal);
+  out_surface.normal = len > 1e-12 ? a.normal / len : vec3(0.0);
+  return out_surface;
+}
+
+ImpostorFrameCamera impostorBlendCamera(ImpostorLayout atlas, ImpostorBlend blend, int i) {
+  return impostorFrameCameraAt(atlas, blend.index[i]);
+}
+
+// Depth mode (common/runtime/depth_reconstruction.h, ReconstructDepth):
+// every frame's march hit is a candidate surface point on the ray; each
+// blended frame votes for a candidate by weight * coverage * agreement; the
+// deepest candidate with at least half the best support is the common point
+// P, which every frame samples, weighted by its vote (0 where it did not see
+// P). The returned weights say which frames shaded the pixel.
+ImpostorSurface impostorShadeDepthLayout(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                         bool has_orm, ImpostorLayout atlas, int tile_size, ImpostorBlend blend,
+                                         vec3 ray_origin, vec3 ray_dir) {
+  ImpostorAccum acc = impostorEmptyAccum();
+  vec3 ray_unit = normalize(ray_dir);
+  vec4 hits[4] = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+  float hit_alpha[4] = float[4](0.0, 0.0, 0.0, 0.0);
+  float lambda[4] = float[4](0.0, 0.0, 0.0, 0.0);
+  int n = min(blend.count, 4);
+  for (int i = 0; i < n; ++i) {
+    if (!(blend.weight[i] > 0.0)) continue;
+    ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, i);
+    ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
+    vec4 hit = impostorMarchFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame, ray_origin,
+                                             ray_dir);
+    if (hit.z == 0.0) continue;
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
+    if (!(s.alpha > 0.0)) continue;
+    hits[i] = hit;
+    hit_alpha[i] = s.alpha;
+    acc.alpha += blend.weight[i] * s.alpha;
+    lambda[i] = dot(hit.x * frame.right + hit.y * frame.up + hit.w * frame.direction - ray_origin, ray_unit);
+  }
+  if (acc.alpha < 0.5) return impostorAccumSurface(acc);
+  // Votes of every frame j for every candidate c.
+  float support[4] = float[4](0.0, 0.0, 0.0, 0.0);
+  float most = 0.0;
+  for (int c = 0; c < n; ++c) {
+    if (hits[c].z == 0.0) continue;
+    ImpostorFrameCamera fc = impostorBlendCamera(atlas, blend, c);
+    vec3 point = hits[c].x * fc.right + hits[c].y * fc.up + hits[c].w * fc.direction;
+    for (int j = 0; j < n; ++j) {
+      if (!(blend.weight[j] > 0.0)) continue;
+      ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, j);
+      ivec4 tile = ivec4(blend.frame[j] * tile_size, tile_size, tile_size);
+      vec2 st = j == c ? hits[c].xy : vec2(dot(point, frame.right), dot(point, frame.up));
+      float height = j == c ? hits[c].w : dot(point, frame.direction);
+      ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, st);
+      if (!(s.alpha > 0.0)) continue;
+      support[c] += blend.weight[j] * s.alpha * impostorDepthAgreement(1.0 - 2.0 * s.depth, height);
+    }
+    most = max(most, support[c]);
+  }
+  int best = -1;
+  for (int c = 0; c < n; ++c) {
+    if (hits[c].z == 0.0 || !(support[c] >= 0.5 * most)) continue;
+    if (best < 0 || lambda[best] < lambda[c]) best = c;
+  }
+  if (best >= 0 && support[best] > 0.0) {
+    ImpostorFrameCamera fb = impostorBlendCamera(atlas, blend, best);
+    vec3 point = hits[best].x * fb.right + hits[best].y * fb.up + hits[best].w * fb.direction;
+    for (int j = 0; j < n; ++j) {
+      if (!(blend.weight[j] > 0.0)) continue;
+      ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, j);
+      ivec4 tile = ivec4(blend.frame[j] * tile_size, tile_size, tile_size);
+      vec2 st = j == best ? hits[best].xy : vec2(dot(point, frame.right), dot(point, frame.up));
+      float height = j == best ? hits[best].w : dot(point, frame.direction);
+      ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, has_orm, tile, st);
+      if (!(s.alpha > 0.0)) continue;
+      float g = impostorDepthAgreement(1.0 - 2.0 * s.depth, height);
+      impostorAccumAdd(acc, j, blend.weight[j] * s.alpha * g, s, frame, st);
+    }
+    return impostorAccumSurface(acc);
+  }
+  // No frame saw any candidate: each frame at its own hit (parallax).
+  for (int j = 0; j < n; ++j) {
+    if (hits[j].z == 0.0) continue;
+    ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, j);
+    ivec4 tile = ivec4(blend.frame[j] * tile_size, tile_size, tile_size);
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, has_orm, tile, hits[j].xy);
+    impostorAccumAdd(acc, j, blend.weight[j] * hit_alpha[j], s, frame, hits[j].xy);
+  }
+  return impostorAccumSurface(acc);
+}
+
+// Any mode: IMPOSTOR_RECONSTRUCT_PLAIN, _PARALLAX or _DEPTH. The returned
+// surface carries coverage (alpha), the shaded values, the surface point
+// (position; impostorViewDepth gives its depth) and each blend entry's
+// share of the shading (weights), e.g. for a pixel depth offset.
+ImpostorSurface impostorReconstructLayout(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                          bool has_orm, ImpostorLayout atlas, int tile_size, ImpostorBlend blend,
+                                          vec3 ray_origin, vec3 ray_dir, int mode) {
+  if (mode == IMPOSTOR_RECONSTRUCT_DEPTH) {
+    return impostorShadeDepthLayout(albedo_tex, normal_depth_tex, orm_tex, has_orm, atlas, tile_size, blend,
+                                    ray_origin, ray_dir);
+  }
+  ImpostorAccum acc = impostorEmptyAccum();
+  for (int i = 0; i < 4; ++i) {
+    if (i >= blend.count) break;
+    ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, i);
+    ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
+    vec3 plane = mode == IMPOSTOR_RECONSTRUCT_PARALLAX
+                     ? impostorIntersectFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame,
+                                                         ray_origin, ray_dir)
+                     : impostorIntersectFramePlane(frame, ray_origin, ray_dir, 0.0);
+    if (plane.z == 0.0) continue;
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, has_orm, tile, plane.xy);
+    float w = blend.weight[i] * s.alpha;
+    acc.alpha += w;
+    impostorAccumAdd(acc, i, w, s, frame, plane.xy);
+  }
+  return impostorAccumSurface(acc);
+}
 
 ImpostorSurface impostorShadeLayout(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
                                     bool has_orm, ImpostorLayout atlas, int tile_size, ImpostorBlend blend,
                                     vec3 ray_origin, vec3 ray_dir, bool parallax) {
-  ImpostorSurface out_surface;
-  float alpha = 0.0;
-  float covered = 0.0;
-  vec3 albedo = vec3(0.0), normal = vec3(0.0), orm = vec3(0.0), position = vec3(0.0);
-  for (int i = 0; i < 4; ++i) {
-    if (i >= blend.count) break;
-    ImpostorFrameCamera frame = impostorFrameCameraAt(atlas, blend.index[i]);
-    ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
-    vec3 plane = parallax ? impostorIntersectFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame,
-                                                              ray_origin, ray_dir)
-                          : impostorIntersectFramePlane(frame, ray_origin, ray_dir, 0.0);
-    if (plane.z == 0.0) continue;
-    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, has_orm, tile, plane.xy);
-    float w = blend.weight[i] * s.alpha;
-    alpha += w;
-    if (w <= 0.0) continue;
-    covered += w;
-    albedo += w * s.albedo;
-    normal += w * s.normal;
-    orm += w * s.orm;
-    position += w * (plane.x * frame.right + plane.y * frame.up + (1.0 - 2.0 * s.depth) * frame.direction);
-  }
-  out_surface.alpha = alpha;
-  float inv = covered > 0.0 ? 1.0 / covered : 0.0;
-  out_surface.albedo = albedo * inv;
-  out_surface.orm = orm * inv;
-  out_surface.position = position * inv;
-  float len = length(normal);
-  out_surface.normal = len > 1e-12 ? normal / len : vec3(0.0);
-  return out_surface;
+  return impostorReconstructLayout(albedo_tex, normal_depth_tex, orm_tex, has_orm, atlas, tile_size, blend,
+                                   ray_origin, ray_dir,
+                                   parallax ? IMPOSTOR_RECONSTRUCT_PARALLAX : IMPOSTOR_RECONSTRUCT_PLAIN);
 }
 
 // The (layout_kind, frames) form: every layout but ring-top.

@@ -13,7 +13,7 @@ layout(push_constant) uniform Push {
   vec4 view_up;
   vec4 view_right;
   ivec4 params;     // layout, frames, tile_size, blend mode
-  ivec4 flags;      // parallax, has_orm, pixels, ring_views
+  ivec4 flags;      // reconstruction mode (IMPOSTOR_RECONSTRUCT_*), has_orm, pixels, ring_views
 } push;
 
 layout(set = 0, binding = 0) uniform sampler2D albedo_alpha_tex;  // SRGB view
@@ -33,8 +33,8 @@ void main() {
   vec3 origin = st.x * push.view_right.xyz + st.y * push.view_up.xyz + v;
   ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.w);
   ImpostorBlend blend = impostorBlendFramesLayout(atlas, v, push.params.w);
-  ImpostorSurface s = impostorShadeLayout(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0, atlas,
-                                          push.params.z, blend, origin, -v, push.flags.x != 0);
+  ImpostorSurface s = impostorReconstructLayout(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0,
+                                                atlas, push.params.z, blend, origin, -v, push.flags.x);
   uint o = uint(p.y * n + p.x) * 3u;
   pixels[o + 0u] = vec4(s.albedo, s.alpha);
   pixels[o + 1u] = vec4(s.normal, impostorViewDepth(s.position, v));

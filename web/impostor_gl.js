@@ -42,7 +42,7 @@ uniform sampler2D u_albedo;
 uniform sampler2D u_normal_depth;
 uniform sampler2D u_orm;
 uniform ivec4 u_layout;  // kind, frames, ring_views, tile_size
-uniform ivec4 u_mode;    // blend mode, parallax, has_orm, debug view
+uniform ivec4 u_mode;    // blend mode, reconstruction (IMPOSTOR_RECONSTRUCT_*), has_orm, debug view
 in vec3 v_ray_origin;
 in vec3 v_ray_dir;
 out vec4 o_color;
@@ -58,8 +58,8 @@ void main() {
   vec3 view_dir = normalize(u_eye);
   ImpostorLayout atlas = ImpostorLayout(u_layout.x, u_layout.y, u_layout.z);
   ImpostorBlend b = impostorBlendFramesLayout(atlas, view_dir, u_mode.x);
-  ImpostorSurface s = impostorShadeLayout(u_albedo, u_normal_depth, u_orm, u_mode.z != 0, atlas, u_layout.w, b,
-                                          v_ray_origin, v_ray_dir, u_mode.y != 0);
+  ImpostorSurface s = impostorReconstructLayout(u_albedo, u_normal_depth, u_orm, u_mode.z != 0, atlas, u_layout.w, b,
+                                                v_ray_origin, v_ray_dir, u_mode.y);
   if (s.alpha < 0.5) discard;
   vec3 c = srgbEncode(s.albedo);
   if (u_mode.w == 1) c = indexColour(b.index[0]);
@@ -113,7 +113,7 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
   const kind = LAYOUT_KIND[manifest.layout] ?? 0;
   const ringViews = kind === 3 ? manifest.views.length - 1 : kind === 4 ? 8 : 0;
   const u = (name) => gl.getUniformLocation(program, name);
-  const options = { blend: manifest.quality && manifest.quality.blend === 'bilinear4' ? 1 : 0, parallax: false, debug: 0 };
+  const options = { blend: manifest.quality && manifest.quality.blend === 'bilinear4' ? 1 : 0, parallax: false, depth: false, debug: 0 };
   const centre = manifest.bounding_sphere.center;
   const radius = manifest.bounding_sphere.radius;
   return {
@@ -135,7 +135,8 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
       gl.uniform4f(u('u_sphere'), centre[0], centre[1], centre[2], radius);
       gl.uniform1i(u('u_ortho'), ortho ? 1 : 0);
       gl.uniform4i(u('u_layout'), kind, manifest.frames, ringViews, manifest.tile_size);
-      gl.uniform4i(u('u_mode'), options.blend, options.parallax ? 1 : 0, textures[2] ? 1 : 0, options.debug);
+      // depth (docs/runtime.md) wins over parallax; neither = plain.
+      gl.uniform4i(u('u_mode'), options.blend, options.depth ? 2 : options.parallax ? 1 : 0, textures[2] ? 1 : 0, options.debug);
       ['u_albedo', 'u_normal_depth', 'u_orm'].forEach((name, i) => {
         gl.activeTexture(gl.TEXTURE0 + i);
         gl.bindTexture(gl.TEXTURE_2D, textures[i] || textures[0]);

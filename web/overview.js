@@ -51,7 +51,7 @@ async function refresh() {
       String(w.jobs_completed), String(w.jobs_failed), w.last_seen_ms ? age(w.last_seen_ms, now) + ' ago' : '—']), 'workers-table'));
   replace('results', table(['result', 'product', 'layout', 'frames', 'resolution', 'IoU', 'PSNR', 'size', 'baked'],
     results.results.map((r) => [el('td', {}, link(`/results/${r.cache_key}`, shortId(r.cache_key))), r.product, r.layout,
-      String(r.frames), String(r.resolution), r.silhouette_iou_mean?.toFixed(3) ?? '—', r.albedo_psnr_db_mean?.toFixed(1) ?? '—',
+      String(r.frames), String(r.resolution), r.silhouette_iou_mean?.toFixed(3) ?? '—', r.albedo_psnr_shared_db_mean?.toFixed(1) ?? '—',
       bytes(r.bytes), age(r.created_ms, now) + ' ago']), 'results-table'));
   document.getElementById('updated').textContent = `updated ${new Date(now).toLocaleTimeString()}`;
   document.body.dataset.refreshes = String(Number(document.body.dataset.refreshes || 0) + 1);

@@ -25,15 +25,18 @@ function showStatic(result) {
   const quality = q && q.views ? [
     ['blend', q.blend], ['held-out views', q.views],
     ['silhouette IoU (min / mean)', `${q.silhouette_iou_min.toFixed(4)} / ${q.silhouette_iou_mean.toFixed(4)}`],
-    ['albedo PSNR dB (min / mean)', `${q.albedo_psnr_db_min.toFixed(2)} / ${q.albedo_psnr_db_mean.toFixed(2)}`],
-    ['albedo SSIM (min / mean)', `${q.albedo_ssim_min.toFixed(4)} / ${q.albedo_ssim_mean.toFixed(4)}`],
+    ['reconstruction', q.reconstruction || 'plain'],
+    ['albedo PSNR dB where both cover (min / mean)', `${(q.albedo_psnr_shared_db_min ?? 0).toFixed(2)} / ${(q.albedo_psnr_shared_db_mean ?? 0).toFixed(2)}`],
+    ['albedo SSIM where both cover (min / mean)', `${(q.albedo_ssim_shared_min ?? 0).toFixed(4)} / ${(q.albedo_ssim_shared_mean ?? 0).toFixed(4)}`],
+    ['silhouette boundary error px (mean / max)', `${(q.boundary_error_px_mean ?? 0).toFixed(2)} / ${(q.boundary_error_px_max ?? 0).toFixed(2)}`],
+    ['albedo PSNR dB over the union, over black (mean)', (q.albedo_psnr_union_db_mean ?? q.albedo_psnr_db_mean ?? 0).toFixed(2)],
     ['normal error deg (mean / max)', `${q.normal_error_deg_mean.toFixed(2)} / ${q.normal_error_deg_max.toFixed(2)}`],
     ['depth error (mean / max)', `${q.depth_error_mean.toFixed(4)} / ${q.depth_error_max.toFixed(4)}`],
     ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : [['quality pass', 'not run for this bake']];
   replace('quality', kv(quality));
   const maps = el('div', { class: 'maps' });
   for (const map of m.maps) {
-    if (!map.file.endsWith('.png')) continue;
+    if (!map.file.endsWith('.png') || map.semantic.startsWith('quality_view')) continue;  // per-view files: views.json
     maps.append(el('figure', {}, el('img', { src: fileUrl(map.file), alt: map.semantic, 'data-testid': `map-${map.semantic}` }),
       el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.format} (${bytes(map.digest.size_bytes)})`)));
   }
@@ -101,6 +104,7 @@ async function showViewer(result) {
     select.addEventListener('change', () => { apply(select.value); draw(); });
   }
   document.getElementById('parallax').addEventListener('change', (ev) => { impostor.options.parallax = ev.target.checked; draw(); });
+  document.getElementById('depth').addEventListener('change', (ev) => { impostor.options.depth = ev.target.checked; draw(); });
   draw();
   document.body.dataset.viewerReady = '1';
 }
@@ -116,6 +120,7 @@ async function showOrthographic(result, spec, size) {
   const impostor = await createImpostorRenderer(canvas, result.manifest, fileUrl);
   const blend = new URLSearchParams(location.search).get('blend');
   if (blend !== null) impostor.options.blend = Number(blend);
+  impostor.options.depth = new URLSearchParams(location.search).get('reconstruction') === 'depth';
   impostor.drawOrthographic([Math.sin(az) * Math.cos(elev), Math.sin(elev), Math.cos(az) * Math.cos(elev)]);
   window.impostorPng = canvas.toDataURL('image/png');
   document.body.dataset.viewerReady = '1';

@@ -30,7 +30,7 @@ const std::map<std::string, CommandSpec>& Commands() {
         true, "SPEC"}},
       {"fetch", {Command::kFetch, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
       // --out is optional: quality_command.cc picks ./quality-KEY12.
-      {"quality", {Command::kQuality, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, false, "KEY"}},
+      {"quality", {Command::kQuality, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet", "--all-views"}, false, "KEY"}},
       {"status", {Command::kStatus, {"--max-outage-seconds", "--server"}, {"--json"}, false, "JOB_ID"}},
       {"cancel", {Command::kCancel, {"--max-outage-seconds", "--server"}, {"--json"}, false, "JOB_ID"}},
       // "cache VERB": the local result cache; no target = no positional.
@@ -125,6 +125,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--emissive") out.emissive = true;
       if (flag == "--array") out.texture_array = true;
       if (flag == "--follow-symlinks") out.follow_symlinks = true;
+      if (flag == "--all-views") out.all_views = true;
       continue;
     }
     // Transport security: every command that takes --server takes these.
@@ -434,13 +435,17 @@ Usage:
       in DIR with the right content are kept; a download cut off by a server
       restart resumes where it stopped (default outage budget 30 s).
   impostor quality KEY [--out DIR] [--server HOST:PORT] [--json] [--quiet]
-                [--max-outage-seconds N]
+                [--all-views] [--max-outage-seconds N]
       Downloads the result KEY into DIR (default ./quality-<first 12 hex of
       KEY>), prints its quality report (held-out views against the mesh:
       IoU, albedo PSNR and SSIM, normal and depth error, pop, frames tried)
       and the path of quality_worst_view.png: the worst view side by side,
       mesh | impostor | difference (magenta: only the mesh covers, cyan: only
-      the impostor covers).
+      the impostor covers). --all-views lists every held-out view's files
+      in DIR: view_NN_mesh.png and view_NN_impostor.png (RGBA, straight
+      alpha, alpha = coverage) and views.json (each view's direction, up,
+      orthographic centre and radius, and its figures), so every number can
+      be recomputed; exit 1 if the result has none (baked before format 2).
   impostor status JOB_ID [--server HOST:PORT] [--json] [--max-outage-seconds N]
       Shows a job's state.
   impostor cancel JOB_ID [--server HOST:PORT] [--json] [--max-outage-seconds N]

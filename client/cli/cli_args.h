@@ -91,6 +91,8 @@ struct CliArgs {
   std::optional<float> tolerance;
   bool json = false;
   bool quiet = false;
+  // --all-views (quality): list every held-out view's files (views.json).
+  bool all_views = false;
   // --emissive (bake): also bake the emissive map.
   bool emissive = false;
   // --array (bake): texture arrays instead of atlases.

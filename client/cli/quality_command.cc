@@ -49,10 +49,10 @@ nlohmann::json ReadQualityBlock(const fs::path& manifest_path) {
 
 std::string QualitySummaryLine(const nlohmann::json& q) {
   std::string line = absl::StrFormat(
-      "quality: IoU %.3f (min %.3f), albedo PSNR %.1f dB (min %.1f), SSIM %.3f, normal %.1f deg, depth %.3f r, "
-      "pop %.2f over %d views of %d px",
-      Num(q, "silhouette_iou_mean"), Num(q, "silhouette_iou_min"), Num(q, "albedo_psnr_db_mean"),
-      Num(q, "albedo_psnr_db_min"), Num(q, "albedo_ssim_mean"), Num(q, "normal_error_deg_mean"),
+      "quality: IoU %.3f (min %.3f), albedo PSNR %.1f dB (min %.1f) and SSIM %.3f where both cover, normal %.1f "
+      "deg, depth %.3f r, pop %.2f over %d views of %d px",
+      Num(q, "silhouette_iou_mean"), Num(q, "silhouette_iou_min"), Num(q, "albedo_psnr_shared_db_mean"),
+      Num(q, "albedo_psnr_shared_db_min"), Num(q, "albedo_ssim_shared_mean"), Num(q, "normal_error_deg_mean"),
       Num(q, "depth_error_mean"), Num(q, "pop"), static_cast<int>(Num(q, "views")),
       static_cast<int>(Num(q, "view_pixels")));
   if (const std::string tried = FramesTried(q); !tried.empty()) absl::StrAppend(&line, "; frames tried ", tried);
@@ -108,6 +108,23 @@ int RunQuality(const CliArgs& args) {
   const fs::path worst = fs::path(out_dir) / kWorstViewFile;
   std::error_code ec;
   if (fs::exists(worst, ec)) report["worst_view_png"] = worst.string();
+  nlohmann::json views_doc;
+  if (args.all_views) {
+    const fs::path views = fs::path(out_dir) / "views.json";
+    std::ifstream in(views);
+    views_doc = in ? nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false) : nlohmann::json();
+    if (!views_doc.is_object() || !views_doc.contains("views") || !views_doc["views"].is_array()) {
+      return fail(kExitBakeFailed, absl::StrCat("result ", args.target,
+                                                " has no per-view files (views.json; baked before manifest format 2)"));
+    }
+    report["views_json"] = views.string();
+    report["views"] = nlohmann::json::array();
+    for (const nlohmann::json& v : views_doc["views"]) {
+      report["views"].push_back({{"mesh", (fs::path(out_dir) / v.value("mesh", std::string())).string()},
+                                 {"impostor", (fs::path(out_dir) / v.value("impostor", std::string())).string()},
+                                 {"figures", v.value("figures", nlohmann::json::object())}});
+    }
+  }
   if (args.json) {
     PrintJson(report);
     return kExitOk;
@@ -116,19 +133,41 @@ int RunQuality(const CliArgs& args) {
               args.target.c_str(), q.value("blend", std::string("?")).c_str(), static_cast<int>(Num(q, "views")),
               static_cast<int>(Num(q, "view_pixels")));
   std::printf("  silhouette IoU   mean %.4f  min %.4f\n", Num(q, "silhouette_iou_mean"), Num(q, "silhouette_iou_min"));
-  std::printf("  albedo PSNR      mean %.2f dB  min %.2f dB\n", Num(q, "albedo_psnr_db_mean"),
-              Num(q, "albedo_psnr_db_min"));
-  std::printf("  albedo SSIM      mean %.4f  min %.4f\n", Num(q, "albedo_ssim_mean"), Num(q, "albedo_ssim_min"));
+  std::printf("  reconstruction   %s\n", q.value("reconstruction", std::string("plain")).c_str());
+  std::printf("  albedo PSNR      mean %.2f dB  min %.2f dB (where both cover)\n", Num(q, "albedo_psnr_shared_db_mean"),
+              Num(q, "albedo_psnr_shared_db_min"));
+  std::printf("  albedo SSIM      mean %.4f  min %.4f (where both cover)\n", Num(q, "albedo_ssim_shared_mean"),
+              Num(q, "albedo_ssim_shared_min"));
+  std::printf("  boundary error   mean %.2f px  max %.2f px\n", Num(q, "boundary_error_px_mean"),
+              Num(q, "boundary_error_px_max"));
+  std::printf("  union PSNR       mean %.2f dB (colour and silhouette misses together, over black)\n",
+              Num(q, "albedo_psnr_union_db_mean"));
   std::printf("  normal error     mean %.2f deg  max %.2f deg\n", Num(q, "normal_error_deg_mean"),
               Num(q, "normal_error_deg_max"));
   std::printf("  depth error      mean %.4f r  max %.4f r\n", Num(q, "depth_error_mean"), Num(q, "depth_error_max"));
   std::printf("  pop              %.3f (1.0 = as smooth as the mesh over a 1 degree orbit step)\n", Num(q, "pop"));
+  if (q.contains("plain") && q["plain"].is_object()) {
+    const nlohmann::json& p = q["plain"];
+    std::printf("  plain mode       IoU %.4f (min %.4f), PSNR %.2f dB, SSIM %.4f where both cover, boundary %.2f px, "
+                "pop %.3f\n",
+                Num(p, "silhouette_iou_mean"), Num(p, "silhouette_iou_min"), Num(p, "albedo_psnr_shared_db_mean"),
+                Num(p, "albedo_ssim_shared_mean"), Num(p, "boundary_error_px_mean"), Num(p, "pop"));
+  }
   if (const std::string tried = FramesTried(q); !tried.empty()) std::printf("  frames tried     %s\n", tried.c_str());
   for (const std::string& w : fetched->warnings) std::printf("  warning          %s\n", w.c_str());
   if (report["worst_view_png"].is_string()) {
     std::printf("  worst view       %d: %s (mesh | impostor | difference; magenta = only the mesh covers, cyan = "
                 "only the impostor)\n",
                 static_cast<int>(Num(q, "worst_view")), worst.string().c_str());
+  }
+  if (args.all_views) {
+    std::printf("  every view       %s (camera and figures of each view):\n", report["views_json"].get<std::string>().c_str());
+    for (const nlohmann::json& v : report["views"]) {
+      const nlohmann::json& f = v["figures"];
+      std::printf("    %s | %s: IoU %.4f, PSNR %.2f dB where both cover, boundary %.2f px\n",
+                  v["mesh"].get<std::string>().c_str(), v["impostor"].get<std::string>().c_str(),
+                  Num(f, "silhouette_iou"), Num(f, "albedo_psnr_shared_db"), Num(f, "boundary_error_px_mean"));
+    }
   }
   std::fflush(stdout);
   return kExitOk;

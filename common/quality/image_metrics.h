@@ -51,10 +51,22 @@ struct ViewMetrics {
   // |A n B| / |A u B|; 1 when neither covers anything.
   double iou = 1.0;
   // Over the union, composited over black, peak 1 (255 levels), capped at
-  // kMaxPsnrDb.
+  // kMaxPsnrDb: colour and silhouette misses in one figure (the manifest's
+  // albedo_psnr_union_db_*).
   double albedo_psnr_db = kMaxPsnrDb;
-  // Mean SSIM over the union, -1..1 (1 = identical).
+  // Mean SSIM over the union, -1..1 (1 = identical; albedo_ssim_union_*).
   double albedo_ssim = 1.0;
+  // Colour fidelity alone: PSNR over the pixels both cover (peak 1, capped
+  // at kMaxPsnrDb; 0 when the silhouettes do not overlap at all), and SSIM
+  // with every window restricted to those pixels, averaged over them.
+  double albedo_psnr_shared_db = kMaxPsnrDb;
+  double albedo_ssim_shared = 1.0;
+  // Silhouette boundary error, pixels: the distance from every boundary
+  // pixel of one silhouette to the nearest boundary pixel of the other, both
+  // ways; mean and max (the symmetric Hausdorff distance). Boundary pixels:
+  // covered pixels with an uncovered 4-neighbour or on the image border.
+  double boundary_error_px_mean = 0.0;
+  double boundary_error_px_max = 0.0;
   // Angle between the two normals over pixels both cover, degrees; 0 when
   // no pixel is covered by both.
   double normal_error_deg_mean = 0.0;
@@ -73,6 +85,13 @@ ViewMetrics CompareViews(const ViewPixels& reference, const ViewPixels& test);
 double SilhouetteIou(const ViewPixels& a, const ViewPixels& b);
 double AlbedoPsnrDb(const ViewPixels& a, const ViewPixels& b);
 double AlbedoSsim(const ViewPixels& a, const ViewPixels& b);
+double AlbedoPsnrSharedDb(const ViewPixels& a, const ViewPixels& b);
+double AlbedoSsimShared(const ViewPixels& a, const ViewPixels& b);
+struct BoundaryError {
+  double mean_px = 0.0;  // 0 when neither covers anything
+  double max_px = 0.0;   // the image diagonal when only one side covers
+};
+BoundaryError SilhouetteBoundaryError(const ViewPixels& a, const ViewPixels& b);
 
 // Mean absolute difference of the colours composited over black, per channel
 // on a 0..1 scale, averaged over the union of both silhouettes (0 when

@@ -6,6 +6,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "common/runtime/depth_reconstruction.h"
 #include "common/runtime/virtual_plane.h"
 
 namespace impostor {
@@ -133,6 +134,74 @@ CoveredBox FindCoveredBox(const ImpostorAtlas& atlas, const TileRect& tile) {
   return box;
 }
 
+// One pixel's running blend: coverage and the w * a weighted sums.
+struct PixelBlend {
+  float alpha = 0.0f;    // sum of weight * alpha (coverage)
+  float covered = 0.0f;  // sum of the shading weights
+  glm::vec3 albedo{0.0f}, normal{0.0f}, orm{0.0f};
+  float depth = 0.0f;
+
+  // Adds sample `s` of `frame` at frame coordinates st with shading weight w.
+  void Add(float w, const TileSample& s, const FrameCamera& frame, glm::vec2 st, const FrameCamera& camera) {
+    if (w <= 0.0f) return;
+    covered += w;
+    albedo += w * s.albedo;
+    normal += w * s.normal;
+    orm += w * s.orm;
+    // The sample's surface point, then its depth for the view camera.
+    const glm::vec3 p = st.x * frame.right + st.y * frame.up + (1.0f - 2.0f * s.depth) * frame.direction;
+    depth += w * (1.0f - glm::dot(p, camera.direction)) * 0.5f;
+  }
+
+  void Write(size_t pixel, bool has_orm, ViewImages* view) {
+    const size_t o = pixel * 4;
+    albedo /= covered;
+    view->albedo_alpha[o + 0] = ToUnorm8(LinearToSrgb(albedo.x));
+    view->albedo_alpha[o + 1] = ToUnorm8(LinearToSrgb(albedo.y));
+    view->albedo_alpha[o + 2] = ToUnorm8(LinearToSrgb(albedo.z));
+    view->albedo_alpha[o + 3] = 255;
+    const float len = glm::length(normal);
+    if (len > 1e-12f) normal /= len;
+    view->normal_depth[o + 0] = ToUnorm16(normal.x * 0.5f + 0.5f);
+    view->normal_depth[o + 1] = ToUnorm16(normal.y * 0.5f + 0.5f);
+    view->normal_depth[o + 2] = ToUnorm16(normal.z * 0.5f + 0.5f);
+    view->normal_depth[o + 3] = ToUnorm16(depth / covered);
+    if (has_orm) {
+      orm /= covered;
+      view->orm[o + 0] = ToUnorm8(orm.x);
+      view->orm[o + 1] = ToUnorm8(orm.y);
+      view->orm[o + 2] = ToUnorm8(orm.z);
+      view->orm[o + 3] = 255;
+    }
+  }
+};
+
+// Depth mode for one pixel (depth_reconstruction.h, steps 1..5).
+template <typename March>
+void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, const FrameBlend& blend,
+                     const TileSampler& sampler, glm::vec2 view_st, const March& march, PixelBlend* px) {
+  std::array<DepthEntry, 4> entries;
+  for (int i = 0; i < blend.count; ++i) {
+    entries[i] = {&atlas.cameras[blend.entries[i].index], blend.entries[i].weight};
+  }
+  const DepthPixel depth = ReconstructDepth(
+      entries, blend.count, ViewRayOrigin(camera, view_st), -camera.direction,
+      [&](int i) { return march(i, *entries[i].frame, view_st); },
+      [&](int i, glm::vec2 st, float* height) {
+        const TileSample s = sampler.Sample(entries[i].frame->tile, st, /*full=*/false);
+        *height = 1.0f - 2.0f * s.depth;
+        return s.alpha;
+      });
+  px->alpha = depth.coverage;
+  if (px->alpha < 0.5f) return;
+  for (int j = 0; j < blend.count; ++j) {
+    const DepthSampleAt& at = depth.samples[j];
+    if (!at.used) continue;
+    const FrameCamera& frame = *entries[j].frame;
+    px->Add(at.weight, sampler.Sample(frame.tile, at.st, /*full=*/true), frame, at.st, camera);
+  }
+}
+
 bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
   const ViewLayout layout = AtlasViewLayout(atlas);
   const bool ring = layout.kind == LayoutKind::kRingTop || layout.kind == LayoutKind::kBillboard;
@@ -185,67 +254,43 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
   const TileSampler sampler(atlas);
   const float inv = 1.0f / static_cast<float>(pixels);
   std::array<CoveredBox, 4> boxes;
-  if (options.parallax) {
+  if (options.parallax || options.reconstruction == Reconstruction::kDepth) {
     for (int i = 0; i < blend.count; ++i) boxes[i] = FindCoveredBox(atlas, atlas.cameras[blend.entries[i].index].tile);
   }
+
+  const auto march = [&](int i, const FrameCamera& frame, glm::vec2 view_st) {
+    const CoveredBox& box = boxes[i];
+    return ProjectToFrameParallax(camera, frame, view_st, [&](glm::vec2 st, float* height) {
+      if (!box.MayCover(frame.tile, st)) return false;
+      const TileSample s = sampler.Sample(frame.tile, st, /*full=*/false);
+      if (s.alpha < 0.5f) return false;
+      *height = 1.0f - 2.0f * s.depth;
+      return true;
+    });
+  };
+  const bool depth_mode = options.reconstruction == Reconstruction::kDepth;
 
   for (int y = 0; y < pixels; ++y) {
     for (int x = 0; x < pixels; ++x) {
       const glm::vec2 view_st((static_cast<float>(x) + 0.5f) * inv * 2.0f - 1.0f,
                               1.0f - (static_cast<float>(y) + 0.5f) * inv * 2.0f);
-      float alpha = 0.0f;
-      float covered = 0.0f;  // sum of weight * alpha
-      glm::vec3 albedo(0.0f), normal(0.0f), orm(0.0f);
-      float depth = 0.0f;
-      for (int i = 0; i < blend.count; ++i) {
-        const FrameCamera& frame = atlas.cameras[blend.entries[i].index];
-        PlaneSample plane;
-        if (options.parallax) {
-          const CoveredBox& box = boxes[i];
-          plane = ProjectToFrameParallax(camera, frame, view_st, [&](glm::vec2 st, float* height) {
-            if (!box.MayCover(frame.tile, st)) return false;
-            const TileSample s = sampler.Sample(frame.tile, st, /*full=*/false);
-            if (s.alpha < 0.5f) return false;
-            *height = 1.0f - 2.0f * s.depth;
-            return true;
-          });
-        } else {
-          plane = ProjectToFrame(camera, frame, view_st);
+      PixelBlend px;
+      if (depth_mode) {
+        ShadeDepthPixel(atlas, camera, blend, sampler, view_st, march, &px);
+      } else {
+        for (int i = 0; i < blend.count; ++i) {
+          const FrameCamera& frame = atlas.cameras[blend.entries[i].index];
+          const PlaneSample plane =
+              options.parallax ? march(i, frame, view_st) : ProjectToFrame(camera, frame, view_st);
+          if (!plane.valid) continue;
+          const TileSample s = sampler.Sample(frame.tile, plane.st, /*full=*/true);
+          const float w = blend.entries[i].weight * s.alpha;
+          px.alpha += w;
+          px.Add(w, s, frame, plane.st, camera);
         }
-        if (!plane.valid) continue;
-        const TileSample s = sampler.Sample(frame.tile, plane.st, /*full=*/true);
-        const float w = blend.entries[i].weight * s.alpha;
-        alpha += w;
-        if (w <= 0.0f) continue;
-        covered += w;
-        albedo += w * s.albedo;
-        normal += w * s.normal;
-        orm += w * s.orm;
-        // The sample's surface point, then its depth for the view camera.
-        const glm::vec3 p = plane.st.x * frame.right + plane.st.y * frame.up +
-                            (1.0f - 2.0f * s.depth) * frame.direction;
-        depth += w * (1.0f - glm::dot(p, camera.direction)) * 0.5f;
       }
-      if (alpha < 0.5f) continue;  // empty: keeps the clear encodings
-      const size_t o = (static_cast<size_t>(y) * pixels + x) * 4;
-      albedo /= covered;
-      view.albedo_alpha[o + 0] = ToUnorm8(LinearToSrgb(albedo.x));
-      view.albedo_alpha[o + 1] = ToUnorm8(LinearToSrgb(albedo.y));
-      view.albedo_alpha[o + 2] = ToUnorm8(LinearToSrgb(albedo.z));
-      view.albedo_alpha[o + 3] = 255;
-      const float len = glm::length(normal);
-      if (len > 1e-12f) normal /= len;
-      view.normal_depth[o + 0] = ToUnorm16(normal.x * 0.5f + 0.5f);
-      view.normal_depth[o + 1] = ToUnorm16(normal.y * 0.5f + 0.5f);
-      view.normal_depth[o + 2] = ToUnorm16(normal.z * 0.5f + 0.5f);
-      view.normal_depth[o + 3] = ToUnorm16(depth / covered);
-      if (has_orm) {
-        orm /= covered;
-        view.orm[o + 0] = ToUnorm8(orm.x);
-        view.orm[o + 1] = ToUnorm8(orm.y);
-        view.orm[o + 2] = ToUnorm8(orm.z);
-        view.orm[o + 3] = 255;
-      }
+      if (px.alpha < 0.5f) continue;  // empty: keeps the clear encodings
+      px.Write(static_cast<size_t>(y) * pixels + x, has_orm, &view);
     }
   }
   return view;

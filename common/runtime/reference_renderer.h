@@ -38,6 +38,10 @@
 //  6. Empty pixels are encoded exactly as AtlasImages's empty texels:
 //     albedo 0,0,0,0; normal_depth 32768,32768,32768,65535 (0.5, 0.5, 0.5,
 //     1.0 in UNORM16, as the bake's clear value); orm 0,0,0,0.
+// With options.reconstruction == kDepth, steps 2..5 follow
+// depth_reconstruction.h: coverage from each frame's march hit, colour and
+// depth from every frame's sample at the common point P, weighted by
+// w_i * a_i * agreement_i.
 // ORM is produced only when atlas.orm is non-empty (otherwise ViewImages.orm
 // stays empty).
 //
@@ -53,6 +57,7 @@
 
 #include "common/atlas_layout.h"
 #include "common/frame_camera.h"
+#include "common/runtime/depth_reconstruction.h"
 #include "common/runtime/frame_blend.h"
 
 namespace impostor {
@@ -86,7 +91,10 @@ struct ViewImages {               // one rendered view, same encodings as AtlasI
 
 struct ReferenceRenderOptions {
   BlendMode blend = BlendMode::kTriangle3;
-  bool parallax = false;
+  bool parallax = false;  // plain only: march each frame's depth (no agreement)
+  // kDepth: depth_reconstruction.h (every frame samples the common surface
+  // point, frames that did not see it drop out); `parallax` is then implied.
+  Reconstruction reconstruction = Reconstruction::kPlain;
 };
 
 // The shared mapping's description of the atlas's layout.

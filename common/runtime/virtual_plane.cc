@@ -28,6 +28,7 @@ PlaneSample IntersectFramePlane(const FrameCamera& frame, glm::vec3 origin, glm:
   const glm::vec3 q = origin - k * toward_eye;
   out.valid = true;
   out.st = {glm::dot(q, frame.right), glm::dot(q, frame.up)};
+  out.height = height;
   return out;
 }
 

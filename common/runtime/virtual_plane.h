@@ -50,6 +50,7 @@ inline constexpr int kParallaxRefinements = 4;
 struct PlaneSample {
   bool valid = false;
   glm::vec2 st{0.0f};  // frame coordinates (s_f, t_f), [-1, 1] inside the tile
+  float height = 0.0f;  // the sampled point's height along the frame direction (radius units)
 };
 
 // The camera that bakes (or views along) `direction` (unit, sphere centre ->

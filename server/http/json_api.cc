@@ -119,7 +119,7 @@ nlohmann::json ResultsPageJson(const std::vector<JobStore::StoredResult>& result
                            {"last_used_ms", r.last_used_ms}};
     if (m.has_quality()) {
       item["silhouette_iou_mean"] = m.quality().silhouette_iou_mean();
-      item["albedo_psnr_db_mean"] = m.quality().albedo_psnr_db_mean();
+      item["albedo_psnr_shared_db_mean"] = m.quality().albedo_psnr_shared_db_mean();
     }
     j["results"].push_back(std::move(item));
   }

@@ -163,65 +163,72 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
       }
     }
     const FrameCamera camera = ViewCameraFor(direction);
-    const ViewImages reference = RenderImpostorView(atlas, camera, kPixels, {});
-    ASSERT_EQ(reference.width, kPixels) << "reference renderer refused the atlas";
-    WriteRgba8(kArtifacts / ("reference_" + std::string(c.name) + ".png"), reference.albedo_alpha, kPixels, kPixels);
+    // Both reconstructions of docs/runtime.md: plain (the viewer's default)
+    // and depth.
+    for (Reconstruction mode : {Reconstruction::kPlain, Reconstruction::kDepth}) {
+      const std::string name = std::string(c.name) + (mode == Reconstruction::kDepth ? "_depth" : "");
+      ReferenceRenderOptions options;
+      options.reconstruction = mode;
+      const ViewImages reference = RenderImpostorView(atlas, camera, kPixels, options);
+      ASSERT_EQ(reference.width, kPixels) << "reference renderer refused the atlas";
+      WriteRgba8(kArtifacts / ("reference_" + name + ".png"), reference.albedo_alpha, kPixels, kPixels);
 
-    // The browser: the same camera through the dashboard's WebGL2 path.
-    const testing::ToolRun run = testing::RunTool(
-        {"/usr/bin/node", "--experimental-websocket",
-         std::string(IMPOSTOR_SOURCE_DIR) + "/tests/metrics/browser/cdp_page.mjs", "--chromium", "/usr/bin/chromium",
-         "--url",
-         "http://127.0.0.1:" + std::to_string(port) + "/results/" + m.cache_key() + "?ortho=" +
-             std::to_string(kAzimuthDeg) + "," + std::to_string(kElevationDeg) + "&size=" + std::to_string(kPixels) + "&blend=0",  // triangle3, the reference's default
-         "--until", "document.body.dataset.viewerReady === '1'", "--eval", "window.impostorPng", "--timeout-ms",
-         "120000"},
-        std::chrono::seconds(180));
-    const nlohmann::json report = nlohmann::json::parse(run.out, nullptr, false);
-    ASSERT_FALSE(report.is_discarded()) << run.out << run.err;
-    ASSERT_TRUE(report.value("ok", false)) << report.dump();
-    EXPECT_EQ(report["console_errors"], nlohmann::json::array()) << report.dump();
-    const std::string url = report.value("value", "");
-    const std::string prefix = "data:image/png;base64,";
-    ASSERT_EQ(url.rfind(prefix, 0), 0u) << url.substr(0, 80);
-    const fs::path webgl_file = kArtifacts / ("webgl_" + std::string(c.name) + ".png");
-    std::ofstream(webgl_file, std::ios::binary) << Base64Decode(url.substr(prefix.size()));
-    int w = 0, h = 0;
-    const std::vector<uint8_t> webgl = ReadRgba<uint8_t>(webgl_file, &w, &h);
-    ASSERT_EQ(w, kPixels);
-    ASSERT_EQ(h, kPixels);
+      // The browser: the same camera through the dashboard's WebGL2 path.
+      const testing::ToolRun run = testing::RunTool(
+          {"/usr/bin/node", "--experimental-websocket",
+           std::string(IMPOSTOR_SOURCE_DIR) + "/tests/metrics/browser/cdp_page.mjs", "--chromium", "/usr/bin/chromium",
+           "--url",
+           "http://127.0.0.1:" + std::to_string(port) + "/results/" + m.cache_key() + "?ortho=" +
+               std::to_string(kAzimuthDeg) + "," + std::to_string(kElevationDeg) + "&size=" + std::to_string(kPixels) + "&blend=0&reconstruction=" + std::string(ReconstructionName(mode)),  // triangle3, the reference's default
+           "--until", "document.body.dataset.viewerReady === '1'", "--eval", "window.impostorPng", "--timeout-ms",
+           "120000"},
+          std::chrono::seconds(180));
+      const nlohmann::json report = nlohmann::json::parse(run.out, nullptr, false);
+      ASSERT_FALSE(report.is_discarded()) << run.out << run.err;
+      ASSERT_TRUE(report.value("ok", false)) << report.dump();
+      EXPECT_EQ(report["console_errors"], nlohmann::json::array()) << report.dump();
+      const std::string url = report.value("value", "");
+      const std::string prefix = "data:image/png;base64,";
+      ASSERT_EQ(url.rfind(prefix, 0), 0u) << url.substr(0, 80);
+      const fs::path webgl_file = kArtifacts / ("webgl_" + name + ".png");
+      std::ofstream(webgl_file, std::ios::binary) << Base64Decode(url.substr(prefix.size()));
+      int w = 0, h = 0;
+      const std::vector<uint8_t> webgl = ReadRgba<uint8_t>(webgl_file, &w, &h);
+      ASSERT_EQ(w, kPixels);
+      ASSERT_EQ(h, kPixels);
 
-    int both = 0, either = 0, large = 0;
-    double squared_error = 0, bias = 0;
-    std::vector<uint8_t> diff(webgl.size(), 0);  // |webgl - reference| x 4, opaque where either covers
-    for (size_t p = 0; p < webgl.size(); p += 4) {
-      const bool a = webgl[p + 3] >= 128, b = reference.albedo_alpha[p + 3] >= 128;
-      either += a || b;
-      diff[p + 3] = (a || b) ? 255 : 0;
-      if (a != b) diff[p] = 255;  // silhouette mismatch in red
-      if (!(a && b)) continue;
-      ++both;
-      int worst = 0;
-      for (int k = 0; k < 3; ++k) {
-        const int d = webgl[p + k] - reference.albedo_alpha[p + k];
-        squared_error += (d / 255.0) * (d / 255.0);
-        bias += d;
-        worst = std::max(worst, std::abs(d));
-        diff[p + k] = static_cast<uint8_t>(std::min(255, std::abs(d) * 4));
+      int both = 0, either = 0, large = 0;
+      double squared_error = 0, bias = 0;
+      std::vector<uint8_t> diff(webgl.size(), 0);  // |webgl - reference| x 4, opaque where either covers
+      for (size_t p = 0; p < webgl.size(); p += 4) {
+        const bool a = webgl[p + 3] >= 128, b = reference.albedo_alpha[p + 3] >= 128;
+        either += a || b;
+        diff[p + 3] = (a || b) ? 255 : 0;
+        if (a != b) diff[p] = 255;  // silhouette mismatch in red
+        if (!(a && b)) continue;
+        ++both;
+        int worst = 0;
+        for (int k = 0; k < 3; ++k) {
+          const int d = webgl[p + k] - reference.albedo_alpha[p + k];
+          squared_error += (d / 255.0) * (d / 255.0);
+          bias += d;
+          worst = std::max(worst, std::abs(d));
+          diff[p + k] = static_cast<uint8_t>(std::min(255, std::abs(d) * 4));
+        }
+        large += worst > 16;
       }
-      large += worst > 16;
+      WriteRgba8(kArtifacts / ("diff_" + name + ".png"), diff, kPixels, kPixels);
+      ASSERT_GT(either, kPixels * kPixels / 20) << "the impostor covers almost nothing";
+      const double iou = static_cast<double>(both) / either;
+      const double mse = squared_error / (3.0 * std::max(both, 1));
+      const double psnr = mse > 0 ? 10 * std::log10(1.0 / mse) : 99;
+      EXPECT_GE(iou, 0.98) << "silhouette IoU; images in " << kArtifacts;
+      EXPECT_GE(psnr, kMinPsnrDb) << "albedo PSNR over the shared silhouette; images in " << kArtifacts;
+      EXPECT_LE(static_cast<double>(large) / std::max(both, 1), kMaxLargeFraction)
+          << "shared pixels off by more than 16 levels; images in " << kArtifacts;
+      std::printf("%s: IoU %.4f, albedo PSNR %.2f dB, mean difference %.2f levels, %.1f%% of pixels off by > 16\n",
+                  name.c_str(), iou, psnr, bias / (3.0 * std::max(both, 1)), 100.0 * large / std::max(both, 1));
     }
-    WriteRgba8(kArtifacts / ("diff_" + std::string(c.name) + ".png"), diff, kPixels, kPixels);
-    ASSERT_GT(either, kPixels * kPixels / 20) << "the impostor covers almost nothing";
-    const double iou = static_cast<double>(both) / either;
-    const double mse = squared_error / (3.0 * std::max(both, 1));
-    const double psnr = mse > 0 ? 10 * std::log10(1.0 / mse) : 99;
-    EXPECT_GE(iou, 0.98) << "silhouette IoU; images in " << kArtifacts;
-    EXPECT_GE(psnr, kMinPsnrDb) << "albedo PSNR over the shared silhouette; images in " << kArtifacts;
-    EXPECT_LE(static_cast<double>(large) / std::max(both, 1), kMaxLargeFraction)
-        << "shared pixels off by more than 16 levels; images in " << kArtifacts;
-    std::printf("%s: IoU %.4f, albedo PSNR %.2f dB, mean difference %.2f levels, %.1f%% of pixels off by > 16\n",
-                c.name, iou, psnr, bias / (3.0 * std::max(both, 1)), 100.0 * large / std::max(both, 1));
   }
 }
 

@@ -175,3 +175,75 @@ TEST(ImageMetricsTest, PsnrFromMseIsCapped) {
 
 }  // namespace
 }  // namespace impostor
+
+namespace impostor {
+namespace {
+
+// Shared-silhouette colour figures see colour only: a silhouette miss of the
+// right colour costs the union PSNR a lot and the shared PSNR nothing.
+TEST(SharedMetrics, ColourFiguresIgnoreSilhouetteMisses) {
+  const Image a = MakeImage(64, {10, 10, 50, 50}, 200, 100, 50);
+  const Image b = MakeImage(64, {14, 10, 50, 50}, 200, 100, 50);  // 4 columns short
+  const ViewMetrics m = CompareViews(a.Pixels(), b.Pixels());
+  EXPECT_LT(m.albedo_psnr_db, 25.0);
+  EXPECT_EQ(m.albedo_psnr_shared_db, kMaxPsnrDb);
+  EXPECT_NEAR(m.albedo_ssim_shared, 1.0, 1e-9);
+  EXPECT_LT(m.albedo_ssim, 0.99);
+}
+
+// A uniform colour error of 10 levels over the shared pixels: PSNR
+// -10 log10((10/255)^2) = 28.13 dB whatever the silhouettes do.
+TEST(SharedMetrics, SharedPsnrHasTheClosedForm) {
+  const Image a = MakeImage(64, {10, 10, 50, 50}, 200, 100, 50);
+  const Image b = MakeImage(64, {20, 10, 60, 50}, 210, 110, 60);
+  const double want = -10.0 * std::log10((10.0 / 255.0) * (10.0 / 255.0));
+  EXPECT_NEAR(AlbedoPsnrSharedDb(a.Pixels(), b.Pixels()), want, 1e-9);
+  // No overlap at all: nothing shared, the worst answer.
+  const Image c = MakeImage(64, {0, 0, 8, 8}, 200, 100, 50);
+  const Image d = MakeImage(64, {30, 30, 40, 40}, 200, 100, 50);
+  EXPECT_EQ(AlbedoPsnrSharedDb(c.Pixels(), d.Pixels()), 0.0);
+  EXPECT_EQ(AlbedoSsimShared(c.Pixels(), d.Pixels()), 0.0);
+  // Nothing covered on either side: nothing to compare.
+  const Image e = MakeImage(64, {0, 0, 0, 0}, 0, 0, 0);
+  EXPECT_EQ(AlbedoPsnrSharedDb(e.Pixels(), e.Pixels()), kMaxPsnrDb);
+}
+
+// Shared SSIM is 1 for the same texture and drops when the texture moves.
+TEST(SharedMetrics, SharedSsimSeesStructure) {
+  const Image a = MakeChecker(64, {8, 8, 56, 56});
+  const Image b = MakeChecker(64, {12, 8, 56, 56});
+  EXPECT_NEAR(AlbedoSsimShared(a.Pixels(), b.Pixels()), 1.0, 1e-9);
+  Image shifted = MakeChecker(64, {8, 8, 56, 56});
+  for (int y = 8; y < 56; ++y) {
+    for (int x = 8; x < 56; ++x) {
+      const size_t i = (static_cast<size_t>(y) * 64 + x) * 4;
+      const uint8_t v = (((x + 4) / 4 + y / 4) % 2) ? 200 : 60;  // the checker moved by a cell
+      shifted.albedo[i] = v, shifted.albedo[i + 1] = v / 2, shifted.albedo[i + 2] = 255 - v;
+    }
+  }
+  EXPECT_LT(AlbedoSsimShared(a.Pixels(), shifted.Pixels()), 0.0);
+}
+
+// Boundary error: two squares, one 3 pixels wider on the right: the moved
+// edge's pixels are 3 away, the others 0, and the max is 3.
+TEST(SharedMetrics, BoundaryErrorInPixels) {
+  const Image a = MakeImage(64, {10, 10, 40, 40}, 200, 100, 50);
+  const Image b = MakeImage(64, {10, 10, 43, 40}, 200, 100, 50);
+  const BoundaryError same = SilhouetteBoundaryError(a.Pixels(), a.Pixels());
+  EXPECT_EQ(same.mean_px, 0.0);
+  EXPECT_EQ(same.max_px, 0.0);
+  const BoundaryError e = SilhouetteBoundaryError(a.Pixels(), b.Pixels());
+  EXPECT_NEAR(e.max_px, 3.0, 1e-9);
+  EXPECT_GT(e.mean_px, 0.2);
+  EXPECT_LT(e.mean_px, 1.0);
+  // Symmetric.
+  const BoundaryError r = SilhouetteBoundaryError(b.Pixels(), a.Pixels());
+  EXPECT_NEAR(r.mean_px, e.mean_px, 1e-12);
+  // Only one side covers: the image diagonal.
+  const Image none = MakeImage(64, {0, 0, 0, 0}, 0, 0, 0);
+  EXPECT_NEAR(SilhouetteBoundaryError(a.Pixels(), none.Pixels()).mean_px, std::hypot(64.0, 64.0), 1e-9);
+  EXPECT_EQ(SilhouetteBoundaryError(none.Pixels(), none.Pixels()).max_px, 0.0);
+}
+
+}  // namespace
+}  // namespace impostor

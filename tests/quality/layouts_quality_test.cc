@@ -110,14 +110,14 @@ TEST_F(LayoutsQualityPass, EveryLayoutGetsAQualityBlock) {
     std::printf("[ figures  ] helmet %s (%d frames, %u px): views %u x %u px; iou mean %.4f min %.4f; psnr mean "
                 "%.2f min %.2f dB; ssim mean %.3f; normal mean %.2f deg; depth mean %.4f r; pop %.3f\n",
                 name.c_str(), FrameCount(ViewLayoutOf(*p)), c.resolution, q.views(), q.view_pixels(),
-                q.silhouette_iou_mean(), q.silhouette_iou_min(), q.albedo_psnr_db_mean(), q.albedo_psnr_db_min(),
-                q.albedo_ssim_mean(), q.normal_error_deg_mean(), q.depth_error_mean(), q.pop());
+                q.silhouette_iou_mean(), q.silhouette_iou_min(), q.albedo_psnr_union_db_mean(), q.albedo_psnr_union_db_min(),
+                q.albedo_ssim_union_mean(), q.normal_error_deg_mean(), q.depth_error_mean(), q.pop());
     EXPECT_EQ(q.views(), 8u);
     EXPECT_GE(q.view_pixels(), 8u);
     EXPECT_LE(q.view_pixels(), 128u);
     EXPECT_GT(q.silhouette_iou_mean(), 0.6f) << name;
     EXPECT_LE(q.silhouette_iou_min(), q.silhouette_iou_mean());
-    EXPECT_GT(q.albedo_psnr_db_mean(), 5.0f) << name;
+    EXPECT_GT(q.albedo_psnr_union_db_mean(), 5.0f) << name;
     EXPECT_TRUE(std::isfinite(q.pop())) << name;
     EXPECT_TRUE(fs::exists(dir / kQualityWorstViewFile)) << name;
     fs::remove_all(dir);

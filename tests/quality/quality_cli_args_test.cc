@@ -65,3 +65,21 @@ TEST(QualityCliArgsTest, QualityTakesAKeyAndAnOptionalOut) {
 
 }  // namespace
 }  // namespace impostor::cli
+
+namespace impostor::cli {
+namespace {
+
+TEST(QualityCliArgsTest, AllViewsBelongsToTheQualityCommand) {
+  auto a = ParseCliArgs({"quality", "abc", "--out", "d", "--all-views"}, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_TRUE(a->all_views);
+  auto without = ParseCliArgs({"quality", "abc"}, nullptr);
+  ASSERT_TRUE(without.ok());
+  EXPECT_FALSE(without->all_views);
+  // A flag without a value, and only for `quality`.
+  EXPECT_FALSE(ParseCliArgs({"quality", "abc", "--all-views=yes"}, nullptr).ok());
+  EXPECT_FALSE(ParseCliArgs({"bake", "m.glb", "--out", "d", "--all-views"}, nullptr).ok());
+}
+
+}  // namespace
+}  // namespace impostor::cli

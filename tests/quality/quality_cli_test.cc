@@ -51,7 +51,7 @@ TEST(QualityCli, GateFailsAndPassesAroundTheMeasuredBakeAndQualityReports) {
   const json manifest = ReadJson(dir / "plain/manifest.json");
   ASSERT_TRUE(manifest.contains("quality")) << manifest.dump();
   const double iou = manifest["quality"]["silhouette_iou_mean"].get<double>();
-  const double psnr = manifest["quality"]["albedo_psnr_db_mean"].get<double>();
+  const double psnr = manifest["quality"]["albedo_psnr_shared_db_mean"].get<double>();
   EXPECT_EQ(manifest["quality"]["views"], 4);
   EXPECT_TRUE(fs::exists(dir / "plain/quality_worst_view.png"));
   std::printf("Duck 4x4 128 px: IoU mean %.4f, PSNR mean %.2f dB\n", iou, psnr);

@@ -142,10 +142,10 @@ TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
   q->set_view_pixels(128);
   q->set_silhouette_iou_min(0.91f);
   q->set_silhouette_iou_mean(0.95f);
-  q->set_albedo_psnr_db_min(20.5f);
-  q->set_albedo_psnr_db_mean(24.25f);
-  q->set_albedo_ssim_min(0.6f);
-  q->set_albedo_ssim_mean(0.7f);
+  q->set_albedo_psnr_union_db_min(20.5f);
+  q->set_albedo_psnr_union_db_mean(24.25f);
+  q->set_albedo_ssim_union_min(0.6f);
+  q->set_albedo_ssim_union_mean(0.7f);
   q->set_normal_error_deg_mean(7.5f);
   q->set_normal_error_deg_max(120.0f);
   q->set_depth_error_mean(0.02f);

@@ -193,7 +193,7 @@ TEST(GlslBlend, ShaderWeightsMatchTheCpp) {
 struct ViewPush {
   glm::vec4 view_dir, view_up, view_right;
   glm::ivec4 params;  // layout, frames, tile_size, mode
-  glm::ivec4 flags;   // parallax, has_orm, pixels, 0
+  glm::ivec4 flags;   // reconstruction (IMPOSTOR_RECONSTRUCT_*), has_orm, pixels, ring_views
 };
 
 uint8_t Srgb8(float linear) {
@@ -222,7 +222,8 @@ absl::StatusOr<ViewImages> RenderWithShader(const gpu::VulkanContext& ctx, const
   const ViewLayout layout = AtlasViewLayout(atlas);
   push.params = {ShaderLayout(atlas.layout), atlas.frames, TileSize(atlas.resolution, GridSide(layout)),
                  options.blend == BlendMode::kTriangle3 ? 0 : 1};
-  push.flags = {options.parallax ? 1 : 0, 1, pixels, layout.ring_views};
+  const int mode = options.reconstruction == Reconstruction::kDepth ? 2 : (options.parallax ? 1 : 0);
+  push.flags = {mode, 1, pixels, layout.ring_views};
   const uint32_t groups = static_cast<uint32_t>((pixels + 7) / 8);
   IMPOSTOR_GPU_RETURN_IF_ERROR(RunKernel(ctx, impostor_runtime_view_comp, sizeof(impostor_runtime_view_comp),
                                          {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, albedo, sampler},
@@ -298,8 +299,10 @@ TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
                         FrameDirectionAt(layout, FrameCount(layout) / 2 + 1)}) {
       const FrameCamera view = ViewCameraFor(glm::normalize(d));
       for (BlendMode mode : {BlendMode::kTriangle3, BlendMode::kBilinear4}) {
-        for (bool parallax : {false, true}) {
-          const ReferenceRenderOptions options{mode, parallax};
+        for (int variant = 0; variant < 3; ++variant) {  // plain flat, plain parallax, depth
+          const bool parallax = variant == 1;
+          const ReferenceRenderOptions options{mode, parallax,
+                                               variant == 2 ? Reconstruction::kDepth : Reconstruction::kPlain};
           auto shader = RenderWithShader(c, atlas, albedo->view(), normal_depth->view(), orm->view(), sampler_raw,
                                          view, 64, options);
           ASSERT_TRUE(shader.ok()) << shader.status();
@@ -310,8 +313,8 @@ TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
           worst_albedo = std::max(worst_albedo, cmp.albedo_max_diff);
           worst_normal = std::max(worst_normal, cmp.normal_max_diff);
           worst_depth = std::max(worst_depth, cmp.depth_max_diff);
-          EXPECT_LE(cmp.coverage_mismatch, 2) << LayoutName(layout.kind) << " " << BlendModeName(mode) << " parallax "
-                                              << parallax << " view " << view.direction.x << "," << view.direction.y << "," << view.direction.z;
+          EXPECT_LE(cmp.coverage_mismatch, 2) << LayoutName(layout.kind) << " " << BlendModeName(mode) << " variant "
+                                              << variant << " view " << view.direction.x << "," << view.direction.y << "," << view.direction.z;
           EXPECT_LE(cmp.albedo_max_diff, 1);
           EXPECT_LE(cmp.orm_max_diff, 1);
           EXPECT_LE(cmp.normal_max_diff, 160);  // 0.005 in a normal component

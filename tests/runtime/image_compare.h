@@ -17,6 +17,7 @@ struct Comparison {
   double iou = 0.0;               // coverage (alpha >= 128) intersection / union
   int coverage_mismatch = 0;      // pixels covered in one image only
   double albedo_psnr_db = 0.0;    // over the union, empty pixels as black; inf if equal
+  double albedo_psnr_shared_db = 0.0;  // over the intersection only (colour fidelity); inf if equal
   int albedo_max_diff = 0;        // over the intersection, 8-bit levels
   int normal_max_diff = 0;        // over the intersection, 16-bit levels
   int depth_max_diff = 0;         // over the intersection, 16-bit levels
@@ -28,6 +29,8 @@ inline Comparison Compare(const ViewImages& a, const ViewImages& b) {
   int inter = 0, uni = 0;
   double sq = 0.0;
   long samples = 0;
+  double shared_sq = 0.0;
+  long shared_samples = 0;
   const size_t n = static_cast<size_t>(a.width) * a.height;
   for (size_t i = 0; i < n; ++i) {
     const bool ca = a.albedo_alpha[i * 4 + 3] >= 128;
@@ -42,6 +45,11 @@ inline Comparison Compare(const ViewImages& a, const ViewImages& b) {
     if (!(ca && cb)) continue;
     ++inter;
     for (int k = 0; k < 3; ++k) {
+      const double ds = a.albedo_alpha[i * 4 + k] - b.albedo_alpha[i * 4 + k];
+      shared_sq += ds * ds;
+      ++shared_samples;
+    }
+    for (int k = 0; k < 3; ++k) {
       c.albedo_max_diff = std::max(c.albedo_max_diff, std::abs(a.albedo_alpha[i * 4 + k] - b.albedo_alpha[i * 4 + k]));
       c.normal_max_diff = std::max(c.normal_max_diff, std::abs(a.normal_depth[i * 4 + k] - b.normal_depth[i * 4 + k]));
       if (!a.orm.empty() && !b.orm.empty()) {
@@ -53,6 +61,9 @@ inline Comparison Compare(const ViewImages& a, const ViewImages& b) {
   c.iou = uni == 0 ? 1.0 : static_cast<double>(inter) / uni;
   const double mse = samples == 0 ? 0.0 : sq / samples;
   c.albedo_psnr_db = mse == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(255.0 * 255.0 / mse);
+  const double shared_mse = shared_samples == 0 ? 0.0 : shared_sq / shared_samples;
+  c.albedo_psnr_shared_db = shared_mse == 0.0 ? std::numeric_limits<double>::infinity()
+                                              : 10.0 * std::log10(255.0 * 255.0 / shared_mse);
   return c;
 }
 

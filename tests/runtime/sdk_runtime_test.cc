@@ -183,3 +183,98 @@ TEST(SdkRuntime, NewLayoutsAreTheCommonImplementation) {
 
 }  // namespace
 }  // namespace impostor
+
+#include "common/runtime/reference_renderer.h"
+#include "tests/runtime/synthetic_atlas.h"
+
+namespace impostor {
+namespace {
+
+// Bilinear coverage and alpha-weighted depth of a tile at (u, v), clamped to
+// the tile, as a shader reads it (the reference renderer's filter).
+float ReadSurface(const ImpostorAtlas& atlas, const TileRect& tile, float u, float v, float* depth01) {
+  if (!(u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f)) return 0.0f;
+  const float fx = u * static_cast<float>(tile.width) - 0.5f;
+  const float fy = v * static_cast<float>(tile.height) - 0.5f;
+  const float flx = std::floor(fx), fly = std::floor(fy);
+  const float ax = fx - flx, ay = fy - fly;
+  const float bilinear[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+  float covered = 0.0f, depth = 0.0f;
+  for (int k = 0; k < 4; ++k) {
+    const int tx = tile.x + std::clamp(static_cast<int>(flx) + (k & 1), 0, tile.width - 1);
+    const int ty = tile.y + std::clamp(static_cast<int>(fly) + (k >> 1), 0, tile.height - 1);
+    const size_t texel = (static_cast<size_t>(ty) * atlas.width + tx) * 4;
+    const float w = bilinear[k] * atlas.albedo_alpha[texel + 3] / 255.0f;
+    covered += w;
+    depth += w * atlas.normal_depth[texel + 3] / 65535.0f;
+  }
+  if (covered > 0.0f) *depth01 = depth / covered;
+  return covered;
+}
+
+// The SDK's depth mode on a synthetic atlas: on a frame's own direction it
+// is that frame (weight 1, uv = the pixel's); between frames its coverage is
+// the reference renderer's pixel for pixel, its weights sum to 1 and some
+// frames drop out where they did not see the point (the ball behind).
+TEST(SdkRuntime, ReconstructDepthMatchesTheReferenceRenderer) {
+  const ViewLayout layout{LayoutKind::kOctahedral, 6, 0};
+  const ImpostorAtlas atlas = ::impostor::testing::BakeSyntheticAtlas(layout, 384);
+  const sdk::AtlasLayout sdk_layout{sdk::Layout::kOctahedral, 6, 0};
+  const float center[3] = {0.0f, 0.0f, 0.0f};
+  const int pixels = 64;
+  int dropped = 0, checked = 0;
+  for (const glm::vec3& d : {FrameDirectionAt(layout, 14),
+                             glm::normalize(FrameDirectionAt(layout, 14) + FrameDirectionAt(layout, 15)),
+                             glm::normalize(glm::vec3(0.31f, 0.42f, 0.77f))}) {
+    const FrameCamera view = ViewCameraFor(d);
+    const ViewImages want = RenderImpostorView(atlas, view, pixels, {BlendMode::kTriangle3, false, Reconstruction::kDepth});
+    const float dir[3] = {d.x, d.y, d.z};
+    const sdk::FrameBlend blend = sdk::BlendFrames(sdk_layout, dir, sdk::BlendMode::kTriangle3);
+    int own = -1;  // the entry with all the weight, on a frame's own direction
+    for (int k = 0; k < blend.count; ++k) {
+      if (blend.entries[k].weight == 1.0f) own = k;
+    }
+    const float ray[3] = {-d.x, -d.y, -d.z};
+    for (int y = 0; y < pixels; ++y) {
+      for (int x = 0; x < pixels; ++x) {
+        const glm::vec2 st((x + 0.5f) / pixels * 2.0f - 1.0f, 1.0f - (y + 0.5f) / pixels * 2.0f);
+        const glm::vec3 o = ViewRayOrigin(view, st);
+        const float origin[3] = {o.x, o.y, o.z};
+        const sdk::DepthReconstruction r = sdk::ReconstructDepth(
+            sdk_layout, blend, center, 1.0f, origin, ray, [&](int entry, float u, float v, float* depth01) {
+              return ReadSurface(atlas, atlas.cameras[blend.entries[entry].frame].tile, u, v, depth01);
+            });
+        const bool covered = want.albedo_alpha[(static_cast<size_t>(y) * pixels + x) * 4 + 3] == 255;
+        ASSERT_EQ(r.coverage >= 0.5f, covered) << "pixel " << x << "," << y;
+        if (!covered) continue;
+        ++checked;
+        float total = 0.0f;
+        for (int k = 0; k < blend.count; ++k) {
+          total += r.weight[k];
+          if (blend.entries[k].weight > 0.0f && r.weight[k] == 0.0f) ++dropped;
+        }
+        EXPECT_NEAR(total, 1.0f, 1e-5f);
+        if (own >= 0) {
+          EXPECT_EQ(r.weight[own], 1.0f);
+          EXPECT_NEAR(r.uv[own].u, (x + 0.5f) / pixels, 1e-5f);
+          EXPECT_NEAR(r.uv[own].v, (y + 0.5f) / pixels, 1e-5f);
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 3000);
+  EXPECT_GT(dropped, 0) << "some frames must drop out where they did not see the point";
+  EXPECT_EQ(sdk::ReconstructionFromName("depth"), sdk::Reconstruction::kDepth);
+  EXPECT_EQ(sdk::ReconstructionFromName("plain"), sdk::Reconstruction::kPlain);
+  EXPECT_EQ(sdk::ReconstructionFromName("relief"), std::nullopt);
+  EXPECT_EQ(sdk::ReconstructionName(sdk::Reconstruction::kDepth), "depth");
+  // Bad input: no radius, no ray.
+  const float origin[3] = {0.0f, 0.0f, 2.0f}, zero[3] = {0.0f, 0.0f, 0.0f};
+  const sdk::FrameBlend blend = sdk::BlendFrames(sdk_layout, origin, sdk::BlendMode::kTriangle3);
+  auto never = [](int, float, float, float*) { return 1.0f; };
+  EXPECT_EQ(sdk::ReconstructDepth(sdk_layout, blend, center, 0.0f, origin, zero, never).coverage, 0.0f);
+  EXPECT_EQ(sdk::ReconstructDepth(sdk_layout, blend, center, 1.0f, origin, zero, never).coverage, 0.0f);
+}
+
+}  // namespace
+}  // namespace impostor

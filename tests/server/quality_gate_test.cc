@@ -25,7 +25,7 @@ v1::Manifest Measured(uint32_t views, float iou, float psnr) {
   if (views > 0) {
     m.mutable_quality()->set_views(views);
     m.mutable_quality()->set_silhouette_iou_mean(iou);
-    m.mutable_quality()->set_albedo_psnr_db_mean(psnr);
+    m.mutable_quality()->set_albedo_psnr_shared_db_mean(psnr);
   }
   return m;
 }

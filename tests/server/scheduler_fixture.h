@@ -101,7 +101,7 @@ class SchedulerFixture : public ::testing::Test {
       v1::AtlasQuality* q = r.mutable_result()->mutable_quality();
       q->set_views(views);
       q->set_silhouette_iou_mean(iou);
-      q->set_albedo_psnr_db_mean(psnr);
+      q->set_albedo_psnr_shared_db_mean(psnr);
     }
     return r;
   }

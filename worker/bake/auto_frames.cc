@@ -82,7 +82,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlasAutoFrames(const AtlasBakeRequest& requ
     met.push_back(ok);
     spdlog::info("event=frames_auto_candidate cache_key={} frames={} iou_mean={:.4f} psnr_db_mean={:.2f} met={}",
                  request.cache_key, ladder[i], out->manifest.quality().silhouette_iou_mean(),
-                 out->manifest.quality().albedo_psnr_db_mean(), ok);
+                 out->manifest.quality().albedo_psnr_union_db_mean(), ok);
     if (kept.has_value()) fs::remove_all(kept_dir, ec);
     kept = std::move(*out);
     kept_dir = candidate.output_dir;

@@ -7,6 +7,7 @@
 #include <future>
 #include <numbers>
 #include <thread>
+#include <utility>
 
 #include <glm/geometric.hpp>
 #include <spdlog/spdlog.h>
@@ -99,9 +100,9 @@ absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, con
 // The impostor from every direction, rendered on all cores (the reference
 // renderer is pure).
 std::vector<ViewBuffers> RenderImpostorViews(const ImpostorAtlas& atlas, const std::vector<glm::vec3>& directions,
-                                             int pixels, BlendMode blend) {
+                                             int pixels, BlendMode blend, Reconstruction reconstruction) {
   std::vector<ViewBuffers> views(directions.size());
-  const ReferenceRenderOptions options{.blend = blend};
+  const ReferenceRenderOptions options{.blend = blend, .reconstruction = reconstruction};
   const size_t threads = std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 16);
   std::vector<std::future<void>> jobs;
   for (size_t worker = 0; worker < threads; ++worker) {
@@ -122,31 +123,98 @@ std::vector<ViewBuffers> RenderImpostorViews(const ImpostorAtlas& atlas, const s
 
 // Largest change of the impostor between neighbouring orbit steps relative
 // to the mesh's (see the header for the floor).
-absl::StatusOr<double> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas, const QualityPassOptions& o,
-                                  AtlasRenderer& renderer) {
+// Pop of each of `modes` (the mesh's orbit is rendered once).
+absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas,
+                                               const QualityPassOptions& o, const std::vector<Reconstruction>& modes,
+                                               AtlasRenderer& renderer) {
   const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
+  const float step = 2.0f * std::numbers::pi_v<float> / static_cast<float>(o.orbit_steps);
+  auto at = [&](float azimuth) {
+    return glm::vec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation), std::cos(elevation) * std::cos(azimuth));
+  };
+  // Every step (orbit_pairs 0 or >= orbit_steps): n views, step i compares
+  // views i and i + 1. Sampled: pair k compares the views at azimuth
+  // k * 360 / orbit_pairs and one step further.
+  const bool every_step = o.orbit_pairs <= 0 || o.orbit_pairs >= o.orbit_steps;
   std::vector<glm::vec3> orbit;
-  for (int i = 0; i < o.orbit_steps; ++i) {
-    const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(i) / static_cast<float>(o.orbit_steps);
-    orbit.push_back({std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
-                     std::cos(elevation) * std::cos(azimuth)});
+  std::vector<std::pair<int, int>> steps;
+  if (every_step) {
+    for (int i = 0; i < o.orbit_steps; ++i) {
+      orbit.push_back(at(step * static_cast<float>(i)));
+      steps.emplace_back(i, (i + 1) % o.orbit_steps);
+    }
+  } else {
+    for (int k = 0; k < o.orbit_pairs; ++k) {
+      const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(k) / static_cast<float>(o.orbit_pairs);
+      orbit.push_back(at(azimuth));
+      orbit.push_back(at(azimuth + step));
+      steps.emplace_back(2 * k, 2 * k + 1);
+    }
   }
   auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, renderer);
   if (!mesh.ok()) return mesh.status();
-  const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend);
-  const int n = o.orbit_steps;
-  std::vector<double> mesh_change(n), impostor_change(n);
+  const int n = static_cast<int>(steps.size());
+  std::vector<double> mesh_change(n);
   double mesh_mean = 0;
   for (int i = 0; i < n; ++i) {
-    const int j = (i + 1) % n;
-    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[i].Pixels(), (*mesh)[j].Pixels());
-    impostor_change[i] = MeanAbsoluteAlbedoChange(impostor[i].Pixels(), impostor[j].Pixels());
+    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[steps[i].first].Pixels(), (*mesh)[steps[i].second].Pixels());
     mesh_mean += mesh_change[i] / n;
   }
   const double floor = std::max(0.25 * mesh_mean, 0.5 / 255.0);
-  double pop = 0;
-  for (int i = 0; i < n; ++i) pop = std::max(pop, impostor_change[i] / std::max(mesh_change[i], floor));
-  return pop;
+  std::vector<double> pops;
+  for (Reconstruction mode : modes) {
+    const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend, mode);
+    double pop = 0;
+    for (int i = 0; i < n; ++i) {
+      const double change =
+          MeanAbsoluteAlbedoChange(impostor[steps[i].first].Pixels(), impostor[steps[i].second].Pixels());
+      pop = std::max(pop, change / std::max(mesh_change[i], floor));
+    }
+    pops.push_back(pop);
+  }
+  return pops;
+}
+
+// Mean and min (or max) of a per-view figure.
+struct Summary {
+  double min = 0, mean = 0, max = 0;
+};
+template <typename F>
+Summary Summarise(const std::vector<ViewMetrics>& views, F figure) {
+  Summary s;
+  if (views.empty()) return s;
+  s.min = s.max = figure(views[0]);
+  for (const ViewMetrics& m : views) {
+    const double v = figure(m);
+    s.min = std::min(s.min, v);
+    s.max = std::max(s.max, v);
+    s.mean += v / static_cast<double>(views.size());
+  }
+  return s;
+}
+
+v1::ReconstructionQuality ModeFigures(Reconstruction mode, const std::vector<ViewMetrics>& views) {
+  v1::ReconstructionQuality r;
+  r.set_reconstruction(std::string(ReconstructionName(mode)));
+  const Summary iou = Summarise(views, [](const ViewMetrics& m) { return m.iou; });
+  const Summary psnr = Summarise(views, [](const ViewMetrics& m) { return m.albedo_psnr_shared_db; });
+  const Summary ssim = Summarise(views, [](const ViewMetrics& m) { return m.albedo_ssim_shared; });
+  const Summary boundary = Summarise(views, [](const ViewMetrics& m) { return m.boundary_error_px_mean; });
+  const Summary boundary_max = Summarise(views, [](const ViewMetrics& m) { return m.boundary_error_px_max; });
+  r.set_silhouette_iou_min(static_cast<float>(iou.min));
+  r.set_silhouette_iou_mean(static_cast<float>(iou.mean));
+  r.set_albedo_psnr_shared_db_min(static_cast<float>(psnr.min));
+  r.set_albedo_psnr_shared_db_mean(static_cast<float>(psnr.mean));
+  r.set_albedo_ssim_shared_min(static_cast<float>(ssim.min));
+  r.set_albedo_ssim_shared_mean(static_cast<float>(ssim.mean));
+  r.set_boundary_error_px_mean(static_cast<float>(boundary.mean));
+  r.set_boundary_error_px_max(static_cast<float>(boundary_max.max));
+  r.set_normal_error_deg_mean(
+      static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.normal_error_deg_mean; }).mean));
+  r.set_depth_error_mean(static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.depth_error_mean; }).mean));
+  r.set_albedo_psnr_union_db_mean(
+      static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.albedo_psnr_db; }).mean));
+  return r;
 }
 
 // mesh | impostor | difference, each upscaled by `scale` (nearest). Mesh and
@@ -259,7 +327,9 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   result.directions = HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
   auto mesh = RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, renderer);
   if (!mesh.ok()) return mesh.status();
-  const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend);
+  const std::vector<ViewBuffers> impostor =
+      RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend, o.reconstruction);
+  const bool plain_too = o.also_plain && o.reconstruction != Reconstruction::kPlain;
 
   v1::AtlasQuality& q = result.quality;
   q.set_blend(std::string(BlendModeName(o.blend)));
@@ -286,25 +356,50 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   const double n = o.views;
   q.set_silhouette_iou_min(static_cast<float>(iou_min));
   q.set_silhouette_iou_mean(static_cast<float>(iou_sum / n));
-  q.set_albedo_psnr_db_min(static_cast<float>(psnr_min));
-  q.set_albedo_psnr_db_mean(static_cast<float>(psnr_sum / n));
-  q.set_albedo_ssim_min(static_cast<float>(ssim_min));
-  q.set_albedo_ssim_mean(static_cast<float>(ssim_sum / n));
+  q.set_albedo_psnr_union_db_min(static_cast<float>(psnr_min));
+  q.set_albedo_psnr_union_db_mean(static_cast<float>(psnr_sum / n));
+  q.set_albedo_ssim_union_min(static_cast<float>(ssim_min));
+  q.set_albedo_ssim_union_mean(static_cast<float>(ssim_sum / n));
   q.set_normal_error_deg_mean(static_cast<float>(normal_sum / n));
   q.set_normal_error_deg_max(static_cast<float>(normal_max));
   q.set_depth_error_mean(static_cast<float>(depth_sum / n));
   q.set_depth_error_max(static_cast<float>(depth_max));
   q.set_worst_view(static_cast<uint32_t>(worst));
+  const v1::ReconstructionQuality headline = ModeFigures(o.reconstruction, result.per_view);
+  q.set_reconstruction(headline.reconstruction());
+  q.set_albedo_psnr_shared_db_min(headline.albedo_psnr_shared_db_min());
+  q.set_albedo_psnr_shared_db_mean(headline.albedo_psnr_shared_db_mean());
+  q.set_albedo_ssim_shared_min(headline.albedo_ssim_shared_min());
+  q.set_albedo_ssim_shared_mean(headline.albedo_ssim_shared_mean());
+  q.set_boundary_error_px_mean(headline.boundary_error_px_mean());
+  q.set_boundary_error_px_max(headline.boundary_error_px_max());
+  if (plain_too) {
+    const std::vector<ViewBuffers> plain =
+        RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend, Reconstruction::kPlain);
+    for (int i = 0; i < o.views; ++i) result.plain_per_view.push_back(CompareViews((*mesh)[i].Pixels(), plain[i].Pixels()));
+    *q.mutable_plain() = ModeFigures(Reconstruction::kPlain, result.plain_per_view);
+  }
   result.views_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (o.orbit_steps > 0) {
     const auto pop_start = Clock::now();
-    auto pop = MeasurePop(scene, atlas, o, renderer);
-    if (!pop.ok()) return pop.status();
-    q.set_pop(static_cast<float>(*pop));
+    std::vector<Reconstruction> modes = {o.reconstruction};
+    if (plain_too) modes.push_back(Reconstruction::kPlain);
+    auto pops = MeasurePop(scene, atlas, o, modes, renderer);
+    if (!pops.ok()) return pops.status();
+    q.set_pop(static_cast<float>((*pops)[0]));
+    if (plain_too) q.mutable_plain()->set_pop(static_cast<float>((*pops)[1]));
     result.pop_seconds = std::chrono::duration<double>(Clock::now() - pop_start).count();
   }
   if (!o.worst_view_png.empty()) {
     if (auto s = WriteSideBySide(o.worst_view_png, (*mesh)[worst], impostor[worst]); !s.ok()) return s;
+  }
+  if (!o.views_dir.empty()) {
+    std::vector<QualityViewImage> images;
+    for (int i = 0; i < o.views; ++i) images.push_back({(*mesh)[i].albedo_alpha, impostor[i].albedo_alpha});
+    auto files = WriteQualityViews(o.views_dir, atlas.sphere, q.reconstruction(), q.blend(), o.view_pixels,
+                                   result.directions, images, result.per_view);
+    if (!files.ok()) return files.status();
+    result.view_files = std::move(*files);
   }
   result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return result;
@@ -345,6 +440,7 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   atlas.normal_depth = std::move(maps.normal_depth);
   atlas.orm = std::move(maps.orm);
   options.worst_view_png = dir / kQualityWorstViewFile;
+  options.views_dir = dir;
   auto result = MeasureAtlasQuality(scene, atlas, cache_key, options, renderer);
   if (!result.ok()) return result.status();
   auto digest = DigestFile(options.worst_view_png);
@@ -365,14 +461,37 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
                         "A: 255"}) {
     map->add_channels(c);
   }
+  for (const QualityViewsFile& f : result->view_files) {
+    auto view_digest = DigestFile(dir / f.file);
+    if (!view_digest.ok()) return view_digest.status();
+    v1::MapFile* view = manifest->add_maps();
+    view->set_semantic(f.semantic);
+    view->set_file(f.file);
+    view->mutable_digest()->set_hash(view_digest->hash);
+    view->mutable_digest()->set_size_bytes(view_digest->size_bytes);
+    view->set_width(static_cast<uint32_t>(f.width));
+    view->set_height(static_cast<uint32_t>(f.height));
+    if (f.width == 0) {
+      view->set_format("json");
+      view->add_channels("every held-out view's camera and figures (quality_views.h)");
+      continue;
+    }
+    view->set_format("png_rgba8");
+    for (const char* c : {"R: albedo, sRGB", "G: albedo, sRGB", "B: albedo, sRGB",
+                          "A: coverage, 0 or 255 (straight alpha)"}) {
+      view->add_channels(c);
+    }
+  }
   *manifest->mutable_quality() = result->quality;
   const v1::AtlasQuality& q = result->quality;
   spdlog::info(
-      "event=quality_pass cache_key={} frames={} views={} view_pixels={} blend={} iou_mean={:.4f} iou_min={:.4f} "
-      "psnr_db_mean={:.2f} ssim_mean={:.4f} normal_deg_mean={:.2f} depth_error_mean={:.4f} pop={:.3f} "
+      "event=quality_pass cache_key={} frames={} views={} view_pixels={} blend={} reconstruction={} iou_mean={:.4f} "
+      "iou_min={:.4f} shared_psnr_db_mean={:.2f} shared_ssim_mean={:.4f} boundary_px_mean={:.2f} plain_iou_mean={:.4f} "
+      "plain_shared_psnr_db_mean={:.2f} normal_deg_mean={:.2f} depth_error_mean={:.4f} pop={:.3f} "
       "worst_view={} views_seconds={:.2f} pop_seconds={:.2f} seconds={:.2f}",
-      cache_key, atlas.frames, q.views(), q.view_pixels(), q.blend(), q.silhouette_iou_mean(),
-      q.silhouette_iou_min(), q.albedo_psnr_db_mean(), q.albedo_ssim_mean(), q.normal_error_deg_mean(),
+      cache_key, atlas.frames, q.views(), q.view_pixels(), q.blend(), q.reconstruction(), q.silhouette_iou_mean(),
+      q.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(), q.albedo_ssim_shared_mean(), q.boundary_error_px_mean(),
+      q.plain().silhouette_iou_mean(), q.plain().albedo_psnr_shared_db_mean(), q.normal_error_deg_mean(),
       q.depth_error_mean(), q.pop(), q.worst_view(), result->views_seconds, result->pop_seconds, result->seconds);
   return absl::OkStatus();
 }

@@ -9,6 +9,9 @@
 // is measured with common/quality/image_metrics.h and the figures are
 // summarised (min, mean) into v1::AtlasQuality.
 //
+// Every view is measured in options.reconstruction (depth by default) and,
+// with also_plain, in plain mode too (AtlasQuality.plain).
+//
 // Pop: the camera orbits the object at a fixed elevation in 1 degree steps;
 // for each step, the change of the reconstruction (MeanAbsoluteAlbedoChange
 // between neighbouring steps) is divided by the mesh's own change over the
@@ -41,6 +44,7 @@
 #include "common/quality/image_metrics.h"
 #include "common/runtime/reference_renderer.h"
 #include "impostor/v1/types.pb.h"
+#include "worker/bake/quality_views.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/scene/scene.h"
 
@@ -68,18 +72,33 @@ struct QualityPassOptions {
   // `orbit_elevation_deg` above the horizon, `orbit_pixels` on a side
   // (small: the pop is about changes, not detail). 0 steps = no pop.
   int orbit_steps = 360;
+  // Steps measured: 0 (or >= orbit_steps) = every step of the orbit;
+  // otherwise `orbit_pairs` steps spread evenly around it (each still one
+  // 360 / orbit_steps degree step), which renders 2 * orbit_pairs views
+  // instead of orbit_steps. 36 (every 10 degrees) keeps the pass cheap with
+  // the depth reconstruction, about 10 x plain's cost per pixel.
+  int orbit_pairs = 36;
   int orbit_pixels = 64;
   float orbit_elevation_deg = 20.0f;
   BlendMode blend = BlendMode::kTriangle3;
+  // The runtime reconstruction measured (the manifest's headline figures)
+  // and whether the same views are also measured in plain mode
+  // (AtlasQuality.plain, with its own pop orbit of the impostor).
+  Reconstruction reconstruction = Reconstruction::kDepth;
+  bool also_plain = true;
   // Where to write the worst view side by side (mesh | impostor |
   // difference); empty = not written.
   std::filesystem::path worst_view_png;
+  // Where to write every held-out view (quality_views.h); empty = not written.
+  std::filesystem::path views_dir;
 };
 
 struct QualityPassResult {
   v1::AtlasQuality quality;
   std::vector<glm::vec3> directions;  // the held-out views, quality.views of them
   std::vector<ViewMetrics> per_view;  // same order
+  std::vector<ViewMetrics> plain_per_view;  // same order; empty unless also_plain
+  std::vector<QualityViewsFile> view_files;  // written into views_dir
   double seconds = 0;        // the whole pass
   double views_seconds = 0;  // held-out views: render both sides, measure
   double pop_seconds = 0;    // the orbit

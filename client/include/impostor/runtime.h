@@ -153,6 +153,31 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
 void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 
+// ---- Reconstruction modes (docs/runtime.md: cost of each) ----
+// plain: each blended frame sampled on its virtual plane (VirtualPlaneUv, or
+// VirtualPlaneUvParallax). depth: every blended frame samples the same
+// surface point and frames that did not see it drop out, which removes the
+// double image between frames (common/runtime/depth_reconstruction.h).
+enum class Reconstruction { kPlain, kDepth };
+std::optional<Reconstruction> ReconstructionFromName(std::string_view name);  // "plain", "depth"
+std::string_view ReconstructionName(Reconstruction mode);
+
+// Depth mode for one view ray. `read(entry, u, v, &depth01)` returns blend
+// entry `entry`'s filtered coverage (0..1) at its tile coordinates (u, v)
+// and, where > 0, its depth (normal_depth's A). The answer: coverage (the
+// pixel is covered iff >= 0.5) and per blend entry where to sample it (uv)
+// and its share of the shading (weight; the used entries' weights sum to 1
+// where covered, 0 for entries that did not see the point).
+using FrameSurfaceReader = std::function<float(int entry, float u, float v, float* depth01)>;
+struct DepthReconstruction {
+  float coverage = 0.0f;
+  FrameUv uv[4];
+  float weight[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+};
+DepthReconstruction ReconstructDepth(const AtlasLayout& layout, const FrameBlend& blend, const float sphere_center[3],
+                                     float sphere_radius, const float ray_origin[3], const float ray_dir[3],
+                                     const FrameSurfaceReader& read);
+
 }  // namespace impostor::sdk
 
 #endif  // IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_

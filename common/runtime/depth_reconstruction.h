@@ -1,0 +1,114 @@
+// Depth-aware reconstruction ("depth" mode): every blended frame samples the
+// same surface point, and a frame that did not see that point drops out.
+//
+// "plain" (today's default before depth) samples each blended frame where the
+// view ray meets the frame's flat virtual plane; frames 30 degrees apart then
+// sample different surface points and the blend shows a double image.
+// "depth" uses the depth map every atlas already holds:
+//  1. March: for every blended frame i (weight > 0) the view ray is marched
+//     through the frame's height field (IntersectFrameHeightField: 16 steps
+//     + 4 bisections, as parallax). Frame i's depth map is the front of a
+//     solid that contains the object (everything behind what frame i saw),
+//     so the ray's entry into it, at distance lambda_i along the ray, is at or
+//     before the true surface. A frame whose march finds nothing gives no
+//     coverage (the ray misses the object as that frame saw it).
+//  2. Coverage: A = sum_i w_i a_i over the march hits (as parallax); the
+//     pixel is covered iff A >= 0.5.
+//  3. Candidates: every frame's hit point P_i lies on the ray.
+//  4. Agreement (disocclusion): a candidate is projected into every blended
+//     frame j (s_j, t_j, height h_j = dot(P - c, d_j) / r) and the frame's
+//     surface height S_j there is read. A frame saw P iff S_j = h_j; where it
+//     saw something in front of P (P occluded for frame j) or behind it, the
+//     difference is large. Its vote is
+//     w_j * a_j * g_j, g_j = clamp((kDepthAgreement - |S_j - h_j|) /
+//     (kDepthAgreement / 2), 0, 1): 1 up to half the tolerance, 0 beyond.
+//     A frame whose march stopped on the wall behind an occluder (a point
+//     it never saw) disagrees even with its own hit there.
+//     The common point P is the deepest candidate with at least
+//     kSupportShare of the best candidate's support: each frame's height
+//     field is the front of a solid containing the object, so hits are
+//     bounds from the front and the deepest well-seen one is the tightest;
+//     a frame with a negligible weight cannot move P on its own.
+//  5. Shading: colour, normal, ORM and depth blend the frames' samples at P
+//     by their votes w_j * a_j * g_j, so frames that did not see P drop out.
+//     If no frame agrees with any candidate (a point no blended frame saw),
+//     each frame is sampled at its own hit, as parallax does.
+// On a frame's own direction only that frame has weight, P is its march hit
+// and the result is the frame itself, as with plain and parallax.
+//
+// Cost in texture reads per pixel, n = blended frames (3, or 4 for
+// bilinear4): per frame the march reads alpha + depth up to 17 + 4 times;
+// the votes read alpha + depth at n candidates in n - 1 other frames; the
+// final sample at P reads albedo, normal_depth and ORM once per frame.
+#ifndef IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
+#define IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
+
+#include <array>
+#include <functional>
+#include <string_view>
+
+#include <glm/vec3.hpp>
+
+#include "absl/status/statusor.h"
+#include "common/frame_camera.h"
+#include "common/runtime/virtual_plane.h"
+
+namespace impostor {
+
+// How a runtime reconstructs a pixel from its blended frames.
+enum class Reconstruction {
+  kPlain,  // flat virtual planes (with the `parallax` option: marched, no agreement)
+  kDepth,  // the common surface point with disocclusion weights (this file)
+};
+
+// "plain" / "depth"; anything else is InvalidArgument naming the field.
+absl::StatusOr<Reconstruction> ParseReconstruction(std::string_view name);
+std::string_view ReconstructionName(Reconstruction mode);
+
+// Tolerance of the agreement test, in radius units (a frame's height
+// difference above which it did not see the point). About two bisection
+// intervals of the march (2 / 16 / 16 = 0.0078) plus a few texels of a
+// 128..256 px tile (2 / tile per texel) on sloped surfaces.
+inline constexpr float kDepthAgreement = 0.05f;
+// A candidate needs this share of the best candidate's support to be P.
+inline constexpr float kSupportShare = 0.5f;
+
+// The agreement weight g of step 4 for a frame whose surface height at P's
+// projection is `surface_height` while P's own height in it is `point_height`.
+float DepthAgreement(float surface_height, float point_height);
+
+// The point (radius units from the centre) of a frame sample: st on the
+// frame's plane, shifted by its height along the frame direction.
+glm::vec3 FramePoint(const FrameCamera& frame, const PlaneSample& sample);
+
+// P's frame coordinates and height in `frame` (always valid).
+PlaneSample ProjectPointToFrame(const FrameCamera& frame, glm::vec3 point);
+
+// Distance along the unit ray `ray_unit` from `origin` to a point on it.
+float RayDistance(glm::vec3 origin, glm::vec3 ray_unit, glm::vec3 point);
+
+// Depth mode for one ray over the blended frames (at most 4 entries).
+struct DepthEntry {
+  const FrameCamera* frame = nullptr;  // the entry's bake camera
+  float weight = 0.0f;                 // its blend weight
+};
+struct DepthSampleAt {
+  bool used = false;     // the entry shades the pixel (weight > 0)
+  glm::vec2 st{0.0f};    // where to sample it: P's frame coordinates
+  float weight = 0.0f;   // w * a * g, not normalised
+};
+struct DepthPixel {
+  float coverage = 0.0f;  // sum of w * a over the march hits; covered iff >= 0.5
+  std::array<DepthSampleAt, 4> samples;
+};
+// The entry's march (IntersectFrameHeightField with its reader).
+using DepthMarch = std::function<PlaneSample(int entry)>;
+// The entry's filtered coverage at st and, where it is > 0, the surface
+// height there (1 - 2 * depth01).
+using DepthSurface = std::function<float(int entry, glm::vec2 st, float* height)>;
+DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
+                            glm::vec3 ray_unit, const DepthMarch& march, const DepthSurface& surface);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
