@@ -94,6 +94,22 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
   if (settings.quality_views.has_value()) p.set_quality_views(*settings.quality_views);
   p.set_emissive(settings.emissive);
   p.set_texture_array(settings.texture_array);
+  if (settings.texture_format == "png") {
+    p.set_texture_format(v1::TEXTURE_FORMAT_PNG);
+  } else if (settings.texture_format == "ktx2") {
+    p.set_texture_format(v1::TEXTURE_FORMAT_KTX2);
+  } else if (!settings.texture_format.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("texture_format: unknown format \"", settings.texture_format,
+                                                   "\"; expected png or ktx2"));
+  }
+  if (settings.albedo_codec == "uastc") {
+    p.set_albedo_codec(v1::ALBEDO_CODEC_UASTC);
+  } else if (settings.albedo_codec == "uastc-rdo") {
+    p.set_albedo_codec(v1::ALBEDO_CODEC_UASTC_RDO);
+  } else if (!settings.albedo_codec.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("albedo_codec: unknown codec \"", settings.albedo_codec,
+                                                   "\"; expected uastc or uastc-rdo"));
+  }
   // frames_auto's target is the request's gate: one pair of thresholds.
   if (settings.frames_auto) {
     p.set_frames_auto(true);

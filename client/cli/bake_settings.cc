@@ -22,6 +22,8 @@ sdk::BakeSettings BakeSettingsFromArgs(const CliArgs& args) {
   s.quality_views = args.quality_views;
   s.emissive = args.emissive;
   s.texture_array = args.texture_array;
+  s.texture_format = args.texture_format;
+  s.albedo_codec = args.albedo_codec;
   s.follow_symlinks = args.follow_symlinks;
   return s;
 }

@@ -153,6 +153,22 @@ const std::map<std::string, Setter>& SettingKeys() {
          s.texture_array = v.get<bool>();
          return absl::OkStatus();
        }},
+      {"texture_format",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_string() || (v.get<std::string>() != "png" && v.get<std::string>() != "ktx2")) {
+           return Bad(where, absl::StrCat("expected \"png\" or \"ktx2\", got ", Shown(v)));
+         }
+         s.texture_format = v.get<std::string>();
+         return absl::OkStatus();
+       }},
+      {"albedo_codec",
+       [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
+         if (!v.is_string() || (v.get<std::string>() != "uastc" && v.get<std::string>() != "uastc-rdo")) {
+           return Bad(where, absl::StrCat("expected \"uastc\" or \"uastc-rdo\", got ", Shown(v)));
+         }
+         s.albedo_codec = v.get<std::string>();
+         return absl::OkStatus();
+       }},
       {"supersampling",
        [](const std::string& where, const json& v, sdk::BakeSettings& s) -> absl::Status {
          auto n = WholeNumber(where, v);

@@ -23,7 +23,7 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
+       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views", "--texture-format", "--albedo-codec"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going", "--follow-symlinks"},
@@ -236,6 +236,16 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
     } else if (flag == "--preset") {
       if (value->empty()) return Usage("--preset: missing value");
       out.preset = *value;
+    } else if (flag == "--texture-format") {
+      if (*value != "png" && *value != "ktx2") {
+        return Usage(absl::StrCat("--texture-format: unknown format \"", *value, "\"; expected png or ktx2"));
+      }
+      out.texture_format = *value;
+    } else if (flag == "--albedo-codec") {
+      if (*value != "uastc" && *value != "uastc-rdo") {
+        return Usage(absl::StrCat("--albedo-codec: unknown codec \"", *value, "\"; expected uastc or uastc-rdo"));
+      }
+      out.albedo_codec = *value;
     } else if (flag == "--lod-ratios") {
       // "0.5,0.1": plain decimal numbers; their rules are the server's.
       out.lod_ratios.clear();
@@ -376,6 +386,10 @@ Usage:
         --array       atlas: write each map as a texture array (layer i =
                       view i, stacked top to bottom in one tile-wide PNG)
                       instead of an atlas
+        --texture-format png|ktx2  atlas: map file format (default png);
+                      ktx2 = Basis Universal UASTC with a per-tile mip chain,
+                      resolution rounded down so tiles are multiples of 4 px
+        --albedo-codec uastc|uastc-rdo  ktx2: the albedo map's codec
         --emissive    atlas: also bake emissive.png (emissive texture x
                       factor x KHR_materials_emissive_strength, sRGB, A =
                       coverage), listed in the manifest's maps
@@ -409,7 +423,7 @@ Usage:
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
       and of defaults, as bake's flags: layout, frames (or "auto"),
       resolution, product, preset, point_budget, ring_views, supersampling,
-      quality_views, emissive, texture_array, lod_ratios, lod_pixel_error,
+      quality_views, emissive, texture_array, texture_format, albedo_codec, lod_ratios, lod_pixel_error,
       max_planes, tolerance, priority, min_iou, min_psnr_db; an asset also has path
       (required, relative to SPEC's folder) and name (its folder in DIR,
       default the file name without extension). Uploads only the blobs the

@@ -97,6 +97,10 @@ struct CliArgs {
   bool emissive = false;
   // --array (bake): texture arrays instead of atlases.
   bool texture_array = false;
+  // --texture-format png|ktx2 and --albedo-codec uastc|uastc-rdo (bake):
+  // checked here, meaning the server's. Empty = the server's default.
+  std::string texture_format;
+  std::string albedo_codec;
   // --follow-symlinks (bake, bake-batch): BakeSettings::follow_symlinks.
   bool follow_symlinks = false;
   // cache commands: --cache-dir (empty = $IMPOSTOR_CACHE_DIR, else

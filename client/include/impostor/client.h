@@ -258,6 +258,16 @@ struct BakeSettings {
   // [i * tile_size, (i + 1) * tile_size); each view's tile in the manifest
   // gives its layer. For engines that prefer arrays. Default: false.
   bool texture_array = false;
+
+  // Product "atlas" only: file format of the maps, "png" or "ktx2" (each map
+  // a KTX2 file, Basis Universal UASTC, with a mip chain made per tile so no
+  // level mixes frames; docs/ktx2.md). The server rounds resolution down so
+  // tiles are multiples of 4 px at every level. Default: empty = "png".
+  // Not with texture_array or frames_auto. Checked by the server.
+  std::string texture_format;
+  // texture_format "ktx2" only: the albedo map's codec, "uastc" or
+  // "uastc-rdo" (smaller, slightly lossier). Default: empty = "uastc".
+  std::string albedo_codec;
   // Upload a buffer/image reached through a symbolic link that leads out of
   // the model's folder. Not sent to the server; not part of the cache key.
   // Default: false, and such a link is PERMISSION_DENIED naming the link and

@@ -1,0 +1,30 @@
+#version 450
+// Usage example and compile check for impostorShadowCaster
+// (impostor_material.glsl): the impostor in a depth-only shadow pass, its
+// card facing the light, alpha-tested, with the pixel depth offset applied.
+#extension GL_GOOGLE_include_directive : require
+#include "impostor_material.glsl"
+
+layout(push_constant) uniform ImpostorPush {
+  mat4 view_projection;  // world -> light clip (orthographic)
+  vec4 eye_object;       // xyz: toward the light (unit), object space
+  ivec4 params;          // layout, frames, tile_size, blend mode
+  ivec4 flags;           // z: ring_views
+  vec4 sphere;           // xyz centre, w radius (object space)
+} push;
+
+layout(set = 0, binding = 0) uniform sampler2D albedo_alpha_tex;
+layout(set = 0, binding = 1) uniform sampler2D normal_depth_tex;
+
+layout(location = 0) in vec3 in_ray_origin;
+layout(location = 1) in vec3 in_ray_dir;
+
+void main() {
+  ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.z);
+  float depth;
+  if (!impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, push.params.w, push.sphere,
+                            mat4(1.0), push.view_projection, in_ray_origin, normalize(push.eye_object.xyz), depth)) {
+    discard;
+  }
+  gl_FragDepth = depth;
+}

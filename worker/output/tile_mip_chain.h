@@ -1,0 +1,53 @@
+// The mip chain of a baked atlas, made for impostors: each level is the 2x2
+// box filter of the one above and is then dilated again, tile by tile, so a
+// level's empty texels take the colour of that level's own silhouette and
+// never another frame's. With tiles that start on multiples of 2^L (as
+// TileSize / BlockAlignedTileSize lay them out), every 2x2 footprint of
+// levels 1..L lies inside one tile, so no level mixes two frames.
+//
+// Coverage (albedo alpha, ORM alpha) is box filtered like colour. Depth
+// (normal_depth alpha) is the mean of the covered parents only, so the
+// silhouette's depth is not pulled toward "far"; normals are the mean of the
+// parents, renormalised.
+//
+// Pure functions, thread-safe on distinct images.
+#ifndef IMPOSTOR_WORKER_OUTPUT_TILE_MIP_CHAIN_H_
+#define IMPOSTOR_WORKER_OUTPUT_TILE_MIP_CHAIN_H_
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "common/frame_camera.h"
+
+namespace impostor {
+
+template <typename T>
+struct MipLevel {
+  int width = 0;
+  int height = 0;
+  std::vector<T> rgba;  // width * height * 4, rows top to bottom
+};
+
+// Levels 0..levels-1 of an RGBA8 map whose alpha is coverage (albedo, ORM,
+// emissive); level 0 is `rgba` as given (already dilated). `tiles` are
+// level 0's tiles. INVALID_ARGUMENT if the buffer size is wrong, levels < 1,
+// or a tile does not start and end on multiples of 2^(levels-1) (its texels
+// would mix with a neighbour's).
+absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(std::span<const uint8_t> rgba, int width,
+                                                                   int height, std::span<const TileRect> tiles,
+                                                                   int levels);
+
+// The same for the RGBA16 normal_depth map, whose coverage comes from the
+// albedo chain built by BuildCoverageMipChain (same sizes and level count).
+// Errors as above, plus a size mismatch with `coverage`.
+absl::StatusOr<std::vector<MipLevel<uint16_t>>> BuildNormalDepthMipChain(
+    std::span<const uint16_t> rgba, std::span<const MipLevel<uint8_t>> coverage, std::span<const TileRect> tiles);
+
+// The tiles of level `level`: each rectangle divided by 2^level.
+std::vector<TileRect> TilesAtLevel(std::span<const TileRect> tiles, int level);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_OUTPUT_TILE_MIP_CHAIN_H_
