@@ -27,6 +27,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_split.h"
 #include "common/bake_request.h"
 #include "common/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
@@ -170,7 +172,15 @@ int main(int argc, char** argv) {
     return static_cast<bool>(out);
   };
   for (const Asset& asset : kAssets) {
-    if (!only.empty() && std::string(asset.name).find(only) == std::string::npos) continue;
+    // --only A,B: assets whose name contains any of the substrings.
+    if (!only.empty() && [&] {
+          for (absl::string_view part : absl::StrSplit(only, ',')) {
+            if (!part.empty() && absl::StrContains(asset.name, part)) return false;
+          }
+          return true;
+        }()) {
+      continue;
+    }
     // The octahedral layouts at every count of the ladder; the others once,
     // at their defaults (azimuth-elevation 13 x 13 ~ 12 x 12, ring-top 24 + 1,
     // billboard 3 x 3).
