@@ -72,5 +72,26 @@ TEST(CacheHitRpcTest, HitsAddNoRowAndTheirIdsAnswerWatchAndGetJob) {
   EXPECT_EQ(server.bake().GetJob(ContextWithin().get(), get, &job).error_code(), grpc::StatusCode::NOT_FOUND);
 }
 
+TEST(CacheHitRpcTest, OutOfRangeServingFlagsAreRefusedNamingTheFlag) {
+  const std::filesystem::path data = NewTempDir("serving_flags");
+  const struct {
+    std::string flag;
+    std::string message;
+  } cases[] = {
+      {"--job-retention-days=-1", "--job-retention-days: -1 is out of range 0..36500"},
+      {"--job-retention-days=36501", "--job-retention-days: 36501 is out of range 0..36500"},
+      {"--result-touch-flush-seconds=0", "--result-touch-flush-seconds: 0 is out of range 1..3600"},
+      {"--result-touch-flush-seconds=3601", "--result-touch-flush-seconds: 3601 is out of range 1..3600"},
+  };
+  for (const auto& c : cases) {
+    const ToolRun run = RunTool({(BinaryDir() / "impostor-server").string(), "--data=" + data.string(),
+                                 "--listen=127.0.0.1:0", c.flag},
+                                std::chrono::seconds(60));  // a server that accepted it would serve on
+    EXPECT_EQ(run.exit_code, 2) << c.flag;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << c.flag << ": " << run.err;
+  }
+  std::filesystem::remove_all(data);
+}
+
 }  // namespace
 }  // namespace impostor::testing
