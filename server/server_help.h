@@ -19,8 +19,8 @@ inline ProgramHelp ServerHelp() {
                  "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM or SIGINT drains and stops it.",
       .groups = {{"Listening", {"listen", "port_file", "http_", "tls_"}},
                  {"Access control", {"auth", "token_"}},
-                 {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes"}},
-                 {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_"}},
+                 {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "result_touch_"}},
+                 {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},
                  {"Workers", {"local_workers", "worker_"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},
       .footer = "Exit status: 0 after a clean shutdown, 2 for a bad flag value (one line on stderr naming the flag "
