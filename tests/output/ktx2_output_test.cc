@@ -144,6 +144,25 @@ TEST(TileMipChain, DepthOfTheSilhouetteIsNotPulledTowardFar) {
   EXPECT_NEAR(l1.rgba[(0 * 4 + 0) * 4 + 2], 65535, 1);  // normal stays unit +z
 }
 
+TEST(TileMipChain, DepthDilationFillsEmptyTexelsFromTheirOwnTile) {
+  // Two 4x4 tiles side by side; one covered texel each, at depths 0.2 / 0.7.
+  MipLevel<uint8_t> cov{8, 4, std::vector<uint8_t>(8 * 4 * 4, 0)};
+  MipLevel<uint16_t> nd{8, 4, std::vector<uint16_t>(8 * 4 * 4, 65535)};
+  cov.rgba[(1 * 8 + 1) * 4 + 3] = 255;
+  nd.rgba[(1 * 8 + 1) * 4 + 3] = 13107;
+  cov.rgba[(2 * 8 + 6) * 4 + 3] = 255;
+  nd.rgba[(2 * 8 + 6) * 4 + 3] = 45875;
+  const std::vector<TileRect> tiles = {{0, 0, 4, 4}, {4, 0, 4, 4}};
+  ASSERT_TRUE(DilateDepth(nd, cov, tiles).ok());
+  for (int y = 0; y < 4; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      EXPECT_EQ(nd.rgba[(y * 8 + x) * 4 + 3], x < 4 ? 13107 : 45875) << x << "," << y;
+    }
+  }
+  MipLevel<uint8_t> small{4, 4, std::vector<uint8_t>(64, 0)};
+  EXPECT_EQ(DilateDepth(nd, small, tiles).code(), absl::StatusCode::kInvalidArgument);
+}
+
 TEST(TileMipChain, BadInputsAreRefused) {
   std::vector<uint8_t> rgba(16 * 16 * 4, 0);
   const std::vector<TileRect> misaligned = {{2, 0, 8, 8}};

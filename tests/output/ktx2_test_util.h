@@ -35,8 +35,19 @@ inline absl::StatusOr<std::vector<MipLevel<uint8_t>>> DecodeKtx2(const std::file
         dir / absl::StrCat(ktx2.stem().string(), "_unpacked_rgba_ASTC_RGBA_", i, "_0000.png");
     auto image = ReadPng(png);
     if (!image.ok()) return image.status();
-    if (image->channels != 4 || image->bit_depth != 8) {
-      return absl::InternalError(absl::StrCat(png.string(), ": not RGBA8"));
+    if (image->channels < 1 || image->channels > 4 || image->bit_depth != 8) {
+      return absl::InternalError(absl::StrCat(png.string(), ": not an 8-bit image"));
+    }
+    if (image->channels != 4) {  // grey, grey + alpha or RGB (no alpha: A = 255)
+      const int n = image->channels;
+      std::vector<uint8_t> rgba;
+      rgba.reserve(image->pixels8.size() / n * 4);
+      for (size_t i = 0; i < image->pixels8.size(); i += n) {
+        const uint8_t* p = &image->pixels8[i];
+        if (n <= 2) rgba.insert(rgba.end(), {p[0], p[0], p[0], n == 2 ? p[1] : uint8_t{255}});
+        else rgba.insert(rgba.end(), {p[0], p[1], p[2], uint8_t{255}});
+      }
+      image->pixels8 = std::move(rgba);
     }
     out.push_back({image->width, image->height, std::move(image->pixels8)});
   }

@@ -15,6 +15,7 @@
 #include "common/sha256.h"
 #include "worker/bake/auto_frames.h"
 #include "worker/bake/bake_outputs.h"
+#include "worker/bake/ktx2_maps.h"
 #include "worker/bake/quality_pass.h"
 #include "worker/bake/texture_array_output.h"
 #include "worker/output/atlas_dilation.h"
@@ -150,22 +151,41 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // which dilation never writes), so they are processed in parallel.
   const int w = atlas->width, h = atlas->height;
   const std::filesystem::path& dir = request.output_dir;
+  // --texture-format ktx2 writes the maps as KTX2 below instead of PNG.
+  const bool png = p.texture_format() != v1::TEXTURE_FORMAT_KTX2;
   auto albedo = std::async(std::launch::async, [&]() -> absl::Status {
-    if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok()) return s;
+    if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok() || !png) return s;
     return WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h);
   });
   auto orm = std::async(std::launch::async, [&]() -> absl::Status {
-    if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok()) return s;
+    if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok() || !png) return s;
     return WritePngRgba8(dir / "orm.png", atlas->orm, w, h);
   });
   absl::Status normal = DilateRgba16(atlas->normal_depth, atlas->albedo_alpha, w, h, tiles);
-  if (normal.ok()) normal = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
+  if (normal.ok() && png) normal = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
   for (absl::Status s : {albedo.get(), orm.get(), normal}) {
     if (!s.ok()) return s;
   }
   if (p.emissive()) {
     if (auto s = DilateRgba8(atlas->emissive, w, h, tiles); !s.ok()) return s;
-    if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
+    if (png) {
+      if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
+    }
+  }
+  std::vector<v1::MapFile> ktx2_maps;
+  if (!png) {
+    auto written = WriteKtx2Maps(dir, {.width = w,
+                                       .height = h,
+                                       .albedo_alpha = atlas->albedo_alpha,
+                                       .normal_depth = atlas->normal_depth,
+                                       .orm = atlas->orm,
+                                       .emissive = p.emissive() ? std::span<const uint8_t>(atlas->emissive)
+                                                                : std::span<const uint8_t>(),
+                                       .tiles = tiles,
+                                       .levels = MipSafeLevels(resolution, GridSide(view_layout)) + 1,
+                                       .albedo_codec = p.albedo_codec()});
+    if (!written.ok()) return written.status();
+    ktx2_maps = std::move(*written);
   }
   // The maps side by side for a person's first look (contact_sheet.h).
   auto sheet = WriteContactSheet(dir / "contact_sheet.png",
@@ -200,12 +220,26 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     manifest.mutable_cutout()->add_vertices(v.y);
   }
   manifest.mutable_cutout()->set_area_ratio(cutout->area_ratio);
-  if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest); !s.ok()) return s;
-  if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest); !s.ok()) {
-    return s;
+  for (v1::MapFile& map : ktx2_maps) {
+    const std::string& m = map.semantic();
+    const std::vector<std::string>& channels = m == "albedo_alpha" ? kAlbedoChannels
+                                               : m == "normal_depth" ? kNormalDepthChannels
+                                               : m == "orm"          ? kOrmChannels
+                                                                     : kEmissiveChannels;
+    // The depth map describes its own channels (ktx2_maps.h).
+    if (map.channels_size() == 0) {
+      for (const auto& c : channels) map.add_channels(c);
+    }
+    *manifest.add_maps() = std::move(map);
   }
-  if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
-  if (p.emissive()) {
+  if (png) {
+    if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest); !s.ok()) return s;
+    if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest); !s.ok()) {
+      return s;
+    }
+    if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
+  }
+  if (p.emissive() && png) {
     if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest); !s.ok()) {
       return s;
     }

@@ -67,7 +67,7 @@ absl::StatusOr<std::string> EncodeUastcKtx2(std::span<const MipLevel<uint8_t>> l
     if (auto s = WritePngRgba8(png, levels[i].rgba, levels[i].width, levels[i].height); !s.ok()) return s;
     // -force_alpha: coverage/depth live in A even where a level is opaque.
     // No mipmaps: the chain is ours. Zstandard is basisu's KTX2 default.
-    std::vector<std::string> argv = {options.basisu.string(), "-uastc", "-ktx2", "-force_alpha", "-uastc_level",
+    std::vector<std::string> argv = {options.basisu.string(), "-uastc", "-ktx2", options.alpha ? "-force_alpha" : "-no_alpha", "-uastc_level",
                                      "2", "-file", png.string(), "-output_file", ktx2.string()};
     if (!options.srgb) argv.push_back("-linear");
     if (options.rdo) {

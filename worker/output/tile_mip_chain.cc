@@ -113,4 +113,24 @@ absl::StatusOr<std::vector<MipLevel<uint16_t>>> BuildNormalDepthMipChain(
   return chain;
 }
 
+absl::Status DilateDepth(MipLevel<uint16_t>& level, const MipLevel<uint8_t>& coverage,
+                         std::span<const TileRect> level_tiles) {
+  if (level.width != coverage.width || level.height != coverage.height ||
+      level.rgba.size() != static_cast<size_t>(level.width) * level.height * 4) {
+    return absl::InvalidArgumentError(absl::StrCat("depth dilation: a ", level.width, "x", level.height,
+                                                   " level against ", coverage.width, "x", coverage.height,
+                                                   " coverage"));
+  }
+  // DilateRgba16 fills RGB: carry depth in R and back.
+  std::vector<uint16_t> depth(level.rgba.size(), 0);
+  for (size_t i = 0; i < depth.size(); i += 4) depth[i] = level.rgba[i + 3];
+  if (auto s = DilateRgba16(depth, coverage.rgba, level.width, level.height, level_tiles, kDilateWholeTile,
+                            std::nullopt);
+      !s.ok()) {
+    return s;
+  }
+  for (size_t i = 0; i < depth.size(); i += 4) level.rgba[i + 3] = depth[i];
+  return absl::OkStatus();
+}
+
 }  // namespace impostor

@@ -45,6 +45,14 @@ absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(std::span<c
 absl::StatusOr<std::vector<MipLevel<uint16_t>>> BuildNormalDepthMipChain(
     std::span<const uint16_t> rgba, std::span<const MipLevel<uint8_t>> coverage, std::span<const TileRect> tiles);
 
+// Block-compressed normal_depth: fills the depth (A) of empty texels with
+// the nearest covered texel's depth of the same tile, as colour is dilated,
+// so a 4x4 block at the silhouette does not have to code a jump to "far"
+// (1.0) that no reader uses (coverage lives in the albedo map; readers weigh
+// depth by it). INVALID_ARGUMENT on size mismatches.
+absl::Status DilateDepth(MipLevel<uint16_t>& level, const MipLevel<uint8_t>& coverage,
+                         std::span<const TileRect> level_tiles);
+
 // The tiles of level `level`: each rectangle divided by 2^level.
 std::vector<TileRect> TilesAtLevel(std::span<const TileRect> tiles, int level);
 
