@@ -12,9 +12,12 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "client/connection_monitor.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
+#include "common/failover_channel.h"
+#include "common/server_list.h"
 #include "common/tls_channel.h"
 #include "common/token_source.h"
 #include "impostor/v1/admin_service.grpc.pb.h"
@@ -57,7 +60,7 @@ absl::Status ToStatus(const grpc::Status& status, std::string_view rpc, const st
 
 absl::Status ValidateOptions(const ClientOptions& o) {
   // !(x > 0) also catches NaN.
-  if (o.server.empty()) return absl::InvalidArgumentError("ClientOptions.server: required");
+  if (auto targets = ParseServerList(o.server, "ClientOptions.server"); !targets.ok()) return targets.status();
   if (!(o.rpc_timeout_seconds > 0) || std::isinf(o.rpc_timeout_seconds)) {
     return absl::InvalidArgumentError(
         absl::StrCat("ClientOptions.rpc_timeout_seconds: must be > 0, got ", o.rpc_timeout_seconds));
@@ -128,6 +131,40 @@ std::string DescribeTlsFailure(grpc::Channel& channel, bool uses_tls) {
   return "";
 }
 
+// Waits until `channel` is READY: "" then, else why not, as a sentence for
+// Connect's error. Gives up early when the connection is refused outright:
+// a CI job or a game should hear "nobody there" in about a second, not
+// after the whole timeout. gRPC keeps the channel in TRANSIENT_FAILURE while
+// it retries, so after the first refusal allow one more second (a server
+// that is just starting) and then stop.
+std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool uses_tls) {
+  const auto deadline = DeadlineAfter(timeout_seconds);
+  bool refused = false;
+  grpc_connectivity_state state = channel.GetState(/*try_to_connect=*/true);
+  while (state != GRPC_CHANNEL_READY) {
+    auto wait_until = deadline;
+    if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) {
+      if (refused) break;
+      refused = true;
+      wait_until = std::min(deadline, DeadlineAfter(1.0));
+    }
+    if (!channel.WaitForStateChange(state, wait_until)) {
+      if (std::chrono::system_clock::now() >= deadline || state == GRPC_CHANNEL_TRANSIENT_FAILURE) break;
+      continue;
+    }
+    state = channel.GetState(/*try_to_connect=*/true);
+  }
+  if (state == GRPC_CHANNEL_READY) return "";
+  // A failed TLS handshake (or a plaintext client of a TLS server) looks
+  // like a refusal to the channel's state; its last error tells them apart.
+  if (refused) {
+    if (std::string tls_problem = DescribeTlsFailure(channel, uses_tls); !tls_problem.empty()) return tls_problem;
+    return "connection refused; is impostor-server running there?";
+  }
+  return absl::StrCat("no impostor server answered within ", absl::SixDigits(timeout_seconds), " s (channel ",
+                      StateName(state), ")");
+}
+
 // Reports every RPC to TransportHooks::on_rpc as its first message leaves.
 class RpcObserver : public grpc::experimental::Interceptor {
  public:
@@ -164,9 +201,8 @@ struct Transport::Stubs {
   ConnectionMonitor monitor;
   // Outlives the channel's interceptors, which point at it.
   TransportHooks hooks;
-  std::shared_ptr<grpc::Channel> channel;
-  std::unique_ptr<v1::BakeService::Stub> bake;
-  std::unique_ptr<v1::AssetService::Stub> asset;
+  // A channel per address of options.server (issue 15: several replicas).
+  std::unique_ptr<FailoverChannel> channels;
   // Identity (issue 14): "Bearer <token>", or empty for no token.
   std::string authorization;
   void AddToken(grpc::ClientContext& context) const {
@@ -206,83 +242,94 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   auto token = ResolveToken(options.token_file, options.token, std::getenv(kTokenEnvVar));
   if (!token.ok()) return token.status();
   if (!token->empty()) stubs->authorization = "Bearer " + *token;
-  if (stubs->hooks.on_rpc) {
-    std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
-    interceptors.push_back(std::make_unique<RpcObserverFactory>(&stubs->hooks));
-    stubs->channel = grpc::experimental::CreateCustomChannelWithInterceptors(
-        options.server, *credentials, args, std::move(interceptors));
-  } else {
-    stubs->channel = grpc::CreateCustomChannel(options.server, *credentials, args);
-  }
-  // Wait for READY, but give up early when the connection is refused
-  // outright: a CI job or a game should hear "nobody there" in about a
-  // second, not after the whole timeout. gRPC keeps the channel in
-  // TRANSIENT_FAILURE while it retries, so after the first refusal allow one
-  // more second (a server that is just starting) and then stop.
+  // Each address gets channels of its own (failover_channel.h): a replaced
+  // channel must not inherit a dead connection from a shared pool.
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  absl::StatusOr<std::vector<std::string>> targets = ParseServerList(options.server, "ClientOptions.server");
+  if (!targets.ok()) return targets.status();
+  const Stubs* raw = stubs.get();
+  std::shared_ptr<grpc::ChannelCredentials> channel_credentials = *credentials;
+  stubs->channels = std::make_unique<FailoverChannel>(
+      *targets, [raw, channel_credentials, args](const std::string& target) -> std::shared_ptr<grpc::Channel> {
+        if (!raw->hooks.on_rpc) return grpc::CreateCustomChannel(target, channel_credentials, args);
+        std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+        interceptors.push_back(std::make_unique<RpcObserverFactory>(&raw->hooks));
+        return grpc::experimental::CreateCustomChannelWithInterceptors(target, channel_credentials, args,
+                                                                       std::move(interceptors));
+      });
+  // The first address that answers becomes the current one; each later
+  // address gets an even share of what is left of the connect timeout, so
+  // a list as a whole never waits longer than one address would.
   const auto deadline = DeadlineAfter(options.connect_timeout_seconds);
-  bool refused = false;
-  grpc_connectivity_state state = stubs->channel->GetState(/*try_to_connect=*/true);
-  while (state != GRPC_CHANNEL_READY) {
-    auto wait_until = deadline;
-    if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) {
-      if (refused) break;
-      refused = true;
-      wait_until = std::min(deadline, DeadlineAfter(1.0));
+  std::vector<std::string> reasons;
+  for (size_t tried = 0; tried < stubs->channels->size(); ++tried) {
+    const FailoverChannel::Route route = stubs->channels->Current();
+    const std::string& target = stubs->channels->target(route.index);
+    const double left = std::chrono::duration<double>(deadline - std::chrono::system_clock::now()).count();
+    const double share = std::max(0.0, left) / static_cast<double>(stubs->channels->size() - tried);
+    std::string reason = WaitForReady(*route.channel, share, UsesTls(tls));
+    if (reason.empty()) {
+      stubs->channels->NoteAnswer(route);
+      spdlog::debug("connected to impostor server at {}", target);
+      return std::unique_ptr<Transport>(new Transport(options, std::move(stubs)));
     }
-    if (!stubs->channel->WaitForStateChange(state, wait_until)) {
-      if (std::chrono::system_clock::now() >= deadline || state == GRPC_CHANNEL_TRANSIENT_FAILURE) break;
-      continue;
-    }
-    state = stubs->channel->GetState(/*try_to_connect=*/true);
+    reasons.push_back(stubs->channels->size() == 1 ? reason : absl::StrCat(target, ": ", reason));
+    stubs->channels->NoteFailure(route, grpc::StatusCode::UNAVAILABLE);
   }
-  if (state != GRPC_CHANNEL_READY) {
-    // A failed TLS handshake (or a plaintext client of a TLS server) looks
-    // like a refusal to the channel's state; its last error tells them apart.
-    if (refused) {
-      if (std::string tls_problem = DescribeTlsFailure(*stubs->channel, UsesTls(tls)); !tls_problem.empty()) {
-        return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server, tls_problem);
-      }
-    }
-    return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server,
-                        refused ? std::string("connection refused; is impostor-server running there?")
-                                     : absl::StrCat("no impostor server answered within ",
-                                                    options.connect_timeout_seconds, " s (channel ",
-                                                    StateName(state), ")"));
-  }
-  stubs->bake = v1::BakeService::NewStub(stubs->channel);
-  stubs->asset = v1::AssetService::NewStub(stubs->channel);
-  spdlog::debug("connected to impostor server at {}", options.server);
-  return std::unique_ptr<Transport>(new Transport(options, std::move(stubs)));
+  return MakeRpcError(absl::StatusCode::kUnavailable, "Connect", options.server, absl::StrJoin(reasons, "; "));
 }
 
 ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
-absl::Status Transport::Note(const grpc::Status& status, std::string_view rpc) {
-  absl::Status error = ToStatus(status, rpc, options_.server);
+absl::Status Transport::Note(const grpc::Status& status, std::string_view rpc, const Route& route,
+                             bool* try_next_now) {
+  const std::string& target = stubs_->channels->target(route.index);
+  absl::Status error = ToStatus(status, rpc, target);
+  // Another replica not yet tried since the last answer is no outage: the
+  // call moves on to it at once.
+  const bool next_now = stubs_->channels->NoteFailure(route, status.error_code());
+  if (try_next_now != nullptr) *try_next_now = next_now;
   switch (status.error_code()) {
-    case grpc::StatusCode::UNAVAILABLE: stubs_->monitor.NoteFailure(error); break;
+    case grpc::StatusCode::UNAVAILABLE:
+      if (!next_now) stubs_->monitor.NoteFailure(error);
+      break;
     // Said by our own side (a deadline, a cancel), not by the server.
     case grpc::StatusCode::DEADLINE_EXCEEDED:
     case grpc::StatusCode::CANCELLED: break;
-    default: stubs_->monitor.NoteAnswer(); break;
+    default: NoteAnswer(route); break;
   }
   return error;
 }
 
+void Transport::NoteAnswer(const Route& route) {
+  stubs_->monitor.NoteAnswer();
+  stubs_->channels->NoteAnswer(route);
+}
+
 // Runs a unary call with a fresh context per attempt, retried as RetryPolicy
-// decides.
+// decides; a failure that moves calls on to a replica not yet tried is
+// tried there at once, outside that policy (at most once per address).
 template <typename Response, typename Call>
 absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
   RetryPolicy retry(options_, stubs_->monitor);
+  size_t moved_on = 0;
   while (true) {
     grpc::ClientContext context;
     stubs_->AddToken(context);
     context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds));
     if (!options_.client_id.empty()) context.AddMetadata("impostor-client-id", options_.client_id);
+    const Route route = stubs_->channels->Current();
     Response response;
-    const grpc::Status status = call(&context, &response);
-    absl::Status error = Note(status, rpc);
+    const grpc::Status status = call(route, &context, &response);
+    bool try_next_now = false;
+    absl::Status error = Note(status, rpc, route, &try_next_now);
     if (error.ok()) return response;
+    if (try_next_now && ++moved_on < stubs_->channels->size()) {
+      spdlog::debug("{} failed on {}: {}; trying {}", std::string(rpc), stubs_->channels->target(route.index),
+                    error.ToString(), stubs_->channels->target(stubs_->channels->Current().index));
+      continue;
+    }
+    moved_on = 0;
     if (!retry.ShouldRetry(error)) return error;
     spdlog::debug("{} failed ({} in a row): {}; retrying", std::string(rpc), retry.failures(), error.ToString());
   }
@@ -290,14 +337,14 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
 
 absl::StatusOr<v1::FindMissingBlobsResponse> Transport::FindMissingBlobs(
     const v1::FindMissingBlobsRequest& request) {
-  return CallUnary<v1::FindMissingBlobsResponse>("FindMissingBlobs", [&](auto* ctx, auto* resp) {
-    return stubs_->asset->FindMissingBlobs(ctx, request, resp);
+  return CallUnary<v1::FindMissingBlobsResponse>("FindMissingBlobs", [&](const Route& route, auto* ctx, auto* resp) {
+    return v1::AssetService::Stub(route.channel).FindMissingBlobs(ctx, request, resp);
   });
 }
 
 absl::StatusOr<v1::SubmitBakeResponse> Transport::SubmitBake(const v1::SubmitBakeRequest& request) {
-  return CallUnary<v1::SubmitBakeResponse>("SubmitBake", [&](auto* ctx, auto* resp) {
-    return stubs_->bake->SubmitBake(ctx, request, resp);
+  return CallUnary<v1::SubmitBakeResponse>("SubmitBake", [&](const Route& route, auto* ctx, auto* resp) {
+    return v1::BakeService::Stub(route.channel).SubmitBake(ctx, request, resp);
   });
 }
 
@@ -305,26 +352,26 @@ absl::StatusOr<v1::Job> Transport::GetJob(const std::string& job_id) {
   v1::GetJobRequest request;
   request.set_job_id(job_id);
   return CallUnary<v1::Job>("GetJob",
-                            [&](auto* ctx, auto* resp) { return stubs_->bake->GetJob(ctx, request, resp); });
+                            [&](const Route& route, auto* ctx, auto* resp) { return v1::BakeService::Stub(route.channel).GetJob(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::Job> Transport::CancelJob(const std::string& job_id) {
   v1::CancelJobRequest request;
   request.set_job_id(job_id);
   return CallUnary<v1::Job>("CancelJob",
-                            [&](auto* ctx, auto* resp) { return stubs_->bake->CancelJob(ctx, request, resp); });
+                            [&](const Route& route, auto* ctx, auto* resp) { return v1::BakeService::Stub(route.channel).CancelJob(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) {
   v1::GetResultRequest request;
   request.set_cache_key(cache_key);
   return CallUnary<v1::Manifest>("GetResult",
-                                 [&](auto* ctx, auto* resp) { return stubs_->asset->GetResult(ctx, request, resp); });
+                                 [&](const Route& route, auto* ctx, auto* resp) { return v1::AssetService::Stub(route.channel).GetResult(ctx, request, resp); });
 }
 
 absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {
-  return CallUnary<v1::LookupBakeResponse>("LookupBake", [&](auto* ctx, auto* resp) {
-    return stubs_->bake->LookupBake(ctx, request, resp);
+  return CallUnary<v1::LookupBakeResponse>("LookupBake", [&](const Route& route, auto* ctx, auto* resp) {
+    return v1::BakeService::Stub(route.channel).LookupBake(ctx, request, resp);
   });
 }
 
@@ -344,8 +391,9 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
   context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds +
                                      static_cast<double>(digest.size_bytes()) / kStreamBytesPerSecond));
   v1::UploadBlobResponse response;
-  std::unique_ptr<grpc::ClientWriter<v1::UploadBlobRequest>> writer =
-      stubs_->asset->UploadBlob(&context, &response);
+  const Route route = stubs_->channels->Current();
+  v1::AssetService::Stub stub(route.channel);
+  std::unique_ptr<grpc::ClientWriter<v1::UploadBlobRequest>> writer = stub.UploadBlob(&context, &response);
   v1::UploadBlobRequest message;
   *message.mutable_digest() = digest;
   absl::Status local_error;
@@ -372,7 +420,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
   }
   writer->WritesDone();
   const grpc::Status status = writer->Finish();
-  if (absl::Status error = Note(status, "UploadBlob"); !error.ok()) return error;
+  if (absl::Status error = Note(status, "UploadBlob", route); !error.ok()) return error;
   return response;
 }
 
@@ -385,17 +433,19 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
   v1::ReadBlobRequest request;
   *request.mutable_digest() = digest;
   request.set_offset(offset);
-  std::unique_ptr<grpc::ClientReader<v1::ReadBlobResponse>> reader = stubs_->asset->ReadBlob(&context, request);
+  const Route route = stubs_->channels->Current();
+  v1::AssetService::Stub stub(route.channel);
+  std::unique_ptr<grpc::ClientReader<v1::ReadBlobResponse>> reader = stub.ReadBlob(&context, request);
   v1::ReadBlobResponse message;
   while (reader->Read(&message)) {
-    stubs_->monitor.NoteAnswer();
+    NoteAnswer(route);
     if (absl::Status s = on_chunk(message); !s.ok()) {
       context.TryCancel();
       reader->Finish();
       return s;
     }
   }
-  return Note(reader->Finish(), "ReadBlob");
+  return Note(reader->Finish(), "ReadBlob", route);
 }
 
 absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {
@@ -403,10 +453,12 @@ absl::Status Transport::WatchJob(const std::string& job_id, const std::function<
   stubs_->AddToken(context);
   v1::WatchJobRequest request;
   request.set_job_id(job_id);
-  std::unique_ptr<grpc::ClientReader<v1::Job>> reader = stubs_->bake->WatchJob(&context, request);
+  const Route route = stubs_->channels->Current();
+  v1::BakeService::Stub stub(route.channel);
+  std::unique_ptr<grpc::ClientReader<v1::Job>> reader = stub.WatchJob(&context, request);
   v1::Job job;
   while (reader->Read(&job)) {
-    stubs_->monitor.NoteAnswer();
+    NoteAnswer(route);
     if (!on_job(job)) {
       // We have what we came for; do not wait for the server to close.
       context.TryCancel();
@@ -414,7 +466,7 @@ absl::Status Transport::WatchJob(const std::string& job_id, const std::function<
       return absl::OkStatus();
     }
   }
-  return Note(reader->Finish(), "WatchJob");
+  return Note(reader->Finish(), "WatchJob", route);
 }
 
 }  // namespace impostor::sdk

@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "client/connection_monitor.h"
+#include "common/failover_channel.h"
 #include "impostor/client.h"
 #include "impostor/v1/admin_service.pb.h"
 #include "impostor/v1/asset_service.pb.h"
@@ -47,6 +48,7 @@ class Transport {
   Transport& operator=(const Transport&) = delete;
 
   const ClientOptions& options() const { return options_; }
+  // ClientOptions::server: one address or a comma list of replicas.
   const std::string& server() const { return options_.server; }
 
   // Unary RPCs: deadline rpc_timeout_seconds, retried as RetryPolicy
@@ -88,9 +90,15 @@ class Transport {
   struct Stubs;
   Transport(ClientOptions options, std::unique_ptr<Stubs> stubs);
 
-  // `status` as an absl::Status naming `rpc`, after telling the monitor
-  // whether the server answered.
-  absl::Status Note(const grpc::Status& status, std::string_view rpc);
+  using Route = FailoverChannel::Route;
+  // `status` of a call made on `route` as an absl::Status naming `rpc` and
+  // the address, after telling the monitor and the failover whether the
+  // server answered. `try_next_now` (optional) is set when the call may be
+  // tried again at once on another replica (FailoverChannel::NoteFailure).
+  absl::Status Note(const grpc::Status& status, std::string_view rpc, const Route& route,
+                    bool* try_next_now = nullptr);
+  // A stream message arrived on `route`.
+  void NoteAnswer(const Route& route);
   template <typename Response, typename Call>
   absl::StatusOr<Response> CallUnary(std::string_view rpc, Call call);
 

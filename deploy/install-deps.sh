@@ -35,6 +35,8 @@ packages=(
   # headless test (python/blender; about 80 s to download and install) and
   # numpy, which Blender's glTF exporter needs; Xvfb for its UI test
   python3-grpcio python3-protobuf python3-pytest python3-mypy python3-pip python3-setuptools python3-wheel blender python3-numpy xvfb xauth
+  # Network-namespace tests (issue 15, tests/support/netns.h): ip netns, veth, bridge
+  iproute2
 )
 
 export DEBIAN_FRONTEND=noninteractive

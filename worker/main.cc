@@ -20,13 +20,15 @@
 #include "common/flag_help.h"
 #include "common/flag_names.h"
 #include "common/grpc_log.h"
+#include "common/server_list.h"
 #include "common/tls_channel.h"
 #include "common/token_source.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 #include "worker/worker_help.h"
 
-ABSL_FLAG(std::string, server, "localhost:50051", "HOST:PORT of impostor-server");
+ABSL_FLAG(std::string, server, "localhost:50051",
+          "HOST:PORT of impostor-server, or several replicas of one farm: HOST1:PORT,HOST2:PORT (fails over)");
 ABSL_FLAG(std::string, name, "", "Worker name for logs and leases (default: host-pid)");
 ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (default: best available)");
 ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
@@ -96,6 +98,12 @@ int main(int argc, char** argv) {
   const int heartbeat = absl::GetFlag(FLAGS_heartbeat_s);
   if (heartbeat < 1 || heartbeat > 60) {
     std::fprintf(stderr, "impostor-worker: --heartbeat-s must be in 1..60\n");
+    return 2;
+  }
+
+  // Several replicas (issue 15): a malformed list fails here, naming the flag.
+  if (auto targets = impostor::ParseServerList(absl::GetFlag(FLAGS_server), "--server"); !targets.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(targets.status().message()).c_str());
     return 2;
   }
 

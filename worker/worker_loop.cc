@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
 #include "common/log_escape.h"
+#include "common/server_list.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bearer_token.h"
@@ -153,15 +154,36 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 200);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 200);
   if (!options_.tls_server_name.empty()) args.SetSslTargetNameOverride(options_.tls_server_name);
-  // Identity (issue 14): the token goes on every call of the channel.
-  std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
-  if (auto token = BearerTokenInterceptor(options_.token)) interceptors.push_back(std::move(token));
-  channel_ = grpc::experimental::CreateCustomChannelWithInterceptors(
-      options_.server,
-      options_.channel_credentials ? options_.channel_credentials : grpc::InsecureChannelCredentials(), args,
-      std::move(interceptors));
-  workers_ = v1::WorkerService::NewStub(channel_);
-  assets_ = v1::AssetService::NewStub(channel_);
+  // A replaced channel (failover_channel.h) must not inherit a dead
+  // connection from a shared subchannel pool.
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  // main checked the list; a bad one here (a test's options) is one target.
+  absl::StatusOr<std::vector<std::string>> targets = ParseServerList(options_.server, "WorkerOptions.server");
+  channels_ = std::make_unique<FailoverChannel>(
+      targets.ok() ? *targets : std::vector<std::string>{options_.server},
+      [this, args](const std::string& target) -> std::shared_ptr<grpc::Channel> {
+        // Identity (issue 14): the token goes on every call of the channel.
+        std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+        if (auto token = BearerTokenInterceptor(options_.token)) interceptors.push_back(std::move(token));
+        return grpc::experimental::CreateCustomChannelWithInterceptors(
+            target, options_.channel_credentials ? options_.channel_credentials : grpc::InsecureChannelCredentials(),
+            args, std::move(interceptors));
+      },
+      FailoverChannel::LogMoves::kInfo);
+}
+
+grpc::Status WorkerLoop::CallServer(const ChannelCall& call, bool* try_next_now) {
+  const FailoverChannel::Route route = channels_->Current();
+  const grpc::Status s = call(route.channel);
+  const bool next_now = channels_->NoteFailure(route, s.error_code());
+  if (try_next_now != nullptr) *try_next_now = next_now;
+  switch (s.error_code()) {
+    case grpc::StatusCode::UNAVAILABLE:
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::CANCELLED: break;
+    default: channels_->NoteAnswer(route); break;
+  }
+  return s;
 }
 
 absl::Status WorkerLoop::Run() {
@@ -175,13 +197,20 @@ absl::Status WorkerLoop::Run() {
     request.set_device(renderer_->device().name);
     request.set_wait_seconds(5);  // short polls so Stop() is honoured quickly
     v1::LeaseJobResponse response;
-    auto ctx = ContextWithDeadline(std::chrono::seconds(15));
-    const grpc::Status s = workers_->LeaseJob(ctx.get(), request, &response);
+    bool try_next_now = false;
+    const grpc::Status s = CallServer(
+        [&](const std::shared_ptr<grpc::Channel>& channel) {
+          auto ctx = ContextWithDeadline(std::chrono::seconds(15));
+          return v1::WorkerService::Stub(channel).LeaseJob(ctx.get(), request, &response);
+        },
+        &try_next_now);
     // A refused token is no outage: waiting will not make it valid.
     if (s.error_code() == grpc::StatusCode::UNAUTHENTICATED || s.error_code() == grpc::StatusCode::PERMISSION_DENIED) {
       return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
                           absl::StrCat("LeaseJob: ", s.error_message(), " (check --token-file / IMPOSTOR_TOKEN)"));
     }
+    // Another replica not yet tried since the last answer: no outage yet.
+    if (!s.ok() && try_next_now) continue;
     if (!s.ok()) {
       const auto now = Clock::now();
       if (!outage_since) outage_since = now;
@@ -196,7 +225,7 @@ absl::Status WorkerLoop::Run() {
       }
       // Wait for the channel to come back (or the backoff to pass) rather
       // than spinning on a dead server.
-      channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
+      channels_->Current().channel->WaitForConnected(std::chrono::system_clock::now() + backoff);
       backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
       continue;
     }
@@ -228,7 +257,7 @@ void WorkerLoop::Drain(std::chrono::seconds budget) {
 
 bool WorkerLoop::DrainDue() const { return drain_deadline_ && Clock::now() >= *drain_deadline_; }
 
-grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call) {
+grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const ChannelCall& call) {
   const auto outage_end = Clock::now() + std::chrono::seconds(options_.max_outage_seconds);
   // A draining worker does not wait out a long outage: past its drain
   // deadline (and a moment for the last call) the lease expires by itself.
@@ -238,11 +267,13 @@ grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const std::fun
   };
   auto backoff = std::chrono::milliseconds(200);
   while (true) {
-    const grpc::Status s = call();
-    if (s.error_code() != grpc::StatusCode::UNAVAILABLE || Clock::now() >= give_up()) return s;
+    bool try_next_now = false;
+    const grpc::Status s = CallServer(call, &try_next_now);
+    if ((s.error_code() != grpc::StatusCode::UNAVAILABLE && !try_next_now) || Clock::now() >= give_up()) return s;
     spdlog::warn("event=rpc_retry rpc={} error=\"{}\" retry_ms={}", std::string(rpc), s.error_message(),
-                 backoff.count());
-    channel_->WaitForConnected(std::chrono::system_clock::now() + backoff);
+                 try_next_now ? 0 : backoff.count());
+    if (try_next_now) continue;  // another replica, at once
+    channels_->Current().channel->WaitForConnected(std::chrono::system_clock::now() + backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
   }
 }
@@ -253,8 +284,9 @@ absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const f
   InputSink sink;
   if (absl::Status s = OpenInput(path, sink); !s.ok()) return s;
   absl::Status outcome;
-  RetryThroughOutage("ReadBlob", [&] {
-    outcome = ReadBlobInto(*assets_, digest, sink);
+  RetryThroughOutage("ReadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
+    v1::AssetService::Stub assets(channel);
+    outcome = ReadBlobInto(assets, digest, sink);
     return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
   });
   if (!outcome.ok()) return outcome;
@@ -265,8 +297,9 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
   // A finished bake is worth keeping through a server restart: the lease
   // survives it, so the upload and CompleteJob can go through afterwards.
   absl::Status outcome;
-  RetryThroughOutage("UploadBlob", [&] {
-    outcome = UploadFile(*assets_, path, digest);
+  RetryThroughOutage("UploadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
+    v1::AssetService::Stub assets(channel);
+    outcome = UploadFile(assets, path, digest);
     return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
   });
   return outcome;
@@ -277,10 +310,10 @@ void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reaso
   r.set_job_id(job.job_id());
   r.set_lease_id(job.lease_id());
   r.set_reason(reason);
-  const grpc::Status s = RetryThroughOutage("ReleaseJob", [&] {
+  const grpc::Status s = RetryThroughOutage("ReleaseJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
     v1::ReleaseJobResponse resp;
     auto ctx = ContextWithDeadline(std::chrono::seconds(10));
-    return workers_->ReleaseJob(ctx.get(), r, &resp);
+    return v1::WorkerService::Stub(channel).ReleaseJob(ctx.get(), r, &resp);
   });
   spdlog::info("event=job_released job={} reason=\"{}\" ok={}{}", job.job_id(), reason, s.ok(),
                s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
@@ -310,8 +343,11 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_progress(static_cast<float>(std::clamp(f, 0.0, 1.0)));
     r.set_stage(st);
     v1::ReportProgressResponse resp;
-    auto ctx = ContextWithDeadline(std::chrono::seconds(10));
-    const grpc::Status s = workers_->ReportProgress(ctx.get(), r, &resp);
+    // Not retried: the next heartbeat goes to the next replica if this one failed.
+    const grpc::Status s = CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
+      auto ctx = ContextWithDeadline(std::chrono::seconds(10));
+      return v1::WorkerService::Stub(channel).ReportProgress(ctx.get(), r, &resp);
+    });
     if (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
       spdlog::warn("event=lease_lost job={} error=\"{}\"", job.job_id(), s.error_message());
       lease_lost = true;
@@ -449,10 +485,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_job_id(job.job_id());
     r.set_lease_id(job.lease_id());
     *r.mutable_result() = result->manifest;
-    const grpc::Status s = RetryThroughOutage("CompleteJob", [&] {
+    const grpc::Status s = RetryThroughOutage("CompleteJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
       v1::CompleteJobResponse resp;
       auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-      return workers_->CompleteJob(ctx.get(), r, &resp);
+      return v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
     });
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
@@ -471,10 +507,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.mutable_error()->set_code(static_cast<int>(outcome.code()));
     r.mutable_error()->set_message(std::string(outcome.message()));
     r.set_retryable(IsRetryable(outcome.code()));
-    const grpc::Status s = RetryThroughOutage("FailJob", [&] {
+    const grpc::Status s = RetryThroughOutage("FailJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
       v1::FailJobResponse resp;
       auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-      return workers_->FailJob(ctx.get(), r, &resp);
+      return v1::WorkerService::Stub(channel).FailJob(ctx.get(), r, &resp);
     });
     spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
                  static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(std::string(outcome.message())), s.ok());

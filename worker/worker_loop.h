@@ -27,6 +27,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "common/failover_channel.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "worker/gpu/atlas_renderer.h"
@@ -36,7 +37,11 @@
 namespace impostor {
 
 struct WorkerOptions {
-  std::string server = "localhost:50051";  // HOST:PORT of impostor-server
+  // HOST:PORT of impostor-server, or the comma list of several replicas
+  // of one farm (common/server_list.h; checked by main): leases, heartbeats
+  // and transfers go to one replica and move on to the next when a call
+  // fails with UNAVAILABLE or times out (common/failover_channel.h).
+  std::string server = "localhost:50051";
   std::string worker_id;                   // unique per process
   std::filesystem::path scratch_dir;       // per-job folders go here
   // Seconds between lease renewals while baking; well under the server's
@@ -111,16 +116,21 @@ class WorkerLoop {
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
   // Hands a lease back to the server (retrying through an outage).
   void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
-  // Runs `call` until it answers something other than UNAVAILABLE or the
+  using ChannelCall = std::function<grpc::Status(const std::shared_ptr<grpc::Channel>&)>;
+  // Runs `call` on the current replica's channel and tells the failover how
+  // it went; `try_next_now` (optional) says whether another replica not yet
+  // tried since the last answer is now current.
+  grpc::Status CallServer(const ChannelCall& call, bool* try_next_now = nullptr);
+  // Runs `call` (through CallServer) until it answers something other than
+  // UNAVAILABLE, or a timeout that moved on to another replica, or the
   // outage budget is spent; returns its last status.
-  grpc::Status RetryThroughOutage(std::string_view rpc, const std::function<grpc::Status()>& call);
+  grpc::Status RetryThroughOutage(std::string_view rpc, const ChannelCall& call);
   bool DrainDue() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_);
 
   const WorkerOptions options_;
   std::unique_ptr<AtlasRenderer> renderer_;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::WorkerService::Stub> workers_;
-  std::unique_ptr<v1::AssetService::Stub> assets_;
+  // One channel per address of options_.server (issue 15).
+  std::unique_ptr<FailoverChannel> channels_;
   std::atomic<bool> stop_{false};
   // Guards the running job's progress hand-off to its heartbeat thread, and
   // the drain deadline; job_wake_ wakes that thread on either.

@@ -36,6 +36,7 @@
 #include "client/mesh_files.h"
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
+#include "common/server_list.h"
 #include "common/tls_files.h"
 
 namespace impostor::sdk {
@@ -57,7 +58,7 @@ absl::Status ValidateOptions(const CacheOptions& o) {
     return absl::InvalidArgumentError(absl::StrCat("CacheOptions.", std::string(field), ": must be ",
                                                    std::string(range), ", got ", value));
   };
-  if (o.server.empty()) return absl::InvalidArgumentError("CacheOptions.server: required");
+  if (auto targets = ParseServerList(o.server, "CacheOptions.server"); !targets.ok()) return targets.status();
   if (o.dir.empty()) return absl::InvalidArgumentError("CacheOptions.dir: required");
   if (o.max_bytes < 0) return bad("max_bytes", o.max_bytes, ">= 0");
   if (o.max_parallel_downloads < 1 || o.max_parallel_downloads > 64) {

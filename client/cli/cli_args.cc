@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "common/server_list.h"
 
 namespace impostor::cli {
 namespace {
@@ -210,6 +211,8 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       out_given = true;
     } else if (flag == "--server") {
       if (value->empty()) return Usage("--server: missing value");
+      // One address or a comma list of replicas (issue 15).
+      if (auto targets = ParseServerList(*value, "--server"); !targets.ok()) return targets.status();
       out.server = *value;
     } else if (flag == "--layout") {
       if (*value != "octahedral" && *value != "hemi-octahedral" && *value != "azimuth-elevation" &&

@@ -55,7 +55,9 @@ enum class HitVerification {
 // How a Cache is set up. Checked by Cache::Open (INVALID_ARGUMENT naming the
 // field when out of range).
 struct CacheOptions {
-  // Address of the bake server as "host:port" (any gRPC target string).
+  // Address of the bake server as "host:port" (any gRPC target string), or
+  // the addresses of several replicas of one farm, comma-separated
+  // ("bake1:50051,bake2:50051"; see ClientOptions::server for failover).
   // Nothing connects to it until a Get misses or Lookup is called, so a
   // cache opens (and serves local hits) with the server down.
   // Default: "localhost:50051". Must not be empty.

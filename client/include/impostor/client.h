@@ -61,6 +61,18 @@ struct ClientOptions {
   // Address of the bake server as "host:port" (any gRPC target string works,
   // e.g. "dns:///bake.example.com:50051" or "unix:/run/impostor.sock").
   // The connection is plaintext unless tls_ca_file is set.
+  //
+  // Several replicas of one farm (issue 15): their addresses separated by
+  // commas, "bake1:50051,bake2:50051" (up to 16; "[::1]:50051" for IPv6
+  // literals). Connect uses the first that answers; every later call sticks
+  // to that replica until a call on it fails with UNAVAILABLE (or, with
+  // several addresses, DEADLINE_EXCEEDED), then moves on to the next one at
+  // once, without backoff and without counting against max_attempts or the
+  // outage budget until every replica has failed. A watch resumes on the
+  // next replica; an upload or download restarts or resumes there. One
+  // DNS name with several A/AAAA records also fails over (gRPC's pick_first
+  // tries them in order). A malformed list (empty entry, no port, the same
+  // address twice) is INVALID_ARGUMENT naming this field.
   // Default: "localhost:50051".
   std::string server = "localhost:50051";
 

@@ -68,7 +68,7 @@ typedef struct impostor_result impostor_result;
  * impostor_cache_options_init first, then change what you need. Strings are
  * copied by impostor_cache_open. */
 typedef struct impostor_cache_options {
-  const char* server;             /* default "localhost:50051" */
+  const char* server;             /* default "localhost:50051"; replicas: "a:50051,b:50051" */
   const char* dir;                /* required */
   int64_t max_bytes;              /* default 2 GiB; >= 0 */
   int32_t max_parallel_downloads; /* default 4; 1..64 */

@@ -1,0 +1,48 @@
+#include "common/failover_channel.h"
+
+#include <algorithm>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+namespace impostor {
+
+FailoverChannel::FailoverChannel(std::vector<std::string> targets, MakeChannel make, LogMoves log_moves)
+    : targets_(std::move(targets)), make_(std::move(make)), log_moves_(log_moves), failed_(targets_.size(), false) {
+  std::lock_guard lock(mu_);
+  for (const std::string& target : targets_) channels_.push_back(make_(target));
+}
+
+FailoverChannel::Route FailoverChannel::Current() const {
+  std::lock_guard lock(mu_);
+  return {.index = current_, .channel = channels_[current_]};
+}
+
+void FailoverChannel::NoteAnswer(const Route& route) {
+  std::lock_guard lock(mu_);
+  std::fill(failed_.begin(), failed_.end(), false);
+  (void)route;
+}
+
+bool FailoverChannel::NoteFailure(const Route& route, grpc::StatusCode code) {
+  const bool several = targets_.size() > 1;
+  if (code != grpc::StatusCode::UNAVAILABLE && !(several && code == grpc::StatusCode::DEADLINE_EXCEEDED)) {
+    return false;
+  }
+  std::shared_ptr<grpc::Channel> replaced;  // destroyed outside the lock
+  std::lock_guard lock(mu_);
+  failed_[route.index] = true;
+  if (!several) return false;
+  if (code == grpc::StatusCode::DEADLINE_EXCEEDED && channels_[route.index] == route.channel) {
+    replaced = std::exchange(channels_[route.index], make_(targets_[route.index]));
+  }
+  if (current_ == route.index) {
+    current_ = (current_ + 1) % targets_.size();
+    spdlog::log(log_moves_ == LogMoves::kInfo ? spdlog::level::info : spdlog::level::debug,
+                "event=server_failover from={} to={} code={}", targets_[route.index], targets_[current_],
+                static_cast<int>(code));
+  }
+  return !failed_[current_];
+}
+
+}  // namespace impostor
