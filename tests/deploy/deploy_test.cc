@@ -118,15 +118,11 @@ TEST(Deploy, EveryFlagPassedIsOneTheBinariesKnow) {
   }
   ASSERT_TRUE(known.contains("--listen")) << "could not read impostor-server --help";
   ASSERT_TRUE(known.contains("--drain-seconds")) << "could not read impostor-worker --help";
-  // The PostgreSQL store's flags (issue 15) arrive with that store (helper
-  // "pg"); until then the deploy files may name them ahead of the binaries.
-  const std::set<std::string> pending = {"--database", "--blob-dir"};
   for (const char* file : {"deploy/compose/compose.yaml", "deploy/k8s/server.conf", "deploy/k8s/worker.conf",
                            "deploy/k8s/secret.yaml", "deploy/container/entrypoint.sh"}) {
     const std::string text = Read(kSource / file);
     ASSERT_FALSE(text.empty()) << file;
     for (const std::string& flag : FlagsIn(text)) {
-      if (pending.contains(flag)) continue;
       EXPECT_TRUE(known.contains(flag)) << file << " passes " << flag << ", which no binary's --help lists";
     }
   }
