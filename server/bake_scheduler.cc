@@ -137,8 +137,6 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
   });
 }
 
-BakeScheduler::~BakeScheduler() { jobs_->SetChangeCallback(nullptr); }
-
 absl::Status BakeScheduler::Save(JobRecord& record) {
   record.job.set_updated_ms(options_.now_ms());
   if (auto s = jobs_->Update(record); !s.ok()) return s;
@@ -149,6 +147,8 @@ absl::Status BakeScheduler::Save(JobRecord& record) {
 }
 
 BakeScheduler::~BakeScheduler() {
+  // Before the lock: the store waits for a running callback, which may take it.
+  jobs_->SetChangeCallback(nullptr);
   std::lock_guard lock(mu_);
   if (auto s = FlushTouchesLocked(); !s.ok()) {
     spdlog::warn("event=touch_results_failed error=\"{}\"", std::string(s.status().message()));
