@@ -4,7 +4,15 @@
 // measured them), then fetches each result again from the cache with the SDK
 // and prints the download throughput.
 //
-//   bake_bench [--frames N] [--resolution R] [--fetches K] [ASSET.glb ...]
+//   bake_bench [--frames N] [--resolution R] [--fetches K] [--keep-result DIR] [ASSET.glb ...]
+//
+// Ratios (issue 18's targets): bake/rr = the worker's whole bake (load to
+// manifest, quality pass included) over its render + readback; wall/rr = the
+// same for the end-to-end wall time the client saw. rest_s = the bake's time
+// outside load, render, readback and encode (supersample filtering, cutout,
+// the quality pass, the manifest). --keep-result copies the last asset's
+// fetched result (maps + manifest.json) to DIR (bench/compare_blender.sh
+// renders its views).
 //
 // Figures on a shared machine are noisy: compare ratios within one run.
 #include <signal.h>
@@ -71,12 +79,14 @@ double Median(std::vector<double> v) {
 int main(int argc, char** argv) {
   uint32_t frames = 12, resolution = 2048;
   int fetches = 3;
+  fs::path keep_result;
   std::vector<fs::path> assets;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--frames" && i + 1 < argc) frames = static_cast<uint32_t>(std::stoul(argv[++i]));
     else if (a == "--resolution" && i + 1 < argc) resolution = static_cast<uint32_t>(std::stoul(argv[++i]));
     else if (a == "--fetches" && i + 1 < argc) fetches = std::stoi(argv[++i]);
+    else if (a == "--keep-result" && i + 1 < argc) keep_result = argv[++i];
     else assets.emplace_back(a);
   }
   if (assets.empty()) {
@@ -102,8 +112,9 @@ int main(int argc, char** argv) {
   auto bake = impostor::v1::BakeService::NewStub(channel);
 
   std::printf("bake_bench: %u x %u frames, %u px atlas, octahedral, one local worker\n", frames, frames, resolution);
-  std::printf("%-22s %9s %7s %7s %7s %8s %8s %7s %7s %9s %10s\n", "asset", "triangles", "wall_s", "load_s",
-              "render_s", "readback", "encode_s", "store_s", "other_s", "fetch_MB", "fetch_MB/s");
+  std::printf("%-22s %9s %7s %7s %7s %8s %8s %7s %7s %7s %7s %7s %9s %10s\n", "asset", "triangles", "wall_s",
+              "load_s", "render_s", "readback", "encode_s", "rest_s", "store_s", "other_s", "bake/rr", "wall/rr",
+              "fetch_MB", "fetch_MB/s");
   int failures = 0;
   for (const fs::path& asset : assets) {
     const auto start = std::chrono::steady_clock::now();
@@ -130,6 +141,9 @@ int main(int argc, char** argv) {
     const auto& t = job.result().timings();
     const double accounted = t.load_seconds() + t.render_seconds() + t.readback_seconds() + t.encode_seconds() +
                              t.store_seconds();
+    const double rest = std::max(
+        0.0, t.total_seconds() - t.load_seconds() - t.render_seconds() - t.readback_seconds() - t.encode_seconds());
+    const double render_readback = std::max(t.render_seconds() + t.readback_seconds(), 1e-9);
 
     // Cache hit: every fetch downloads all maps again into a fresh directory.
     std::vector<double> rates;
@@ -145,15 +159,28 @@ int main(int argc, char** argv) {
       }
       megabytes = static_cast<double>(fetched->bytes_downloaded) / 1e6;
       rates.push_back(megabytes / std::max(fetched->seconds, 1e-9));
+      if (!keep_result.empty() && k == 0) {
+        std::error_code ec;
+        fs::remove_all(keep_result, ec);
+        fs::create_directories(keep_result.parent_path().empty() ? fs::path(".") : keep_result.parent_path(), ec);
+        fs::copy(out, keep_result, fs::copy_options::recursive, ec);
+        if (ec) {
+          std::fprintf(stderr, "bake_bench: --keep-result %s: %s\n", keep_result.c_str(), ec.message().c_str());
+          ++failures;
+        }
+      }
     }
-    std::printf("%-22s %9llu %7.2f %7.2f %7.2f %8.2f %8.2f %7.2f %7.2f %9.1f %10.0f\n",
+    std::printf("%-22s %9llu %7.2f %7.2f %7.2f %8.2f %8.2f %7.2f %7.2f %7.2f %7.2f %7.2f %9.1f %10.0f\n",
                 asset.stem().string().substr(0, 22).c_str(),
                 static_cast<unsigned long long>(job.result().mesh().triangles()), wall, t.load_seconds(),
-                t.render_seconds(), t.readback_seconds(), t.encode_seconds(), t.store_seconds(),
-                std::max(0.0, wall - accounted), megabytes, Median(rates));
+                t.render_seconds(), t.readback_seconds(), t.encode_seconds(), rest, t.store_seconds(),
+                std::max(0.0, wall - accounted - rest), t.total_seconds() / render_readback, wall / render_readback,
+                megabytes, Median(rates));
   }
-  std::printf("(render_s includes uploading the scene to the device; other_s = wall minus the stages: "
-              "client upload, queueing, worker download, RPCs)\n");
+  std::printf("(render_s includes uploading the scene to the device; rest_s = the bake outside the named stages "
+              "(supersample filtering, cutout, quality pass, manifest); other_s = wall minus the bake and store: "
+              "client upload, queueing, worker download, RPCs; bake/rr and wall/rr = the bake's and the client's "
+              "time over render + readback, target <= 1.3)\n");
   fs::remove_all(scratch);
   return failures == 0 ? 0 : 1;
 }
