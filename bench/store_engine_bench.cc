@@ -110,7 +110,9 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   auto blobs = BlobStore::Open(dir / "blobs");
   auto sqlite = SqliteJobStore::Open(dir / "jobs.sqlite3");
-  auto pg = impostor::testing::PostgresInstance::Start();
+  // fsync on, like SQLite's synchronous=FULL: both engines pay for
+  // durable commits.
+  auto pg = impostor::testing::PostgresInstance::Start({.fsync = true});
   if (!blobs.ok() || !sqlite.ok() || !pg.ok()) {
     std::fprintf(stderr, "setup failed: %s\n", std::string(pg.status().message()).c_str());
     return 1;
@@ -124,8 +126,9 @@ int main(int argc, char** argv) {
   const Rates s = Measure({sqlite->get()}, **blobs, n, "sqlite");
   const Rates p1 = Measure({one->get()}, **blobs, n, "pg1");
   const Rates p2 = Measure({two_a->get(), two_b->get()}, **blobs, n, "pg2");
-  std::printf("store_engine_bench: %d operations per phase (in-process BakeScheduler, %u cores)\n", n,
-              std::thread::hardware_concurrency());
+  std::printf("store_engine_bench: %d operations per phase (in-process BakeScheduler, %u cores, both engines "
+              "fsync every commit; PostgreSQL on a local Unix socket)\n",
+              n, std::thread::hardware_concurrency());
   std::printf("%-24s %12s %12s %14s\n", "engine", "submits/s", "leases/s", "cache hits/s");
   for (auto [name, r] : {std::pair{"sqlite", s}, {"postgresql, 1 replica", p1}, {"postgresql, 2 replicas", p2}}) {
     std::printf("%-24s %12.0f %12.0f %14.0f\n", name, r.submits, r.leases, r.hits);
