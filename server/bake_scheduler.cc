@@ -995,7 +995,10 @@ absl::Status BakeScheduler::ExpireLeases() {
   auto expired = jobs_->ExpiredLeases(options_.now_ms());
   if (!expired.ok()) return expired.status();
   for (JobRecord& r : *expired) {
-    if (auto s = LoseLease(r, ""); !s.ok()) return s;
+    absl::Status s = LoseLease(r, "");
+    // Another server finished or renewed it since the read: nothing lost.
+    if (absl::IsAborted(s)) continue;
+    if (!s.ok()) return s;
   }
   return absl::OkStatus();
 }

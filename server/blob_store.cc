@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cstring>
 #include <vector>
@@ -124,7 +125,14 @@ absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root,
   fs::create_directories(store->cas_dir_, ec);
   if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->cas_dir_.string(), ": ", ec.message()));
   // Leftovers of uploads a crash interrupted: never visible, safe to drop.
-  fs::remove_all(store->tmp_dir_, ec);
+  // Only old ones: servers sharing this directory (issue 15) may be
+  // writing younger ones right now.
+  const auto stale_before = fs::file_time_type::clock::now() - std::chrono::hours(1);
+  for (const auto& entry : fs::directory_iterator(store->tmp_dir_, ec)) {
+    std::error_code ignored;
+    if (entry.last_write_time(ignored) < stale_before) fs::remove_all(entry.path(), ignored);
+  }
+  ec.clear();
   fs::create_directories(store->tmp_dir_, ec);
   if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->tmp_dir_.string(), ": ", ec.message()));
   for (const StoredBlob& b : store->List()) store->total_bytes_ += b.size_bytes;

@@ -49,11 +49,11 @@ ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
 // Issue 15: several head nodes on one PostgreSQL database and one blob store.
 ABSL_FLAG(std::string, database, "",
-          "Job database URL, postgresql://USER:PASSWORD@HOST:PORT/DB?... (several servers may share it); "
-          "default: SQLite in --data");
+          "Job database URL, postgresql://USER:PASSWORD@HOST:PORT/DB?..., which several servers may share "
+          "(default: SQLite in --data)");
 ABSL_FLAG(std::string, blob_dir, "",
           "Blob store directory (holds cas/ and tmp/; a shared filesystem when several servers share "
-          "--database); default: --data");
+          "--database) (default: --data)");
 ABSL_FLAG(int, database_pool_size, 8, "PostgreSQL connections per server (1..64)");
 ABSL_FLAG(int, database_statement_timeout_ms, 10000,
           "PostgreSQL statement timeout in milliseconds (100..600000)");

@@ -101,7 +101,11 @@ absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
   PGconn* conn = PQconnectdb(options_.url.c_str());
   if (conn == nullptr || PQstatus(conn) != CONNECTION_OK) {
     std::string why = conn ? PQerrorMessage(conn) : "out of memory";
-    while (!why.empty() && why.back() == '\n') why.pop_back();
+    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+    // One line: libpq's hint goes after a semicolon.
+    for (size_t i = why.find_first_of("\n\t"); i != std::string::npos; i = why.find_first_of("\n\t", i)) {
+      why.replace(i, 1, why[i] == '\n' ? "; " : "");
+    }
     PQfinish(conn);
     return absl::UnavailableError(absl::StrCat("--database: cannot connect to ", redacted_url_, ": ", why));
   }

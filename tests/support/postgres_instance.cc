@@ -133,7 +133,7 @@ absl::Status PostgresInstance::StartAgain() {
   auto out = Run({(bin_dir_ / "pg_ctl").string(), "-D", (dir_ / "data").string(), "-l", (dir_ / "server.log").string(),
                   "-w", "-t", "60", "-o",
                   absl::StrCat("-c listen_addresses=", listen, " -k ", dir_.string(), " -p ", port_,
-                               " -c fsync=off -c max_connections=200"),
+                               options_.fsync ? "" : " -c fsync=off", " -c max_connections=200"),
                   "start"});
   if (!out.ok()) {
     std::ifstream log(dir_ / "server.log");

@@ -43,6 +43,9 @@ class PostgresInstance {
     // password, TCP connections must give it (md5/scram); the Unix socket
     // stays trusted.
     std::string password;
+    // fsync off (the default) makes tests faster; benchmarks that compare
+    // with SQLite's fsynced commits turn it on.
+    bool fsync = false;
   };
 
   // FAILED_PRECONDITION when the PostgreSQL binaries are missing; INTERNAL
