@@ -118,6 +118,7 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
   const radius = manifest.bounding_sphere.radius;
   return {
     options,
+    layout: { kind, frames: manifest.frames, ringViews },  // as the shader gets it (u_layout)
     // The orthographic view the CPU reference renderer draws
     // (RenderImpostorView): direction `dir` (unit, centre -> camera), the
     // card framing the bounding sphere, rays parallel (eye far away).

@@ -2,12 +2,15 @@
 // impostor drawn by the runtime shader, one orbit camera for both), the
 // quality block with the worst view, every map and the manifest.
 // ?camera=AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_IN_RADII fixes the camera (tests);
-// ?mask=1 draws the mesh as a white silhouette (tests).
+// ?mask=1 draws the mesh as a white silhouette (tests); ?blend=0|1 picks the
+// blend mode; ?compare=ab&split=F opens the A/B split (viewer_debug.js, with
+// the atlas panel of the active frames).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { getJson, el, replace, reportError, bytes } from './common.js';
 import { createImpostorRenderer } from './impostor_gl.js';
+import { attachDebugViews } from './viewer_debug.js';
 
 const key = decodeURIComponent(location.pathname.split('/').pop());
 const fileUrl = (name) => `/api/v1/results/${key}/files/${encodeURIComponent(name)}`;
@@ -85,18 +88,24 @@ async function showViewer(result) {
   const impostor = await createImpostorRenderer(impostorCanvas, m, fileUrl);
   document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`;
 
-  const controls = new OrbitControls(camera, meshCanvas);
-  controls.target.copy(centre);
-  const controls2 = new OrbitControls(camera, impostorCanvas);
-  controls2.target.copy(centre);
+  const blendParam = new URLSearchParams(location.search).get('blend');
+  if (blendParam !== null) impostor.options.blend = Number(blendParam);
   const viewProjection = new THREE.Matrix4();
+  let debug = null;
   const draw = () => {
     camera.updateMatrixWorld();
     renderer.render(scene, camera);
     viewProjection.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
     impostor.draw(new Float32Array(viewProjection.elements), camera.position.toArray());
+    if (debug) debug.afterDraw();
   };
-  for (const c of [controls, controls2]) c.addEventListener('change', draw);
+  debug = await attachDebugViews({ manifest: m, fileUrl, impostor, camera, centre, radius, meshCanvas, impostorCanvas, redraw: draw });
+  // One camera for every canvas (the A/B canvas registered its line drag first).
+  for (const canvas of [meshCanvas, impostorCanvas, debug.abCanvas]) {
+    const c = new OrbitControls(camera, canvas);
+    c.target.copy(centre);
+    c.addEventListener('change', draw);
+  }
   for (const [id, apply] of [['blend', (v) => { impostor.options.blend = Number(v); }],
     ['debug', (v) => { impostor.options.debug = Number(v); }]]) {
     const select = document.getElementById(id);

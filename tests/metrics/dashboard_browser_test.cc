@@ -122,6 +122,19 @@ TEST_F(DashboardBrowser, OverviewShowsARunningJobThenItsCompletionAndTheResultPa
   EXPECT_GT(result.report["value"]["impostor"].get<double>(), 0.05) << result.report.dump();
   EXPECT_TRUE(fs::exists(kArtifacts / "overview_running.png"));
   EXPECT_TRUE(fs::exists(kArtifacts / "result.png"));
+
+  // The job page lists its one attempt: the worker that baked it, succeeded.
+  ASSERT_FALSE(done.worker_id().empty());
+  const PageRun job_page =
+      RunPage(base + "/jobs/" + id, "document.querySelector('[data-testid=attempts]') !== null",
+              {"--screenshot", (kArtifacts / "job.png").string(), "--eval",
+               "[...document.querySelectorAll('[data-testid=attempts] tr')].slice(1).map((r) => r.textContent)"});
+  EXPECT_EQ(job_page.exit_code, 0) << job_page.report.dump();
+  EXPECT_EQ(job_page.report["console_errors"], nlohmann::json::array()) << job_page.report.dump();
+  ASSERT_EQ(job_page.report["value"].size(), 1u) << job_page.report.dump();
+  const std::string attempt = job_page.report["value"][0].get<std::string>();
+  EXPECT_NE(attempt.find(done.worker_id()), std::string::npos) << attempt;
+  EXPECT_NE(attempt.find("succeeded"), std::string::npos) << attempt;
 }
 
 // The 3D viewer's impostor lies on the mesh for a perspective camera: an

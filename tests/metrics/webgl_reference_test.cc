@@ -18,63 +18,20 @@
 #include "common/frame_camera.h"
 #include "common/runtime/reference_renderer.h"
 #include "tests/integration/server_process.h"
+#include "tests/metrics/browser_capture.h"
 
-// After the protobuf headers (OIIO's byteswap macros clash with them).
-#include <OpenImageIO/imageio.h>
 #include <httplib.h>
 
 namespace impostor {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ReadRgba;
 using testing::ServerProcess;
 
 const fs::path kArtifacts = fs::path(IMPOSTOR_TEST_ARTIFACTS_DIR) / "dashboard";
 constexpr int kPixels = 128;
 constexpr double kAzimuthDeg = 35, kElevationDeg = 20;
-
-std::string Base64Decode(const std::string& in) {
-  std::string out;
-  int value = 0, bits = -8;
-  for (unsigned char c : in) {
-    int d;
-    if (c >= 'A' && c <= 'Z') d = c - 'A';
-    else if (c >= 'a' && c <= 'z') d = c - 'a' + 26;
-    else if (c >= '0' && c <= '9') d = c - '0' + 52;
-    else if (c == '+') d = 62;
-    else if (c == '/') d = 63;
-    else continue;
-    value = (value << 6) | d;
-    bits += 6;
-    if (bits >= 0) {
-      out.push_back(static_cast<char>((value >> bits) & 0xff));
-      bits -= 8;
-    }
-  }
-  return out;
-}
-
-// RGBA pixels of a PNG file, as 8 or 16 bit per channel, exactly as stored.
-// UnassociatedAlpha: without it OIIO premultiplies RGB by A on read (with a
-// gamma), darkening the atlas's partially covered edge texels (MSAA coverage
-// 64/128/191) and scaling normals by depth, while the bake, the reference
-// renderer and the browser all use straight alpha; that alone cost the
-// azimuth-elevation view 52 dB (26.3 -> 78.0).
-template <typename T>
-std::vector<T> ReadRgba(const fs::path& file, int* width, int* height) {
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  auto in = OIIO::ImageInput::open(file.string(), &config);
-  EXPECT_TRUE(in) << file;
-  if (!in) return {};
-  const OIIO::ImageSpec& spec = in->spec();
-  *width = spec.width;
-  *height = spec.height;
-  EXPECT_EQ(spec.nchannels, 4) << file;
-  std::vector<T> pixels(static_cast<size_t>(spec.width) * spec.height * 4);
-  in->read_image(0, 0, 0, 4, sizeof(T) == 1 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16, pixels.data());
-  return pixels;
-}
 
 void WriteRgba8(const fs::path& file, const std::vector<uint8_t>& pixels, int width, int height) {
   auto out = OIIO::ImageOutput::create(file.string());
@@ -85,14 +42,6 @@ void WriteRgba8(const fs::path& file, const std::vector<uint8_t>& pixels, int wi
   out->write_image(OIIO::TypeDesc::UINT8, pixels.data());
   out->close();
 }
-
-struct LayoutCase {
-  const char* name;
-  v1::Layout layout;
-  LayoutKind kind;
-  uint32_t frames;      // 0: derived by the server
-  uint32_t ring_views;  // ring-top only
-};
 
 constexpr double kMinPsnrDb = 30;        // the floor, every layout
 constexpr double kMaxLargeFraction = 0.01;  // of shared pixels off by > 16 levels
@@ -109,33 +58,13 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
   const v1::MeshInput mesh =
       testing::UploadGlb(server.assets(), testing::AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
 
-  const LayoutCase cases[] = {
-      {"octahedral", v1::LAYOUT_OCTAHEDRAL, LayoutKind::kOctahedral, 8, 0},
-      {"hemi-octahedral", v1::LAYOUT_HEMI_OCTAHEDRAL, LayoutKind::kHemiOctahedral, 8, 0},
-      {"azimuth-elevation", v1::LAYOUT_AZIMUTH_ELEVATION, LayoutKind::kAzimuthElevation, 9, 0},
-      {"ring-top", v1::LAYOUT_RING_TOP, LayoutKind::kRingTop, 0, 12},
-      {"billboard", v1::LAYOUT_BILLBOARD, LayoutKind::kBillboard, 0, 0},
-  };
-  // Submit all first: the worker bakes them one after another.
-  std::vector<std::string> jobs;
-  for (const LayoutCase& c : cases) {
-    v1::SubmitBakeRequest request;
-    *request.mutable_mesh() = mesh;
-    request.mutable_parameters()->set_layout(c.layout);
-    if (c.frames) request.mutable_parameters()->set_frames(c.frames);
-    if (c.ring_views) request.mutable_parameters()->set_ring_views(c.ring_views);
-    request.mutable_parameters()->set_resolution(256);
-    request.mutable_parameters()->set_quality_views(0);
-    v1::SubmitBakeResponse response;
-    const grpc::Status s = server.bake().SubmitBake(testing::ContextWithin().get(), request, &response);
-    ASSERT_TRUE(s.ok()) << c.name << ": " << s.error_message();
-    jobs.push_back(response.job_id());
-  }
+  const std::vector<std::string> jobs = testing::SubmitEveryLayout(server, mesh);
+  ASSERT_EQ(jobs.size(), std::size(testing::kEveryLayout));
 
   const double az = kAzimuthDeg * M_PI / 180, el = kElevationDeg * M_PI / 180;
   const glm::vec3 direction(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
-  for (size_t i = 0; i < std::size(cases); ++i) {
-    const LayoutCase& c = cases[i];
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const testing::LayoutCase& c = testing::kEveryLayout[i];
     SCOPED_TRACE(c.name);
     const v1::Job done = testing::WatchToEnd(server.bake(), jobs[i]);
     ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
@@ -145,7 +74,7 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
     ImpostorAtlas atlas;
     atlas.layout = c.kind;
     atlas.frames = static_cast<int>(m.frames());
-    atlas.ring_views = c.kind == LayoutKind::kRingTop ? m.views_size() - 1 : c.kind == LayoutKind::kBillboard ? 8 : 0;
+    atlas.ring_views = testing::RingViews(c.kind, m);
     atlas.resolution = static_cast<int>(m.resolution());
     atlas.sphere.center = {m.bounding_sphere().center(0), m.bounding_sphere().center(1), m.bounding_sphere().center(2)};
     atlas.sphere.radius = m.bounding_sphere().radius();
@@ -191,7 +120,7 @@ TEST(WebGlImpostor, MatchesTheCpuReferenceRendererForEveryLayout) {
       const std::string prefix = "data:image/png;base64,";
       ASSERT_EQ(url.rfind(prefix, 0), 0u) << url.substr(0, 80);
       const fs::path webgl_file = kArtifacts / ("webgl_" + name + ".png");
-      std::ofstream(webgl_file, std::ios::binary) << Base64Decode(url.substr(prefix.size()));
+      std::ofstream(webgl_file, std::ios::binary) << testing::Base64Decode(url.substr(prefix.size()));
       int w = 0, h = 0;
       const std::vector<uint8_t> webgl = ReadRgba<uint8_t>(webgl_file, &w, &h);
       ASSERT_EQ(w, kPixels);

@@ -34,10 +34,11 @@ chrome.stderr.on('data', () => {});
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 function finish(code) {
-  process.stdout.write(JSON.stringify(out) + '\n');
   chrome.kill('SIGKILL');
   try { rmSync(profile, { recursive: true, force: true }); } catch {}
-  process.exit(code);
+  // Exit once the report is written: stdout to a pipe is asynchronous, and
+  // exiting at once cuts a large report (PNG data URLs) at the pipe's 64 KiB.
+  process.stdout.write(JSON.stringify(out) + '\n', () => process.exit(code));
 }
 setTimeout(() => { out.error = out.error || 'deadline passed'; finish(1); }, timeoutMs + 5000).unref();
 
