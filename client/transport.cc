@@ -377,10 +377,10 @@ absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBak
 
 absl::StatusOr<v1::PurgeWorkerResultsResponse> Transport::PurgeWorkerResults(
     const v1::PurgeWorkerResultsRequest& request) {
-  // A stub per call: administration is rare and stays off the hot path's Stubs.
-  auto admin = v1::AdminService::NewStub(stubs_->channel);
-  return CallUnary<v1::PurgeWorkerResultsResponse>("PurgeWorkerResults", [&](auto* ctx, auto* resp) {
-    return admin->PurgeWorkerResults(ctx, request, resp);
+  // A stub per call: administration is rare.
+  return CallUnary<v1::PurgeWorkerResultsResponse>("PurgeWorkerResults", [&](const Route& route, auto* ctx,
+                                                                             auto* resp) {
+    return v1::AdminService::Stub(route.channel).PurgeWorkerResults(ctx, request, resp);
   });
 }
 
