@@ -4,6 +4,7 @@
 // quarantined; the store cap evicts least recently used results but never a
 // pinned one (PinResult) nor a young upload; per-client limits and fairness
 // tell clients apart by the impostor-client-id metadata.
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -125,9 +126,15 @@ TEST(StoreRpc, AnUploadCutByAServerKillLeavesNothingVisible) {
   }
   EXPECT_FALSE(fs::is_empty(tmp)) << "the kill left the temporary file (what the restart must clean up)";
   EXPECT_FALSE(fs::exists(BlobFile(server, digest.hash())));
+  // A start removes only unfinished uploads older than an hour (a replica on
+  // a shared --blob-dir must not delete another replica's live upload; the
+  // young case is BlobStoreTest's): age the leftover as an hour-old crash.
+  for (const auto& entry : fs::directory_iterator(tmp)) {
+    fs::last_write_time(entry.path(), fs::file_time_type::clock::now() - std::chrono::hours(2));
+  }
 
   server.Restart();
-  EXPECT_TRUE(fs::is_empty(tmp)) << "leftovers are removed at start";
+  EXPECT_TRUE(fs::is_empty(tmp)) << "leftovers older than an hour are removed at start";
   EXPECT_TRUE(IsMissing(server, digest)) << "a half-written blob must never be visible";
   std::string got;
   EXPECT_EQ(ReadBlob(server.assets(), digest, &got).error_code(), grpc::StatusCode::NOT_FOUND);
