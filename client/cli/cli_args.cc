@@ -426,8 +426,9 @@ Usage:
       {"path": "b.gltf", "name": "tree", "frames": 8, ...}]}. Keys of an asset
       and of defaults, as bake's flags: layout, frames (or "auto"),
       resolution, product, preset, point_budget, ring_views, supersampling,
-      quality_views, emissive, texture_array, texture_format, albedo_codec, lod_ratios, lod_pixel_error,
-      max_planes, tolerance, priority, min_iou, min_psnr_db; an asset also has path
+      quality_views, emissive, texture_array, texture_format, albedo_codec,
+      lod_ratios, lod_pixel_error, max_planes, tolerance, priority, min_iou,
+      min_psnr_db; an asset also has path
       (required, relative to SPEC's folder) and name (its folder in DIR,
       default the file name without extension). Uploads only the blobs the
       server lacks (one FindMissingBlobs for the batch), submits everything,

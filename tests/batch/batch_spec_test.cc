@@ -159,7 +159,7 @@ TEST_F(BatchSpecTest, MalformedSpecsNameTheEntryAndField) {
       {"missing file in object", R"({"assets": [{"path": "gone/tree.gltf"}]})", SpecFormat::kJson,
        "assets[0] (\"gone/tree.gltf\").path: \"gone/tree.gltf\" not found"},
       {"unknown key", R"({"assets": [{"path": "rock.glb", "frame": 8}]})", SpecFormat::kJson,
-       "assets[0] (\"rock.glb\"): unknown key \"frame\"; known keys: path, name, emissive, frames, layout,"},
+       "assets[0] (\"rock.glb\"): unknown key \"frame\"; known keys: path, name, albedo_codec, emissive, frames, layout,"},
       {"unknown default", R"({"defaults": {"resolutoin": 64}, "assets": ["rock.glb"]})", SpecFormat::kJson,
        "defaults: unknown key \"resolutoin\""},
       {"unknown top-level key", R"({"asset": ["rock.glb"]})", SpecFormat::kJson,
