@@ -71,7 +71,9 @@ for so in libimpostor libimpostor_runtime; do
   soname=$(objdump -p /usr/lib/$so.so | sed -n 's/^ *SONAME *//p')
   [[ "$soname" == "$so.so.0."* ]] || fail "$so.so: SONAME '$soname'"
   grep -qx "/usr/lib/$soname" <<<"$lib_files" || fail "$LIB_PACKAGE lacks /usr/lib/$soname"
-  ldconfig -p | grep -q " $soname " || fail "ldconfig does not know $soname"
+  # Lines are "<TAB>NAME (...) => PATH"; a here-string, not a pipe, so
+  # grep -q's early exit cannot fail the pipeline under pipefail.
+  grep -qE "^[[:space:]]+${soname//./\\.} " <<<"$(ldconfig -p)" || fail "ldconfig does not know $soname"
   [ "$(dpkg -S "/usr/lib/$so.so" | cut -d: -f1)" = libimpostor-dev ] || fail "$so.so link not in libimpostor-dev"
   if dpkg -L libimpostor-dev | grep -q "/usr/lib/$so.so\.[0-9]"; then fail "libimpostor-dev holds a versioned $so"; fi
   # Debian naming: the package is the SONAME without .so, digits joined.
