@@ -42,9 +42,10 @@ absl::StatusOr<int> FreePort(const std::string& address) {
 
 }  // namespace
 
-absl::StatusOr<std::string> PostgresInstance::Run(const std::vector<std::string>& argv) {
-  std::vector<std::string> full;
-  if (as_postgres_user_) full = {"runuser", "-u", "postgres", "--"};
+absl::StatusOr<std::string> PostgresInstance::Run(const std::vector<std::string>& argv,
+                                                  const std::vector<std::string>& prefix) {
+  std::vector<std::string> full = prefix;
+  if (as_postgres_user_) full.insert(full.end(), {"runuser", "-u", "postgres", "--"});
   full.insert(full.end(), argv.begin(), argv.end());
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) return absl::InternalError("pipe() failed");
@@ -96,6 +97,9 @@ absl::StatusOr<std::unique_ptr<PostgresInstance>> PostgresInstance::Start(const 
     if (chown(pg->dir_.c_str(), pw->pw_uid, pw->pw_gid) != 0) return absl::InternalError("chown of the test dir failed");
     pg->as_postgres_user_ = true;
   }
+  if (!options.start_prefix.empty() && options.port <= 0) {
+    return absl::InvalidArgumentError("start_prefix: needs an explicit port (cannot probe one from here)");
+  }
   if (!options.tcp_address.empty()) {
     if (options.port > 0) {
       pg->port_ = options.port;
@@ -134,7 +138,8 @@ absl::Status PostgresInstance::StartAgain() {
                   "-w", "-t", "60", "-o",
                   absl::StrCat("-c listen_addresses=", listen, " -k ", dir_.string(), " -p ", port_,
                                options_.fsync ? "" : " -c fsync=off", " -c max_connections=200"),
-                  "start"});
+                  "start"},
+                 options_.start_prefix);
   if (!out.ok()) {
     std::ifstream log(dir_ / "server.log");
     std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());

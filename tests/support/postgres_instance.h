@@ -46,6 +46,12 @@ class PostgresInstance {
     // fsync off (the default) makes tests faster; benchmarks that compare
     // with SQLite's fsynced commits turn it on.
     bool fsync = false;
+    // Prepended to the command that starts the server (pg_ctl start), e.g.
+    // {"ip", "netns", "exec", NS} to run it on a test host made by
+    // tests/support/netns.h (then tcp_address is that host's address and
+    // `port` must be given: a free port cannot be probed from here). The
+    // Unix socket and psql (Query) still work from the test's namespace.
+    std::vector<std::string> start_prefix;
   };
 
   // FAILED_PRECONDITION when the PostgreSQL binaries are missing; INTERNAL
@@ -76,7 +82,9 @@ class PostgresInstance {
 
  private:
   PostgresInstance() = default;
-  absl::StatusOr<std::string> Run(const std::vector<std::string>& argv);
+  // `prefix` goes before runuser (`ip netns exec` needs root).
+  absl::StatusOr<std::string> Run(const std::vector<std::string>& argv,
+                                  const std::vector<std::string>& prefix = {});
 
   std::filesystem::path dir_;      // the temporary directory (data/, socket, log)
   std::filesystem::path bin_dir_;

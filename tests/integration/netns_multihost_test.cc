@@ -1,0 +1,293 @@
+// The issue-15 multi-host test: PostgreSQL, two server replicas and three
+// workers, each on its own host (a Linux network namespace, joined by a
+// bridge: tests/support/netns.h), plus two client hosts.
+//  - Both clients submit the same 200 small bakes (distinct cache keys: the
+//    resolution varies), one through replica 1 first, the other through
+//    replica 2 first (`impostor bake-batch --server a,b`), so identical
+//    requests meet at both replicas at once.
+//  - Replica 1 is killed with SIGKILL and started again twice, each time
+//    when the first client has reported a given number of finished bakes
+//    (progress, not time).
+//  - Every bake succeeds for both clients, and from the database: one bake
+//    (one leader job) per cache key, every job succeeded, and a key leased
+//    more than once only after its earlier lease expired (each attempt's
+//    history entry says so, and the next lease started after it ended).
+//  - The results are byte-identical between the clients and to a
+//    single-node run (SQLite, one server, local workers) of every tenth
+//    request.
+// Needs root and PostgreSQL 15; skipped with the reason otherwise. CTest
+// labels netns, postgres, slow.
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "absl/strings/ascii.h"
+#include "impostor/v1/types.pb.h"
+#include "tests/integration/server_process.h"
+#include "tests/support/netns.h"
+#include "tests/support/postgres_instance.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::AssetsDir;
+using testing::BinaryDir;
+using testing::ChildProcess;
+using testing::PostgresInstance;
+using testing::TestNetwork;
+
+constexpr char kBox[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
+constexpr int kPort = 50051;     // every host has its own address, so one port for all
+constexpr int kPgPort = 5432;    // likewise, on the database host
+constexpr int kBakes = 200;
+constexpr int kFirstKillAfter = 40;    // replica 1 is killed when client A has this many results
+constexpr int kSecondKillAfter = 110;  // and again here
+constexpr int kReferenceEvery = 10;    // the single-node run bakes every tenth request
+constexpr int kLeaseTimeoutS = 10;
+// The files compared byte for byte (manifest.json carries baked_by, the
+// worker's name, which differs between runs by design).
+const char* const kCompared[] = {"albedo_alpha.png", "normal_depth.png"};
+
+std::string Name(int i) { return absl::StrCat("r", 64 + i); }
+
+class NetnsMultiHost : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string why = TestNetwork::Unavailable(); !why.empty()) GTEST_SKIP() << "network namespaces: " << why;
+    if (!fs::exists("/usr/lib/postgresql/15/bin/initdb") && std::getenv("IMPOSTOR_PG_BIN") == nullptr) {
+      GTEST_SKIP() << "needs PostgreSQL 15 (postgresql-15)";
+    }
+    auto net = TestNetwork::Create();
+    ASSERT_TRUE(net.ok()) << net.status();
+    net_ = std::move(*net);
+    dir_ = testing::NewTempDir("netns_multihost");
+  }
+
+  TestNetwork::Host Host(const std::string& name) {
+    auto host = net_->AddHost(name);
+    if (!host.ok()) throw std::runtime_error("cannot add host " + name + ": " + std::string(host.status().message()));
+    return *host;
+  }
+
+  static std::string Address(const TestNetwork::Host& host) { return host.address + ":" + std::to_string(kPort); }
+
+  // The batch spec: kBakes bakes of one small asset, resolution 64 + i.
+  fs::path WriteSpec(int every) {
+    nlohmann::json assets = nlohmann::json::array();
+    for (int i = 0; i < kBakes; i += every) {
+      assets.push_back({{"path", (AssetsDir() / kBox).string()}, {"name", Name(i)}, {"resolution", 64 + i}});
+    }
+    const fs::path spec = dir_ / absl::StrCat("spec_every_", every, ".json");
+    std::ofstream(spec) << nlohmann::json({{"defaults", {{"frames", 2}, {"quality_views", 0}}}, {"assets", assets}})
+                               .dump();
+    return spec;
+  }
+
+  std::unique_ptr<ChildProcess> StartReplica(const TestNetwork::Host& host, const fs::path& data,
+                                             const std::string& database_url) {
+    testing::ProcessOptions options;
+    options.name = "server-" + host.name;
+    auto server = std::make_unique<ChildProcess>(
+        net_->Exec(host, {(BinaryDir() / "impostor-server").string(), "--listen=" + Address(host),
+                          "--data=" + data.string(), "--database=" + database_url,
+                          "--blob-dir=" + (dir_ / "blobs").string(), "--local-workers=0",
+                          absl::StrCat("--lease-timeout-s=", kLeaseTimeoutS), "--log-level=info"}),
+        options);
+    if (server->ReadLineContaining("listening on").empty()) {
+      server->DumpLogTail();
+      throw std::runtime_error("replica on " + host.name + " did not start");
+    }
+    return server;
+  }
+
+  std::unique_ptr<ChildProcess> StartWorker(const TestNetwork::Host& host, const std::string& servers) {
+    testing::ProcessOptions options;
+    options.name = "worker-" + host.name;
+    return std::make_unique<ChildProcess>(
+        net_->Exec(host, {(BinaryDir() / "impostor-worker").string(), "--server=" + servers, "--name=" + host.name,
+                          "--token-file=" + (dir_ / "worker.token").string(), "--log-level=info"}),
+        options);
+  }
+
+  std::unique_ptr<ChildProcess> StartBatch(const TestNetwork::Host& host, const std::string& servers,
+                                           const fs::path& spec, const fs::path& out) {
+    testing::ProcessOptions options;
+    options.name = "batch-" + host.name;
+    return std::make_unique<ChildProcess>(
+        net_->Exec(host, {(BinaryDir() / "impostor").string(), "bake-batch", spec.string(), "--out", out.string(),
+                          "--server", servers, "--token-file", (dir_ / "submitter.token").string(), "--json"}),
+        options);
+  }
+
+  // Reads batch `batch`'s JSON lines until `count` more asset lines came;
+  // records each asset's status and cache key.
+  void ReadAssets(ChildProcess& batch, int count, std::map<std::string, nlohmann::json>* seen) {
+    for (int i = 0; i < count; ++i) {
+      const std::string line = batch.ReadLineContaining("\"type\":\"asset\"", testing::kExitTimeout);
+      ASSERT_FALSE(line.empty()) << "batch " << batch.name() << " stopped after " << seen->size() << " results";
+      nlohmann::json j = nlohmann::json::parse(line);
+      (*seen)[j["name"].get<std::string>()] = j;
+    }
+  }
+
+  static void ParseAssets(const std::string& text, std::map<std::string, nlohmann::json>* seen) {
+    for (absl::string_view line : absl::StrSplit(text, '\n')) {
+      if (line.find("\"type\":\"asset\"") == absl::string_view::npos) continue;
+      nlohmann::json j = nlohmann::json::parse(line);
+      (*seen)[j["name"].get<std::string>()] = j;
+    }
+  }
+
+  std::unique_ptr<TestNetwork> net_;  // declared first: destroyed after the processes
+  fs::path dir_;
+};
+
+TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  const TestNetwork::Host wh[3] = {Host("worker1"), Host("worker2"), Host("worker3")};
+  const TestNetwork::Host ca = Host("client-a");
+  const TestNetwork::Host cb = Host("client-b");
+
+  PostgresInstance::Options pg_options;
+  pg_options.tcp_address = db.address;
+  pg_options.port = kPgPort;
+  pg_options.start_prefix = net_->Exec(db, {});
+  auto pg = PostgresInstance::Start(pg_options);
+  ASSERT_TRUE(pg.ok()) << pg.status();
+  ASSERT_TRUE((*pg)->CreateDatabase("farm").ok());
+  const std::string url = (*pg)->Url("farm", /*tcp=*/true);
+
+  // Tokens live in each replica's --data (SQLite); the second starts as a
+  // copy of the first so the same tokens work on both.
+  fs::create_directories(dir_ / "data1");
+  std::ofstream(dir_ / "worker.token") << testing::CreateToken(dir_ / "data1", "worker", "netns-workers") << "\n";
+  std::ofstream(dir_ / "submitter.token") << testing::CreateToken(dir_ / "data1", "submitter", "netns-clients")
+                                          << "\n";
+  fs::copy(dir_ / "data1", dir_ / "data2", fs::copy_options::recursive);
+  fs::create_directories(dir_ / "blobs");
+
+  auto r1 = StartReplica(s1, dir_ / "data1", url);
+  auto r2 = StartReplica(s2, dir_ / "data2", url);
+  const std::string a1 = Address(s1), a2 = Address(s2);
+  // Workers 1 and 3 start on replica 1 (the one killed), worker 2 on replica 2.
+  std::unique_ptr<ChildProcess> workers[3] = {StartWorker(wh[0], a1 + "," + a2), StartWorker(wh[1], a2 + "," + a1),
+                                              StartWorker(wh[2], a1 + "," + a2)};
+
+  const fs::path spec = WriteSpec(1);
+  auto batch_a = StartBatch(ca, a1 + "," + a2, spec, dir_ / "out_a");
+  auto batch_b = StartBatch(cb, a2 + "," + a1, spec, dir_ / "out_b");
+
+  std::map<std::string, nlohmann::json> seen_a, seen_b;
+  ReadAssets(*batch_a, kFirstKillAfter, &seen_a);
+  r1->KillAndReap();
+  r1 = StartReplica(s1, dir_ / "data1", url);
+  ReadAssets(*batch_a, kSecondKillAfter - kFirstKillAfter, &seen_a);
+  r1->KillAndReap();
+  r1 = StartReplica(s1, dir_ / "data1", url);
+
+  std::string rest_a, rest_b;
+  ASSERT_EQ(batch_a->Wait(&rest_a), 0) << rest_a;
+  ASSERT_EQ(batch_b->Wait(&rest_b), 0) << rest_b;
+  ParseAssets(rest_a, &seen_a);
+  ParseAssets(rest_b, &seen_b);
+
+  // Every bake succeeded for both clients, with the same cache key.
+  ASSERT_EQ(seen_a.size(), static_cast<size_t>(kBakes));
+  ASSERT_EQ(seen_b.size(), static_cast<size_t>(kBakes));
+  std::set<std::string> keys;
+  for (int i = 0; i < kBakes; ++i) {
+    const nlohmann::json& a = seen_a[Name(i)];
+    const nlohmann::json& b = seen_b[Name(i)];
+    EXPECT_EQ(a["status"], "succeeded") << a.dump();
+    EXPECT_EQ(b["status"], "succeeded") << b.dump();
+    EXPECT_EQ(a["cache_key"], b["cache_key"]) << Name(i);
+    if (a["cache_key"].is_string()) keys.insert(a["cache_key"].get<std::string>());
+    for (const char* file : kCompared) {
+      const std::string bytes = testing::ReadFileBytes(dir_ / "out_a" / Name(i) / file);
+      EXPECT_FALSE(bytes.empty()) << Name(i) << "/" << file;
+      EXPECT_EQ(bytes, testing::ReadFileBytes(dir_ / "out_b" / Name(i) / file)) << Name(i) << "/" << file;
+    }
+  }
+  EXPECT_EQ(keys.size(), static_cast<size_t>(kBakes));
+  // The replica was really killed while it served: its clients and workers
+  // moved to the other.
+  int failovers = 0;
+  for (auto& w : workers) failovers += w->CountInLog("event=server_failover from=" + a1);
+  EXPECT_GE(failovers, 1) << workers[0]->Stderr();
+
+  // From the database. Leader jobs (leader_job_id = '') are the bakes;
+  // followers share a leader's bake.
+  auto query = [&](const std::string& sql) {
+    auto out = (*pg)->Query("farm", sql);
+    EXPECT_TRUE(out.ok()) << out.status();
+    return out.ok() ? std::string(absl::StripTrailingAsciiWhitespace(*out)) : std::string("?");
+  };
+  EXPECT_EQ(query("SELECT count(*) FROM jobs WHERE state <> 3"), "0") << "every job succeeded";
+  EXPECT_EQ(query("SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
+  EXPECT_EQ(query("SELECT count(DISTINCT cache_key) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
+  // Each bake's lease history: only an expired lease is followed by another,
+  // which began after the expiry; the last one succeeded.
+  const std::string rows =
+      query("SELECT job_id || ' ' || lease_expiries || ' ' || replace(encode(job, 'base64'), E'\\n', '') "
+            "FROM jobs WHERE leader_job_id = ''");
+  int jobs_checked = 0, expiries = 0;
+  std::vector<std::string> records = absl::StrSplit(rows, '\n', absl::SkipEmpty());
+  for (const std::string& record : records) {
+    std::vector<std::string> parts = absl::StrSplit(record, ' ');
+    ASSERT_EQ(parts.size(), 3u) << record;
+    std::string bytes;
+    ASSERT_TRUE(absl::Base64Unescape(parts[2], &bytes)) << parts[0];
+    v1::Job job;
+    ASSERT_TRUE(job.ParseFromString(bytes)) << parts[0];
+    ++jobs_checked;
+    const auto& history = job.attempt_history();
+    ASSERT_GE(history.size(), 1) << parts[0];
+    int expired = 0;
+    for (int i = 0; i + 1 < history.size(); ++i) {
+      EXPECT_TRUE(history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED ||
+                  history[i].outcome() == v1::JobAttempt::OUTCOME_RELEASED)
+          << parts[0] << " was leased again after attempt " << i << " ended with " << history[i].outcome();
+      EXPECT_GE(history[i + 1].leased_ms(), history[i].ended_ms()) << parts[0] << " leased twice at once";
+      if (history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED) ++expired;
+    }
+    EXPECT_EQ(history[history.size() - 1].outcome(), v1::JobAttempt::OUTCOME_SUCCEEDED) << parts[0];
+    EXPECT_EQ(std::to_string(expired), parts[1]) << parts[0] << ": lease_expiries and the history disagree";
+    expiries += expired;
+  }
+  EXPECT_EQ(jobs_checked, kBakes);
+  std::printf("[ multi-host ] %d bakes, %d expired leases re-leased, %d worker failovers\n", kBakes, expiries,
+              failovers);
+
+  // The single-node reference: one server on SQLite, local workers, every
+  // tenth request; the multi-host bytes equal its bytes.
+  for (auto& w : workers) w->KillAndReap();
+  testing::ServerProcess single(2);
+  const testing::ToolRun ref = testing::RunTool({(BinaryDir() / "impostor").string(), "bake-batch",
+                                                 WriteSpec(kReferenceEvery).string(), "--out",
+                                                 (dir_ / "single").string(), "--server", single.address(), "--json"});
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+  for (int i = 0; i < kBakes; i += kReferenceEvery) {
+    for (const char* file : kCompared) {
+      EXPECT_EQ(testing::ReadFileBytes(dir_ / "single" / Name(i) / file),
+                testing::ReadFileBytes(dir_ / "out_a" / Name(i) / file))
+          << Name(i) << "/" << file;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace impostor
