@@ -83,16 +83,39 @@ class NetnsMultiHost : public ::testing::Test {
 
   static std::string Address(const TestNetwork::Host& host) { return host.address + ":" + std::to_string(kPort); }
 
-  // The batch spec: kBakes bakes of one small asset, resolution 64 + i.
-  fs::path WriteSpec(int every) {
+  // The batch spec: `count` bakes of one small asset, resolution 64 + i.
+  fs::path WriteSpec(int every, int count = kBakes) {
     nlohmann::json assets = nlohmann::json::array();
-    for (int i = 0; i < kBakes; i += every) {
+    for (int i = 0; i < count; i += every) {
       assets.push_back({{"path", (AssetsDir() / kBox).string()}, {"name", Name(i)}, {"resolution", 64 + i}});
     }
-    const fs::path spec = dir_ / absl::StrCat("spec_every_", every, ".json");
+    const fs::path spec = dir_ / absl::StrCat("spec_", count, "_every_", every, ".json");
     std::ofstream(spec) << nlohmann::json({{"defaults", {{"frames", 2}, {"quality_views", 0}}}, {"assets", assets}})
                                .dump();
     return spec;
+  }
+
+  // PostgreSQL on `db`, with an empty database "farm".
+  std::unique_ptr<PostgresInstance> StartDatabase(const TestNetwork::Host& db) {
+    PostgresInstance::Options options;
+    options.tcp_address = db.address;
+    options.port = kPgPort;
+    options.start_prefix = net_->Exec(db, {});
+    auto pg = PostgresInstance::Start(options);
+    if (!pg.ok()) throw std::runtime_error("PostgreSQL: " + std::string(pg.status().message()));
+    if (absl::Status s = (*pg)->CreateDatabase("farm"); !s.ok()) throw std::runtime_error(std::string(s.message()));
+    return std::move(*pg);
+  }
+
+  // Tokens live in each replica's --data (SQLite); the second starts as a
+  // copy of the first so the same tokens work on both. The shared blob dir.
+  void CreateTokens() {
+    fs::create_directories(dir_ / "data1");
+    std::ofstream(dir_ / "worker.token") << testing::CreateToken(dir_ / "data1", "worker", "netns-workers") << "\n";
+    std::ofstream(dir_ / "submitter.token") << testing::CreateToken(dir_ / "data1", "submitter", "netns-clients")
+                                            << "\n";
+    fs::copy(dir_ / "data1", dir_ / "data2", fs::copy_options::recursive);
+    fs::create_directories(dir_ / "blobs");
   }
 
   std::unique_ptr<ChildProcess> StartReplica(const TestNetwork::Host& host, const fs::path& data,
@@ -150,6 +173,49 @@ class NetnsMultiHost : public ::testing::Test {
     }
   }
 
+  static std::string Query(PostgresInstance& pg, const std::string& sql) {
+    auto out = pg.Query("farm", sql);
+    EXPECT_TRUE(out.ok()) << out.status();
+    return out.ok() ? std::string(absl::StripTrailingAsciiWhitespace(*out)) : std::string("?");
+  }
+
+  // Checks every bake's (leader job's) lease history in the database: only
+  // an expired (or released) lease is followed by another, which began after
+  // it ended; the last one succeeded; the lease_expiries column agrees.
+  // Returns how many leases expired.
+  int CheckLeaseHistories(PostgresInstance& pg, int bakes) {
+    const std::string rows =
+        Query(pg, "SELECT job_id || ' ' || lease_expiries || ' ' || replace(encode(job, 'base64'), E'\\n', '') "
+              "FROM jobs WHERE leader_job_id = ''");
+    int jobs_checked = 0, expiries = 0;
+    std::vector<std::string> records = absl::StrSplit(rows, '\n', absl::SkipEmpty());
+    for (const std::string& record : records) {
+      std::vector<std::string> parts = absl::StrSplit(record, ' ');
+      std::string bytes;
+      v1::Job job;
+      if (parts.size() != 3 || !absl::Base64Unescape(parts[2], &bytes) || !job.ParseFromString(bytes) ||
+          job.attempt_history().empty()) {
+        ADD_FAILURE() << "unreadable job row or no lease history: " << record.substr(0, 200);
+        continue;
+      }
+      ++jobs_checked;
+      const auto& history = job.attempt_history();
+      int expired = 0;
+      for (int i = 0; i + 1 < history.size(); ++i) {
+        EXPECT_TRUE(history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED ||
+                    history[i].outcome() == v1::JobAttempt::OUTCOME_RELEASED)
+            << parts[0] << " was leased again after attempt " << i << " ended with " << history[i].outcome();
+        EXPECT_GE(history[i + 1].leased_ms(), history[i].ended_ms()) << parts[0] << " leased twice at once";
+        if (history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED) ++expired;
+      }
+      EXPECT_EQ(history[history.size() - 1].outcome(), v1::JobAttempt::OUTCOME_SUCCEEDED) << parts[0];
+      EXPECT_EQ(std::to_string(expired), parts[1]) << parts[0] << ": lease_expiries and the history disagree";
+      expiries += expired;
+    }
+    EXPECT_EQ(jobs_checked, bakes);
+    return expiries;
+  }
+
   std::unique_ptr<TestNetwork> net_;  // declared first: destroyed after the processes
   fs::path dir_;
 };
@@ -162,23 +228,9 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
   const TestNetwork::Host ca = Host("client-a");
   const TestNetwork::Host cb = Host("client-b");
 
-  PostgresInstance::Options pg_options;
-  pg_options.tcp_address = db.address;
-  pg_options.port = kPgPort;
-  pg_options.start_prefix = net_->Exec(db, {});
-  auto pg = PostgresInstance::Start(pg_options);
-  ASSERT_TRUE(pg.ok()) << pg.status();
-  ASSERT_TRUE((*pg)->CreateDatabase("farm").ok());
-  const std::string url = (*pg)->Url("farm", /*tcp=*/true);
-
-  // Tokens live in each replica's --data (SQLite); the second starts as a
-  // copy of the first so the same tokens work on both.
-  fs::create_directories(dir_ / "data1");
-  std::ofstream(dir_ / "worker.token") << testing::CreateToken(dir_ / "data1", "worker", "netns-workers") << "\n";
-  std::ofstream(dir_ / "submitter.token") << testing::CreateToken(dir_ / "data1", "submitter", "netns-clients")
-                                          << "\n";
-  fs::copy(dir_ / "data1", dir_ / "data2", fs::copy_options::recursive);
-  fs::create_directories(dir_ / "blobs");
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens();
 
   auto r1 = StartReplica(s1, dir_ / "data1", url);
   auto r2 = StartReplica(s2, dir_ / "data2", url);
@@ -231,44 +283,10 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
 
   // From the database. Leader jobs (leader_job_id = '') are the bakes;
   // followers share a leader's bake.
-  auto query = [&](const std::string& sql) {
-    auto out = (*pg)->Query("farm", sql);
-    EXPECT_TRUE(out.ok()) << out.status();
-    return out.ok() ? std::string(absl::StripTrailingAsciiWhitespace(*out)) : std::string("?");
-  };
-  EXPECT_EQ(query("SELECT count(*) FROM jobs WHERE state <> 3"), "0") << "every job succeeded";
-  EXPECT_EQ(query("SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
-  EXPECT_EQ(query("SELECT count(DISTINCT cache_key) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
-  // Each bake's lease history: only an expired lease is followed by another,
-  // which began after the expiry; the last one succeeded.
-  const std::string rows =
-      query("SELECT job_id || ' ' || lease_expiries || ' ' || replace(encode(job, 'base64'), E'\\n', '') "
-            "FROM jobs WHERE leader_job_id = ''");
-  int jobs_checked = 0, expiries = 0;
-  std::vector<std::string> records = absl::StrSplit(rows, '\n', absl::SkipEmpty());
-  for (const std::string& record : records) {
-    std::vector<std::string> parts = absl::StrSplit(record, ' ');
-    ASSERT_EQ(parts.size(), 3u) << record;
-    std::string bytes;
-    ASSERT_TRUE(absl::Base64Unescape(parts[2], &bytes)) << parts[0];
-    v1::Job job;
-    ASSERT_TRUE(job.ParseFromString(bytes)) << parts[0];
-    ++jobs_checked;
-    const auto& history = job.attempt_history();
-    ASSERT_GE(history.size(), 1) << parts[0];
-    int expired = 0;
-    for (int i = 0; i + 1 < history.size(); ++i) {
-      EXPECT_TRUE(history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED ||
-                  history[i].outcome() == v1::JobAttempt::OUTCOME_RELEASED)
-          << parts[0] << " was leased again after attempt " << i << " ended with " << history[i].outcome();
-      EXPECT_GE(history[i + 1].leased_ms(), history[i].ended_ms()) << parts[0] << " leased twice at once";
-      if (history[i].outcome() == v1::JobAttempt::OUTCOME_LEASE_EXPIRED) ++expired;
-    }
-    EXPECT_EQ(history[history.size() - 1].outcome(), v1::JobAttempt::OUTCOME_SUCCEEDED) << parts[0];
-    EXPECT_EQ(std::to_string(expired), parts[1]) << parts[0] << ": lease_expiries and the history disagree";
-    expiries += expired;
-  }
-  EXPECT_EQ(jobs_checked, kBakes);
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0") << "every job succeeded";
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
+  EXPECT_EQ(Query(*pg, "SELECT count(DISTINCT cache_key) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
+  const int expiries = CheckLeaseHistories(*pg, kBakes);
   std::printf("[ multi-host ] %d bakes, %d expired leases re-leased, %d worker failovers\n", kBakes, expiries,
               failovers);
 
@@ -287,6 +305,39 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
           << Name(i) << "/" << file;
     }
   }
+}
+
+// The database restarted (pg_ctl stop -m fast, then start: every replica's
+// connections drop) while 30 bakes run through two replicas: no job is
+// lost, every bake succeeds, and each was leased once or after an expiry.
+TEST_F(NetnsMultiHost, ADatabaseRestartMidRunLosesNoJob) {
+  constexpr int kJobs = 30;
+  constexpr int kRestartAfter = 10;
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  const TestNetwork::Host wh[2] = {Host("worker1"), Host("worker2")};
+  const TestNetwork::Host ca = Host("client-a");
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens();
+  auto r1 = StartReplica(s1, dir_ / "data1", url);
+  auto r2 = StartReplica(s2, dir_ / "data2", url);
+  const std::string a1 = Address(s1), a2 = Address(s2);
+  std::unique_ptr<ChildProcess> workers[2] = {StartWorker(wh[0], a1 + "," + a2), StartWorker(wh[1], a2 + "," + a1)};
+  auto batch = StartBatch(ca, a1 + "," + a2, WriteSpec(1, kJobs), dir_ / "out");
+
+  std::map<std::string, nlohmann::json> seen;
+  ReadAssets(*batch, kRestartAfter, &seen);
+  ASSERT_TRUE(pg->Restart().ok());
+  std::string rest;
+  ASSERT_EQ(batch->Wait(&rest), 0) << rest << r1->Stderr();
+  ParseAssets(rest, &seen);
+  ASSERT_EQ(seen.size(), static_cast<size_t>(kJobs));
+  for (const auto& [name, asset] : seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
+  CheckLeaseHistories(*pg, kJobs);
 }
 
 }  // namespace
