@@ -2,8 +2,10 @@
 SDK's --server lists): a dead first address is skipped at connect time, a
 replica killed between calls costs its caller a move to the next address
 (the upload, submit and watch of a whole bake land there), and malformed
-lists fail at once naming `server`. Real impostor-server processes; the
-failover is driven by SIGKILL, not by timing."""
+lists fail at once naming `server`; and with two replicas on one PostgreSQL
+database, a watch through a replica SIGKILLed mid-bake resumes on the other.
+Real impostor-server processes; the failover is driven by SIGKILL and a
+pause file, not by timing."""
 from __future__ import annotations
 
 import socket
@@ -14,10 +16,13 @@ import grpc
 import pytest
 
 import impostor
-from conftest import sha256_file
+from conftest import BakeInBackground, sha256_file
+import postgres_process
 from farm_process import FarmServer
 
 BOX = "props_pbr/Box/glTF-Binary/Box.glb"
+# A bound on one step on a loaded machine; reaching it is a failure (a hang).
+STEP_DEADLINE_S = 120
 
 
 def dead_address() -> str:
@@ -68,3 +73,37 @@ def test_a_bake_moves_to_the_other_replica_when_the_first_is_killed(
         assert events[0].error is not None and first.address in events[0].error.message
     finally:
         first.stop()
+
+
+@pytest.mark.skipif(not postgres_process.available(), reason="no PostgreSQL binaries (postgresql-15)")
+def test_a_watch_resumes_on_the_other_replica_of_one_database(assets: Path, tmp_path: Path) -> None:
+    """Two replicas on one PostgreSQL database and one blob folder: the bake is
+    submitted and watched through A, baked by B's worker (held at its render
+    stage by a file), A is SIGKILLed mid-watch, and the watch resumes on B
+    (GetJob, then a new stream) to the finished bake."""
+    pg = postgres_process.PostgresServer()
+    servers: List[FarmServer] = []
+    try:
+        pause = tmp_path / "pause"
+        pause.write_text("pause")
+        shared = ["--database=" + pg.url(), f"--blob-dir={tmp_path / 'blobs'}"]
+        servers.append(FarmServer(tmp_path / "a", local_workers=0, extra_args=shared))
+        servers.append(FarmServer(tmp_path / "b", local_workers=1, extra_args=shared,
+                                  env={"IMPOSTOR_WORKER_TEST_PAUSE_FILE": str(pause)}))
+        a, b = servers
+        events: List[impostor.ConnectionEvent] = []
+        client = impostor.Client(f"{a.address},{b.address}", on_connection_change=events.append)
+        bake = BakeInBackground(client, assets / BOX, tmp_path / "out", frames=2, resolution=80, quality_views=0)
+        assert bake.at_render.wait(STEP_DEADLINE_S), "the bake never reached B's worker's render stage"
+        a.kill9()
+        pause.unlink()
+        result: impostor.BakeResult = bake.result(STEP_DEADLINE_S)
+        client.close()
+        for m in result.manifest["maps"]:
+            assert sha256_file(tmp_path / "out" / m["file"]) == m["digest"]["hash"]
+        assert events and events[0].kind == "lost" and events[0].error is not None
+        assert a.address in events[0].error.message, events[0].error.message
+    finally:
+        for s in servers:
+            s.stop()
+        pg.stop()
