@@ -25,6 +25,9 @@ struct JobStoreConfig {
 
 // True for the URL schemes the PostgreSQL engine takes.
 bool IsPostgresUrl(std::string_view url);
+// OK for '' (SQLite) and for IsPostgresUrl; INVALID_ARGUMENT naming
+// --database and the scheme (never the rest of the URL) otherwise.
+absl::Status ValidateDatabaseUrl(std::string_view url);
 
 // The engine `config` names, opened and migrated. INVALID_ARGUMENT naming
 // --database for a URL of another scheme; the engine's error otherwise

@@ -44,6 +44,7 @@
 #include "server/token_command.h"
 #include "server/token_quotas.h"
 #include "server/token_store.h"
+#include "server/token_store_factory.h"
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
@@ -94,6 +95,9 @@ ABSL_FLAG(int64_t, token_max_pending_jobs, 1000, "Queued or running jobs per tok
 ABSL_FLAG(int64_t, token_max_upload_bytes_per_day, int64_t{100} << 30,
           "Bytes a token (not admin) may upload in any 24 hours (>= 1)");
 ABSL_FLAG(int64_t, token_max_bakes_per_hour, 1000, "Bakes (non-cached submits) per token (not admin) per hour (>= 1)");
+ABSL_FLAG(int, token_cache_ttl_ms, 2000,
+          "How long a token check is cached; a token revoked on any replica (or with `impostor-server token "
+          "revoke`) is refused here within this time. 0 = read the token store on every call (0..60000)");
 // Serving speed (issue 18).
 ABSL_FLAG(int, job_retention_days, 7,
           "Finished job records older than this many days are deleted (0 = keep for ever; 0..36500)");
@@ -242,22 +246,27 @@ int main(int argc, char** argv) {
 
   // Identity (issue 14): with --auth token every call passes the
   // AccessGuard (authorized_services.h) before reaching a service.
+  // Tokens and quota windows live beside the jobs (token_store_factory.h):
+  // in --database when the replicas share one, so a token and its quota are
+  // the same on every replica; else in DATA/tokens.sqlite3. Either way a
+  // restart forgives nothing.
   std::unique_ptr<impostor::TokenStore> token_store;
   std::unique_ptr<impostor::Authenticator> authenticator;
+  std::unique_ptr<impostor::QuotaLedger> quota_ledger;
   if (*auth_mode == impostor::AuthMode::kToken) {
-    auto opened = impostor::OpenSqliteTokenStore(data);
+    const int token_cache_ttl_ms = absl::GetFlag(FLAGS_token_cache_ttl_ms);
+    if (token_cache_ttl_ms < 0 || token_cache_ttl_ms > 60'000) {
+      return Fail("--token-cache-ttl-ms: " + std::to_string(token_cache_ttl_ms) + " is out of range 0..60000");
+    }
+    auto opened = impostor::OpenTokenStorage({.database_url = store_config.database_url,
+                                              .data_dir = data,
+                                              .statement_timeout_ms = store_config.statement_timeout_ms});
     if (!opened.ok()) return Fail(std::string(opened.status().message()));
-    token_store = std::move(*opened);
-    authenticator = std::make_unique<impostor::Authenticator>(token_store.get());
+    token_store = std::move(opened->tokens);
+    quota_ledger = std::move(opened->quotas);
+    authenticator = std::make_unique<impostor::Authenticator>(token_store.get(), token_cache_ttl_ms);
   }
   impostor::CallPrincipals principals;
-  // Quota windows live in the token database, so a restart forgives nothing.
-  std::unique_ptr<impostor::QuotaLedger> quota_ledger;
-  if (token_store) {
-    auto ledger = impostor::OpenSqliteQuotaLedger(data);
-    if (!ledger.ok()) return Fail(std::string(ledger.status().message()));
-    quota_ledger = std::move(*ledger);
-  }
   impostor::TokenQuotas quotas(quota_options, {}, std::move(quota_ledger));
   impostor::AccessGuard access_guard(authenticator.get(), &scheduler, &principals, &quotas);
 
@@ -324,7 +333,8 @@ int main(int argc, char** argv) {
     // With tokens, local workers get a worker token minted here, through a
     // file only this user can read (never the secret on a command line).
     if (token_store) {
-      auto token_file = impostor::MintLocalWorkerToken(token_store.get(), data);
+      auto token_file = impostor::MintLocalWorkerToken(
+          token_store.get(), data, impostor::LocalWorkerTokenName(!store_config.database_url.empty(), data));
       if (!token_file.ok()) return Fail(std::string(token_file.status().message()));
       worker_args.push_back("--token-file=" + token_file->string());
     }

@@ -10,15 +10,22 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
+#include "common/sha256.h"
+#include "server/job_store_factory.h"
+#include "server/token_store_factory.h"
 
 namespace impostor {
 namespace {
 
+// WHERE: the server's --data DIR, or its --database URL when it runs on
+// PostgreSQL (the replicas' shared tokens).
 constexpr char kUsage[] =
-    "usage: impostor-server token create --data DIR --role reader|submitter|worker|admin --name NAME "
+    "usage: impostor-server token create WHERE --role reader|submitter|worker|admin --name NAME "
     "[--expires-in 90d]\n"
-    "       impostor-server token list --data DIR\n"
-    "       impostor-server token revoke --data DIR --name NAME\n";
+    "       impostor-server token list WHERE\n"
+    "       impostor-server token revoke WHERE --name NAME\n"
+    "WHERE: --data DIR (SQLite, the server's data directory) or --database postgresql://... (the database "
+    "the server replicas share)\n";
 
 int64_t NowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -69,9 +76,9 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     return 0;
   }
   const std::map<std::string, std::vector<std::string>> allowed = {
-      {"create", {"--data", "--role", "--name", "--expires-in"}},
-      {"list", {"--data"}},
-      {"revoke", {"--data", "--name"}},
+      {"create", {"--data", "--database", "--role", "--name", "--expires-in"}},
+      {"list", {"--data", "--database"}},
+      {"revoke", {"--data", "--database", "--name"}},
   };
   const auto spec = allowed.find(verb);
   if (spec == allowed.end()) return UsageError(absl::StrCat("unknown subcommand \"", verb, "\""));
@@ -95,10 +102,17 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     flags[flag] = *value;
   }
   const std::string data = flags["--data"];
-  if (data.empty()) return UsageError("--data: required (the server's data directory)");
-  std::error_code ec;
-  if (!std::filesystem::is_directory(data, ec)) {
-    return UsageError(absl::StrCat("--data: ", data, " is not a directory (give the server's --data)"));
+  const std::string database = flags["--database"];
+  if (!database.empty()) {
+    if (auto s = ValidateDatabaseUrl(database); !s.ok()) return UsageError(std::string(s.message()));
+  } else {
+    if (data.empty()) {
+      return UsageError("--data: required (the server's data directory), or --database with its PostgreSQL URL");
+    }
+    std::error_code ec;
+    if (!std::filesystem::is_directory(data, ec)) {
+      return UsageError(absl::StrCat("--data: ", data, " is not a directory (give the server's --data)"));
+    }
   }
 
   std::optional<Role> role;
@@ -119,8 +133,10 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     if (auto s = ValidateTokenName(flags["--name"]); !s.ok()) return UsageError(std::string(s.message()));
   }
 
-  auto store = OpenSqliteTokenStore(data);
-  if (!store.ok()) return StoreError(store.status());
+  // --database wins: a server on PostgreSQL keeps its tokens there.
+  auto storage = OpenTokenStorage({.database_url = database, .data_dir = database.empty() ? data : ""});
+  if (!storage.ok()) return StoreError(storage.status());
+  TokenStore* const store = storage->tokens.get();
   const int64_t now = NowMs();
   if (verb == "create") {
     const std::string secret = NewTokenSecret();
@@ -129,7 +145,7 @@ int RunTokenCommand(const std::vector<std::string>& args) {
                        .secret_hash = TokenHash(secret),
                        .created_ms = now,
                        .expires_ms = expires_in_ms ? now + *expires_in_ms : 0};
-    if (auto s = (*store)->Insert(record); !s.ok()) return StoreError(s);
+    if (auto s = store->Insert(record); !s.ok()) return StoreError(s);
     // The only time the secret exists outside the caller's hands.
     std::printf("%s\n", secret.c_str());
     std::fprintf(stderr, "impostor-server token: created '%s' (role %s, expires %s); the secret above is shown once\n",
@@ -138,12 +154,12 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     return 0;
   }
   if (verb == "revoke") {
-    if (auto s = (*store)->Revoke(flags["--name"], now); !s.ok()) return StoreError(s);
+    if (auto s = store->Revoke(flags["--name"], now); !s.ok()) return StoreError(s);
     std::fprintf(stderr, "impostor-server token: revoked '%s'; a running server refuses it within a few seconds\n",
                  flags["--name"].c_str());
     return 0;
   }
-  auto tokens = (*store)->List();
+  auto tokens = store->List();
   if (!tokens.ok()) return StoreError(tokens.status());
   std::printf("%-24s %-9s %-20s %-20s %-20s %s\n", "NAME", "ROLE", "CREATED", "EXPIRES", "LAST_USED", "STATUS");
   for (const TokenRecord& t : *tokens) {
@@ -155,12 +171,21 @@ int RunTokenCommand(const std::vector<std::string>& args) {
   return 0;
 }
 
-absl::StatusOr<std::filesystem::path> MintLocalWorkerToken(TokenStore* store, const std::filesystem::path& data_dir) {
-  constexpr char kName[] = "local-workers";
-  if (auto s = store->Revoke(kName, NowMs()); !s.ok() && !absl::IsNotFound(s)) return s;
+std::string LocalWorkerTokenName(bool shared_database, const std::filesystem::path& data_dir) {
+  if (!shared_database) return "local-workers";
+  char host[256] = {};
+  ::gethostname(host, sizeof(host) - 1);
+  std::error_code ec;
+  const std::filesystem::path dir = std::filesystem::absolute(data_dir, ec);
+  return "local-workers-" + Sha256Hex(absl::StrCat(host, ":", dir.string())).substr(0, 12);
+}
+
+absl::StatusOr<std::filesystem::path> MintLocalWorkerToken(TokenStore* store, const std::filesystem::path& data_dir,
+                                                           const std::string& name) {
+  if (auto s = store->Revoke(name, NowMs()); !s.ok() && !absl::IsNotFound(s)) return s;
   const std::string secret = NewTokenSecret();
   if (auto s = store->Insert(
-          {.name = kName, .role = Role::kWorker, .secret_hash = TokenHash(secret), .created_ms = NowMs()});
+          {.name = name, .role = Role::kWorker, .secret_hash = TokenHash(secret), .created_ms = NowMs()});
       !s.ok()) {
     return s;
   }

@@ -11,6 +11,7 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/strings/str_cat.h"
 #include "server/sqlite_open.h"
+#include "server/token_store.h"
 
 namespace impostor {
 namespace {
@@ -22,6 +23,7 @@ constexpr int64_t kForgetEveryMs = 60'000;
 class InMemoryQuotaLedger final : public QuotaLedger {
  public:
   absl::Status Record(const std::string& token, std::string_view kind, int64_t at_ms, int64_t amount) override {
+    if (auto s = ValidateQuotaEvent(token, kind, amount); !s.ok()) return s;
     std::lock_guard lock(mu_);
     events_[{token, std::string(kind)}].emplace_back(at_ms, amount);
     return absl::OkStatus();
@@ -69,6 +71,7 @@ class SqliteQuotaLedger final : public QuotaLedger {
   ~SqliteQuotaLedger() override { sqlite3_close(db_); }
 
   absl::Status Record(const std::string& token, std::string_view kind, int64_t at_ms, int64_t amount) override {
+    if (auto s = ValidateQuotaEvent(token, kind, amount); !s.ok()) return s;
     std::lock_guard lock(mu_);
     Statement st(db_, "INSERT INTO quota_events (token, kind, at_ms, amount) VALUES (?1, ?2, ?3, ?4)");
     if (!st.ok()) return st.Error("prepare");
@@ -108,6 +111,18 @@ class SqliteQuotaLedger final : public QuotaLedger {
 };
 
 }  // namespace
+
+absl::Status ValidateQuotaEvent(const std::string& token, std::string_view kind, int64_t amount) {
+  if (auto s = ValidateTokenName(token); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("quota token: ", s.message()));
+  }
+  if (kind != "bakes" && kind != "upload_bytes") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("quota kind: \"", std::string(kind), "\" is not bakes or upload_bytes"));
+  }
+  if (amount < 0) return absl::InvalidArgumentError(absl::StrCat("quota amount: ", amount, " is negative"));
+  return absl::OkStatus();
+}
 
 std::unique_ptr<QuotaLedger> NewInMemoryQuotaLedger() { return std::make_unique<InMemoryQuotaLedger>(); }
 

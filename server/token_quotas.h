@@ -38,18 +38,25 @@ struct QuotaOptions {
 };
 
 // Where the windows' events live: (token, kind, Unix ms, amount) rows. The
-// SQLite engine shares the token database; a PostgreSQL engine (shared
-// state of several servers) implements the same three calls.
+// SQLite engine shares the token database; the PostgreSQL engine
+// (postgres/postgres_token_store.h) is the shared state of several server
+// replicas, so a token's events are counted once whichever replica served
+// the call. token_store_factory.h picks the engine.
 class QuotaLedger {
  public:
   virtual ~QuotaLedger() = default;
   // Adds an event of `amount` for `token`'s `kind` ("bakes", "upload_bytes").
+  // INVALID_ARGUMENT from ValidateQuotaEvent.
   virtual absl::Status Record(const std::string& token, std::string_view kind, int64_t at_ms, int64_t amount) = 0;
   // The sum of `token`'s `kind` events later than `after_ms`.
   virtual absl::StatusOr<int64_t> Sum(const std::string& token, std::string_view kind, int64_t after_ms) = 0;
   // Drops every event at or before `up_to_ms` (none can count any more).
   virtual absl::Status Forget(int64_t up_to_ms) = 0;
 };
+
+// What every ledger's Record checks: a token name (ValidateTokenName), a
+// kind of the two above, an amount >= 0. INVALID_ARGUMENT naming the field.
+absl::Status ValidateQuotaEvent(const std::string& token, std::string_view kind, int64_t amount);
 
 // Events in memory (tests; a server without a data directory).
 std::unique_ptr<QuotaLedger> NewInMemoryQuotaLedger();

@@ -58,6 +58,7 @@ class SqliteTokenStore final : public TokenStore {
   ~SqliteTokenStore() override { sqlite3_close(db_); }
 
   absl::Status Insert(const TokenRecord& r) override {
+    if (auto s = ValidateTokenRecord(r); !s.ok()) return s;
     std::lock_guard lock(mu_);
     Statement st(db_,
                  "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)");
@@ -117,7 +118,8 @@ class SqliteTokenStore final : public TokenStore {
 
   absl::Status MarkUsed(const std::string& secret_hash, int64_t now_ms) override {
     std::lock_guard lock(mu_);
-    Statement st(db_, "UPDATE tokens SET last_used_ms = ?2 WHERE secret_hash = ?1");
+    // MAX: the same rule as the PostgreSQL engine; last_used never moves back.
+    Statement st(db_, "UPDATE tokens SET last_used_ms = MAX(last_used_ms, ?2) WHERE secret_hash = ?1");
     if (!st.ok()) return st.Error("prepare");
     st.Bind(1, secret_hash);
     st.Bind(2, now_ms);
@@ -194,6 +196,19 @@ absl::Status ValidateTokenName(std::string_view name) {
         (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_' || c == '.';
     if (!ok) return absl::InvalidArgumentError("--name: only letters, digits, '.', '_' and '-' are allowed");
   }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateTokenRecord(const TokenRecord& record) {
+  if (auto s = ValidateTokenName(record.name); !s.ok()) return s;
+  const int role = static_cast<int>(record.role);
+  if (role < static_cast<int>(Role::kReader) || role > static_cast<int>(Role::kAdmin)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--role: ", role, " is not a role; expected reader, submitter, worker or admin"));
+  }
+  const bool hex = record.secret_hash.size() == 64 &&
+                   record.secret_hash.find_first_not_of("0123456789abcdef") == std::string::npos;
+  if (!hex) return absl::InvalidArgumentError("secret_hash: expected 64 lowercase hex digits (TokenHash)");
   return absl::OkStatus();
 }
 

@@ -6,8 +6,9 @@
 // the whole token string is stored: the secret itself is printed once by
 // `impostor-server token create` and never kept.
 //
-// TokenStore is the persistence interface (SQLite today, in the server's
-// data directory; a PostgreSQL engine can implement the same five calls).
+// TokenStore is the persistence interface, with two engines chosen by
+// token_store_factory.h: SQLite in the server's data directory, and
+// PostgreSQL in the --database several replicas share (issue 15).
 // Token names are the identity everything else refers to: job ownership,
 // the worker that baked a result, quotas and audit lines. At most one
 // unrevoked token has a given name; revoking frees the name for a successor.
@@ -48,6 +49,12 @@ std::string TokenHash(std::string_view token);
 // INVALID_ARGUMENT unless `name` is 1..64 characters of [A-Za-z0-9._-].
 absl::Status ValidateTokenName(std::string_view name);
 
+struct TokenRecord;
+// What every engine's Insert checks first: the name (ValidateTokenName), a
+// role of the enum, a 64-hex-digit secret hash. INVALID_ARGUMENT naming the
+// field otherwise.
+absl::Status ValidateTokenRecord(const TokenRecord& record);
+
 struct TokenRecord {
   std::string name;
   Role role = Role::kReader;
@@ -62,7 +69,8 @@ struct TokenRecord {
 class TokenStore {
  public:
   virtual ~TokenStore() = default;
-  // ALREADY_EXISTS when an unrevoked token has record.name.
+  // ALREADY_EXISTS when an unrevoked token has record.name;
+  // INVALID_ARGUMENT from ValidateTokenRecord.
   virtual absl::Status Insert(const TokenRecord& record) = 0;
   virtual absl::StatusOr<std::optional<TokenRecord>> FindByHash(const std::string& secret_hash) = 0;
   // Every token ever created, revoked ones too, oldest first.

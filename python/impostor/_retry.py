@@ -1,7 +1,9 @@
 """Retries and outage handling, the same policy as the C++ SDK (client/retry.cc,
 client/connection_monitor.h).
 
-A call is retried when it fails with UNAVAILABLE or DEADLINE_EXCEEDED after a
+A call that failed with UNAVAILABLE on one of several addresses is tried at
+once on the next one while some address has not failed since the last answer
+(_transport.py). Otherwise a call is retried when it fails with UNAVAILABLE or DEADLINE_EXCEEDED after a
 capped exponential backoff (100 ms, 200 ms, ... 1 s, minus up to 20% jitter),
 up to ``max_attempts`` tries; while the server that answered once stays away
 (UNAVAILABLE), calls keep retrying until the outage, counted from the first
@@ -125,6 +127,8 @@ class RetryPolicy:
         """True (after sleeping the backoff) when the call should be tried again."""
         if error.code not in _RETRYABLE:
             return False
+        if error.failover_now:
+            return True  # another address, untried since the last answer: no backoff
         self.failures += 1
         delay = backoff_delay(self.failures)
         retry = self.failures < self._max_attempts

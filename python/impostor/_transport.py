@@ -1,12 +1,21 @@
-"""The gRPC side of the Client: the channel, its credentials and metadata,
+"""The gRPC side of the Client: the channels, their credentials and metadata,
 and every RPC with the retry policy applied (the Python twin of
-client/transport.cc). The rest of the package never sees a grpc.RpcError."""
+client/transport.cc). The rest of the package never sees a grpc.RpcError.
+
+Several addresses ("host1:port,host2:port", the C++ SDK's --server lists,
+common/server_list.h) give one channel each, as common/failover_channel.h
+does: calls stick to the current address while it answers; a call that
+fails with UNAVAILABLE moves every later call on to the next address, and
+is tried there at once (without backoff) while some address has not failed
+since the last answer. Retries, resumed watches and resumed downloads thus
+land on a live replica."""
 from __future__ import annotations
 
 import os
 import queue
+import threading
 import time
-from typing import Any, Callable, Iterator, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Iterator, List, Optional, Sequence, Set, Tuple
 
 import grpc
 
@@ -54,8 +63,51 @@ def resolve_token(token: Optional[str], token_file: Optional["str | os.PathLike[
     return os.environ.get("IMPOSTOR_TOKEN") or None
 
 
+def parse_server_list(server: str) -> List[str]:
+    """The addresses of "a:1,b:2" (spaces around entries ignored).
+    INVALID_ARGUMENT naming `server` for an empty list or entry."""
+    entries = [e.strip() for e in server.split(",")]
+    if not server.strip():
+        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, "server: required")
+    for i, entry in enumerate(entries):
+        if not entry:
+            raise ImpostorError(
+                grpc.StatusCode.INVALID_ARGUMENT,
+                f"server: entry {i + 1} of {server!r} is empty; expected host:port[,host:port...]",
+            )
+    return entries
+
+
+class _Route:
+    """One address: its channel and stubs."""
+
+    def __init__(self, target: str, channel: grpc.Channel) -> None:
+        self.target = target
+        self.channel = channel
+        # The generated stubs are untyped (grpc_python_plugin writes no .pyi).
+        self.bake = bake_service_pb2_grpc.BakeServiceStub(channel)  # type: ignore[no-untyped-call]
+        self.assets = asset_service_pb2_grpc.AssetServiceStub(channel)  # type: ignore[no-untyped-call]
+
+
+class _CurrentStub:
+    """Looks the method up on the current address's stub when it is called,
+    so a retry after a failover goes to the new address."""
+
+    def __init__(self, transport: "Transport", service: str) -> None:
+        self._transport = transport
+        self._service = service
+
+    def __getattr__(self, method: str) -> Callable[..., Any]:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            route = self._transport._route_for_call()
+            return getattr(getattr(route, self._service), method)(*args, **kwargs)
+
+        return call
+
+
 class Transport:
-    """One channel to one server and its RPCs. Thread-safe (grpc stubs are)."""
+    """Channels to the server's addresses and its RPCs. Thread-safe (grpc
+    stubs are; the current address is guarded by a lock)."""
 
     def __init__(
         self,
@@ -75,8 +127,7 @@ class Transport:
         def invalid(message: str) -> ImpostorError:
             return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
 
-        if not server:
-            raise invalid("server: required")
+        targets = parse_server_list(server or "")
         if not rpc_timeout_seconds > 0:
             raise invalid(f"rpc_timeout_seconds: must be > 0, got {rpc_timeout_seconds}")
         if not connect_timeout_seconds > 0:
@@ -98,32 +149,87 @@ class Transport:
         if client_id:
             metadata.append(("impostor-client-id", client_id[:128]))
         self._metadata: Sequence[Tuple[str, str]] = tuple(metadata)
+        credentials: Optional[grpc.ChannelCredentials] = None
         if tls_ca is not None or tls_cert is not None:
             credentials = grpc.ssl_channel_credentials(
                 root_certificates=_read_bytes(tls_ca, "tls_ca") if tls_ca is not None else None,
                 private_key=_read_bytes(tls_key, "tls_key") if tls_key is not None else None,
                 certificate_chain=_read_bytes(tls_cert, "tls_cert") if tls_cert is not None else None,
             )
-            self._channel = grpc.secure_channel(server, credentials, options=_CHANNEL_OPTIONS)
+        self._routes: List[_Route] = []
+        for target in targets:
+            channel = (
+                grpc.secure_channel(target, credentials, options=_CHANNEL_OPTIONS)
+                if credentials is not None
+                else grpc.insecure_channel(target, options=_CHANNEL_OPTIONS)
+            )
+            self._routes.append(_Route(target, channel))
+        self._lock = threading.Lock()
+        self._current = 0  # guarded by _lock
+        self._failed: Set[int] = set()  # indexes failed since the last answer; guarded by _lock
+        self._call_route = threading.local()  # the route this thread's last call went to
+        # The first address that answers becomes the current one.
+        errors: List[ImpostorError] = []
+        for index, route in enumerate(self._routes):
+            try:
+                self._wait_ready(route.channel, route.target, connect_timeout_seconds)
+                self._current = index
+                break
+            except ImpostorError as e:
+                errors.append(e)
+            except BaseException:
+                self.close()
+                raise
         else:
-            self._channel = grpc.insecure_channel(server, options=_CHANNEL_OPTIONS)
-        try:
-            self._wait_ready(connect_timeout_seconds)
-        except BaseException:
-            self._channel.close()
-            raise
-        # The generated stubs are untyped (grpc_python_plugin writes no .pyi).
-        self.bake = bake_service_pb2_grpc.BakeServiceStub(self._channel)  # type: ignore[no-untyped-call]
-        self.assets = asset_service_pb2_grpc.AssetServiceStub(self._channel)  # type: ignore[no-untyped-call]
+            self.close()
+            if len(errors) == 1:
+                raise errors[0]
+            raise ImpostorError(
+                grpc.StatusCode.UNAVAILABLE,
+                f"Connect to {server}: no address answered: " + "; ".join(e.server_message for e in errors),
+                server_message="no address answered",
+                rpc="Connect",
+                server=server,
+            )
+        self.bake: Any = _CurrentStub(self, "bake")
+        self.assets: Any = _CurrentStub(self, "assets")
+
+    @property
+    def current_target(self) -> str:
+        """The address calls go to now."""
+        with self._lock:
+            return self._routes[self._current].target
+
+    def _route_for_call(self) -> _Route:
+        with self._lock:
+            index = self._current
+        self._call_route.index = index
+        return self._routes[index]
+
+    def _fail_over(self) -> bool:
+        """The calling thread's last call failed with UNAVAILABLE: moves calls
+        on to the next address (unless another call already has). True when
+        the address calls go to now has not failed since the last answer, so
+        the caller may try again at once."""
+        index = getattr(self._call_route, "index", None)
+        with self._lock:
+            if len(self._routes) == 1:
+                return False
+            if index is not None:
+                self._failed.add(index)
+                if index == self._current:
+                    self._current = (self._current + 1) % len(self._routes)
+            return self._current not in self._failed
 
     def close(self) -> None:
-        self._channel.close()
+        for route in self._routes:
+            route.channel.close()
 
-    def _wait_ready(self, timeout: float) -> None:
+    def _wait_ready(self, channel: grpc.Channel, target: str, timeout: float) -> None:
         """Waits for READY, but gives up a second after the first refusal: a
         script should hear "nobody there" at once, not after the whole timeout."""
         states: "queue.Queue[grpc.ChannelConnectivity]" = queue.Queue()
-        self._channel.subscribe(states.put, try_to_connect=True)
+        channel.subscribe(states.put, try_to_connect=True)
         try:
             deadline = time.monotonic() + timeout
             refused_at: Optional[float] = None
@@ -149,23 +255,31 @@ class Transport:
             )
             raise ImpostorError(
                 grpc.StatusCode.UNAVAILABLE,
-                f"Connect to {self.server}: {why}",
+                f"Connect to {target}: {why}",
                 server_message=why,
                 rpc="Connect",
-                server=self.server,
+                server=target,
             )
         finally:
-            self._channel.unsubscribe(states.put)
+            channel.unsubscribe(states.put)
 
     def note(self, error: grpc.RpcError, rpc: str) -> ImpostorError:
         """The ImpostorError of a failed call, noted by the connection monitor."""
-        converted = rpc_error(error, rpc, self.server)
+        index = getattr(self._call_route, "index", self._current)
+        converted = rpc_error(error, rpc, self._routes[index].target)
         if converted.code == grpc.StatusCode.UNAVAILABLE:
             self.monitor.note_failure(converted)
+            converted.failover_now = self._fail_over()
         elif converted.code not in (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED):
             # Said by the server (our own side says deadlines and cancels).
-            self.monitor.note_answer()
+            self.note_answer()
         return converted
+
+    def note_answer(self) -> None:
+        """A server answered: every address counts as untried again."""
+        with self._lock:
+            self._failed.clear()
+        self.monitor.note_answer()
 
     def retry_policy(self) -> RetryPolicy:
         return RetryPolicy(self.max_attempts, self.max_outage_seconds, self.monitor)
@@ -181,7 +295,7 @@ class Transport:
                 if not retry.should_retry(error):
                     raise error from None
                 continue
-            self.monitor.note_answer()
+            self.note_answer()
             return response
 
     def watch_job(self, request: Any) -> Iterator[Any]:
@@ -189,7 +303,7 @@ class Transport:
         ImpostorError when it breaks; the caller resumes."""
         try:
             for job in self.bake.WatchJob(request, metadata=self._metadata):
-                self.monitor.note_answer()
+                self.note_answer()
                 yield job
         except grpc.RpcError as e:
             raise self.note(e, "WatchJob") from None
@@ -199,7 +313,7 @@ class Transport:
         timeout = self.rpc_timeout_seconds + remaining_bytes / _STREAM_BYTES_PER_SECOND
         try:
             for chunk in self.assets.ReadBlob(request, timeout=timeout, metadata=self._metadata):
-                self.monitor.note_answer()
+                self.note_answer()
                 yield chunk
         except grpc.RpcError as e:
             raise self.note(e, "ReadBlob") from None
@@ -211,5 +325,5 @@ class Transport:
             response = self.assets.UploadBlob(requests, timeout=timeout, metadata=self._metadata)
         except grpc.RpcError as e:
             raise self.note(e, "UploadBlob") from None
-        self.monitor.note_answer()
+        self.note_answer()
         return response

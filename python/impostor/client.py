@@ -99,7 +99,11 @@ class Client:
     channel; close() it, or use it as a context manager.
 
     Args:
-        server: "host:port" (any gRPC target string works).
+        server: "host:port" (any gRPC target string works), or several
+            replicas of one farm, "host1:port,host2:port" (the C++ SDK's
+            --server lists): calls stick to one address and move on to the
+            next when it answers UNAVAILABLE; idempotent calls retry there,
+            SubmitBake resends its request id, watches and downloads resume.
         token: bearer token, sent as "authorization: Bearer <token>" on every
             call. Default: the first line of `token_file`, else
             $IMPOSTOR_TOKEN, else none.

@@ -48,6 +48,10 @@ class ImpostorError(Exception):
         self.server = server
         self.job_id = job_id
         self.cache_key = cache_key
+        # Set by the transport on an UNAVAILABLE when calls moved on to
+        # another address that has not failed since the last answer: the
+        # call may be tried there at once.
+        self.failover_now = False
 
     @property
     def is_rpc_error(self) -> bool:

@@ -5,8 +5,9 @@ from __future__ import annotations
 import hashlib
 import subprocess
 import sys
+import threading
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator, List, Union
 
 import pytest
 
@@ -25,6 +26,38 @@ def farm(tmp_path_factory: pytest.TempPathFactory) -> Iterator[FarmServer]:
     server = FarmServer(tmp_path_factory.mktemp("farm") / "data")
     yield server
     server.stop()
+
+
+class BakeInBackground:
+    """client.bake(model, out, **settings) on a thread of its own, for tests
+    that break the farm under a running bake. `at_render` is set when the job
+    reaches the worker's render stage (where $IMPOSTOR_WORKER_TEST_PAUSE_FILE
+    holds a worker), an event rather than a sleep."""
+
+    def __init__(self, client: Any, model: Path, out: Path, **settings: Any) -> None:
+        self.at_render = threading.Event()
+        self._outcome: List[Union[Any, BaseException]] = []
+        self._thread = threading.Thread(target=self._run, args=(client, model, out, settings))
+        self._thread.start()
+
+    def _progress(self, update: Any) -> None:
+        if update.state == "running" and update.stage == "render":
+            self.at_render.set()
+
+    def _run(self, client: Any, model: Path, out: Path, settings: Any) -> None:
+        try:
+            self._outcome.append(client.bake(model, out, progress=self._progress, **settings))
+        except BaseException as e:  # handed to the test thread
+            self._outcome.append(e)
+
+    def result(self, timeout: float) -> Any:
+        """The BakeResult; the bake's exception is raised; a bake still running
+        after `timeout` fails the test (a hang)."""
+        self._thread.join(timeout)
+        assert not self._thread.is_alive(), f"the bake did not finish within {timeout} s"
+        if isinstance(self._outcome[0], BaseException):
+            raise self._outcome[0]
+        return self._outcome[0]
 
 
 def sha256_file(path: Path) -> str:

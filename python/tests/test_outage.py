@@ -9,14 +9,13 @@ stage. The connection events say the outage was seen and ridden out.
 """
 from __future__ import annotations
 
-import threading
 from pathlib import Path
-from typing import List, Optional, Union
+from typing import List
 
 import pytest
 
 import impostor
-from conftest import sha256_file
+from conftest import BakeInBackground, sha256_file
 from farm_process import FarmServer
 
 TREE = "vegetation/TreeLowPoly_RicardoSanchez/scene.gltf"
@@ -33,36 +32,15 @@ def test_bake_survives_a_killed_and_restarted_server(assets: Path, tmp_path: Pat
                         env={"IMPOSTOR_WORKER_TEST_PAUSE_FILE": str(pause)})
     try:
         events: List[impostor.ConnectionEvent] = []
-        at_render = threading.Event()
-        outcome: List[Union[impostor.BakeResult, BaseException]] = []
-
-        def progress(u: impostor.JobUpdate) -> None:
-            if u.state == "running" and u.stage == "render":
-                at_render.set()
-
         client = impostor.Client(server.address, max_outage_seconds=120, on_connection_change=events.append)
-
-        def bake() -> None:
-            try:
-                outcome.append(client.bake(assets / TREE, tmp_path / "out", progress=progress,
-                                           frames=4, resolution=128, quality_views=0))
-            except BaseException as e:  # handed to the test thread
-                outcome.append(e)
-
-        thread = threading.Thread(target=bake)
-        thread.start()
-        assert at_render.wait(STEP_DEADLINE_S), "the bake never reached the worker's render stage"
+        bake = BakeInBackground(client, assets / TREE, tmp_path / "out", frames=4, resolution=128, quality_views=0)
+        assert bake.at_render.wait(STEP_DEADLINE_S), "the bake never reached the worker's render stage"
 
         server.kill9()
         server.restart()
         pause.unlink()  # every worker may finish now
 
-        thread.join(STEP_DEADLINE_S * 2)
-        assert not thread.is_alive(), "the bake did not finish after the restart"
-        result: Optional[impostor.BakeResult] = None
-        if isinstance(outcome[0], BaseException):
-            raise outcome[0]
-        result = outcome[0]
+        result: impostor.BakeResult = bake.result(STEP_DEADLINE_S * 2)
         assert result.job.state == "succeeded"
         for m in result.manifest["maps"]:
             assert sha256_file(result.dir / m["file"]) == m["digest"]["hash"], m["file"]

@@ -64,6 +64,22 @@ class PgRows {
   std::shared_ptr<pg_result> r_;
 };
 
+// The rows of a statement's answer, each read by `read(rows, i)` (an
+// absl::StatusOr<T>), in order: the statement's error, or the first row
+// that does not read (its error), or every row.
+template <typename T, typename Read>
+absl::StatusOr<std::vector<T>> ReadEachRow(const absl::StatusOr<PgRows>& rows, Read read) {
+  if (!rows.ok()) return rows.status();
+  std::vector<T> out;
+  out.reserve(static_cast<size_t>(rows->size()));
+  for (int i = 0; i < rows->size(); ++i) {
+    absl::StatusOr<T> r = read(*rows, i);
+    if (!r.ok()) return r.status();
+    out.push_back(std::move(*r));
+  }
+  return out;
+}
+
 // One borrowed connection, for statements that must share a session (a
 // transaction).
 class PgSession {

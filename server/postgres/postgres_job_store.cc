@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "impostor/v1/bake_service.pb.h"
+#include "server/postgres/pg_migrations.h"
 
 namespace impostor {
 namespace {
@@ -68,9 +69,8 @@ CREATE TRIGGER jobs_changed AFTER INSERT OR UPDATE OR DELETE ON jobs
 };
 constexpr int kSchemaVersion = static_cast<int>(std::size(kMigrations));
 
-// Advisory lock keys (pg_advisory_lock's bigint namespace): arbitrary,
-// fixed, distinct.
-constexpr int64_t kMigrationLockKey = 0x696d706f73746f72;    // "impostor"
+// The maintenance advisory lock's key (pg_advisory_lock's bigint
+// namespace): arbitrary, fixed, distinct from pg_migrations.cc's.
 constexpr int64_t kMaintenanceLockKey = 0x696d706f73746f73;  // "impostos"
 
 constexpr const char* kJobColumns =
@@ -174,39 +174,7 @@ PostgresJobStore::~PostgresJobStore() {
 }
 
 absl::Status PostgresJobStore::Migrate() {
-  return pool_->Transaction([&](PgSession& db) -> absl::Status {
-    // Replicas starting together: one migrates, the others wait here and
-    // then find the work done.
-    if (auto r = db.Exec("lock for migration", absl::StrCat("SELECT pg_advisory_xact_lock(", kMigrationLockKey, ")"));
-        !r.ok()) {
-      return r.status();
-    }
-    if (auto r = db.Exec("create schema_version", "CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL)");
-        !r.ok()) {
-      return r.status();
-    }
-    auto v = db.Exec("read schema version", "SELECT COALESCE(MAX(version), 0) FROM schema_version");
-    if (!v.ok()) return v.status();
-    const int64_t version = v->Int(0, 0);
-    if (version > kSchemaVersion) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "--database ", pool_->redacted_url(), ": schema version ", version, " is newer than this server knows (",
-          kSchemaVersion, "); run the newer impostor-server or restore a backup"));
-    }
-    for (int next = static_cast<int>(version) + 1; next <= kSchemaVersion; ++next) {
-      if (auto r = db.Exec(absl::StrCat("migrate to schema version ", next), kMigrations[next - 1]); !r.ok()) {
-        return r.status();
-      }
-      spdlog::info("event=schema_migrated engine=postgresql version={}", next);
-    }
-    if (version < kSchemaVersion) {
-      auto r = db.Exec("record schema version", "DELETE FROM schema_version; ");
-      if (!r.ok()) return r.status();
-      r = db.Exec("record schema version", "INSERT INTO schema_version VALUES ($1)", PgParams().Int(kSchemaVersion));
-      if (!r.ok()) return r.status();
-    }
-    return absl::OkStatus();
-  });
+  return ApplyPgMigrations(*pool_, {.component = "job store", .version_table = "schema_version", .scripts = kMigrations});
 }
 
 absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::QueryOne(const std::string& what, const std::string& sql,
@@ -221,15 +189,7 @@ absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::QueryOne(const std::s
 
 absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::QueryMany(const std::string& what, const std::string& sql,
                                                                    const PgParams& params) {
-  auto rows = pool_->Exec(what, sql, params);
-  if (!rows.ok()) return rows.status();
-  std::vector<JobRecord> out;
-  for (int i = 0; i < rows->size(); ++i) {
-    auto r = ReadJob(*rows, i);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  return out;
+  return ReadEachRow<JobRecord>(pool_->Exec(what, sql, params), ReadJob);
 }
 
 absl::Status PostgresJobStore::Insert(const JobRecord& record) {
@@ -430,16 +390,10 @@ absl::StatusOr<bool> PostgresJobStore::PinResult(const std::string& cache_key, b
 }
 
 absl::StatusOr<std::vector<JobStore::StoredResult>> PostgresJobStore::ResultsByLastUse() {
-  auto rows = pool_->Exec("list results",
-                          absl::StrCat("SELECT ", kResultColumns, " FROM results ORDER BY last_used_ms, created_ms"));
-  if (!rows.ok()) return rows.status();
-  std::vector<StoredResult> out;
-  for (int i = 0; i < rows->size(); ++i) {
-    auto r = ReadResult(*rows, i);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  return out;
+  return ReadEachRow<StoredResult>(
+      pool_->Exec("list results",
+                  absl::StrCat("SELECT ", kResultColumns, " FROM results ORDER BY last_used_ms, created_ms")),
+      ReadResult);
 }
 
 absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::Pending() {
@@ -484,15 +438,7 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> PostgresJobStore::ListResult
   }
   p.Int(limit);
   sql += absl::StrCat(" ORDER BY created_ms DESC, cache_key DESC LIMIT $", p.size());
-  auto rows = pool_->Exec("list results", sql, p);
-  if (!rows.ok()) return rows.status();
-  std::vector<StoredResult> out;
-  for (int i = 0; i < rows->size(); ++i) {
-    auto r = ReadResult(*rows, i);
-    if (!r.ok()) return r.status();
-    out.push_back(std::move(*r));
-  }
-  return out;
+  return ReadEachRow<StoredResult>(pool_->Exec("list results", sql, p), ReadResult);
 }
 
 absl::StatusOr<std::string> PostgresJobStore::OldestJobWithKey(const std::string& cache_key) {

@@ -1,0 +1,25 @@
+#include "server/token_store_factory.h"
+
+#include <filesystem>
+
+#include "server/job_store_factory.h"
+#include "server/postgres/postgres_token_store.h"
+
+namespace impostor {
+
+absl::StatusOr<TokenStorage> OpenTokenStorage(const TokenStoreConfig& config) {
+  if (config.database_url.empty()) {
+    if (config.data_dir.empty()) return absl::InvalidArgumentError("--data: required for the SQLite token store");
+    auto tokens = OpenSqliteTokenStore(config.data_dir);
+    if (!tokens.ok()) return tokens.status();
+    auto quotas = OpenSqliteQuotaLedger(config.data_dir);
+    if (!quotas.ok()) return quotas.status();
+    return TokenStorage{.tokens = std::move(*tokens), .quotas = std::move(*quotas)};
+  }
+  if (auto s = ValidateDatabaseUrl(config.database_url); !s.ok()) return s;
+  auto pg = OpenPostgresTokenStorage({.url = config.database_url, .statement_timeout_ms = config.statement_timeout_ms});
+  if (!pg.ok()) return pg.status();
+  return TokenStorage{.tokens = std::move(pg->tokens), .quotas = std::move(pg->quotas)};
+}
+
+}  // namespace impostor
