@@ -364,7 +364,7 @@ TEST_F(QualityPassTest, FramesAutoBakesTheLadderOfEveryLayout) {
   };
   for (const Case& c : cases) {
     for (const float min_iou : {0.0f, 1.0f}) {
-      SCOPED_TRACE(testing::Message() << "layout " << static_cast<int>(c.layout) << " min_iou " << min_iou);
+      SCOPED_TRACE(::testing::Message() << "layout " << static_cast<int>(c.layout) << " min_iou " << min_iou);
       v1::BakeParameters in;
       in.set_layout(c.layout);
       in.set_resolution(80);
@@ -394,6 +394,34 @@ TEST_F(QualityPassTest, FramesAutoBakesTheLadderOfEveryLayout) {
       fs::remove_all(dir);
     }
   }
+}
+
+// The baker's own guard (requests reach it normalised, so this takes a
+// hand-made one): no rung fits, or the knob is set, and nothing is baked.
+TEST_F(QualityPassTest, FramesAutoRefusesParametersNoLadderFits) {
+  v1::BakeParameters in;
+  in.set_layout(v1::LAYOUT_BILLBOARD);
+  in.set_frames_auto(true);
+  in.mutable_auto_target()->set_min_iou(0.5f);
+  auto p = NormalizeParameters(in);
+  ASSERT_TRUE(p.ok()) << p.status();
+  const fs::path dir = ScratchDir("auto_refused");
+  const std::atomic<bool> cancelled{false};
+  AtlasBakeRequest request{.entry_file = kHelmet, .parameters = *p, .cache_key = "k", .output_dir = dir, .load_limits = {}};
+  request.parameters.set_resolution(16);  // below billboard's 3 x 8 px
+  auto small = BakeAtlasAutoFrames(request, *renderer_, [](std::string_view, double) {}, cancelled);
+  ASSERT_FALSE(small.ok());
+  EXPECT_EQ(small.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(small.status().message()).find("parameters.resolution: 16 px fits no frames_auto count"),
+            std::string::npos)
+      << small.status();
+  request.parameters = *p;
+  request.parameters.set_frames(3);
+  auto fixed = BakeAtlasAutoFrames(request, *renderer_, [](std::string_view, double) {}, cancelled);
+  ASSERT_FALSE(fixed.ok());
+  EXPECT_EQ(fixed.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(fs::is_empty(dir)) << "nothing was baked";
+  fs::remove_all(dir);
 }
 
 }  // namespace
