@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/auto_frames_ladder.h"
 #include "common/layout_parameters.h"
 #include "common/card_parameters.h"
 #include "common/input_paths.h"
@@ -118,9 +119,10 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
   if (auto s = NormalizeLayoutFrames(&out); !s.ok()) return s;
   if (auto s = NormalizeQualityParameters(in, &out); !s.ok()) return s;
   // frames_auto: the baker picks frames from a ladder that fits the
-  // resolution; the checks below see the ladder's smallest count, and frames
-  // goes back to unset at the end.
-  if (out.frames_auto()) out.set_frames(kAutoFramesMinFrames);
+  // resolution; the checks below see the ladder's smallest grid side, and
+  // frames (and ring-top's ring_views, the count its ladder turns) go back
+  // to unset at the end.
+  if (out.frames_auto()) out.set_frames(AutoFramesMinGridSide(out.layout()));
   if (out.frames() == 0) out.set_frames(kDefaultFrames);
   if (out.resolution() == 0) out.set_resolution(kDefaultResolution);
   if (auto s = CheckRange("parameters.frames", out.frames(), kMinFrames, kMaxFrames); !s.ok()) return s;
@@ -136,7 +138,10 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
   }
   if (auto s = NormalizeSupersampling(&out); !s.ok()) return s;
   if (auto s = NormalizeTextureFormat(in, &out); !s.ok()) return s;
-  if (out.frames_auto()) out.set_frames(0);
+  if (out.frames_auto()) {
+    out.set_frames(0);
+    if (out.layout() == v1::LAYOUT_RING_TOP) out.clear_ring_views();
+  }
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "common/auto_frames_ladder.h"
 #include "common/quality_gate.h"
 
 namespace impostor {
@@ -33,14 +34,14 @@ absl::Status NormalizeQualityParameters(const v1::BakeParameters& in, v1::BakePa
     return absl::OkStatus();
   }
   if (in.frames() != 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "parameters.frames: must be unset with frames_auto (the baker picks it from 8, 10, 12, 16, 20, 24); got ",
-        in.frames()));
+    return absl::InvalidArgumentError(absl::StrCat("parameters.frames: must be unset with frames_auto (the baker picks it from ",
+                                                   AutoFramesLadderText(out->layout()), "); got ", in.frames()));
   }
-  if (out->layout() != v1::LAYOUT_OCTAHEDRAL && out->layout() != v1::LAYOUT_HEMI_OCTAHEDRAL) {
-    return absl::InvalidArgumentError(
-        "parameters.frames_auto: only for the octahedral and hemi-octahedral layouts (the quality pass's "
-        "reference renderer draws those)");
+  // Ring-top's knob is its view count: the ladder turns ring_views.
+  if (out->layout() == v1::LAYOUT_RING_TOP && in.has_ring_views()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "parameters.ring_views: must be unset with frames_auto (the baker picks it from ",
+        AutoFramesLadderText(v1::LAYOUT_RING_TOP), "); got ", in.ring_views()));
   }
   if (!HasQualityGate(in.auto_target())) {
     return absl::InvalidArgumentError(

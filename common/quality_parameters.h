@@ -16,15 +16,13 @@ namespace impostor {
 // most a request may ask for (each costs a mesh and an impostor render).
 inline constexpr uint32_t kDefaultQualityViewCount = 16;
 inline constexpr uint32_t kMaxQualityViewCount = 256;
-// The smallest count of the frames_auto ladder (worker/bake/auto_frames.h):
-// frames_auto needs resolution >= 8 * 8.
-inline constexpr uint32_t kAutoFramesMinFrames = 8;
 
 // With out->product() and out->layout() resolved: for atlas products
 // (PRODUCT_ATLAS, PRODUCT_LOD_CHAIN's impostor) fills quality_views in (16)
 // and checks it (0..256, 0 = no quality pass); checks frames_auto (frames
-// unset, an octahedral layout, auto_target with at least one threshold in
-// range, quality_views > 0) and refuses auto_target without frames_auto.
+// unset, ring-top's ring_views unset, auto_target with at least one
+// threshold in range, quality_views > 0; every layout, with the ladder of
+// common/auto_frames_ladder.h) and refuses auto_target without frames_auto.
 // Other products must leave all three unset. INVALID_ARGUMENT naming the
 // field and the rule, e.g. "parameters.quality_views: 300 is out of range
 // 0..256".

@@ -396,8 +396,10 @@ Usage:
         --emissive    atlas: also bake emissive.png (emissive texture x
                       factor x KHR_materials_emissive_strength, sRGB, A =
                       coverage), listed in the manifest's maps
-        --frames auto atlas: the server bakes 8, 10, 12, 16, 20 and 24 frames
-                      (those that fit --resolution) and keeps the smallest
+        --frames auto atlas: the server bakes the layout's ladder (those that
+                      fit --resolution): octahedral 8..24 frames, azimuth-
+                      elevation 7..21, ring-top --ring 8..48 (leave --ring
+                      out), billboard its one 3x3; it keeps the smallest
                       whose measured quality meets --min-iou / --min-psnr
                       (one is needed); the manifest lists the counts tried
         --min-iou X   quality gate: the bake fails (exit 1, FAILED_PRECONDITION

@@ -61,6 +61,23 @@ TEST(QualityParametersTest, FramesAutoNormalisesWithFramesUnsetAndItsOwnKey) {
   EXPECT_NE(ComputeCacheKey(mesh, *p), ComputeCacheKey(mesh, *f));
 }
 
+// frames_auto covers every layout: each normalises with its knob unset
+// (frames; ring-top's ring_views too), so the baker's ladder picks it.
+TEST(QualityParametersTest, FramesAutoNormalisesForEveryLayout) {
+  for (v1::Layout layout : {v1::LAYOUT_OCTAHEDRAL, v1::LAYOUT_HEMI_OCTAHEDRAL, v1::LAYOUT_AZIMUTH_ELEVATION,
+                            v1::LAYOUT_RING_TOP, v1::LAYOUT_BILLBOARD}) {
+    SCOPED_TRACE(static_cast<int>(layout));
+    v1::BakeParameters in = AutoParams();
+    in.set_layout(layout);
+    auto p = NormalizeParameters(in);
+    ASSERT_TRUE(p.ok()) << p.status();
+    EXPECT_EQ(p->layout(), layout);
+    EXPECT_TRUE(p->frames_auto());
+    EXPECT_EQ(p->frames(), 0u);
+    EXPECT_FALSE(p->has_ring_views());
+  }
+}
+
 TEST(QualityParametersTest, BadParametersAreRefusedNamingTheField) {
   struct Case {
     std::string name;
@@ -117,8 +134,24 @@ TEST(QualityParametersTest, BadParametersAreRefusedNamingTheField) {
   }
   {
     v1::BakeParameters p = AutoParams();
+    p.set_layout(v1::LAYOUT_AZIMUTH_ELEVATION);
+    p.set_frames(9);
+    cases.push_back({"azimuth-elevation frames with auto", p,
+                     "parameters.frames: must be unset with frames_auto (the baker picks it from 7, 9, 11, 13, 17, 21)"});
+  }
+  {
+    v1::BakeParameters p = AutoParams();
+    p.set_layout(v1::LAYOUT_RING_TOP);
+    p.set_ring_views(16);
+    cases.push_back({"ring_views with auto", p,
+                     "parameters.ring_views: must be unset with frames_auto (the baker picks it from 8, 12, 16, 24, 32, "
+                     "48); got 16"});
+  }
+  {
+    v1::BakeParameters p = AutoParams();
     p.set_layout(v1::LAYOUT_BILLBOARD);
-    cases.push_back({"billboard auto", p, "parameters.frames_auto: only for the octahedral and hemi-octahedral"});
+    p.set_frames(3);
+    cases.push_back({"billboard frames with auto", p, "parameters.frames: billboard derives its atlas grid"});
   }
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

@@ -346,6 +346,84 @@ TEST_F(QualityPassTest, FramesAutoKeepsTheSmallestCountMeetingTheTarget) {
   fs::remove_all(dir);
 }
 
+// frames_auto covers every layout: each bakes its own ladder (azimuth-
+// elevation's odd row counts, ring-top's ring_views, billboard's one fixed
+// rung) at 80 px, keeping the first rung when any count meets the target
+// and the last (with a warning) when none can.
+TEST_F(QualityPassTest, FramesAutoBakesTheLadderOfEveryLayout) {
+  struct Case {
+    v1::Layout layout;
+    std::vector<uint32_t> ladder;      // counts that fit 80 px
+    std::vector<uint32_t> grid;        // Manifest.frames of each
+    std::vector<int> views;            // Manifest.views of each
+  };
+  const std::vector<Case> cases = {
+      {v1::LAYOUT_AZIMUTH_ELEVATION, {7, 9}, {7, 9}, {49, 81}},
+      {v1::LAYOUT_RING_TOP, {8, 12, 16, 24, 32, 48}, {3, 4, 5, 5, 6, 7}, {9, 13, 17, 25, 33, 49}},
+      {v1::LAYOUT_BILLBOARD, {3}, {3}, {9}},
+  };
+  for (const Case& c : cases) {
+    for (const float min_iou : {0.0f, 1.0f}) {
+      SCOPED_TRACE(::testing::Message() << "layout " << static_cast<int>(c.layout) << " min_iou " << min_iou);
+      v1::BakeParameters in;
+      in.set_layout(c.layout);
+      in.set_resolution(80);
+      in.set_frames_auto(true);
+      in.set_quality_views(2);
+      in.mutable_auto_target()->set_min_iou(min_iou);
+      const fs::path dir = ScratchDir("auto_layout");
+      auto out = Bake(in, dir);
+      ASSERT_TRUE(out.ok()) << out.status();
+      const v1::Manifest& m = out->manifest;
+      const size_t tried = min_iou == 0.0f ? 1 : c.ladder.size();
+      EXPECT_EQ(std::vector<uint32_t>(m.quality().frames_tried().begin(), m.quality().frames_tried().end()),
+                std::vector<uint32_t>(c.ladder.begin(), c.ladder.begin() + tried));
+      ASSERT_EQ(m.quality().frames_met_size(), static_cast<int>(tried));
+      EXPECT_EQ(m.quality().frames_met(static_cast<int>(tried) - 1), min_iou == 0.0f);
+      EXPECT_EQ(m.layout(), c.layout);
+      EXPECT_EQ(m.frames(), c.grid[tried - 1]);
+      EXPECT_EQ(m.views_size(), c.views[tried - 1]);
+      EXPECT_GT(m.quality().silhouette_iou_mean(), 0.5f) << "the kept atlas was measured";
+      EXPECT_EQ(m.warnings_size(), min_iou == 0.0f ? 0 : 1);
+      int entries = 0;
+      for (const auto& e : fs::directory_iterator(dir)) {
+        EXPECT_TRUE(e.is_regular_file()) << e.path() << ": only the kept atlas is left";
+        ++entries;
+      }
+      EXPECT_EQ(entries, m.maps_size() + 1);
+      fs::remove_all(dir);
+    }
+  }
+}
+
+// The baker's own guard (requests reach it normalised, so this takes a
+// hand-made one): no rung fits, or the knob is set, and nothing is baked.
+TEST_F(QualityPassTest, FramesAutoRefusesParametersNoLadderFits) {
+  v1::BakeParameters in;
+  in.set_layout(v1::LAYOUT_BILLBOARD);
+  in.set_frames_auto(true);
+  in.mutable_auto_target()->set_min_iou(0.5f);
+  auto p = NormalizeParameters(in);
+  ASSERT_TRUE(p.ok()) << p.status();
+  const fs::path dir = ScratchDir("auto_refused");
+  const std::atomic<bool> cancelled{false};
+  AtlasBakeRequest request{.entry_file = kHelmet, .parameters = *p, .cache_key = "k", .output_dir = dir, .load_limits = {}};
+  request.parameters.set_resolution(16);  // below billboard's 3 x 8 px
+  auto small = BakeAtlasAutoFrames(request, *renderer_, [](std::string_view, double) {}, cancelled);
+  ASSERT_FALSE(small.ok());
+  EXPECT_EQ(small.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(small.status().message()).find("parameters.resolution: 16 px fits no frames_auto count"),
+            std::string::npos)
+      << small.status();
+  request.parameters = *p;
+  request.parameters.set_frames(3);
+  auto fixed = BakeAtlasAutoFrames(request, *renderer_, [](std::string_view, double) {}, cancelled);
+  ASSERT_FALSE(fixed.ok());
+  EXPECT_EQ(fixed.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(fs::is_empty(dir)) << "nothing was baked";
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace impostor
 

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "common/auto_frames_ladder.h"
 #include "common/bake_request.h"
 #include "common/manifest_json.h"
 #include "common/quality_gate.h"
@@ -30,14 +31,6 @@ std::string Describe(const v1::QualityGate& target) {
 
 }  // namespace
 
-std::vector<uint32_t> AutoFramesLadder(uint32_t resolution) {
-  std::vector<uint32_t> out;
-  for (uint32_t f : kAutoFramesLadder) {
-    if (resolution >= kMinTilePixels * f) out.push_back(f);
-  }
-  return out;
-}
-
 bool MeetsQualityTarget(const v1::QualityGate& target, const v1::AtlasQuality& quality) {
   v1::Manifest m;
   *m.mutable_quality() = quality;
@@ -52,7 +45,12 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlasAutoFrames(const AtlasBakeRequest& requ
     return absl::InvalidArgumentError(
         "parameters.frames_auto: needs frames unset, auto_target with a threshold and quality_views > 0");
   }
-  const std::vector<uint32_t> ladder = AutoFramesLadder(p.resolution());
+  const std::vector<AutoFramesCandidate> ladder = AutoFramesLadder(p.layout(), p.resolution());
+  if (ladder.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("parameters.resolution: ", p.resolution(),
+                                                   " px fits no frames_auto count of this layout (",
+                                                   AutoFramesLadderText(p.layout()), ")"));
+  }
   std::vector<uint32_t> tried;
   std::vector<bool> met;
   std::optional<AtlasBakeOutput> kept;
@@ -61,10 +59,11 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlasAutoFrames(const AtlasBakeRequest& requ
   for (size_t i = 0; i < ladder.size(); ++i) {
     if (cancelled) return absl::CancelledError("cancelled between frame counts");
     AtlasBakeRequest candidate = request;
-    candidate.parameters.set_frames(ladder[i]);
+    candidate.parameters.set_frames(ladder[i].frames);
+    if (ladder[i].ring_views != 0) candidate.parameters.set_ring_views(ladder[i].ring_views);
     candidate.parameters.set_frames_auto(false);
     candidate.parameters.clear_auto_target();
-    candidate.output_dir = request.output_dir / absl::StrCat("frames_auto_", ladder[i]);
+    candidate.output_dir = request.output_dir / absl::StrCat("frames_auto_", ladder[i].count);
     std::error_code ec;
     fs::remove_all(candidate.output_dir, ec);
     fs::create_directories(candidate.output_dir, ec);
@@ -78,10 +77,10 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlasAutoFrames(const AtlasBakeRequest& requ
     if (!out.ok()) return out.status();
     seconds += out->manifest.timings().total_seconds();
     const bool ok = MeetsQualityTarget(p.auto_target(), out->manifest.quality());
-    tried.push_back(ladder[i]);
+    tried.push_back(ladder[i].count);
     met.push_back(ok);
-    spdlog::info("event=frames_auto_candidate cache_key={} frames={} iou_mean={:.4f} psnr_db_mean={:.2f} met={}",
-                 request.cache_key, ladder[i], out->manifest.quality().silhouette_iou_mean(),
+    spdlog::info("event=frames_auto_candidate cache_key={} count={} frames={} iou_mean={:.4f} psnr_db_mean={:.2f} met={}",
+                 request.cache_key, ladder[i].count, ladder[i].frames, out->manifest.quality().silhouette_iou_mean(),
                  out->manifest.quality().albedo_psnr_union_db_mean(), ok);
     if (kept.has_value()) fs::remove_all(kept_dir, ec);
     kept = std::move(*out);

@@ -1,13 +1,15 @@
 // BakeParameters.frames_auto: pick the frame count by measured quality.
 //
-// The atlas is baked at each count of a fixed ladder (kAutoFramesLadder,
-// only counts whose tiles get at least kMinTilePixels at the requested
-// resolution), smallest first, each followed by the quality pass; the first
+// The atlas is baked at each count of the layout's fixed ladder
+// (common/auto_frames_ladder.h: frames per axis for the grid layouts,
+// ring_views for ring-top, the fixed 3x3 for billboard; only counts whose
+// tiles get at least kMinTilePixels at the requested resolution), smallest
+// first, each followed by the quality pass; the first
 // whose quality meets auto_target is kept (fewer frames = bigger tiles = more
 // detail per frame and less memory, so the smallest acceptable count is the
 // best). When none meets it, the largest count tried is kept and
 // Manifest.warnings says so. Manifest.quality.frames_tried / frames_met
-// report every count tried, in order; Manifest.frames is the count kept.
+// report every count tried, in order; Manifest.frames is the grid side kept.
 //
 // Thread-safety: as BakeAtlas (one bake per AtlasRenderer at a time).
 #ifndef IMPOSTOR_WORKER_BAKE_AUTO_FRAMES_H_
@@ -23,12 +25,6 @@
 #include "worker/gpu/atlas_renderer.h"
 
 namespace impostor {
-
-inline constexpr uint32_t kAutoFramesLadder[] = {8, 10, 12, 16, 20, 24};
-
-// The ladder's counts that fit `resolution` (resolution >= 8 * frames), in
-// increasing order.
-std::vector<uint32_t> AutoFramesLadder(uint32_t resolution);
 
 // True when `quality` meets every threshold `target` sets (as
 // CheckQualityGate judges a result).

@@ -250,8 +250,10 @@ struct BakeSettings {
   std::optional<float> min_psnr_db;
 
   // Atlas products: let the server pick frames (which must stay 0) by
-  // measured quality: it bakes 8, 10, 12, 16, 20 and 24 frames (those that
-  // fit resolution >= 8 * frames) and keeps the smallest whose quality meets
+  // measured quality: it bakes the layout's ladder (octahedral layouts 8, 10,
+  // 12, 16, 20, 24 frames; azimuth-elevation 7, 9, 11, 13, 17, 21; ring-top
+  // ring_views 8, 12, 16, 24, 32, 48, which must then stay unset; billboard
+  // its one 3x3; those that fit resolution >= 8 * grid side) and keeps the smallest whose quality meets
   // min_iou / min_psnr_db (at least one must be set; the same thresholds
   // then gate the result). The manifest's quality block lists the counts
   // tried. Part of the cache key (with the thresholds). Default: false.
