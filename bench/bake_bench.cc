@@ -8,9 +8,11 @@
 //
 // Ratios (issue 18's targets): bake/rr = the worker's whole bake (load to
 // manifest, quality pass included) over its render + readback; wall/rr = the
-// same for the end-to-end wall time the client saw. rest_s = the bake's time
-// outside load, render, readback and encode (supersample filtering, cutout,
-// the quality pass, the manifest). --keep-result copies the last asset's
+// same for the end-to-end wall time the client saw. readback includes the
+// device's supersample resolve. encode_s runs beside the quality pass, so
+// rest_s = the bake's time outside load, render, readback and encode
+// (cutout, dilation, the part of the quality pass the encoding did not
+// cover, the manifest). --keep-result copies the last asset's
 // fetched result (maps + manifest.json) to DIR (bench/compare_blender.sh
 // renders its views).
 //
@@ -178,7 +180,7 @@ int main(int argc, char** argv) {
                 megabytes, Median(rates));
   }
   std::printf("(render_s includes uploading the scene to the device; rest_s = the bake outside the named stages "
-              "(supersample filtering, cutout, quality pass, manifest); other_s = wall minus the bake and store: "
+              "(cutout, dilation, the quality pass beyond the encoding it overlaps, manifest); other_s = wall minus the bake and store: "
               "client upload, queueing, worker download, RPCs; bake/rr and wall/rr = the bake's and the client's "
               "time over render + readback, target <= 1.3)\n");
   fs::remove_all(scratch);

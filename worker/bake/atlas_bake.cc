@@ -22,7 +22,6 @@
 #include "worker/output/contact_sheet.h"
 #include "worker/output/cutout_hull.h"
 #include "worker/output/map_writer.h"
-#include "worker/output/supersample.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"
 
@@ -109,30 +108,23 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   renderer.set_cancel_flag(&cancelled);
   renderer.set_emissive(p.emissive());
   // Supersampling: every tile rendered `ss` times larger, then filtered
-  // down (worker/output/supersample.h). Unset (requests not normalised by
-  // the server, e.g. in tests) renders at the resolution itself.
+  // down on the device (worker/gpu/supersample_resolve.h, the semantics of
+  // worker/output/supersample.h), so only the final maps are read back.
+  // Unset (requests not normalised by the server, e.g. in tests) renders at
+  // the resolution itself.
   const int ss = p.has_supersampling() ? static_cast<int>(p.supersampling()) : 1;
   std::vector<FrameCamera> render_cameras = cameras;
   for (FrameCamera& c : render_cameras) c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
   renderer.set_supersampling(ss);
+  renderer.set_resolve_on_device(true);
   auto atlas = renderer.Render(
       *scene, sphere, render_cameras, resolution * ss,
       [&](double f) { progress("render", kRenderStart + f * (kEncodeStart - kRenderStart)); }, &render_timings);
   renderer.set_cancel_flag(nullptr);
   renderer.set_emissive(false);
   renderer.set_supersampling(1);
+  renderer.set_resolve_on_device(false);
   if (!atlas.ok()) return atlas.status();
-  if (ss > 1) {
-    AtlasMaps maps{atlas->width, atlas->height, std::move(atlas->albedo_alpha), std::move(atlas->normal_depth),
-                   std::move(atlas->orm), std::move(atlas->emissive)};
-    if (auto s = DownsampleMaps(ss, &maps); !s.ok()) return s;
-    atlas->width = maps.width;
-    atlas->height = maps.height;
-    atlas->albedo_alpha = std::move(maps.albedo_alpha);
-    atlas->normal_depth = std::move(maps.normal_depth);
-    atlas->orm = std::move(maps.orm);
-    atlas->emissive = std::move(maps.emissive);
-  }
   timings->set_render_seconds(render_timings.upload_seconds + render_timings.render_seconds);
   timings->set_readback_seconds(render_timings.readback_seconds);
   if (cancelled) return absl::CancelledError("cancelled after rendering");
@@ -153,53 +145,96 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   const std::filesystem::path& dir = request.output_dir;
   // --texture-format ktx2 writes the maps as KTX2 below instead of PNG.
   const bool png = p.texture_format() != v1::TEXTURE_FORMAT_KTX2;
-  auto albedo = std::async(std::launch::async, [&]() -> absl::Status {
-    if (auto s = DilateRgba8(atlas->albedo_alpha, w, h, tiles); !s.ok() || !png) return s;
-    return WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h);
-  });
-  auto orm = std::async(std::launch::async, [&]() -> absl::Status {
-    if (auto s = DilateRgba8(atlas->orm, w, h, tiles); !s.ok() || !png) return s;
-    return WritePngRgba8(dir / "orm.png", atlas->orm, w, h);
-  });
+  auto albedo = std::async(std::launch::async, [&] { return DilateRgba8(atlas->albedo_alpha, w, h, tiles); });
+  auto orm = std::async(std::launch::async, [&] { return DilateRgba8(atlas->orm, w, h, tiles); });
   absl::Status normal = DilateRgba16(atlas->normal_depth, atlas->albedo_alpha, w, h, tiles);
-  if (normal.ok() && png) normal = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
   for (absl::Status s : {albedo.get(), orm.get(), normal}) {
     if (!s.ok()) return s;
   }
   if (p.emissive()) {
     if (auto s = DilateRgba8(atlas->emissive, w, h, tiles); !s.ok()) return s;
-    if (png) {
-      if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
-    }
   }
-  std::vector<v1::MapFile> ktx2_maps;
-  if (!png) {
-    auto written = WriteKtx2Maps(dir, {.width = w,
-                                       .height = h,
-                                       .albedo_alpha = atlas->albedo_alpha,
-                                       .normal_depth = atlas->normal_depth,
-                                       .orm = atlas->orm,
-                                       .emissive = p.emissive() ? std::span<const uint8_t>(atlas->emissive)
-                                                                : std::span<const uint8_t>(),
-                                       .tiles = tiles,
-                                       .levels = MipSafeLevels(resolution, GridSide(view_layout)) + 1,
-                                       .albedo_codec = p.albedo_codec()});
-    if (!written.ok()) return written.status();
-    ktx2_maps = std::move(*written);
-  }
-  // The maps side by side for a person's first look (contact_sheet.h).
-  auto sheet = WriteContactSheet(dir / "contact_sheet.png",
-                                 {.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
-                                  .normal_depth = atlas->normal_depth, .orm = atlas->orm,
-                                  .emissive = atlas->emissive});
-  if (!sheet.ok()) return sheet.status();
-  if (!sheet->labelled) spdlog::warn("event=contact_sheet_unlabelled reason=\"no TrueType font found\"");
-  // --array: the maps as texture arrays (layer strips) instead of atlases.
   const int tile = TileSize(resolution, GridSide(view_layout));
-  if (p.texture_array()) {
-    if (auto s = WriteTextureArrays(dir, *atlas, tiles, p.emissive()); !s.ok()) return s;
+  const double post_seconds = SecondsSince(t);
+  // The maps are final now. Encoding them (PNG or KTX2, contact sheet,
+  // texture arrays) only reads them, so it runs on its own threads while
+  // the quality pass below renders from a copy; the bytes written do not
+  // depend on the overlap (request.serial_encode runs it first instead).
+  struct Encoded {
+    std::vector<v1::MapFile> ktx2_maps;
+    ContactSheetInfo sheet;
+    double seconds = 0;
+  };
+  auto encode = [&]() -> absl::StatusOr<Encoded> {
+    const auto encode_start = Clock::now();
+    Encoded out;
+    if (png) {
+      auto albedo_png = std::async(std::launch::async, [&] {
+        return WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h);
+      });
+      auto orm_png = std::async(std::launch::async, [&] { return WritePngRgba8(dir / "orm.png", atlas->orm, w, h); });
+      absl::Status normal_png = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
+      for (absl::Status s : {albedo_png.get(), orm_png.get(), normal_png}) {
+        if (!s.ok()) return s;
+      }
+      if (p.emissive()) {
+        if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
+      }
+    } else {
+      auto written = WriteKtx2Maps(dir, {.width = w,
+                                         .height = h,
+                                         .albedo_alpha = atlas->albedo_alpha,
+                                         .normal_depth = atlas->normal_depth,
+                                         .orm = atlas->orm,
+                                         .emissive = p.emissive() ? std::span<const uint8_t>(atlas->emissive)
+                                                                  : std::span<const uint8_t>(),
+                                         .tiles = tiles,
+                                         .levels = MipSafeLevels(resolution, GridSide(view_layout)) + 1,
+                                         .albedo_codec = p.albedo_codec()});
+      if (!written.ok()) return written.status();
+      out.ktx2_maps = std::move(*written);
+    }
+    // The maps side by side for a person's first look (contact_sheet.h).
+    auto sheet = WriteContactSheet(dir / "contact_sheet.png",
+                                   {.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
+                                    .normal_depth = atlas->normal_depth, .orm = atlas->orm,
+                                    .emissive = atlas->emissive});
+    if (!sheet.ok()) return sheet.status();
+    if (!sheet->labelled) spdlog::warn("event=contact_sheet_unlabelled reason=\"no TrueType font found\"");
+    out.sheet = *sheet;
+    // --array: the maps as texture arrays (layer strips) instead of atlases.
+    if (p.texture_array()) {
+      if (auto s = WriteTextureArrays(dir, *atlas, tiles, p.emissive()); !s.ok()) return s;
+    }
+    out.seconds = SecondsSince(encode_start);
+    return out;
+  };
+  // Declared after `atlas`, so an early return waits for the encoders
+  // (a std::async future blocks in its destructor) before the maps go.
+  std::future<absl::StatusOr<Encoded>> encoding =
+      std::async(request.serial_encode ? std::launch::deferred : std::launch::async, encode);
+  if (request.serial_encode) encoding.wait();
+
+  // Quality: the mesh from held-out views against the impostor as a game
+  // draws it from the maps as written (quality_pass.h), on a copy of the
+  // maps while the encoders read them. Its time is logged. Its map entries
+  // go into their own manifest, appended after the maps' below, so the
+  // manifest's order is the serial one.
+  v1::Manifest quality_manifest;
+  if (p.has_quality_views() ? p.quality_views() > 0 : true) {
+    AtlasImages quality_maps{.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
+                             .normal_depth = atlas->normal_depth, .orm = atlas->orm, .emissive = {}};
+    absl::Status quality = AddAtlasQuality(*scene, sphere, cameras, std::move(quality_maps), p, request.cache_key,
+                                           dir, renderer, &quality_manifest);
+    if (!quality.ok()) return quality;
   }
-  timings->set_encode_seconds(SecondsSince(t));
+  absl::StatusOr<Encoded> encoded = encoding.get();
+  if (!encoded.ok()) return encoded.status();
+  std::vector<v1::MapFile> ktx2_maps = std::move(encoded->ktx2_maps);
+  const ContactSheetInfo* sheet = &encoded->sheet;
+  // Post-processing plus encoding, whether or not the encoding overlapped
+  // the quality pass.
+  timings->set_encode_seconds(post_seconds + encoded->seconds);
   progress("encode", kEncodeEnd);
 
   // Manifest.
@@ -253,13 +288,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   if (auto s = AddMap(dir, "contact_sheet", "png_rgb8", kContactSheetChannels, 0, &manifest); !s.ok()) return s;
   manifest.mutable_maps(manifest.maps_size() - 1)->set_width(static_cast<uint32_t>(sheet->width));
   manifest.mutable_maps(manifest.maps_size() - 1)->set_height(static_cast<uint32_t>(sheet->height));
-  // Quality: the mesh from held-out views against the impostor as a game
-  // draws it from the maps as written (quality_pass.h). Its time is logged.
-  if (auto s = AddAtlasQuality(*scene, sphere, cameras, std::move(*atlas), p, request.cache_key, dir, renderer,
-                               &manifest);
-      !s.ok()) {
-    return s;
-  }
+  manifest.MergeFrom(quality_manifest);  // the quality pass's maps and figures
   for (const FrameCamera& c : cameras) {
     v1::View* v = manifest.add_views();
     v->set_index(static_cast<uint32_t>(c.index));

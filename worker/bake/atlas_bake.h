@@ -27,6 +27,10 @@ struct AtlasBakeRequest {
   std::string cache_key;
   std::filesystem::path output_dir;  // exists and is empty
   GltfLoadLimits load_limits;        // the worker's configured input limits
+  // Encode the maps before the quality pass instead of beside it. The
+  // output bytes are the same either way (tested); for that test and for
+  // profiling a stage alone.
+  bool serial_encode = false;
 };
 
 struct AtlasBakeOutput {

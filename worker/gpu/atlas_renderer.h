@@ -98,15 +98,28 @@ class AtlasRenderer {
   // anisotropically (gpu/texture_filter.h says why). 1 by default.
   void set_supersampling(int factor) { supersampling_ = factor; }
 
+  // With supersampling 2 or more: whether later Render calls filter the
+  // maps down by the factor on the device (the semantics of
+  // worker/output/supersample.h, shaders/supersample_resolve.comp) and
+  // return atlas_size / factor maps, reading back only those. Off by
+  // default: Render returns the maps as rendered and the caller filters
+  // them (DownsampleMaps, the reference the device resolve is tested
+  // against). INVALID_ARGUMENT when atlas_size is not a multiple of the
+  // factor.
+  void set_resolve_on_device(bool on) { resolve_on_device_ = on; }
+
  protected:
   bool cancel_requested() const { return cancel_flag_ != nullptr && cancel_flag_->load(); }
   bool emissive_requested() const { return emissive_; }
   int supersampling() const { return supersampling_; }
+  // The factor Render filters down by on the device: 1 = none.
+  int device_resolve_factor() const { return resolve_on_device_ && supersampling_ > 1 ? supersampling_ : 1; }
 
  private:
   const std::atomic<bool>* cancel_flag_ = nullptr;
   bool emissive_ = false;
   int supersampling_ = 1;
+  bool resolve_on_device_ = false;
 };
 
 }  // namespace impostor

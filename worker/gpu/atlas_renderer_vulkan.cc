@@ -20,6 +20,7 @@
 #include "worker/gpu/command_runner.h"
 #include "worker/gpu/render_validation.h"
 #include "worker/gpu/scene_resources.h"
+#include "worker/gpu/supersample_resolve.h"
 #include "worker/gpu/texture_filter.h"
 #include "worker/gpu/vk_check.h"
 #include "worker/gpu/vulkan_context.h"
@@ -32,6 +33,7 @@ using gpu::BakePipeline;
 using gpu::CommandRunner;
 using gpu::MaterialPushConstants;
 using gpu::SceneResources;
+using gpu::SupersampleResolve;
 using gpu::VulkanContext;
 
 // Frames per submission: at most 16, fewer for heavy scenes so one
@@ -73,8 +75,11 @@ struct BatchDraw {
 class AtlasRendererVulkan final : public AtlasRenderer {
  public:
   AtlasRendererVulkan(std::unique_ptr<VulkanContext> ctx, BakePipeline pipeline,
-                      CommandRunner runner)
-      : ctx_(std::move(ctx)), pipeline_(std::move(pipeline)), runner_(std::move(runner)) {}
+                      SupersampleResolve resolve, CommandRunner runner)
+      : ctx_(std::move(ctx)),
+        pipeline_(std::move(pipeline)),
+        resolve_(std::move(resolve)),
+        runner_(std::move(runner)) {}
 
   const DeviceInfo& device() const override { return ctx_->info(); }
 
@@ -91,6 +96,7 @@ class AtlasRendererVulkan final : public AtlasRenderer {
 
   std::unique_ptr<VulkanContext> ctx_;
   BakePipeline pipeline_;
+  SupersampleResolve resolve_;
   CommandRunner runner_;
 };
 
@@ -154,7 +160,8 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
                                                                              ctx_->max_anisotropy())));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(targets,
                                 AtlasTargets::Create(*ctx_, static_cast<uint32_t>(atlas_size),
-                                                     emissive_requested()));
+                                                     emissive_requested(),
+                                                     static_cast<uint32_t>(device_resolve_factor())));
   times.upload_seconds = SecondsSince(phase_start);
 
   std::vector<MaterialPushConstants> materials;
@@ -205,7 +212,7 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
 
   phase_start = std::chrono::steady_clock::now();
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(VkCommandBuffer cmd, runner_.Begin());
-  targets->RecordReadback(cmd);
+  targets->RecordReadback(cmd, &resolve_);
   IMPOSTOR_GPU_RETURN_IF_ERROR(runner_.SubmitAndWait());
   AtlasImages images;
   IMPOSTOR_GPU_RETURN_IF_ERROR(targets->CopyToHost(&images));
@@ -226,9 +233,10 @@ absl::StatusOr<std::unique_ptr<AtlasRenderer>> AtlasRenderer::Create(
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(std::unique_ptr<VulkanContext> ctx,
                                 VulkanContext::Create(preferred_device));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(BakePipeline pipeline, BakePipeline::Create(*ctx));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(SupersampleResolve resolve, SupersampleResolve::Create(*ctx));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(CommandRunner runner, CommandRunner::Create(*ctx));
-  return std::unique_ptr<AtlasRenderer>(
-      new AtlasRendererVulkan(std::move(ctx), std::move(pipeline), std::move(runner)));
+  return std::unique_ptr<AtlasRenderer>(new AtlasRendererVulkan(std::move(ctx), std::move(pipeline),
+                                                                std::move(resolve), std::move(runner)));
 }
 
 }  // namespace impostor

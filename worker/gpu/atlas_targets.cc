@@ -3,6 +3,8 @@
 #include <array>
 #include <cstring>
 
+#include "absl/strings/str_cat.h"
+
 #include "worker/gpu/barriers.h"
 #include "worker/gpu/device_selection.h"
 #include "worker/gpu/vk_check.h"
@@ -20,8 +22,9 @@ constexpr VkAccessFlags2 kDepthAccess =
 
 absl::StatusOr<GpuImage> CreateTarget(const VulkanContext& ctx, uint32_t size, VkFormat format,
                                       VkImageUsageFlags usage, VkImageAspectFlags aspect,
-                                      const char* name) {
+                                      const char* name, VkImageCreateFlags flags = 0) {
   ImageSpec spec;
+  spec.flags = flags;
   spec.width = size;
   spec.height = size;
   spec.format = format;
@@ -31,10 +34,12 @@ absl::StatusOr<GpuImage> CreateTarget(const VulkanContext& ctx, uint32_t size, V
 }
 
 absl::StatusOr<GpuBuffer> CreateReadback(const VulkanContext& ctx, VkDeviceSize bytes,
-                                         const char* name) {
+                                         const char* name, bool resolved) {
   // HOST_CACHED makes the CPU's read of a multi-megabyte map fast; uncached
-  // write-combined memory is read at a fraction of the speed.
-  return GpuBuffer::Create(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+  // write-combined memory is read at a fraction of the speed. A resolved
+  // bake's compute shader writes the buffers directly.
+  return GpuBuffer::Create(ctx, bytes,
+                           resolved ? VK_BUFFER_USAGE_STORAGE_BUFFER_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                            VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
                            name);
 }
@@ -42,34 +47,51 @@ absl::StatusOr<GpuBuffer> CreateReadback(const VulkanContext& ctx, VkDeviceSize 
 }  // namespace
 
 absl::StatusOr<AtlasTargets> AtlasTargets::Create(const VulkanContext& ctx, uint32_t size,
-                                                  bool emissive) {
+                                                  bool emissive, uint32_t resolve_factor) {
+  if (resolve_factor < 1 || size % resolve_factor != 0) {
+    return absl::InvalidArgumentError(absl::StrCat("supersampling: a ", size, "x", size,
+                                                   " atlas cannot be resolved by a factor of ", resolve_factor));
+  }
   AtlasTargets t;
   t.size_ = size;
+  t.resolve_factor_ = resolve_factor;
+  t.out_size_ = size / resolve_factor;
   t.has_emissive_ = emissive;
-  constexpr VkImageUsageFlags kColorUsage =
-      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_, CreateTarget(ctx, size, kAlbedoFormat, kColorUsage,
-                                                        VK_IMAGE_ASPECT_COLOR_BIT, "atlas albedo"));
+  const bool resolved = resolve_factor > 1;
+  VkImageUsageFlags color_usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  if (resolved) color_usage |= VK_IMAGE_USAGE_SAMPLED_BIT;
+  // The sRGB targets get a UNORM view for the resolve, which needs
+  // MUTABLE_FORMAT.
+  const VkImageCreateFlags srgb_flags =
+      resolved ? VkImageCreateFlags{VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT} : VkImageCreateFlags{0};
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_, CreateTarget(ctx, size, kAlbedoFormat, color_usage,
+                                                        VK_IMAGE_ASPECT_COLOR_BIT, "atlas albedo", srgb_flags));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.normal_depth_,
-                                CreateTarget(ctx, size, kNormalDepthFormat, kColorUsage,
+                                CreateTarget(ctx, size, kNormalDepthFormat, color_usage,
                                              VK_IMAGE_ASPECT_COLOR_BIT, "atlas normal_depth"));
-  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_, CreateTarget(ctx, size, kOrmFormat, kColorUsage,
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_, CreateTarget(ctx, size, kOrmFormat, color_usage,
                                                      VK_IMAGE_ASPECT_COLOR_BIT, "atlas orm"));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(
       t.depth_, CreateTarget(ctx, size, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
                              VK_IMAGE_ASPECT_DEPTH_BIT, "atlas depth"));
-  const VkDeviceSize texels = VkDeviceSize{size} * size;
+  const VkDeviceSize texels = VkDeviceSize{t.out_size_} * t.out_size_;
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_readback_,
-                                CreateReadback(ctx, texels * 4, "albedo readback"));
+                                CreateReadback(ctx, texels * 4, "albedo readback", resolved));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.normal_depth_readback_,
-                                CreateReadback(ctx, texels * 8, "normal_depth readback"));
-  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_readback_, CreateReadback(ctx, texels * 4, "orm readback"));
+                                CreateReadback(ctx, texels * 8, "normal_depth readback", resolved));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.orm_readback_, CreateReadback(ctx, texels * 4, "orm readback", resolved));
   if (emissive) {
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(
-        t.emissive_, CreateTarget(ctx, size, kEmissiveFormat, kColorUsage,
-                                  VK_IMAGE_ASPECT_COLOR_BIT, "atlas emissive"));
+        t.emissive_, CreateTarget(ctx, size, kEmissiveFormat, color_usage,
+                                  VK_IMAGE_ASPECT_COLOR_BIT, "atlas emissive", srgb_flags));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.emissive_readback_,
-                                  CreateReadback(ctx, texels * 4, "emissive readback"));
+                                  CreateReadback(ctx, texels * 4, "emissive readback", resolved));
+  }
+  if (resolved) {
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.albedo_unorm_, t.albedo_.AddView(VK_FORMAT_R8G8B8A8_UNORM));
+    if (emissive) {
+      IMPOSTOR_GPU_ASSIGN_OR_RETURN(t.emissive_unorm_, t.emissive_.AddView(VK_FORMAT_R8G8B8A8_UNORM));
+    }
   }
   return t;
 }
@@ -148,7 +170,43 @@ void AtlasTargets::BeginRendering(VkCommandBuffer cmd, bool first_use) const {
   vkCmdBeginRendering(cmd, &info);
 }
 
-void AtlasTargets::RecordReadback(VkCommandBuffer cmd) const {
+void AtlasTargets::RecordResolve(VkCommandBuffer cmd, const SupersampleResolve& resolve) const {
+  const std::array<const GpuImage*, 4> images = {&albedo_, &normal_depth_, &orm_, &emissive_};
+  const size_t count = has_emissive_ ? 4 : 3;
+  std::array<ImageTransition, 4> to_read{};
+  for (size_t i = 0; i < count; ++i) {
+    to_read[i].image = images[i]->image();
+    to_read[i].old_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    to_read[i].new_layout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    to_read[i].src_stage = kColorStage;
+    to_read[i].src_access = VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    to_read[i].dst_stage = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    to_read[i].dst_access = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+  }
+  TransitionImages(cmd, to_read.data(), static_cast<uint32_t>(count));
+  // Without emissive, its bindings get the albedo view and buffer as
+  // placeholders the shader never touches.
+  resolve.Record(cmd, {.albedo_view = albedo_unorm_,
+                       .normal_depth_view = normal_depth_.view(),
+                       .orm_view = orm_.view(),
+                       .emissive_view = has_emissive_ ? emissive_unorm_ : albedo_unorm_,
+                       .albedo_buffer = albedo_readback_.buffer(),
+                       .normal_depth_buffer = normal_depth_readback_.buffer(),
+                       .orm_buffer = orm_readback_.buffer(),
+                       .emissive_buffer = has_emissive_ ? emissive_readback_.buffer() : albedo_readback_.buffer(),
+                       .factor = resolve_factor_,
+                       .out_width = out_size_,
+                       .out_height = out_size_,
+                       .emissive = has_emissive_});
+  MemoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void AtlasTargets::RecordReadback(VkCommandBuffer cmd, const SupersampleResolve* resolve) const {
+  if (resolve_factor_ > 1) {
+    RecordResolve(cmd, *resolve);
+    return;
+  }
   const std::array<const GpuImage*, 4> images = {&albedo_, &normal_depth_, &orm_, &emissive_};
   const std::array<const GpuBuffer*, 4> buffers = {&albedo_readback_, &normal_depth_readback_,
                                                    &orm_readback_, &emissive_readback_};
@@ -178,9 +236,9 @@ void AtlasTargets::RecordReadback(VkCommandBuffer cmd) const {
 }
 
 absl::Status AtlasTargets::CopyToHost(AtlasImages* out) const {
-  const size_t texels = static_cast<size_t>(size_) * size_;
-  out->width = static_cast<int>(size_);
-  out->height = static_cast<int>(size_);
+  const size_t texels = static_cast<size_t>(out_size_) * out_size_;
+  out->width = static_cast<int>(out_size_);
+  out->height = static_cast<int>(out_size_);
   IMPOSTOR_GPU_RETURN_IF_ERROR(albedo_readback_.InvalidateForHostRead());
   IMPOSTOR_GPU_RETURN_IF_ERROR(normal_depth_readback_.InvalidateForHostRead());
   IMPOSTOR_GPU_RETURN_IF_ERROR(orm_readback_.InvalidateForHostRead());

@@ -2,7 +2,10 @@
 // images and a D32 depth image, all atlas_size squared) and the host-visible
 // buffers they are read back into, plus the commands that move them between
 // uses: first-use layout setup with the clear values from atlas_renderer.h,
-// chunk-to-chunk dependencies, and the final copy to the host.
+// chunk-to-chunk dependencies, and the final copy to the host. With a
+// resolve factor above 1 the readback buffers hold the maps filtered down by
+// that factor on the device (supersample_resolve.h), not the targets as
+// rendered.
 //
 // Ownership: owns the images and buffers; the owner must have waited for the
 // last submission that used them. Thread-safety: none.
@@ -18,6 +21,7 @@
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/gpu/gpu_buffer.h"
 #include "worker/gpu/gpu_image.h"
+#include "worker/gpu/supersample_resolve.h"
 #include "worker/gpu/vulkan_context.h"
 
 namespace impostor::gpu {
@@ -28,8 +32,10 @@ class AtlasTargets {
   // fails (RESOURCE_EXHAUSTED) before any frame is rendered.
   // `emissive`: also the fourth (emissive) target; without it the fourth
   // attachment of the bake pipeline is bound to no image (writes dropped).
+  // `resolve_factor` (a divisor of `size`): the maps read back are
+  // size / resolve_factor squared, filtered down on the device.
   static absl::StatusOr<AtlasTargets> Create(const VulkanContext& ctx, uint32_t size,
-                                             bool emissive = false);
+                                             bool emissive = false, uint32_t resolve_factor = 1);
 
   AtlasTargets(AtlasTargets&&) noexcept = default;
   AtlasTargets& operator=(AtlasTargets&&) noexcept = default;
@@ -39,9 +45,11 @@ class AtlasTargets {
   // calls wait for the previous chunk's attachment writes and load them.
   void BeginRendering(VkCommandBuffer cmd, bool first_use) const;
 
-  // After the last chunk: copies the three colour images into the readback
-  // buffers and makes the copies visible to the host.
-  void RecordReadback(VkCommandBuffer cmd) const;
+  // After the last chunk: copies the colour images into the readback
+  // buffers (or, with a resolve factor above 1, filters them down into them
+  // with `resolve`, which must then be non-null) and makes the result
+  // visible to the host.
+  void RecordReadback(VkCommandBuffer cmd, const SupersampleResolve* resolve = nullptr) const;
 
   // After RecordReadback's submission completed: fills `out`.
   absl::Status CopyToHost(AtlasImages* out) const;
@@ -51,7 +59,14 @@ class AtlasTargets {
  private:
   AtlasTargets() = default;
 
+  void RecordResolve(VkCommandBuffer cmd, const SupersampleResolve& resolve) const;
+
   uint32_t size_ = 0;
+  uint32_t resolve_factor_ = 1;
+  uint32_t out_size_ = 0;  // size_ / resolve_factor_: the maps read back
+  // UNORM views of the sRGB targets: the resolve reads their bytes.
+  VkImageView albedo_unorm_ = VK_NULL_HANDLE;
+  VkImageView emissive_unorm_ = VK_NULL_HANDLE;
   GpuImage albedo_;
   GpuImage normal_depth_;
   GpuImage orm_;
