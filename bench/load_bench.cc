@@ -15,8 +15,8 @@
 //
 //   load_bench [--callers N] [--seconds S] [--channels C] [--rpc NAME]...
 //              [--server-arg FLAG]...
-//   NAME: health, submit, lookup, get_result (default: all four, health
-//   first); FLAG: passed to impostor-server (e.g. --job-retention-days=1).
+//   NAME: health, submit, submit_rid (SubmitBake with a request_id, as the
+//   CLI sends it), lookup, get_result (default: all five, health first); FLAG: passed to impostor-server (e.g. --job-retention-days=1).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (rpcs.empty()) rpcs = {"health", "submit", "lookup", "get_result"};
+  if (rpcs.empty()) rpcs = {"health", "submit", "submit_rid", "lookup", "get_result"};
 
   const fs::path root = fs::temp_directory_path() / ("impostor_load_bench_" + std::to_string(::getpid()));
   fs::remove_all(root);
@@ -201,12 +201,18 @@ int main(int argc, char** argv) {
         targets.push_back({rpc, "/grpc.health.v1.Health/Check", Serialise(google::protobuf::Empty())});
       } else if (rpc == "submit") {
         targets.push_back({rpc, "/impostor.v1.BakeService/SubmitBake", Serialise(submit)});
+      } else if (rpc == "submit_rid") {
+        // As the CLI and SDK send it: with a request_id (looked up for a
+        // retry, so this path also reads the job table).
+        impostor::v1::SubmitBakeRequest with_id = submit;
+        with_id.set_request_id("load-bench-0123456789abcdef");
+        targets.push_back({rpc, "/impostor.v1.BakeService/SubmitBake", Serialise(with_id)});
       } else if (rpc == "lookup") {
         targets.push_back({rpc, "/impostor.v1.BakeService/LookupBake", Serialise(submit)});
       } else if (rpc == "get_result") {
         targets.push_back({rpc, "/impostor.v1.AssetService/GetResult", Serialise(get_result)});
       } else {
-        std::fprintf(stderr, "--rpc: unknown \"%s\" (health, submit, lookup, get_result)\n", rpc.c_str());
+        std::fprintf(stderr, "--rpc: unknown \"%s\" (health, submit, submit_rid, lookup, get_result)\n", rpc.c_str());
         return 2;
       }
     }

@@ -128,6 +128,7 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
         if (!options.now_ms) options.now_ms = SystemNowMs;
         return options;
       }()),
+      hot_results_(jobs->SharedWithOtherServers() ? 0 : options.hot_result_entries),
       observer_(NoObserver()) {
   // Jobs other servers change on a shared database wake our waiters too.
   jobs_->SetChangeCallback([this] {
@@ -264,12 +265,39 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   return Save(leader);
 }
 
-void BakeScheduler::TouchResult(const std::string& key) { touched_[key] = options_.now_ms(); }
+void BakeScheduler::TouchResult(const std::string& key) {
+  const int64_t now = options_.now_ms();
+  std::lock_guard lock(touch_mu_);
+  touched_[key] = now;
+}
+
+int64_t BakeScheduler::UnwrittenUse(const std::string& key) {
+  std::lock_guard lock(touch_mu_);
+  auto it = touched_.find(key);
+  return it == touched_.end() ? 0 : it->second;
+}
+
+std::shared_ptr<const v1::Manifest> BakeScheduler::HotResult(const std::string& key) {
+  std::shared_ptr<const v1::Manifest> m = hot_results_.Find(key);
+  // Blobs are checked on every hit, as from the database: a blob deleted
+  // or rotted on disk sends the caller to the path that drops the result.
+  if (!m || !BlobsIntact(*m)) return nullptr;
+  TouchResult(key);
+  return m;
+}
+
+absl::Status BakeScheduler::DeleteResultLocked(const std::string& key) {
+  hot_results_.Erase(key);
+  return jobs_->DeleteResult(key);
+}
 
 absl::StatusOr<int64_t> BakeScheduler::FlushTouchesLocked() {
-  if (touched_.empty()) return 0;
   std::map<std::string, int64_t> batch;
-  batch.swap(touched_);
+  {
+    std::lock_guard lock(touch_mu_);
+    batch.swap(touched_);
+  }
+  if (batch.empty()) return 0;
   // Only eviction order depends on it: a failed write (a full disk) drops
   // the batch rather than fail anything.
   if (auto s = jobs_->TouchResults(batch); !s.ok()) return s;
@@ -330,6 +358,7 @@ bool BakeScheduler::BlobsIntact(const v1::Manifest& m) const {
 }
 
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(const std::string& key) {
+  if (auto hot = HotResult(key)) return std::optional<v1::Manifest>(*hot);
   std::optional<v1::Manifest> found;
   {
     // Only the database read holds the scheduler's lock: with many callers
@@ -338,6 +367,9 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(cons
     auto result = jobs_->GetResult(key);
     if (!result.ok() || !result->has_value()) return result;
     found = std::move(*result);
+    // Under mu_, like every erase: see ResultCache. Hits from memory check
+    // the blobs themselves.
+    hot_results_.Fill(*found);
     TouchResult(key);
   }
   if (BlobsIntact(*found)) return found;
@@ -348,10 +380,106 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(cons
 absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
   auto result = jobs_->GetResult(key);
   if (!result.ok() || !result->has_value()) return result;
-  if (BlobsIntact(**result)) return result;
+  if (BlobsIntact(**result)) {
+    hot_results_.Fill(**result);
+    return result;
+  }
   spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
-  if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
+  if (auto s = DeleteResultLocked(key); !s.ok()) return s;
   return std::optional<v1::Manifest>();
+}
+
+absl::Status BakeScheduler::RequireInputBlobs(const v1::MeshInput& mesh) const {
+  auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
+    if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
+    return absl::FailedPreconditionError(absl::StrCat(field, " (\"", f.path(), "\"): blob ", f.digest().hash(), "/",
+                                                      f.digest().size_bytes(), " is not in the store; upload it first"));
+  };
+  if (auto s = require_blob("mesh.entry", mesh.entry()); !s.ok()) return s;
+  for (int i = 0; i < mesh.files_size(); ++i) {
+    if (auto s = require_blob(absl::StrCat("mesh.files[", i, "]"), mesh.files(i)); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::optional<v1::SubmitBakeResponse>> BakeScheduler::RetryAnswer(const v1::SubmitBakeRequest& request,
+                                                                                  const std::string& requester,
+                                                                                  const std::string& key,
+                                                                                  v1::Product product) {
+  if (request.request_id().empty()) return std::nullopt;
+  auto seen = jobs_->FindByRequestId(requester, request.request_id());
+  if (!seen.ok()) return seen.status();
+  if (!seen->has_value()) return std::nullopt;
+  const JobRecord& first = **seen;
+  if (first.job.cache_key() != key) {
+    return absl::InvalidArgumentError(absl::StrCat("request_id: \"", request.request_id(),
+                                                   "\" was already used by this client for job ", first.job.job_id(),
+                                                   " with a different mesh or parameters; use a fresh id per submit"));
+  }
+  v1::SubmitBakeResponse response;
+  response.set_job_id(first.job.job_id());
+  response.set_cache_key(key);
+  response.set_cached(first.job.cached());
+  *response.mutable_job() = View(first);
+  spdlog::info("event=submit job={} cache_key={} outcome=retry request_id={}", first.job.job_id(), key,
+               request.request_id());
+  observer_.load()->OnSubmit(product, SchedulerObserver::SubmitOutcome::kRetry);
+  return response;
+}
+
+JobRecord BakeScheduler::NewRecord(const v1::SubmitBakeRequest& request, const v1::BakeParameters& params,
+                                   const std::string& key, const std::string& requester, const std::string& owner) {
+  const int64_t now = options_.now_ms();
+  JobRecord record;
+  record.mesh = request.mesh();
+  record.parameters = params;
+  record.job.set_cache_key(key);
+  record.job.set_created_ms(now);
+  record.job.set_updated_ms(now);
+  record.client_id = requester;
+  record.owner = owner;
+  record.request_id = request.request_id();
+  record.job.set_priority(request.priority());
+  record.lease_priority = request.priority();
+  if (HasQualityGate(request.gate())) record.gate = request.gate();
+  return record;
+}
+
+absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::AnswerHit(JobRecord& record, const v1::Manifest& result,
+                                                                 v1::Product product) {
+  const std::string& key = record.job.cache_key();
+  TouchResult(key);
+  record.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  record.job.set_progress(1.0f);
+  record.job.set_stage("cached");
+  record.job.set_cached(true);
+  ApplyResult(record, result);  // the gate judges a cached result too
+  // Without a gate the job id itself is the record (HitJobId): GetJob and
+  // WatchJob answer from it, and nothing needs a sync. A gated hit keeps
+  // its row (its outcome depends on the gate); the caller holds mu_ then.
+  if (!HasQualityGate(record.gate)) {
+    record.job.set_job_id(HitJobId(key, record.client_id, record.request_id, record.owner));
+  } else {
+    if (record.job.job_id().empty()) record.job.set_job_id(NewId("job-"));
+    if (auto s = jobs_->Insert(record); !s.ok()) {
+      // A full disk must not stop cache hits: answer without the record
+      // (GetJob on this id is then NOT_FOUND; the result is all it holds).
+      if (!absl::IsResourceExhausted(s)) return s;
+      spdlog::warn("event=cache_hit_not_recorded cache_key={} error=\"{}\"", key, std::string(s.message()));
+    }
+  }
+  v1::SubmitBakeResponse response;
+  response.set_cache_key(key);
+  response.set_job_id(record.job.job_id());
+  response.set_cached(true);
+  *response.mutable_job() = record.job;
+  *response.mutable_job()->mutable_result() = result;
+  // Debug, not info: at thousands of hits a second the log line per hit
+  // cost more than the hit (the metrics count them).
+  spdlog::debug("event=submit job={} cache_key={} outcome=cache_hit state={}", record.job.job_id(), key,
+                v1::JobState_Name(record.job.state()));
+  observer_.load()->OnSubmit(product, SchedulerObserver::SubmitOutcome::kCacheHit);
+  return response;
 }
 
 absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBakeRequest& request,
@@ -368,87 +496,38 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   const std::string requester = client_id.substr(0, 128);
   const std::string key = ComputeCacheKey(request.mesh(), *params);
 
-  std::lock_guard lock(mu_);
-  // A retried submit (the first one's answer was lost) gets the first job.
-  // Looked up before the blob checks: the blobs may have been evicted since.
-  if (!request.request_id().empty()) {
-    auto seen = jobs_->FindByRequestId(requester, request.request_id());
-    if (!seen.ok()) return seen.status();
-    if (seen->has_value()) {
-      const JobRecord& first = **seen;
-      if (first.job.cache_key() != key) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "request_id: \"", request.request_id(), "\" was already used by this client for job ",
-            first.job.job_id(), " with a different mesh or parameters; use a fresh id per submit"));
-      }
-      v1::SubmitBakeResponse response;
-      response.set_job_id(first.job.job_id());
-      response.set_cache_key(key);
-      response.set_cached(first.job.cached());
-      *response.mutable_job() = View(first);
-      spdlog::info("event=submit job={} cache_key={} outcome=retry request_id={}", first.job.job_id(), key,
-                   request.request_id());
-      observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kRetry);
-      return response;
+  // The common hit (no gate, the result in memory) takes the scheduler's
+  // lock only to look for a retried request_id: no row is written.
+  if (!HasQualityGate(request.gate()) && hot_results_.Find(key)) {
+    if (!request.request_id().empty()) {
+      std::lock_guard lock(mu_);
+      auto retry = RetryAnswer(request, requester, key, params->product());
+      if (!retry.ok()) return retry.status();
+      if (retry->has_value()) return std::move(**retry);
+    }
+    if (auto s = RequireInputBlobs(request.mesh()); !s.ok()) return s;
+    if (auto hot = HotResult(key)) {
+      JobRecord record = NewRecord(request, *params, key, requester, owner);
+      return AnswerHit(record, *hot, params->product());
     }
   }
 
-  auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
-    if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
-    return absl::FailedPreconditionError(absl::StrCat(field, " (\"", f.path(), "\"): blob ", f.digest().hash(), "/",
-                                                      f.digest().size_bytes(), " is not in the store; upload it first"));
-  };
-  if (auto s = require_blob("mesh.entry", request.mesh().entry()); !s.ok()) return s;
-  for (int i = 0; i < request.mesh().files_size(); ++i) {
-    if (auto s = require_blob(absl::StrCat("mesh.files[", i, "]"), request.mesh().files(i)); !s.ok()) return s;
-  }
+  std::lock_guard lock(mu_);
+  // A retried submit (the first one's answer was lost) gets the first job.
+  // Looked up before the blob checks: the blobs may have been evicted since.
+  auto retry = RetryAnswer(request, requester, key, params->product());
+  if (!retry.ok()) return retry.status();
+  if (retry->has_value()) return std::move(**retry);
+  if (auto s = RequireInputBlobs(request.mesh()); !s.ok()) return s;
 
-  const int64_t now = options_.now_ms();
   v1::SubmitBakeResponse response;
   response.set_cache_key(key);
 
   auto cached = IntactResult(key);
   if (!cached.ok()) return cached.status();
-  JobRecord record;
-  record.mesh = request.mesh();
-  record.parameters = *params;
+  JobRecord record = NewRecord(request, *params, key, requester, owner);
   record.job.set_job_id(NewId("job-"));
-  record.job.set_cache_key(key);
-  record.job.set_created_ms(now);
-  record.job.set_updated_ms(now);
-  record.client_id = requester;
-  record.owner = owner;
-  record.request_id = request.request_id();
-  record.job.set_priority(request.priority());
-  record.lease_priority = request.priority();
-  if (HasQualityGate(request.gate())) record.gate = request.gate();
-  if (cached->has_value()) {
-    TouchResult(key);
-    record.job.set_state(v1::JOB_STATE_SUCCEEDED);
-    record.job.set_progress(1.0f);
-    record.job.set_stage("cached");
-    record.job.set_cached(true);
-    ApplyResult(record, **cached);  // the gate judges a cached result too
-    // Without a gate the job id itself is the record (HitJobId): GetJob and
-    // WatchJob answer from it, and nothing needs a sync. A gated hit keeps
-    // its row (its outcome depends on the gate).
-    if (!HasQualityGate(record.gate)) {
-      record.job.set_job_id(HitJobId(key, requester, request.request_id(), owner));
-    } else if (auto s = jobs_->Insert(record); !s.ok()) {
-      // A full disk must not stop cache hits: answer without the record
-      // (GetJob on this id is then NOT_FOUND; the result is all it holds).
-      if (!absl::IsResourceExhausted(s)) return s;
-      spdlog::warn("event=cache_hit_not_recorded cache_key={} error=\"{}\"", key, std::string(s.message()));
-    }
-    response.set_job_id(record.job.job_id());
-    response.set_cached(true);
-    *response.mutable_job() = record.job;
-    *response.mutable_job()->mutable_result() = std::move(**cached);
-    spdlog::info("event=submit job={} cache_key={} outcome=cache_hit state={}", record.job.job_id(), key,
-                 v1::JobState_Name(record.job.state()));
-    observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kCacheHit);
-    return response;
-  }
+  if (cached->has_value()) return AnswerHit(record, **cached, params->product());
 
   // Backpressure: refuse new work past the pending limits (a cache hit above
   // costs nothing and is always answered).
@@ -495,7 +574,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
       *response.mutable_job() = View(record);
       spdlog::info("event=submit job={} cache_key={} outcome=shares_bake leader={}", record.job.job_id(), key,
                    record.leader_job_id);
-      observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kSharedBake);
+      observer_.load()->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kSharedBake);
       return response;
     }
 
@@ -513,7 +592,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   *response.mutable_job() = record.job;
   spdlog::info("event=submit job={} cache_key={} outcome=queued layout={} frames={} resolution={}",
                record.job.job_id(), key, static_cast<int>(params->layout()), params->frames(), params->resolution());
-  observer_->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kQueued);
+  observer_.load()->OnSubmit(params->product(), SchedulerObserver::SubmitOutcome::kQueued);
   return response;
 }
 
@@ -643,7 +722,7 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
     if (blobs_->total_bytes() <= cap) break;
     if (r.pinned) continue;
     const std::string& key = r.manifest.cache_key();
-    if (auto s = jobs_->DeleteResult(key); !s.ok()) return s;
+    if (auto s = DeleteResultLocked(key); !s.ok()) return s;
     ++stats.results_removed;
     for (const auto& h : result_blobs(r.manifest)) {
       if (--result_refs[h] > 0 || needed.count(h)) continue;
@@ -652,7 +731,7 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
     spdlog::info("event=evict_result cache_key={}", key);
   }
   if (stats.blobs_removed > 0 || stats.results_removed > 0) {
-    observer_->OnEvicted(stats.blobs_removed, stats.results_removed, stats.bytes_freed);
+    observer_.load()->OnEvicted(stats.blobs_removed, stats.results_removed, stats.bytes_freed);
   }
   if (stats.blobs_removed > 0) {
     spdlog::info("event=store_evicted blobs={} results={} bytes={} store_bytes={} cap={}", stats.blobs_removed,
@@ -746,7 +825,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       spdlog::info("event=lease job={} worker=\"{}\" attempt={} priority={} client=\"{}\"", r.job.job_id(),
                    EscapeUntrusted(request.worker_id()), r.job.attempts(), r.lease_priority,
                    EscapeUntrusted(r.client_id));
-      observer_->OnLease(request.worker_id(), r.parameters.product(), r.job.attempts(),
+      observer_.load()->OnLease(request.worker_id(), r.parameters.product(), r.job.attempts(),
                          std::max<int64_t>(0, now - r.job.created_ms()) / 1000.0);
       return std::optional<v1::LeasedJob>(std::move(leased));
     }
@@ -846,6 +925,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
     }
   }
   // Even a cancelled job's result is good: keep it for the next request.
+  hot_results_.Erase(m.cache_key());  // a re-bake replaces the row; the next read remembers it
   if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
   CloseAttempt(r->job, v1::JobAttempt::OUTCOME_SUCCEEDED, "", options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) ApplyResult(*r, m);
@@ -854,7 +934,7 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   if (auto s = SettleFollowers(*r, &m); !s.ok()) return s;
   streaks_.erase(r->worker_id);
   NoteWorkerSeen(r->worker_id);
-  observer_->OnComplete(r->worker_id, m);
+  observer_.load()->OnComplete(r->worker_id, m);
   spdlog::info("event=complete job={} cache_key={} worker=\"{}\" seconds={:.2f}", r->job.job_id(), m.cache_key(),
                EscapeUntrusted(r->worker_id), m.timings().total_seconds());
   return absl::OkStatus();
@@ -886,7 +966,7 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
     // Bad input is the job's fault; anything retryable may be the worker's.
     if (request.retryable()) NoteWorkerFailure(r->worker_id, r->job.job_id());
     NoteWorkerSeen(r->worker_id);
-    observer_->OnFail(r->worker_id, r->parameters.product(), retry);
+    observer_.load()->OnFail(r->worker_id, r->parameters.product(), retry);
   }
   if (auto s = Save(*r); !s.ok()) return s;
   return SettleFollowers(*r);
@@ -948,7 +1028,7 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
   spdlog::warn("event=lease_expired job={} worker=\"{}\" stage=\"{}\" attempts={} requeued={} how=\"{}\"",
                r.job.job_id(), EscapeUntrusted(worker), EscapeUntrusted(stage), r.job.attempts(), r.job.state() == v1::JOB_STATE_QUEUED,
                how.empty() ? std::string("stopped reporting") : std::string(how));
-  observer_->OnLeaseLost(worker, r.parameters.product());
+  observer_.load()->OnLeaseLost(worker, r.parameters.product());
   if (auto s = Save(r); !s.ok()) return s;
   return SettleFollowers(r);
 }

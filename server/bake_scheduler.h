@@ -9,11 +9,13 @@
 #ifndef IMPOSTOR_SERVER_BAKE_SCHEDULER_H_
 #define IMPOSTOR_SERVER_BAKE_SCHEDULER_H_
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -27,6 +29,7 @@
 #include "impostor/v1/worker_service.pb.h"
 #include "server/blob_store.h"
 #include "server/job_store.h"
+#include "server/result_cache.h"
 #include "server/scheduler_observer.h"
 
 namespace impostor {
@@ -71,6 +74,9 @@ struct SchedulerOptions {
   // than this are deleted by SweepFinishedJobs, so the database stays
   // bounded. Default 7 days; 0 = keep for ever.
   int64_t job_retention_ms = int64_t{7} * 24 * 3600'000;
+  // Results kept in memory for cache hits (see ResultCache); 0 = none. A
+  // store shared with other servers never gets them.
+  size_t hot_result_entries = 4096;
   // Wall clock in Unix epoch milliseconds; tests substitute a fake.
   std::function<int64_t()> now_ms;
 };
@@ -267,8 +273,31 @@ class BakeScheduler {
   bool BlobsIntact(const v1::Manifest& m) const;
   // Records a use of the result for LRU eviction, in memory until
   // FlushResultTouches.
-  void TouchResult(const std::string& key) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void TouchResult(const std::string& key) ABSL_LOCKS_EXCLUDED(touch_mu_);
   absl::StatusOr<int64_t> FlushTouchesLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The newest unwritten use of `key` (Unix ms), or 0.
+  int64_t UnwrittenUse(const std::string& key) ABSL_LOCKS_EXCLUDED(touch_mu_);
+  // A cache hit answered from memory, without the scheduler's lock: the
+  // remembered result when all of its blobs are still there (counted as a
+  // use), else null and the caller reads the database.
+  std::shared_ptr<const v1::Manifest> HotResult(const std::string& key);
+  // Every deletion of a result row goes through here, so the result leaves
+  // memory (hot_results_) in the same critical section.
+  absl::Status DeleteResultLocked(const std::string& key) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // A submit's job record before the cache decides its fate.
+  JobRecord NewRecord(const v1::SubmitBakeRequest& request, const v1::BakeParameters& params, const std::string& key,
+                      const std::string& requester, const std::string& owner);
+  // Turns `record` into a cache hit on `result` and answers it (inserting
+  // a row only for a gated hit, see Submit).
+  absl::StatusOr<v1::SubmitBakeResponse> AnswerHit(JobRecord& record, const v1::Manifest& result,
+                                                   v1::Product product);
+  // The answer to a retried submit (same client and request_id), if any.
+  absl::StatusOr<std::optional<v1::SubmitBakeResponse>> RetryAnswer(const v1::SubmitBakeRequest& request,
+                                                                    const std::string& requester,
+                                                                    const std::string& key, v1::Product product)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // FAILED_PRECONDITION naming the first mesh file not in the blob store.
+  absl::Status RequireInputBlobs(const v1::MeshInput& mesh) const;
   // Cache hits without a quality gate get no job row (a row costs a sync):
   // their job id says everything GetJob must answer (see HitJobId), and
   // LoadJob rebuilds the record from it while the result exists.
@@ -332,10 +361,16 @@ class BakeScheduler {
   };
   void NoteWorkerSeen(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   std::map<std::string, WorkerSeen> workers_ ABSL_GUARDED_BY(mu_);
-  // Result use times not yet written (cache key -> Unix ms).
-  std::map<std::string, int64_t> touched_ ABSL_GUARDED_BY(mu_);
-  // Never null: a do-nothing observer until SetObserver.
-  SchedulerObserver* observer_ ABSL_GUARDED_BY(mu_);
+  // Result use times not yet written (cache key -> Unix ms). Its own lock:
+  // hits answered from memory note uses without taking mu_ (order: mu_
+  // before touch_mu_).
+  std::mutex touch_mu_;
+  std::map<std::string, int64_t> touched_ ABSL_GUARDED_BY(touch_mu_);
+  // Results served lately, for hits without the database (ResultCache).
+  ResultCache hot_results_;
+  // Never null: a do-nothing observer until SetObserver. Atomic: hits
+  // answered without mu_ count through it too.
+  std::atomic<SchedulerObserver*> observer_;
 };
 
 // Random identifier: prefix + 32 hex characters.

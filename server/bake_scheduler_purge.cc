@@ -48,7 +48,7 @@ absl::StatusOr<BakeScheduler::PurgeStats> BakeScheduler::PurgeResultsBakedBy(con
     note(m.manifest_json());
     for (const auto& map : m.maps()) note(map.digest());
     if (!purge) continue;
-    if (auto s = jobs_->DeleteResult(m.cache_key()); !s.ok()) return s;
+    if (auto s = DeleteResultLocked(m.cache_key()); !s.ok()) return s;
     stats.cache_keys.push_back(m.cache_key());
   }
   // File times are real time, whatever clock the scheduler runs on.

@@ -71,10 +71,7 @@ absl::StatusOr<std::vector<JobStore::StoredResult>> BakeScheduler::ListResults(
   auto results = jobs_->ListResults(limit, after);
   if (!results.ok()) return results;
   // Uses noted in memory and not yet written (FlushResultTouches).
-  for (auto& r : *results) {
-    auto it = touched_.find(r.manifest.cache_key());
-    if (it != touched_.end()) r.last_used_ms = std::max(r.last_used_ms, it->second);
-  }
+  for (auto& r : *results) r.last_used_ms = std::max(r.last_used_ms, UnwrittenUse(r.manifest.cache_key()));
   return results;
 }
 
@@ -90,9 +87,7 @@ absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::stri
   auto job = jobs_->OldestJobWithKey(cache_key);
   if (!job.ok()) return job.status();
   (*r)->source_job_id = *job;
-  if (auto it = touched_.find(cache_key); it != touched_.end()) {
-    (*r)->last_used_ms = std::max((*r)->last_used_ms, it->second);
-  }
+  (*r)->last_used_ms = std::max((*r)->last_used_ms, UnwrittenUse(cache_key));
   return std::move(**r);
 }
 

@@ -204,6 +204,10 @@ class JobStore {
   // before `cutoff_ms`; returns how many. QUEUED and RUNNING rows stay
   // whatever their age.
   virtual absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) = 0;
+  // True when other servers may write this database too. The scheduler
+  // then keeps no results in memory (ResultCache): their purges and
+  // evictions would not reach it. True unless an engine knows better.
+  virtual bool SharedWithOtherServers() const { return true; }
 };
 
 }  // namespace impostor

@@ -32,6 +32,7 @@
 #include "server/job_store_factory.h"
 #include "server/server_help.h"
 #include "server/services.h"
+#include "server/serving_tuning.h"
 #include "server/tls_credentials.h"
 #include "server/worker_supervisor.h"
 // Identity and roles (issue 14).
@@ -295,6 +296,7 @@ int main(int argc, char** argv) {
     builder.AddListeningPort("unix:" + local_worker_socket, grpc::InsecureServerCredentials());
   }
   builder.SetMaxReceiveMessageSize(16 << 20);
+  impostor::TuneForManyCallers(builder);  // issue 18: server threads, mutex bookkeeping
   builder.RegisterService(&authorized_assets);
   builder.RegisterService(&authorized_bakes);
   builder.RegisterService(&authorized_workers);

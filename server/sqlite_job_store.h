@@ -56,6 +56,8 @@ class SqliteJobStore : public JobStore {
   // Serving speed (issue 18).
   absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms) override;
   absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) override;
+  // One server per SQLite database: results may be kept in memory.
+  bool SharedWithOtherServers() const override { return false; }
   // One server per file: always the maintainer.
   absl::StatusOr<bool> HoldMaintenanceLock() override { return true; }
 

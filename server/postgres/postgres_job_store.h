@@ -89,6 +89,8 @@ class PostgresJobStore : public JobStore {
   // Serving speed (issue 18).
   absl::Status TouchResults(const std::map<std::string, int64_t>& last_used_ms) override;
   absl::StatusOr<int64_t> DeleteFinishedJobsCreatedBefore(int64_t cutoff_ms, int limit) override;
+  // Replicas share the database: no results in memory (issue 18's ResultCache).
+  bool SharedWithOtherServers() const override { return true; }
   absl::StatusOr<bool> HoldMaintenanceLock() override;
   void SetChangeCallback(std::function<void()> callback) override;
 
