@@ -24,20 +24,23 @@ layout(set = 0, binding = 5) uniform Instance {
   mat4 world_to_clip;    // the camera
 } instance;
 
-// The parallax march as a specialization constant: off, the driver drops
-// its loops at pipeline creation (a CPU driver's shader compile goes from
-// minutes to seconds); an engine builds one pipeline per setting.
+// Specialization constants: the driver drops the code of the other layouts,
+// blend modes and the parallax march at pipeline creation (a CPU driver's
+// shader compile goes from minutes to seconds). An engine builds one
+// pipeline per layout in use; push.params.x and .w are then not read.
 layout(constant_id = 0) const bool kParallax = false;
+layout(constant_id = 1) const int kLayout = IMPOSTOR_LAYOUT_OCTAHEDRAL;
+layout(constant_id = 2) const int kBlendMode = IMPOSTOR_BLEND_TRIANGLE3;
 
 layout(location = 0) in vec3 in_ray_origin;
 layout(location = 1) in vec3 in_ray_dir;
 layout(location = 0) out vec4 out_colour;
 
 void main() {
-  ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.z);
+  ImpostorLayout atlas = ImpostorLayout(kLayout, push.params.y, push.flags.z);
   vec3 view_dir = normalize(push.eye_object.xyz);
   ImpostorPixel px = impostorMaterial(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0, atlas,
-                                      push.params.z, push.params.w, kParallax, push.sphere,
+                                      push.params.z, kBlendMode, kParallax, push.sphere,
                                       instance.object_to_world, instance.world_to_clip, in_ray_origin, in_ray_dir,
                                       view_dir);
   if (px.coverage < 0.5) discard;

@@ -37,6 +37,7 @@ struct PipelineSpec {
   bool depth_write = true;
   bool colour = true;  // one kColourFormat attachment, else depth only
   VkFormat depth_format = VK_FORMAT_D32_SFLOAT;
+  const VkSpecializationInfo* specialization = nullptr;  // fragment stage
 };
 
 absl::StatusOr<UniqueShaderModule> Module(const gpu::VulkanContext& ctx, Spirv spirv) {
@@ -64,6 +65,7 @@ absl::StatusOr<UniquePipeline> Build(const gpu::VulkanContext& ctx, const Pipeli
     f.stage = VK_SHADER_STAGE_FRAGMENT_BIT;
     f.module = frag.get();
     f.pName = "main";
+    f.pSpecializationInfo = spec.specialization;
     stages.push_back(f);
   }
   const VkVertexInputBindingDescription binding{0, sizeof(SceneVertex), VK_VERTEX_INPUT_RATE_VERTEX};
@@ -171,8 +173,12 @@ absl::StatusOr<gpu::UniquePipelineLayout> PipelineLayout(const gpu::VulkanContex
 
 }  // namespace
 
-absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& ctx) {
+absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& ctx, int layout, int blend_mode) {
   ScenePipelines p;
+  // constant_id 1 = layout, 2 = blend mode (0, the parallax march, stays off).
+  const std::array<int32_t, 2> constants = {layout, blend_mode};
+  const std::array<VkSpecializationMapEntry, 2> entries = {{{1, 0, 4}, {2, 4, 4}}};
+  const VkSpecializationInfo specialization{2, entries.data(), sizeof(constants), constants.data()};
   constexpr VkDescriptorType kTexture = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   constexpr VkDescriptorType kUniform = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(p.lit_set, SetLayout(ctx, {kTexture, kTexture, kTexture, kTexture, kUniform, kUniform}));
@@ -188,7 +194,8 @@ absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& 
                                                                .frag = IMPOSTOR_SPIRV(impostor_shadow_caster_frag),
                                                                .layout = p.caster_layout.get(),
                                                                .colour = false,
-                                                               .depth_format = kShadowFormat}));
+                                                               .depth_format = kShadowFormat,
+                                                               .specialization = &specialization}));
   // The deferred pass writes colour only: the depth buffer already holds
   // the mesh's depth from the G-buffer pass.
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(p.deferred, Build(ctx, {.vert = IMPOSTOR_SPIRV(impostor_scene_fullscreen_vert),
@@ -201,7 +208,8 @@ absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& 
                                                       .layout = p.lit_layout.get()}));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(p.impostor_lit, Build(ctx, {.vert = IMPOSTOR_SPIRV(impostor_runtime_check_vert),
                                                             .frag = IMPOSTOR_SPIRV(impostor_material_lit_frag),
-                                                            .layout = p.lit_layout.get()}));
+                                                            .layout = p.lit_layout.get(),
+                                                            .specialization = &specialization}));
   return p;
 }
 

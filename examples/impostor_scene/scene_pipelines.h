@@ -38,7 +38,9 @@ struct ScenePipelines {
   gpu::UniquePipeline ground;
   gpu::UniquePipeline impostor_lit;
 
-  static absl::StatusOr<ScenePipelines> Create(const gpu::VulkanContext& ctx);
+  // `layout` and `blend_mode` (IMPOSTOR_LAYOUT_*, IMPOSTOR_BLEND_*) are
+  // specialization constants of the impostor's two pipelines.
+  static absl::StatusOr<ScenePipelines> Create(const gpu::VulkanContext& ctx, int layout, int blend_mode);
 };
 
 }  // namespace impostor::example

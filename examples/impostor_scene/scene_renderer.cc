@@ -161,7 +161,6 @@ class VulkanSceneRenderer final : public SceneRenderer {
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(ctx_, gpu::VulkanContext::Create(device));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(bake_, gpu::BakePipeline::Create(*ctx_));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(runner_, gpu::CommandRunner::Create(*ctx_));
-    IMPOSTOR_GPU_ASSIGN_OR_RETURN(pipelines_, ScenePipelines::Create(*ctx_));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(linear_, Sampler(VK_FILTER_LINEAR, false));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(nearest_, Sampler(VK_FILTER_NEAREST, false));
     IMPOSTOR_GPU_ASSIGN_OR_RETURN(shadow_, Sampler(VK_FILTER_LINEAR, true));
@@ -221,7 +220,9 @@ class VulkanSceneRenderer final : public SceneRenderer {
   std::unique_ptr<gpu::VulkanContext> ctx_;  // first: destroyed last
   gpu::BakePipeline bake_;
   gpu::CommandRunner runner_;
+  // Built for the layout and blend mode of the impostor drawn last.
   ScenePipelines pipelines_;
+  int pipelines_for_ = -1;  // layout * 2 + blend mode
   gpu::UniqueSampler linear_, nearest_, shadow_;
 };
 
@@ -262,6 +263,11 @@ absl::StatusOr<SceneImage> VulkanSceneRenderer::Render(const Scene& mesh, const 
   if (texels == 0 || imp.albedo_alpha.size() != texels * 4 || imp.normal_depth.size() != texels * 4 ||
       imp.orm.size() != texels * 4) {
     return absl::InvalidArgumentError("the impostor's maps are missing or of different sizes");
+  }
+  if (const int key = imp.layout * 2 + setup.blend_mode; key != pipelines_for_) {
+    pipelines_ = {};
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(pipelines_, ScenePipelines::Create(*ctx_, imp.layout, setup.blend_mode));
+    pipelines_for_ = key;
   }
   const auto w = static_cast<uint32_t>(setup.width), h = static_cast<uint32_t>(setup.height);
   const auto iw = static_cast<uint32_t>(imp.width), ih = static_cast<uint32_t>(imp.height);
