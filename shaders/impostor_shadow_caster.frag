@@ -16,13 +16,18 @@ layout(push_constant) uniform ImpostorPush {
 layout(set = 0, binding = 0) uniform sampler2D albedo_alpha_tex;
 layout(set = 0, binding = 1) uniform sampler2D normal_depth_tex;
 
+// As impostor_material_lit.frag: one pipeline per layout and blend mode,
+// so the driver compiles only that code; push.params.x and .w are not read.
+layout(constant_id = 1) const int kLayout = IMPOSTOR_LAYOUT_OCTAHEDRAL;
+layout(constant_id = 2) const int kBlendMode = IMPOSTOR_BLEND_TRIANGLE3;
+
 layout(location = 0) in vec3 in_ray_origin;
 layout(location = 1) in vec3 in_ray_dir;
 
 void main() {
-  ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.z);
+  ImpostorLayout atlas = ImpostorLayout(kLayout, push.params.y, push.flags.z);
   float depth;
-  if (!impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, push.params.w, push.sphere,
+  if (!impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, kBlendMode, push.sphere,
                             mat4(1.0), push.view_projection, in_ray_origin, normalize(push.eye_object.xyz), depth)) {
     discard;
   }
