@@ -249,9 +249,9 @@ TEST_F(ImpostorSceneTest, ImpostorShadowCoversTheMeshShadowAndLitPsnrIsReported)
               "pixels\n",
               psnr, n);
   RecordProperty("lit_psnr_db", std::to_string(psnr));
-  // The plain (unlit) albedo PSNR of a DamagedHelmet bake between frames
-  // is about 15 dB (docs/quality.md); lighting must not take much off it.
-  EXPECT_GT(psnr, 11.0) << "the impostor must be lit like the mesh";
+  // Measured 20.05 dB (parallax on; 13.5 dB without). A lighting mismatch
+  // (normals in the wrong space, a missing shadow) costs far more.
+  EXPECT_GT(psnr, 17.0) << "the impostor must be lit like the mesh";
 }
 
 TEST_F(ImpostorSceneTest, SideBySideSceneShowsBothAndWritesAPng) {
