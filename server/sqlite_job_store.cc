@@ -3,7 +3,6 @@
 #include <sqlite3.h>
 
 #include "absl/strings/str_cat.h"
-#include "server/disk_full.h"
 #include "server/sqlite_open.h"
 #include "impostor/v1/bake_service.pb.h"
 
@@ -87,45 +86,11 @@ constexpr const char* kJobColumns =
     "job_id, cache_key, state, created_ms, lease_id, lease_deadline_ms, worker_id, job, request, leader_job_id, "
     "requester_cancelled, client_id, priority, request_id, lease_expiries, owner, lease_holder, row_version";
 
-// RAII prepared statement.
-class Statement {
+// Every statement's errors say "sqlite <what>: ..." (disk full included,
+// sqlite_open.h).
+class Statement : public SqliteStatement {
  public:
-  Statement(sqlite3* db, const char* sql) : db_(db) { rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr); }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-
-  absl::Status prepared() const { return rc_ == SQLITE_OK ? absl::OkStatus() : Error("prepare"); }
-  void Bind(int i, const std::string& v) { sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
-  void BindBlob(int i, const std::string& v) { sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
-  void Bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
-  // SQLITE_ROW, SQLITE_DONE, or an error code.
-  int Step() { return rc_ = sqlite3_step(stmt_); }
-  std::string Text(int col) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, col));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
-  }
-  std::string Blob(int col) const {
-    const auto* p = static_cast<const char*>(sqlite3_column_blob(stmt_, col));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
-  }
-  int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
-  // INTERNAL with SQLite's message; RESOURCE_EXHAUSTED naming the database
-  // and the free space when the disk is full (SQLite rolled the statement
-  // back: nothing is half-written).
-  absl::Status Error(std::string_view what) const {
-    if (sqlite3_errcode(db_) == SQLITE_FULL) {
-      const char* file = sqlite3_db_filename(db_, "main");
-      return DiskFullError(absl::StrCat("sqlite ", std::string(what), ":"), file ? file : "database",
-                           sqlite3_errmsg(db_));
-    }
-    return absl::InternalError(absl::StrCat("sqlite ", std::string(what), ": ", sqlite3_errmsg(db_)));
-  }
-
- private:
-  sqlite3* db_;
-  sqlite3_stmt* stmt_ = nullptr;
-  int rc_ = SQLITE_OK;
+  Statement(sqlite3* db, const char* sql) : SqliteStatement(db, sql, "sqlite") {}
 };
 
 absl::StatusOr<JobRecord> ReadJob(const Statement& st) {

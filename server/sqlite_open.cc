@@ -1,6 +1,7 @@
 #include "server/sqlite_open.h"
 
 #include "absl/strings/str_cat.h"
+#include "server/disk_full.h"
 
 namespace impostor {
 
@@ -32,7 +33,17 @@ std::string SqliteStatement::Text(int col) const {
   return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
 }
 
+std::string SqliteStatement::Blob(int col) const {
+  const auto* p = static_cast<const char*>(sqlite3_column_blob(stmt_, col));
+  return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
+}
+
 absl::Status SqliteStatement::Error(std::string_view what) const {
+  if (sqlite3_errcode(db_) == SQLITE_FULL) {
+    const char* file = sqlite3_db_filename(db_, "main");
+    return DiskFullError(absl::StrCat(store_, " ", std::string(what), ":"), file ? file : "database",
+                         sqlite3_errmsg(db_));
+  }
   return absl::InternalError(absl::StrCat(store_, " ", std::string(what), ": ", sqlite3_errmsg(db_)));
 }
 

@@ -26,8 +26,8 @@ namespace impostor {
 // message.
 absl::StatusOr<sqlite3*> OpenSqliteDatabase(const std::filesystem::path& file, const char* schema);
 
-// RAII prepared statement for the stores' short queries. Errors name the
-// store (`what`, e.g. "token store") and SQLite's message.
+// RAII prepared statement for the stores' queries. Errors name the store
+// (`store`, e.g. "token store") and SQLite's message.
 class SqliteStatement {
  public:
   SqliteStatement(sqlite3* db, const char* sql, std::string_view store);
@@ -36,14 +36,23 @@ class SqliteStatement {
   SqliteStatement& operator=(const SqliteStatement&) = delete;
 
   bool ok() const { return rc_ == SQLITE_OK; }
+  // OK, or Error("prepare") when the statement did not compile.
+  absl::Status prepared() const { return ok() ? absl::OkStatus() : Error("prepare"); }
   void Bind(int i, const std::string& v) {
     sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
   }
   void Bind(int i, int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
+  void BindBlob(int i, const std::string& v) {
+    sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
+  }
+  // SQLITE_ROW, SQLITE_DONE, or an error code.
   int Step() { return sqlite3_step(stmt_); }
   std::string Text(int col) const;
+  std::string Blob(int col) const;
   int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
-  // INTERNAL "<store> <what>: <SQLite's message>".
+  // INTERNAL "<store> <what>: <SQLite's message>"; RESOURCE_EXHAUSTED
+  // naming the database file and the free space when the disk is full
+  // (SQLite rolled the statement back: nothing is half-written).
   absl::Status Error(std::string_view what) const;
 
  private:

@@ -25,8 +25,8 @@ layout(set = 0, binding = 5) uniform Instance {
 } instance;
 
 // Specialization constants: the driver drops the code of the other layouts,
-// blend modes and the parallax march at pipeline creation (a CPU driver's
-// shader compile goes from minutes to seconds). An engine builds one
+// blend modes (and the parallax march when off) at pipeline creation (a CPU
+// driver's shader compile goes from many minutes to seconds). An engine builds one
 // pipeline per layout in use; push.params.x and .w are then not read.
 layout(constant_id = 0) const bool kParallax = false;
 layout(constant_id = 1) const int kLayout = IMPOSTOR_LAYOUT_OCTAHEDRAL;

@@ -18,9 +18,11 @@
 #include <string>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "common/atlas_layout.h"
 #include "common/bake_request.h"
 #include "examples/impostor_scene/baked_impostor.h"
 #include "examples/impostor_scene/scene_renderer.h"
@@ -35,6 +37,9 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kPixels = 512;
+// Crossing pixels allowed more than 2 px off (the rest of the boundary must
+// be within 2 px).
+constexpr int kAllowedFar = 0;
 const fs::path kHelmet =
     fs::path(IMPOSTOR_TEST_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
 
@@ -148,12 +153,32 @@ int FarMismatches(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, 
   return far;
 }
 
+// The camera moved onto the baked frame nearest to the default view (same
+// distance), the ground a little higher so it cuts more of the helmet: the
+// depth offset is then the frame's own depth (between frames it is a blend,
+// measured by the lit and shadow figures instead).
+SceneSetup AtFrameView(SceneSetup s, glm::vec3 center, float radius) {
+  const ViewLayout layout{LayoutKind::kOctahedral, 12, 0};
+  const glm::vec3 want = glm::normalize(s.eye - center);
+  glm::vec3 best = want;
+  float best_dot = -2.0f;
+  for (int i = 0; i < FrameCount(layout); ++i) {
+    const glm::vec3 d = FrameDirectionAt(layout, i);
+    if (glm::dot(d, want) > best_dot) best_dot = glm::dot(d, want), best = d;
+  }
+  s.eye = center + best * glm::length(s.eye - center);
+  s.ground_height = center.y - 0.3f * radius;
+  return s;
+}
+
 TEST_F(ImpostorSceneTest, DepthOffsetPutsTheGroundCrossingWhereTheMeshHasIt) {
-  const std::vector<uint8_t> mesh_front = ObjectMask(Render(Alone(true, true)));
-  const std::vector<uint8_t> mesh_covered = ObjectMask(Render(Alone(true, false)));
-  const std::vector<uint8_t> imp_front = ObjectMask(Render(Alone(false, true)));
-  const std::vector<uint8_t> imp_covered = ObjectMask(Render(Alone(false, false)));
-  SceneSetup flat = Alone(false, true);
+  const glm::vec3 c = impostor_->sphere_center;
+  const float r = impostor_->sphere_radius;
+  const std::vector<uint8_t> mesh_front = ObjectMask(Render(AtFrameView(Alone(true, true), c, r)));
+  const std::vector<uint8_t> mesh_covered = ObjectMask(Render(AtFrameView(Alone(true, false), c, r)));
+  const std::vector<uint8_t> imp_front = ObjectMask(Render(AtFrameView(Alone(false, true), c, r)));
+  const std::vector<uint8_t> imp_covered = ObjectMask(Render(AtFrameView(Alone(false, false), c, r)));
+  SceneSetup flat = AtFrameView(Alone(false, true), c, r);
   flat.depth_offset = false;
   const std::vector<uint8_t> card_front = ObjectMask(Render(flat));
   ASSERT_EQ(mesh_front.size(), static_cast<size_t>(kPixels) * kPixels);
@@ -170,7 +195,7 @@ TEST_F(ImpostorSceneTest, DepthOffsetPutsTheGroundCrossingWhereTheMeshHasIt) {
               "at %d pixels with the depth offset, %d as a flat card\n",
               covered, crossing, far, card_far);
   ASSERT_GT(crossing, 1000) << "the ground must cut through the helmet";
-  EXPECT_LE(far, 0) << "pixels where the impostor's ground crossing is more than 2 px from the mesh's";
+  EXPECT_LE(far, kAllowedFar) << "pixels where the impostor's ground crossing is more than 2 px from the mesh's";
   EXPECT_GT(card_far, 1000) << "without the offset the crossing must be wrong (the test can fail)";
 }
 
@@ -224,7 +249,9 @@ TEST_F(ImpostorSceneTest, ImpostorShadowCoversTheMeshShadowAndLitPsnrIsReported)
               "pixels\n",
               psnr, n);
   RecordProperty("lit_psnr_db", std::to_string(psnr));
-  EXPECT_GT(psnr, 15.0) << "the impostor must be lit like the mesh";
+  // Measured 20.05 dB (parallax on; 13.5 dB without). A lighting mismatch
+  // (normals in the wrong space, a missing shadow) costs far more.
+  EXPECT_GT(psnr, 17.0) << "the impostor must be lit like the mesh";
 }
 
 TEST_F(ImpostorSceneTest, SideBySideSceneShowsBothAndWritesAPng) {

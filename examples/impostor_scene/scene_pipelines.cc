@@ -173,12 +173,13 @@ absl::StatusOr<gpu::UniquePipelineLayout> PipelineLayout(const gpu::VulkanContex
 
 }  // namespace
 
-absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& ctx, int layout, int blend_mode) {
+absl::StatusOr<ScenePipelines> ScenePipelines::Create(const gpu::VulkanContext& ctx, int layout, int blend_mode,
+                                                      bool parallax) {
   ScenePipelines p;
-  // constant_id 1 = layout, 2 = blend mode (0, the parallax march, stays off).
-  const std::array<int32_t, 2> constants = {layout, blend_mode};
-  const std::array<VkSpecializationMapEntry, 2> entries = {{{1, 0, 4}, {2, 4, 4}}};
-  const VkSpecializationInfo specialization{2, entries.data(), sizeof(constants), constants.data()};
+  // constant_id 0 = the parallax march (a VkBool32), 1 = layout, 2 = blend mode.
+  const std::array<int32_t, 3> constants = {parallax ? 1 : 0, layout, blend_mode};
+  const std::array<VkSpecializationMapEntry, 3> entries = {{{0, 0, 4}, {1, 4, 4}, {2, 8, 4}}};
+  const VkSpecializationInfo specialization{3, entries.data(), sizeof(constants), constants.data()};
   constexpr VkDescriptorType kTexture = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   constexpr VkDescriptorType kUniform = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(p.lit_set, SetLayout(ctx, {kTexture, kTexture, kTexture, kTexture, kUniform, kUniform}));

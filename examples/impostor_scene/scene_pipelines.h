@@ -39,8 +39,10 @@ struct ScenePipelines {
   gpu::UniquePipeline impostor_lit;
 
   // `layout` and `blend_mode` (IMPOSTOR_LAYOUT_*, IMPOSTOR_BLEND_*) are
-  // specialization constants of the impostor's two pipelines.
-  static absl::StatusOr<ScenePipelines> Create(const gpu::VulkanContext& ctx, int layout, int blend_mode);
+  // specialization constants of the impostor's two pipelines, `parallax`
+  // of the lit one.
+  static absl::StatusOr<ScenePipelines> Create(const gpu::VulkanContext& ctx, int layout, int blend_mode,
+                                               bool parallax);
 };
 
 }  // namespace impostor::example

@@ -222,7 +222,7 @@ class VulkanSceneRenderer final : public SceneRenderer {
   gpu::CommandRunner runner_;
   // Built for the layout and blend mode of the impostor drawn last.
   ScenePipelines pipelines_;
-  int pipelines_for_ = -1;  // layout * 2 + blend mode
+  int pipelines_for_ = -1;  // (layout * 2 + blend mode) * 2 + parallax
   gpu::UniqueSampler linear_, nearest_, shadow_;
 };
 
@@ -264,9 +264,10 @@ absl::StatusOr<SceneImage> VulkanSceneRenderer::Render(const Scene& mesh, const 
       imp.orm.size() != texels * 4) {
     return absl::InvalidArgumentError("the impostor's maps are missing or of different sizes");
   }
-  if (const int key = imp.layout * 2 + setup.blend_mode; key != pipelines_for_) {
+  if (const int key = (imp.layout * 2 + setup.blend_mode) * 2 + (setup.parallax ? 1 : 0); key != pipelines_for_) {
     pipelines_ = {};
-    IMPOSTOR_GPU_ASSIGN_OR_RETURN(pipelines_, ScenePipelines::Create(*ctx_, imp.layout, setup.blend_mode));
+    IMPOSTOR_GPU_ASSIGN_OR_RETURN(pipelines_,
+                                  ScenePipelines::Create(*ctx_, imp.layout, setup.blend_mode, setup.parallax));
     pipelines_for_ = key;
   }
   const auto w = static_cast<uint32_t>(setup.width), h = static_cast<uint32_t>(setup.height);

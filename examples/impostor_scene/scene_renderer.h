@@ -30,7 +30,11 @@ struct SceneSetup {
   bool draw_impostor = true;
   bool draw_ground = true;
   bool depth_offset = true;  // false: the impostor keeps its flat card's depth
-  // (The material's parallax march is a specialization constant of the pipeline: off here.)
+  // The material's parallax march (a specialization constant: the pipeline
+  // is rebuilt when it changes). Without it a perspective camera samples
+  // each frame where the ray meets the frame's plane, so points off that
+  // plane (the ground crossing, low on the object) shift by tens of pixels.
+  bool parallax = true;
   int blend_mode = 0;        // IMPOSTOR_BLEND_TRIANGLE3 / _BILINEAR4
   // World placement: each is translated by its offset (scene space + offset).
   glm::vec3 mesh_offset{0.0f};
