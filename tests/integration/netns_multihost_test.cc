@@ -28,11 +28,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "absl/strings/strip.h"
-#include "absl/strings/ascii.h"
 #include "impostor/v1/types.pb.h"
 #include "tests/integration/server_process.h"
 #include "tests/support/netns.h"
@@ -335,6 +334,10 @@ TEST_F(NetnsMultiHost, ADatabaseRestartMidRunLosesNoJob) {
   ParseAssets(rest, &seen);
   ASSERT_EQ(seen.size(), static_cast<size_t>(kJobs));
   for (const auto& [name, asset] : seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
+  // The restart really reached the replicas: their pools lost connections.
+  int lost = 0;
+  for (ChildProcess* r : {r1.get(), r2.get()}) lost += r->CountInLog("event=database_unavailable");
+  EXPECT_GE(lost, 1) << r1->Stderr();
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
   CheckLeaseHistories(*pg, kJobs);
