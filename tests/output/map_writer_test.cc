@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <zlib.h>
+
 namespace impostor {
 namespace {
 
@@ -99,6 +101,38 @@ TEST_F(MapWriterTest, MapsUseTheFasterCompressionLevel) {
   EXPECT_EQ(cmf & 0x0f, 8) << "deflate";
   EXPECT_EQ((cmf * 256 + flg) % 31, 0) << "a zlib header";
   EXPECT_EQ(flg >> 6, 1) << "FLEVEL of zlib levels 2..5";
+  const absl::StatusOr<PngImage> read = ReadPng(path);
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(read->pixels16, pixels);
+}
+
+// Every row is Up-filtered (kPngRowFilter): the byte before each inflated
+// row is the row's filter type, 2 = Up (PNG spec 9.2).
+TEST_F(MapWriterTest, EveryRowIsUpFiltered) {
+  static_assert(kPngRowFilter == 0x20, "PNG_FILTER_UP");
+  const int w = 40, h = 24;
+  std::vector<uint16_t> pixels(w * h * 4);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint16_t>(i * 7919);
+  const fs::path path = Scratch("up.png");
+  ASSERT_TRUE(WritePngRgba16(path, pixels, w, h).ok());
+  const std::string bytes = Bytes(path);
+  // The IDAT chunks' data, concatenated, is one zlib stream.
+  std::string stream;
+  for (size_t at = 8; at + 12 <= bytes.size();) {
+    const auto u8 = [&](size_t i) { return static_cast<uint32_t>(static_cast<uint8_t>(bytes[i])); };
+    const uint32_t length = u8(at) << 24 | u8(at + 1) << 16 | u8(at + 2) << 8 | u8(at + 3);
+    if (bytes.compare(at + 4, 4, "IDAT") == 0) stream += bytes.substr(at + 8, length);
+    at += 12 + length;
+  }
+  ASSERT_FALSE(stream.empty());
+  const size_t row_bytes = 1 + static_cast<size_t>(w) * 8;
+  std::vector<uint8_t> raw(row_bytes * h);
+  uLongf raw_size = static_cast<uLongf>(raw.size());
+  ASSERT_EQ(uncompress(raw.data(), &raw_size, reinterpret_cast<const Bytef*>(stream.data()),
+                       static_cast<uLong>(stream.size())),
+            Z_OK);
+  ASSERT_EQ(raw_size, raw.size());
+  for (int y = 0; y < h; ++y) EXPECT_EQ(raw[y * row_bytes], 2) << "row " << y;
   const absl::StatusOr<PngImage> read = ReadPng(path);
   ASSERT_TRUE(read.ok()) << read.status();
   EXPECT_EQ(read->pixels16, pixels);

@@ -30,6 +30,7 @@ absl::Status WritePng(const std::filesystem::path& path, const void* pixels, siz
   // this OIIO divides RGB by A on write.
   spec.attribute("oiio:UnassociatedAlpha", 1);
   spec.attribute("png:compressionLevel", kPngCompressionLevel);
+  spec.attribute("png:filter", kPngRowFilter);
   if (!out->open(name, spec)) {
     return absl::InternalError(absl::StrCat("cannot create '", name, "': ", out->geterror()));
   }

@@ -24,6 +24,16 @@ namespace impostor {
 // below it the bytes grow with no time saved.
 inline constexpr int kPngCompressionLevel = 3;
 
+// PNG row filter of every map written here: Up on every row (libpng's
+// PNG_FILTER_UP) instead of libpng's default, which tries all five filters
+// on each row and keeps the one its heuristic prefers. Measured on
+// DamagedHelmet's 2048 px maps at level 3 (albedo + normal_depth + orm, CPU
+// seconds, one core, two rounds): default 1.55 s for 22.20 MB, Up 1.03 s for
+// 22.14 MB; None is no faster and normal_depth grows 12%; Sub costs more for
+// more bytes (Average and Paeth alone not measured). Up costs a third less
+// and writes no more bytes.
+inline constexpr int kPngRowFilter = 0x20;  // PNG_FILTER_UP
+
 // Writes `pixels` (width * height * 4 values, rows top to bottom) as an
 // 8-bit RGBA PNG at `path` (overwritten). INVALID_ARGUMENT if the sizes do
 // not match or width/height < 1; INTERNAL with OpenImageIO's message if the
