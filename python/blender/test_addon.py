@@ -8,6 +8,7 @@ run_blender_test.py against a real impostor-server:
    modal operator's poll) is a cache hit;
 3. cards: the .glb is imported under the original;
 4. bad input (frames=1) becomes a Blender error report with the farm's message;
+   a KTX2 result becomes an error report naming the format and how to bake PNG;
 5. lod-chain: the mesh levels and the impostor level are imported; surfels:
    the .ply's points, in Blender's axes where the original was;
 6. the impostor is rendered with Cycles (kept as impostor_render.png in
@@ -173,6 +174,25 @@ def main() -> None:
         raise AssertionError("frames=1 was accepted")
     except RuntimeError as e:
         check("INVALID_ARGUMENT" in str(e) and "frames" in str(e), f"the farm's error is reported: {e}")
+
+    # A KTX2 result (Blender loads no KTX2 images) is an error report naming
+    # the format and how to bake PNG; the PNG impostor already there stays.
+    check(operators._bake_settings(bpy.context.scene.impostor_farm)["texture_format"] == "png",
+          "the add-on asks for PNG maps")
+    configure()
+    png_settings = operators._bake_settings
+    operators._bake_settings = lambda s: {**png_settings(s), "texture_format": "ktx2"}
+    try:
+        bpy.ops.impostor.bake_selected()
+        raise AssertionError("a KTX2 result was imported")
+    except RuntimeError as e:
+        check("ktx2" in str(e) and "Blender cannot load KTX2" in str(e) and "texture_format png" in str(e),
+              f"a KTX2 result is reported: {e}")
+    finally:
+        operators._bake_settings = png_settings
+    check(bpy.data.objects["Subject_impostor"]["impostor_cache_key"] == first_key,
+          "the PNG impostor was left in place")
+    check(bpy.context.scene.impostor_farm.status == "not imported (KTX2)", "the panel says why")
 
     # An unreachable farm is reported within about a second (connection refused).
     configure()

@@ -51,6 +51,9 @@ class BakeSettings:
         FAILED_PRECONDITION below them); not part of the cache key.
     follow_symlinks: upload files reached through a symbolic link that leads
         out of the model's folder (default: refuse with PERMISSION_DENIED).
+    texture_format: "png" (default) or "ktx2" (Basis Universal UASTC in KTX2
+        with the farm's own per-tile mip chain, docs/ktx2.md); "" = default.
+    albedo_codec: ktx2 only: "uastc" (default) or "uastc-rdo"; "" = default.
     """
 
     layout: str = "octahedral"
@@ -73,6 +76,8 @@ class BakeSettings:
     min_iou: Optional[float] = None
     min_psnr_db: Optional[float] = None
     follow_symlinks: bool = False
+    texture_format: str = ""
+    albedo_codec: str = ""
 
     @classmethod
     def from_kwargs(cls, settings: Mapping[str, Any]) -> "BakeSettings":
@@ -107,6 +112,16 @@ class BakeSettings:
             "surfels": pb.PRODUCT_SURFELS,
             "lod-chain": pb.PRODUCT_LOD_CHAIN,
             "cards": pb.PRODUCT_CARDS,
+        })
+        p.texture_format = _named_value("texture_format", self.texture_format, {
+            "": pb.TEXTURE_FORMAT_UNSPECIFIED,
+            "png": pb.TEXTURE_FORMAT_PNG,
+            "ktx2": pb.TEXTURE_FORMAT_KTX2,
+        })
+        p.albedo_codec = _named_value("albedo_codec", self.albedo_codec, {
+            "": pb.ALBEDO_CODEC_UNSPECIFIED,
+            "uastc": pb.ALBEDO_CODEC_UASTC,
+            "uastc-rdo": pb.ALBEDO_CODEC_UASTC_RDO,
         })
         for name in ("frames", "resolution", "preset", "ring_views", "supersampling", "point_budget",
                      "lod_pixel_error", "max_planes", "tolerance", "quality_views", "emissive",

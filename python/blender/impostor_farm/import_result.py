@@ -138,11 +138,29 @@ def import_glb(context: bpy.types.Context, path: Path, name: str,
     return new
 
 
+class UnsupportedResult(Exception):
+    """A result this Blender cannot show; the message says why and what to bake instead."""
+
+
+def ktx2_problem(manifest: Dict[str, Any]) -> Optional[str]:
+    """Why a KTX2 result cannot be imported, or None for PNG maps. Blender
+    (3.4 and later alike) has no KTX2 image loader, so the material would
+    show a missing texture: say so instead."""
+    ktx2 = [m["file"] for m in manifest.get("maps", []) if str(m.get("file", "")).endswith(".ktx2")]
+    if not ktx2:
+        return None
+    return (f"texture_format ktx2: Blender cannot load KTX2 images ({', '.join(ktx2)}); "
+            "bake with texture_format png (the add-on's default, or --texture-format png) to import it")
+
+
 def import_result(context: bpy.types.Context, folder: Path, base_name: str,
                   original: Optional[bpy.types.Object]) -> Tuple[List[bpy.types.Object], List[str]]:
     """Imports the result in `folder` (manifest.json and its files); returns
     the new objects and warnings for the user."""
     manifest = json.loads((folder / "manifest.json").read_text())
+    problem = ktx2_problem(manifest)
+    if problem is not None:
+        raise UnsupportedResult(f"{problem}; its files are in {folder}")
     product = manifest.get("product", "atlas")
     objects: List[bpy.types.Object] = []
     warnings: List[str] = []

@@ -13,12 +13,13 @@ import bpy
 
 from . import deps
 from .bake_job import BakeJob, default_out_dir, export_selection
-from .import_result import import_result
+from .import_result import UnsupportedResult, import_result
 from .properties import settings_of
 
 
 def _bake_settings(s: Any) -> Dict[str, Any]:
-    settings: Dict[str, Any] = {"product": s.product, "resolution": s.resolution}
+    # PNG explicitly: Blender cannot load the KTX2 maps a farm could make.
+    settings: Dict[str, Any] = {"product": s.product, "resolution": s.resolution, "texture_format": "png"}
     if s.product != "cards":
         settings["frames"] = s.frames
         settings["layout"] = s.layout
@@ -82,7 +83,12 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
                 self.report({"ERROR"}, _error_text(job.error))
             return {"CANCELLED"}
         original = bpy.data.objects.get(self._original_name)
-        objects, warnings = import_result(context, job.result.dir, self._original_name, original)
+        try:
+            objects, warnings = import_result(context, job.result.dir, self._original_name, original)
+        except UnsupportedResult as e:
+            s.status = "not imported (KTX2)"
+            self.report({"ERROR"}, f"Impostor farm: {e}")
+            return {"CANCELLED"}
         # The glTF importer selects what it imported; the user's selection
         # (what the next bake exports) comes back.
         for o in context.selected_objects:
