@@ -53,7 +53,8 @@ uniform sampler2D u_normal_depth;
 uniform sampler2D u_orm;
 uniform ivec4 u_layout;  // kind, frames, ring_views, tile_size
 uniform ivec4 u_mode;    // blend mode, has_orm, lit, depth offset
-uniform int u_mask;      // 1: flat white (tests compare silhouettes), 2: normal_world * 0.5 + 0.5 (tests relight)
+uniform int u_mask;      // 1: flat white (tests compare silhouettes), 2: normal_world * 0.5 + 0.5,
+                         // 3: the ORM in use (tests relight)
 uniform vec3 u_toward_light;  // world, unit
 uniform vec4 u_light;         // rgb radiance, a = ambient
 in vec3 v_ray_origin;
@@ -80,7 +81,8 @@ void main() {
   float ndotl = max(dot(normal_world, u_toward_light), 0.0);
   vec3 lit = s.albedo * (u_light.rgb * ndotl + u_light.a * orm.x);
   vec3 c = u_mode.z != 0 ? lit : s.albedo;
-  o_color = u_mask == 1 ? vec4(1.0) : u_mask == 2 ? vec4(normal_world * 0.5 + 0.5, 1.0) : vec4(srgbEncode(c), 1.0);
+  o_color = u_mask == 1 ? vec4(1.0) : u_mask == 2 ? vec4(normal_world * 0.5 + 0.5, 1.0) :
+            u_mask == 3 ? vec4(orm, 1.0) : vec4(srgbEncode(c), 1.0);
 }`;
 
 async function loadTexture(url, srgb) {

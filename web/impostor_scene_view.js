@@ -4,7 +4,7 @@
 // at DIST radii. Toggles: object, lit, depth offset, ground.
 // Test hook: window.impostorScene.render({object: 'mesh'|'impostor', ground,
 // depthOffset, lit, mask}) -> PNG data URL (mask 1: objects white, rest black;
-// mask 2: the impostor's world normal * 0.5 + 0.5). .light: the light's uniforms.
+// mask 2: the impostor's world normal * 0.5 + 0.5; 3: its occlusion/roughness/metalness). .light: the light's uniforms.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { createImpostorMaterialMesh, DEFAULT_LIGHT } from './impostor_material_three.js';
