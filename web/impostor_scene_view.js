@@ -12,6 +12,11 @@ import { createImpostorMaterialMesh, DEFAULT_LIGHT } from './impostor_material_t
 export async function showScene(result, fileUrl, meshUrl, spec, size) {
   const m = result.manifest;
   const [az, elev, dist] = spec.split(',').map(Number);
+  // Bad input: a message naming the parameter and its limits, no NaN camera.
+  if (![az, elev].every(Number.isFinite) || !(dist === undefined || (Number.isFinite(dist) && dist > 1))) {
+    throw new Error(`scene=${spec}: want AZIMUTH_DEG,ELEVATION_DEG[,DISTANCE_RADII > 1]`);
+  }
+  if (!Number.isInteger(size) || size < 16 || size > 4096) throw new Error(`size=${size}: want an integer in 16..4096`);
   const centre = new THREE.Vector3(...m.bounding_sphere.center);
   const radius = m.bounding_sphere.radius;
   const canvas = document.getElementById('impostor');

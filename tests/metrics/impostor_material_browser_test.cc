@@ -227,5 +227,21 @@ TEST_F(ImpostorMaterialBrowserTest, LitOutputIsAlbedoTimesTheLambertTermOfTheBak
   EXPECT_GT(darker, compared / 2) << "the lit output must differ from the unlit albedo (the test can fail)";
 }
 
+TEST_F(ImpostorMaterialBrowserTest, BadSceneParametersAreReportedByName) {
+  const v1::Manifest& m = manifests_[0];
+  for (const auto& [query, names] : {std::pair{"scene=abc", "scene=abc"}, std::pair{"scene=10,20,0.5", "DISTANCE_RADII"},
+                                     std::pair{"scene=10,20&size=9", "size=9"}}) {
+    SCOPED_TRACE(query);
+    const nlohmann::json report =
+        testing::RunPage(port_, "/results/" + m.cache_key() + "?" + query,
+                         "document.getElementById('errors').textContent.length > 0",
+                         "({errors: document.getElementById('errors').textContent,"
+                         " ready: document.body.dataset.viewerReady || ''})");
+    ASSERT_TRUE(report.value("ok", false)) << report.dump();
+    EXPECT_NE(report["value"].value("errors", "").find(names), std::string::npos) << report.dump();
+    EXPECT_NE(report["value"].value("ready", ""), "1") << "a bad scene must not report ready";
+  }
+}
+
 }  // namespace
 }  // namespace impostor
