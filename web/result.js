@@ -11,6 +11,7 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { getJson, el, replace, reportError, bytes } from './common.js';
 import { createImpostorRenderer } from './impostor_gl.js';
 import { attachDebugViews } from './viewer_debug.js';
+import { showScene } from './impostor_scene_view.js';
 
 const key = decodeURIComponent(location.pathname.split('/').pop());
 const fileUrl = (name) => `/api/v1/results/${key}/files/${encodeURIComponent(name)}`;
@@ -51,10 +52,13 @@ function showStatic(result) {
     ['manifest.json', el('a', { href: fileUrl('manifest.json') }, 'download')]]));
 }
 
-async function loadMesh(result) {
+async function meshUrl(result) {
   const job = await getJson(`/api/v1/jobs/${encodeURIComponent(result.job_id)}`);
-  const url = `/api/v1/jobs/${encodeURIComponent(result.job_id)}/mesh/${job.mesh.entry.path.split('/').map(encodeURIComponent).join('/')}`;
-  const gltf = await new GLTFLoader().loadAsync(url);
+  return `/api/v1/jobs/${encodeURIComponent(result.job_id)}/mesh/${job.mesh.entry.path.split('/').map(encodeURIComponent).join('/')}`;
+}
+
+async function loadMesh(result) {
+  const gltf = await new GLTFLoader().loadAsync(await meshUrl(result));
   return gltf.scene;
 }
 
@@ -142,6 +146,9 @@ async function main() {
   const query = new URLSearchParams(location.search);
   if (query.get('ortho')) {
     await showOrthographic(result, query.get('ortho'), Number(query.get('size') || 128));
+  } else if (query.get('scene')) {
+    // The reference material in a three.js scene (impostor_scene_view.js).
+    await showScene(result, fileUrl, await meshUrl(result), query.get('scene'), Number(query.get('size') || 256));
   } else if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
     await showViewer(result);
   } else {
