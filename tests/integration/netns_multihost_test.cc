@@ -106,14 +106,25 @@ class NetnsMultiHost : public ::testing::Test {
     return std::move(*pg);
   }
 
-  // Tokens live in each replica's --data (SQLite); the second starts as a
-  // copy of the first so the same tokens work on both. The shared blob dir.
-  void CreateTokens() {
+  // With --database the replicas keep their tokens in that database, so the
+  // tokens are created there once, from a host on the bridge (the database is
+  // reachable only inside the namespaces). Each replica still gets its own
+  // --data; the blob dir is shared.
+  std::string CreateToken(const TestNetwork::Host& on, const std::string& database_url, const std::string& role,
+                          const std::string& name) {
+    const testing::ToolRun run =
+        testing::RunTool(net_->Exec(on, {(BinaryDir() / "impostor-server").string(), "token", "create",
+                                         "--database=" + database_url, "--role=" + role, "--name=" + name}),
+                         testing::kStartTimeout);
+    EXPECT_EQ(run.exit_code, 0) << "token create " << role << " " << name << ": " << run.err;
+    return run.out.substr(0, run.out.find('\n'));
+  }
+
+  void CreateTokens(const TestNetwork::Host& on, const std::string& database_url) {
     fs::create_directories(dir_ / "data1");
-    std::ofstream(dir_ / "worker.token") << testing::CreateToken(dir_ / "data1", "worker", "netns-workers") << "\n";
-    std::ofstream(dir_ / "submitter.token") << testing::CreateToken(dir_ / "data1", "submitter", "netns-clients")
-                                            << "\n";
-    fs::copy(dir_ / "data1", dir_ / "data2", fs::copy_options::recursive);
+    fs::create_directories(dir_ / "data2");
+    std::ofstream(dir_ / "worker.token") << CreateToken(on, database_url, "worker", "netns-workers") << "\n";
+    std::ofstream(dir_ / "submitter.token") << CreateToken(on, database_url, "submitter", "netns-clients") << "\n";
     fs::create_directories(dir_ / "blobs");
   }
 
@@ -229,7 +240,7 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
 
   auto pg = StartDatabase(db);
   const std::string url = pg->Url("farm", /*tcp=*/true);
-  CreateTokens();
+  CreateTokens(s1, url);
 
   auto r1 = StartReplica(s1, dir_ / "data1", url);
   auto r2 = StartReplica(s2, dir_ / "data2", url);
@@ -319,7 +330,7 @@ TEST_F(NetnsMultiHost, ADatabaseRestartMidRunLosesNoJob) {
   const TestNetwork::Host ca = Host("client-a");
   auto pg = StartDatabase(db);
   const std::string url = pg->Url("farm", /*tcp=*/true);
-  CreateTokens();
+  CreateTokens(s1, url);
   auto r1 = StartReplica(s1, dir_ / "data1", url);
   auto r2 = StartReplica(s2, dir_ / "data2", url);
   const std::string a1 = Address(s1), a2 = Address(s2);

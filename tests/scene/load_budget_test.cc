@@ -195,5 +195,36 @@ TEST(ImageBudgetTest, OnlyGltfFormatsAreDecoded) {
   }
 }
 
+// Debian's stb_image writes past its 257-entry size list when a DHT segment's
+// code counts total more than 256 (fuzz/run.sh found it); such a JPEG is
+// refused before stb sees it, and a table of exactly 256 codes is not.
+TEST(ImageBudgetTest, AJpegHuffmanTableOfMoreThan256CodesIsRefused) {
+  auto jpeg_with_dht = [](std::vector<uint8_t> counts) {
+    int n = 0;
+    for (uint8_t c : counts) n += c;
+    const int length = 2 + 17 + n;
+    std::vector<uint8_t> b = {0xFF, 0xD8, 0xFF, 0xC4, uint8_t(length >> 8), uint8_t(length & 0xFF), 0x00};
+    b.insert(b.end(), counts.begin(), counts.end());
+    b.insert(b.end(), static_cast<size_t>(n), 0x01);
+    b.insert(b.end(), {0xFF, 0xD9});
+    return b;
+  };
+  std::vector<uint8_t> over(16, 0), exactly(16, 0);
+  over[0] = 255;
+  over[1] = 2;  // 257 codes
+  exactly[0] = 255;
+  exactly[1] = 1;  // 256 codes
+  const auto refused = ProbeImage(jpeg_with_dht(over), "image[3]");
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument) << refused.status();
+  EXPECT_NE(std::string(refused.status().message()).find("image[3]: corrupt JPEG: a Huffman table (DHT) defines more than 256 codes"),
+            std::string::npos)
+      << refused.status();
+  // The 256-code table passes this check; stb then refuses the file for its
+  // missing frame header, with its own message.
+  const auto other = ProbeImage(jpeg_with_dht(exactly), "image[3]");
+  EXPECT_FALSE(other.ok());
+  EXPECT_EQ(std::string(other.status().message()).find("Huffman table (DHT)"), std::string::npos) << other.status();
+}
+
 }  // namespace
 }  // namespace impostor

@@ -34,6 +34,34 @@ bool StartsWith(std::span<const uint8_t> b, const char* magic, size_t n, size_t 
 }
 
 // Names a recognised image container that is not PNG or JPEG, or nullptr.
+// Debian 12's stb_image builds a Huffman table from the 16 code-length
+// counts of a DHT segment without checking that they total at most 256, the
+// size of its symbol array (upstream stb added the check later): a hostile
+// JPEG overflows it (found by fuzz/run.sh). This walks every DHT segment the
+// way stb's stbi__process_marker reads it (a byte past the end reads as 0, as
+// stbi__get8 does) and refuses a table stb would overflow. Every FF C4 pair is
+// checked, not only those a marker walk reaches: entropy-coded data never
+// holds one (its FF bytes are stuffed), so this can only be stricter than stb.
+bool HasOversizedHuffmanTable(std::span<const uint8_t> b) {
+  auto at = [&](size_t i) -> int { return i < b.size() ? b[i] : 0; };
+  for (size_t pos = 0; pos + 1 < b.size(); ++pos) {
+    if (b[pos] != 0xFF || b[pos + 1] != 0xC4) continue;
+    size_t i = pos + 2;
+    long remaining = (static_cast<long>(at(i)) << 8 | at(i + 1)) - 2;
+    i += 2;
+    while (remaining > 0 && i < b.size()) {
+      const int q = at(i++);
+      if ((q >> 4) > 1 || (q & 15) > 3) break;  // stb refuses this table itself
+      int n = 0;
+      for (int k = 0; k < 16; ++k) n += at(i++);
+      if (n > 256) return true;
+      i += static_cast<size_t>(n);
+      remaining -= 17 + n;
+    }
+  }
+  return false;
+}
+
 const char* OtherFormat(std::span<const uint8_t> b) {
   if (StartsWith(b, "\xABKTX 20\xBB\r\n\x1A\n", 12)) return "KTX2";
   if (StartsWith(b, "\xABKTX 11\xBB\r\n\x1A\n", 12)) return "KTX";
@@ -63,6 +91,10 @@ absl::StatusOr<ImageHeader> ProbeImage(std::span<const uint8_t> bytes, std::stri
     header.format = ImageHeader::Format::kPng;
   } else if (StartsWith(bytes, "\xFF\xD8\xFF", 3)) {
     header.format = ImageHeader::Format::kJpeg;
+    if (HasOversizedHuffmanTable(bytes)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          std::string(what), ": corrupt JPEG: a Huffman table (DHT) defines more than 256 codes"));
+    }
   } else if (const char* format = OtherFormat(bytes)) {
     return absl::UnimplementedError(absl::StrCat(
         std::string(what), ": ", format, " images are not supported (glTF allows PNG and JPEG)"));
