@@ -117,6 +117,10 @@ int Fail(const std::string& message) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Logs go to stderr from the first line: stdout carries only what a
+  // subcommand prints (a token's secret) or the "listening on" line, and a
+  // closed stdout must not take the process down.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
   // `impostor-server token ...` manages tokens on a data directory.
   if (argc > 1 && std::string(argv[1]) == "token") {
     return impostor::RunTokenCommand(std::vector<std::string>(argv + 2, argv + argc));
@@ -131,9 +135,6 @@ int main(int argc, char** argv) {
   if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::ServerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
-  // Logs go to stderr: stdout carries only the "listening on" line, and a
-  // closed stdout must not take the process down.
-  spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
   ::signal(SIGPIPE, SIG_IGN);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");

@@ -111,6 +111,20 @@ TEST_F(SharedTokensFarm, TokenCreatedOnceWorksOnBothQuotaCountsOnceRevocationRea
   EXPECT_TRUE(Submit(*a_, ci2, 6).ok());
 }
 
+// The first command on a new database migrates its schema and logs that;
+// the log must go to stderr, or a script's `token create > worker.token`
+// captures it instead of the secret (the multi-host test once did).
+TEST_F(SharedTokensFarm, CreateOnAFreshDatabasePrintsOnlyTheSecretOnStdout) {
+  ASSERT_TRUE(pg_->CreateDatabase("fresh").ok());
+  const ToolRun created = Token({"create", "--database=" + pg_->Url("fresh"), "--role=worker", "--name=w"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  EXPECT_NE(created.err.find("event=schema_migrated"), std::string::npos) << "the migration is logged: " << created.err;
+  ASSERT_EQ(std::count(created.out.begin(), created.out.end(), '\n'), 1) << created.out;
+  const std::string secret = created.out.substr(0, created.out.size() - 1);
+  EXPECT_GE(secret.size(), 32u) << secret;
+  EXPECT_EQ(secret.find_first_of(" \t\r="), std::string::npos) << secret;
+}
+
 TEST_F(SharedTokensFarm, BadCommandLinesAreRefusedNamingTheFlag) {
   const std::string db = "--database=" + url_;
   struct Case {
