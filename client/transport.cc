@@ -30,11 +30,12 @@ namespace {
 // ReadBlob sends at most 1 MiB per message and a manifest with 64 x 64
 // views is well under 1 MiB; the margin is for future fields.
 constexpr int kMaxReceiveBytes = 64 << 20;
-// Keepalive pings find a silently dead server during a long WatchJob. Kept
-// above the server default minimum ping interval (5 min) so that a default
-// server never answers GOAWAY "too_many_pings".
-constexpr int kKeepaliveTimeMs = 310 * 1000;
-constexpr int kKeepaliveTimeoutMs = 20 * 1000;
+// Keepalive pings find a silently dead server during a long, idle WatchJob
+// or lease long-poll within ~30 s, so the failover channel moves on. The
+// server accepts idle pings every 10 s or more (AcceptClientKeepalive in
+// server/serving_tuning.cc); keep this above that.
+constexpr int kKeepaliveTimeMs = 20 * 1000;
+constexpr int kKeepaliveTimeoutMs = 10 * 1000;
 // A stream's deadline grows by one second per this many bytes.
 constexpr double kStreamBytesPerSecond = 256 * 1024;
 // Reconnect backoff of the channel: gRPC's default grows to 120 s, so a
@@ -222,6 +223,7 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kKeepaliveTimeMs);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
+  args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kInitialReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kMaxReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kMinConnectTimeoutMs);

@@ -298,6 +298,7 @@ int main(int argc, char** argv) {
   }
   builder.SetMaxReceiveMessageSize(16 << 20);
   impostor::TuneForManyCallers(builder);  // issue 18: server threads, mutex bookkeeping
+  impostor::AcceptClientKeepalive(builder);  // issue 15: idle watches over a cut link
   builder.RegisterService(&authorized_assets);
   builder.RegisterService(&authorized_bakes);
   builder.RegisterService(&authorized_workers);
