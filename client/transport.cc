@@ -17,6 +17,7 @@
 #include "client/retry.h"
 #include "client/rpc_error.h"
 #include "common/failover_channel.h"
+#include "common/keepalive.h"
 #include "common/server_list.h"
 #include "common/tls_channel.h"
 #include "common/token_source.h"
@@ -30,12 +31,6 @@ namespace {
 // ReadBlob sends at most 1 MiB per message and a manifest with 64 x 64
 // views is well under 1 MiB; the margin is for future fields.
 constexpr int kMaxReceiveBytes = 64 << 20;
-// Keepalive pings find a silently dead server during a long, idle WatchJob
-// or lease long-poll within ~30 s, so the failover channel moves on. The
-// server accepts idle pings every 10 s or more (AcceptClientKeepalive in
-// server/serving_tuning.cc); keep this above that.
-constexpr int kKeepaliveTimeMs = 20 * 1000;
-constexpr int kKeepaliveTimeoutMs = 10 * 1000;
 // A stream's deadline grows by one second per this many bytes.
 constexpr double kStreamBytesPerSecond = 256 * 1024;
 // Reconnect backoff of the channel: gRPC's default grows to 120 s, so a
@@ -66,6 +61,7 @@ absl::Status ValidateOptions(const ClientOptions& o) {
     return absl::InvalidArgumentError(
         absl::StrCat("ClientOptions.rpc_timeout_seconds: must be > 0, got ", o.rpc_timeout_seconds));
   }
+  if (auto s = ValidateKeepaliveSeconds("ClientOptions.keepalive_seconds", o.keepalive_seconds); !s.ok()) return s;
   if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
     return absl::InvalidArgumentError(
         absl::StrCat("ClientOptions.connect_timeout_seconds: must be > 0, got ", o.connect_timeout_seconds));
@@ -221,9 +217,9 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
-  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kKeepaliveTimeMs);
-  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kKeepaliveTimeoutMs);
-  args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  // A quiet WatchJob over a dead link fails over within keepalive + its
+  // timeout (common/keepalive.h).
+  ApplyClientKeepalive(options.keepalive_seconds, args);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kInitialReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kMaxReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kMinConnectTimeoutMs);

@@ -42,6 +42,7 @@
 #include "server/call_principals.h"
 #include "server/admin_service.h"
 #include "server/purge_command.h"
+#include "common/keepalive.h"
 #include "server/token_command.h"
 #include "server/token_quotas.h"
 #include "server/token_store.h"
@@ -99,6 +100,10 @@ ABSL_FLAG(int64_t, token_max_bakes_per_hour, 1000, "Bakes (non-cached submits) p
 ABSL_FLAG(int, token_cache_ttl_ms, 2000,
           "How long a token check is cached; a token revoked on any replica (or with `impostor-server token "
           "revoke`) is refused here within this time. 0 = read the token store on every call (0..60000)");
+ABSL_FLAG(int, keepalive_seconds, impostor::kDefaultKeepaliveSeconds,
+          "Ping a connection quiet for this many seconds and drop it (ending its calls) when the ping is not "
+          "answered within min(N, 10) s: a client whose link died stops holding watches. Clients may ping as "
+          "often as once a second (1..7200)");
 // Serving speed (issue 18).
 ABSL_FLAG(int, job_retention_days, 7,
           "Finished job records older than this many days are deleted (0 = keep for ever; 0..36500)");
@@ -179,6 +184,10 @@ int main(int argc, char** argv) {
   const int job_retention_days = absl::GetFlag(FLAGS_job_retention_days);
   if (job_retention_days < 0 || job_retention_days > 36500) {
     return Fail("--job-retention-days: " + std::to_string(job_retention_days) + " is out of range 0..36500");
+  }
+  const int keepalive_seconds = absl::GetFlag(FLAGS_keepalive_seconds);
+  if (auto s = impostor::ValidateKeepaliveSeconds("--keepalive-seconds", keepalive_seconds); !s.ok()) {
+    return Fail(std::string(s.message()));
   }
   const int touch_flush_s = absl::GetFlag(FLAGS_result_touch_flush_seconds);
   if (touch_flush_s < 1 || touch_flush_s > 3600) {
@@ -298,7 +307,7 @@ int main(int argc, char** argv) {
   }
   builder.SetMaxReceiveMessageSize(16 << 20);
   impostor::TuneForManyCallers(builder);  // issue 18: server threads, mutex bookkeeping
-  impostor::AcceptClientKeepalive(builder);  // issue 15: idle watches over a cut link
+  impostor::ApplyServerKeepalive(keepalive_seconds, builder);  // issue 15: quiet calls over a cut link
   builder.RegisterService(&authorized_assets);
   builder.RegisterService(&authorized_bakes);
   builder.RegisterService(&authorized_workers);

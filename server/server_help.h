@@ -17,7 +17,7 @@ inline ProgramHelp ServerHelp() {
                  "under --data), queues bake jobs and leases them to impostor-worker processes, which it can "
                  "also start and supervise itself (--local-workers). Prints \"impostor-server listening on "
                  "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM or SIGINT drains and stops it.",
-      .groups = {{"Listening", {"listen", "port_file", "http_", "tls_"}},
+      .groups = {{"Listening", {"listen", "port_file", "http_", "tls_", "keepalive_"}},
                  {"Access control", {"auth", "token_"}},
                  {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "result_touch_"}},
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},

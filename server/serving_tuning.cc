@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <thread>
 
-#include <grpc/grpc.h>
-
 #include "absl/synchronization/mutex.h"
 
 namespace impostor {
@@ -21,17 +19,6 @@ void TuneForManyCallers(grpc::ServerBuilder& builder) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MIN_POLLERS, cores);
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, std::max(64, 8 * cores));
-}
-
-void AcceptClientKeepalive(grpc::ServerBuilder& builder) {
-  // Must stay at or below the clients' keepalive time (client/transport.cc),
-  // else each of their pings counts as a strike.
-  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 10 * 1000);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
-  // The server's own pings: a client whose link died is dropped after
-  // 60 s idle + 20 s without an ack.
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, 60 * 1000);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 20 * 1000);
 }
 
 }  // namespace impostor

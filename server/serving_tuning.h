@@ -11,12 +11,6 @@ namespace impostor {
 // deadlock detection for the process (see serving_tuning.cc).
 void TuneForManyCallers(grpc::ServerBuilder& builder);
 
-// Lets clients send keepalive pings while idle (a WatchJob or a worker's
-// long-poll lease with nothing to say) every 10 s or more without being
-// answered GOAWAY "too_many_pings", and pings clients itself so a cut link
-// frees its calls in about a minute instead of two hours (issue 15).
-void AcceptClientKeepalive(grpc::ServerBuilder& builder);
-
 }  // namespace impostor
 
 #endif  // IMPOSTOR_SERVER_SERVING_TUNING_H_

@@ -36,6 +36,7 @@
 #include "client/mesh_files.h"
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
+#include "common/keepalive.h"
 #include "common/server_list.h"
 #include "common/tls_files.h"
 
@@ -78,6 +79,7 @@ absl::Status ValidateOptions(const CacheOptions& o) {
   if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
     return bad("connect_timeout_seconds", o.connect_timeout_seconds, "> 0");
   }
+  if (auto s = ValidateKeepaliveSeconds("CacheOptions.keepalive_seconds", o.keepalive_seconds); !s.ok()) return s;
   if (!(o.offline_retry_seconds >= 0)) return bad("offline_retry_seconds", o.offline_retry_seconds, ">= 0");
   if (!(o.partial_max_age_seconds >= 0)) return bad("partial_max_age_seconds", o.partial_max_age_seconds, ">= 0");
   // TLS files are checked at Open, not at the first miss: a cache that
@@ -102,6 +104,7 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.max_outage_seconds = o.max_outage_seconds;
   c.on_connection_change = o.on_connection_change;
   c.connect_timeout_seconds = o.connect_timeout_seconds;
+  c.keepalive_seconds = o.keepalive_seconds;
   c.tls_ca_file = o.tls_ca_file;
   c.tls_cert_file = o.tls_cert_file;
   c.tls_key_file = o.tls_key_file;

@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "common/keepalive.h"
 #include "common/server_list.h"
 
 namespace impostor::cli {
@@ -151,6 +152,20 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (!value.has_value() && i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) value = args[++i];
       if (!value.has_value() || value->empty()) return Usage("--token-file: missing value");
       out.token_file = *value;
+      continue;
+    }
+    // Keepalive (issue 15): every command that talks to the server.
+    if (flag == "--keepalive-seconds" && spec.value_flags.contains("--server")) {
+      if (!value.has_value() && i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) value = args[++i];
+      if (!value.has_value() || value->empty()) return Usage("--keepalive-seconds: missing value");
+      int seconds = 0;
+      const char* end = value->data() + value->size();
+      auto [ptr, ec] = std::from_chars(value->data(), end, seconds);
+      if (ec != std::errc() || ptr != end || seconds < kMinKeepaliveSeconds || seconds > kMaxKeepaliveSeconds) {
+        return Usage(absl::StrCat("--keepalive-seconds: expected a whole number of seconds in ", kMinKeepaliveSeconds,
+                                  "..", kMaxKeepaliveSeconds, ", got \"", *value, "\""));
+      }
+      out.keepalive_seconds = seconds;
       continue;
     }
     if (!spec.value_flags.contains(flag)) {
@@ -523,6 +538,13 @@ Common flags:
   --token-file FILE   (every command that takes --server) the bearer token for a
                       server with tokens (`impostor-server token create`); the
                       file wins over $IMPOSTOR_TOKEN
+  --keepalive-seconds N  (every command that takes --server) while a call is
+                      in flight, ping the server after N quiet seconds and
+                      give the connection up when no answer comes within
+                      min(N, 10) s, so a watch over a link that died without
+                      a reset (a cut cable, a replica's host gone) moves to
+                      the next --server address or retries. Default 20;
+                      1..7200
   Flags take their value as "--flag VALUE" or "--flag=VALUE"; "--" ends the flags.
 
 Exit codes:
@@ -551,7 +573,7 @@ std::vector<std::string> AllFlags() {
     // Accepted by every command that takes --server (parsed before the
     // per-command table, see ParseCliArgs).
     if (spec.value_flags.contains("--server")) {
-      flags.insert({"--tls-ca", "--tls-cert", "--tls-key", "--tls-server-name", "--token-file"});
+      flags.insert({"--tls-ca", "--tls-cert", "--tls-key", "--tls-server-name", "--token-file", "--keepalive-seconds"});
     }
   }
   return {flags.begin(), flags.end()};

@@ -53,6 +53,10 @@ struct CliArgs {
   // keep retrying while the server is away, 0..86400 (checked here); unset =
   // the command's default (kBakeOutageSeconds or kInteractiveOutageSeconds).
   std::optional<double> max_outage_seconds;
+  // --keepalive-seconds (commands that talk to the server): ping a quiet
+  // connection while a call is in flight, 1..7200 (checked here); unset =
+  // the SDK's default (ClientOptions::keepalive_seconds).
+  std::optional<int> keepalive_seconds;
   std::string out;
   // --server, else $IMPOSTOR_SERVER, else kDefaultServer.
   std::string server = kDefaultServer;

@@ -34,6 +34,7 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
   options.token_file = args.token_file;
   options.max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options.on_connection_change = PrintEvents(args);
+  if (args.keepalive_seconds) options.keepalive_seconds = *args.keepalive_seconds;
   // Transport security (README "Securing a farm: TLS").
   options.tls_ca_file = args.tls_ca;
   options.tls_cert_file = args.tls_cert;
@@ -47,6 +48,7 @@ void ApplyConnectionOptions(const CliArgs& args, double default_outage_seconds, 
   options->token_file = args.token_file;
   options->max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options->on_connection_change = PrintEvents(args);
+  if (args.keepalive_seconds) options->keepalive_seconds = *args.keepalive_seconds;
   // Transport security (README "Securing a farm: TLS").
   options->tls_ca_file = args.tls_ca;
   options->tls_cert_file = args.tls_cert;

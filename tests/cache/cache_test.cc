@@ -456,6 +456,7 @@ TEST(CacheOpen, BadOptionsAreNamed) {
       {"negative outage", [](auto& o) { o.max_outage_seconds = -1; }, "max_outage_seconds"},
       {"outage over a day", [](auto& o) { o.max_outage_seconds = 1e9; }, "max_outage_seconds"},
       {"outage NaN", [](auto& o) { o.max_outage_seconds = std::nan(""); }, "max_outage_seconds"},
+      {"keepalive zero", [](auto& o) { o.keepalive_seconds = 0; }, "CacheOptions.keepalive_seconds: 0 is out of range 1..7200"},
   };
   for (const Case& c : cases) {
     sdk::CacheOptions o;

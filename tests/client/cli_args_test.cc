@@ -128,6 +128,11 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
       {"outage_nan", {"status", "j1", "--max-outage-seconds", "nan"}, "--max-outage-seconds"},
       {"outage_missing_value", {"fetch", "k", "--out", "o", "--max-outage-seconds"}, "missing value"},
       {"outage_on_cache_ls", {"cache", "ls", "--max-outage-seconds", "5"}, "unknown flag --max-outage-seconds"},
+      {"keepalive_zero", {"bake", "m.glb", "--out", "o", "--keepalive-seconds", "0"}, "--keepalive-seconds"},
+      {"keepalive_too_long", {"status", "j1", "--keepalive-seconds=7201"}, "1..7200"},
+      {"keepalive_fraction", {"fetch", "k", "--out", "o", "--keepalive-seconds", "1.5"}, "got \"1.5\""},
+      {"keepalive_missing_value", {"bake-batch", "s.json", "--out", "o", "--keepalive-seconds"}, "missing value"},
+      {"keepalive_on_cache_ls", {"cache", "ls", "--keepalive-seconds", "5"}, "unknown flag --keepalive-seconds"},
   };
   for (const UsageCase& c : cases) {
     absl::StatusOr<CliArgs> a = ParseCliArgs(c.args, nullptr);
@@ -152,6 +157,21 @@ TEST(ParseCliArgs, MaxOutageSecondsOnEveryCommandThatTalksToTheServer) {
   }
   EXPECT_EQ(ParseCliArgs({"fetch", "k", "--out", "o", "--max-outage-seconds", "0"}, nullptr)->max_outage_seconds, 0);
   EXPECT_NE(UsageText().find("--max-outage-seconds N"), std::string::npos);
+}
+
+TEST(ParseCliArgs, KeepaliveSecondsOnEveryCommandThatTalksToTheServer) {
+  const std::vector<std::vector<std::string>> commands = {
+      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", "k", "--out", "o"},
+      {"quality", "k"},                {"status", "j"},                         {"cancel", "j"},
+      {"cache", "get", "k"},           {"admin", "purge", "--worker", "w"}};
+  for (std::vector<std::string> args : commands) {
+    EXPECT_FALSE(ParseCliArgs(args, nullptr)->keepalive_seconds.has_value()) << args[0] << ": unset by default";
+    args.insert(args.end(), {"--keepalive-seconds", "2"});
+    absl::StatusOr<CliArgs> a = ParseCliArgs(args, nullptr);
+    ASSERT_TRUE(a.ok()) << args[0] << ": " << a.status();
+    EXPECT_EQ(a->keepalive_seconds, 2) << args[0];
+  }
+  EXPECT_NE(UsageText().find("--keepalive-seconds N"), std::string::npos);
 }
 
 TEST(UsageText, DocumentsEveryExitCode) {

@@ -55,6 +55,16 @@ TEST(Connect, RejectsBadOptions) {
   options = ClientOptions();
   options.server = "";
   EXPECT_EQ(Client::Connect(options).status().code(), absl::StatusCode::kInvalidArgument);
+  for (int keepalive : {0, -5, 7201}) {
+    options = ClientOptions();
+    options.keepalive_seconds = keepalive;
+    absl::Status s = Client::Connect(options).status();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << keepalive;
+    EXPECT_NE(s.message().find("ClientOptions.keepalive_seconds: " + std::to_string(keepalive) +
+                               " is out of range 1..7200"),
+              std::string::npos)
+        << s;
+  }
   for (double outage : {-1.0, 86401.0, std::nan("")}) {
     options = ClientOptions();
     options.max_outage_seconds = outage;

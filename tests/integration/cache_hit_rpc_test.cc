@@ -82,6 +82,8 @@ TEST(CacheHitRpcTest, OutOfRangeServingFlagsAreRefusedNamingTheFlag) {
       {"--job-retention-days=36501", "--job-retention-days: 36501 is out of range 0..36500"},
       {"--result-touch-flush-seconds=0", "--result-touch-flush-seconds: 0 is out of range 1..3600"},
       {"--result-touch-flush-seconds=3601", "--result-touch-flush-seconds: 3601 is out of range 1..3600"},
+      {"--keepalive-seconds=0", "--keepalive-seconds: 0 is out of range 1..7200"},
+      {"--keepalive-seconds=7201", "--keepalive-seconds: 7201 is out of range 1..7200"},
   };
   for (const auto& c : cases) {
     const ToolRun run = RunTool({(BinaryDir() / "impostor-server").string(), "--data=" + data.string(),

@@ -129,15 +129,15 @@ class NetnsMultiHost : public ::testing::Test {
   }
 
   std::unique_ptr<ChildProcess> StartReplica(const TestNetwork::Host& host, const fs::path& data,
-                                             const std::string& database_url) {
+                                             const std::string& database_url, const std::string& extra_flag = "") {
     testing::ProcessOptions options;
     options.name = "server-" + host.name;
-    auto server = std::make_unique<ChildProcess>(
-        net_->Exec(host, {(BinaryDir() / "impostor-server").string(), "--listen=" + Address(host),
-                          "--data=" + data.string(), "--database=" + database_url,
-                          "--blob-dir=" + (dir_ / "blobs").string(), "--local-workers=0",
-                          absl::StrCat("--lease-timeout-s=", kLeaseTimeoutS), "--log-level=info"}),
-        options);
+    std::vector<std::string> argv = {(BinaryDir() / "impostor-server").string(), "--listen=" + Address(host),
+                                     "--data=" + data.string(), "--database=" + database_url,
+                                     "--blob-dir=" + (dir_ / "blobs").string(), "--local-workers=0",
+                                     absl::StrCat("--lease-timeout-s=", kLeaseTimeoutS), "--log-level=info"};
+    if (!extra_flag.empty()) argv.push_back(extra_flag);
+    auto server = std::make_unique<ChildProcess>(net_->Exec(host, argv), options);
     if (server->ReadLineContaining("listening on").empty()) {
       server->DumpLogTail();
       throw std::runtime_error("replica on " + host.name + " did not start");
@@ -352,6 +352,59 @@ TEST_F(NetnsMultiHost, ADatabaseRestartMidRunLosesNoJob) {
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
   CheckLeaseHistories(*pg, kJobs);
+}
+
+// A watch waiting for a queued bake over a link that died without a reset
+// (the replica's host cut off: packets vanish): with --keepalive-seconds 2
+// the client's pings go unanswered, it gives the connection up within
+// 2 + 2 s, and the watch resumes on the other replica, where the bake
+// finishes once a worker comes. Without pings such a watch sits on the
+// dead connection for TCP's ~15 min; with the SDK's default (20 s) it
+// misses the deadline below, so the deadline tests the flag (checked by
+// running this test with --keepalive-seconds=20: it fails).
+TEST_F(NetnsMultiHost, AQuietWatchOverACutLinkMovesToTheOtherReplica) {
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  const TestNetwork::Host worker_host = Host("worker1");
+  const TestNetwork::Host client = Host("client-a");
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens(s1, url);
+  auto r1 = StartReplica(s1, dir_ / "data1", url, "--keepalive-seconds=2");
+  auto r2 = StartReplica(s2, dir_ / "data2", url, "--keepalive-seconds=2");
+  const std::string a1 = Address(s1), a2 = Address(s2);
+
+  // No worker yet: the bake stays queued and the client's WatchJob on
+  // replica 1 hears nothing.
+  testing::ProcessOptions options;
+  options.name = "bake-client";
+  options.env = {"IMPOSTOR_LOG=debug"};  // the SDK logs its failover at debug
+  ChildProcess bake(net_->Exec(client, {(BinaryDir() / "impostor").string(), "bake", (AssetsDir() / kBox).string(),
+                                        "--out", (dir_ / "out").string(), "--server", a1 + "," + a2, "--token-file",
+                                        (dir_ / "submitter.token").string(), "--frames=2", "--resolution=64",
+                                        "--quality-views=0", "--keepalive-seconds=2", "--json"}),
+                    options);
+  ASSERT_TRUE(r1->WaitForLog("event=submit")) << "the client did not submit through replica 1";
+  ASSERT_TRUE(bake.WaitForLog("] queued")) << "the watch did not start";
+
+  // The client notices within one ping interval plus the ping timeout (or,
+  // when it had a frame in flight at the cut, within the ping timeout: gRPC
+  // sets TCP_USER_TIMEOUT to it): 2-4 s here, 10-30 s at the default 20,
+  // 20-330 s before this setting existed.
+  ASSERT_TRUE(net_->SetLink(s1, false).ok());
+  ASSERT_TRUE(bake.WaitForLog("event=server_failover from=" + a1 + " to=" + a2, 1, std::chrono::seconds(7)))
+      << "the quiet watch did not notice the cut link within 7 s";
+
+  auto worker = StartWorker(worker_host, a2);
+  std::string out;
+  ASSERT_EQ(bake.Wait(&out), 0) << out;
+  const nlohmann::json result = nlohmann::json::parse(out.substr(0, out.find('\n')));
+  EXPECT_EQ(result["error"], nullptr) << out;
+  EXPECT_FALSE(testing::ReadFileBytes(dir_ / "out" / "albedo_alpha.png").empty());
+  EXPECT_EQ(worker->CountInLog("event=job_done"), 1) << worker->Stderr();
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs"), "1") << "the watch resumed the same job, no second submit";
+  ASSERT_TRUE(net_->SetLink(s1, true).ok());
 }
 
 }  // namespace

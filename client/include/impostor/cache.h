@@ -132,6 +132,9 @@ struct CacheOptions {
   double connect_timeout_seconds = 5;
   // Default: 1. Range: >= 0.
   double offline_retry_seconds = 1;
+  // Keepalive of the connection while a download is in flight: as
+  // ClientOptions::keepalive_seconds. Default: 20. Range: 1..7200.
+  int keepalive_seconds = 20;
 
   // Partial downloads (kept so that a broken transfer resumes where it
   // stopped, also after a restart) untouched for longer than this are

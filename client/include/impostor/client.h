@@ -119,6 +119,19 @@ struct ClientOptions {
   // second instead. Default: 10. Range: > 0.
   double connect_timeout_seconds = 10;
 
+  // Keepalive (issue 15): while a call is in flight, the client pings the
+  // server after this many seconds of quiet and gives the connection up
+  // when no answer comes within min(this, 10) s. A WatchJob that waits
+  // for a queued bake over a link that died without a reset (a pulled
+  // cable, a replica's host cut off) then fails over or resumes within
+  // about keepalive + 10 s instead of TCP's ~15 min. An idle client (no
+  // call in flight) sends nothing. Servers from this version on accept
+  // pings as often as once a second; an older one answers frequent pings
+  // with GOAWAY "too_many_pings", and gRPC then doubles the interval.
+  // Default: 20. Range: whole seconds 1..7200 (INVALID_ARGUMENT naming
+  // this field otherwise).
+  int keepalive_seconds = 20;
+
   // Names this client to the server (the "impostor-client-id" metadata of
   // unary calls), e.g. "ci-nightly" or a user name: per-client limits and
   // fairness between clients count by it. Empty = the server uses the
