@@ -5,8 +5,8 @@ client/transport.cc). The rest of the package never sees a grpc.RpcError.
 Several addresses ("host1:port,host2:port", the C++ SDK's --server lists,
 common/server_list.h) give one channel each, as common/failover_channel.h
 does: calls stick to the current address while it answers; a call that
-fails with UNAVAILABLE moves every later call on to the next address, and
-is tried there at once (without backoff) while some address has not failed
+fails with UNAVAILABLE (or, with several addresses, DEADLINE_EXCEEDED) moves
+every later call on to the next address, and is tried there at once (without backoff) while some address has not failed
 since the last answer. Retries, resumed watches and resumed downloads thus
 land on a live replica."""
 from __future__ import annotations
@@ -36,10 +36,24 @@ _CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
     ("grpc.initial_reconnect_backoff_ms", 200),
     ("grpc.max_reconnect_backoff_ms", 1000),
     ("grpc.min_reconnect_backoff_ms", 1000),
-    ("grpc.keepalive_time_ms", 310 * 1000),
-    ("grpc.keepalive_timeout_ms", 20 * 1000),
     ("grpc.use_local_subchannel_pool", 1),
 ]
+_MAX_KEEPALIVE_SECONDS = 7200
+
+
+def keepalive_options(keepalive_seconds: int) -> List[Tuple[str, Any]]:
+    """The C++ SDK's keepalive policy (common/keepalive.h): while a call is in
+    flight, ping after `keepalive_seconds` of quiet and give the connection up
+    when no answer comes within min(keepalive_seconds, 10) s, so a watch over
+    a link that died without a reset fails over in seconds. No pings on an
+    idle channel; no cap on pings without data (gRPC's default of 2 would stop
+    them during a quiet watch)."""
+    return [
+        ("grpc.keepalive_time_ms", keepalive_seconds * 1000),
+        ("grpc.keepalive_timeout_ms", min(keepalive_seconds, 10) * 1000),
+        ("grpc.keepalive_permit_without_calls", 0),
+        ("grpc.http2.max_pings_without_data", 0),
+    ]
 
 
 def _read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:
@@ -123,6 +137,7 @@ class Transport:
         connect_timeout_seconds: float,
         client_id: str,
         on_connection_change: Optional[Callable[[ConnectionEvent], None]],
+        keepalive_seconds: int = 20,
     ) -> None:
         def invalid(message: str) -> ImpostorError:
             return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
@@ -134,6 +149,12 @@ class Transport:
             raise invalid(f"connect_timeout_seconds: must be > 0, got {connect_timeout_seconds}")
         if max_attempts < 1:
             raise invalid(f"max_attempts: must be >= 1, got {max_attempts}")
+        if isinstance(keepalive_seconds, bool) or not isinstance(keepalive_seconds, int) or not (
+            1 <= keepalive_seconds <= _MAX_KEEPALIVE_SECONDS
+        ):
+            raise invalid(
+                f"keepalive_seconds: {keepalive_seconds!r} is not a whole number of seconds in 1..{_MAX_KEEPALIVE_SECONDS}"
+            )
         if not 0 <= max_outage_seconds <= _MAX_OUTAGE_SECONDS:
             raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {max_outage_seconds}")
         if (tls_cert is None) != (tls_key is None):
@@ -156,12 +177,13 @@ class Transport:
                 private_key=_read_bytes(tls_key, "tls_key") if tls_key is not None else None,
                 certificate_chain=_read_bytes(tls_cert, "tls_cert") if tls_cert is not None else None,
             )
+        options = _CHANNEL_OPTIONS + keepalive_options(keepalive_seconds)
         self._routes: List[_Route] = []
         for target in targets:
             channel = (
-                grpc.secure_channel(target, credentials, options=_CHANNEL_OPTIONS)
+                grpc.secure_channel(target, credentials, options=options)
                 if credentials is not None
-                else grpc.insecure_channel(target, options=_CHANNEL_OPTIONS)
+                else grpc.insecure_channel(target, options=options)
             )
             self._routes.append(_Route(target, channel))
         self._lock = threading.Lock()
@@ -269,6 +291,13 @@ class Transport:
         converted = rpc_error(error, rpc, self._routes[index].target)
         if converted.code == grpc.StatusCode.UNAVAILABLE:
             self.monitor.note_failure(converted)
+            converted.failover_now = self._fail_over()
+        elif converted.code == grpc.StatusCode.DEADLINE_EXCEEDED and len(self._routes) > 1:
+            # A replica that accepts connections but never answers (hung,
+            # stopped, its host overloaded) says nothing else; with several
+            # addresses the next one gets the retry (the C++ SDK does the
+            # same, common/failover_channel.h). Not an outage: the server
+            # may be fine and the call merely slow.
             converted.failover_now = self._fail_over()
         elif converted.code not in (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED):
             # Said by the server (our own side says deadlines and cancels).

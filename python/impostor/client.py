@@ -102,7 +102,8 @@ class Client:
         server: "host:port" (any gRPC target string works), or several
             replicas of one farm, "host1:port,host2:port" (the C++ SDK's
             --server lists): calls stick to one address and move on to the
-            next when it answers UNAVAILABLE; idempotent calls retry there,
+            next when it answers UNAVAILABLE (or DEADLINE_EXCEEDED: a replica
+            that accepts but never answers); idempotent calls retry there,
             SubmitBake resends its request id, watches and downloads resume.
         token: bearer token, sent as "authorization: Bearer <token>" on every
             call. Default: the first line of `token_file`, else
@@ -127,6 +128,10 @@ class Client:
             fairness (the "impostor-client-id" metadata). Default: none.
         on_connection_change: called with a ConnectionEvent when the server
             stops answering and when it answers again; must return quickly.
+        keepalive_seconds: while a call is in flight, ping the server after
+            this many quiet seconds and give the connection up when no answer
+            comes within min(this, 10) s, so a watch over a link that died
+            without a reset moves on in seconds. Default 20, whole 1..7200.
 
     Raises:
         ImpostorError: UNAVAILABLE when no server answers;
@@ -148,6 +153,7 @@ class Client:
         connect_timeout_seconds: float = 10.0,
         client_id: str = "",
         on_connection_change: Optional[Callable[[ConnectionEvent], None]] = None,
+        keepalive_seconds: int = 20,
     ) -> None:
         self._transport = Transport(
             server,
@@ -161,6 +167,7 @@ class Client:
             connect_timeout_seconds=connect_timeout_seconds,
             client_id=client_id,
             on_connection_change=on_connection_change,
+            keepalive_seconds=keepalive_seconds,
         )
 
     @property

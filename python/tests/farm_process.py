@@ -111,6 +111,12 @@ class FarmServer:
         self._process.kill()
         self._process.wait()
 
+    def freeze(self, frozen: bool = True) -> None:
+        """SIGSTOP (or SIGCONT) to the server alone: its port still accepts
+        connections (the kernel does that), but nothing answers."""
+        assert self._process is not None
+        self._process.send_signal(signal.SIGSTOP if frozen else signal.SIGCONT)
+
     def restart(self) -> None:
         """Starts the server again on the same address and data folder."""
         self.start()

@@ -75,6 +75,36 @@ def test_a_bake_moves_to_the_other_replica_when_the_first_is_killed(
         first.stop()
 
 
+def test_a_replica_that_stops_answering_is_left_on_deadline_exceeded(
+    farm: FarmServer, assets: Path, tmp_path: Path
+) -> None:
+    """A replica that accepts connections but never answers (SIGSTOPped: a hung
+    process, a host swapping) gives no UNAVAILABLE, only DEADLINE_EXCEEDED;
+    with several addresses that moves the call to the next one."""
+    first = FarmServer(tmp_path / "first", local_workers=0)
+    try:
+        with impostor.Client(f"{first.address},{farm.address}", rpc_timeout_seconds=2, max_attempts=2) as client:
+            assert not client.lookup(assets / BOX, frames=2, resolution=76, quality_views=0).found
+            assert client._transport.current_target == first.address
+            first.freeze()
+            # One attempt runs into the deadline on the frozen replica; the
+            # retry goes to the other one at once. (With only UNAVAILABLE as a
+            # reason to move, both attempts went to the frozen one.)
+            assert not client.lookup(assets / BOX, frames=2, resolution=76, quality_views=0).found
+            assert client._transport.current_target == farm.address
+    finally:
+        first.freeze(False)
+        first.stop()
+
+
+@pytest.mark.parametrize("keepalive", [0, -1, 7201, 2.5, True])
+def test_keepalive_seconds_out_of_range_is_refused_naming_it(farm: FarmServer, keepalive: object) -> None:
+    with pytest.raises(impostor.ImpostorError) as e:
+        impostor.Client(farm.address, keepalive_seconds=keepalive)  # type: ignore[arg-type]
+    assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert e.value.message.startswith("keepalive_seconds:") and "1..7200" in e.value.message, e.value.message
+
+
 @pytest.mark.skipif(not postgres_process.available(), reason="no PostgreSQL binaries (postgresql-15)")
 def test_a_watch_resumes_on_the_other_replica_of_one_database(assets: Path, tmp_path: Path) -> None:
     """Two replicas on one PostgreSQL database and one blob folder: the bake is
