@@ -33,8 +33,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "impostor/v1/types.pb.h"
-#include "tests/integration/server_process.h"
-#include "tests/support/netns.h"
+#include "tests/integration/netns_fixture.h"
 #include "tests/support/postgres_instance.h"
 
 namespace impostor {
@@ -48,8 +47,7 @@ using testing::PostgresInstance;
 using testing::TestNetwork;
 
 constexpr char kBox[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
-constexpr int kPort = 50051;     // every host has its own address, so one port for all
-constexpr int kPgPort = 5432;    // likewise, on the database host
+constexpr int kPgPort = 5432;  // PostgreSQL on the database host
 constexpr int kBakes = 200;
 constexpr int kFirstKillAfter = 40;    // replica 1 is killed when client A has this many results
 constexpr int kSecondKillAfter = 110;  // and again here
@@ -61,26 +59,14 @@ const char* const kCompared[] = {"albedo_alpha.png", "normal_depth.png"};
 
 std::string Name(int i) { return absl::StrCat("r", 64 + i); }
 
-class NetnsMultiHost : public ::testing::Test {
+class NetnsMultiHost : public testing::NetnsTest {
  protected:
   void SetUp() override {
-    if (std::string why = TestNetwork::Unavailable(); !why.empty()) GTEST_SKIP() << "network namespaces: " << why;
     if (!fs::exists("/usr/lib/postgresql/15/bin/initdb") && std::getenv("IMPOSTOR_PG_BIN") == nullptr) {
       GTEST_SKIP() << "needs PostgreSQL 15 (postgresql-15)";
     }
-    auto net = TestNetwork::Create();
-    ASSERT_TRUE(net.ok()) << net.status();
-    net_ = std::move(*net);
-    dir_ = testing::NewTempDir("netns_multihost");
+    NetnsTest::SetUp();
   }
-
-  TestNetwork::Host Host(const std::string& name) {
-    auto host = net_->AddHost(name);
-    if (!host.ok()) throw std::runtime_error("cannot add host " + name + ": " + std::string(host.status().message()));
-    return *host;
-  }
-
-  static std::string Address(const TestNetwork::Host& host) { return host.address + ":" + std::to_string(kPort); }
 
   // The batch spec: `count` bakes of one small asset, resolution 64 + i.
   fs::path WriteSpec(int every, int count = kBakes) {
@@ -143,15 +129,6 @@ class NetnsMultiHost : public ::testing::Test {
       throw std::runtime_error("replica on " + host.name + " did not start");
     }
     return server;
-  }
-
-  std::unique_ptr<ChildProcess> StartWorker(const TestNetwork::Host& host, const std::string& servers) {
-    testing::ProcessOptions options;
-    options.name = "worker-" + host.name;
-    return std::make_unique<ChildProcess>(
-        net_->Exec(host, {(BinaryDir() / "impostor-worker").string(), "--server=" + servers, "--name=" + host.name,
-                          "--token-file=" + (dir_ / "worker.token").string(), "--log-level=info"}),
-        options);
   }
 
   std::unique_ptr<ChildProcess> StartBatch(const TestNetwork::Host& host, const std::string& servers,
@@ -226,8 +203,6 @@ class NetnsMultiHost : public ::testing::Test {
     return expiries;
   }
 
-  std::unique_ptr<TestNetwork> net_;  // declared first: destroyed after the processes
-  fs::path dir_;
 };
 
 TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {

@@ -14,8 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/integration/server_process.h"
-#include "tests/support/netns.h"
+#include "tests/integration/netns_fixture.h"
 
 namespace impostor {
 namespace {
@@ -27,25 +26,9 @@ using testing::ChildProcess;
 using testing::TestNetwork;
 
 constexpr char kBox[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
-constexpr int kPort = 50051;  // every host has its own addresses, so one port for all
 
-class NetnsFarm : public ::testing::Test {
+class NetnsFarm : public testing::NetnsTest {
  protected:
-  void SetUp() override {
-    if (std::string why = TestNetwork::Unavailable(); !why.empty()) GTEST_SKIP() << "network namespaces: " << why;
-    auto net = TestNetwork::Create();
-    ASSERT_TRUE(net.ok()) << net.status();
-    net_ = std::move(*net);
-    dir_ = testing::NewTempDir("netns_farm");
-  }
-
-  TestNetwork::Host Host(const std::string& name) {
-    auto host = net_->AddHost(name);
-    EXPECT_TRUE(host.ok()) << host.status();
-    if (!host.ok()) throw std::runtime_error("cannot add host " + name);
-    return *host;
-  }
-
   static void WriteFile(const fs::path& path, const std::string& text) { std::ofstream(path) << text << "\n"; }
 
   // impostor-server on `host`, ready (it printed "listening on").
@@ -53,21 +36,11 @@ class NetnsFarm : public ::testing::Test {
     testing::ProcessOptions options;
     options.name = "server-" + host.name;
     auto server = std::make_unique<ChildProcess>(
-        net_->Exec(host, {(BinaryDir() / "impostor-server").string(),
-                          "--listen=" + host.address + ":" + std::to_string(kPort), "--data=" + data.string(),
-                          "--local-workers=0", "--log-level=info"}),
+        net_->Exec(host, {(BinaryDir() / "impostor-server").string(), "--listen=" + Address(host),
+                          "--data=" + data.string(), "--local-workers=0", "--log-level=info"}),
         options);
     EXPECT_NE(server->ReadLineContaining("listening on"), "") << "server on " << host.name << " did not start";
     return server;
-  }
-
-  std::unique_ptr<ChildProcess> StartWorker(const TestNetwork::Host& host, const std::string& servers) {
-    testing::ProcessOptions options;
-    options.name = "worker-" + host.name;
-    return std::make_unique<ChildProcess>(
-        net_->Exec(host, {(BinaryDir() / "impostor-worker").string(), "--server=" + servers, "--name=" + host.name,
-                          "--token-file=" + (dir_ / "worker.token").string(), "--log-level=info"}),
-        options);
   }
 
   testing::ToolRun Bake(const TestNetwork::Host& client, const std::string& servers, const fs::path& out) {
@@ -83,9 +56,6 @@ class NetnsFarm : public ::testing::Test {
     WriteFile(dir_ / "worker.token", testing::CreateToken(data, "worker", "netns-workers"));
     WriteFile(dir_ / "submitter.token", testing::CreateToken(data, "submitter", "netns-client"));
   }
-
-  std::unique_ptr<TestNetwork> net_;  // declared first: destroyed after the processes
-  fs::path dir_;
 };
 
 TEST_F(NetnsFarm, ClientBakesAcrossTheBridge) {
@@ -96,7 +66,7 @@ TEST_F(NetnsFarm, ClientBakesAcrossTheBridge) {
   const fs::path data = dir_ / "data";
   CreateTokens(data);
   auto server = StartServer(server_host, data);
-  const std::string address = server_host.address + ":" + std::to_string(kPort);
+  const std::string address = Address(server_host);
   auto w1 = StartWorker(worker1, address);
   auto w2 = StartWorker(worker2, address);
 
@@ -122,8 +92,8 @@ TEST_F(NetnsFarm, ClientAndWorkerFailOverWhenAReplicaLinkIsCut) {
   fs::copy(dir_ / "data1", dir_ / "data2", fs::copy_options::recursive);
   auto r1 = StartServer(s1, dir_ / "data1");
   auto r2 = StartServer(s2, dir_ / "data2");
-  const std::string a1 = s1.address + ":" + std::to_string(kPort);
-  const std::string a2 = s2.address + ":" + std::to_string(kPort);
+  const std::string a1 = Address(s1);
+  const std::string a2 = Address(s2);
   const std::string both = a1 + "," + a2;
   auto worker = StartWorker(worker_host, both);
 
