@@ -30,6 +30,7 @@
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/output/map_writer.h"
 #include "worker/scene/gltf_loader.h"
+#include "tests/support/boundary_mismatch.h"
 
 namespace impostor::example {
 namespace {
@@ -130,29 +131,6 @@ std::vector<uint8_t> ObjectMask(const SceneImage& image) {
   return mask;
 }
 
-// Pixels (inside `valid`) where `a` differs from `b` more than `radius` px
-// away from any pixel where `b` changes value (b's boundary).
-int FarMismatches(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& valid,
-                  int radius) {
-  auto at = [](int x, int y) { return static_cast<size_t>(y) * kPixels + x; };
-  int far = 0;
-  for (int y = 0; y < kPixels; ++y) {
-    for (int x = 0; x < kPixels; ++x) {
-      if (!valid[at(x, y)] || a[at(x, y)] == b[at(x, y)]) continue;
-      bool near = false;
-      for (int dy = -radius - 1; dy <= radius + 1 && !near; ++dy) {
-        for (int dx = -radius - 1; dx <= radius + 1 && !near; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if (xx < 0 || yy < 0 || xx >= kPixels || yy >= kPixels) continue;
-          near = b[at(xx, yy)] != b[at(x, y)] && dx * dx + dy * dy <= (radius + 1) * (radius + 1);
-        }
-      }
-      far += !near;
-    }
-  }
-  return far;
-}
-
 // The camera moved onto the baked frame nearest to the default view (same
 // distance), the ground a little higher so it cuts more of the helmet: the
 // depth offset is then the frame's own depth (between frames it is a blend,
@@ -189,8 +167,8 @@ TEST_F(ImpostorSceneTest, DepthOffsetPutsTheGroundCrossingWhereTheMeshHasIt) {
     covered += both[i];
     crossing += both[i] && !mesh_front[i];  // the object is there, the ground hides it
   }
-  const int far = FarMismatches(imp_front, mesh_front, both, 2);
-  const int card_far = FarMismatches(card_front, mesh_front, both, 2);
+  const int far = testing::FarMismatches(imp_front, mesh_front, both, kPixels, 2);
+  const int card_far = testing::FarMismatches(card_front, mesh_front, both, kPixels, 2);
   std::printf("[ figures  ] %d object pixels, %d behind the ground; the impostor's ground crossing is off by > 2 px "
               "at %d pixels with the depth offset, %d as a flat card\n",
               covered, crossing, far, card_far);

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/atlas_layout.h"
+#include "tests/support/boundary_mismatch.h"
 #include "tests/integration/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
@@ -93,29 +94,6 @@ std::vector<uint8_t> Mask(const std::vector<uint8_t>& rgba) {
   return mask;
 }
 
-// Pixels (inside `valid`) where `a` differs from `b` more than `radius` px
-// away from any pixel where `b` changes value (b's boundary).
-int FarMismatches(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& valid,
-                  int radius) {
-  auto at = [](int x, int y) { return static_cast<size_t>(y) * kPixels + x; };
-  int far = 0;
-  for (int y = 0; y < kPixels; ++y) {
-    for (int x = 0; x < kPixels; ++x) {
-      if (!valid[at(x, y)] || a[at(x, y)] == b[at(x, y)]) continue;
-      bool near = false;
-      for (int dy = -radius - 1; dy <= radius + 1 && !near; ++dy) {
-        for (int dx = -radius - 1; dx <= radius + 1 && !near; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if (xx < 0 || yy < 0 || xx >= kPixels || yy >= kPixels) continue;
-          near = b[at(xx, yy)] != b[at(x, y)] && dx * dx + dy * dy <= (radius + 1) * (radius + 1);
-        }
-      }
-      far += !near;
-    }
-  }
-  return far;
-}
-
 constexpr char kMasks[] = R"JS((() => {
   const r = window.impostorScene.render;
   return {
@@ -154,8 +132,8 @@ TEST_F(ImpostorMaterialBrowserTest, DepthOffsetPutsTheGroundCrossingWhereTheMesh
       covered += both[p];
       crossing += both[p] && !masks["mesh_front"][p];  // the object is there, the ground hides it
     }
-    const int far = FarMismatches(masks["imp_front"], masks["mesh_front"], both, 2);
-    const int card_far = FarMismatches(masks["card_front"], masks["mesh_front"], both, 2);
+    const int far = testing::FarMismatches(masks["imp_front"], masks["mesh_front"], both, kPixels, 2);
+    const int card_far = testing::FarMismatches(masks["card_front"], masks["mesh_front"], both, kPixels, 2);
     std::printf("[ figures  ] %s: %d object pixels, %d behind the ground; the ground crossing is off by > 2 px at %d "
                 "pixels with the depth offset, %d as a flat card\n",
                 c.name, covered, crossing, far, card_far);

@@ -20,6 +20,7 @@
 #include "common/runtime/reference_renderer.h"
 #include "common/runtime/virtual_plane.h"
 #include "shaders/impostor_material_view_comp.h"
+#include "tests/support/boundary_mismatch.h"
 #include "tests/runtime/compute_kernel.h"
 #include "tests/runtime/synthetic_atlas.h"
 #include "worker/gpu/gpu_buffer.h"
@@ -121,29 +122,6 @@ float GroundDepth(const FrameCamera& cam, int x, int y) {
   return k * 0.5f;  // depth grows by 1/2 per radius travelled
 }
 
-// Pixels of `a` that differ from `b` and lie more than `radius` px from any
-// pixel where `b` changes value (b's boundary).
-int FarMismatches(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& valid,
-                  int radius) {
-  auto at = [](int x, int y) { return static_cast<size_t>(y) * kPixels + x; };
-  int far = 0;
-  for (int y = 0; y < kPixels; ++y) {
-    for (int x = 0; x < kPixels; ++x) {
-      if (!valid[at(x, y)] || a[at(x, y)] == b[at(x, y)]) continue;
-      bool near = false;
-      for (int dy = -radius - 1; dy <= radius + 1 && !near; ++dy) {
-        for (int dx = -radius - 1; dx <= radius + 1 && !near; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if (xx < 0 || yy < 0 || xx >= kPixels || yy >= kPixels) continue;
-          near = b[at(xx, yy)] != b[at(x, y)] && dx * dx + dy * dy <= (radius + 1) * (radius + 1);
-        }
-      }
-      far += !near;
-    }
-  }
-  return far;
-}
-
 TEST_F(GlslMaterialTest, DepthOffsetPutsTheGroundCrossingWhereTheObjectHasIt) {
   struct Case {
     const char* name;
@@ -192,8 +170,8 @@ TEST_F(GlslMaterialTest, DepthOffsetPutsTheGroundCrossingWhereTheObjectHasIt) {
         crossing += both[i] && !mesh_front[i];
       }
     }
-    const int far = FarMismatches(imp_front, mesh_front, both, 2);
-    const int card_far = FarMismatches(card_front, mesh_front, both, 2);
+    const int far = testing::FarMismatches(imp_front, mesh_front, both, kPixels, 2);
+    const int card_far = testing::FarMismatches(card_front, mesh_front, both, kPixels, 2);
     std::printf("[ figures  ] %s: %d object pixels behind the ground; boundary off by > 2 px at %d pixels with the "
                 "depth offset, %d without\n",
                 c.name, crossing, far, card_far);
