@@ -5,7 +5,15 @@
 
 const COLOURS = ['#ff5252', '#ffd740', '#69f0ae', '#40c4ff'];  // by weight rank
 
-function loadImage(url) {
+import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
+
+// Something drawImage takes: the PNG as an image, a KTX2 map decoded to
+// RGBA8 (ktx2_rgba.js) as an ImageBitmap.
+async function loadImage(url) {
+  if (isKtx2(url)) {
+    const { width, height, data } = await decodeKtx2Rgba(url);
+    return createImageBitmap(new ImageData(new Uint8ClampedArray(data.buffer, data.byteOffset, data.length), width, height));
+  }
   return new Promise((resolve, reject) => {
     const image = new Image();
     image.onload = () => resolve(image);

@@ -8,7 +8,9 @@
 // Textures: albedo_alpha is uploaded as SRGB8_ALPHA8 (reads are linear, as
 // the runtime expects); normal_depth and orm as RGBA8 (the browser decodes
 // 16-bit PNGs to 8 bits: normals and parallax depth are slightly coarser
-// than in an engine).
+// than in an engine). KTX2 maps are decoded to the same RGBA8 first
+// (ktx2_rgba.js).
+import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
 
 const LAYOUT_KIND = {
   LAYOUT_OCTAHEDRAL: 0, LAYOUT_UNSPECIFIED: 0, LAYOUT_HEMI_OCTAHEDRAL: 1, LAYOUT_AZIMUTH_ELEVATION: 2,
@@ -79,14 +81,23 @@ function compile(gl, type, source) {
 }
 
 async function loadTexture(gl, url, srgb) {
-  const blob = await (await fetch(url)).blob();
-  const image = await createImageBitmap(blob, { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
   const tex = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, tex);
   gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
   gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
-  gl.texImage2D(gl.TEXTURE_2D, 0, srgb ? gl.SRGB8_ALPHA8 : gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, image);
+  const internal = srgb ? gl.SRGB8_ALPHA8 : gl.RGBA8;
+  if (isKtx2(url)) {
+    const { width, height, data } = await decodeKtx2Rgba(url);
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, gl.RGBA, gl.UNSIGNED_BYTE, data);
+  } else {
+    const response = await fetch(url);
+    if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+    const image = await createImageBitmap(await response.blob(), { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    gl.texImage2D(gl.TEXTURE_2D, 0, internal, gl.RGBA, gl.UNSIGNED_BYTE, image);
+  }
   // texelFetch only (the runtime filters by hand): no mipmaps needed.
   gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
   gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);

@@ -17,6 +17,7 @@
 // drawn where the mesh is). WebGL's window depth is 0.5 * ndc.z + 0.5 where
 // Vulkan's is clip.z / clip.w: the only deviation from the GLSL.
 import * as THREE from 'three';
+import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
 
 const LAYOUT_KIND = {
   LAYOUT_OCTAHEDRAL: 0, LAYOUT_UNSPECIFIED: 0, LAYOUT_HEMI_OCTAHEDRAL: 1, LAYOUT_AZIMUTH_ELEVATION: 2,
@@ -86,9 +87,16 @@ void main() {
 }`;
 
 async function loadTexture(url, srgb) {
-  const blob = await (await fetch(url)).blob();
-  const image = await createImageBitmap(blob, { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
-  const tex = new THREE.Texture(image);
+  let tex;
+  if (isKtx2(url)) {
+    const { width, height, data } = await decodeKtx2Rgba(url);  // RGBA8, as a PNG decodes
+    tex = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.UnsignedByteType);
+  } else {
+    const response = await fetch(url);
+    if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+    const image = await createImageBitmap(await response.blob(), { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+    tex = new THREE.Texture(image);
+  }
   tex.flipY = false;
   tex.premultiplyAlpha = false;
   tex.generateMipmaps = false;  // texelFetch only: the runtime filters by hand

@@ -40,7 +40,13 @@ function showStatic(result) {
   replace('quality', kv(quality));
   const maps = el('div', { class: 'maps' });
   for (const map of m.maps) {
-    if (!map.file.endsWith('.png') || map.semantic.startsWith('quality_view')) continue;  // per-view files: views.json
+    if (map.semantic.startsWith('quality_view')) continue;  // per-view files: views.json
+    if (map.file.endsWith('.ktx2')) {  // no <img> for KTX2: a download link with its codec and mip levels
+      maps.append(el('figure', {}, el('a', { href: fileUrl(map.file), 'data-testid': `map-${map.semantic}` }, map.file),
+        el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.codec || 'KTX2'}, ${map.levels || 1} levels (${bytes(map.digest.size_bytes)})`)));
+      continue;
+    }
+    if (!map.file.endsWith('.png')) continue;
     maps.append(el('figure', {}, el('img', { src: fileUrl(map.file), alt: map.semantic, 'data-testid': `map-${map.semantic}` }),
       el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.format} (${bytes(map.digest.size_bytes)})`)));
   }
