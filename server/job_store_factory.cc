@@ -27,7 +27,8 @@ absl::StatusOr<std::unique_ptr<JobStore>> OpenJobStore(const JobStoreConfig& con
   if (auto s = ValidateDatabaseUrl(config.database_url); !s.ok()) return s;
   auto store = PostgresJobStore::Open({.url = config.database_url,
                                        .pool_size = config.pool_size,
-                                       .statement_timeout_ms = config.statement_timeout_ms});
+                                       .statement_timeout_ms = config.statement_timeout_ms,
+                                       .dead_link_seconds = config.dead_link_seconds});
   if (!store.ok()) return store.status();
   return std::unique_ptr<JobStore>(std::move(*store));
 }

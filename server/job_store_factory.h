@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/job_store.h"
+#include "server/postgres/pg_dead_link.h"
 
 namespace impostor {
 
@@ -21,6 +22,8 @@ struct JobStoreConfig {
   // PostgreSQL only: connections in the pool and the per-statement limit.
   int pool_size = 8;
   int statement_timeout_ms = 10'000;
+  // PostgreSQL only: --database-dead-link-seconds (pg_dead_link.h).
+  int dead_link_seconds = kDefaultDeadLinkSeconds;
 };
 
 // True for the URL schemes the PostgreSQL engine takes.

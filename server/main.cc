@@ -60,6 +60,10 @@ ABSL_FLAG(std::string, blob_dir, "",
 ABSL_FLAG(int, database_pool_size, 8, "PostgreSQL connections per server (1..64)");
 ABSL_FLAG(int, database_statement_timeout_ms, 10000,
           "PostgreSQL statement timeout in milliseconds (100..600000)");
+ABSL_FLAG(int, database_dead_link_seconds, impostor::kDefaultDeadLinkSeconds,
+          "Seconds after which a PostgreSQL connection whose link died without a reset is given up, by this "
+          "server and by the database (which then frees a vanished replica's maintenance lock); the URL's own "
+          "keepalive and timeout keywords win (2..3600)");
 ABSL_FLAG(int, local_workers, 0, "Number of impostor-worker processes to run and keep alive (0..64)");
 ABSL_FLAG(std::string, worker_binary, "", "Worker executable for --local-workers (default: next to this binary)");
 ABSL_FLAG(int, lease_timeout_s, 30, "Seconds without a worker report before its job is queued again (1..3600)");
@@ -233,13 +237,18 @@ int main(int argc, char** argv) {
       .database_url = absl::GetFlag(FLAGS_database),
       .data_dir = data,
       .pool_size = absl::GetFlag(FLAGS_database_pool_size),
-      .statement_timeout_ms = absl::GetFlag(FLAGS_database_statement_timeout_ms)};
+      .statement_timeout_ms = absl::GetFlag(FLAGS_database_statement_timeout_ms),
+      .dead_link_seconds = absl::GetFlag(FLAGS_database_dead_link_seconds)};
   if (store_config.pool_size < 1 || store_config.pool_size > 64) {
     return Fail("--database-pool-size: " + std::to_string(store_config.pool_size) + " is out of range 1..64");
   }
   if (store_config.statement_timeout_ms < 100 || store_config.statement_timeout_ms > 600000) {
     return Fail("--database-statement-timeout-ms: " + std::to_string(store_config.statement_timeout_ms) +
                 " is out of range 100..600000");
+  }
+  if (auto s = impostor::ValidateDeadLinkSeconds("--database-dead-link-seconds", store_config.dead_link_seconds);
+      !s.ok()) {
+    return Fail(std::string(s.message()));
   }
   auto jobs = impostor::OpenJobStore(store_config);
   if (!jobs.ok()) return Fail(std::string(jobs.status().message()));
@@ -271,7 +280,8 @@ int main(int argc, char** argv) {
     }
     auto opened = impostor::OpenTokenStorage({.database_url = store_config.database_url,
                                               .data_dir = data,
-                                              .statement_timeout_ms = store_config.statement_timeout_ms});
+                                              .statement_timeout_ms = store_config.statement_timeout_ms,
+                                              .dead_link_seconds = store_config.dead_link_seconds});
     if (!opened.ok()) return Fail(std::string(opened.status().message()));
     token_store = std::move(opened->tokens);
     quota_ledger = std::move(opened->quotas);

@@ -17,7 +17,9 @@ absl::StatusOr<TokenStorage> OpenTokenStorage(const TokenStoreConfig& config) {
     return TokenStorage{.tokens = std::move(*tokens), .quotas = std::move(*quotas)};
   }
   if (auto s = ValidateDatabaseUrl(config.database_url); !s.ok()) return s;
-  auto pg = OpenPostgresTokenStorage({.url = config.database_url, .statement_timeout_ms = config.statement_timeout_ms});
+  auto pg = OpenPostgresTokenStorage({.url = config.database_url,
+                                      .statement_timeout_ms = config.statement_timeout_ms,
+                                      .dead_link_seconds = config.dead_link_seconds});
   if (!pg.ok()) return pg.status();
   return TokenStorage{.tokens = std::move(pg->tokens), .quotas = std::move(pg->quotas)};
 }

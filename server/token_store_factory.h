@@ -11,6 +11,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "server/postgres/pg_dead_link.h"
 #include "server/token_quotas.h"
 #include "server/token_store.h"
 
@@ -24,6 +25,8 @@ struct TokenStoreConfig {
   // PostgreSQL only: the per-statement limit. Token checks are cached
   // (authenticator.h), so the pool is small.
   int statement_timeout_ms = 10'000;
+  // PostgreSQL only: --database-dead-link-seconds (pg_dead_link.h).
+  int dead_link_seconds = kDefaultDeadLinkSeconds;
 };
 
 struct TokenStorage {

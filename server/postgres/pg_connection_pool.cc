@@ -6,6 +6,7 @@
 #include <chrono>
 #include <optional>
 #include <thread>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -98,7 +99,20 @@ absl::StatusOr<std::unique_ptr<PgConnectionPool>> PgConnectionPool::Open(const O
 }
 
 absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
-  PGconn* conn = PQconnectdb(options_.url.c_str());
+  const PgDeadLinkSettings link = DeadLinkSettings(options_.dead_link_seconds);
+  // The dead-link keywords go before the URL (expanded as "dbname"), so
+  // that keywords the URL sets itself win (libpq: the last value counts).
+  const auto params = DeadLinkConnectParams(link);
+  std::vector<const char*> keywords, values;
+  for (const auto& [k, v] : params) {
+    keywords.push_back(k.c_str());
+    values.push_back(v.c_str());
+  }
+  keywords.push_back("dbname");
+  values.push_back(options_.url.c_str());
+  keywords.push_back(nullptr);
+  values.push_back(nullptr);
+  PGconn* conn = PQconnectdbParams(keywords.data(), values.data(), /*expand_dbname=*/1);
   if (conn == nullptr || PQstatus(conn) != CONNECTION_OK) {
     std::string why = conn ? PQerrorMessage(conn) : "out of memory";
     while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
@@ -111,10 +125,12 @@ absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
   }
   // Quiet NOTICEs (e.g. "relation already exists, skipping").
   PQsetNoticeProcessor(conn, [](void*, const char*) {}, nullptr);
+  // Several statements in one simple query; the last one's result is
+  // returned, and any failure fails the whole.
   const std::string setup = absl::StrCat("SET statement_timeout = ", options_.statement_timeout_ms,
-                                         "; SET application_name = 'impostor-server'");
+                                         "; SET application_name = 'impostor-server'; ", DeadLinkSessionSql(link));
   PGresult* r = PQexec(conn, setup.c_str());
-  const bool ok = r && PQresultStatus(r) == PGRES_COMMAND_OK;
+  const bool ok = r && PQresultStatus(r) == PGRES_TUPLES_OK;
   PQclear(r);
   if (!ok) {
     std::string why = PQerrorMessage(conn);

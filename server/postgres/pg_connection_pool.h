@@ -3,7 +3,9 @@
 // (the database restarted, a network blip) reconnects and runs again, with
 // backoff, for up to `reconnect_window_ms`, so a database restart costs a
 // reconnect rather than a failed RPC or a lost job. Every connection gets
-// the statement timeout. Errors name the URL without its password.
+// the statement timeout, and notices a link that died without a reset
+// within about `dead_link_seconds` on both ends (pg_dead_link.h). Errors
+// name the URL without its password.
 //
 // Thread-safety: thread-safe; each Run borrows one connection.
 #ifndef IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_
@@ -19,6 +21,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/postgres/pg_dead_link.h"
 
 struct pg_conn;
 struct pg_result;
@@ -105,6 +108,9 @@ class PgConnectionPool {
     int size = 8;
     int statement_timeout_ms = 10'000;
     int64_t reconnect_window_ms = 30'000;
+    // A connection into a dead link is given up after about this long
+    // (connect, statement or idle); see pg_dead_link.h.
+    int dead_link_seconds = kDefaultDeadLinkSeconds;
   };
   // Connects once to check the URL: UNAVAILABLE naming the redacted URL
   // and libpq's reason when the database cannot be reached.
@@ -122,7 +128,7 @@ class PgConnectionPool {
   absl::Status Transaction(const std::function<absl::Status(PgSession&)>& body);
 
   // A fresh connection outside the pool (LISTEN, advisory locks), with
-  // the statement timeout set. Caller owns it (PQfinish).
+  // the statement timeout and the dead-link settings. Caller owns it (PQfinish).
   absl::StatusOr<pg_conn*> Connect() const;
   const std::string& redacted_url() const { return redacted_url_; }
 

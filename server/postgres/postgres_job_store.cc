@@ -155,7 +155,8 @@ absl::StatusOr<std::unique_ptr<PostgresJobStore>> PostgresJobStore::Open(const O
   auto pool = PgConnectionPool::Open({.url = options.url,
                                       .size = options.pool_size,
                                       .statement_timeout_ms = options.statement_timeout_ms,
-                                      .reconnect_window_ms = options.reconnect_window_ms});
+                                      .reconnect_window_ms = options.reconnect_window_ms,
+                                      .dead_link_seconds = options.dead_link_seconds});
   if (!pool.ok()) return pool.status();
   std::unique_ptr<PostgresJobStore> store(new PostgresJobStore(std::move(*pool)));
   if (auto s = store->Migrate(); !s.ok()) return s;

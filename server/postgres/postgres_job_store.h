@@ -46,6 +46,7 @@ class PostgresJobStore : public JobStore {
     int pool_size = 8;
     int statement_timeout_ms = 10'000;
     int64_t reconnect_window_ms = 30'000;
+    int dead_link_seconds = kDefaultDeadLinkSeconds;  // PgConnectionPool::Options
   };
   // Connects, migrates and starts the listener. UNAVAILABLE naming the
   // redacted URL when the database cannot be reached; FAILED_PRECONDITION

@@ -143,7 +143,10 @@ int PostgresTokenSchemaVersion() { return static_cast<int>(std::size(kMigrations
 
 absl::StatusOr<PostgresTokenStorage> OpenPostgresTokenStorage(const PostgresTokenOptions& options) {
   auto opened = PgConnectionPool::Open(
-      {.url = options.url, .size = options.pool_size, .statement_timeout_ms = options.statement_timeout_ms});
+      {.url = options.url,
+       .size = options.pool_size,
+       .statement_timeout_ms = options.statement_timeout_ms,
+       .dead_link_seconds = options.dead_link_seconds});
   if (!opened.ok()) return opened.status();
   std::shared_ptr<PgConnectionPool> pool = std::move(*opened);
   if (auto s = ApplyPgMigrations(

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "server/postgres/pg_dead_link.h"
 #include "server/token_quotas.h"
 #include "server/token_store.h"
 
@@ -35,6 +36,7 @@ struct PostgresTokenOptions {
   std::string url;
   int pool_size = 2;
   int statement_timeout_ms = 10'000;
+  int dead_link_seconds = kDefaultDeadLinkSeconds;  // PgConnectionPool::Options
 };
 
 // Connects and migrates. UNAVAILABLE naming the redacted URL when the

@@ -382,5 +382,49 @@ TEST_F(NetnsMultiHost, AQuietWatchOverACutLinkMovesToTheOtherReplica) {
   ASSERT_TRUE(net_->SetLink(s1, true).ok());
 }
 
+// A replica cut off from the network (its host's link down: packets
+// vanish, nobody sees a reset) while it holds the maintenance lock (lease
+// expiry, eviction, retention): the database ends its session within
+// about --database-dead-link-seconds (20 s by default), which frees the
+// advisory lock, and the other replica takes maintenance over; the cut
+// replica gives up its own end of the lock rather than hang. Before the
+// dead-link settings (server/postgres/pg_dead_link.h) PostgreSQL kept the
+// dead session for the kernel's 2 h of keepalive silence, so nobody swept
+// expired leases that long (checked by running this test without them: the
+// deadline below fails). At the default, like a real deployment.
+TEST_F(NetnsMultiHost, AReplicaCutOffFromTheDatabaseHandsOverMaintenance) {
+  // The bigint key of the maintenance lock (PostgresMaintenanceLockKey(),
+  // server/postgres/postgres_job_store.cc): pg_locks shows it as classid
+  // (high 32 bits) and objid (low 32 bits).
+  constexpr char kHolder[] =
+      "SELECT coalesce(string_agg(host(a.client_addr), ','), 'none') FROM pg_locks l JOIN pg_stat_activity a "
+      "ON a.pid = l.pid WHERE l.locktype = 'advisory' AND l.granted AND "
+      "(l.classid::bigint << 32) + l.objid::bigint = 7596851770424586099";
+  // The database ends a dead session after about 20 s, the replicas retry
+  // the lock every second; generous for a loaded machine, far below 2 h.
+  constexpr auto kHandOver = std::chrono::seconds(120);
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens(s1, url);
+
+  auto r1 = StartReplica(s1, dir_ / "data1", url);
+  ASSERT_TRUE(r1->WaitForLog("event=maintenance_lock_acquired")) << r1->Stderr();
+  auto r2 = StartReplica(s2, dir_ / "data2", url);
+  EXPECT_EQ(Query(*pg, kHolder), s1.address) << "replica 1 holds the lock before the cut";
+
+  ASSERT_TRUE(net_->SetLink(s1, false).ok());
+  ASSERT_TRUE(r2->WaitForLog("event=maintenance_lock_acquired", 1, kHandOver))
+      << "the database did not free the cut replica's lock\n" << r2->Stderr();
+  EXPECT_EQ(Query(*pg, kHolder), s2.address);
+  // The cut replica notices too (its statement's bytes go unacknowledged)
+  // instead of waiting on TCP's retransmissions with its scheduler locked.
+  EXPECT_TRUE(r1->WaitForLog("event=maintenance_lock_lost", 1, kHandOver)) << r1->Stderr();
+  EXPECT_EQ(r1->CountInLog("event=maintenance_lock_acquired"), 1) << "replica 1 did not take it back while cut";
+  ASSERT_TRUE(net_->SetLink(s1, true).ok());
+}
+
 }  // namespace
 }  // namespace impostor
