@@ -57,6 +57,7 @@ void impostor_cache_options_init(impostor_cache_options* options) {
   options->rpc_timeout_seconds = defaults.rpc_timeout_seconds;
   options->max_attempts = defaults.max_attempts;
   options->max_outage_seconds = defaults.max_outage_seconds;
+  options->keepalive_seconds = defaults.keepalive_seconds;
   // TLS: off (the memset left the tls_* pointers NULL).
 }
 
@@ -75,6 +76,7 @@ impostor_status impostor_cache_open(const impostor_cache_options* options, impos
   o.rpc_timeout_seconds = options->rpc_timeout_seconds;
   o.max_attempts = options->max_attempts;
   o.max_outage_seconds = options->max_outage_seconds;
+  o.keepalive_seconds = options->keepalive_seconds;
   // TLS (see impostor_c.h).
   if (options->tls_ca_file != nullptr) o.tls_ca_file = options->tls_ca_file;
   if (options->tls_cert_file != nullptr) o.tls_cert_file = options->tls_cert_file;

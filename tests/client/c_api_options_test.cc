@@ -22,6 +22,8 @@ TEST(CApiOptions, DefaultsMirrorCacheOptions) {
   EXPECT_EQ(o.max_outage_seconds, 30);
   EXPECT_EQ(o.max_attempts, defaults.max_attempts);
   EXPECT_EQ(o.rpc_timeout_seconds, defaults.rpc_timeout_seconds);
+  EXPECT_EQ(o.keepalive_seconds, defaults.keepalive_seconds);
+  EXPECT_EQ(o.keepalive_seconds, 20);
   // Identity (issue 14): no token unless given (then $IMPOSTOR_TOKEN).
   EXPECT_EQ(o.token_file, nullptr);
   EXPECT_EQ(o.token, nullptr);
@@ -49,6 +51,33 @@ TEST(CApiOptions, OutageBudgetIsChecked) {
       EXPECT_NE(std::string(impostor_last_error()).find("max_outage_seconds"), std::string::npos)
           << c.name << ": " << impostor_last_error();
     }
+    impostor_cache_close(cache);
+  }
+  fs::remove_all(dir);
+}
+
+TEST(CApiOptions, KeepaliveIsChecked) {
+  const fs::path dir = fs::temp_directory_path() / ("impostor_c_api_keepalive_" + std::to_string(::getpid()));
+  const std::string dir_string = dir.string();
+  for (int32_t seconds : {0, -1, 7201}) {
+    impostor_cache_options o;
+    impostor_cache_options_init(&o);
+    o.dir = dir_string.c_str();
+    o.keepalive_seconds = seconds;
+    impostor_cache* cache = nullptr;
+    EXPECT_EQ(impostor_cache_open(&o, &cache), IMPOSTOR_INVALID_ARGUMENT) << seconds;
+    EXPECT_EQ(cache, nullptr);
+    EXPECT_EQ(std::string(impostor_last_error()),
+              "CacheOptions.keepalive_seconds: " + std::to_string(seconds) + " is out of range 1..7200 (seconds)");
+    impostor_cache_close(cache);
+  }
+  for (int32_t seconds : {1, 7200}) {
+    impostor_cache_options o;
+    impostor_cache_options_init(&o);
+    o.dir = dir_string.c_str();
+    o.keepalive_seconds = seconds;
+    impostor_cache* cache = nullptr;
+    EXPECT_EQ(impostor_cache_open(&o, &cache), IMPOSTOR_OK) << seconds << ": " << impostor_last_error();
     impostor_cache_close(cache);
   }
   fs::remove_all(dir);

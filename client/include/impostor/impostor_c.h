@@ -97,6 +97,13 @@ typedef struct impostor_cache_options {
    * Added after max_outage_seconds; init sets both NULL. */
   const char* token_file;
   const char* token;
+  /* Keepalive while a download is in flight (issue 15), as CacheOptions'
+   * keepalive_seconds: ping the server after this many quiet seconds and
+   * give the connection up when no answer comes within min(it, 10) s, so a
+   * download over a link that died without a reset moves on in seconds.
+   * Default 20; 1..7200 (IMPOSTOR_INVALID_ARGUMENT naming the field).
+   * Added after token; init sets the default. */
+  int32_t keepalive_seconds;
 } impostor_cache_options;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);
