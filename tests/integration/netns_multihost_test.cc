@@ -426,5 +426,53 @@ TEST_F(NetnsMultiHost, AReplicaCutOffFromTheDatabaseHandsOverMaintenance) {
   ASSERT_TRUE(net_->SetLink(s1, true).ok());
 }
 
+// One DNS name with a record per replica (the other way to list
+// replicas; docs/scaling.md): the client and the worker know only
+// "bake.farm.test:50051", which resolves to both replicas (each host's own
+// /etc/hosts, TestNetwork::SetHostNames; gRPC's resolver returns both
+// records and its pick_first policy tries them in order). The client
+// submits while only replica 1 is up, so its watch is on replica 1; replica
+// 1 is SIGKILLed; the watch resumes through the same name on replica 2,
+// where a worker (also given only the name) bakes the job. The same job
+// finishes: no second submit.
+TEST_F(NetnsMultiHost, ADnsNameWithARecordPerReplicaSurvivesAKilledReplica) {
+  constexpr char kName[] = "bake.farm.test";
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  const TestNetwork::Host worker_host = Host("worker1");
+  const TestNetwork::Host client = Host("client-a");
+  for (const TestNetwork::Host& h : {worker_host, client}) {
+    ASSERT_TRUE(net_->SetHostNames(h, {{s1.address, kName}, {s2.address, kName}}).ok());
+  }
+  const std::string target = absl::StrCat(kName, ":", kPort);
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens(s1, url);
+  auto r1 = StartReplica(s1, dir_ / "data1", url);
+
+  testing::ProcessOptions options;
+  options.name = "bake-client";
+  ChildProcess bake(net_->Exec(client, {(BinaryDir() / "impostor").string(), "bake", (AssetsDir() / kBox).string(),
+                                        "--out", (dir_ / "out").string(), "--server", target, "--token-file",
+                                        (dir_ / "submitter.token").string(), "--frames=2", "--resolution=64",
+                                        "--quality-views=0", "--json"}),
+                    options);
+  ASSERT_TRUE(r1->WaitForLog("event=submit")) << "the client did not reach replica 1 by name";
+  ASSERT_TRUE(bake.WaitForLog("] queued")) << "the watch did not start";
+
+  auto r2 = StartReplica(s2, dir_ / "data2", url);
+  r1->KillAndReap();
+  auto worker = StartWorker(worker_host, target);
+  std::string out;
+  ASSERT_EQ(bake.Wait(&out), 0) << out << bake.Stderr();
+  const nlohmann::json result = nlohmann::json::parse(out.substr(0, out.find('\n')));
+  EXPECT_EQ(result["error"], nullptr) << out;
+  EXPECT_FALSE(testing::ReadFileBytes(dir_ / "out" / "albedo_alpha.png").empty());
+  EXPECT_EQ(worker->CountInLog("event=job_done"), 1) << worker->Stderr();
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs"), "1") << "the watch resumed the same job, no second submit";
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state = 3"), "1") << "it succeeded";
+}
+
 }  // namespace
 }  // namespace impostor

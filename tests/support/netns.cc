@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <regex>
 
 #include "absl/strings/str_cat.h"
@@ -53,6 +54,16 @@ std::vector<std::string> NamespacesStartingWith(const std::string& prefix) {
   return names;
 }
 
+// Where `ip netns exec NS` finds the files it bind-mounts over /etc.
+fs::path EtcDir(const std::string& netns) { return fs::path("/etc/netns") / netns; }
+
+// A namespace and its /etc/netns folder (if SetHostNames made one).
+void DeleteNamespace(const std::string& netns) {
+  (void)Ip("netns delete " + netns);
+  std::error_code ec;
+  fs::remove_all(EtcDir(netns), ec);
+}
+
 // Deletes namespaces of test processes that are gone.
 void SweepStale() {
   static const std::regex kName(std::string(kPrefix) + "([0-9]+)-.*");
@@ -61,7 +72,7 @@ void SweepStale() {
     if (!std::regex_match(name, m, kName)) continue;
     const pid_t pid = static_cast<pid_t>(std::stol(m[1]));
     if (::kill(pid, 0) == 0 || errno == EPERM) continue;  // still alive
-    (void)Ip(absl::StrCat("netns delete ", name));
+    DeleteNamespace(name);
   }
 }
 
@@ -100,8 +111,8 @@ absl::StatusOr<std::unique_ptr<TestNetwork>> TestNetwork::Create() {
 }
 
 TestNetwork::~TestNetwork() {
-  for (const Host& host : hosts_) (void)Ip("netns delete " + host.netns);
-  (void)Ip("netns delete " + switch_ns_);
+  for (const Host& host : hosts_) DeleteNamespace(host.netns);
+  DeleteNamespace(switch_ns_);
 }
 
 absl::StatusOr<TestNetwork::Host> TestNetwork::AddHost(const std::string& name) {
@@ -137,6 +148,20 @@ std::vector<std::string> TestNetwork::Exec(const Host& host, const std::vector<s
 
 absl::Status TestNetwork::SetLink(const Host& host, bool up) {
   return Ip(absl::StrCat("-n ", switch_ns_, " link set ", host.switch_if, up ? " up" : " down"));
+}
+
+absl::Status TestNetwork::SetHostNames(const Host& host,
+                                       const std::vector<std::pair<std::string, std::string>>& entries) {
+  std::error_code ec;
+  fs::create_directories(EtcDir(host.netns), ec);
+  if (ec) return absl::InternalError(absl::StrCat("cannot create ", EtcDir(host.netns).string(), ": ", ec.message()));
+  const fs::path path = EtcDir(host.netns) / "hosts";
+  std::ofstream out(path);
+  out << "127.0.0.1 localhost\n::1 localhost\n";
+  for (const auto& [address, name] : entries) out << address << " " << name << "\n";
+  out.close();
+  if (!out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
+  return absl::OkStatus();
 }
 
 }  // namespace impostor::testing

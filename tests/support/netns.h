@@ -12,9 +12,14 @@
 // Processes run on a host through Exec(), which prefixes a command with
 // `ip netns exec NS`; the namespace's files are shared with the test.
 //
+// Names: SetHostNames() gives a host its own /etc/hosts (`ip netns exec`
+// bind-mounts /etc/netns/NS/hosts over it), so a test can make a DNS name
+// with a record per replica without a DNS server.
+//
 // Teardown: the destructor deletes every namespace it made (their veths go
-// with them), also when the test failed; Create() first deletes namespaces
-// left behind by test processes that no longer exist (a crash, SIGKILL).
+// with them, and their /etc/netns folders), also when the test failed;
+// Create() first deletes namespaces left behind by test processes that no
+// longer exist (a crash, SIGKILL).
 // Processes started on a host must be gone before the network is destroyed:
 // declare the TestNetwork before them.
 //
@@ -25,6 +30,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -62,6 +68,12 @@ class TestNetwork {
   // Takes `host`'s link down (its packets go nowhere; its peers see no
   // reset, as with a pulled cable) or up again.
   absl::Status SetLink(const Host& host, bool up);
+
+  // The /etc/hosts of processes started on `host` from now on: localhost,
+  // then each {address, name} of `entries` on a line of its own. Several
+  // addresses for one name make a name with several records, which both
+  // glibc (host.conf "multi on") and gRPC's c-ares resolver return in order.
+  absl::Status SetHostNames(const Host& host, const std::vector<std::pair<std::string, std::string>>& entries);
 
  private:
   TestNetwork(std::string prefix, std::string subnet);
