@@ -222,5 +222,37 @@ TEST_F(MultiReplica, AStaleReplicasLeaseChangesNothing) {
   ASSERT_TRUE(replicas_[1]->Complete(Result(*second)).ok());
 }
 
+// The rest of "watched, cancelled and completed through another": a job
+// submitted and leased through replica A is cancelled through replica B. A's
+// waiters wake (NOTIFY), A answers the job as cancelled, and the worker's
+// next heartbeat through A tells it to stop.
+TEST_F(MultiReplica, SubmittedOnOneCancelledThroughTheOtherStopsItsWorker) {
+  auto submitted = replicas_[0]->Submit(Request("mesh c"), "client");
+  ASSERT_TRUE(submitted.ok()) << submitted.status();
+  auto job = Lease(0, "w-a");
+  ASSERT_TRUE(job.has_value());
+  v1::ReportProgressRequest progress;
+  progress.set_job_id(job->job_id());
+  progress.set_lease_id(job->lease_id());
+  progress.set_progress(0.25f);
+  auto before = replicas_[0]->ReportProgress(progress);
+  ASSERT_TRUE(before.ok()) << before.status();
+  EXPECT_FALSE(before->cancel_requested());
+
+  const uint64_t seen = replicas_[0]->change_count();
+  auto cancelled = replicas_[1]->CancelJob(submitted->job_id());
+  ASSERT_TRUE(cancelled.ok()) << cancelled.status();
+  EXPECT_EQ(cancelled->state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_NE(replicas_[0]->WaitForChange(seen, std::chrono::steady_clock::now() + std::chrono::seconds(60)), seen);
+  auto on_a = replicas_[0]->GetJob(submitted->job_id());
+  ASSERT_TRUE(on_a.ok()) << on_a.status();
+  EXPECT_EQ(on_a->state(), v1::JOB_STATE_CANCELLED);
+  progress.set_progress(0.5f);
+  auto after = replicas_[0]->ReportProgress(progress);
+  ASSERT_TRUE(after.ok()) << after.status();
+  EXPECT_TRUE(after->cancel_requested());
+  EXPECT_EQ(SqlCount(absl::StrCat("SELECT count(*) FROM jobs WHERE state = ", int{v1::JOB_STATE_CANCELLED})), 1);
+}
+
 }  // namespace
 }  // namespace impostor::testing
