@@ -20,6 +20,7 @@
 #include "common/flag_help.h"
 #include "common/flag_names.h"
 #include "common/grpc_log.h"
+#include "common/keepalive.h"
 #include "common/server_list.h"
 #include "common/tls_channel.h"
 #include "common/token_source.h"
@@ -41,6 +42,11 @@ ABSL_FLAG(int, drain_seconds, 60,
           "On SIGTERM, seconds the current job may take to finish before its lease is handed back (0..3600)");
 ABSL_FLAG(int, max_outage_seconds, 300,
           "Seconds the server may stay unreachable before the worker exits with status 1 (1..86400)");
+// Issue 15: a call over a link that died without a reset (a cut cable).
+ABSL_FLAG(int, keepalive_seconds, impostor::kDefaultKeepaliveSeconds,
+          "While a call is in flight, ping the server after this many quiet seconds and give the connection up "
+          "when no answer comes within min(N, 10) s, so a blob transfer over a dead link moves on in seconds "
+          "(1..7200)");
 ABSL_FLAG(uint64_t, max_draws, 1'000'000, "Most mesh primitives drawn, instances x primitives (1..2^31)");
 ABSL_FLAG(uint64_t, max_load_bytes, uint64_t{6} << 30, "Estimated peak heap of one mesh load, bytes (>= 1)");
 ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rlimits first");
@@ -118,6 +124,12 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  const int keepalive_seconds = absl::GetFlag(FLAGS_keepalive_seconds);
+  if (auto s = impostor::ValidateKeepaliveSeconds("--keepalive-seconds", keepalive_seconds); !s.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(s.message()).c_str());
+    return 2;
+  }
+
   // TLS files are read and checked before the GPU is touched: a bad flag
   // fails at once, naming itself.
   grpc::ChannelArguments unused_args;
@@ -171,6 +183,7 @@ int main(int argc, char** argv) {
                                                 .cpu_seconds = absl::GetFlag(FLAGS_load_cpu_s)},
                              .drain_seconds = drain_seconds,
                              .max_outage_seconds = max_outage_seconds,
+                             .keepalive_seconds = keepalive_seconds,
                              .test_crash_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_CRASH_ON"),
                              .test_fail_on = EnvOrEmpty("IMPOSTOR_WORKER_TEST_FAIL_ON"),
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),

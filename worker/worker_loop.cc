@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/keepalive.h"
 #include "common/log_escape.h"
 #include "common/server_list.h"
 #include "common/sha256.h"
@@ -157,6 +158,9 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
   // A replaced channel (failover_channel.h) must not inherit a dead
   // connection from a shared subchannel pool.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  // Pings while a call is in flight (issue 15): every call has a deadline,
+  // but a blob stream's is 10 minutes; a cut link ends it in seconds.
+  ApplyClientKeepalive(options_.keepalive_seconds, args);
   // main checked the list; a bad one here (a test's options) is one target.
   absl::StatusOr<std::vector<std::string>> targets = ParseServerList(options_.server, "WorkerOptions.server");
   channels_ = std::make_unique<FailoverChannel>(

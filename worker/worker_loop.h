@@ -68,6 +68,12 @@ struct WorkerOptions {
   // How long the server may stay unreachable before Run gives up
   // (UNAVAILABLE, the process exits non-zero). Default 300; range 1..86400.
   int max_outage_seconds = 300;
+  // HTTP/2 keepalive of calls in flight (common/keepalive.h; issue 15):
+  // an input download or result upload over a link that died without a
+  // reset fails after about keepalive + min(keepalive, 10) s and is retried
+  // on the next replica, instead of waiting out its 10-minute deadline.
+  // Default 20; range 1..7200.
+  int keepalive_seconds = 20;
   // Test-only fault switch: raise SIGSEGV on entering the render stage of a
   // mesh whose entry file is named this. Empty = off. Set from
   // $IMPOSTOR_WORKER_TEST_CRASH_ON (see worker/test_faults.h).

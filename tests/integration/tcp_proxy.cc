@@ -70,6 +70,15 @@ void TcpProxy::FreezeAfter(int64_t bytes, Direction direction) {
   freeze_budget_ = bytes;
   freeze_direction_ = direction;
   frozen_ = false;
+  go_dark_ = false;
+}
+
+void TcpProxy::GoDarkAfter(int64_t bytes, Direction direction) {
+  std::lock_guard lock(mu_);
+  freeze_budget_ = bytes;
+  freeze_direction_ = direction;
+  frozen_ = false;
+  go_dark_ = true;
 }
 
 bool TcpProxy::WaitFrozen(std::chrono::seconds timeout) {
@@ -83,6 +92,8 @@ void TcpProxy::CutAll() {
   fds_.clear();
   freeze_budget_ = -1;
   frozen_ = false;
+  go_dark_ = false;
+  dark_ = false;
   ++generation_;
   changed_.notify_all();
 }
@@ -134,9 +145,17 @@ void TcpProxy::Pump(int from, int to, Direction direction) {
   char buffer[16384];
   while (true) {
     ssize_t n = ::recv(from, buffer, sizeof(buffer), 0);
-    if (n <= 0) break;
+    if (n <= 0) {
+      // A dark link carries no close either: the other side keeps waiting
+      // until CutAll.
+      std::unique_lock lock(mu_);
+      const uint64_t generation = generation_;
+      if (dark_) changed_.wait(lock, [&] { return generation_ != generation || stopping_; });
+      break;
+    }
     {
       std::unique_lock lock(mu_);
+      if (dark_) continue;  // dropped
       if (freeze_budget_ >= 0 && freeze_direction_ == direction) {
         const int64_t allowed = std::min<int64_t>(n, freeze_budget_);
         freeze_budget_ -= allowed;
@@ -144,6 +163,13 @@ void TcpProxy::Pump(int from, int to, Direction direction) {
           lock.unlock();
           if (allowed > 0 && !WriteAll(to, buffer, static_cast<size_t>(allowed))) break;
           lock.lock();
+          if (go_dark_) {
+            // The rest of this read, and everything after it, is dropped.
+            dark_ = true;
+            frozen_ = true;
+            changed_.notify_all();
+            continue;
+          }
           // Hold the rest (and everything after it) until CutAll.
           frozen_ = true;
           changed_.notify_all();
