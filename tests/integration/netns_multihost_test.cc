@@ -17,6 +17,8 @@
 //    request.
 // Needs root and PostgreSQL 15; skipped with the reason otherwise. CTest
 // labels netns, postgres, slow.
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -472,6 +474,66 @@ TEST_F(NetnsMultiHost, ADnsNameWithARecordPerReplicaSurvivesAKilledReplica) {
   EXPECT_EQ(worker->CountInLog("event=job_done"), 1) << worker->Stderr();
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs"), "1") << "the watch resumed the same job, no second submit";
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state = 3"), "1") << "it succeeded";
+}
+
+// The database host's link cut (packets dropped, no reset) while 30 bakes
+// run through two replicas, then restored: a statement already sent on a
+// replica's connection fails within --database-dead-link-seconds (20 s by
+// default; libpq's "could not receive data from server: Connection timed
+// out") instead of waiting on TCP's retransmissions, the replicas reconnect
+// once the link is back, and no job is lost: every bake succeeds, each
+// leased again only after an expiry. The cut lasts until a replica has
+// logged that (progress, not time).
+TEST_F(NetnsMultiHost, ADatabaseLinkCutMidRunLosesNoJob) {
+  constexpr int kJobs = 30;
+  constexpr int kCutAfter = 10;
+  // The 20 s dead-link budget, with room for a loaded machine. Without the
+  // dead-link settings such a statement waits ~15 min on TCP's
+  // retransmissions (new connections fail sooner, "No route to host", but
+  // say so otherwise): the deadline fails (checked).
+  constexpr auto kNoticed = std::chrono::seconds(75);
+  constexpr char kStatementTimedOut[] = "could not receive data from server: Connection timed out";
+  const TestNetwork::Host db = Host("db");
+  const TestNetwork::Host s1 = Host("replica1");
+  const TestNetwork::Host s2 = Host("replica2");
+  const TestNetwork::Host wh[2] = {Host("worker1"), Host("worker2")};
+  const TestNetwork::Host ca = Host("client-a");
+  auto pg = StartDatabase(db);
+  const std::string url = pg->Url("farm", /*tcp=*/true);
+  CreateTokens(s1, url);
+  auto r1 = StartReplica(s1, dir_ / "data1", url);
+  auto r2 = StartReplica(s2, dir_ / "data2", url);
+  const std::string a1 = Address(s1), a2 = Address(s2);
+  std::unique_ptr<ChildProcess> workers[2] = {StartWorker(wh[0], a1 + "," + a2), StartWorker(wh[1], a2 + "," + a1)};
+  auto batch = StartBatch(ca, a1 + "," + a2, WriteSpec(1, kJobs), dir_ / "out");
+
+  std::map<std::string, nlohmann::json> seen;
+  ReadAssets(*batch, kCutAfter, &seen);
+  ASSERT_TRUE(net_->SetLink(db, false).ok());
+  // Either replica may be the first to run a statement into the cut: one
+  // deadline for both (a line logged meanwhile by the second is found at
+  // once).
+  const auto deadline = std::chrono::steady_clock::now() + kNoticed;
+  bool noticed = false;
+  for (ChildProcess* r : {r1.get(), r2.get()}) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (r->WaitForLog(kStatementTimedOut, 1, std::max(left, std::chrono::milliseconds(1)))) {
+      noticed = true;
+      break;
+    }
+  }
+  ASSERT_TRUE(net_->SetLink(db, true).ok());
+  EXPECT_TRUE(noticed) << "no replica gave up a statement sent into the cut link\n" << r1->Stderr() << r2->Stderr();
+
+  std::string rest;
+  ASSERT_EQ(batch->Wait(&rest), 0) << rest << r1->Stderr();
+  ParseAssets(rest, &seen);
+  ASSERT_EQ(seen.size(), static_cast<size_t>(kJobs));
+  for (const auto& [name, asset] : seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
+  const int expiries = CheckLeaseHistories(*pg, kJobs);
+  std::printf("[ multi-host ] database link cut: %d expired leases re-leased\n", expiries);
 }
 
 }  // namespace
