@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -75,5 +76,20 @@ int FreeLoopbackPort() {
 }
 
 void Touch(const std::filesystem::path& file) { std::ofstream(file) << "pause"; }
+
+v1::SubmitBakeResponse SubmitWithPaddedInput(ServerProcess& server, const std::filesystem::path& glb,
+                                             size_t pad_bytes, uint32_t seed) {
+  v1::MeshInput mesh = UploadGlb(server.assets(), glb);
+  std::mt19937 rng(seed);
+  std::string pad(pad_bytes, '\0');
+  for (char& c : pad) c = static_cast<char>(rng());
+  v1::InputFile* extra = mesh.add_files();
+  extra->set_path("pad.bin");
+  *extra->mutable_digest() = DigestOf(pad);
+  EXPECT_TRUE(UploadBytes(server.assets(), pad, extra->digest()).ok());
+  const v1::SubmitBakeResponse submitted = SubmitSmall(server.bake(), mesh);
+  EXPECT_FALSE(submitted.cached());
+  return submitted;
+}
 
 }  // namespace impostor::testing

@@ -42,6 +42,13 @@ v1::Job GetJob(v1::BakeService::Stub& bake, const std::string& job_id);
 // failure.
 v1::SubmitBakeResponse SubmitSmall(v1::BakeService::Stub& bake, const v1::MeshInput& mesh);
 
+// Uploads the model at `glb` and `pad_bytes` random bytes (seeded by
+// `seed`) as an extra input file "pad.bin" that the loader never reads but
+// a worker must download, and submits both small: a job whose input
+// download is long enough to be stopped part-way (TcpProxy).
+v1::SubmitBakeResponse SubmitWithPaddedInput(ServerProcess& server, const std::filesystem::path& glb,
+                                             size_t pad_bytes, uint32_t seed);
+
 // A loopback port nothing listens on (bound, read, released).
 int FreeLoopbackPort();
 

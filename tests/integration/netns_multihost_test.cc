@@ -205,6 +205,49 @@ class NetnsMultiHost : public testing::NetnsTest {
     return expiries;
   }
 
+  // The run the database-outage tests disturb: PostgreSQL on its own host,
+  // two replicas, two workers (one starting on each replica) and a client's
+  // bake-batch of `jobs` bakes through replica 1 first.
+  struct OutageRun {
+    TestNetwork::Host db;
+    std::unique_ptr<PostgresInstance> pg;  // declared first: stopped after the processes
+    std::unique_ptr<ChildProcess> replicas[2];
+    std::unique_ptr<ChildProcess> workers[2];
+    std::unique_ptr<ChildProcess> batch;
+    std::map<std::string, nlohmann::json> seen;
+  };
+  // Starts it and reads the batch's first `first` results.
+  void StartOutageRun(int jobs, int first, OutageRun* run) {
+    run->db = Host("db");
+    const TestNetwork::Host s[2] = {Host("replica1"), Host("replica2")};
+    const TestNetwork::Host wh[2] = {Host("worker1"), Host("worker2")};
+    const TestNetwork::Host ca = Host("client-a");
+    run->pg = StartDatabase(run->db);
+    const std::string url = run->pg->Url("farm", /*tcp=*/true);
+    CreateTokens(s[0], url);
+    run->replicas[0] = StartReplica(s[0], dir_ / "data1", url);
+    run->replicas[1] = StartReplica(s[1], dir_ / "data2", url);
+    const std::string a1 = Address(s[0]), a2 = Address(s[1]);
+    run->workers[0] = StartWorker(wh[0], a1 + "," + a2);
+    run->workers[1] = StartWorker(wh[1], a2 + "," + a1);
+    run->batch = StartBatch(ca, a1 + "," + a2, WriteSpec(1, jobs), dir_ / "out");
+    ReadAssets(*run->batch, first, &run->seen);
+  }
+  // Reads the rest: every bake succeeded, every job row succeeded, one
+  // bake per request, and the lease histories check out. Returns how many
+  // leases expired (-1 when the batch failed).
+  int FinishOutageRun(OutageRun& run, int jobs) {
+    std::string rest;
+    const int exit_code = run.batch->Wait(&rest);
+    EXPECT_EQ(exit_code, 0) << rest << run.replicas[0]->Stderr();
+    if (exit_code != 0) return -1;
+    ParseAssets(rest, &run.seen);
+    EXPECT_EQ(run.seen.size(), static_cast<size_t>(jobs));
+    for (const auto& [name, asset] : run.seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
+    EXPECT_EQ(Query(*run.pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
+    EXPECT_EQ(Query(*run.pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(jobs));
+    return CheckLeaseHistories(*run.pg, jobs);
+  }
 };
 
 TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
@@ -300,35 +343,15 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
 TEST_F(NetnsMultiHost, ADatabaseRestartMidRunLosesNoJob) {
   constexpr int kJobs = 30;
   constexpr int kRestartAfter = 10;
-  const TestNetwork::Host db = Host("db");
-  const TestNetwork::Host s1 = Host("replica1");
-  const TestNetwork::Host s2 = Host("replica2");
-  const TestNetwork::Host wh[2] = {Host("worker1"), Host("worker2")};
-  const TestNetwork::Host ca = Host("client-a");
-  auto pg = StartDatabase(db);
-  const std::string url = pg->Url("farm", /*tcp=*/true);
-  CreateTokens(s1, url);
-  auto r1 = StartReplica(s1, dir_ / "data1", url);
-  auto r2 = StartReplica(s2, dir_ / "data2", url);
-  const std::string a1 = Address(s1), a2 = Address(s2);
-  std::unique_ptr<ChildProcess> workers[2] = {StartWorker(wh[0], a1 + "," + a2), StartWorker(wh[1], a2 + "," + a1)};
-  auto batch = StartBatch(ca, a1 + "," + a2, WriteSpec(1, kJobs), dir_ / "out");
-
-  std::map<std::string, nlohmann::json> seen;
-  ReadAssets(*batch, kRestartAfter, &seen);
-  ASSERT_TRUE(pg->Restart().ok());
-  std::string rest;
-  ASSERT_EQ(batch->Wait(&rest), 0) << rest << r1->Stderr();
-  ParseAssets(rest, &seen);
-  ASSERT_EQ(seen.size(), static_cast<size_t>(kJobs));
-  for (const auto& [name, asset] : seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
+  OutageRun run;
+  StartOutageRun(kJobs, kRestartAfter, &run);
+  ASSERT_FALSE(HasFatalFailure());
+  ASSERT_TRUE(run.pg->Restart().ok());
+  FinishOutageRun(run, kJobs);
   // The restart really reached the replicas: their pools lost connections.
   int lost = 0;
-  for (ChildProcess* r : {r1.get(), r2.get()}) lost += r->CountInLog("event=database_unavailable");
-  EXPECT_GE(lost, 1) << r1->Stderr();
-  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
-  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
-  CheckLeaseHistories(*pg, kJobs);
+  for (auto& r : run.replicas) lost += r->CountInLog("event=database_unavailable");
+  EXPECT_GE(lost, 1) << run.replicas[0]->Stderr();
 }
 
 // A watch waiting for a queued bake over a link that died without a reset
@@ -493,46 +516,26 @@ TEST_F(NetnsMultiHost, ADatabaseLinkCutMidRunLosesNoJob) {
   // say so otherwise): the deadline fails (checked).
   constexpr auto kNoticed = std::chrono::seconds(75);
   constexpr char kStatementTimedOut[] = "could not receive data from server: Connection timed out";
-  const TestNetwork::Host db = Host("db");
-  const TestNetwork::Host s1 = Host("replica1");
-  const TestNetwork::Host s2 = Host("replica2");
-  const TestNetwork::Host wh[2] = {Host("worker1"), Host("worker2")};
-  const TestNetwork::Host ca = Host("client-a");
-  auto pg = StartDatabase(db);
-  const std::string url = pg->Url("farm", /*tcp=*/true);
-  CreateTokens(s1, url);
-  auto r1 = StartReplica(s1, dir_ / "data1", url);
-  auto r2 = StartReplica(s2, dir_ / "data2", url);
-  const std::string a1 = Address(s1), a2 = Address(s2);
-  std::unique_ptr<ChildProcess> workers[2] = {StartWorker(wh[0], a1 + "," + a2), StartWorker(wh[1], a2 + "," + a1)};
-  auto batch = StartBatch(ca, a1 + "," + a2, WriteSpec(1, kJobs), dir_ / "out");
-
-  std::map<std::string, nlohmann::json> seen;
-  ReadAssets(*batch, kCutAfter, &seen);
-  ASSERT_TRUE(net_->SetLink(db, false).ok());
+  OutageRun run;
+  StartOutageRun(kJobs, kCutAfter, &run);
+  ASSERT_FALSE(HasFatalFailure());
+  ASSERT_TRUE(net_->SetLink(run.db, false).ok());
   // Either replica may be the first to run a statement into the cut: one
   // deadline for both (a line logged meanwhile by the second is found at
   // once).
   const auto deadline = std::chrono::steady_clock::now() + kNoticed;
   bool noticed = false;
-  for (ChildProcess* r : {r1.get(), r2.get()}) {
+  for (auto& r : run.replicas) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (r->WaitForLog(kStatementTimedOut, 1, std::max(left, std::chrono::milliseconds(1)))) {
       noticed = true;
       break;
     }
   }
-  ASSERT_TRUE(net_->SetLink(db, true).ok());
-  EXPECT_TRUE(noticed) << "no replica gave up a statement sent into the cut link\n" << r1->Stderr() << r2->Stderr();
-
-  std::string rest;
-  ASSERT_EQ(batch->Wait(&rest), 0) << rest << r1->Stderr();
-  ParseAssets(rest, &seen);
-  ASSERT_EQ(seen.size(), static_cast<size_t>(kJobs));
-  for (const auto& [name, asset] : seen) EXPECT_EQ(asset["status"], "succeeded") << asset.dump();
-  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0");
-  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kJobs));
-  const int expiries = CheckLeaseHistories(*pg, kJobs);
+  ASSERT_TRUE(net_->SetLink(run.db, true).ok());
+  EXPECT_TRUE(noticed) << "no replica gave up a statement sent into the cut link\n"
+                       << run.replicas[0]->Stderr() << run.replicas[1]->Stderr();
+  const int expiries = FinishOutageRun(run, kJobs);
   std::printf("[ multi-host ] database link cut: %d expired leases re-leased\n", expiries);
 }
 

@@ -19,7 +19,6 @@
 #include <fstream>
 #include <map>
 #include <memory>
-#include <random>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -47,13 +46,6 @@ constexpr char kPauseEnv[] = "IMPOSTOR_WORKER_TEST_PAUSE_FILE";
 constexpr char kBox[] = "props_pbr/Box/glTF-Binary/Box.glb";
 constexpr char kBoxTextured[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
 constexpr auto kFreezeDeadline = std::chrono::seconds(120);
-
-std::string RandomBytes(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::string s(n, '\0');
-  for (char& c : s) c = static_cast<char>(rng());
-  return s;
-}
 
 testing::ProcessOptions Named(const std::string& name) {
   testing::ProcessOptions options;
@@ -109,14 +101,8 @@ TEST(WorkerOutage, InputDownloadCutByAServerRestartResumesOnTheFirstAttempt) {
   // The model, and a 3 MiB input file the worker must download too (the
   // loader never reads it): the proxy freezes the download a third of the
   // way through it.
-  v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / kBoxTextured);
-  const std::string pad = RandomBytes(3 << 20, 19);
-  v1::InputFile* extra = mesh.add_files();
-  extra->set_path("pad.bin");
-  *extra->mutable_digest() = testing::DigestOf(pad);
-  ASSERT_TRUE(testing::UploadBytes(server.assets(), pad, extra->digest()).ok());
-  const v1::SubmitBakeResponse submitted = testing::SubmitSmall(server.bake(), mesh);
-  ASSERT_FALSE(submitted.cached());
+  const v1::SubmitBakeResponse submitted =
+      testing::SubmitWithPaddedInput(server, AssetsDir() / kBoxTextured, 3 << 20, 19);
 
   TcpProxy proxy(server.address());
   proxy.FreezeAfter(1 << 20, TcpProxy::Direction::kToClient);

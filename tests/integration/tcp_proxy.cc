@@ -65,20 +65,16 @@ TcpProxy::~TcpProxy() {
   ::close(listen_fd_);
 }
 
-void TcpProxy::FreezeAfter(int64_t bytes, Direction direction) {
-  std::lock_guard lock(mu_);
-  freeze_budget_ = bytes;
-  freeze_direction_ = direction;
-  frozen_ = false;
-  go_dark_ = false;
-}
+void TcpProxy::FreezeAfter(int64_t bytes, Direction direction) { Arm(bytes, direction, /*dark=*/false); }
 
-void TcpProxy::GoDarkAfter(int64_t bytes, Direction direction) {
+void TcpProxy::GoDarkAfter(int64_t bytes, Direction direction) { Arm(bytes, direction, /*dark=*/true); }
+
+void TcpProxy::Arm(int64_t bytes, Direction direction, bool dark) {
   std::lock_guard lock(mu_);
   freeze_budget_ = bytes;
   freeze_direction_ = direction;
   frozen_ = false;
-  go_dark_ = true;
+  go_dark_ = dark;
 }
 
 bool TcpProxy::WaitFrozen(std::chrono::seconds timeout) {

@@ -53,6 +53,7 @@ class TcpProxy {
   void CutAll();
 
  private:
+  void Arm(int64_t bytes, Direction direction, bool dark);
   void AcceptLoop();
   void Pump(int from, int to, Direction direction);
 

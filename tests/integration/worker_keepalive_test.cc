@@ -5,7 +5,6 @@
 // retried, instead of waiting out the stream's 10-minute deadline; and its
 // bad values are usage errors.
 #include <chrono>
-#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -28,25 +27,12 @@ constexpr char kBoxTextured[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.g
 constexpr auto kFreezeDeadline = std::chrono::seconds(120);
 constexpr auto kGiveUpDeadline = std::chrono::seconds(60);
 
-std::string RandomBytes(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::string s(n, '\0');
-  for (char& c : s) c = static_cast<char>(rng());
-  return s;
-}
-
 TEST(WorkerKeepalive, AnInputDownloadThatStopsAnsweringIsRetriedWithinTheKeepalive) {
   ServerProcess server(0);
   // The model and a 3 MiB input the worker must download too; the link
   // goes dark a third of the way into it.
-  v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / kBoxTextured);
-  const std::string pad = RandomBytes(3 << 20, 23);
-  v1::InputFile* extra = mesh.add_files();
-  extra->set_path("pad.bin");
-  *extra->mutable_digest() = testing::DigestOf(pad);
-  ASSERT_TRUE(testing::UploadBytes(server.assets(), pad, extra->digest()).ok());
-  const v1::SubmitBakeResponse submitted = testing::SubmitSmall(server.bake(), mesh);
-  ASSERT_FALSE(submitted.cached());
+  const v1::SubmitBakeResponse submitted =
+      testing::SubmitWithPaddedInput(server, AssetsDir() / kBoxTextured, 3 << 20, 23);
 
   TcpProxy proxy(server.address());
   proxy.GoDarkAfter(1 << 20, TcpProxy::Direction::kToClient);
