@@ -671,12 +671,25 @@ absl::Status BakeScheduler::PinResult(const std::string& cache_key, bool pinned)
 absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
   EvictionStats stats;
   const int64_t cap = options_.store_max_bytes;
-  if (cap <= 0 || blobs_->total_bytes() <= cap) return stats;
+  // Replicas on one database share the blob directory too (issue 15): the
+  // others' uploads and evictions never reach this process's count, which
+  // can be too low (the cap passed unseen) or too high (eviction chasing
+  // bytes that are gone). The evicting replica recounts from the
+  // directory: whenever its count says over, and every kSharedRecountMs.
+  constexpr int64_t kSharedRecountMs = 30'000;
+  const bool shared = jobs_->SharedWithOtherServers();
+  const int64_t now_ms = options_.now_ms();
+  if (cap <= 0 || (blobs_->total_bytes() <= cap && (!shared || now_ms < next_shared_recount_ms_.load()))) {
+    return stats;
+  }
   std::lock_guard lock(mu_);
+  if (shared) next_shared_recount_ms_ = now_ms + kSharedRecountMs;
   // One server on a shared database evicts; the others skip.
   auto maintainer = jobs_->HoldMaintenanceLock();
   if (!maintainer.ok()) return maintainer.status();
   if (!*maintainer) return stats;
+  std::vector<BlobStore::StoredBlob> stored = blobs_->List();
+  if (shared && blobs_->Recount(stored) <= cap) return stats;
   // Eviction orders results by use: write the uses noted in memory first.
   if (auto s = FlushTouchesLocked(); !s.ok()) return s.status();
   // What must stay: every input of a queued or running job.
@@ -706,7 +719,6 @@ absl::StatusOr<BakeScheduler::EvictionStats> BakeScheduler::EnforceStoreCap() {
   };
   // First, blobs nothing refers to (inputs of finished bakes, orphans),
   // oldest first, sparing recent uploads that may be about to be submitted.
-  std::vector<BlobStore::StoredBlob> stored = blobs_->List();
   std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.mtime_ns < b.mtime_ns; });
   std::map<std::string, int64_t> sizes;
   // File times are real time, whatever clock the scheduler runs on.

@@ -368,6 +368,10 @@ class BakeScheduler {
   std::map<std::string, int64_t> touched_ ABSL_GUARDED_BY(touch_mu_);
   // Results served lately, for hits without the database (ResultCache).
   ResultCache hot_results_;
+  // EnforceStoreCap on a shared blob directory: when (options_.now_ms) the
+  // store is next recounted from the directory even if this process's own
+  // count says it is under the cap.
+  std::atomic<int64_t> next_shared_recount_ms_{0};
   // Never null: a do-nothing observer until SetObserver. Atomic: hits
   // answered without mu_ count through it too.
   std::atomic<SchedulerObserver*> observer_;

@@ -152,6 +152,13 @@ std::vector<BlobStore::StoredBlob> BlobStore::List() const {
   return out;
 }
 
+int64_t BlobStore::Recount(const std::vector<StoredBlob>& scan) {
+  int64_t total = 0;
+  for (const StoredBlob& b : scan) total += b.size_bytes;
+  total_bytes_ = total;
+  return total;
+}
+
 absl::Status BlobStore::Remove(const std::string& hash) {
   if (!IsSha256Hex(hash)) return absl::InvalidArgumentError("hash: not a SHA-256 hex string");
   const fs::path path = cas_dir_ / hash.substr(0, 2) / hash;

@@ -95,6 +95,11 @@ class BlobStore {
   absl::Status Remove(const std::string& hash);
   // Bytes of all published blobs, kept current by the store itself.
   int64_t total_bytes() const { return total_bytes_.load(); }
+  // Sets total_bytes() to the sum of `scan` (a List() answer) and returns
+  // it. Servers sharing this directory (issue 15) publish and remove blobs
+  // that this process's own count never sees; the one that evicts recounts
+  // before it decides.
+  int64_t Recount(const std::vector<StoredBlob>& scan);
 
   std::filesystem::path PathFor(const BlobDigest& digest) const;
   const std::filesystem::path& root() const { return root_; }

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 #include <thread>
 
@@ -252,6 +253,72 @@ TEST_F(MultiReplica, SubmittedOnOneCancelledThroughTheOtherStopsItsWorker) {
   ASSERT_TRUE(after.ok()) << after.status();
   EXPECT_TRUE(after->cancel_requested());
   EXPECT_EQ(SqlCount(absl::StrCat("SELECT count(*) FROM jobs WHERE state = ", int{v1::JOB_STATE_CANCELLED})), 1);
+}
+
+// Replicas share the blob directory as well as the database, and each
+// process counts only the blobs it stored and removed itself. The replica
+// that evicts (the maintenance-lock holder) must go by the directory:
+// uploads through the other replica count against the cap, and blobs
+// another replica removed no longer do.
+TEST_F(MultiReplica, TheEvictingReplicaCountsWhatTheOthersStoredAndRemoved) {
+  constexpr int64_t kCap = 10'000;
+  // Two processes' views of one directory, each with its own store.
+  auto blobs_a = BlobStore::Open(dir_ / "shared");
+  auto blobs_b = BlobStore::Open(dir_ / "shared");
+  ASSERT_TRUE(blobs_a.ok() && blobs_b.ok());
+  auto store_a = PostgresJobStore::Open({.url = url_, .pool_size = 2});
+  auto store_b = PostgresJobStore::Open({.url = url_, .pool_size = 2});
+  ASSERT_TRUE(store_a.ok() && store_b.ok());
+  const SchedulerOptions options{
+      .store_max_bytes = kCap, .eviction_grace_ms = 0, .now_ms = [this] { return now_ms_.load(); }};
+  auto a = std::make_unique<BakeScheduler>(store_a->get(), blobs_a->get(), options);
+  BakeScheduler b(store_b->get(), blobs_b->get(), options);
+  ASSERT_TRUE(*(*store_a)->HoldMaintenanceLock()) << "replica A evicts";
+  auto on_disk = [&] {
+    int64_t total = 0;
+    for (const auto& blob : (*blobs_b)->List()) total += blob.size_bytes;
+    return total;
+  };
+  auto put_old = [&](BlobStore& blobs, const std::string& bytes) {
+    const BlobDigest d{Sha256Hex(bytes), static_cast<int64_t>(bytes.size())};
+    ASSERT_TRUE(blobs.Put(d, bytes).ok());
+    // Uploaded long ago: no eviction grace protects it.
+    std::filesystem::last_write_time(blobs.PathFor(d),
+                                     std::filesystem::file_time_type::clock::now() - std::chrono::hours(1));
+  };
+
+  // Four unreferenced 3,000-byte uploads through replica B: 12,000 bytes
+  // on disk, none of them in A's own count.
+  for (char fill : {'p', 'q', 'r', 's'}) put_old(**blobs_b, std::string(3000, fill));
+  EXPECT_EQ((*blobs_a)->total_bytes(), 0);
+  auto evicted = a->EnforceStoreCap();
+  ASSERT_TRUE(evicted.ok()) << evicted.status();
+  EXPECT_EQ(evicted->blobs_removed, 1);
+  EXPECT_EQ(on_disk(), 9000);
+
+  // B still counts the blob A removed (12,000 > cap). Once B evicts (A
+  // gone, its lock with it), it must see 9,000 and leave every blob.
+  a.reset();
+  store_a->reset();
+  ASSERT_TRUE(*(*store_b)->HoldMaintenanceLock()) << "replica B evicts now";
+  EXPECT_EQ((*blobs_b)->total_bytes(), 12000);
+  evicted = b.EnforceStoreCap();
+  ASSERT_TRUE(evicted.ok()) << evicted.status();
+  EXPECT_EQ(evicted->blobs_removed, 0);
+  EXPECT_EQ(on_disk(), 9000);
+  EXPECT_EQ((*blobs_b)->total_bytes(), 9000);
+
+  // A new upload through A's old view would not show in B's count until it
+  // recounts: at most kSharedRecountMs (30 s) later.
+  put_old(**blobs_a, std::string(3000, 't'));
+  evicted = b.EnforceStoreCap();
+  ASSERT_TRUE(evicted.ok());
+  EXPECT_EQ(evicted->blobs_removed, 0) << "not recounted yet";
+  now_ms_ += 30'000;
+  evicted = b.EnforceStoreCap();
+  ASSERT_TRUE(evicted.ok());
+  EXPECT_EQ(evicted->blobs_removed, 1);
+  EXPECT_LE(on_disk(), kCap);
 }
 
 }  // namespace
