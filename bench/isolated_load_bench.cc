@@ -40,15 +40,19 @@ int main(int argc, char** argv) {
     files = {assets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
              assets / "props_pbr/Duck/glTF-Binary/Duck.glb"};
   }
-  // The worker loads in the child first and then again in process, so the
-  // isolation adds the child's whole time (fork, load, exit) to the job.
-  std::printf("| asset | in-process load s | load in a child s | child / in-process |\n|---|---|---|---|\n");
+  // Before: the worker checked the file in a child, then loaded it again
+  // itself (check + in-process). Now the child hands its scene back
+  // (scene from child): the isolation costs the hand-over, not a load.
+  std::printf("| asset | in-process load s | check in a child + load s | scene from child s | "
+              "(check + load) / in-process | scene from child / in-process |\n|---|---|---|---|---|---|\n");
   for (const auto& f : files) {
     bool ok = true;
     const double in_process = MedianSeconds(5, [&] { ok &= impostor::LoadGltfScene(f).ok(); });
-    const double child = MedianSeconds(5, [&] { ok &= impostor::CheckLoadInChild(f, {}, {}).ok(); });
-    std::printf("| %s | %.3f | %.3f | %.2f |%s\n", f.filename().string().c_str(), in_process, child,
-                child / in_process, ok ? "" : " (a load failed)");
+    const double check = MedianSeconds(5, [&] { ok &= impostor::CheckLoadInChild(f, {}, {}).ok(); });
+    const double handed = MedianSeconds(5, [&] { ok &= impostor::LoadSceneInChild(f, {}, {}).ok(); });
+    std::printf("| %s | %.3f | %.3f | %.3f | %.2f | %.2f |%s\n", f.filename().string().c_str(), in_process,
+                check + in_process, handed, (check + in_process) / in_process, handed / in_process,
+                ok ? "" : " (a load failed)");
   }
   return 0;
 }

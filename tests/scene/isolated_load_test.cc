@@ -13,6 +13,7 @@
 #include "tests/hostile/hostile_cases.h"
 #include "tests/scene/test_assets.h"
 #include "tests/hostile/peak_rss.h"
+#include "worker/scene/scene_wire.h"
 
 namespace impostor {
 namespace {
@@ -65,6 +66,45 @@ TEST(IsolatedLoadTest, DisabledDoesNothingAndBadSettingsAreNamed) {
   EXPECT_NE(s.message().find("cpu_seconds 0"), std::string::npos) << s;
   // A missing file is the loader's NOT_FOUND, carried back from the child.
   EXPECT_EQ(CheckLoadInChild("/nonexistent.gltf", {}, {}).code(), absl::StatusCode::kNotFound);
+}
+
+
+// LoadSceneInChild hands back exactly the scene an in-process load builds
+// (compared as the wire bytes, which have no padding), with isolation on
+// and off.
+TEST(IsolatedLoadTest, TheChildsSceneIsTheInProcessScene) {
+  const fs::path path = testing::Asset("props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
+  if (!fs::exists(path)) GTEST_SKIP() << "no assets";
+  const absl::StatusOr<Scene> here = LoadGltfScene(path, {});
+  ASSERT_TRUE(here.ok()) << here.status();
+  std::string expected;
+  EncodeScene(*here, &expected);
+  for (bool enabled : {true, false}) {
+    LoadIsolation isolation;
+    isolation.enabled = enabled;
+    const absl::StatusOr<Scene> scene = LoadSceneInChild(path, {}, isolation);
+    ASSERT_TRUE(scene.ok()) << scene.status();
+    std::string got;
+    EncodeScene(*scene, &got);
+    EXPECT_TRUE(got == expected) << "isolation " << enabled << ": " << got.size() << " vs " << expected.size()
+                                 << " bytes";
+  }
+}
+
+TEST(IsolatedLoadTest, LoadSceneInChildReportsWhatTheCheckReports) {
+  for (const testing::HostileCase& c : testing::kHostileCases) {
+    const absl::StatusOr<Scene> s = LoadSceneInChild(testing::HostileCorpusDir() / c.file, {}, {});
+    EXPECT_EQ(static_cast<int>(s.status().code()), c.code) << c.file << ": " << s.status();
+  }
+  LoadIsolation isolation;
+  isolation.address_space_bytes = uint64_t{256} << 20;
+  GltfLoadLimits lax;
+  lax.max_triangles = 700'000'000;
+  lax.max_draws = uint64_t{1} << 31;
+  lax.max_load_bytes = std::numeric_limits<uint64_t>::max();
+  const absl::StatusOr<Scene> bomb =
+      LoadSceneInChild(testing::HostileCorpusDir() / "instancing_60m_no_bufferview.gltf", lax, isolation);
+  EXPECT_EQ(bomb.status().code(), absl::StatusCode::kResourceExhausted) << bomb.status();
 }
 
 }  // namespace

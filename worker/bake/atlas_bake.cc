@@ -75,6 +75,13 @@ absl::Status AddMap(const std::filesystem::path& dir, const std::string& semanti
 
 }  // namespace
 
+absl::StatusOr<std::shared_ptr<const Scene>> SceneOf(const AtlasBakeRequest& request) {
+  if (request.scene) return request.scene;
+  absl::StatusOr<Scene> scene = LoadGltfScene(request.entry_file, request.load_limits);
+  if (!scene.ok()) return scene.status();
+  return std::make_shared<const Scene>(*std::move(scene));
+}
+
 absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, AtlasRenderer& renderer,
                                           const BakeProgress& progress, const std::atomic<bool>& cancelled) {
   // frames_auto bakes a ladder of frame counts through this function.
@@ -89,8 +96,9 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // Load.
   progress("load", kLoadStart);
   auto t = Clock::now();
-  auto scene = LoadGltfScene(request.entry_file, request.load_limits);
-  if (!scene.ok()) return scene.status();
+  absl::StatusOr<std::shared_ptr<const Scene>> loaded = SceneOf(request);
+  if (!loaded.ok()) return loaded.status();
+  const Scene* scene = loaded->get();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");
 

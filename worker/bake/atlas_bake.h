@@ -12,6 +12,7 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -27,6 +28,9 @@ struct AtlasBakeRequest {
   std::string cache_key;
   std::filesystem::path output_dir;  // exists and is empty
   GltfLoadLimits load_limits;        // the worker's configured input limits
+  // The scene of entry_file as the worker already loaded it (in its
+  // isolated child, isolated_load.h); null: the bake loads entry_file.
+  std::shared_ptr<const Scene> scene;
   // Encode the maps before the quality pass instead of beside it. The
   // output bytes are the same either way (tested); for that test and for
   // profiling a stage alone.
@@ -42,6 +46,9 @@ struct AtlasBakeOutput {
 
 // Stage name ("load", "render", "encode"...) and fraction of the whole bake.
 using BakeProgress = std::function<void(std::string_view stage, double fraction)>;
+
+// The request's scene: `request.scene`, or entry_file loaded now.
+absl::StatusOr<std::shared_ptr<const Scene>> SceneOf(const AtlasBakeRequest& request);
 
 // Runs the pipeline. INVALID_ARGUMENT for a mesh that cannot be baked (the
 // message says why); CANCELLED when `cancelled` turns true between stages;

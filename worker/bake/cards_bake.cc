@@ -90,8 +90,9 @@ absl::StatusOr<AtlasBakeOutput> BakeCards(const AtlasBakeRequest& request, Atlas
 
   progress("load", kLoadStart);
   auto t = Clock::now();
-  auto scene = LoadGltfScene(request.entry_file, request.load_limits);
-  if (!scene.ok()) return scene.status();
+  absl::StatusOr<std::shared_ptr<const Scene>> loaded = SceneOf(request);
+  if (!loaded.ok()) return loaded.status();
+  const Scene* scene = loaded->get();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");
   absl::StatusOr<BoundingSphere> framing = FramingSphere(*scene);
@@ -133,7 +134,7 @@ absl::StatusOr<AtlasBakeOutput> BakeCards(const AtlasBakeRequest& request, Atlas
 
   // Render the cards.
   progress("render", kRenderStart);
-  CardCaptureRequest capture_request{&*scene, sphere, cards, card_triangles, card_depth, *packing, resolution};
+  CardCaptureRequest capture_request{scene, sphere, cards, card_triangles, card_depth, *packing, resolution};
   renderer.set_cancel_flag(&cancelled);
   auto capture = CaptureCards(
       capture_request, renderer,

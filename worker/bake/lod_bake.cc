@@ -46,7 +46,7 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
   progress("load", kLoadStart);
   // The hardened loader is the gate for untrusted input (sandbox, limits,
   // empty meshes); the model is parsed for the levels only once it passed.
-  if (auto scene = LoadGltfScene(request.entry_file, request.load_limits); !scene.ok()) return scene.status();
+  if (auto scene = SceneOf(request); !scene.ok()) return scene.status();
   auto source = LoadLodSource(request.entry_file, request.load_limits);
   if (!source.ok()) return source.status();
   const double load_seconds = SecondsSince(start);

@@ -154,8 +154,9 @@ absl::StatusOr<AtlasBakeOutput> BakeSurfels(const AtlasBakeRequest& request, Atl
 
   progress("load", kLoadStart);
   auto t = Clock::now();
-  auto scene = LoadGltfScene(request.entry_file, request.load_limits);
-  if (!scene.ok()) return scene.status();
+  absl::StatusOr<std::shared_ptr<const Scene>> loaded = SceneOf(request);
+  if (!loaded.ok()) return loaded.status();
+  const Scene* scene = loaded->get();
   timings->set_load_seconds(SecondsSince(t));
   if (cancelled) return absl::CancelledError("cancelled after loading");
 

@@ -3,7 +3,9 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,6 +19,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "worker/scene/scene_wire.h"
 
 namespace impostor {
 namespace {
@@ -35,17 +38,20 @@ uint64_t CurrentAddressSpace() {
   return pages * static_cast<uint64_t>(::sysconf(_SC_PAGESIZE));
 }
 
-void WriteAll(int fd, const std::string& bytes) {
+bool WriteAll(int fd, std::string_view bytes) {
   size_t done = 0;
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n <= 0) return;
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
     done += static_cast<size_t>(n);
   }
+  return true;
 }
 
-// The child: limits, load, report "<code> <message>", leave.
-[[noreturn]] void RunChild(int report_fd, const std::filesystem::path& entry_file,
+// The child: limits, load, the scene into `scene_fd` (when >= 0), report
+// "<code> <message>", leave.
+[[noreturn]] void RunChild(int report_fd, int scene_fd, const std::filesystem::path& entry_file,
                            const GltfLoadLimits& limits, uint64_t address_space, int cpu_seconds) {
   // No locks: another thread of the parent may have held the logger's.
   if (spdlog::logger* logger = spdlog::default_logger_raw()) logger->set_level(spdlog::level::off);
@@ -59,6 +65,14 @@ void WriteAll(int fd, const std::string& bytes) {
   try {
     const absl::StatusOr<Scene> scene = LoadGltfScene(entry_file, limits);
     report = absl::StrCat(static_cast<int>(scene.status().code()), " ", scene.status().message());
+    if (scene.ok() && scene_fd >= 0) {
+      bool written = true;
+      EncodeScene(*scene, [&](std::string_view bytes) { written = written && WriteAll(scene_fd, bytes); });
+      if (!written) {
+        report = absl::StrCat(static_cast<int>(absl::StatusCode::kInternal),
+                              " could not hand the loaded scene to the worker: ", std::strerror(errno));
+      }
+    }
   } catch (const std::bad_alloc&) {
     report = absl::StrCat(static_cast<int>(absl::StatusCode::kResourceExhausted), " out of memory");
   } catch (...) {
@@ -73,11 +87,10 @@ std::string SignalName(int sig) {
   return name ? absl::StrCat("SIG", name) : absl::StrCat("signal ", sig);
 }
 
-}  // namespace
-
-absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
-                              const LoadIsolation& isolation, const std::atomic<bool>* cancelled) {
-  if (!isolation.enabled) return absl::OkStatus();
+// Forks the child and returns how it ended; the child writes the scene into
+// `scene_fd` when that is >= 0.
+absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
+                         const LoadIsolation& isolation, const std::atomic<bool>* cancelled, int scene_fd) {
   if (isolation.address_space_bytes < (uint64_t{64} << 20) || isolation.cpu_seconds < 1 ||
       isolation.cpu_seconds > 86400 || isolation.wall_seconds < 1 || isolation.wall_seconds > 86400) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -99,7 +112,7 @@ absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const Glt
   }
   if (pid == 0) {
     ::close(fds[0]);
-    RunChild(fds[1], entry_file, limits, address_space, isolation.cpu_seconds);
+    RunChild(fds[1], scene_fd, entry_file, limits, address_space, isolation.cpu_seconds);
   }
   ::close(fds[1]);
 
@@ -169,6 +182,40 @@ absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const Glt
     return absl::InternalError(absl::StrCat("the isolated loader reported code ", code));
   }
   return absl::Status(static_cast<absl::StatusCode>(code), message);
+}
+
+// The scene the child wrote into `scene_fd`, checked (scene_wire.h).
+absl::StatusOr<Scene> ReadScene(int scene_fd) {
+  struct stat st {};
+  if (::fstat(scene_fd, &st) != 0) return absl::InternalError(absl::StrCat("fstat: ", std::strerror(errno)));
+  if (st.st_size <= 0) return absl::DataLossError("the isolated loader handed over no scene");
+  const size_t size = static_cast<size_t>(st.st_size);
+  void* mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, scene_fd, 0);
+  if (mapped == MAP_FAILED) return absl::InternalError(absl::StrCat("mmap: ", std::strerror(errno)));
+  absl::StatusOr<Scene> scene = DecodeScene(std::span(static_cast<const uint8_t*>(mapped), size));
+  ::munmap(mapped, size);
+  return scene;
+}
+
+}  // namespace
+
+absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
+                              const LoadIsolation& isolation, const std::atomic<bool>* cancelled) {
+  if (!isolation.enabled) return absl::OkStatus();
+  return RunIsolated(entry_file, limits, isolation, cancelled, -1);
+}
+
+absl::StatusOr<Scene> LoadSceneInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
+                                       const LoadIsolation& isolation, const std::atomic<bool>* cancelled) {
+  if (!isolation.enabled) return LoadGltfScene(entry_file, limits);
+  // Anonymous shared memory the child fills; closed on exec, freed with the
+  // last reference.
+  const int scene_fd = ::memfd_create("impostor-scene", MFD_CLOEXEC);
+  if (scene_fd < 0) return absl::InternalError(absl::StrCat("memfd_create: ", std::strerror(errno)));
+  absl::Status loaded = RunIsolated(entry_file, limits, isolation, cancelled, scene_fd);
+  absl::StatusOr<Scene> scene = loaded.ok() ? ReadScene(scene_fd) : absl::StatusOr<Scene>(loaded);
+  ::close(scene_fd);
+  return scene;
 }
 
 }  // namespace impostor

@@ -8,8 +8,11 @@
 // and takes the next job. The child does the whole load (parse, budget,
 // build, texture decode) and reports only its status; loading is
 // deterministic, so a file that loads in the child under the limits loads
-// the same way in the worker afterwards. The price is a second load (see
-// README's "Hostile input" for the measured overhead).
+// the same way in the worker afterwards. LoadSceneInChild also hands the
+// child's scene back through shared memory (scene_wire.h checks every byte
+// of it), so the worker does not decode the file a second time;
+// CheckLoadInChild only reports, for a caller that loads the file its own
+// way (see README's "Hostile input" for the measured overhead).
 //
 // Thread-safety: reentrant. Safe to call from a multithreaded process: the
 // child only runs the loader (no gRPC, logging switched off) and leaves
@@ -54,6 +57,13 @@ struct LoadIsolation {
 absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
                               const LoadIsolation& isolation,
                               const std::atomic<bool>* cancelled = nullptr);
+
+// The same, returning the scene the child loaded: statuses as above, plus
+// DATA_LOSS when the child's scene fails a check (scene_wire.h). With
+// isolation off, LoadGltfScene(entry_file, limits) in this process.
+absl::StatusOr<Scene> LoadSceneInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
+                                       const LoadIsolation& isolation,
+                                       const std::atomic<bool>* cancelled = nullptr);
 
 }  // namespace impostor
 

@@ -1,0 +1,290 @@
+#include "worker/scene/scene_wire.h"
+
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
+
+namespace impostor {
+namespace {
+
+constexpr char kMagic[8] = {'I', 'M', 'P', 'S', 'C', 'N', '1', '\0'};
+// Names and warnings are one line each in logs and the manifest.
+constexpr uint64_t kMaxStringBytes = 64 * 1024;
+
+using Out = const SceneByteSink&;
+
+template <typename T>
+void Put(Out out, const T& value) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  out(std::string_view(reinterpret_cast<const char*>(&value), sizeof(T)));
+}
+
+template <typename T>
+void PutArray(Out out, const std::vector<T>& values) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  Put<uint64_t>(out, values.size());
+  out(std::string_view(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T)));
+}
+
+void PutString(Out out, const std::string& s) {
+  Put<uint64_t>(out, s.size());
+  out(s);
+}
+
+// Reads what Put wrote, refusing to read or allocate past the end.
+class Reader {
+ public:
+  explicit Reader(std::span<const uint8_t> bytes) : bytes_(bytes) {}
+
+  template <typename T>
+  absl::Status Get(T* value, absl::string_view what) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (Left() < sizeof(T)) return Truncated(what);
+    std::memcpy(value, bytes_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return absl::OkStatus();
+  }
+
+  template <typename T>
+  absl::Status GetArray(std::vector<T>* values, absl::string_view what) {
+    uint64_t count = 0;
+    if (auto s = Get(&count, what); !s.ok()) return s;
+    if (count > Left() / sizeof(T)) {
+      return absl::DataLossError(absl::StrCat("scene bytes: ", what, " count ", count, " runs past the end"));
+    }
+    values->resize(count);
+    std::memcpy(values->data(), bytes_.data() + at_, count * sizeof(T));
+    at_ += count * sizeof(T);
+    return absl::OkStatus();
+  }
+
+  absl::Status GetString(std::string* s, absl::string_view what) {
+    uint64_t size = 0;
+    if (auto st = Get(&size, what); !st.ok()) return st;
+    if (size > kMaxStringBytes || size > Left()) {
+      return absl::DataLossError(absl::StrCat("scene bytes: ", what, " of ", size, " bytes is too long"));
+    }
+    s->assign(reinterpret_cast<const char*>(bytes_.data() + at_), size);
+    at_ += size;
+    return absl::OkStatus();
+  }
+
+  size_t Left() const { return bytes_.size() - at_; }
+
+ private:
+  static absl::Status Truncated(absl::string_view what) {
+    return absl::DataLossError(absl::StrCat("scene bytes: truncated at ", what));
+  }
+
+  std::span<const uint8_t> bytes_;
+  size_t at_ = 0;
+};
+
+// The material's fields without its name, in one trivially copyable block.
+struct MaterialFields {
+  glm::vec4 base_color_factor;
+  int32_t base_color_texture;
+  float metallic_factor;
+  float roughness_factor;
+  int32_t metallic_roughness_texture;
+  int32_t normal_texture;
+  float normal_scale;
+  int32_t occlusion_texture;
+  float occlusion_strength;
+  uint32_t alpha_mode;
+  float alpha_cutoff;
+  uint32_t double_sided;
+  glm::vec3 emissive_factor;
+  int32_t emissive_texture;
+  float emissive_strength;
+  std::array<SlotUv, kTextureSlotCount> uv;
+};
+
+MaterialFields FieldsOf(const SceneMaterial& m) {
+  return {m.base_color_factor, m.base_color_texture, m.metallic_factor, m.roughness_factor,
+          m.metallic_roughness_texture, m.normal_texture, m.normal_scale, m.occlusion_texture,
+          m.occlusion_strength, static_cast<uint32_t>(m.alpha_mode), m.alpha_cutoff,
+          m.double_sided ? 1u : 0u, m.emissive_factor, m.emissive_texture, m.emissive_strength, m.uv};
+}
+
+struct TextureFields {
+  int32_t width;
+  int32_t height;
+  uint32_t srgb;
+  uint32_t has_alpha_channel;
+  int32_t wrap_s;
+  int32_t wrap_t;
+};
+
+struct BatchFields {
+  uint32_t first_index;
+  uint32_t index_count;
+  int32_t material;
+  uint32_t flipped_winding;
+};
+
+bool Finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+absl::Status Invalid(absl::string_view what) { return absl::DataLossError(absl::StrCat("scene bytes: ", what)); }
+
+absl::Status CheckTextureRef(int index, size_t textures, absl::string_view slot, size_t material) {
+  if (index < -1 || (index >= 0 && static_cast<size_t>(index) >= textures)) {
+    return Invalid(absl::StrCat("material ", material, " ", slot, " texture ", index, " of ", textures));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+void EncodeScene(const Scene& scene, std::string* out) {
+  EncodeScene(scene, [out](std::string_view bytes) { out->append(bytes); });
+}
+
+void EncodeScene(const Scene& scene, const SceneByteSink& out) {
+  out(std::string_view(kMagic, sizeof(kMagic)));
+  PutArray(out, scene.vertices);
+  PutArray(out, scene.indices);
+  Put<uint64_t>(out, scene.batches.size());
+  for (const SceneBatch& b : scene.batches) {
+    Put(out, BatchFields{b.first_index, b.index_count, b.material, b.flipped_winding ? 1u : 0u});
+  }
+  Put<uint64_t>(out, scene.materials.size());
+  for (const SceneMaterial& m : scene.materials) {
+    Put(out, FieldsOf(m));
+    PutString(out, m.name);
+  }
+  Put<uint64_t>(out, scene.textures.size());
+  for (const SceneTexture& t : scene.textures) {
+    Put(out, TextureFields{t.width, t.height, t.srgb ? 1u : 0u, t.has_alpha_channel ? 1u : 0u, t.wrap_s,
+                           t.wrap_t});
+    PutString(out, t.name);
+    PutArray(out, t.rgba8);
+  }
+  Put(out, scene.bounds_min);
+  Put(out, scene.bounds_max);
+  Put<uint64_t>(out, scene.warnings.size());
+  for (const std::string& w : scene.warnings) PutString(out, w);
+}
+
+absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes) {
+  if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
+    return Invalid("not a scene (magic)");
+  }
+  Reader in(bytes.subspan(sizeof(kMagic)));
+  Scene scene;
+  if (auto s = in.GetArray(&scene.vertices, "vertices"); !s.ok()) return s;
+  if (auto s = in.GetArray(&scene.indices, "indices"); !s.ok()) return s;
+  if (scene.indices.size() % 3 != 0) return Invalid(absl::StrCat(scene.indices.size(), " indices, not triangles"));
+  for (const SceneVertex& v : scene.vertices) {
+    if (!Finite(v.position)) return Invalid("a vertex position is not finite");
+  }
+  for (uint32_t i : scene.indices) {
+    if (i >= scene.vertices.size()) {
+      return Invalid(absl::StrCat("index ", i, " past ", scene.vertices.size(), " vertices"));
+    }
+  }
+
+  uint64_t batches = 0;
+  if (auto s = in.Get(&batches, "batch count"); !s.ok()) return s;
+  if (batches > in.Left() / sizeof(BatchFields)) return Invalid(absl::StrCat("batch count ", batches, " runs past the end"));
+  std::vector<BatchFields> batch_fields(batches);
+  for (BatchFields& b : batch_fields) {
+    if (auto s = in.Get(&b, "batch"); !s.ok()) return s;
+  }
+
+  uint64_t materials = 0;
+  if (auto s = in.Get(&materials, "material count"); !s.ok()) return s;
+  if (materials == 0 || materials > in.Left() / sizeof(MaterialFields)) {
+    return Invalid(absl::StrCat("material count ", materials));
+  }
+  std::vector<MaterialFields> material_fields(materials);
+  scene.materials.resize(materials);
+  for (size_t i = 0; i < materials; ++i) {
+    if (auto s = in.Get(&material_fields[i], "material"); !s.ok()) return s;
+    if (auto s = in.GetString(&scene.materials[i].name, "material name"); !s.ok()) return s;
+  }
+
+  uint64_t textures = 0;
+  if (auto s = in.Get(&textures, "texture count"); !s.ok()) return s;
+  if (textures > in.Left() / sizeof(TextureFields)) return Invalid(absl::StrCat("texture count ", textures));
+  scene.textures.resize(textures);
+  for (SceneTexture& t : scene.textures) {
+    TextureFields f{};
+    if (auto s = in.Get(&f, "texture"); !s.ok()) return s;
+    if (auto s = in.GetString(&t.name, "texture name"); !s.ok()) return s;
+    if (auto s = in.GetArray(&t.rgba8, "texels"); !s.ok()) return s;
+    if (f.width <= 0 || f.height <= 0 ||
+        t.rgba8.size() != static_cast<uint64_t>(f.width) * static_cast<uint64_t>(f.height) * 4) {
+      return Invalid(absl::StrCat("texture ", f.width, " x ", f.height, " with ", t.rgba8.size(), " texel bytes"));
+    }
+    t.width = f.width;
+    t.height = f.height;
+    t.srgb = f.srgb != 0;
+    t.has_alpha_channel = f.has_alpha_channel != 0;
+    t.wrap_s = f.wrap_s;
+    t.wrap_t = f.wrap_t;
+  }
+
+  for (size_t i = 0; i < materials; ++i) {
+    const MaterialFields& f = material_fields[i];
+    for (auto [index, slot] : {std::pair{f.base_color_texture, "base colour"},
+                               {f.metallic_roughness_texture, "metallic-roughness"},
+                               {f.normal_texture, "normal"},
+                               {f.occlusion_texture, "occlusion"},
+                               {f.emissive_texture, "emissive"}}) {
+      if (auto s = CheckTextureRef(index, textures, slot, i); !s.ok()) return s;
+    }
+    if (f.alpha_mode > static_cast<uint32_t>(AlphaMode::kBlend)) {
+      return Invalid(absl::StrCat("material ", i, " alpha mode ", f.alpha_mode));
+    }
+    SceneMaterial& m = scene.materials[i];
+    m.base_color_factor = f.base_color_factor;
+    m.base_color_texture = f.base_color_texture;
+    m.metallic_factor = f.metallic_factor;
+    m.roughness_factor = f.roughness_factor;
+    m.metallic_roughness_texture = f.metallic_roughness_texture;
+    m.normal_texture = f.normal_texture;
+    m.normal_scale = f.normal_scale;
+    m.occlusion_texture = f.occlusion_texture;
+    m.occlusion_strength = f.occlusion_strength;
+    m.alpha_mode = static_cast<AlphaMode>(f.alpha_mode);
+    m.alpha_cutoff = f.alpha_cutoff;
+    m.double_sided = f.double_sided != 0;
+    m.emissive_factor = f.emissive_factor;
+    m.emissive_texture = f.emissive_texture;
+    m.emissive_strength = f.emissive_strength;
+    m.uv = f.uv;
+  }
+
+  scene.batches.resize(batches);
+  for (size_t i = 0; i < batches; ++i) {
+    const BatchFields& f = batch_fields[i];
+    if (f.index_count % 3 != 0 || uint64_t{f.first_index} + f.index_count > scene.indices.size()) {
+      return Invalid(absl::StrCat("batch ", i, " indices [", f.first_index, ", +", f.index_count, ") of ",
+                                  scene.indices.size()));
+    }
+    if (f.material < 0 || static_cast<uint64_t>(f.material) >= materials) {
+      return Invalid(absl::StrCat("batch ", i, " material ", f.material, " of ", materials));
+    }
+    scene.batches[i] = {.first_index = f.first_index, .index_count = f.index_count, .material = f.material,
+                        .flipped_winding = f.flipped_winding != 0};
+  }
+
+  if (auto s = in.Get(&scene.bounds_min, "bounds"); !s.ok()) return s;
+  if (auto s = in.Get(&scene.bounds_max, "bounds"); !s.ok()) return s;
+  if (!Finite(scene.bounds_min) || !Finite(scene.bounds_max)) return Invalid("bounds are not finite");
+  uint64_t warnings = 0;
+  if (auto s = in.Get(&warnings, "warning count"); !s.ok()) return s;
+  if (warnings > in.Left() / sizeof(uint64_t)) return Invalid(absl::StrCat("warning count ", warnings));
+  scene.warnings.resize(warnings);
+  for (std::string& w : scene.warnings) {
+    if (auto s = in.GetString(&w, "warning"); !s.ok()) return s;
+  }
+  if (in.Left() != 0) return Invalid(absl::StrCat(in.Left(), " bytes after the scene"));
+  return scene;
+}
+
+}  // namespace impostor

@@ -1,0 +1,48 @@
+// A Scene as bytes, so the isolated loader's child (isolated_load.h) can
+// hand the scene it decoded to the worker instead of the worker decoding
+// the same file a second time.
+//
+// The bytes come from a process that ran untrusted input through decoders:
+// if a decoder bug gave that child to an attacker, these bytes are the
+// attacker's. DecodeScene therefore trusts nothing in them: every count is
+// checked against the bytes left before anything is allocated, and the
+// result satisfies every invariant the bake relies on (indices inside the
+// vertex array, batches inside the index array, material and texture
+// references in range, texel arrays of width * height * 4 bytes, finite
+// positions and bounds). A scene that fails a check is refused whole.
+//
+// The format is private to one worker binary (both ends are the same
+// build): native byte order, no versioning beyond a magic that names it.
+#ifndef IMPOSTOR_WORKER_SCENE_SCENE_WIRE_H_
+#define IMPOSTOR_WORKER_SCENE_SCENE_WIRE_H_
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "worker/scene/scene.h"
+
+namespace impostor {
+
+// Receives the encoded scene piece by piece, in order.
+using SceneByteSink = std::function<void(std::string_view bytes)>;
+
+// Writes `scene` to `out` (large arrays in one piece each, so a file
+// descriptor sink costs a few writes, not a copy). The bytes total about
+// the scene's memory.
+void EncodeScene(const Scene& scene, const SceneByteSink& out);
+// The same, appended to a string.
+void EncodeScene(const Scene& scene, std::string* out);
+
+// The scene in `bytes`, checked as above; DATA_LOSS naming the first
+// check that failed (truncated, a count past the end, an index out of
+// range...).
+absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_SCENE_SCENE_WIRE_H_
