@@ -6,7 +6,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -129,18 +128,19 @@ TEST(SceneWireTest, BrokenInvariantsAreNamed) {
     void (*breaks)(Scene&);
   };
   const Case cases[] = {
-      {"index 9 past 4 vertices", [](Scene& s) { s.indices[4] = 9; }},
-      {"5 indices, not triangles", [](Scene& s) { s.indices.pop_back(); }},
-      {"batch 1 indices [3, +6) of 6", [](Scene& s) { s.batches[1].index_count = 6; }},
-      {"batch 0 material 2 of 2", [](Scene& s) { s.batches[0].material = 2; }},
-      {"material 1 base colour texture 1 of 1", [](Scene& s) { s.materials[1].base_color_texture = 1; }},
-      {"material 0 normal texture -2", [](Scene& s) { s.materials[0].normal_texture = -2; }},
-      {"texture 3 x 1 with 8 texel bytes", [](Scene& s) { s.textures[0].width = 3; }},
-      {"texture 0 x 1", [](Scene& s) { s.textures[0].width = 0; s.textures[0].rgba8.clear(); }},
-      {"material count 0", [](Scene& s) { s.materials.clear(); s.batches.clear(); }},
-      {"a vertex position is not finite",
-       [](Scene& s) { s.vertices[2].position.y = std::numeric_limits<float>::quiet_NaN(); }},
-      {"bounds are not finite", [](Scene& s) { s.bounds_min.x = std::numeric_limits<float>::infinity(); }},
+      {"index 4 = 9 out of range (4 vertices)", [](Scene& s) { s.indices[4] = 9; }},
+      {"5 indices are not whole triangles", [](Scene& s) { s.indices.pop_back(); }},
+      {"batch 1 indices [3, +6) are not whole triangles", [](Scene& s) { s.batches[1].index_count = 6; }},
+      {"batch 0 material 2 out of range (2 materials)", [](Scene& s) { s.batches[0].material = 2; }},
+      {"material 1 base colour texture 1 out of range (1 textures)",
+       [](Scene& s) { s.materials[1].base_color_texture = 1; }},
+      {"material 0 normal texture -2 out of range", [](Scene& s) { s.materials[0].normal_texture = -2; }},
+      {"material 1 emissive texture 3 out of range", [](Scene& s) { s.materials[1].emissive_texture = 3; }},
+      {"material 0 alpha mode 7 is unknown", [](Scene& s) { s.materials[0].alpha_mode = AlphaMode{7}; }},
+      {"is 3x1 with 8 bytes of RGBA8", [](Scene& s) { s.textures[0].width = 3; }},
+      {"is 0x1 with 0 bytes of RGBA8", [](Scene& s) { s.textures[0].width = 0; s.textures[0].rgba8.clear(); }},
+      {"scene has no materials", [](Scene& s) { s.materials.clear(); }},
+      {"empty scene (4 vertices, 0 indices, 0 batches)", [](Scene& s) { s.indices.clear(); s.batches.clear(); }},
   };
   for (const Case& c : cases) {
     Scene scene = SmallScene();

@@ -1,11 +1,11 @@
 #include "worker/scene/scene_wire.h"
 
-#include <cmath>
 #include <cstring>
 #include <type_traits>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
+#include "worker/scene/scene_invariants.h"
 
 namespace impostor {
 namespace {
@@ -48,13 +48,20 @@ class Reader {
     return absl::OkStatus();
   }
 
+  // A count of records of at least `min_record_bytes` each, refused when
+  // the bytes left cannot hold that many (before anything is allocated).
+  absl::Status GetCount(uint64_t* count, size_t min_record_bytes, absl::string_view what) {
+    if (auto s = Get(count, what); !s.ok()) return s;
+    if (*count > Left() / min_record_bytes) {
+      return absl::DataLossError(absl::StrCat("scene bytes: ", what, " count ", *count, " runs past the end"));
+    }
+    return absl::OkStatus();
+  }
+
   template <typename T>
   absl::Status GetArray(std::vector<T>* values, absl::string_view what) {
     uint64_t count = 0;
-    if (auto s = Get(&count, what); !s.ok()) return s;
-    if (count > Left() / sizeof(T)) {
-      return absl::DataLossError(absl::StrCat("scene bytes: ", what, " count ", count, " runs past the end"));
-    }
+    if (auto s = GetCount(&count, sizeof(T), what); !s.ok()) return s;
     values->resize(count);
     std::memcpy(values->data(), bytes_.data() + at_, count * sizeof(T));
     at_ += count * sizeof(T);
@@ -110,6 +117,25 @@ MaterialFields FieldsOf(const SceneMaterial& m) {
           m.double_sided ? 1u : 0u, m.emissive_factor, m.emissive_texture, m.emissive_strength, m.uv};
 }
 
+void SetFields(const MaterialFields& f, SceneMaterial* m) {
+  m->base_color_factor = f.base_color_factor;
+  m->base_color_texture = f.base_color_texture;
+  m->metallic_factor = f.metallic_factor;
+  m->roughness_factor = f.roughness_factor;
+  m->metallic_roughness_texture = f.metallic_roughness_texture;
+  m->normal_texture = f.normal_texture;
+  m->normal_scale = f.normal_scale;
+  m->occlusion_texture = f.occlusion_texture;
+  m->occlusion_strength = f.occlusion_strength;
+  m->alpha_mode = static_cast<AlphaMode>(f.alpha_mode);  // checked with the scene
+  m->alpha_cutoff = f.alpha_cutoff;
+  m->double_sided = f.double_sided != 0;
+  m->emissive_factor = f.emissive_factor;
+  m->emissive_texture = f.emissive_texture;
+  m->emissive_strength = f.emissive_strength;
+  m->uv = f.uv;
+}
+
 struct TextureFields {
   int32_t width;
   int32_t height;
@@ -126,16 +152,7 @@ struct BatchFields {
   uint32_t flipped_winding;
 };
 
-bool Finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 absl::Status Invalid(absl::string_view what) { return absl::DataLossError(absl::StrCat("scene bytes: ", what)); }
-
-absl::Status CheckTextureRef(int index, size_t textures, absl::string_view slot, size_t material) {
-  if (index < -1 || (index >= 0 && static_cast<size_t>(index) >= textures)) {
-    return Invalid(absl::StrCat("material ", material, " ", slot, " texture ", index, " of ", textures));
-  }
-  return absl::OkStatus();
-}
 
 }  // namespace
 
@@ -177,113 +194,51 @@ absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes) {
   Scene scene;
   if (auto s = in.GetArray(&scene.vertices, "vertices"); !s.ok()) return s;
   if (auto s = in.GetArray(&scene.indices, "indices"); !s.ok()) return s;
-  if (scene.indices.size() % 3 != 0) return Invalid(absl::StrCat(scene.indices.size(), " indices, not triangles"));
-  for (const SceneVertex& v : scene.vertices) {
-    if (!Finite(v.position)) return Invalid("a vertex position is not finite");
-  }
-  for (uint32_t i : scene.indices) {
-    if (i >= scene.vertices.size()) {
-      return Invalid(absl::StrCat("index ", i, " past ", scene.vertices.size(), " vertices"));
-    }
+
+  uint64_t count = 0;
+  if (auto s = in.GetCount(&count, sizeof(BatchFields), "batches"); !s.ok()) return s;
+  scene.batches.resize(count);
+  for (SceneBatch& b : scene.batches) {
+    BatchFields f{};
+    if (auto s = in.Get(&f, "batch"); !s.ok()) return s;
+    b = {.first_index = f.first_index, .index_count = f.index_count, .material = f.material,
+         .flipped_winding = f.flipped_winding != 0};
   }
 
-  uint64_t batches = 0;
-  if (auto s = in.Get(&batches, "batch count"); !s.ok()) return s;
-  if (batches > in.Left() / sizeof(BatchFields)) return Invalid(absl::StrCat("batch count ", batches, " runs past the end"));
-  std::vector<BatchFields> batch_fields(batches);
-  for (BatchFields& b : batch_fields) {
-    if (auto s = in.Get(&b, "batch"); !s.ok()) return s;
+  if (auto s = in.GetCount(&count, sizeof(MaterialFields), "materials"); !s.ok()) return s;
+  scene.materials.resize(count);
+  for (SceneMaterial& m : scene.materials) {
+    MaterialFields f{};
+    if (auto s = in.Get(&f, "material"); !s.ok()) return s;
+    SetFields(f, &m);
+    if (auto s = in.GetString(&m.name, "material name"); !s.ok()) return s;
   }
 
-  uint64_t materials = 0;
-  if (auto s = in.Get(&materials, "material count"); !s.ok()) return s;
-  if (materials == 0 || materials > in.Left() / sizeof(MaterialFields)) {
-    return Invalid(absl::StrCat("material count ", materials));
-  }
-  std::vector<MaterialFields> material_fields(materials);
-  scene.materials.resize(materials);
-  for (size_t i = 0; i < materials; ++i) {
-    if (auto s = in.Get(&material_fields[i], "material"); !s.ok()) return s;
-    if (auto s = in.GetString(&scene.materials[i].name, "material name"); !s.ok()) return s;
-  }
-
-  uint64_t textures = 0;
-  if (auto s = in.Get(&textures, "texture count"); !s.ok()) return s;
-  if (textures > in.Left() / sizeof(TextureFields)) return Invalid(absl::StrCat("texture count ", textures));
-  scene.textures.resize(textures);
+  if (auto s = in.GetCount(&count, sizeof(TextureFields), "textures"); !s.ok()) return s;
+  scene.textures.resize(count);
   for (SceneTexture& t : scene.textures) {
     TextureFields f{};
     if (auto s = in.Get(&f, "texture"); !s.ok()) return s;
-    if (auto s = in.GetString(&t.name, "texture name"); !s.ok()) return s;
-    if (auto s = in.GetArray(&t.rgba8, "texels"); !s.ok()) return s;
-    if (f.width <= 0 || f.height <= 0 ||
-        t.rgba8.size() != static_cast<uint64_t>(f.width) * static_cast<uint64_t>(f.height) * 4) {
-      return Invalid(absl::StrCat("texture ", f.width, " x ", f.height, " with ", t.rgba8.size(), " texel bytes"));
-    }
     t.width = f.width;
     t.height = f.height;
     t.srgb = f.srgb != 0;
     t.has_alpha_channel = f.has_alpha_channel != 0;
     t.wrap_s = f.wrap_s;
     t.wrap_t = f.wrap_t;
-  }
-
-  for (size_t i = 0; i < materials; ++i) {
-    const MaterialFields& f = material_fields[i];
-    for (auto [index, slot] : {std::pair{f.base_color_texture, "base colour"},
-                               {f.metallic_roughness_texture, "metallic-roughness"},
-                               {f.normal_texture, "normal"},
-                               {f.occlusion_texture, "occlusion"},
-                               {f.emissive_texture, "emissive"}}) {
-      if (auto s = CheckTextureRef(index, textures, slot, i); !s.ok()) return s;
-    }
-    if (f.alpha_mode > static_cast<uint32_t>(AlphaMode::kBlend)) {
-      return Invalid(absl::StrCat("material ", i, " alpha mode ", f.alpha_mode));
-    }
-    SceneMaterial& m = scene.materials[i];
-    m.base_color_factor = f.base_color_factor;
-    m.base_color_texture = f.base_color_texture;
-    m.metallic_factor = f.metallic_factor;
-    m.roughness_factor = f.roughness_factor;
-    m.metallic_roughness_texture = f.metallic_roughness_texture;
-    m.normal_texture = f.normal_texture;
-    m.normal_scale = f.normal_scale;
-    m.occlusion_texture = f.occlusion_texture;
-    m.occlusion_strength = f.occlusion_strength;
-    m.alpha_mode = static_cast<AlphaMode>(f.alpha_mode);
-    m.alpha_cutoff = f.alpha_cutoff;
-    m.double_sided = f.double_sided != 0;
-    m.emissive_factor = f.emissive_factor;
-    m.emissive_texture = f.emissive_texture;
-    m.emissive_strength = f.emissive_strength;
-    m.uv = f.uv;
-  }
-
-  scene.batches.resize(batches);
-  for (size_t i = 0; i < batches; ++i) {
-    const BatchFields& f = batch_fields[i];
-    if (f.index_count % 3 != 0 || uint64_t{f.first_index} + f.index_count > scene.indices.size()) {
-      return Invalid(absl::StrCat("batch ", i, " indices [", f.first_index, ", +", f.index_count, ") of ",
-                                  scene.indices.size()));
-    }
-    if (f.material < 0 || static_cast<uint64_t>(f.material) >= materials) {
-      return Invalid(absl::StrCat("batch ", i, " material ", f.material, " of ", materials));
-    }
-    scene.batches[i] = {.first_index = f.first_index, .index_count = f.index_count, .material = f.material,
-                        .flipped_winding = f.flipped_winding != 0};
+    if (auto s = in.GetString(&t.name, "texture name"); !s.ok()) return s;
+    if (auto s = in.GetArray(&t.rgba8, "texels"); !s.ok()) return s;
   }
 
   if (auto s = in.Get(&scene.bounds_min, "bounds"); !s.ok()) return s;
   if (auto s = in.Get(&scene.bounds_max, "bounds"); !s.ok()) return s;
-  if (!Finite(scene.bounds_min) || !Finite(scene.bounds_max)) return Invalid("bounds are not finite");
-  uint64_t warnings = 0;
-  if (auto s = in.Get(&warnings, "warning count"); !s.ok()) return s;
-  if (warnings > in.Left() / sizeof(uint64_t)) return Invalid(absl::StrCat("warning count ", warnings));
-  scene.warnings.resize(warnings);
+  if (auto s = in.GetCount(&count, sizeof(uint64_t), "warnings"); !s.ok()) return s;
+  scene.warnings.resize(count);
   for (std::string& w : scene.warnings) {
     if (auto s = in.GetString(&w, "warning"); !s.ok()) return s;
   }
   if (in.Left() != 0) return Invalid(absl::StrCat(in.Left(), " bytes after the scene"));
+  // What the loader guarantees, the bytes must too.
+  if (absl::Status s = CheckSceneInvariants(scene); !s.ok()) return Invalid(s.message());
   return scene;
 }
 

@@ -6,10 +6,9 @@
 // if a decoder bug gave that child to an attacker, these bytes are the
 // attacker's. DecodeScene therefore trusts nothing in them: every count is
 // checked against the bytes left before anything is allocated, and the
-// result satisfies every invariant the bake relies on (indices inside the
-// vertex array, batches inside the index array, material and texture
-// references in range, texel arrays of width * height * 4 bytes, finite
-// positions and bounds). A scene that fails a check is refused whole.
+// result must hold every invariant the loader guarantees and the bake
+// relies on (scene_invariants.h). A scene that fails a check is refused
+// whole.
 //
 // The format is private to one worker binary (both ends are the same
 // build): native byte order, no versioning beyond a magic that names it.
