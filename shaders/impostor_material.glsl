@@ -23,9 +23,10 @@
 //   if (px.coverage < 0.5) discard;
 //   gl_FragDepth = px.frag_depth;
 //   ... the engine's lighting with px.albedo, px.normal_world, px.orm ...
-// Use (shadow pass): the same call with the light's world_to_clip and
-// ray_dir = view_dir = the direction toward the light, in object space;
-// discard below 0.5 coverage and write px.frag_depth (impostorShadowCaster).
+// Use (shadow pass): the same call with the light's world_to_clip, ray_dir
+// = -toward_light and view_dir = toward_light, in object space, parallax as
+// for the colour pass; discard below 0.5 coverage and write px.frag_depth
+// (impostorShadowCaster).
 #ifndef IMPOSTOR_MATERIAL_GLSL
 #define IMPOSTOR_MATERIAL_GLSL
 
@@ -67,12 +68,15 @@ ImpostorPixel impostorMaterial(sampler2D albedo_tex, sampler2D normal_depth_tex,
 }
 
 // Shadow caster: depth only, alpha-tested, depth offset applied. Returns
-// false where the fragment must be discarded.
+// false where the fragment must be discarded. With parallax the frames
+// agree on the silhouette seen from the light as they do for a camera
+// (a box's shadow from between frames: IoU 0.82-0.99 against the mesh's
+// with it, 0.52-0.97 without, by layout; web test).
 bool impostorShadowCaster(sampler2D albedo_tex, sampler2D normal_depth_tex, ImpostorLayout atlas, int tile_size,
-                          int blend_mode, vec4 sphere, mat4 object_to_world, mat4 light_world_to_clip,
+                          int blend_mode, bool parallax, vec4 sphere, mat4 object_to_world, mat4 light_world_to_clip,
                           vec3 ray_origin, vec3 toward_light, out float frag_depth) {
   ImpostorPixel px = impostorMaterial(albedo_tex, normal_depth_tex, albedo_tex, false, atlas, tile_size, blend_mode,
-                                      false, sphere, object_to_world, light_world_to_clip, ray_origin,
+                                      parallax, sphere, object_to_world, light_world_to_clip, ray_origin,
                                       -toward_light, toward_light);
   frag_depth = px.frag_depth;
   return px.coverage >= 0.5;

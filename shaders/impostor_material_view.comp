@@ -38,7 +38,8 @@ void main() {
   if (push.flags.x != 0) {
     float depth;
     bool covered = impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, push.params.w,
-                                        push.sphere, mat4(1.0), push.world_to_clip, origin, v, depth);
+                                        push.flags.w != 0, push.sphere, mat4(1.0), push.world_to_clip, origin, v,
+                                        depth);
     pixels[o + 0u] = vec4(0.0, 0.0, 0.0, covered ? 1.0 : 0.0);
     pixels[o + 1u] = vec4(0.0, 0.0, 0.0, depth);
     return;

@@ -18,6 +18,7 @@ layout(set = 0, binding = 1) uniform sampler2D normal_depth_tex;
 
 // As impostor_material_lit.frag: one pipeline per layout and blend mode,
 // so the driver compiles only that code; push.params.x and .w are not read.
+layout(constant_id = 0) const bool kParallax = false;
 layout(constant_id = 1) const int kLayout = IMPOSTOR_LAYOUT_OCTAHEDRAL;
 layout(constant_id = 2) const int kBlendMode = IMPOSTOR_BLEND_TRIANGLE3;
 
@@ -27,8 +28,9 @@ layout(location = 1) in vec3 in_ray_dir;
 void main() {
   ImpostorLayout atlas = ImpostorLayout(kLayout, push.params.y, push.flags.z);
   float depth;
-  if (!impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, kBlendMode, push.sphere,
-                            mat4(1.0), push.view_projection, in_ray_origin, normalize(push.eye_object.xyz), depth)) {
+  if (!impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, kBlendMode, kParallax,
+                            push.sphere, mat4(1.0), push.view_projection, in_ray_origin,
+                            normalize(push.eye_object.xyz), depth)) {
     discard;
   }
   gl_FragDepth = depth;

@@ -10,8 +10,12 @@
 //   - impostorMaterial() of impostor_material.glsl: blend, shade with
 //     parallax, the surface point centre + radius * position, its depth;
 //   - impostorLambert() of impostor_material_light.glsl: albedo x (colour x
-//     N.L + ambient x occlusion). The shadow term is 1 here (the viewer has
-//     no shadow map; the example scene tests shadows).
+//     N.L + ambient x occlusion). The impostor receives no shadow (shadow
+//     term 1), as the mesh in the viewer does not;
+//   - impostorShadowCaster() of impostor_material.glsl: the card's
+//     customDepthMaterial, so three.js's shadow pass draws the impostor as
+//     seen from the light (card facing the light, parallel rays, alpha test,
+//     the surface point's depth), packed as three's depth material packs it.
 // The runtime functions are shaders/impostor_runtime.glsl itself, served at
 // /runtime/impostor_runtime.glsl. Object space = world space (the impostor is
 // drawn where the mesh is). WebGL's window depth is 0.5 * ndc.z + 0.5 where
@@ -86,6 +90,48 @@ void main() {
             u_mask == 3 ? vec4(orm, 1.0) : vec4(srgbEncode(c), 1.0);
 }`;
 
+// The shadow pass: the card faces the light and every ray runs along it
+// (a directional light's orthographic camera), as impostor_shadow_caster.frag.
+const SHADOW_VERTEX = `
+uniform mat4 projectionMatrix;
+uniform mat4 viewMatrix;
+uniform vec3 u_toward_light;
+uniform vec4 u_sphere;
+out vec3 v_ray_origin;
+void main() {
+  vec2 corners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
+  ImpostorFrameCamera card = impostorCameraForDirection(u_toward_light);
+  vec2 c = corners[gl_VertexID];
+  vec3 p = c.x * card.right + c.y * card.up + u_toward_light;
+  v_ray_origin = p;
+  gl_Position = projectionMatrix * viewMatrix * vec4(u_sphere.xyz + p * u_sphere.w, 1.0);
+}`;
+
+const SHADOW_FRAGMENT = `
+#include <packing>
+uniform mat4 projectionMatrix;
+uniform mat4 viewMatrix;
+uniform vec3 u_toward_light;
+uniform vec4 u_sphere;
+uniform sampler2D u_albedo;
+uniform sampler2D u_normal_depth;
+uniform ivec4 u_layout;
+uniform ivec4 u_mode;        // x: blend mode
+uniform int u_alpha_test;    // 0: the whole card casts (tests show what the test catches)
+in vec3 v_ray_origin;
+out vec4 o_color;
+void main() {
+  ImpostorLayout atlas = ImpostorLayout(u_layout.x, u_layout.y, u_layout.z);
+  ImpostorBlend blend = impostorBlendFramesLayout(atlas, u_toward_light, u_mode.x);
+  ImpostorSurface s = impostorShadeLayout(u_albedo, u_normal_depth, u_albedo, false, atlas, u_layout.w, blend,
+                                          v_ray_origin, -u_toward_light, true);
+  if (u_alpha_test != 0 && s.alpha < 0.5) discard;
+  vec4 clip = projectionMatrix * viewMatrix * vec4(u_sphere.xyz + u_sphere.w * s.position, 1.0);
+  float depth = u_alpha_test != 0 ? clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0) : gl_FragCoord.z;
+  gl_FragDepth = depth;
+  o_color = packDepthToRGBA(depth);
+}`;
+
 async function loadTexture(url, srgb) {
   let tex;
   if (isKtx2(url)) {
@@ -110,8 +156,9 @@ async function loadTexture(url, srgb) {
 // The default light: the viewer's sun direction, white, ambient 0.25.
 export const DEFAULT_LIGHT = { towardLight: new THREE.Vector3(1, 2, 1.5).normalize(), colour: [1, 1, 1], ambient: 0.25 };
 
-// Returns a THREE.Mesh (the card) whose material draws the impostor;
-// options {lit, depthOffset, mask, blend} are read at every render.
+// Returns a THREE.Mesh (the card) whose material draws the impostor and
+// whose customDepthMaterial casts its shadow (set card.castShadow); options
+// {lit, depthOffset, mask, blend, shadowAlphaTest} are read at every render.
 export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFAULT_LIGHT) {
   const runtime = await (await fetch('/runtime/impostor_runtime.glsl')).text();
   const mapFile = (semantic) => manifest.maps.find((m) => m.semantic === semantic);
@@ -125,7 +172,7 @@ export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFA
   const ringViews = kind === 3 ? manifest.views.length - 1 : kind === 4 ? 8 : 0;
   const centre = new THREE.Vector3(...manifest.bounding_sphere.center);
   const radius = manifest.bounding_sphere.radius;
-  const options = { lit: true, depthOffset: true, mask: 0,
+  const options = { lit: true, depthOffset: true, mask: 0, shadowAlphaTest: true,
     blend: manifest.quality && manifest.quality.blend === 'bilinear4' ? 1 : 0 };
   const uniforms = {
     u_eye: { value: new THREE.Vector3() },
@@ -146,15 +193,33 @@ export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFA
     uniforms,
     side: THREE.DoubleSide,
   });
+  const shadowUniforms = {
+    u_toward_light: uniforms.u_toward_light, u_sphere: uniforms.u_sphere, u_albedo: uniforms.u_albedo,
+    u_normal_depth: uniforms.u_normal_depth, u_layout: uniforms.u_layout, u_mode: uniforms.u_mode,
+    u_alpha_test: { value: 1 },
+  };
+  const shadowCaster = new THREE.RawShaderMaterial({
+    glslVersion: THREE.GLSL3,
+    vertexShader: PRECISION + runtime + SHADOW_VERTEX,
+    fragmentShader: PRECISION + runtime + SHADOW_FRAGMENT,
+    uniforms: shadowUniforms,
+    side: THREE.DoubleSide,
+  });
   const geometry = new THREE.BufferGeometry();
   // Six vertices; the shader places them (gl_VertexID), the positions are unused.
   geometry.setAttribute('position', new THREE.Float32BufferAttribute(new Float32Array(18), 3));
   const card = new THREE.Mesh(geometry, material);
   card.frustumCulled = false;
+  card.customDepthMaterial = shadowCaster;
   card.onBeforeRender = (renderer, scene, camera) => {
     uniforms.u_eye.value.copy(camera.position).sub(centre).divideScalar(radius);
     uniforms.u_mode.value = [options.blend, ormTex ? 1 : 0, options.lit ? 1 : 0, options.depthOffset ? 1 : 0];
     uniforms.u_mask.value = Number(options.mask);
+  };
+  // The shadow pass may run before the card's own draw in a frame.
+  card.onBeforeShadow = () => {
+    uniforms.u_mode.value = [options.blend, ormTex ? 1 : 0, options.lit ? 1 : 0, options.depthOffset ? 1 : 0];
+    shadowUniforms.u_alpha_test.value = options.shadowAlphaTest ? 1 : 0;
   };
   card.userData.options = options;
   return card;

@@ -1,10 +1,13 @@
 // ?scene=AZ,EL,DIST&size=N on the result page: the mesh or its impostor
-// (impostor_material_three.js: lit, pixel depth offset) in one three.js
-// scene with a ground plane 0.3 radii below the centre, camera AZ/EL degrees
-// at DIST radii. Toggles: object, lit, depth offset, ground.
-// Test hook: window.impostorScene.render({object: 'mesh'|'impostor', ground,
-// depthOffset, lit, mask}) -> PNG data URL (mask 1: objects white, rest black;
-// mask 2: the impostor's world normal * 0.5 + 0.5; 3: its occlusion/roughness/metalness). .light: the light's uniforms.
+// (impostor_material_three.js: lit, pixel depth offset, shadow caster) in
+// one three.js scene with a ground plane 0.3 radii below the centre that
+// receives their shadow from one directional light, camera AZ/EL degrees at
+// DIST radii. Toggles: object, lit, depth offset, ground, shadows.
+// Test hook: window.impostorScene.render({object: 'mesh'|'impostor'|'none',
+// ground, depthOffset, lit, shadows, shadowAlphaTest, mask}) -> PNG data URL
+// (mask 1: objects white, rest black; 2: the impostor's world normal * 0.5 +
+// 0.5; 3: its occlusion/roughness/metalness; 4: the lit ground alone, the
+// object drawing nothing but its shadow). .light: the light's uniforms.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { createImpostorMaterialMesh, DEFAULT_LIGHT } from './impostor_material_three.js';
@@ -30,37 +33,71 @@ export async function showScene(result, fileUrl, meshUrl, spec, size) {
   camera.updateMatrixWorld();
 
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true });
+  renderer.shadowMap.enabled = true;
+  renderer.shadowMap.type = THREE.PCFShadowMap;
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0x000000);
-  const ground = new THREE.Mesh(new THREE.PlaneGeometry(radius * 200, radius * 200),
-    new THREE.MeshBasicMaterial({ color: 0x000000, side: THREE.DoubleSide }));
+  // Black under the masks (tests compare silhouettes), lit grey otherwise.
+  const groundMask = new THREE.MeshBasicMaterial({ color: 0x000000, side: THREE.DoubleSide });
+  const groundLit = new THREE.MeshLambertMaterial({ color: 0xffffff, side: THREE.DoubleSide });
+  const ground = new THREE.Mesh(new THREE.PlaneGeometry(radius * 200, radius * 200), groundLit);
   ground.rotation.x = -Math.PI / 2;
   ground.position.set(centre.x, centre.y - 0.3 * radius, centre.z);
+  ground.receiveShadow = true;
   scene.add(ground);
   // The mesh lit like the impostor: a directional light along the same
   // direction plus ambient (three.js's Lambert), or flat white as a mask.
   const mesh = (await new GLTFLoader().loadAsync(meshUrl)).scene;
   const white = new THREE.MeshBasicMaterial({ color: 0xffffff, side: THREE.DoubleSide });
+  // Draws nothing in the camera's view; the shadow pass still draws the object.
+  const hidden = new THREE.MeshBasicMaterial({ colorWrite: false, depthWrite: false, shadowSide: THREE.DoubleSide });
   const meshMaterials = new Map();
-  mesh.traverse((o) => { if (o.isMesh) meshMaterials.set(o, o.material); });
+  mesh.traverse((o) => {
+    if (o.isMesh) {
+      meshMaterials.set(o, o.material);
+      o.castShadow = true;
+      // The nearest surface to the light casts, whichever way it faces, as
+      // the impostor's caster records it (three's default records back
+      // faces: a mesh the ground cuts would then cast nothing over its
+      // own footprint).
+      for (const material of [o.material].flat()) material.shadowSide = THREE.DoubleSide;
+    }
+  });
   scene.add(mesh);
+  // The sun, with an orthographic shadow camera around the bounding sphere
+  // and the part of the ground its shadow can reach.
   const sun = new THREE.DirectionalLight(0xffffff, 1.0);
-  sun.position.copy(DEFAULT_LIGHT.towardLight);
-  scene.add(sun, new THREE.AmbientLight(0xffffff, DEFAULT_LIGHT.ambient));
+  sun.position.copy(centre).addScaledVector(DEFAULT_LIGHT.towardLight, 4 * radius);
+  sun.target.position.copy(centre);
+  sun.castShadow = true;
+  sun.shadow.mapSize.set(2048, 2048);
+  Object.assign(sun.shadow.camera, { left: -2.5 * radius, right: 2.5 * radius, top: 2.5 * radius,
+    bottom: -2.5 * radius, near: 0.5 * radius, far: 10 * radius });
+  sun.shadow.camera.updateProjectionMatrix();
+  sun.shadow.bias = -0.0005;
+  scene.add(sun, sun.target, new THREE.AmbientLight(0xffffff, DEFAULT_LIGHT.ambient));
   const card = await createImpostorMaterialMesh(m, fileUrl);
+  card.castShadow = true;
   scene.add(card);
   const options = card.userData.options;
 
-  const state = { object: 'impostor', ground: true, depthOffset: true, lit: true, mask: 0 };
+  const state = { object: 'impostor', ground: true, depthOffset: true, lit: true, shadows: true,
+    shadowAlphaTest: true, mask: 0 };
   const render = (overrides = {}) => {
     Object.assign(state, overrides);
     mesh.visible = state.object === 'mesh';
     card.visible = state.object === 'impostor';
     ground.visible = state.ground;
+    ground.material = state.mask === 0 || state.mask === 4 ? groundLit : groundMask;
+    sun.castShadow = state.shadows;
     options.lit = state.lit;
     options.depthOffset = state.depthOffset;
-    options.mask = state.mask;
-    mesh.traverse((o) => { if (o.isMesh) o.material = state.mask === 1 ? white : meshMaterials.get(o); });
+    options.shadowAlphaTest = state.shadowAlphaTest;
+    options.mask = state.mask === 4 ? 0 : state.mask;
+    card.material.colorWrite = card.material.depthWrite = state.mask !== 4;
+    mesh.traverse((o) => {
+      if (o.isMesh) o.material = state.mask === 1 ? white : state.mask === 4 ? hidden : meshMaterials.get(o);
+    });
     renderer.render(scene, camera);
     return canvas.toDataURL('image/png');
   };
@@ -80,12 +117,13 @@ export async function showScene(result, fileUrl, meshUrl, spec, size) {
   };
   const select = document.createElement('select');
   select.id = 'scene-object';
-  for (const o of ['impostor', 'mesh']) select.append(new Option(o, o));
+  for (const o of ['impostor', 'mesh', 'none']) select.append(new Option(o, o));
   select.addEventListener('change', () => render({ object: select.value }));
   controls.append(select);
   toggle('lit', 'lit');
   toggle('depthOffset', 'depth offset');
   toggle('ground', 'ground');
+  toggle('shadows', 'shadows');
   canvas.parentElement.prepend(controls);
 
   render();

@@ -186,7 +186,7 @@ TEST_F(GlslMaterialTest, ShadowCasterCoversTheObjectsShadowAndLitPsnrIsReported)
   const ImpostorAtlas atlas = ::impostor::testing::BakeSyntheticAtlas(layout, 2048);
   const glm::vec3 toward_light = glm::normalize(glm::vec3(0.4f, 0.8f, 0.35f));
   const FrameCamera light = CameraForDirection(toward_light);
-  const MaterialView caster = Render(atlas, toward_light, /*caster=*/true, false);
+  const MaterialView caster = Render(atlas, toward_light, /*caster=*/true, /*parallax=*/true);
   const ViewImages mesh = ::impostor::testing::RenderSyntheticView(light, kPixels);
   // In the light's view each pixel is one ground point: shadowed where the
   // caster is nearer the light than the ground.
