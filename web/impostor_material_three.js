@@ -30,6 +30,16 @@ const LAYOUT_KIND = {
 
 const PRECISION = 'precision highp float;\nprecision highp int;\nprecision highp sampler2D;\n';
 
+// The card's corner gl_VertexID (two triangles), one radius out toward
+// `facing`, in sphere space.
+const CARD = `
+vec3 impostorCardCorner(vec3 facing) {
+  vec2 corners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
+  ImpostorFrameCamera card = impostorCameraForDirection(facing);
+  vec2 c = corners[gl_VertexID];
+  return c.x * card.right + c.y * card.up + facing;
+}`;
+
 const VERTEX = `
 uniform mat4 projectionMatrix;
 uniform mat4 viewMatrix;
@@ -38,11 +48,7 @@ uniform vec4 u_sphere;  // centre xyz, radius w
 out vec3 v_ray_origin;
 out vec3 v_ray_dir;
 void main() {
-  vec2 corners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
-  vec3 view_dir = normalize(u_eye);
-  ImpostorFrameCamera card = impostorCameraForDirection(view_dir);
-  vec2 c = corners[gl_VertexID];
-  vec3 p = c.x * card.right + c.y * card.up + view_dir;
+  vec3 p = impostorCardCorner(normalize(u_eye));
   v_ray_origin = p;
   v_ray_dir = p - u_eye;
   gl_Position = projectionMatrix * viewMatrix * vec4(u_sphere.xyz + p * u_sphere.w, 1.0);
@@ -99,10 +105,7 @@ uniform vec3 u_toward_light;
 uniform vec4 u_sphere;
 out vec3 v_ray_origin;
 void main() {
-  vec2 corners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
-  ImpostorFrameCamera card = impostorCameraForDirection(u_toward_light);
-  vec2 c = corners[gl_VertexID];
-  vec3 p = c.x * card.right + c.y * card.up + u_toward_light;
+  vec3 p = impostorCardCorner(u_toward_light);
   v_ray_origin = p;
   gl_Position = projectionMatrix * viewMatrix * vec4(u_sphere.xyz + p * u_sphere.w, 1.0);
 }`;
@@ -188,7 +191,7 @@ export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFA
   };
   const material = new THREE.RawShaderMaterial({
     glslVersion: THREE.GLSL3,
-    vertexShader: PRECISION + runtime + VERTEX,
+    vertexShader: PRECISION + runtime + CARD + VERTEX,
     fragmentShader: PRECISION + runtime + FRAGMENT,
     uniforms,
     side: THREE.DoubleSide,
@@ -200,7 +203,7 @@ export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFA
   };
   const shadowCaster = new THREE.RawShaderMaterial({
     glslVersion: THREE.GLSL3,
-    vertexShader: PRECISION + runtime + SHADOW_VERTEX,
+    vertexShader: PRECISION + runtime + CARD + SHADOW_VERTEX,
     fragmentShader: PRECISION + runtime + SHADOW_FRAGMENT,
     uniforms: shadowUniforms,
     side: THREE.DoubleSide,
