@@ -45,8 +45,9 @@ struct Asset {
 };
 
 // Every textured prop and every plant of MANIFEST.md's (a) and (b) that is
-// a single object (Box and BoxTextured are 12-triangle cubes; the
-// AlphaBlendModeTest is a test chart, not a plant).
+// a single object, and BoxTextured, a 12-triangle cube that issue 17's
+// targets name (Box is the same cube untextured; the AlphaBlendModeTest is a
+// test chart, not a plant).
 const Asset kAssets[] = {
     {"DamagedHelmet", "prop", "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb"},
     {"TreeLowPoly (MASK)", "vegetation", "vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf"},
@@ -57,6 +58,7 @@ const Asset kAssets[] = {
     {"Avocado", "prop", "props_pbr/Avocado/glTF/Avocado.gltf"},
     {"GlassVaseFlowers", "vegetation", "vegetation/GlassVaseFlowers/glTF-Binary/GlassVaseFlowers.glb"},
     {"Fox", "prop", "props_pbr/Fox/glTF-Binary/Fox.glb"},
+    {"BoxTextured", "prop", "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb"},
 };
 
 struct Row {
