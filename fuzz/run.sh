@@ -2,7 +2,8 @@
 # Builds the libFuzzer targets with clang, AddressSanitizer and
 # UndefinedBehaviorSanitizer in their own build folder, and runs
 # gltf_load_fuzzer for FUZZ_SECONDS (default 60) from a seed corpus of every
-# small .glb/.gltf under the shared assets and tests/hostile/corpus/. Exits
+# small .glb/.gltf under the shared assets and tests/hostile/corpus/, then
+# scene_wire_fuzzer for FUZZ_SCENE_RUNS (default 300000, seconds) runs. Exits
 # non-zero if the fuzzer finds a crash, a sanitizer report, a leak, a timeout
 # or an out-of-memory input; the input is kept under FUZZ_BUILD_DIR/artifacts/.
 #
@@ -14,6 +15,7 @@
 #
 #   FUZZ_RUNS=-1 FUZZ_SEED=0 FUZZ_SECONDS=600 bash fuzz/run.sh   # a longer, random run
 #   bash fuzz/run.sh path/to/crash-input                        # replay one input
+#   FUZZ_TARGET=scene_wire_fuzzer bash fuzz/run.sh crash-input   # replay one for the scene bytes fuzzer
 set -euo pipefail
 cd "$(dirname "$0")/.."
 FUZZ_SECONDS=${FUZZ_SECONDS:-120}
@@ -42,8 +44,8 @@ CC=clang-14 CXX=clang++-14 cmake -S . -B "$FUZZ_BUILD_DIR" "${generator[@]}" -Wn
   -DCMAKE_C_FLAGS="-O1 -g $sanitize" -DCMAKE_CXX_FLAGS="-O1 -g $sanitize" \
   -DIMPOSTOR_COMPONENTS="common;worker/scene" -DIMPOSTOR_BUILD_FUZZERS=ON \
   -DIMPOSTOR_BUILD_TESTS=OFF -DIMPOSTOR_BUILD_BENCH=OFF >/dev/null
-cmake --build "$FUZZ_BUILD_DIR" --target gltf_load_fuzzer -j "$JOBS"
-fuzzer="$FUZZ_BUILD_DIR/bin/gltf_load_fuzzer"
+cmake --build "$FUZZ_BUILD_DIR" --target gltf_load_fuzzer scene_wire_fuzzer -j "$JOBS"
+fuzzer="$FUZZ_BUILD_DIR/bin/${FUZZ_TARGET:-gltf_load_fuzzer}"
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
@@ -56,6 +58,14 @@ flags=(-max_len="$MAX_LEN" -rss_limit_mb=1024 -timeout=10 -print_final_stats=1
 if [ $# -gt 0 ]; then
   exec "$fuzzer" "${flags[@]}" "$@"
 fi
+
+# The scene the isolated loader's child hands back (worker/scene/scene_wire.h),
+# from an empty corpus: the target starts past the format's magic.
+FUZZ_SCENE_RUNS=${FUZZ_SCENE_RUNS:-300000}
+echo "fuzz/run.sh: scene_wire_fuzzer, ${FUZZ_SCENE_RUNS} runs (seed ${FUZZ_SEED})"
+"$FUZZ_BUILD_DIR/bin/scene_wire_fuzzer" -max_len=4096 -rss_limit_mb=1024 -timeout=10 -print_final_stats=1 \
+  -artifact_prefix="$FUZZ_BUILD_DIR/artifacts/" -runs="$FUZZ_SCENE_RUNS" -seed="$FUZZ_SEED" \
+  -max_total_time="$FUZZ_SECONDS"
 
 # The seed corpus is made fresh each run and never committed: assets stay in
 # the shared folder.

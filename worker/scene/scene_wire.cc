@@ -63,6 +63,7 @@ class Reader {
     uint64_t count = 0;
     if (auto s = GetCount(&count, sizeof(T), what); !s.ok()) return s;
     values->resize(count);
+    if (count == 0) return absl::OkStatus();  // an empty vector's data() may be null
     std::memcpy(values->data(), bytes_.data() + at_, count * sizeof(T));
     at_ += count * sizeof(T);
     return absl::OkStatus();
