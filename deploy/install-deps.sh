@@ -40,14 +40,29 @@ packages=(
 )
 
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${packages[@]}"
+# A machine whose image was cut off mid-install answers every apt-get with
+# "dpkg was interrupted" (exit 100): finish that install first. Another
+# apt-get that still holds the lock (an image's own first-boot upgrade) is
+# waited for, up to ten minutes, rather than failing the run.
+$SUDO dpkg --configure -a || true
+apt_retry() {
+  local try
+  for try in 1 2 3; do
+    if $SUDO apt-get -o DPkg::Lock::Timeout=600 "$@"; then return 0; fi
+    echo "install-deps: apt-get $1 failed (try $try of 3); repairing dpkg and retrying" >&2
+    $SUDO dpkg --configure -a || true
+    sleep $((try * 10))
+  done
+  return 1
+}
+apt_retry update -qq
+apt_retry install -y -qq --no-install-recommends "${packages[@]}"
 
 # The Khronos glTF validator (npm gltf-validator, pinned in
 # tools/gltf_validator/package.json) checks every .glb the baker writes in
 # the tests. Node from Debian unless a newer one is already installed.
 if ! command -v npm >/dev/null 2>&1; then
-  $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+  apt_retry install -y -qq --no-install-recommends nodejs npm
 fi
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 (cd "$repo_root/tools/gltf_validator" && npm ci --no-audit --no-fund --loglevel=error)
