@@ -36,12 +36,17 @@ def _to_blender(v):
 def main():
     args = sys.argv[sys.argv.index("--") + 1:]
     mesh, manifest_path, pixels, samples, out_dir = args[0], args[1], int(args[2]), int(args[3]), args[4]
+    # Optional: render only this many of the views, spread evenly (Cycles
+    # needs seconds a view on two cores; the caller extrapolates).
+    limit = int(args[5]) if len(args) > 5 else 0
     with open(manifest_path, encoding="utf-8") as f:
         manifest = json.load(f)
     sphere = manifest["bounding_sphere"]
     centre = _to_blender(sphere["center"])
     radius = float(sphere["radius"])
     views = manifest["views"]
+    if 0 < limit < len(views):
+        views = [views[i * len(views) // limit] for i in range(limit)]
 
     start = time.monotonic()
     for obj in list(bpy.data.objects):

@@ -61,6 +61,8 @@ const int IMPOSTOR_RECONSTRUCT_PLAIN = 0;
 const int IMPOSTOR_RECONSTRUCT_PARALLAX = 1;
 const int IMPOSTOR_RECONSTRUCT_DEPTH = 2;
 const float IMPOSTOR_DEPTH_AGREEMENT = 0.05;  // kDepthAgreement, radius units
+const float IMPOSTOR_EXTRUSION_DEPTH = 2.0 * IMPOSTOR_DEPTH_AGREEMENT;  // kExtrusionDepth
+const float IMPOSTOR_EXTRUSION_CONFIRM = 0.75;                         // kExtrusionConfirm
 
 // ---- direction <-> layout square (common/atlas_layout.cc) ----
 
@@ -605,6 +607,25 @@ ImpostorFrameCamera impostorBlendCamera(ImpostorLayout atlas, ImpostorBlend blen
   return impostorFrameCameraAt(atlas, blend.index[i]);
 }
 
+// Whether the blended frames other than `own` see `point` inside their
+// silhouettes (OthersSeeInside): a march hit deep in its frame's extrusion
+// counts only then.
+bool impostorOthersSeeInside(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                             ImpostorLayout atlas, int tile_size, ImpostorBlend blend, int own, vec3 point) {
+  float others = 0.0;
+  float inside = 0.0;
+  for (int j = 0; j < min(blend.count, 4); ++j) {
+    if (j == own || !(blend.weight[j] > 0.0)) continue;
+    ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, j);
+    ivec4 tile = ivec4(blend.frame[j] * tile_size, tile_size, tile_size);
+    ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile,
+                                          vec2(dot(point, frame.right), dot(point, frame.up)));
+    others += blend.weight[j];
+    inside += blend.weight[j] * s.alpha;
+  }
+  return !(others > 0.0) || inside >= IMPOSTOR_EXTRUSION_CONFIRM * others;
+}
+
 // Depth mode (common/runtime/depth_reconstruction.h, ReconstructDepth):
 // every frame's march hit is a candidate surface point on the ray; each
 // blended frame votes for a candidate by weight * coverage * agreement; the
@@ -629,6 +650,11 @@ ImpostorSurface impostorShadeDepthLayout(sampler2D albedo_tex, sampler2D normal_
     if (hit.z == 0.0) continue;
     ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
     if (!(s.alpha > 0.0)) continue;
+    if ((1.0 - 2.0 * s.depth) - hit.w > IMPOSTOR_EXTRUSION_DEPTH &&
+        !impostorOthersSeeInside(albedo_tex, normal_depth_tex, orm_tex, atlas, tile_size, blend, i,
+                                 hit.x * frame.right + hit.y * frame.up + hit.w * frame.direction)) {
+      continue;
+    }
     hits[i] = hit;
     hit_alpha[i] = s.alpha;
     acc.alpha += blend.weight[i] * s.alpha;

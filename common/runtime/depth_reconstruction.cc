@@ -43,6 +43,25 @@ float RayDistance(glm::vec3 origin, glm::vec3 ray_unit, glm::vec3 point) {
   return glm::dot(point - origin, ray_unit);
 }
 
+namespace {
+
+// Whether the blended frames other than `own` see `point` inside their
+// silhouettes (kExtrusionConfirm of their weight, by filtered coverage).
+bool OthersSeeInside(const std::array<DepthEntry, 4>& entries, int count, int own, glm::vec3 point,
+                     const DepthSurface& surface) {
+  float others = 0.0f;
+  float inside = 0.0f;
+  for (int j = 0; j < count; ++j) {
+    if (j == own || !(entries[j].weight > 0.0f)) continue;
+    others += entries[j].weight;
+    float height = 0.0f;
+    inside += entries[j].weight * surface(j, ProjectPointToFrame(*entries[j].frame, point).st, &height);
+  }
+  return !(others > 0.0f) || inside >= kExtrusionConfirm * others;
+}
+
+}  // namespace
+
 DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
                             glm::vec3 ray_unit, const DepthMarch& march, const DepthSurface& surface) {
   DepthPixel out;
@@ -57,6 +76,11 @@ DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count,
     float height = 0.0f;
     hit_alpha[i] = surface(i, hits[i].st, &height);
     if (!(hit_alpha[i] > 0.0f)) {
+      hits[i].valid = false;
+      continue;
+    }
+    if (height - hits[i].height > kExtrusionDepth &&
+        !OthersSeeInside(entries, count, i, FramePoint(*entries[i].frame, hits[i]), surface)) {
       hits[i].valid = false;
       continue;
     }

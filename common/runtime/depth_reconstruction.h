@@ -12,6 +12,15 @@
 //     so the ray's entry into it, at distance lambda_i along the ray, is at or
 //     before the true surface. A frame whose march finds nothing gives no
 //     coverage (the ray misses the object as that frame saw it).
+//     That solid is the frame's silhouette extruded backwards, so it also
+//     holds points far behind anything the frame saw: a ray passing just
+//     above a duck's head as the view sees it enters a lower frame's
+//     extrusion behind the head. A hit more than kExtrusionDepth behind the
+//     surface its frame saw counts only where the other blended frames
+//     (kExtrusionConfirm of their weight) see that point inside their
+//     silhouettes too (a visual hull of the blended frames); a surface the
+//     frame saw edge-on (a box's top from the horizon) passes, a point in
+//     empty space behind the object does not.
 //  2. Coverage: A = sum_i w_i a_i over the march hits (as parallax); the
 //     pixel is covered iff A >= 0.5.
 //  3. Candidates: every frame's hit point P_i lies on the ray.
@@ -37,7 +46,8 @@
 // and the result is the frame itself, as with plain and parallax.
 //
 // Cost in texture reads per pixel, n = blended frames (3, or 4 for
-// bilinear4): per frame the march reads alpha + depth up to 17 + 4 times;
+// bilinear4): per frame the march reads alpha + depth up to 17 + 4 times,
+// and a hit deep in its extrusion alpha in the n - 1 other frames;
 // the votes read alpha + depth at n candidates in n - 1 other frames; the
 // final sample at P reads albedo, normal_depth and ORM once per frame.
 #ifndef IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
@@ -72,6 +82,15 @@ std::string_view ReconstructionName(Reconstruction mode);
 inline constexpr float kDepthAgreement = 0.05f;
 // A candidate needs this share of the best candidate's support to be P.
 inline constexpr float kSupportShare = 0.5f;
+// A march hit this far (radius units) behind the surface its frame saw is in
+// the frame's extrusion and needs the other frames' confirmation (step 1):
+// twice the agreement tolerance. Measured on the issue-17 assets (hemi-oct
+// 12x12, 2048 px) against no confirmation: Duck's pop 4.82 -> 1.70,
+// DamagedHelmet's IoU 0.978 -> 0.986, StylizedTree's 0.899 -> 0.942.
+inline constexpr float kExtrusionDepth = 2.0f * kDepthAgreement;
+// The share of the other frames' weight that must see such a hit inside
+// their silhouettes.
+inline constexpr float kExtrusionConfirm = 0.75f;
 
 // The agreement weight g of step 4 for a frame whose surface height at P's
 // projection is `surface_height` while P's own height in it is `point_height`.

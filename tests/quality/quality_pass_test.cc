@@ -448,12 +448,10 @@ TEST_F(DepthBeatsPlainTest, OnAPropAndATree) {
   struct Asset {
     const char* name;
     fs::path path;
-    bool prop;
   };
   const fs::path assets(IMPOSTOR_TEST_ASSETS_DIR);
-  for (const Asset& a : {Asset{"DamagedHelmet", kHelmet, true},
-                         Asset{"TreeLowPoly", assets / "vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf",
-                               false}}) {
+  for (const Asset& a : {Asset{"DamagedHelmet", kHelmet},
+                         Asset{"TreeLowPoly", assets / "vegetation/TreeLowPoly_RicardoSanchez/scene_alphaMASK.gltf"}}) {
     const fs::path dir = ScratchDir(std::string("depth_") + a.name);
     v1::BakeParameters in;
     in.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
@@ -481,7 +479,9 @@ TEST_F(DepthBeatsPlainTest, OnAPropAndATree) {
     EXPECT_EQ(plain.reconstruction(), "plain");
     EXPECT_GT(q.albedo_psnr_shared_db_mean(), plain.albedo_psnr_shared_db_mean()) << a.name;
     EXPECT_GT(q.albedo_ssim_shared_mean(), plain.albedo_ssim_shared_mean()) << a.name;
-    if (a.prop) EXPECT_GT(q.silhouette_iou_mean(), plain.silhouette_iou_mean()) << a.name;
+    // The tree too since march hits deep in a frame's extrusion need the
+    // other frames' confirmation (before: depth 0.867 vs plain 0.871 at 2048 px).
+    EXPECT_GT(q.silhouette_iou_mean(), plain.silhouette_iou_mean()) << a.name;
     // manifest.json carries both and reads back.
     std::ifstream file(out->manifest_path);
     std::stringstream text;

@@ -306,5 +306,49 @@ TEST(DepthReconstruction, AgreementFallsToZeroBeyondTheTolerance) {
   EXPECT_EQ(DepthAgreement(-0.9f, 0.9f), 0.0f);
 }
 
+// A march hit deep behind the surface its frame saw lies in that frame's
+// extrusion (its silhouette pushed backwards): it counts only where the
+// other blended frames see the point inside their silhouettes.
+TEST(DepthReconstruction, AHitDeepInItsFramesExtrusionNeedsTheOtherFrames) {
+  const FrameCamera front = CameraForDirection({0.0f, 0.0f, 1.0f});
+  const FrameCamera side = CameraForDirection(glm::normalize(glm::vec3(0.5f, 0.0f, 1.0f)));
+  const glm::vec3 origin(0.1f, 0.2f, 5.0f);
+  const glm::vec3 ray_unit(0.0f, 0.0f, -1.0f);
+  const PlaneSample front_hit{true, {0.1f, 0.2f}, -0.3f};  // where the front frame's march stopped
+  struct Case {
+    float behind;       // how far the hit lies behind the surface the front frame saw
+    float side_weight;  // the side frame's blend weight (the front frame has the rest)
+    float side_alpha;   // the side frame's coverage wherever it is sampled
+    bool covered;
+  };
+  const std::vector<Case> cases = {
+      {0.3f, 0.2f, 0.0f, false},                        // deep, the side frame sees empty space
+      {0.3f, 0.2f, 1.0f, true},                         // deep, the side frame sees the object there
+      {0.3f, 0.2f, 0.7f, false},                        // deep, seen inside by less than kExtrusionConfirm
+      {0.3f, 0.0f, 0.0f, true},                         // deep, but no other frame is blended
+      {0.5f * kExtrusionDepth, 0.2f, 0.0f, true},       // near the surface: no confirmation needed
+      {1.5f * kExtrusionDepth, 0.2f, 0.0f, false},      // just beyond the extrusion depth
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(::testing::Message() << "behind " << c.behind << " side weight " << c.side_weight
+                                      << " side alpha " << c.side_alpha);
+    const std::array<DepthEntry, 4> entries = {DepthEntry{&front, 1.0f - c.side_weight},
+                                               DepthEntry{&side, c.side_weight}};
+    const DepthMarch march = [&](int entry) { return entry == 0 ? front_hit : PlaneSample{}; };
+    const DepthSurface surface = [&](int entry, glm::vec2, float* height) {
+      *height = front_hit.height + c.behind;
+      return entry == 0 ? 1.0f : c.side_alpha;
+    };
+    const DepthPixel pixel = ReconstructDepth(entries, 2, origin, ray_unit, march, surface);
+    if (c.covered) {
+      EXPECT_FLOAT_EQ(pixel.coverage, 1.0f - c.side_weight);
+      EXPECT_TRUE(pixel.samples[0].used);
+    } else {
+      EXPECT_EQ(pixel.coverage, 0.0f);
+      EXPECT_FALSE(pixel.samples[0].used);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace impostor
