@@ -1,13 +1,15 @@
 """Renders a baked result's views with Blender Cycles, for bench/compare_blender.sh.
 
     blender -b --factory-startup --python bench/blender_views.py -- \
-        MESH.glb manifest.json PIXELS SAMPLES OUT_DIR
+        MESH.glb manifest.json PIXELS SAMPLES OUT_DIR [LIMIT]
 
 Every view of the manifest (direction and up in glTF scene space, the
 bounding sphere's centre and radius) becomes one orthographic camera framing
 the sphere, as the bake's cameras do (common/frame_camera.h), rendered
 PIXELS x PIXELS with Cycles on the CPU at SAMPLES samples and written as
 PNG into OUT_DIR, one file per view (the bake writes its maps too).
+LIMIT > 0 renders only that many views, spread evenly over the manifest's
+(compare_blender.sh's BLENDER_VIEWS extrapolates from them).
 Prints one line: "blender_views: VIEWS views, import_s I, render_s R".
 """
 
