@@ -44,13 +44,16 @@ export DEBIAN_FRONTEND=noninteractive
 # "dpkg was interrupted" (exit 100): finish that install first. Another
 # apt-get that still holds the lock (an image's own first-boot upgrade) is
 # waited for, up to ten minutes, rather than failing the run.
-$SUDO dpkg --configure -a || true
+# Conffile questions take the default and keep the local file, never a prompt.
+repair_dpkg() { $SUDO dpkg --force-confdef --force-confold --configure -a </dev/null || true; }
+repair_dpkg
 apt_retry() {
   local try
   for try in 1 2 3; do
-    if $SUDO apt-get -o DPkg::Lock::Timeout=600 "$@"; then return 0; fi
+    if $SUDO apt-get -o DPkg::Lock::Timeout=600 -o Dpkg::Options::=--force-confdef \
+      -o Dpkg::Options::=--force-confold "$@" </dev/null; then return 0; fi
     echo "install-deps: apt-get $1 failed (try $try of 3); repairing dpkg and retrying" >&2
-    $SUDO dpkg --configure -a || true
+    repair_dpkg
     sleep $((try * 10))
   done
   return 1
