@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include "absl/cleanup/cleanup.h"
 #include "absl/strings/str_cat.h"
 #include "server/sqlite_open.h"
 #include "impostor/v1/bake_service.pb.h"
@@ -93,7 +94,7 @@ class Statement : public SqliteStatement {
   Statement(sqlite3* db, const char* sql) : SqliteStatement(db, sql, "sqlite") {}
 };
 
-absl::StatusOr<JobRecord> ReadJob(const Statement& st) {
+absl::StatusOr<JobRecord> ReadJob(const SqliteStatement& st) {
   JobRecord r;
   v1::SubmitBakeRequest request;
   if (!r.job.ParseFromString(st.Blob(7)) || !request.ParseFromString(st.Blob(8))) {
@@ -254,7 +255,10 @@ absl::Status SqliteJobStore::BackfillResultBlobs() {
   return absl::OkStatus();
 }
 
-SqliteJobStore::~SqliteJobStore() { sqlite3_close(db_); }
+SqliteJobStore::~SqliteJobStore() {
+  find_by_request_id_.reset();  // finalised before the connection closes
+  sqlite3_close(db_);
+}
 
 namespace {
 
@@ -389,11 +393,23 @@ absl::StatusOr<int64_t> SqliteJobStore::CountPending(const std::string& client_i
 
 absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::FindByRequestId(const std::string& client_id,
                                                                    const std::string& request_id) {
-  return QueryOne(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE client_id = ?1 AND request_id = ?2"),
-                  [&](Statement& st) {
-                    st.Bind(1, client_id);
-                    st.Bind(2, request_id);
-                  });
+  if (find_by_request_id_ == nullptr) {
+    auto prepared = std::make_unique<SqliteStatement>(
+        db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE client_id = ?1 AND request_id = ?2").c_str(),
+        "sqlite");
+    if (auto s = prepared->prepared(); !s.ok()) return s;
+    find_by_request_id_ = std::move(prepared);
+  }
+  SqliteStatement& st = *find_by_request_id_;
+  absl::Cleanup reset = [&st] { st.Reset(); };
+  st.Bind(1, client_id);
+  st.Bind(2, request_id);
+  const int rc = st.Step();
+  if (rc == SQLITE_DONE) return std::optional<JobRecord>();
+  if (rc != SQLITE_ROW) return st.Error("query");
+  auto r = ReadJob(st);
+  if (!r.ok()) return r.status();
+  return std::optional<JobRecord>(std::move(*r));
 }
 
 absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::RunningOnWorker(const std::string& worker_id) {

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "server/job_store.h"
+#include "server/sqlite_open.h"
 
 struct sqlite3;
 
@@ -70,6 +71,11 @@ class SqliteJobStore : public JobStore {
   // A database from before result_blobs: index every result once.
   absl::Status BackfillResultBlobs();
   sqlite3* db_;
+  // FindByRequestId's statement, prepared once and reset after each use:
+  // every cache hit with a request_id (the CLI always sends one) asks it
+  // under the scheduler's lock, and parsing it each time was most of that
+  // lock's hold time.
+  std::unique_ptr<SqliteStatement> find_by_request_id_;
 };
 
 }  // namespace impostor

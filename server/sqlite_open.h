@@ -47,6 +47,12 @@ class SqliteStatement {
   }
   // SQLITE_ROW, SQLITE_DONE, or an error code.
   int Step() { return sqlite3_step(stmt_); }
+  // Makes the statement ready to run again: ends the read it holds open
+  // after a row and clears its bindings (a statement kept across calls).
+  void Reset() {
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
   std::string Text(int col) const;
   std::string Blob(int col) const;
   int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
+
 #include "tests/server/job_store_test_engines.h"
 
 namespace impostor::testing {
@@ -144,6 +146,29 @@ TYPED_TEST(JobStoreContract, RequestIdIsUniquePerClient) {
   auto none = this->store_->FindByRequestId("c", "r2");
   ASSERT_TRUE(none.ok());
   EXPECT_FALSE(none->has_value());
+}
+
+// The lookup every cache hit with a request_id makes (SQLite keeps its
+// statement prepared between calls): each call sees its own arguments and
+// the rows written since.
+TYPED_TEST(JobStoreContract, RepeatedRequestIdLookupsSeeEveryWrite) {
+  for (int i = 0; i < 5; ++i) {
+    const std::string id = absl::StrCat("r", i);
+    auto before = this->store_->FindByRequestId("c", id);
+    ASSERT_TRUE(before.ok()) << before.status();
+    EXPECT_FALSE(before->has_value()) << id;
+    JobRecord job = this->Job(absl::StrCat("job-", i), absl::StrCat("k", i));
+    job.request_id = id;
+    ASSERT_TRUE(this->store_->Insert(job).ok());
+    for (int j = 0; j <= i; ++j) {
+      auto found = this->store_->FindByRequestId("c", absl::StrCat("r", j));
+      ASSERT_TRUE(found.ok() && found->has_value()) << "r" << j;
+      EXPECT_EQ((*found)->job.job_id(), absl::StrCat("job-", j));
+    }
+    auto other_client = this->store_->FindByRequestId("other", id);
+    ASSERT_TRUE(other_client.ok());
+    EXPECT_FALSE(other_client->has_value());
+  }
 }
 
 TYPED_TEST(JobStoreContract, ClaimLeasesTheFirstCandidateStillQueued) {
