@@ -250,6 +250,24 @@ absl::Status BakeScheduler::SettleFollowers(const JobRecord& leader, const v1::M
   return absl::OkStatus();
 }
 
+absl::Status BakeScheduler::SettleIfLeaderFinished(const std::string& leader_job_id) {
+  auto leader = LoadJob(leader_job_id);
+  if (!leader.ok()) return leader.status();
+  if (!IsTerminal(leader->job.state())) return absl::OkStatus();
+  std::optional<v1::Manifest> result;
+  if (leader->job.state() == v1::JOB_STATE_SUCCEEDED) {
+    auto intact = IntactResult(leader->job.cache_key());
+    if (!intact.ok()) return intact.status();
+    // Gone already (evicted, purged): left to the client's retry.
+    if (!intact->has_value()) return absl::OkStatus();
+    result = std::move(**intact);
+  }
+  spdlog::info("event=follower_settled_late leader={} state={}", leader_job_id, static_cast<int>(leader->job.state()));
+  const absl::Status settled = SettleFollowers(*leader, result.has_value() ? &*result : nullptr);
+  // Another server settled it first: its write won the row's version.
+  return absl::IsAborted(settled) ? absl::OkStatus() : settled;
+}
+
 absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   if (IsTerminal(leader.job.state()) || !leader.requester_cancelled) return absl::OkStatus();
   auto followers = jobs_->ActiveFollowers(leader.job.job_id());
@@ -561,6 +579,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
       if (auto s = jobs_->Insert(record); !s.ok()) return s;
       ++changes_;
       changed_.notify_all();
+      if (auto s = SettleIfLeaderFinished(record.leader_job_id); !s.ok()) return s;
       // The shared bake runs at the highest priority anyone waiting asked for.
       absl::Status refreshed = RefreshLeasePriority(**active);
       if (absl::IsAborted(refreshed)) {

@@ -313,7 +313,12 @@ TEST_F(NetnsMultiHost, TwoHundredBakesSurviveAReplicaKilledTwice) {
 
   // From the database. Leader jobs (leader_job_id = '') are the bakes;
   // followers share a leader's bake.
-  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0") << "every job succeeded";
+  EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE state <> 3"), "0")
+      << "every job succeeded; the others (job, state, leader, client, request_id, created_ms, leader's state):\n"
+      << Query(*pg,
+               "SELECT j.job_id || ' ' || j.state || ' ' || j.leader_job_id || ' ' || j.client_id || ' ' || "
+               "j.request_id || ' ' || j.created_ms || ' ' || coalesce(l.state::text, '-') FROM jobs j "
+               "LEFT JOIN jobs l ON l.job_id = j.leader_job_id WHERE j.state <> 3");
   EXPECT_EQ(Query(*pg, "SELECT count(*) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
   EXPECT_EQ(Query(*pg, "SELECT count(DISTINCT cache_key) FROM jobs WHERE leader_job_id = ''"), std::to_string(kBakes));
   const int expiries = CheckLeaseHistories(*pg, kBakes);
