@@ -22,6 +22,9 @@
 namespace impostor {
 namespace {
 
+// Finished leaders whose waiting followers one lease sweep settles.
+constexpr int kStrandedLeadersPerSweep = 100;
+
 bool IsTerminal(v1::JobState s) {
   return s == v1::JOB_STATE_SUCCEEDED || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
 }
@@ -1110,6 +1113,12 @@ absl::Status BakeScheduler::ExpireLeases() {
     // Another server finished or renewed it since the read: nothing lost.
     if (absl::IsAborted(s)) continue;
     if (!s.ok()) return s;
+  }
+  // Followers left waiting by a server that died while settling them.
+  auto stranded = jobs_->FinishedLeadersWithWaitingFollowers(kStrandedLeadersPerSweep);
+  if (!stranded.ok()) return stranded.status();
+  for (const JobRecord& leader : *stranded) {
+    if (auto s = SettleIfLeaderFinished(leader.job.job_id()); !s.ok()) return s;
   }
   return absl::OkStatus();
 }

@@ -314,9 +314,11 @@ class BakeScheduler {
   // quality gate instead (ApplyResult).
   absl::Status SettleFollowers(const JobRecord& leader, const v1::Manifest* result = nullptr)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // A follower inserted just as its leader finished on another server (whose
-  // SettleFollowers read the followers before this one was written) would
-  // wait for ever: after inserting one, settle it if the leader is done.
+  // Settles the leader's waiting followers if it has finished. Called after
+  // inserting a follower (its leader may have finished on another server,
+  // whose SettleFollowers read the followers before this one was written)
+  // and by the lease sweep (a server died between saving a leader and
+  // settling its followers).
   absl::Status SettleIfLeaderFinished(const std::string& leader_job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Marks `r` SUCCEEDED with `result`, or FAILED (FAILED_PRECONDITION, the
   // result still attached by View) when its quality gate rejects it. Does

@@ -128,6 +128,10 @@ class JobStore {
   virtual absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id) = 0;
   // RUNNING jobs whose lease deadline is before `now_ms`.
   virtual absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms) = 0;
+  // Finished leaders (SUCCEEDED, FAILED, CANCELLED) that still have QUEUED
+  // or RUNNING followers, at most `limit`: a server that died between saving
+  // a leader and settling its followers leaves them waiting.
+  virtual absl::StatusOr<std::vector<JobRecord>> FinishedLeadersWithWaitingFollowers(int limit) = 0;
 
   virtual absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms) = 0;
   virtual absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key) = 0;

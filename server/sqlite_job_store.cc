@@ -422,6 +422,17 @@ absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::RunningOnWorker(const std
                    });
 }
 
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::FinishedLeadersWithWaitingFollowers(int limit) {
+  // States: 3..5 SUCCEEDED, FAILED, CANCELLED; 1, 2 QUEUED, RUNNING. Asked
+  // from the waiting followers' side (the live queue, few) so that the
+  // engine can look leaders up by job_id instead of walking finished jobs.
+  return QueryMany(db_,
+                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE leader_job_id = '' AND state IN (3, 4, 5) AND job_id IN "
+                                "(SELECT leader_job_id FROM jobs WHERE state IN (1, 2) AND leader_job_id <> '') "
+                                "LIMIT ?1"),
+                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(limit)); });
+}
+
 absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::ExpiredLeases(int64_t now_ms) {
   return QueryMany(db_, absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ?1 AND lease_deadline_ms < ?2"),
                    [&](Statement& st) {

@@ -327,6 +327,17 @@ absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::RunningOnWorker(const s
                    PgParams().Text(worker_id));
 }
 
+absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::FinishedLeadersWithWaitingFollowers(int limit) {
+  // States: 3..5 SUCCEEDED, FAILED, CANCELLED; 1, 2 QUEUED, RUNNING. Asked
+  // from the waiting followers' side (the live queue, few) so that the
+  // engine can look leaders up by job_id instead of walking finished jobs.
+  return QueryMany("finished leaders",
+                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE leader_job_id = '' AND state IN (3, 4, 5) AND job_id IN "
+                                "(SELECT leader_job_id FROM jobs WHERE state IN (1, 2) AND leader_job_id <> '') "
+                                "LIMIT $1"),
+                   PgParams().Int(limit));
+}
+
 absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::ExpiredLeases(int64_t now_ms) {
   return QueryMany("expired leases",
                    absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ", kRunning,

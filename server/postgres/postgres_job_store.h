@@ -69,6 +69,7 @@ class PostgresJobStore : public JobStore {
                                                            const std::string& request_id) override;
   absl::StatusOr<std::vector<JobRecord>> RunningOnWorker(const std::string& worker_id) override;
   absl::StatusOr<std::vector<JobRecord>> ExpiredLeases(int64_t now_ms) override;
+  absl::StatusOr<std::vector<JobRecord>> FinishedLeadersWithWaitingFollowers(int limit) override;
   absl::Status PutResult(const v1::Manifest& manifest, int64_t now_ms) override;
   absl::StatusOr<std::optional<v1::Manifest>> GetResult(const std::string& cache_key) override;
   absl::Status DeleteResult(const std::string& cache_key) override;

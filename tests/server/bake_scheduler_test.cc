@@ -396,5 +396,36 @@ TEST_F(BakeSchedulerTest, RejectsMalformedWorkerRequests) {
   EXPECT_EQ(scheduler_->GetResult("not-a-key").status().code(), absl::StatusCode::kInvalidArgument);
 }
 
+// A server that died between saving a finished leader and settling its
+// followers left them waiting; the next lease sweep settles them.
+TEST_F(BakeSchedulerTest, TheLeaseSweepSettlesFollowersOfAFinishedLeader) {
+  auto record = [](const std::string& id, v1::JobState state, const std::string& leader) {
+    JobRecord r;
+    r.job.set_job_id(id);
+    r.job.set_cache_key("k-stranded");
+    r.job.set_state(state);
+    r.job.set_created_ms(1);
+    r.job.mutable_error()->set_message(state == v1::JOB_STATE_FAILED ? "the mesh has no triangles" : "");
+    r.mesh.mutable_entry()->set_path("model.glb");
+    r.mesh.mutable_entry()->mutable_digest()->set_hash("in-" + id);
+    r.parameters.set_frames(8);
+    r.client_id = "c";
+    r.leader_job_id = leader;
+    return r;
+  };
+  ASSERT_TRUE(jobs_->Insert(record("leader", v1::JOB_STATE_FAILED, "")).ok());
+  ASSERT_TRUE(jobs_->Insert(record("follower", v1::JOB_STATE_QUEUED, "leader")).ok());
+  // GetJob already shows a follower its leader's state; the row itself
+  // stayed QUEUED (counted as pending, never retired) until the sweep.
+  auto row = [&] { return (*jobs_->Get("follower"))->job; };
+  ASSERT_EQ(row().state(), v1::JOB_STATE_QUEUED);
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  EXPECT_EQ(row().state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(row().error().message(), "the mesh has no triangles");
+  auto left = jobs_->FinishedLeadersWithWaitingFollowers(10);
+  ASSERT_TRUE(left.ok());
+  EXPECT_TRUE(left->empty());
+}
+
 }  // namespace
 }  // namespace impostor

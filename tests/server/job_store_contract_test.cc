@@ -148,6 +148,30 @@ TYPED_TEST(JobStoreContract, RequestIdIsUniquePerClient) {
   EXPECT_FALSE(none->has_value());
 }
 
+// What the lease sweep settles: followers still waiting on a leader that
+// finished (its server died between saving it and settling them).
+TYPED_TEST(JobStoreContract, FinishedLeadersWithWaitingFollowersAreFound) {
+  auto follower = [&](const std::string& id, const std::string& key, const std::string& leader, v1::JobState state) {
+    JobRecord f = this->Job(id, key, state);
+    f.leader_job_id = leader;
+    return f;
+  };
+  ASSERT_TRUE(this->store_->Insert(this->Job("done", "k1", v1::JOB_STATE_SUCCEEDED)).ok());
+  ASSERT_TRUE(this->store_->Insert(follower("f-waiting", "k1", "done", v1::JOB_STATE_QUEUED)).ok());
+  ASSERT_TRUE(this->store_->Insert(this->Job("failed", "k2", v1::JOB_STATE_FAILED)).ok());
+  ASSERT_TRUE(this->store_->Insert(follower("f-settled", "k2", "failed", v1::JOB_STATE_FAILED)).ok());
+  ASSERT_TRUE(this->store_->Insert(this->Job("live", "k3", v1::JOB_STATE_RUNNING)).ok());
+  ASSERT_TRUE(this->store_->Insert(follower("f-live", "k3", "live", v1::JOB_STATE_QUEUED)).ok());
+  ASSERT_TRUE(this->store_->Insert(this->Job("alone", "k4", v1::JOB_STATE_CANCELLED)).ok());
+  auto found = this->store_->FinishedLeadersWithWaitingFollowers(10);
+  ASSERT_TRUE(found.ok()) << found.status();
+  ASSERT_EQ(found->size(), 1u);
+  EXPECT_EQ(found->front().job.job_id(), "done");
+  auto none = this->store_->FinishedLeadersWithWaitingFollowers(0);
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_TRUE(none->empty());
+}
+
 // The lookup every cache hit with a request_id makes (SQLite keeps its
 // statement prepared between calls): each call sees its own arguments and
 // the rows written since.
