@@ -118,17 +118,22 @@ absl::StatusOr<JobRecord> ReadJob(const SqliteStatement& st) {
   return r;
 }
 
-absl::StatusOr<std::optional<JobRecord>> QueryOne(sqlite3* db, const std::string& sql,
-                                                  const std::function<void(Statement&)>& bind) {
-  Statement st(db, sql.c_str());
-  if (auto s = st.prepared(); !s.ok()) return s;
-  bind(st);
+// Runs a prepared, bound statement for at most one job row.
+absl::StatusOr<std::optional<JobRecord>> StepOne(SqliteStatement& st) {
   const int rc = st.Step();
   if (rc == SQLITE_DONE) return std::optional<JobRecord>();
   if (rc != SQLITE_ROW) return st.Error("query");
   auto r = ReadJob(st);
   if (!r.ok()) return r.status();
   return std::optional<JobRecord>(std::move(*r));
+}
+
+absl::StatusOr<std::optional<JobRecord>> QueryOne(sqlite3* db, const std::string& sql,
+                                                  const std::function<void(Statement&)>& bind) {
+  Statement st(db, sql.c_str());
+  if (auto s = st.prepared(); !s.ok()) return s;
+  bind(st);
+  return StepOne(st);
 }
 
 absl::StatusOr<std::vector<JobRecord>> QueryMany(sqlite3* db, const std::string& sql,
@@ -404,12 +409,7 @@ absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::FindByRequestId(const s
   absl::Cleanup reset = [&st] { st.Reset(); };
   st.Bind(1, client_id);
   st.Bind(2, request_id);
-  const int rc = st.Step();
-  if (rc == SQLITE_DONE) return std::optional<JobRecord>();
-  if (rc != SQLITE_ROW) return st.Error("query");
-  auto r = ReadJob(st);
-  if (!r.ok()) return r.status();
-  return std::optional<JobRecord>(std::move(*r));
+  return StepOne(st);
 }
 
 absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::RunningOnWorker(const std::string& worker_id) {
