@@ -79,13 +79,13 @@ DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count,
       hits[i].valid = false;
       continue;
     }
-    if (height - hits[i].height > kExtrusionDepth &&
-        !OthersSeeInside(entries, count, i, FramePoint(*entries[i].frame, hits[i]), surface)) {
+    const glm::vec3 point = FramePoint(*entries[i].frame, hits[i]);
+    if (height - hits[i].height > kExtrusionDepth && !OthersSeeInside(entries, count, i, point, surface)) {
       hits[i].valid = false;
       continue;
     }
     out.coverage += entries[i].weight * hit_alpha[i];
-    lambda[i] = RayDistance(origin, ray_unit, FramePoint(*entries[i].frame, hits[i]));
+    lambda[i] = RayDistance(origin, ray_unit, point);
   }
   if (out.coverage < 0.5f) return out;
   // Every hit is a candidate for P; each frame votes for it by w * a * g.
