@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -51,7 +52,7 @@ struct StageClock {
 }  // namespace
 
 int main(int argc, char** argv) {
-  spdlog::set_level(spdlog::level::info);
+  spdlog::set_level(std::getenv("BAKE_STAGES_DEBUG") ? spdlog::level::debug : spdlog::level::info);
   uint32_t frames = 12, resolution = 2048;
   int supersampling = -1, quality_views = -1, repeat = 1;
   fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";

@@ -678,6 +678,46 @@ TEST_F(AtlasRendererTest, MinifiedTexturesAreMipmapped) {
   EXPECT_GT(count, 100);
 }
 
+// KeepSceneUploaded: a kept upload serves only the scene object it was made
+// for and only with the texture filter it was made with; every render equals
+// one from a fresh upload. A 1-texel checkerboard at 1.5 texels per pixel
+// tells the filters apart: the supersampled bake's sharper mip bias keeps
+// more of the checker's contrast than anisotropic filtering does.
+TEST_F(AtlasRendererTest, AKeptUploadRendersWhatAFreshUploadRenders) {
+  SceneMaterial m;
+  m.base_color_texture = 0;
+  Scene checker = MakeQuad(m);
+  checker.textures.push_back(MakeTexture(64, 64, /*srgb=*/true, kRepeat, [](int x, int y) {
+    const uint8_t v = (x + y) % 2 ? 255 : 0;
+    return std::array<uint8_t, 4>{v, v, v, 255};
+  }));
+  const Scene cube = MakeCube();
+  const std::vector<FrameCamera> cameras = QuadCameras();
+  const auto render = [&](const Scene& scene, int supersampling) {
+    renderer_->set_supersampling(supersampling);
+    AtlasImages img = RenderOk(scene, kQuadSphere, cameras, kQuadAtlas);
+    renderer_->set_supersampling(1);
+    return img;
+  };
+  const AtlasImages fresh_checker = render(checker, 1);
+  const AtlasImages fresh_checker_sharp = render(checker, 2);
+  const AtlasImages fresh_cube = render(cube, 1);
+  ASSERT_FALSE(fresh_checker.albedo_alpha.empty());
+  // The two filters differ on this texture, so reusing the wrong one shows.
+  ASSERT_NE(fresh_checker.albedo_alpha, fresh_checker_sharp.albedo_alpha);
+  ASSERT_NE(fresh_checker.albedo_alpha, fresh_cube.albedo_alpha);
+
+  {
+    const ScopedKeptScene kept(*renderer_, checker);
+    EXPECT_EQ(render(checker, 1).albedo_alpha, fresh_checker.albedo_alpha);  // makes the upload
+    EXPECT_EQ(render(checker, 1).albedo_alpha, fresh_checker.albedo_alpha);  // reuses it
+    EXPECT_EQ(render(cube, 1).albedo_alpha, fresh_cube.albedo_alpha);        // another scene
+    EXPECT_EQ(render(checker, 2).albedo_alpha, fresh_checker_sharp.albedo_alpha);  // another filter
+    EXPECT_EQ(render(checker, 1).albedo_alpha, fresh_checker.albedo_alpha);
+  }
+  EXPECT_EQ(render(checker, 1).albedo_alpha, fresh_checker.albedo_alpha);  // freed, fresh again
+}
+
 TEST_F(AtlasRendererTest, RejectsInvalidRequests) {
   SceneMaterial m;
   const Scene scene = MakeQuad(m);

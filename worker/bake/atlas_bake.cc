@@ -3,6 +3,7 @@
 #include <chrono>
 #include <fstream>
 #include <future>
+#include <optional>
 
 #include <spdlog/spdlog.h>
 
@@ -113,6 +114,10 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   progress("render", kRenderStart);
   if (cancelled) return absl::CancelledError("cancelled before rendering");
   RenderTimings render_timings;
+  // The quality pass renders the mesh again: its views reuse this upload.
+  const bool quality_pass = p.has_quality_views() ? p.quality_views() > 0 : true;
+  std::optional<ScopedKeptScene> kept_upload;
+  if (quality_pass) kept_upload.emplace(renderer, *scene);
   renderer.set_cancel_flag(&cancelled);
   renderer.set_emissive(p.emissive());
   // Supersampling: every tile rendered `ss` times larger, then filtered
@@ -229,13 +234,14 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // go into their own manifest, appended after the maps' below, so the
   // manifest's order is the serial one.
   v1::Manifest quality_manifest;
-  if (p.has_quality_views() ? p.quality_views() > 0 : true) {
+  if (quality_pass) {
     AtlasImages quality_maps{.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
                              .normal_depth = atlas->normal_depth, .orm = atlas->orm, .emissive = {}};
     absl::Status quality = AddAtlasQuality(*scene, sphere, cameras, std::move(quality_maps), p, request.cache_key,
                                            dir, renderer, &quality_manifest);
     if (!quality.ok()) return quality;
   }
+  kept_upload.reset();
   absl::StatusOr<Encoded> encoded = encoding.get();
   if (!encoded.ok()) return encoded.status();
   std::vector<v1::MapFile> ktx2_maps = std::move(encoded->ktx2_maps);

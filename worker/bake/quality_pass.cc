@@ -68,18 +68,29 @@ FrameCamera CameraFor(glm::vec3 direction, int index, int pixels, int columns) {
   return c;
 }
 
-// The mesh from every direction, as tiles of one atlas (one Render call, so
-// the scene is uploaded once), cut apart into one buffer per view.
+// The mesh from every direction, as tiles of one atlas (one Render call),
+// cut apart into one buffer per view. With `supersampling` > 1 rendered that many times
+// larger and filtered down on the device, as the bake renders its frames.
 absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, const BoundingSphere& sphere,
                                                          const std::vector<glm::vec3>& directions, int pixels,
-                                                         AtlasRenderer& renderer) {
+                                                         int supersampling, AtlasRenderer& renderer) {
   const int n = static_cast<int>(directions.size());
   const int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const int ss = supersampling;
   std::vector<FrameCamera> cameras;
-  for (int i = 0; i < n; ++i) cameras.push_back(CameraFor(directions[i], i, pixels, columns));
+  for (int i = 0; i < n; ++i) {
+    FrameCamera c = CameraFor(directions[i], i, pixels, columns);
+    c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
+    cameras.push_back(c);
+  }
+  renderer.set_supersampling(ss);
+  renderer.set_resolve_on_device(ss > 1);
   RenderTimings timings;
-  auto atlas = renderer.Render(scene, sphere, cameras, columns * pixels, {}, &timings);
+  auto atlas = renderer.Render(scene, sphere, cameras, columns * pixels * ss, {}, &timings);
+  renderer.set_supersampling(1);
+  renderer.set_resolve_on_device(false);
   if (!atlas.ok()) return atlas.status();
+  for (FrameCamera& c : cameras) c.tile = {c.tile.x / ss, c.tile.y / ss, c.tile.width / ss, c.tile.height / ss};
   std::vector<ViewBuffers> views(n);
   const size_t row = static_cast<size_t>(pixels) * 4;
   for (int i = 0; i < n; ++i) {
@@ -151,7 +162,7 @@ absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const Imposto
       steps.emplace_back(2 * k, 2 * k + 1);
     }
   }
-  auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, renderer);
+  auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, /*supersampling=*/1, renderer);
   if (!mesh.ok()) return mesh.status();
   const int n = static_cast<int>(steps.size());
   std::vector<double> mesh_change(n);
@@ -325,7 +336,8 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   const auto start = Clock::now();
   QualityPassResult result;
   result.directions = HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
-  auto mesh = RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, renderer);
+  auto mesh =
+      RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, kReferenceSupersampling, renderer);
   if (!mesh.ok()) return mesh.status();
   const std::vector<ViewBuffers> impostor =
       RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend, o.reconstruction);

@@ -82,6 +82,14 @@ class AtlasRenderer {
       const std::vector<FrameCamera>& cameras, int atlas_size,
       const std::function<void(double)>& progress, RenderTimings* timings) = 0;
 
+  // Keeps `scene`'s device upload (buffers, textures) once a Render of that
+  // Scene object made it, so later Render calls of the same object skip the
+  // upload, whatever their texture filter (set_supersampling): only the
+  // samplers are made again when it changes. nullptr (the default) frees it. The scene must stay alive and unchanged until
+  // then. A worker keeps its scene from the bake through its quality pass,
+  // which renders the mesh again (ScopedKeptScene below).
+  virtual void KeepSceneUploaded(const Scene* scene) = 0;
+
   // While set, Render checks `*flag` after each submitted chunk of frames
   // (well under a second of work on lavapipe for typical meshes) and returns
   // CANCELLED once it is true. The flag must outlive the Render calls; pass
@@ -120,6 +128,21 @@ class AtlasRenderer {
   bool emissive_ = false;
   int supersampling_ = 1;
   bool resolve_on_device_ = false;
+};
+
+// KeepSceneUploaded(&scene) for the object's lifetime, then nullptr, on
+// every path out of the scope that renders the scene more than once.
+class ScopedKeptScene {
+ public:
+  ScopedKeptScene(AtlasRenderer& renderer, const Scene& scene) : renderer_(renderer) {
+    renderer_.KeepSceneUploaded(&scene);
+  }
+  ~ScopedKeptScene() { renderer_.KeepSceneUploaded(nullptr); }
+  ScopedKeptScene(const ScopedKeptScene&) = delete;
+  ScopedKeptScene& operator=(const ScopedKeptScene&) = delete;
+
+ private:
+  AtlasRenderer& renderer_;
 };
 
 }  // namespace impostor

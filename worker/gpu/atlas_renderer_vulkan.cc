@@ -1,5 +1,6 @@
 // AtlasRenderer on Vulkan 1.3: one pipeline for the renderer's life; per
-// Render() a fresh upload of the scene and fresh atlas targets, frames
+// Render() a fresh upload of the scene (unless KeepSceneUploaded kept it)
+// and fresh atlas targets, frames
 // recorded in chunks (one submission + fence wait each, so progress can be
 // reported and no single submission runs long enough to trip a GPU watchdog),
 // then one readback submission.
@@ -88,7 +89,19 @@ class AtlasRendererVulkan final : public AtlasRenderer {
                                      const std::function<void(double)>& progress,
                                      RenderTimings* timings) override;
 
+  void KeepSceneUploaded(const Scene* scene) override {
+    kept_scene_ = scene;
+    // Render returns with the device idle, so no submission still reads it.
+    kept_resources_.reset();
+  }
+
  private:
+  // The scene's resources for this Render, filtering as `filter` says: the
+  // kept upload when it is of `scene`, else a fresh one (kept when `scene`
+  // is the kept scene, else owned by `fresh` for the call).
+  absl::StatusOr<const SceneResources*> ResourcesFor(const Scene& scene, const gpu::TextureFilter& filter,
+                                                     std::unique_ptr<SceneResources>* fresh);
+
   void RecordFrame(VkCommandBuffer cmd, const FrameCamera& camera, const BoundingSphere& sphere,
                    const std::vector<BatchDraw>& draws,
                    const std::vector<MaterialPushConstants>& materials,
@@ -98,7 +111,24 @@ class AtlasRendererVulkan final : public AtlasRenderer {
   BakePipeline pipeline_;
   SupersampleResolve resolve_;
   CommandRunner runner_;
+  const Scene* kept_scene_ = nullptr;
+  std::unique_ptr<SceneResources> kept_resources_;  // of kept_scene_
 };
+
+absl::StatusOr<const SceneResources*> AtlasRendererVulkan::ResourcesFor(const Scene& scene,
+                                                                        const gpu::TextureFilter& filter,
+                                                                        std::unique_ptr<SceneResources>* fresh) {
+  const bool keep = kept_scene_ == &scene;
+  if (keep && kept_resources_ != nullptr) {
+    // Render left the device idle, so the old sets are free to replace.
+    IMPOSTOR_GPU_RETURN_IF_ERROR(kept_resources_->UseFilter(*ctx_, pipeline_, scene, filter));
+    return kept_resources_.get();
+  }
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(*fresh, SceneResources::Upload(*ctx_, runner_, pipeline_, scene, filter));
+  if (!keep) return fresh->get();
+  kept_resources_ = std::move(*fresh);
+  return kept_resources_.get();
+}
 
 void AtlasRendererVulkan::RecordFrame(VkCommandBuffer cmd, const FrameCamera& camera,
                                       const BoundingSphere& sphere,
@@ -149,15 +179,14 @@ absl::StatusOr<AtlasImages> AtlasRendererVulkan::Render(
   RenderTimings& times = timings != nullptr ? *timings : local_timings;
   times = RenderTimings{};
 
-  std::unique_ptr<SceneResources> resources;
+  std::unique_ptr<SceneResources> fresh_resources;
   std::optional<AtlasTargets> targets;
   IdleBeforeRelease idle_guard(ctx_->device());
 
   auto phase_start = std::chrono::steady_clock::now();
-  IMPOSTOR_GPU_ASSIGN_OR_RETURN(resources,
-                                SceneResources::Upload(*ctx_, runner_, pipeline_, scene,
-                                                       gpu::TextureFilterFor(supersampling(),
-                                                                             ctx_->max_anisotropy())));
+  IMPOSTOR_GPU_ASSIGN_OR_RETURN(
+      const SceneResources* resources,
+      ResourcesFor(scene, gpu::TextureFilterFor(supersampling(), ctx_->max_anisotropy()), &fresh_resources));
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(targets,
                                 AtlasTargets::Create(*ctx_, static_cast<uint32_t>(atlas_size),
                                                      emissive_requested(),

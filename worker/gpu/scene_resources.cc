@@ -51,6 +51,89 @@ absl::StatusOr<VkSampler> SceneResources::SamplerFor(const VulkanContext& ctx, i
   return sampler;
 }
 
+absl::Status SceneResources::UseFilter(const VulkanContext& ctx, const BakePipeline& pipeline, const Scene& scene,
+                                     const TextureFilter& filter) {
+  if (filter == filter_) return absl::OkStatus();
+  // The sets name the old samplers: the pool (and with it the sets) first.
+  material_sets_.clear();
+  descriptor_pool_.Reset();
+  samplers_.clear();
+  filter_ = filter;
+  return BindMaterials(ctx, pipeline, scene);
+}
+
+absl::Status SceneResources::BindMaterials(const VulkanContext& ctx, const BakePipeline& pipeline,
+                                           const Scene& scene) {
+  const uint32_t material_count = static_cast<uint32_t>(scene.materials.size());
+  const std::array<VkDescriptorPoolSize, 2> pool_sizes = {{
+      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, material_count * kMaterialTextureCount},
+      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, material_count},
+  }};
+  VkDescriptorPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  pool_info.maxSets = material_count;
+  pool_info.poolSizeCount = static_cast<uint32_t>(pool_sizes.size());
+  pool_info.pPoolSizes = pool_sizes.data();
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  IMPOSTOR_VK_RETURN_IF_ERROR(vkCreateDescriptorPool(ctx.device(), &pool_info, nullptr, &pool));
+  descriptor_pool_ = UniqueDescriptorPool(ctx.device(), pool);
+
+  const std::vector<VkDescriptorSetLayout> layouts(material_count, pipeline.set_layout());
+  VkDescriptorSetAllocateInfo alloc{};
+  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+  alloc.descriptorPool = pool;
+  alloc.descriptorSetCount = material_count;
+  alloc.pSetLayouts = layouts.data();
+  material_sets_.resize(material_count);
+  IMPOSTOR_VK_RETURN_IF_ERROR(
+      vkAllocateDescriptorSets(ctx.device(), &alloc, material_sets_.data()));
+
+  for (uint32_t m = 0; m < material_count; ++m) {
+    const SceneMaterial& material = scene.materials[m];
+    // Slot order matches the bindings in shaders/bake.frag.
+    const std::array<int, kMaterialTextureCount> texture_of = {
+        material.base_color_texture, material.metallic_roughness_texture, material.normal_texture,
+        material.occlusion_texture, material.emissive_texture};
+    std::array<VkDescriptorImageInfo, kMaterialTextureCount> images{};
+    for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
+      const int t = texture_of[slot];
+      const bool color = slot == kSlotBaseColor || slot == kSlotEmissive;
+      if (t < 0) {
+        const UploadedTexture& fallback = slot == 2 ? flat_normal_ : white_;
+        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler, SamplerFor(ctx, 10497, 10497));
+        images[slot].imageView = fallback.unorm_view;
+      } else {
+        const SceneTexture& source = scene.textures[t];
+        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler,
+                                      SamplerFor(ctx, source.wrap_s, source.wrap_t));
+        // Base colour and emissive decode sRGB to linear in the sampler; the
+        // other maps are data and read raw.
+        images[slot].imageView = color ? textures_[t].srgb_view : textures_[t].unorm_view;
+      }
+      images[slot].imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    }
+    const VkDescriptorBufferInfo uniforms{material_uniforms_.buffer(), m * uniform_stride_,
+                                          sizeof(MaterialUniforms)};
+    std::array<VkWriteDescriptorSet, kMaterialTextureCount + 1> writes{};
+    for (uint32_t slot = 0; slot < writes.size(); ++slot) {
+      writes[slot].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      writes[slot].dstSet = material_sets_[m];
+      writes[slot].dstBinding = slot;
+      writes[slot].descriptorCount = 1;
+      if (slot == kMaterialUniformBinding) {
+        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        writes[slot].pBufferInfo = &uniforms;
+      } else {
+        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+        writes[slot].pImageInfo = &images[slot];
+      }
+    }
+    vkUpdateDescriptorSets(ctx.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
+                           nullptr);
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const VulkanContext& ctx,
                                                                        CommandRunner& runner,
                                                                        const BakePipeline& pipeline,
@@ -82,6 +165,7 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
   const VkDeviceSize align =
       std::max<VkDeviceSize>(ctx.limits().minUniformBufferOffsetAlignment, 16);
   const VkDeviceSize uniform_stride = (sizeof(MaterialUniforms) + align - 1) / align * align;
+  res->uniform_stride_ = uniform_stride;
   {
     std::vector<uint8_t> blocks(uniform_stride * material_count, 0);
     for (uint32_t m = 0; m < material_count; ++m) {
@@ -107,72 +191,7 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
   IMPOSTOR_GPU_RETURN_IF_ERROR(uploader.Finish());
   res->uploaded_bytes_ = uploader.uploaded_bytes();
 
-  const std::array<VkDescriptorPoolSize, 2> pool_sizes = {{
-      {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, material_count * kMaterialTextureCount},
-      {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, material_count},
-  }};
-  VkDescriptorPoolCreateInfo pool_info{};
-  pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  pool_info.maxSets = material_count;
-  pool_info.poolSizeCount = static_cast<uint32_t>(pool_sizes.size());
-  pool_info.pPoolSizes = pool_sizes.data();
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  IMPOSTOR_VK_RETURN_IF_ERROR(vkCreateDescriptorPool(ctx.device(), &pool_info, nullptr, &pool));
-  res->descriptor_pool_ = UniqueDescriptorPool(ctx.device(), pool);
-
-  const std::vector<VkDescriptorSetLayout> layouts(material_count, pipeline.set_layout());
-  VkDescriptorSetAllocateInfo alloc{};
-  alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-  alloc.descriptorPool = pool;
-  alloc.descriptorSetCount = material_count;
-  alloc.pSetLayouts = layouts.data();
-  res->material_sets_.resize(material_count);
-  IMPOSTOR_VK_RETURN_IF_ERROR(
-      vkAllocateDescriptorSets(ctx.device(), &alloc, res->material_sets_.data()));
-
-  for (uint32_t m = 0; m < material_count; ++m) {
-    const SceneMaterial& material = scene.materials[m];
-    // Slot order matches the bindings in shaders/bake.frag.
-    const std::array<int, kMaterialTextureCount> texture_of = {
-        material.base_color_texture, material.metallic_roughness_texture, material.normal_texture,
-        material.occlusion_texture, material.emissive_texture};
-    std::array<VkDescriptorImageInfo, kMaterialTextureCount> images{};
-    for (uint32_t slot = 0; slot < kMaterialTextureCount; ++slot) {
-      const int t = texture_of[slot];
-      const bool color = slot == kSlotBaseColor || slot == kSlotEmissive;
-      if (t < 0) {
-        const UploadedTexture& fallback = slot == 2 ? res->flat_normal_ : res->white_;
-        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler, res->SamplerFor(ctx, 10497, 10497));
-        images[slot].imageView = fallback.unorm_view;
-      } else {
-        const SceneTexture& source = scene.textures[t];
-        IMPOSTOR_GPU_ASSIGN_OR_RETURN(images[slot].sampler,
-                                      res->SamplerFor(ctx, source.wrap_s, source.wrap_t));
-        // Base colour and emissive decode sRGB to linear in the sampler; the
-        // other maps are data and read raw.
-        images[slot].imageView = color ? res->textures_[t].srgb_view : res->textures_[t].unorm_view;
-      }
-      images[slot].imageLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    }
-    const VkDescriptorBufferInfo uniforms{res->material_uniforms_.buffer(), m * uniform_stride,
-                                          sizeof(MaterialUniforms)};
-    std::array<VkWriteDescriptorSet, kMaterialTextureCount + 1> writes{};
-    for (uint32_t slot = 0; slot < writes.size(); ++slot) {
-      writes[slot].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-      writes[slot].dstSet = res->material_sets_[m];
-      writes[slot].dstBinding = slot;
-      writes[slot].descriptorCount = 1;
-      if (slot == kMaterialUniformBinding) {
-        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-        writes[slot].pBufferInfo = &uniforms;
-      } else {
-        writes[slot].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-        writes[slot].pImageInfo = &images[slot];
-      }
-    }
-    vkUpdateDescriptorSets(ctx.device(), static_cast<uint32_t>(writes.size()), writes.data(), 0,
-                           nullptr);
-  }
+  IMPOSTOR_GPU_RETURN_IF_ERROR(res->BindMaterials(ctx, pipeline, scene));
   spdlog::debug("gpu: uploaded {} vertices, {} triangles, {} textures ({} bytes staged)",
                 scene.vertices.size(), scene.TriangleCount(), scene.textures.size(),
                 res->uploaded_bytes_);

@@ -1,4 +1,4 @@
-// Device-side copy of one Scene for one Render(): vertex and index buffers,
+// Device-side copy of one Scene for Render(): vertex and index buffers,
 // textures (with mips), samplers, and one descriptor set per material whose
 // five texture slots always hold something (1x1 white or flat-normal
 // defaults stand in for missing textures).
@@ -38,6 +38,13 @@ class SceneResources {
                                                                 const Scene& scene,
                                                                 const TextureFilter& filter);
 
+  // Rebinds every material to samplers that filter as `filter` says, keeping
+  // the uploaded buffers and textures (nothing is copied again); a no-op
+  // when the filter is unchanged. `scene` must be the uploaded one, and no
+  // submission may still use the old sets (the device idle).
+  absl::Status UseFilter(const VulkanContext& ctx, const BakePipeline& pipeline, const Scene& scene,
+                         const TextureFilter& filter);
+
   VkBuffer vertex_buffer() const { return vertices_.buffer(); }
   VkBuffer index_buffer() const { return indices_.buffer(); }
   VkDescriptorSet material_set(int material) const { return material_sets_[material]; }
@@ -46,11 +53,14 @@ class SceneResources {
  private:
   SceneResources() = default;
   absl::StatusOr<VkSampler> SamplerFor(const VulkanContext& ctx, int wrap_s, int wrap_t);
+  // Samplers (filter_), the descriptor pool and one set per material.
+  absl::Status BindMaterials(const VulkanContext& ctx, const BakePipeline& pipeline, const Scene& scene);
 
   TextureFilter filter_;
   GpuBuffer vertices_;
   GpuBuffer indices_;
   GpuBuffer material_uniforms_;  // MaterialUniforms per material, aligned
+  VkDeviceSize uniform_stride_ = 0;
   std::vector<UploadedTexture> textures_;
   UploadedTexture white_;        // base colour, metal-rough, occlusion default
   UploadedTexture flat_normal_;  // (128,128,255): tangent-space +Z

@@ -22,6 +22,7 @@ struct TextureFilter {
   bool anisotropy = false;
   float max_anisotropy = 1.0f;  // 1 when anisotropy is off
   float mip_lod_bias = 0.0f;
+  friend bool operator==(const TextureFilter&, const TextureFilter&) = default;
 };
 
 // Mip bias of supersampled bakes: half a level sharper (measured above).
