@@ -53,10 +53,13 @@
 #ifndef IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
 #define IMPOSTOR_COMMON_RUNTIME_DEPTH_RECONSTRUCTION_H_
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <functional>
 #include <string_view>
 
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 #include "absl/status/statusor.h"
@@ -94,17 +97,30 @@ inline constexpr float kExtrusionConfirm = 0.75f;
 
 // The agreement weight g of step 4 for a frame whose surface height at P's
 // projection is `surface_height` while P's own height in it is `point_height`.
-float DepthAgreement(float surface_height, float point_height);
+inline float DepthAgreement(float surface_height, float point_height) {
+  const float diff = std::abs(surface_height - point_height);
+  return std::clamp((kDepthAgreement - diff) / (0.5f * kDepthAgreement), 0.0f, 1.0f);
+}
 
 // The point (radius units from the centre) of a frame sample: st on the
 // frame's plane, shifted by its height along the frame direction.
-glm::vec3 FramePoint(const FrameCamera& frame, const PlaneSample& sample);
+inline glm::vec3 FramePoint(const FrameCamera& frame, const PlaneSample& sample) {
+  return sample.st.x * frame.right + sample.st.y * frame.up + sample.height * frame.direction;
+}
 
 // P's frame coordinates and height in `frame` (always valid).
-PlaneSample ProjectPointToFrame(const FrameCamera& frame, glm::vec3 point);
+inline PlaneSample ProjectPointToFrame(const FrameCamera& frame, glm::vec3 point) {
+  PlaneSample out;
+  out.valid = true;
+  out.st = {glm::dot(point, frame.right), glm::dot(point, frame.up)};
+  out.height = glm::dot(point, frame.direction);
+  return out;
+}
 
 // Distance along the unit ray `ray_unit` from `origin` to a point on it.
-float RayDistance(glm::vec3 origin, glm::vec3 ray_unit, glm::vec3 point);
+inline float RayDistance(glm::vec3 origin, glm::vec3 ray_unit, glm::vec3 point) {
+  return glm::dot(point - origin, ray_unit);
+}
 
 // Depth mode for one ray over the blended frames (at most 4 entries).
 struct DepthEntry {
@@ -125,8 +141,97 @@ using DepthMarch = std::function<PlaneSample(int entry)>;
 // The entry's filtered coverage at st and, where it is > 0, the surface
 // height there (1 - 2 * depth01).
 using DepthSurface = std::function<float(int entry, glm::vec2 st, float* height)>;
+
+namespace depth_internal {
+
+// Whether the blended frames other than `own` see `point` inside their
+// silhouettes (kExtrusionConfirm of their weight, by filtered coverage).
+template <typename Surface>
+bool OthersSeeInside(const std::array<DepthEntry, 4>& entries, int count, int own, glm::vec3 point,
+                     const Surface& surface) {
+  float others = 0.0f;
+  float inside = 0.0f;
+  for (int j = 0; j < count; ++j) {
+    if (j == own || !(entries[j].weight > 0.0f)) continue;
+    others += entries[j].weight;
+    float height = 0.0f;
+    inside += entries[j].weight * surface(j, ProjectPointToFrame(*entries[j].frame, point).st, &height);
+  }
+  return !(others > 0.0f) || inside >= kExtrusionConfirm * others;
+}
+
+}  // namespace depth_internal
+
+// `march` and `surface` are any callables of DepthMarch's and DepthSurface's
+// signatures (a template, so the reference renderer's lambdas inline).
+template <typename March, typename Surface>
 DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
-                            glm::vec3 ray_unit, const DepthMarch& march, const DepthSurface& surface);
+                            glm::vec3 ray_unit, const March& march, const Surface& surface) {
+  DepthPixel out;
+  count = std::clamp(count, 0, 4);
+  std::array<PlaneSample, 4> hits;
+  std::array<float, 4> hit_alpha{};
+  std::array<float, 4> lambda{};
+  for (int i = 0; i < count; ++i) {
+    if (!(entries[i].weight > 0.0f)) continue;
+    hits[i] = march(i);
+    if (!hits[i].valid) continue;
+    float height = 0.0f;
+    hit_alpha[i] = surface(i, hits[i].st, &height);
+    if (!(hit_alpha[i] > 0.0f)) {
+      hits[i].valid = false;
+      continue;
+    }
+    const glm::vec3 point = FramePoint(*entries[i].frame, hits[i]);
+    if (height - hits[i].height > kExtrusionDepth &&
+        !depth_internal::OthersSeeInside(entries, count, i, point, surface)) {
+      hits[i].valid = false;
+      continue;
+    }
+    out.coverage += entries[i].weight * hit_alpha[i];
+    lambda[i] = RayDistance(origin, ray_unit, point);
+  }
+  if (out.coverage < 0.5f) return out;
+  // Every hit is a candidate for P; each frame votes for it by w * a * g.
+  std::array<std::array<DepthSampleAt, 4>, 4> votes;
+  std::array<float, 4> support{};
+  float most = 0.0f;
+  for (int c = 0; c < count; ++c) {
+    if (!hits[c].valid) continue;
+    const glm::vec3 point = FramePoint(*entries[c].frame, hits[c]);
+    for (int j = 0; j < count; ++j) {
+      if (!(entries[j].weight > 0.0f)) continue;
+      // A frame samples its own hit as it is (no reprojection rounding).
+      const PlaneSample at = j == c ? hits[j] : ProjectPointToFrame(*entries[j].frame, point);
+      float height = 0.0f;
+      const float alpha = surface(j, at.st, &height);
+      DepthSampleAt& v = votes[c][j];
+      v.st = at.st;
+      if (!(alpha > 0.0f)) continue;
+      v.weight = entries[j].weight * alpha * DepthAgreement(height, at.height);
+      v.used = v.weight > 0.0f;
+      support[c] += v.weight;
+    }
+    most = std::max(most, support[c]);
+  }
+  // The deepest candidate with at least kSupportShare of the most support.
+  int best = -1;
+  for (int c = 0; c < count; ++c) {
+    if (!hits[c].valid || !(support[c] >= kSupportShare * most)) continue;
+    if (best < 0 || lambda[c] > lambda[best]) best = c;
+  }
+  const float best_support = best >= 0 ? support[best] : 0.0f;
+  if (best >= 0 && best_support > 0.0f) {
+    out.samples = votes[best];
+    return out;
+  }
+  // No frame saw any candidate: each frame at its own hit (parallax).
+  for (int j = 0; j < count; ++j) {
+    if (!hits[j].valid) continue;
+    out.samples[j] = {true, hits[j].st, entries[j].weight * hit_alpha[j]};
+  }
+  return out;
+}
 
 }  // namespace impostor
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <vector>
 
 #include <glm/geometric.hpp>
 
@@ -51,8 +52,8 @@ class TileSampler {
   explicit TileSampler(const ImpostorAtlas& atlas) : atlas_(atlas), srgb_(SrgbTable()) {}
 
   // Bilinear over the 2x2 texel centres around st, texel indices clamped to
-  // `tile`. `full` = false reads alpha and depth only (parallax steps).
-  TileSample Sample(const TileRect& tile, glm::vec2 st, bool full) const {
+  // `tile`. (The march reads alpha and depth only, from TileHeights.)
+  TileSample Sample(const TileRect& tile, glm::vec2 st) const {
     TileSample out;
     if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
     const glm::vec2 pixel = FrameStToPixel(tile, st);
@@ -77,7 +78,6 @@ class TileSampler {
       covered += w;
       const uint16_t* nd = &atlas_.normal_depth[texel];
       depth += w * (static_cast<float>(nd[3]) / 65535.0f);
-      if (!full) continue;
       out.normal += w * (glm::vec3(nd[0], nd[1], nd[2]) * (2.0f / 65535.0f) - 1.0f);
       const uint8_t* c = &atlas_.albedo_alpha[texel];
       out.albedo += w * glm::vec3(srgb_[c[0]], srgb_[c[1]], srgb_[c[2]]);
@@ -99,6 +99,64 @@ class TileSampler {
  private:
   const ImpostorAtlas& atlas_;
   const std::array<float, 256>& srgb_;
+};
+
+// One blended frame's tile as the march and the agreement test read it:
+// per texel the coverage and depth exactly as TileSampler decodes them, side
+// by side in a tile-sized array, so a march step touches one small array
+// instead of two atlas-wide ones. Sample(st)'s alpha and depth are
+// TileSampler::Sample(tile, st)'s, to the bit.
+class TileHeights {
+ public:
+  TileHeights() = default;
+  TileHeights(const ImpostorAtlas& atlas, const TileRect& tile) : tile_(tile) {
+    texels_.resize(static_cast<size_t>(tile.width) * tile.height);
+    for (int y = 0; y < tile.height; ++y) {
+      for (int x = 0; x < tile.width; ++x) {
+        const size_t texel = (static_cast<size_t>(tile.y + y) * atlas.width + tile.x + x) * 4;
+        texels_[static_cast<size_t>(y) * tile.width + x] = {
+            static_cast<float>(atlas.albedo_alpha[texel + 3]) / 255.0f,
+            static_cast<float>(atlas.normal_depth[texel + 3]) / 65535.0f};
+      }
+    }
+  }
+
+  TileSample Sample(glm::vec2 st) const {
+    TileSample out;
+    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
+    const glm::vec2 pixel = FrameStToPixel(tile_, st);
+    const float fx = pixel.x - static_cast<float>(tile_.x) - 0.5f;
+    const float fy = pixel.y - static_cast<float>(tile_.y) - 0.5f;
+    const float flx = std::floor(fx);
+    const float fly = std::floor(fy);
+    const int ix = static_cast<int>(flx);
+    const int iy = static_cast<int>(fly);
+    const float ax = fx - flx;
+    const float ay = fy - fly;
+    const std::array<float, 4> bilinear = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+    float covered = 0.0f;
+    float depth = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+      if (bilinear[k] <= 0.0f) continue;
+      const int tx = std::clamp(ix + (k & 1), 0, tile_.width - 1);
+      const int ty = std::clamp(iy + (k >> 1), 0, tile_.height - 1);
+      const Texel& t = texels_[static_cast<size_t>(ty) * tile_.width + tx];
+      const float w = bilinear[k] * t.alpha;
+      if (w <= 0.0f) continue;
+      covered += w;
+      depth += w * t.depth;
+    }
+    out.alpha = covered;
+    if (covered > 0.0f) out.depth = depth / covered;
+    return out;
+  }
+
+ private:
+  struct Texel {
+    float alpha, depth;
+  };
+  TileRect tile_{};
+  std::vector<Texel> texels_;
 };
 
 // Covered texels of a tile, as a box in tile-pixel coordinates grown by one
@@ -179,7 +237,8 @@ struct PixelBlend {
 // Depth mode for one pixel (depth_reconstruction.h, steps 1..5).
 template <typename March>
 void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, const FrameBlend& blend,
-                     const TileSampler& sampler, glm::vec2 view_st, const March& march, PixelBlend* px) {
+                     const TileSampler& sampler, const std::array<TileHeights, 4>& heights, glm::vec2 view_st,
+                     const March& march, PixelBlend* px) {
   std::array<DepthEntry, 4> entries;
   for (int i = 0; i < blend.count; ++i) {
     entries[i] = {&atlas.cameras[blend.entries[i].index], blend.entries[i].weight};
@@ -188,7 +247,7 @@ void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, cons
       entries, blend.count, ViewRayOrigin(camera, view_st), -camera.direction,
       [&](int i) { return march(i, *entries[i].frame, view_st); },
       [&](int i, glm::vec2 st, float* height) {
-        const TileSample s = sampler.Sample(entries[i].frame->tile, st, /*full=*/false);
+        const TileSample s = heights[i].Sample(st);
         *height = 1.0f - 2.0f * s.depth;
         return s.alpha;
       });
@@ -198,7 +257,7 @@ void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, cons
     const DepthSampleAt& at = depth.samples[j];
     if (!at.used) continue;
     const FrameCamera& frame = *entries[j].frame;
-    px->Add(at.weight, sampler.Sample(frame.tile, at.st, /*full=*/true), frame, at.st, camera);
+    px->Add(at.weight, sampler.Sample(frame.tile, at.st), frame, at.st, camera);
   }
 }
 
@@ -254,15 +313,20 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
   const TileSampler sampler(atlas);
   const float inv = 1.0f / static_cast<float>(pixels);
   std::array<CoveredBox, 4> boxes;
+  std::array<TileHeights, 4> heights;
   if (options.parallax || options.reconstruction == Reconstruction::kDepth) {
-    for (int i = 0; i < blend.count; ++i) boxes[i] = FindCoveredBox(atlas, atlas.cameras[blend.entries[i].index].tile);
+    for (int i = 0; i < blend.count; ++i) {
+      const TileRect& tile = atlas.cameras[blend.entries[i].index].tile;
+      boxes[i] = FindCoveredBox(atlas, tile);
+      heights[i] = TileHeights(atlas, tile);
+    }
   }
 
   const auto march = [&](int i, const FrameCamera& frame, glm::vec2 view_st) {
     const CoveredBox& box = boxes[i];
     return ProjectToFrameParallax(camera, frame, view_st, [&](glm::vec2 st, float* height) {
       if (!box.MayCover(frame.tile, st)) return false;
-      const TileSample s = sampler.Sample(frame.tile, st, /*full=*/false);
+      const TileSample s = heights[i].Sample(st);
       if (s.alpha < 0.5f) return false;
       *height = 1.0f - 2.0f * s.depth;
       return true;
@@ -276,14 +340,14 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
                               1.0f - (static_cast<float>(y) + 0.5f) * inv * 2.0f);
       PixelBlend px;
       if (depth_mode) {
-        ShadeDepthPixel(atlas, camera, blend, sampler, view_st, march, &px);
+        ShadeDepthPixel(atlas, camera, blend, sampler, heights, view_st, march, &px);
       } else {
         for (int i = 0; i < blend.count; ++i) {
           const FrameCamera& frame = atlas.cameras[blend.entries[i].index];
           const PlaneSample plane =
               options.parallax ? march(i, frame, view_st) : ProjectToFrame(camera, frame, view_st);
           if (!plane.valid) continue;
-          const TileSample s = sampler.Sample(frame.tile, plane.st, /*full=*/true);
+          const TileSample s = sampler.Sample(frame.tile, plane.st);
           const float w = blend.entries[i].weight * s.alpha;
           px.alpha += w;
           px.Add(w, s, frame, plane.st, camera);

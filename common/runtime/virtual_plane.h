@@ -37,6 +37,8 @@
 
 #include <functional>
 
+#include <glm/geometric.hpp>
+
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -58,17 +60,59 @@ struct PlaneSample {
 // right = cross(up, direction). index, frame and tile keep their defaults.
 FrameCamera CameraForDirection(glm::vec3 direction);
 
+// One ray (as IntersectFramePlane below takes it) against one frame's
+// planes at every height: what does not depend on the height is worked out
+// once (a march intersects up to 21 of them). At(height) is
+// IntersectFramePlane, to the bit.
+class FramePlaneRay {
+ public:
+  FramePlaneRay(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray) : frame_(frame), origin_(origin) {
+    const float len = glm::length(ray);
+    if (!(len > 0.0f)) return;
+    toward_eye_ = -ray / len;
+    facing_ = glm::dot(toward_eye_, frame.direction);
+    valid_ = facing_ >= 1e-4f;
+    origin_height_ = glm::dot(origin, frame.direction);
+  }
+  bool valid() const { return valid_; }
+  PlaneSample At(float height) const {
+    PlaneSample out;
+    if (!valid_) return out;
+    // origin - k * toward_eye lies on the plane dot(q, d) = height.
+    const float k = (origin_height_ - height) / facing_;
+    const glm::vec3 q = origin_ - k * toward_eye_;
+    out.valid = true;
+    out.st = {glm::dot(q, frame_.right), glm::dot(q, frame_.up)};
+    out.height = height;
+    return out;
+  }
+
+ private:
+  const FrameCamera& frame_;
+  glm::vec3 origin_;
+  glm::vec3 toward_eye_{0.0f};
+  float facing_ = 0.0f;
+  float origin_height_ = 0.0f;
+  bool valid_ = false;
+};
+
 // The general form, for any ray (a perspective game camera too): `origin` is
 // relative to the sphere centre in radius units ((p - c) / r), `ray` the ray's
 // direction (any length, pointing away from the eye). Intersects the ray with
 // frame `frame`'s plane shifted by `height` along its direction and returns
 // the frame coordinates of the hit. Invalid when dot(-ray, d) / |ray| < 1e-4
 // (the frame faces away or the ray runs along its plane).
-PlaneSample IntersectFramePlane(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray, float height);
+// Inline, as FramePlaneRay, ViewRayOrigin, the marches and FrameStToPixel:
+// the reference renderer calls them for every march step of every pixel.
+inline PlaneSample IntersectFramePlane(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray, float height) {
+  return FramePlaneRay(frame, origin, ray).At(height);
+}
 
 // The point (object space, relative to the sphere centre, in radius units)
 // where the view pixel (s, t) starts its ray: on the view camera's near plane.
-glm::vec3 ViewRayOrigin(const FrameCamera& view, glm::vec2 st);
+inline glm::vec3 ViewRayOrigin(const FrameCamera& view, glm::vec2 st) {
+  return st.x * view.right + st.y * view.up + view.direction;
+}
 
 // Intersects the ray of view pixel `view_st` with frame `frame`'s plane
 // shifted by `height` (in radius units along the frame direction; 0 = the
@@ -78,21 +122,60 @@ PlaneSample ProjectToFrame(const FrameCamera& view, const FrameCamera& frame, gl
 
 // Reads the frame's surface height at frame coordinates st: returns false
 // when the texel is empty (coverage below 0.5), otherwise sets *height to
-// dot(p - c, d) / r = 1 - 2 * depth01.
+// dot(p - c, d) / r = 1 - 2 * depth01. The marches below take any callable
+// of this signature (a template, so a reader's lambda inlines into the loop).
 using FrameHeightReader = std::function<bool(glm::vec2 st, float* height)>;
+
+// The march of ProjectToFrameParallax for any ray (origin and ray as in
+// IntersectFramePlane).
+template <typename HeightReader>
+PlaneSample IntersectFrameHeightField(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray,
+                                      const HeightReader& read_height) {
+  // True when the ray's point at height h is at or below a covered surface.
+  auto below_surface = [&](const PlaneSample& at, float h) {
+    float surface = 0.0f;
+    return at.valid && read_height(at.st, &surface) && h <= surface;
+  };
+  const FramePlaneRay plane(frame, origin, ray);
+  float above = 1.0f;  // last height known to be above the surface
+  for (int i = 0; i <= kParallaxSteps; ++i) {
+    const float h = 1.0f - 2.0f * static_cast<float>(i) / static_cast<float>(kParallaxSteps);
+    PlaneSample hit = plane.At(h);
+    if (!hit.valid) return hit;  // the frame faces away: no height is valid
+    if (!below_surface(hit, h)) {
+      above = h;
+      continue;
+    }
+    float below = h;
+    for (int j = 0; j < kParallaxRefinements && i > 0; ++j) {
+      const float mid = 0.5f * (above + below);
+      const PlaneSample at = plane.At(mid);
+      if (below_surface(at, mid)) {
+        below = mid;
+        hit = at;
+      } else {
+        above = mid;
+      }
+    }
+    return hit;
+  }
+  return PlaneSample{};
+}
 
 // ProjectToFrame with parallax (see the file comment). Invalid when the ray
 // misses the frame's height field.
+template <typename HeightReader>
 PlaneSample ProjectToFrameParallax(const FrameCamera& view, const FrameCamera& frame, glm::vec2 view_st,
-                                   const FrameHeightReader& read_height);
-
-// The same march for any ray (origin and ray as in IntersectFramePlane).
-PlaneSample IntersectFrameHeightField(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray,
-                                      const FrameHeightReader& read_height);
+                                   const HeightReader& read_height) {
+  return IntersectFrameHeightField(frame, ViewRayOrigin(view, view_st), -view.direction, read_height);
+}
 
 // Tile pixel coordinates (continuous, pixel centres at +0.5) of frame
 // coordinates st: x = tile.x + (s + 1) / 2 * w, y = tile.y + (1 - t) / 2 * h.
-glm::vec2 FrameStToPixel(const TileRect& tile, glm::vec2 st);
+inline glm::vec2 FrameStToPixel(const TileRect& tile, glm::vec2 st) {
+  return {static_cast<float>(tile.x) + (st.x + 1.0f) * 0.5f * static_cast<float>(tile.width),
+          static_cast<float>(tile.y) + (1.0f - st.y) * 0.5f * static_cast<float>(tile.height)};
+}
 
 }  // namespace impostor
 
