@@ -8,6 +8,7 @@
 //   build/bin/quality_table [--out docs/quality.md] [--resolution 1024]
 //                           [--frames 8,12,16] [--only SUBSTRING]
 //                           [--layouts hemi-octahedral,billboard]
+//                           [--view-pixels 256] [--on-frames]
 //
 // Held-out directions are seeded from "<asset> <layout> <frames>
 // <resolution>" (the quality pass takes any key), so the table is the same
@@ -78,6 +79,13 @@ double PassSeconds(const std::string& log) {
   return at == std::string::npos ? 0 : std::atof(log.c_str() + at + 9);
 }
 
+bool HasFlag(int argc, char** argv, const std::string& name) {
+  for (int i = 1; i < argc; ++i) {
+    if (argv[i] == name) return true;
+  }
+  return false;
+}
+
 std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
   for (int i = 1; i + 1 < argc; ++i) {
     if (argv[i] == name) return argv[i + 1];
@@ -110,6 +118,10 @@ int main(int argc, char** argv) {
   const std::vector<uint32_t> frame_counts = ParseList(Flag(argc, argv, "--frames", "8,12,16"));
   const std::string only = Flag(argc, argv, "--only", "");
   const std::string layouts = Flag(argc, argv, "--layouts", "");  // manifest names, comma separated; empty = all
+  // The held-out views' size; 0 = the pass's own rule (min(128, resolution / 8)).
+  const int view_pixels = std::stoi(Flag(argc, argv, "--view-pixels", "0"));
+  // The views at baked frames' own directions instead (the atlas's ceiling).
+  const bool on_frames = HasFlag(argc, argv, "--on-frames");
   const fs::path assets = std::getenv("IMPOSTOR_ASSETS_DIR") != nullptr ? fs::path(std::getenv("IMPOSTOR_ASSETS_DIR"))
                                                                          : fs::path(IMPOSTOR_BENCH_ASSETS_DIR);
 
@@ -127,6 +139,9 @@ int main(int argc, char** argv) {
     absl::StrAppend(&md, "# Impostor quality\n\n",
                     "Measured by `build/bin/quality_table` (bench/quality_table.cc) on `", (*renderer)->device().name,
                     "`, baker ", std::string(impostor::BakerVersion()), ", atlas ", resolution, " px.\n\n",
+                    on_frames ? "**--on-frames: every view is on a baked frame's own direction, not held out** (the "
+                                "atlas's ceiling: every reconstruction returns the frame itself there).\n\n"
+                              : "",
                     "Every row is one bake by the worker's own pipeline. The quality pass renders the mesh from 16 "
                     "held-out view directions that are not baked frames (spread over the layout's domain) and the "
                     "impostor for the same cameras with the CPU reference renderer (3-frame triangle blend) in both "
@@ -134,7 +149,9 @@ int main(int argc, char** argv) {
                     "the common surface point, frames that did not see it drop out) and **plain** (flat virtual "
                     "planes), both unlit, each view ",
                     rows.empty() ? 0u : rows.front().quality.view_pixels(),
-                    " px. Each cell is depth / plain. IoU: silhouette intersection over union. PSNR and SSIM: albedo "
+                    " px; the mesh's held-out views are supersampled 3 x 3 (each pixel its area, "
+                    "worker/bake/quality_pass.h), the pop orbit's are one sample per pixel like the impostor's. "
+                    "Each cell is depth / plain. IoU: silhouette intersection over union. PSNR and SSIM: albedo "
                     "over the pixels both renders cover (colour fidelity; silhouette misses are IoU's and the "
                     "boundary error's). Boundary: mean distance in view pixels between the two silhouettes' "
                     "boundaries. Union PSNR: the format-1 figure, over the union of both silhouettes composited over "
@@ -226,7 +243,8 @@ int main(int argc, char** argv) {
             .parameters = *p,
             .cache_key = absl::StrCat(asset.path, " ", row.layout, " ", frames, " ", resolution),
             .output_dir = scratch,
-            .load_limits = {}};
+            .load_limits = {},
+            .quality_overrides = {.view_pixels = view_pixels, .on_frame_directions = on_frames}};
         const auto start = std::chrono::steady_clock::now();
         auto baked = impostor::BakeAtlas(request, **renderer, [](std::string_view, double) {}, cancelled);
         row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

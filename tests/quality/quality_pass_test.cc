@@ -218,6 +218,53 @@ TEST_F(QualityPassTest, OnABakedFrameTheImpostorMatchesTheMesh) {
   }
 }
 
+// --on-frames (QualityPassOptions::on_frame_directions): every view is a
+// baked frame's own direction, where both reconstructions return the frame
+// itself, so depth and plain measure the same (up to the depth march's
+// bisection at silhouette texels); held-out views are on none.
+TEST_F(QualityPassTest, OnFrameDirectionsMeasureTheFramesThemselves) {
+  auto scene = LoadGltfScene(kHelmet);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  constexpr int kFrames = 4, kResolution = 256;
+  ImpostorAtlas atlas;
+  atlas.layout = LayoutKind::kOctahedral;
+  atlas.frames = kFrames;
+  atlas.resolution = kResolution;
+  atlas.sphere = ComputeBoundingSphere(*scene);
+  atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
+  RenderTimings timings;
+  auto maps = renderer_->Render(*scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
+  ASSERT_TRUE(maps.ok()) << maps.status();
+  atlas.width = maps->width;
+  atlas.height = maps->height;
+  atlas.albedo_alpha = maps->albedo_alpha;
+  atlas.normal_depth = maps->normal_depth;
+  QualityPassOptions o;
+  o.views = 6;
+  o.view_pixels = 48;
+  o.orbit_steps = 0;
+  const auto on_a_frame = [&](glm::vec3 d) {
+    for (const FrameCamera& c : atlas.cameras) {
+      if (c.direction == d) return true;
+    }
+    return false;
+  };
+
+  auto held_out = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  ASSERT_TRUE(held_out.ok()) << held_out.status();
+  for (const glm::vec3& d : held_out->directions) EXPECT_FALSE(on_a_frame(d));
+
+  o.on_frame_directions = true;
+  auto on_frames = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  ASSERT_TRUE(on_frames.ok()) << on_frames.status();
+  ASSERT_EQ(on_frames->directions.size(), 6u);
+  for (const glm::vec3& d : on_frames->directions) EXPECT_TRUE(on_a_frame(d));
+  const v1::AtlasQuality& q = on_frames->quality;
+  EXPECT_NEAR(q.silhouette_iou_mean(), q.plain().silhouette_iou_mean(), 0.002);
+  EXPECT_NEAR(q.albedo_psnr_shared_db_mean(), q.plain().albedo_psnr_shared_db_mean(), 0.05);
+  EXPECT_GT(q.silhouette_iou_mean(), held_out->quality.silhouette_iou_mean());
+}
+
 TEST(HeldOutViewDirectionsTest, DeterministicSpreadAndNeverABakedFrame) {
   for (LayoutKind layout : {LayoutKind::kOctahedral, LayoutKind::kHemiOctahedral}) {
     for (int frames : {2, 8, 12, 24, 64}) {

@@ -238,7 +238,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     AtlasImages quality_maps{.width = w, .height = h, .albedo_alpha = atlas->albedo_alpha,
                              .normal_depth = atlas->normal_depth, .orm = atlas->orm, .emissive = {}};
     absl::Status quality = AddAtlasQuality(*scene, sphere, cameras, std::move(quality_maps), p, request.cache_key,
-                                           dir, renderer, &quality_manifest);
+                                           dir, renderer, &quality_manifest, request.quality_overrides);
     if (!quality.ok()) return quality;
   }
   kept_upload.reset();

@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
+#include "worker/bake/quality_pass.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/scene/gltf_loader.h"
 
@@ -35,6 +36,9 @@ struct AtlasBakeRequest {
   // output bytes are the same either way (tested); for that test and for
   // profiling a stage alone.
   bool serial_encode = false;
+  // Measuring tools only (bench/quality_table): changes to the quality
+  // pass's rules; the manifest records the view size used.
+  QualityPassOverrides quality_overrides;
 };
 
 struct AtlasBakeOutput {

@@ -336,6 +336,13 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   const auto start = Clock::now();
   QualityPassResult result;
   result.directions = HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
+  if (o.on_frame_directions) {
+    // Spread over the frames in index order (frames repeat when views > frames).
+    const size_t frames = atlas.cameras.size();
+    for (int i = 0; i < o.views; ++i) {
+      result.directions[i] = atlas.cameras[(static_cast<size_t>(i) * frames / o.views + frames / (2 * o.views)) % frames].direction;
+    }
+  }
   auto mesh =
       RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, kReferenceSupersampling, renderer);
   if (!mesh.ok()) return mesh.status();
@@ -423,7 +430,8 @@ bool QualityPassSupports(LayoutKind) {
 
 absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, const std::vector<FrameCamera>& cameras,
                              AtlasImages&& maps, const v1::BakeParameters& p, const std::string& cache_key,
-                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest) {
+                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest,
+                             const QualityPassOverrides& overrides) {
   QualityPassOptions options;
   options.views = p.has_quality_views() ? static_cast<int>(p.quality_views()) : kDefaultQualityViews;
   const LayoutKind layout = ToLayoutKind(p.layout());
@@ -433,6 +441,8 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   // the largest tile any count of the ladder gets (resolution / 8), so a
   // small atlas is not judged far above the size it can serve.
   options.view_pixels = std::clamp(static_cast<int>(p.resolution()) / 8, 8, options.view_pixels);
+  if (overrides.view_pixels > 0) options.view_pixels = overrides.view_pixels;
+  options.on_frame_directions = overrides.on_frame_directions;
   options.orbit_pixels = std::min(options.orbit_pixels, options.view_pixels);
   if (!QualityPassSupports(layout)) {
     spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",

@@ -108,6 +108,19 @@ struct QualityPassOptions {
   std::filesystem::path worst_view_png;
   // Where to write every held-out view (quality_views.h); empty = not written.
   std::filesystem::path views_dir;
+  // Measure at `views` of the baked frames' own directions instead of
+  // held-out ones (bench/quality_table --on-frames): there every
+  // reconstruction returns the frame itself, so what differs from the mesh
+  // is what the atlas lacks (its tiles' resolution), the ceiling of the
+  // held-out figures. Not for bakes: the manifest's views are held out.
+  bool on_frame_directions = false;
+};
+
+// What a measuring tool may change in a bake's pass (AtlasBakeRequest);
+// the defaults are the bake's own rules.
+struct QualityPassOverrides {
+  int view_pixels = 0;  // > 0: held-out views this size instead of min(128, resolution / 8)
+  bool on_frame_directions = false;  // QualityPassOptions::on_frame_directions
 };
 
 struct QualityPassResult {
@@ -145,7 +158,8 @@ bool QualityPassSupports(LayoutKind layout);
 // not needed after writing). Logs the pass's figures and time.
 absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, const std::vector<FrameCamera>& cameras,
                              AtlasImages&& maps, const v1::BakeParameters& parameters, const std::string& cache_key,
-                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest);
+                             const std::filesystem::path& dir, AtlasRenderer& renderer, v1::Manifest* manifest,
+                             const QualityPassOverrides& overrides = {});
 
 }  // namespace impostor
 
