@@ -416,7 +416,7 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     std::vector<QualityViewImage> images;
     for (int i = 0; i < o.views; ++i) images.push_back({(*mesh)[i].albedo_alpha, impostor[i].albedo_alpha});
     auto files = WriteQualityViews(o.views_dir, atlas.sphere, q.reconstruction(), q.blend(), o.view_pixels,
-                                   result.directions, images, result.per_view);
+                                   kReferenceSupersampling, result.directions, images, result.per_view);
     if (!files.ok()) return files.status();
     result.view_files = std::move(*files);
   }
@@ -499,8 +499,11 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
       continue;
     }
     view->set_format("png_rgba8");
+    const bool mesh_view = f.semantic == kQualityViewMeshSemantic;
     for (const char* c : {"R: albedo, sRGB", "G: albedo, sRGB", "B: albedo, sRGB",
-                          "A: coverage, 0 or 255 (straight alpha)"}) {
+                          mesh_view ? "A: coverage, the fraction of the pixel's samples the mesh covers (views.json "
+                                      "mesh_supersampling; straight alpha; covered iff >= 128)"
+                                    : "A: coverage, 0 or 255 (straight alpha)"}) {
       view->add_channels(c);
     }
   }

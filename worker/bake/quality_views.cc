@@ -17,7 +17,7 @@ std::string QualityViewFileName(int index, int count, bool mesh) {
 
 absl::StatusOr<std::vector<QualityViewsFile>> WriteQualityViews(
     const std::filesystem::path& dir, const BoundingSphere& sphere, std::string_view reconstruction,
-    std::string_view blend, int view_pixels, const std::vector<glm::vec3>& directions,
+    std::string_view blend, int view_pixels, int mesh_supersampling, const std::vector<glm::vec3>& directions,
     const std::vector<QualityViewImage>& images, const std::vector<ViewMetrics>& metrics) {
   if (images.size() != directions.size() || metrics.size() != directions.size()) {
     return absl::InvalidArgumentError("quality views: directions, images and metrics differ in count");
@@ -56,6 +56,10 @@ absl::StatusOr<std::vector<QualityViewsFile>> WriteQualityViews(
       {"reconstruction", reconstruction},
       {"blend", blend},
       {"view_pixels", view_pixels},
+      {"mesh_supersampling",
+       {{"factor", mesh_supersampling},
+        {"note", "each mesh view was rendered factor x factor times larger and box-filtered down: alpha = the "
+                 "fraction of its samples the mesh covers (covered iff more than half), colour their mean"}}},
       {"orthographic",
        {{"center", {sphere.center.x, sphere.center.y, sphere.center.z}},
         {"radius", sphere.radius},

@@ -1,6 +1,7 @@
 // Every held-out view of the quality pass as files, so anyone can recompute
 // every figure (issue 17): view_NN_mesh.png and view_NN_impostor.png (RGBA8,
-// sRGB albedo, straight alpha, alpha = coverage 0 or 255) and views.json
+// sRGB albedo, straight alpha; alpha = coverage: the fraction of the mesh
+// view's supersamples, 0 or 255 for the impostor; covered iff >= 128) and views.json
 // with each view's camera (direction, up, right; orthographic, framed by the
 // bounding sphere: centre and radius in scene units, as every bake camera,
 // common/frame_camera.h) and the figures measured on it
@@ -44,10 +45,11 @@ struct QualityViewsFile {
 std::string QualityViewFileName(int index, int count, bool mesh);
 
 // Writes the files into `dir`; returns them in order (PNG pairs, then
-// views.json).
+// views.json). `mesh_supersampling`: the factor the mesh views were rendered
+// at and filtered down by (views.json says so).
 absl::StatusOr<std::vector<QualityViewsFile>> WriteQualityViews(
     const std::filesystem::path& dir, const BoundingSphere& sphere, std::string_view reconstruction,
-    std::string_view blend, int view_pixels, const std::vector<glm::vec3>& directions,
+    std::string_view blend, int view_pixels, int mesh_supersampling, const std::vector<glm::vec3>& directions,
     const std::vector<QualityViewImage>& images, const std::vector<ViewMetrics>& metrics);
 
 }  // namespace impostor
