@@ -184,7 +184,9 @@ int main(int argc, char** argv) {
     }
     if (!complete) absl::StrAppend(&md, "\n(incomplete: the run is still going or was stopped)\n");
     absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table` ",
-                    "(writes this file; `--resolution`, `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it).\n");
+                    "(writes this file; `--resolution`, `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it; "
+                    "`--view-pixels N` sets the held-out views' size, `--on-frames` measures on the frames' own "
+                    "directions instead).\n");
     std::ofstream out(out_path, std::ios::trunc);
     out << md;
     out.close();
