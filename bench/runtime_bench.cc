@@ -91,8 +91,9 @@ int main(int argc, char** argv) {
   std::vector<impostor::FrameCamera> cameras;
   for (int i = 0; i < views; ++i) {
     const double t = (i + 0.5) / views, y = 0.05 + 0.9 * t, r = std::sqrt(1.0 - y * y), phi = 2.39996 * i + 0.1;
-    cameras.push_back(impostor::ViewCameraFor(
-        glm::vec3(static_cast<float>(r * std::sin(phi)), static_cast<float>(y), static_cast<float>(r * std::cos(phi)))));
+    const glm::vec3 direction(static_cast<float>(r * std::sin(phi)), static_cast<float>(y),
+                              static_cast<float>(r * std::cos(phi)));
+    cameras.push_back(impostor::ViewCameraFor(direction));
     cameras.back().tile = {0, 0, pixels, pixels};
   }
   std::printf("runtime_bench: %s, hemi-octahedral %dx%d at %d px, %d views of %d px, one thread\n",

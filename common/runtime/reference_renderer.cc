@@ -47,6 +47,28 @@ struct TileSample {
   glm::vec3 orm{0.0f};
 };
 
+// Calls tap(x, y, weight) for each of the 2x2 texel centres around st whose
+// bilinear weight is positive (x, y relative to the tile, clamped to it);
+// none when st lies outside the tile's square.
+template <typename Tap>
+void ForEachBilinearTap(const TileRect& tile, glm::vec2 st, const Tap& tap) {
+  if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return;
+  const glm::vec2 pixel = FrameStToPixel(tile, st);
+  const float fx = pixel.x - static_cast<float>(tile.x) - 0.5f;
+  const float fy = pixel.y - static_cast<float>(tile.y) - 0.5f;
+  const float flx = std::floor(fx);
+  const float fly = std::floor(fy);
+  const int ix = static_cast<int>(flx);
+  const int iy = static_cast<int>(fly);
+  const float ax = fx - flx;
+  const float ay = fy - fly;
+  const std::array<float, 4> bilinear = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+  for (int k = 0; k < 4; ++k) {
+    if (bilinear[k] <= 0.0f) continue;
+    tap(std::clamp(ix + (k & 1), 0, tile.width - 1), std::clamp(iy + (k >> 1), 0, tile.height - 1), bilinear[k]);
+  }
+}
+
 class TileSampler {
  public:
   explicit TileSampler(const ImpostorAtlas& atlas) : atlas_(atlas), srgb_(SrgbTable()) {}
@@ -55,26 +77,12 @@ class TileSampler {
   // `tile`. (The march reads alpha and depth only, from TileHeights.)
   TileSample Sample(const TileRect& tile, glm::vec2 st) const {
     TileSample out;
-    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
-    const glm::vec2 pixel = FrameStToPixel(tile, st);
-    const float fx = pixel.x - static_cast<float>(tile.x) - 0.5f;
-    const float fy = pixel.y - static_cast<float>(tile.y) - 0.5f;
-    const float flx = std::floor(fx);
-    const float fly = std::floor(fy);
-    const int ix = static_cast<int>(flx);
-    const int iy = static_cast<int>(fly);
-    const float ax = fx - flx;
-    const float ay = fy - fly;
-    const std::array<float, 4> bilinear = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
     float covered = 0.0f;
     float depth = 0.0f;
-    for (int k = 0; k < 4; ++k) {
-      if (bilinear[k] <= 0.0f) continue;
-      const int tx = tile.x + std::clamp(ix + (k & 1), 0, tile.width - 1);
-      const int ty = tile.y + std::clamp(iy + (k >> 1), 0, tile.height - 1);
-      const size_t texel = (static_cast<size_t>(ty) * atlas_.width + tx) * 4;
-      const float w = bilinear[k] * (static_cast<float>(atlas_.albedo_alpha[texel + 3]) / 255.0f);
-      if (w <= 0.0f) continue;
+    ForEachBilinearTap(tile, st, [&](int x, int y, float weight) {
+      const size_t texel = (static_cast<size_t>(tile.y + y) * atlas_.width + tile.x + x) * 4;
+      const float w = weight * (static_cast<float>(atlas_.albedo_alpha[texel + 3]) / 255.0f);
+      if (w <= 0.0f) return;
       covered += w;
       const uint16_t* nd = &atlas_.normal_depth[texel];
       depth += w * (static_cast<float>(nd[3]) / 65535.0f);
@@ -85,7 +93,7 @@ class TileSampler {
         const uint8_t* o = &atlas_.orm[texel];
         out.orm += w * (glm::vec3(o[0], o[1], o[2]) / 255.0f);
       }
-    }
+    });
     out.alpha = covered;
     if (covered > 0.0f) {
       out.depth = depth / covered;
@@ -123,29 +131,15 @@ class TileHeights {
 
   TileSample Sample(glm::vec2 st) const {
     TileSample out;
-    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
-    const glm::vec2 pixel = FrameStToPixel(tile_, st);
-    const float fx = pixel.x - static_cast<float>(tile_.x) - 0.5f;
-    const float fy = pixel.y - static_cast<float>(tile_.y) - 0.5f;
-    const float flx = std::floor(fx);
-    const float fly = std::floor(fy);
-    const int ix = static_cast<int>(flx);
-    const int iy = static_cast<int>(fly);
-    const float ax = fx - flx;
-    const float ay = fy - fly;
-    const std::array<float, 4> bilinear = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
     float covered = 0.0f;
     float depth = 0.0f;
-    for (int k = 0; k < 4; ++k) {
-      if (bilinear[k] <= 0.0f) continue;
-      const int tx = std::clamp(ix + (k & 1), 0, tile_.width - 1);
-      const int ty = std::clamp(iy + (k >> 1), 0, tile_.height - 1);
-      const Texel& t = texels_[static_cast<size_t>(ty) * tile_.width + tx];
-      const float w = bilinear[k] * t.alpha;
-      if (w <= 0.0f) continue;
+    ForEachBilinearTap(tile_, st, [&](int x, int y, float weight) {
+      const Texel& t = texels_[static_cast<size_t>(y) * tile_.width + x];
+      const float w = weight * t.alpha;
+      if (w <= 0.0f) return;
       covered += w;
       depth += w * t.depth;
-    }
+    });
     out.alpha = covered;
     if (covered > 0.0f) out.depth = depth / covered;
     return out;

@@ -340,7 +340,8 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     // Spread over the frames in index order (frames repeat when views > frames).
     const size_t frames = atlas.cameras.size();
     for (int i = 0; i < o.views; ++i) {
-      result.directions[i] = atlas.cameras[(static_cast<size_t>(i) * frames / o.views + frames / (2 * o.views)) % frames].direction;
+      const size_t frame = (static_cast<size_t>(i) * frames / o.views + frames / (2 * o.views)) % frames;
+      result.directions[i] = atlas.cameras[frame].direction;
     }
   }
   auto mesh =

@@ -85,9 +85,10 @@ class AtlasRenderer {
   // Keeps `scene`'s device upload (buffers, textures) once a Render of that
   // Scene object made it, so later Render calls of the same object skip the
   // upload, whatever their texture filter (set_supersampling): only the
-  // samplers are made again when it changes. nullptr (the default) frees it. The scene must stay alive and unchanged until
-  // then. A worker keeps its scene from the bake through its quality pass,
-  // which renders the mesh again (ScopedKeptScene below).
+  // samplers are made again when it changes. nullptr (the default) frees it.
+  // The scene must stay alive and unchanged until then. A worker keeps its
+  // scene from the bake through its quality pass, which renders the mesh
+  // again (ScopedKeptScene below).
   virtual void KeepSceneUploaded(const Scene* scene) = 0;
 
   // While set, Render checks `*flag` after each submitted chunk of frames

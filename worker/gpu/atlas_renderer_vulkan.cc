@@ -121,7 +121,10 @@ absl::StatusOr<const SceneResources*> AtlasRendererVulkan::ResourcesFor(const Sc
   const bool keep = kept_scene_ == &scene;
   if (keep && kept_resources_ != nullptr) {
     // Render left the device idle, so the old sets are free to replace.
-    IMPOSTOR_GPU_RETURN_IF_ERROR(kept_resources_->UseFilter(*ctx_, pipeline_, scene, filter));
+    if (absl::Status rebound = kept_resources_->UseFilter(*ctx_, pipeline_, scene, filter); !rebound.ok()) {
+      kept_resources_.reset();  // half rebound: the next Render uploads afresh
+      return rebound;
+    }
     return kept_resources_.get();
   }
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(*fresh, SceneResources::Upload(*ctx_, runner_, pipeline_, scene, filter));
