@@ -38,7 +38,7 @@ struct AtlasBakeRequest {
   bool serial_encode = false;
   // Measuring tools only (bench/quality_table): changes to the quality
   // pass's rules; the manifest records the view size used.
-  QualityPassOverrides quality_overrides;
+  QualityPassOverrides quality_overrides = {};
 };
 
 struct AtlasBakeOutput {
