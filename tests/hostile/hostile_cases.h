@@ -55,6 +55,10 @@ inline constexpr HostileCase kHostileCases[] = {
     {"png_header_16384_rgba16.gltf", kResourceExhausted, "GltfLoadLimits::max_load_bytes",
      "a 16-bit RGBA PNG header of 16384x16384: texture_decode.cc:66 counted 4 bytes per "
      "pixel, the decode peaks at 40"},
+    {"glb_buffer_bytelength_0.glb", kInvalidArgument, "buffer[0]: byteLength 0 is below the minimum 1",
+     "found by fuzz/run.sh (88 bytes): a GLB whose buffer 0 has byteLength 0 next to a 4-byte BIN "
+     "chunk; tinygltf's ParseBuffer threw std::out_of_range from vector::at and the uncaught "
+     "exception ended the process"},
 };
 
 inline std::filesystem::path HostileCorpusDir() { return IMPOSTOR_HOSTILE_CORPUS_DIR; }

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <limits>
 #include <optional>
@@ -200,7 +201,16 @@ absl::StatusOr<Scene> ParseAndBuild(const ParseInput& in, const GltfLoadLimits& 
                                  : gltf_internal::NoFileSystemCallbacks());
   gltf.SetImageLoader(&KeepEncodedImage, &image_ctx);
   std::string err, warn;
-  if (!parse(gltf, &model, &err, &warn)) {
+  bool parsed = false;
+  try {
+    parsed = parse(gltf, &model, &err, &warn);
+  } catch (const std::exception& e) {
+    // tinygltf indexes some fields with vector::at or lets nlohmann::json
+    // throw on a malformed file: a refused file, never a crashed worker.
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot parse '", in.name, "': tinygltf failed on a malformed field (", e.what(), ")"));
+  }
+  if (!parsed) {
     std::string message = OneLine(err.empty() ? warn : err);
     if (message.empty()) message = "tinygltf rejected the file without a message";
     if (!in.is_glb && in.named_glb) message += " (named .glb but has no GLB magic bytes)";

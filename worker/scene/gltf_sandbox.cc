@@ -230,6 +230,19 @@ absl::Status PrecheckJson(const Sandbox* sandbox, std::string_view json,
       }
     }
   }
+  // tinygltf 2.7 reads a GLB's binary chunk for a buffer of byteLength 0
+  // with vector::at and throws (found by fuzz/run.sh); the spec's minimum is 1.
+  if (auto buffers = doc.find("buffers"); buffers != doc.end() && buffers->is_array()) {
+    for (size_t i = 0; i < buffers->size(); ++i) {
+      const nlohmann::json& buffer = (*buffers)[i];
+      if (!buffer.is_object()) continue;
+      auto length = buffer.find("byteLength");
+      if (length != buffer.end() && length->is_number() && !(length->get<double>() >= 1.0)) {
+        return absl::InvalidArgumentError(absl::StrCat(Describe("buffer", i, buffer), ": byteLength ",
+                                                       length->dump(), " is below the minimum 1"));
+      }
+    }
+  }
   for (const char* kind : {"buffers", "images"}) {
     auto array = doc.find(kind);
     if (array == doc.end() || !array->is_array()) continue;
