@@ -95,10 +95,8 @@ class SupersampleResolveTest : public ::testing::Test {
     auto scene = LoadGltfScene(path);
     ASSERT_TRUE(scene.ok()) << scene.status();
     const BoundingSphere sphere = ComputeBoundingSphere(*scene);
-    std::vector<FrameCamera> cameras = AtlasCameras(LayoutKind::kOctahedral, frames, resolution);
-    for (FrameCamera& c : cameras) {
-      c.tile = {c.tile.x * factor, c.tile.y * factor, c.tile.width * factor, c.tile.height * factor};
-    }
+    const std::vector<FrameCamera> cameras =
+        SupersampledCameras(AtlasCameras(LayoutKind::kOctahedral, frames, resolution), factor);
     renderer_->set_emissive(emissive);
     renderer_->set_supersampling(factor);
     renderer_->set_resolve_on_device(false);

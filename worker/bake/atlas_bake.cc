@@ -126,8 +126,7 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   // Unset (requests not normalised by the server, e.g. in tests) renders at
   // the resolution itself.
   const int ss = p.has_supersampling() ? static_cast<int>(p.supersampling()) : 1;
-  std::vector<FrameCamera> render_cameras = cameras;
-  for (FrameCamera& c : render_cameras) c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
+  const std::vector<FrameCamera> render_cameras = SupersampledCameras(cameras, ss);
   renderer.set_supersampling(ss);
   renderer.set_resolve_on_device(true);
   auto atlas = renderer.Render(

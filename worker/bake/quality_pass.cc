@@ -69,28 +69,24 @@ FrameCamera CameraFor(glm::vec3 direction, int index, int pixels, int columns) {
 }
 
 // The mesh from every direction, as tiles of one atlas (one Render call),
-// cut apart into one buffer per view. With `supersampling` > 1 rendered that many times
-// larger and filtered down on the device, as the bake renders its frames.
+// cut apart into one buffer per view. With `supersampling` > 1 rendered
+// that many times larger and filtered down on the device, as the bake
+// renders its frames.
 absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, const BoundingSphere& sphere,
                                                          const std::vector<glm::vec3>& directions, int pixels,
                                                          int supersampling, AtlasRenderer& renderer) {
   const int n = static_cast<int>(directions.size());
   const int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
-  const int ss = supersampling;
   std::vector<FrameCamera> cameras;
-  for (int i = 0; i < n; ++i) {
-    FrameCamera c = CameraFor(directions[i], i, pixels, columns);
-    c.tile = {c.tile.x * ss, c.tile.y * ss, c.tile.width * ss, c.tile.height * ss};
-    cameras.push_back(c);
-  }
-  renderer.set_supersampling(ss);
-  renderer.set_resolve_on_device(ss > 1);
+  for (int i = 0; i < n; ++i) cameras.push_back(CameraFor(directions[i], i, pixels, columns));
+  renderer.set_supersampling(supersampling);
+  renderer.set_resolve_on_device(supersampling > 1);
   RenderTimings timings;
-  auto atlas = renderer.Render(scene, sphere, cameras, columns * pixels * ss, {}, &timings);
+  auto atlas = renderer.Render(scene, sphere, SupersampledCameras(cameras, supersampling),
+                               columns * pixels * supersampling, {}, &timings);
   renderer.set_supersampling(1);
   renderer.set_resolve_on_device(false);
   if (!atlas.ok()) return atlas.status();
-  for (FrameCamera& c : cameras) c.tile = {c.tile.x / ss, c.tile.y / ss, c.tile.width / ss, c.tile.height / ss};
   std::vector<ViewBuffers> views(n);
   const size_t row = static_cast<size_t>(pixels) * 4;
   for (int i = 0; i < n; ++i) {
@@ -130,6 +126,17 @@ std::vector<ViewBuffers> RenderImpostorViews(const ImpostorAtlas& atlas, const s
   }
   for (auto& j : jobs) j.get();
   return views;
+}
+
+// `count` of the baked frames' own directions, spread over the frames in
+// index order (repeating when count > frames): on_frame_directions.
+std::vector<glm::vec3> FrameDirections(const std::vector<FrameCamera>& frames, int count) {
+  std::vector<glm::vec3> out;
+  const size_t n = frames.size();
+  for (int i = 0; i < count; ++i) {
+    out.push_back(frames[(static_cast<size_t>(i) * n / count + n / (2 * count)) % n].direction);
+  }
+  return out;
 }
 
 // Largest change of the impostor between neighbouring orbit steps relative
@@ -335,15 +342,8 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   }
   const auto start = Clock::now();
   QualityPassResult result;
-  result.directions = HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
-  if (o.on_frame_directions) {
-    // Spread over the frames in index order (frames repeat when views > frames).
-    const size_t frames = atlas.cameras.size();
-    for (int i = 0; i < o.views; ++i) {
-      const size_t frame = (static_cast<size_t>(i) * frames / o.views + frames / (2 * o.views)) % frames;
-      result.directions[i] = atlas.cameras[frame].direction;
-    }
-  }
+  result.directions = o.on_frame_directions ? FrameDirections(atlas.cameras, o.views)
+                                             : HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
   auto mesh =
       RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, kReferenceSupersampling, renderer);
   if (!mesh.ok()) return mesh.status();

@@ -131,6 +131,15 @@ class AtlasRenderer {
   bool resolve_on_device_ = false;
 };
 
+// `cameras` with every tile `factor` times larger: what Render takes for
+// tiles rendered at set_supersampling(factor).
+inline std::vector<FrameCamera> SupersampledCameras(std::vector<FrameCamera> cameras, int factor) {
+  for (FrameCamera& c : cameras) {
+    c.tile = {c.tile.x * factor, c.tile.y * factor, c.tile.width * factor, c.tile.height * factor};
+  }
+  return cameras;
+}
+
 // KeepSceneUploaded(&scene) for the object's lifetime, then nullptr, on
 // every path out of the scope that renders the scene more than once.
 class ScopedKeptScene {
