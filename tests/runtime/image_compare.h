@@ -67,6 +67,30 @@ inline Comparison Compare(const ViewImages& a, const ViewImages& b) {
   return c;
 }
 
+// Pixels covered in both images whose normal (any component) or depth
+// differs by more than the given 16-bit levels. A GPU's float rounding can
+// flip a discrete choice (a march step's hit test, a texel's floor) at a
+// pixel that sits on the tie, and that pixel then differs by a whole texel
+// step; such pixels are counted rather than bounding the largest difference.
+struct PixelsBeyond {
+  int normal = 0;
+  int depth = 0;
+};
+
+inline PixelsBeyond CountPixelsBeyond(const ViewImages& a, const ViewImages& b, int normal_levels,
+                                      int depth_levels) {
+  PixelsBeyond out;
+  const size_t n = static_cast<size_t>(a.width) * a.height;
+  for (size_t i = 0; i < n; ++i) {
+    if (a.albedo_alpha[i * 4 + 3] < 128 || b.albedo_alpha[i * 4 + 3] < 128) continue;
+    int normal = 0;
+    for (int k = 0; k < 3; ++k) normal = std::max(normal, std::abs(a.normal_depth[i * 4 + k] - b.normal_depth[i * 4 + k]));
+    if (normal > normal_levels) ++out.normal;
+    if (std::abs(a.normal_depth[i * 4 + 3] - b.normal_depth[i * 4 + 3]) > depth_levels) ++out.depth;
+  }
+  return out;
+}
+
 }  // namespace impostor::testing
 
 #endif  // IMPOSTOR_TESTS_RUNTIME_IMAGE_COMPARE_H_
