@@ -30,6 +30,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "bench/bench_args.h"
 #include "impostor/client.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
 
@@ -83,14 +84,17 @@ int main(int argc, char** argv) {
   int fetches = 3;
   fs::path keep_result;
   std::vector<fs::path> assets;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) frames = static_cast<uint32_t>(std::stoul(argv[++i]));
-    else if (a == "--resolution" && i + 1 < argc) resolution = static_cast<uint32_t>(std::stoul(argv[++i]));
-    else if (a == "--fetches" && i + 1 < argc) fetches = std::stoi(argv[++i]);
-    else if (a == "--keep-result" && i + 1 < argc) keep_result = argv[++i];
-    else assets.emplace_back(a);
-  }
+  std::string keep_flag;
+  std::vector<std::string> asset_args;
+  impostor::bench::BenchArgs("bake_bench", "Bakes assets through a real server and worker and prints the stage times.")
+      .Uint("--frames", &frames, "frames per side (default 12)")
+      .Uint("--resolution", &resolution, "atlas size in pixels (default 2048)")
+      .Int("--fetches", &fetches, "downloads of each result from the cache (default 3)")
+      .Text("--keep-result", &keep_flag, "copy the last asset's fetched result here")
+      .Positional("ASSET.glb", &asset_args, "assets to bake (default DamagedHelmet and TransmissionTest)")
+      .ParseOrExit(argc, argv);
+  if (!keep_flag.empty()) keep_result = keep_flag;
+  for (const std::string& a : asset_args) assets.emplace_back(a);
   if (assets.empty()) {
     const fs::path dir = IMPOSTOR_BENCH_ASSETS_DIR;
     assets = {dir / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb",

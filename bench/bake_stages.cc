@@ -18,6 +18,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "bench/bench_args.h"
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
 #include "worker/bake/atlas_bake.h"
@@ -57,17 +58,19 @@ int main(int argc, char** argv) {
   int supersampling = -1, quality_views = -1, repeat = 1;
   fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
   fs::path keep;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (a == "--frames" && has_value) frames = static_cast<uint32_t>(std::stoul(argv[++i]));
-    else if (a == "--resolution" && has_value) resolution = static_cast<uint32_t>(std::stoul(argv[++i]));
-    else if (a == "--supersampling" && has_value) supersampling = std::stoi(argv[++i]);
-    else if (a == "--quality-views" && has_value) quality_views = std::stoi(argv[++i]);
-    else if (a == "--repeat" && has_value) repeat = std::stoi(argv[++i]);
-    else if (a == "--keep" && has_value) keep = argv[++i];
-    else asset = a;
-  }
+  std::string keep_flag;
+  std::vector<std::string> assets;
+  impostor::bench::BenchArgs("bake_stages", "One atlas bake in process with each stage's wall and CPU time.")
+      .Uint("--frames", &frames, "frames per side (default 12)")
+      .Uint("--resolution", &resolution, "atlas size in pixels (default 2048)")
+      .Int("--supersampling", &supersampling, "samples per side per pixel (default: the bake's own)")
+      .Int("--quality-views", &quality_views, "held-out views of the quality pass; 0 skips it (default: the bake's own)")
+      .Int("--repeat", &repeat, "bakes in a row (default 1)")
+      .Text("--keep", &keep_flag, "copy the last bake's output folder here")
+      .Positional("ASSET.glb", &assets, "the asset (default DamagedHelmet)")
+      .ParseOrExit(argc, argv);
+  if (!keep_flag.empty()) keep = keep_flag;
+  if (!assets.empty()) asset = assets.back();
   impostor::v1::BakeParameters in;
   in.set_layout(impostor::v1::LAYOUT_OCTAHEDRAL);
   in.set_frames(frames);

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_args.h"
 #include "client/cache/cache_testing.h"
 #include "impostor/cache.h"
 #include "tests/cache/published_result.h"
@@ -134,11 +135,13 @@ int main(int argc, char** argv) {
   int downloads = 5;
   int hits = 20000;
   std::string nginx;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (std::strcmp(argv[i], "--downloads") == 0) downloads = std::max(1, std::atoi(argv[i + 1]));
-    if (std::strcmp(argv[i], "--hits") == 0) hits = std::max(100, std::atoi(argv[i + 1]));
-    if (std::strcmp(argv[i], "--nginx") == 0) nginx = argv[i + 1];
-  }
+  impostor::bench::BenchArgs("cache_bench", "The game-client cache's hit latency and download throughput.")
+      .Int("--downloads", &downloads, "downloads to time (default 5, at least 1)")
+      .Int("--hits", &hits, "local cache hits to time (default 20000, at least 100)")
+      .Text("--nginx", &nginx, "an nginx binary to serve the same files for comparison")
+      .ParseOrExit(argc, argv);
+  downloads = std::max(1, downloads);
+  hits = std::max(100, hits);
   const fs::path root = fs::temp_directory_path() / ("impostor_cache_bench_" + std::to_string(::getpid()));
   fs::remove_all(root);
   fs::create_directories(root / "server");

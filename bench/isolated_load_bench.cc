@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_args.h"
 #include "worker/scene/gltf_loader.h"
 #include "worker/scene/isolated_load.h"
 
@@ -35,7 +36,11 @@ double MedianSeconds(int runs, F f) {
 int main(int argc, char** argv) {
   const std::filesystem::path assets = IMPOSTOR_BENCH_ASSETS_DIR;
   std::vector<std::filesystem::path> files;
-  for (int i = 1; i < argc; ++i) files.emplace_back(argv[i]);
+  std::vector<std::string> file_args;
+  impostor::bench::BenchArgs("isolated_load_bench", "Times loading inputs in process and in an isolated child.")
+      .Positional("FILE.glb", &file_args, "inputs to load (default DamagedHelmet and Duck)")
+      .ParseOrExit(argc, argv);
+  for (const std::string& f : file_args) files.emplace_back(f);
   if (files.empty()) {
     files = {assets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb",
              assets / "props_pbr/Duck/glTF-Binary/Duck.glb"};

@@ -35,6 +35,7 @@
 
 #include <google/protobuf/empty.pb.h>
 
+#include "bench/bench_args.h"
 #include "tests/cache/published_result.h"
 #include "tests/integration/server_process.h"
 
@@ -152,18 +153,16 @@ int main(int argc, char** argv) {
   int channel_count = 2;
   std::vector<std::string> rpcs;
   std::vector<std::string> server_args;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    if (flag == "--callers") callers = std::max(1, std::atoi(argv[i + 1]));
-    else if (flag == "--seconds") seconds = std::max(0.1, std::atof(argv[i + 1]));
-    else if (flag == "--channels") channel_count = std::max(1, std::atoi(argv[i + 1]));
-    else if (flag == "--rpc") rpcs.emplace_back(argv[i + 1]);
-    else if (flag == "--server-arg") server_args.emplace_back(argv[i + 1]);
-    else {
-      std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
-      return 2;
-    }
-  }
+  impostor::bench::BenchArgs("load_bench", "Closed-loop gRPC load: N callers per RPC, throughput and latency percentiles.")
+      .Int("--callers", &callers, "concurrent callers (default 200, at least 1)")
+      .Real("--seconds", &seconds, "duration of each RPC's run (default 5, at least 0.1)")
+      .Int("--channels", &channel_count, "gRPC channels the callers share (default 2, at least 1)")
+      .Texts("--rpc", &rpcs, "health, submit, submit_rid, lookup or get_result (default all)")
+      .Texts("--server-arg", &server_args, "an extra impostor-server flag")
+      .ParseOrExit(argc, argv);
+  callers = std::max(1, callers);
+  seconds = std::max(0.1, seconds);
+  channel_count = std::max(1, channel_count);
   if (rpcs.empty()) rpcs = {"health", "submit", "submit_rid", "lookup", "get_result"};
 
   const fs::path root = fs::temp_directory_path() / ("impostor_load_bench_" + std::to_string(::getpid()));

@@ -29,7 +29,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_split.h"
+#include "bench/bench_args.h"
 #include "common/bake_request.h"
 #include "common/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
@@ -79,30 +81,15 @@ double PassSeconds(const std::string& log) {
   return at == std::string::npos ? 0 : std::atof(log.c_str() + at + 9);
 }
 
-bool HasFlag(int argc, char** argv, const std::string& name) {
-  for (int i = 1; i < argc; ++i) {
-    if (argv[i] == name) return true;
+// "8,12,16"; false if any item is not a whole number.
+bool ParseList(const std::string& s, std::vector<uint32_t>* out) {
+  out->clear();
+  for (const absl::string_view item : absl::StrSplit(s, ',')) {
+    uint32_t n = 0;
+    if (!absl::SimpleAtoi(item, &n)) return false;
+    out->push_back(n);
   }
-  return false;
-}
-
-std::string Flag(int argc, char** argv, const std::string& name, const std::string& fallback) {
-  for (int i = 1; i + 1 < argc; ++i) {
-    if (argv[i] == name) return argv[i + 1];
-  }
-  return fallback;
-}
-
-std::vector<uint32_t> ParseList(const std::string& s) {
-  std::vector<uint32_t> out;
-  size_t start = 0;
-  while (start < s.size()) {
-    size_t end = s.find(',', start);
-    if (end == std::string::npos) end = s.size();
-    out.push_back(static_cast<uint32_t>(std::stoul(s.substr(start, end - start))));
-    start = end + 1;
-  }
-  return out;
+  return !out->empty();
 }
 
 }  // namespace
@@ -113,15 +100,29 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(
       std::make_shared<spdlog::logger>("quality_table", std::make_shared<spdlog::sinks::ostream_sink_mt>(log)));
   spdlog::set_level(spdlog::level::info);
-  const fs::path out_path = Flag(argc, argv, "--out", IMPOSTOR_BENCH_SOURCE_DIR "/docs/quality.md");
-  const uint32_t resolution = static_cast<uint32_t>(std::stoul(Flag(argc, argv, "--resolution", "1024")));
-  const std::vector<uint32_t> frame_counts = ParseList(Flag(argc, argv, "--frames", "8,12,16"));
-  const std::string only = Flag(argc, argv, "--only", "");
-  const std::string layouts = Flag(argc, argv, "--layouts", "");  // manifest names, comma separated; empty = all
-  // The held-out views' size; 0 = the pass's own rule (min(128, resolution / 8)).
-  const int view_pixels = std::stoi(Flag(argc, argv, "--view-pixels", "0"));
-  // The views at baked frames' own directions instead (the atlas's ceiling).
-  const bool on_frames = HasFlag(argc, argv, "--on-frames");
+  std::string out_flag = IMPOSTOR_BENCH_SOURCE_DIR "/docs/quality.md";
+  uint32_t resolution = 1024;
+  std::string frames_flag = "8,12,16";
+  std::string only;
+  std::string layouts;  // manifest names, comma separated; empty = all
+  int view_pixels = 0;
+  bool on_frames = false;
+  impostor::bench::BenchArgs("quality_table", "Bakes the quality table's assets in process and writes the table.")
+      .Text("--out", &out_flag, "the Markdown file to write (default docs/quality.md)")
+      .Uint("--resolution", &resolution, "atlas size in pixels (default 1024)")
+      .Text("--frames", &frames_flag, "frame counts, comma separated (default 8,12,16)")
+      .Text("--only", &only, "assets whose name contains one of these, comma separated (default all)")
+      .Text("--layouts", &layouts, "layouts by manifest name, comma separated (default all)")
+      .Int("--view-pixels", &view_pixels, "held-out view size (default 0: the pass's own, min(128, resolution / 8))")
+      .Switch("--on-frames", &on_frames, "put the views on baked frames' own directions (the atlas's ceiling)")
+      .ParseOrExit(argc, argv);
+  std::vector<uint32_t> frame_counts;
+  if (!ParseList(frames_flag, &frame_counts)) {
+    std::fprintf(stderr, "quality_table: --frames: '%s' is not a comma-separated list of whole numbers\n",
+                 frames_flag.c_str());
+    return 2;
+  }
+  const fs::path out_path = out_flag;
   const fs::path assets = std::getenv("IMPOSTOR_ASSETS_DIR") != nullptr ? fs::path(std::getenv("IMPOSTOR_ASSETS_DIR"))
                                                                          : fs::path(IMPOSTOR_BENCH_ASSETS_DIR);
 

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_args.h"
 #include "common/atlas_layout.h"
 #include "common/runtime/reference_renderer.h"
 #include "worker/gpu/atlas_renderer.h"
@@ -49,15 +50,15 @@ uint64_t Digest(const std::vector<impostor::ViewImages>& views) {
 int main(int argc, char** argv) {
   int frames = 12, resolution = 2048, views = 16, pixels = 128;
   fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (a == "--frames" && has_value) frames = std::stoi(argv[++i]);
-    else if (a == "--resolution" && has_value) resolution = std::stoi(argv[++i]);
-    else if (a == "--views" && has_value) views = std::stoi(argv[++i]);
-    else if (a == "--pixels" && has_value) pixels = std::stoi(argv[++i]);
-    else asset = a;
-  }
+  std::vector<std::string> assets;
+  impostor::bench::BenchArgs("runtime_bench", "Times the CPU reference renderer's views of a baked atlas.")
+      .Int("--frames", &frames, "frames per side (default 12)")
+      .Int("--resolution", &resolution, "atlas size in pixels (default 2048)")
+      .Int("--views", &views, "views to render (default 16)")
+      .Int("--pixels", &pixels, "view size in pixels (default 128)")
+      .Positional("ASSET.glb", &assets, "the asset (default DamagedHelmet)")
+      .ParseOrExit(argc, argv);
+  if (!assets.empty()) asset = assets.back();
   auto scene = impostor::LoadGltfScene(asset, {});
   if (!scene.ok()) {
     std::fprintf(stderr, "runtime_bench: %s\n", scene.status().ToString().c_str());

@@ -17,6 +17,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "absl/strings/numbers.h"
+#include "bench/bench_args.h"
 #include "absl/strings/str_cat.h"
 #include "common/sha256.h"
 #include "server/bake_scheduler.h"
@@ -104,7 +106,15 @@ Rates Measure(std::vector<JobStore*> stores, BlobStore& blobs, int n, const std:
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int n = argc > 1 ? std::atoi(argv[1]) : 1000;
+  int n = 1000;
+  std::vector<std::string> jobs;
+  impostor::bench::BenchArgs("store_engine_bench", "Job-store throughput of the SQLite and PostgreSQL engines.")
+      .Positional("JOBS", &jobs, "operations per phase (default 1000)")
+      .ParseOrExit(argc, argv);
+  if (!jobs.empty() && (jobs.size() > 1 || !absl::SimpleAtoi(jobs[0], &n) || n < 1)) {
+    std::fprintf(stderr, "store_engine_bench: JOBS must be one whole number >= 1\n");
+    return 2;
+  }
   spdlog::set_level(spdlog::level::warn);
   const auto dir = std::filesystem::temp_directory_path() / ("store_engine_bench_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
