@@ -1,0 +1,31 @@
+#!/bin/bash
+# Builds a bundle that checks the worker on a GPU host without installing
+# anything there but the bundle (tools/gpu_check/README.md):
+#
+#   bash tools/gpu_check/bundle.sh [BUILD_DIR] [OUT_DIR]
+#
+# OUT_DIR (default /tmp/gpu_check) gets pack.tar.xz (binaries + libraries,
+# pack.py), assets.tar (the test assets the GPU suites read), glvnd/ (the GL
+# vendor-neutral dispatch libraries NVIDIA's Vulkan driver loads), paths.env
+# (where the binaries expect their build and asset folders) and run.sh.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+build=$(cd "${1:-$here/../../build}" && pwd)
+out=${2:-/tmp/gpu_check}
+assets=$(sed -n 's/^IMPOSTOR_ASSETS_DIR:PATH=//p' "$build/CMakeCache.txt")
+assets=$(cd "$assets" && pwd)
+binaries="bake_bench bake_stages impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
+  atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests runtime_gpu_tests runtime_bake_tests"
+rm -rf "$out" && mkdir -p "$out/glvnd"
+python3 "$here/pack.py" "$out/pack" $(for b in $binaries; do echo "$build/bin/$b"; done)
+for lib in libGLdispatch.so.0 libGLX.so.0 libEGL.so.1 libOpenGL.so.0; do
+  cp -L "$(ldconfig -p | awk -v l="$lib" '$1 == l && /x86-64/ {print $NF; exit}')" "$out/glvnd/"
+done
+(cd "$out" && tar cf - pack | xz -6 -T0 > pack.tar.xz && rm -rf pack)
+# The assets the suites and benches name (tests/ and bench/ sources).
+(cd "$assets" && tar cf "$out/assets.tar" MANIFEST.md props_pbr vegetation/AlphaBlendModeTest \
+  vegetation/Quaternius_CommonTree_1 vegetation/TreeLowPoly_RicardoSanchez highpoly/TransmissionTest \
+  edge_cases/khronos edge_cases/missing_textures/BoxTextured_png_removed)
+printf 'BUILD_BIN=%q\nASSETS_DIR=%q\n' "$build/bin" "$assets" > "$out/paths.env"
+cp "$here/run.sh" "$out/"
+du -sh "$out"

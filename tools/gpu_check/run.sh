@@ -1,0 +1,54 @@
+#!/bin/bash
+# Runs on the GPU host, from the bundle's folder (bundle.sh), as root (it
+# creates the folders the binaries were built to expect and, where the
+# host lacks them, installs the glvnd libraries):
+#
+#   OUT=/tmp/results bash run.sh
+#
+# A 15 s probe first: without a usable Vulkan device it prints the loader's
+# errors and stops, instead of leaving the benches to wait for a worker.
+# Then the benches (timings) one by one, then the GPU suites side by side.
+set -u
+here=$(cd "$(dirname "$0")" && pwd)
+OUT=${OUT:-$here/results}
+mkdir -p "$OUT"
+exec > >(tee -a "$OUT/log.txt") 2>&1
+. "$here/paths.env"
+root=/opt/impostor-gpu-check
+rm -rf "$root" && mkdir -p "$root" "$ASSETS_DIR" "$(dirname "$BUILD_BIN")"
+tar xJf "$here/pack.tar.xz" -C "$root"
+tar xf "$here/assets.tar" -C "$ASSETS_DIR"
+[ -e "$BUILD_BIN" ] || ln -s "$root/pack/bin" "$BUILD_BIN"
+for f in "$here"/glvnd/*; do
+  ldconfig -p | grep -q "$(basename "$f")" || cp "$f" /usr/lib/x86_64-linux-gnu/
+done
+ldconfig
+# NVIDIA's containers keep the driver's manifest outside the loader's search path.
+if [ -z "${VK_DRIVER_FILES:-}" ]; then
+  icd=$(ls /usr/local/nvidia/share/vulkan/icd.d/*.json 2>/dev/null | head -1)
+  [ -n "$icd" ] && export VK_DRIVER_FILES=$icd VK_ICD_FILENAMES=$icd
+fi
+export LD_LIBRARY_PATH=$root/pack/lib
+bin=$root/pack/bin
+asset=$ASSETS_DIR/props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null
+if ! timeout 15 "$bin/gpu_tests" --gtest_filter=AtlasRendererTest.ReportsAVulkan13Device > "$OUT/probe.txt" 2>&1; then
+  echo "gpu_check: no usable Vulkan device; the loader says:"
+  VK_LOADER_DEBUG=error,driver timeout 15 "$bin/gpu_tests" --gtest_filter=AtlasRendererTest.ReportsAVulkan13Device 2>&1 |
+    grep -E "ERROR|DRIVER|device" | head -20
+  exit 1
+fi
+grep -m1 "using device" "$OUT/probe.txt"
+cd /tmp
+suites=()
+timeout 60 "$bin/bake_bench" --fetches 1 "$asset" 2>&1 | grep -v '^\[20\|^20' | tail -4
+timeout 30 "$bin/bake_stages" "$asset" 2>&1 | grep -v '^\[20' | tail -4
+timeout 30 "$bin/bake_stages" --quality-views 0 "$asset" 2>&1 | grep -v '^\[20' | tail -4
+for t in gpu_tests quality_gpu_tests atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests \
+  runtime_gpu_tests runtime_bake_tests; do
+  (timeout 120 "$bin/$t" --gtest_brief=1 > "$OUT/$t.txt" 2>&1; echo "== $t exit $?" >> "$OUT/$t.txt") &
+  suites+=($!)
+done
+# Not a bare `wait`: it would also wait for the log's tee, which waits for us.
+wait "${suites[@]}"
+for t in "$OUT"/*_tests.txt; do grep -E '^== |^\[  (PASSED|FAILED|SKIPPED) ' "$t"; done
