@@ -14,7 +14,7 @@ build=$(cd "${1:-$here/../../build}" && pwd)
 out=${2:-/tmp/gpu_check}
 assets=$(sed -n 's/^IMPOSTOR_ASSETS_DIR:PATH=//p' "$build/CMakeCache.txt")
 assets=$(cd "$assets" && pwd)
-binaries="bake_bench bake_stages impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
+binaries="bake_bench bake_stages png_bench impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
   atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests runtime_gpu_tests runtime_bake_tests"
 rm -rf "$out" && mkdir -p "$out/glvnd"
 python3 "$here/pack.py" "$out/pack" $(for b in $binaries; do echo "$build/bin/$b"; done)

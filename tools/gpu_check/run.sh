@@ -43,7 +43,8 @@ cd /tmp
 suites=()
 timeout 60 "$bin/bake_bench" --fetches 1 "$asset" 2>&1 | grep -v '^\[20\|^20' | tail -4
 timeout 30 "$bin/bake_stages" "$asset" 2>&1 | grep -v '^\[20' | tail -4
-timeout 30 "$bin/bake_stages" --quality-views 0 "$asset" 2>&1 | grep -v '^\[20' | tail -4
+timeout 30 "$bin/bake_stages" --quality-views 0 --keep /tmp/gpu_check_maps "$asset" 2>&1 | grep -v '^\[20' | tail -4
+timeout 60 "$bin/png_bench" /tmp/gpu_check_maps/{albedo_alpha,normal_depth,orm}.png
 for t in gpu_tests quality_gpu_tests atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests \
   runtime_gpu_tests runtime_bake_tests; do
   (timeout 120 "$bin/$t" --gtest_brief=1 > "$OUT/$t.txt" 2>&1; echo "== $t exit $?" >> "$OUT/$t.txt") &

@@ -1,46 +1,42 @@
 #include "worker/output/map_writer.h"
 
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "worker/output/png_encoder.h"
 
 namespace impostor {
 namespace {
 
-absl::Status WritePng(const std::filesystem::path& path, const void* pixels, size_t count,
-                      int width, int height, OIIO::TypeDesc format) {
-  if (width < 1 || height < 1 || count != static_cast<size_t>(width) * height * 4) {
-    return absl::InvalidArgumentError(absl::StrCat("cannot write '", path.string(), "': ", count,
-                                                   " values for a ", width, "x", height,
-                                                   " RGBA image"));
+// Writes the encoded bytes to `path` (created or truncated). Errors name
+// the file and the system's reason (a full disk says so).
+absl::Status WriteFileBytes(const std::filesystem::path& path, const absl::StatusOr<std::string>& png) {
+  if (!png.ok()) {
+    return absl::Status(png.status().code(), absl::StrCat("cannot write '", path.string(), "': ", png.status().message()));
   }
-  const std::string name = path.string();
-  // Ask for the PNG writer explicitly: the file name need not end in .png
-  // (the worker writes to temporary names).
-  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
-  if (!out) {
-    return absl::InternalError(absl::StrCat("OpenImageIO has no PNG writer: ", OIIO::geterror()));
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return absl::InternalError(absl::StrCat("cannot create '", path.string(), "': ", std::strerror(errno)));
+  size_t written = 0;
+  while (written < png->size()) {
+    const ssize_t n = ::write(fd, png->data() + written, png->size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int error = n < 0 ? errno : EIO;
+      ::close(fd);
+      return absl::InternalError(absl::StrCat("cannot write '", path.string(), "': ", std::strerror(error)));
+    }
+    written += static_cast<size_t>(n);
   }
-  OIIO::ImageSpec spec(width, height, 4, format);
-  // Our fourth channel is coverage or depth, not associated alpha: without
-  // this OIIO divides RGB by A on write.
-  spec.attribute("oiio:UnassociatedAlpha", 1);
-  spec.attribute("png:compressionLevel", kPngCompressionLevel);
-  spec.attribute("png:filter", kPngRowFilter);
-  if (!out->open(name, spec)) {
-    return absl::InternalError(absl::StrCat("cannot create '", name, "': ", out->geterror()));
-  }
-  if (!out->write_image(format, pixels)) {
-    const std::string error = out->geterror();
-    out->close();
-    return absl::InternalError(absl::StrCat("cannot write '", name, "': ", error));
-  }
-  if (!out->close()) {
-    return absl::InternalError(absl::StrCat("cannot finish '", name, "': ", out->geterror()));
+  if (::close(fd) != 0) {
+    return absl::InternalError(absl::StrCat("cannot finish '", path.string(), "': ", std::strerror(errno)));
   }
   return absl::OkStatus();
 }
@@ -49,12 +45,12 @@ absl::Status WritePng(const std::filesystem::path& path, const void* pixels, siz
 
 absl::Status WritePngRgba8(const std::filesystem::path& path, std::span<const uint8_t> pixels,
                            int width, int height) {
-  return WritePng(path, pixels.data(), pixels.size(), width, height, OIIO::TypeDesc::UINT8);
+  return WriteFileBytes(path, EncodePngRgba8(pixels, width, height));
 }
 
 absl::Status WritePngRgba16(const std::filesystem::path& path, std::span<const uint16_t> pixels,
                             int width, int height) {
-  return WritePng(path, pixels.data(), pixels.size(), width, height, OIIO::TypeDesc::UINT16);
+  return WriteFileBytes(path, EncodePngRgba16(pixels, width, height));
 }
 
 absl::StatusOr<PngImage> ReadPng(const std::filesystem::path& path) {

@@ -35,9 +35,10 @@ inline constexpr int kPngCompressionLevel = 3;
 inline constexpr int kPngRowFilter = 0x20;  // PNG_FILTER_UP
 
 // Writes `pixels` (width * height * 4 values, rows top to bottom) as an
-// 8-bit RGBA PNG at `path` (overwritten). INVALID_ARGUMENT if the sizes do
-// not match or width/height < 1; INTERNAL with OpenImageIO's message if the
-// file cannot be created or written.
+// 8-bit RGBA PNG at `path` (overwritten), deflated on several threads
+// (png_encoder.h). INVALID_ARGUMENT if the sizes do not match or
+// width/height < 1; INTERNAL with the system's reason if the file cannot be
+// created or written.
 absl::Status WritePngRgba8(const std::filesystem::path& path, std::span<const uint8_t> pixels,
                            int width, int height);
 
