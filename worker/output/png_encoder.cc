@@ -3,6 +3,8 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <atomic>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -132,12 +134,21 @@ absl::StatusOr<std::string> Encode(const Rows& rows, size_t value_count, const P
   int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, std::min(kMaxThreads, static_cast<int>(bands.size())));
   {
-    std::vector<std::jthread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (size_t b = t; b < bands.size(); b += threads) DeflateBand(rows, b + 1 == bands.size(), &bands[b]);
-      });
+    // Bands are taken in order by whoever is free, this thread included, so
+    // a helper that cannot be started (no threads left) only costs time.
+    std::atomic<size_t> next{0};
+    const auto work = [&] {
+      for (size_t b = next++; b < bands.size(); b = next++) DeflateBand(rows, b + 1 == bands.size(), &bands[b]);
+    };
+    std::vector<std::jthread> helpers;
+    for (int t = 1; t < threads; ++t) {
+      try {
+        helpers.emplace_back(work);
+      } catch (const std::system_error&) {
+        break;
+      }
     }
+    work();
   }
   std::string stream;
   size_t total = 2 + 4;
