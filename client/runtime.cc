@@ -226,9 +226,10 @@ DepthReconstruction ReconstructDepth(const AtlasLayout& layout, const FrameBlend
   const DepthPixel pixel = impostor::ReconstructDepth(
       entries, count, origin, ray,
       [&](int entry) {
-        return IntersectFrameHeightField(cameras[entry], origin, ray, [&](glm::vec2 st, float* height) {
-          return surface(entry, st, height) >= 0.5f;
-        });
+        return IntersectFrameHeightField(
+            cameras[entry], origin, ray,
+            [&](glm::vec2 st, float* height) { return surface(entry, st, height) >= 0.5f; },
+            /*refine_crossings=*/true);
       },
       surface);
   out.coverage = pixel.coverage;

@@ -54,6 +54,7 @@ const int IMPOSTOR_BLEND_TRIANGLE3 = 0;
 const int IMPOSTOR_BLEND_BILINEAR4 = 1;
 const int IMPOSTOR_PARALLAX_STEPS = 16;       // kParallaxSteps
 const int IMPOSTOR_PARALLAX_REFINEMENTS = 4;  // kParallaxRefinements
+const int IMPOSTOR_PARALLAX_CROSSING_STEPS = 4;  // kParallaxCrossingSteps
 // Reconstruction modes (common/runtime/depth_reconstruction.h): plain flat
 // virtual planes, plain with the parallax march, depth (common surface point,
 // disocclusion weights).
@@ -510,18 +511,41 @@ ImpostorSample impostorSampleTile(sampler2D albedo_tex, sampler2D normal_depth_t
   return o;
 }
 
-// Parallax: marches the ray through the frame's depth (see virtual_plane.h).
+// Parallax: marches the ray through the frame's depth (see virtual_plane.h);
+// depth mode samples silhouette crossings finer (refine_crossings).
 // Returns the sample point (xy), validity (z) and the point's height along
 // the frame direction (w, radius units).
 vec4 impostorMarchFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
-                                   ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
+                                   ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray,
+                                   bool refine_crossings) {
   float above = 1.0;
+  bool was_covered = false;
   for (int i = 0; i <= IMPOSTOR_PARALLAX_STEPS; ++i) {
     float h = 1.0 - 2.0 * float(i) / float(IMPOSTOR_PARALLAX_STEPS);
     vec3 hit = impostorIntersectFramePlane(frame, origin, ray, h);
     if (hit.z == 0.0) return vec4(hit, 0.0);
     ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
-    if (!(s.alpha >= 0.5 && h <= 1.0 - 2.0 * s.depth)) {
+    bool covered = s.alpha >= 0.5;
+    bool is_below = covered && h <= 1.0 - 2.0 * s.depth;
+    if (refine_crossings && !is_below && i > 0 && covered != was_covered) {
+      // A silhouette crossing since the last step: sampled finer there, a
+      // grazing ray's sliver of the solid can be thinner than a step.
+      float top = above;
+      for (int k = 1; k < IMPOSTOR_PARALLAX_CROSSING_STEPS; ++k) {
+        float hk = top - (top - h) * float(k) / float(IMPOSTOR_PARALLAX_CROSSING_STEPS);
+        vec3 at = impostorIntersectFramePlane(frame, origin, ray, hk);
+        ImpostorSample m = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, at.xy);
+        if (at.z != 0.0 && m.alpha >= 0.5 && hk <= 1.0 - 2.0 * m.depth) {
+          hit = at;
+          h = hk;
+          is_below = true;
+          break;
+        }
+        above = hk;
+      }
+    }
+    was_covered = covered;
+    if (!is_below) {
       above = h;
       continue;
     }
@@ -545,7 +569,7 @@ vec4 impostorMarchFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_
 // The same, point and validity only.
 vec3 impostorIntersectFrameHeightField(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
                                        ivec4 tile, ImpostorFrameCamera frame, vec3 origin, vec3 ray) {
-  return impostorMarchFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame, origin, ray).xyz;
+  return impostorMarchFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame, origin, ray, false).xyz;
 }
 
 // Depth mode's agreement weight (DepthAgreement): 1 while the frame's surface
@@ -646,7 +670,7 @@ ImpostorSurface impostorShadeDepthLayout(sampler2D albedo_tex, sampler2D normal_
     ImpostorFrameCamera frame = impostorBlendCamera(atlas, blend, i);
     ivec4 tile = ivec4(blend.frame[i] * tile_size, tile_size, tile_size);
     vec4 hit = impostorMarchFrameHeightField(albedo_tex, normal_depth_tex, orm_tex, tile, frame, ray_origin,
-                                             ray_dir);
+                                             ray_dir, true);
     if (hit.z == 0.0) continue;
     ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
     if (!(s.alpha > 0.0)) continue;

@@ -46,7 +46,8 @@
 // and the result is the frame itself, as with plain and parallax.
 //
 // Cost in texture reads per pixel, n = blended frames (3, or 4 for
-// bilinear4): per frame the march reads alpha + depth up to 17 + 4 times,
+// bilinear4): per frame the march reads alpha + depth up to 17 + 3c + 4 times
+// (c silhouette crossings, virtual_plane.h),
 // and a hit deep in its extrusion alpha in the n - 1 other frames;
 // the votes read alpha + depth at n candidates in n - 1 other frames; the
 // final sample at P reads albedo, normal_depth and ORM once per frame.

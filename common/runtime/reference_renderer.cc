@@ -316,17 +316,20 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
     }
   }
 
+  const bool depth_mode = options.reconstruction == Reconstruction::kDepth;
   const auto march = [&](int i, const FrameCamera& frame, glm::vec2 view_st) {
     const CoveredBox& box = boxes[i];
-    return ProjectToFrameParallax(camera, frame, view_st, [&](glm::vec2 st, float* height) {
-      if (!box.MayCover(frame.tile, st)) return false;
-      const TileSample s = heights[i].Sample(st);
-      if (s.alpha < 0.5f) return false;
-      *height = 1.0f - 2.0f * s.depth;
-      return true;
-    });
+    return ProjectToFrameParallax(
+        camera, frame, view_st,
+        [&](glm::vec2 st, float* height) {
+          if (!box.MayCover(frame.tile, st)) return false;
+          const TileSample s = heights[i].Sample(st);
+          if (s.alpha < 0.5f) return false;
+          *height = 1.0f - 2.0f * s.depth;
+          return true;
+        },
+        /*refine_crossings=*/depth_mode);
   };
-  const bool depth_mode = options.reconstruction == Reconstruction::kDepth;
 
   for (int y = 0; y < pixels; ++y) {
     for (int x = 0; x < pixels; ++x) {

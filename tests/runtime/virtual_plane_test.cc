@@ -72,6 +72,40 @@ TEST(VirtualPlane, ParallaxFindsASurfaceAtItsHeight) {
   }
 }
 
+// A ray that crosses the frame's silhouette between two march steps can
+// pass through a sliver of the solid thinner than a step (a grazing edge).
+// Here the ray leaves empty ground between steps 7 and 8 and meets a wall
+// (surface height 1) that ends before step 8, where the covered ground lies
+// well below the ray: the coarse march misses it, the finer sampling of
+// the crossing interval (depth mode's) finds it, on the wall.
+TEST(VirtualPlane, SilhouetteCrossingsAreSampledFinerWhenAsked) {
+  const FrameCamera frame = CameraForDirection(glm::normalize(glm::vec3(0.3f, 0.8f, 0.2f)));
+  const FrameCamera view = CameraForDirection(glm::normalize(frame.direction + glm::vec3(0.25f, -0.1f, 0.1f)));
+  const glm::vec2 view_st(0.2f, -0.1f);
+  const glm::vec3 origin = ViewRayOrigin(view, view_st);
+  const FramePlaneRay plane(frame, origin, -view.direction);
+  const auto height_at_step = [](int i) { return 1.0f - 2.0f * static_cast<float>(i) / kParallaxSteps; };
+  const float s7 = plane.At(height_at_step(7)).st.x, s8 = plane.At(height_at_step(8)).st.x;
+  const float step = s8 - s7;
+  ASSERT_GT(std::abs(step), 1e-3f);
+  // u: how far along the step, 0 at step 7 and 1 at step 8.
+  const auto u = [&](glm::vec2 st) { return (st.x - s7) / step; };
+  // The ray's height where its projection is at u (linear in u).
+  const auto ray_height = [&](float at) { return height_at_step(7) + at * (height_at_step(8) - height_at_step(7)); };
+  const auto reader = [&](glm::vec2 st, float* height) {
+    const float at = u(st);
+    if (at < 0.3f) return false;                  // empty before the edge
+    *height = at <= 0.8f ? 1.0f : ray_height(at) - 0.5f;  // the wall, then ground far below the ray
+    return true;
+  };
+  EXPECT_FALSE(IntersectFrameHeightField(frame, origin, -view.direction, reader).valid)
+      << "the case must fall between two coarse steps";
+  const PlaneSample fine = IntersectFrameHeightField(frame, origin, -view.direction, reader, /*refine_crossings=*/true);
+  ASSERT_TRUE(fine.valid);
+  EXPECT_GE(u(fine.st), 0.3f);
+  EXPECT_LE(u(fine.st), 0.8f);
+}
+
 TEST(VirtualPlane, FramesFacingAwayAreInvalid) {
   const FrameCamera frame = CameraForDirection({0, 0, 1});
   EXPECT_FALSE(ProjectToFrame(CameraForDirection({0, 0, -1}), frame, {0, 0}).valid);
