@@ -184,8 +184,8 @@ int main(int argc, char** argv) {
                                q.pop(), p.pop(), r.seconds, r.seconds > 0 ? 100.0 * r.pass_seconds / r.seconds : 0.0));
     }
     if (!complete) absl::StrAppend(&md, "\n(incomplete: the run is still going or was stopped)\n");
-    absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table` ",
-                    "(writes this file; `--resolution`, `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it; "
+    absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table --resolution ",
+                    resolution, "` (writes this file; `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it; "
                     "`--view-pixels N` sets the held-out views' size, `--on-frames` measures on the frames' own "
                     "directions instead).\n");
     std::ofstream out(out_path, std::ios::trunc);
