@@ -23,7 +23,8 @@ for lib in libGLdispatch.so.0 libGLX.so.0 libEGL.so.1 libOpenGL.so.0; do
 done
 (cd "$out" && tar cf - pack | xz -6 -T0 > pack.tar.xz && rm -rf pack)
 # The assets the suites and benches name (tests/ and bench/ sources).
-(cd "$assets" && tar cf "$out/assets.tar" MANIFEST.md props_pbr vegetation/AlphaBlendModeTest \
+(cd "$assets" && tar cf "$out/assets.tar" --exclude=props_pbr/WaterBottle --exclude=edge_cases/khronos/AnisotropyBarnLamp \
+  MANIFEST.md props_pbr vegetation/AlphaBlendModeTest \
   vegetation/Quaternius_CommonTree_1 vegetation/TreeLowPoly_RicardoSanchez highpoly/TransmissionTest \
   edge_cases/khronos edge_cases/missing_textures/BoxTextured_png_removed)
 printf 'BUILD_BIN=%q\nASSETS_DIR=%q\n' "$build/bin" "$assets" > "$out/paths.env"
