@@ -4,12 +4,13 @@
 // profile on a busy machine can still be read: CPU seconds hardly move when
 // other processes compete for the cores, wall seconds do.
 //
-//   bake_stages [--frames N] [--resolution R] [--supersampling S]
+//   bake_stages [--layout NAME] [--frames N] [--resolution R] [--supersampling S]
 //               [--quality-views K] [--repeat N] [--keep DIR] [ASSET.glb]
 //
 // Meant to run under `perf record -g`. Not a test: prints figures.
 #include <sys/resource.h>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -59,8 +60,10 @@ int main(int argc, char** argv) {
   fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
   fs::path keep;
   std::string keep_flag;
+  std::string layout_name = "octahedral";
   std::vector<std::string> assets;
   impostor::bench::BenchArgs("bake_stages", "One atlas bake in process with each stage's wall and CPU time.")
+      .Text("--layout", &layout_name, "layout by manifest name, e.g. hemi-octahedral (default octahedral)")
       .Uint("--frames", &frames, "frames per side (default 12)")
       .Uint("--resolution", &resolution, "atlas size in pixels (default 2048)")
       .Int("--supersampling", &supersampling, "samples per side per pixel (default: the bake's own)")
@@ -72,7 +75,16 @@ int main(int argc, char** argv) {
   if (!keep_flag.empty()) keep = keep_flag;
   if (!assets.empty()) asset = assets.back();
   impostor::v1::BakeParameters in;
-  in.set_layout(impostor::v1::LAYOUT_OCTAHEDRAL);
+  // "hemi-octahedral" -> LAYOUT_HEMI_OCTAHEDRAL, the proto's own names.
+  std::string enum_name = "LAYOUT_" + layout_name;
+  for (char& c : enum_name) c = c == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  impostor::v1::Layout layout;
+  if (!impostor::v1::Layout_Parse(enum_name, &layout) || layout == impostor::v1::LAYOUT_UNSPECIFIED) {
+    std::fprintf(stderr, "bake_stages: --layout: '%s' is not a layout (octahedral, hemi-octahedral, ...)\n",
+                 layout_name.c_str());
+    return 2;
+  }
+  in.set_layout(layout);
   in.set_frames(frames);
   in.set_resolution(resolution);
   if (supersampling >= 0) in.set_supersampling(static_cast<uint32_t>(supersampling));
@@ -90,8 +102,8 @@ int main(int argc, char** argv) {
   const fs::path scratch = keep.empty() ? fs::temp_directory_path() / absl::StrCat("impostor_bake_stages_", getpid())
                                         : keep;
   const std::atomic<bool> cancelled{false};
-  std::printf("bake_stages: %s, %u x %u frames, %u px, supersampling %u, %u quality views, on %s\n",
-              asset.filename().c_str(), frames, frames, resolution, p->supersampling(),
+  std::printf("bake_stages: %s, %s %u x %u frames, %u px, supersampling %u, %u quality views, on %s\n",
+              asset.filename().c_str(), layout_name.c_str(), frames, frames, resolution, p->supersampling(),
               p->has_quality_views() ? p->quality_views() : 16u, (*renderer)->device().name.c_str());
   for (int r = 0; r < repeat; ++r) {
     fs::remove_all(scratch);

@@ -45,6 +45,11 @@ timeout 60 "$bin/bake_bench" --fetches 1 "$asset" 2>&1 | grep -v '^\[20\|^20' | 
 timeout 30 "$bin/bake_stages" "$asset" 2>&1 | grep -v '^\[20' | tail -4
 timeout 30 "$bin/bake_stages" --quality-views 0 --keep /tmp/gpu_check_maps "$asset" 2>&1 | grep -v '^\[20' | tail -4
 timeout 60 "$bin/png_bench" /tmp/gpu_check_maps/{albedo_alpha,normal_depth,orm}.png
+# Issue 17's configuration: what the quality pass costs there (its own
+# seconds, and the bake with and without it).
+timeout 30 "$bin/bake_stages" --layout hemi-octahedral "$asset" 2>&1 |
+  grep -E '^run|event=quality_pass' | sed 's/.*event=quality_pass.* views_seconds/quality pass: views_seconds/'
+timeout 30 "$bin/bake_stages" --layout hemi-octahedral --quality-views 0 "$asset" 2>&1 | grep '^run'
 for t in gpu_tests quality_gpu_tests atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests \
   runtime_gpu_tests runtime_bake_tests; do
   (timeout 120 "$bin/$t" --gtest_brief=1 > "$OUT/$t.txt" 2>&1; echo "== $t exit $?" >> "$OUT/$t.txt") &
