@@ -10,7 +10,6 @@
 // Meant to run under `perf record -g`. Not a test: prints figures.
 #include <sys/resource.h>
 
-#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -22,6 +21,7 @@
 #include "bench/bench_args.h"
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
 
 namespace fs = std::filesystem;
@@ -75,11 +75,14 @@ int main(int argc, char** argv) {
   if (!keep_flag.empty()) keep = keep_flag;
   if (!assets.empty()) asset = assets.back();
   impostor::v1::BakeParameters in;
-  // "hemi-octahedral" -> LAYOUT_HEMI_OCTAHEDRAL, the proto's own names.
-  std::string enum_name = "LAYOUT_" + layout_name;
-  for (char& c : enum_name) c = c == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  impostor::v1::Layout layout;
-  if (!impostor::v1::Layout_Parse(enum_name, &layout) || layout == impostor::v1::LAYOUT_UNSPECIFIED) {
+  // By the manifest's own layout names (manifest_json.h).
+  impostor::v1::Layout layout = impostor::v1::LAYOUT_UNSPECIFIED;
+  for (impostor::v1::Layout l : {impostor::v1::LAYOUT_OCTAHEDRAL, impostor::v1::LAYOUT_HEMI_OCTAHEDRAL,
+                                 impostor::v1::LAYOUT_AZIMUTH_ELEVATION, impostor::v1::LAYOUT_RING_TOP,
+                                 impostor::v1::LAYOUT_BILLBOARD}) {
+    if (impostor::LayoutJsonName(l) == layout_name) layout = l;
+  }
+  if (layout == impostor::v1::LAYOUT_UNSPECIFIED) {
     std::fprintf(stderr, "bake_stages: --layout: '%s' is not a layout (octahedral, hemi-octahedral, ...)\n",
                  layout_name.c_str());
     return 2;
