@@ -12,26 +12,9 @@
 #include <vector>
 
 #include "bench/bench_args.h"
+#include "bench/median_time.h"
 #include "worker/scene/gltf_loader.h"
 #include "worker/scene/isolated_load.h"
-
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-template <typename F>
-double MedianSeconds(int runs, F f) {
-  std::vector<double> s;
-  for (int i = 0; i < runs; ++i) {
-    const auto t = Clock::now();
-    f();
-    s.push_back(std::chrono::duration<double>(Clock::now() - t).count());
-  }
-  std::sort(s.begin(), s.end());
-  return s[s.size() / 2];
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   const std::filesystem::path assets = IMPOSTOR_BENCH_ASSETS_DIR;
@@ -52,9 +35,9 @@ int main(int argc, char** argv) {
               "(check + load) / in-process | scene from child / in-process |\n|---|---|---|---|---|---|\n");
   for (const auto& f : files) {
     bool ok = true;
-    const double in_process = MedianSeconds(5, [&] { ok &= impostor::LoadGltfScene(f).ok(); });
-    const double check = MedianSeconds(5, [&] { ok &= impostor::CheckLoadInChild(f, {}, {}).ok(); });
-    const double handed = MedianSeconds(5, [&] { ok &= impostor::LoadSceneInChild(f, {}, {}).ok(); });
+    const double in_process = impostor::bench::MedianSeconds(5, [&] { ok &= impostor::LoadGltfScene(f).ok(); });
+    const double check = impostor::bench::MedianSeconds(5, [&] { ok &= impostor::CheckLoadInChild(f, {}, {}).ok(); });
+    const double handed = impostor::bench::MedianSeconds(5, [&] { ok &= impostor::LoadSceneInChild(f, {}, {}).ok(); });
     std::printf("| %s | %.3f | %.3f | %.3f | %.2f | %.2f |%s\n", f.filename().string().c_str(), in_process,
                 check + in_process, handed, (check + in_process) / in_process, handed / in_process,
                 ok ? "" : " (a load failed)");

@@ -19,14 +19,13 @@
 #include <vector>
 
 #include "bench/bench_args.h"
+#include "bench/median_time.h"
 #include "worker/output/map_writer.h"
 #include "worker/output/png_encoder.h"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 // The worker's writer before the banded encoder: OpenImageIO's PNG output
 // with the same level and row filter. Returns the file's size.
@@ -53,14 +52,7 @@ size_t EncodeBanded(const impostor::PngImage& image, int threads) {
 
 template <typename F>
 double MedianMs(int repeat, F run) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeat; ++i) {
-    const auto start = Clock::now();
-    run();
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
+  return 1000.0 * impostor::bench::MedianSeconds(repeat, run);
 }
 
 }  // namespace
