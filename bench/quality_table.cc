@@ -70,8 +70,21 @@ struct Row {
   impostor::v1::AtlasQuality quality;
   double seconds = 0;
   double pass_seconds = 0;  // the quality pass's share (its event=quality_pass log line)
+  // --pop-references: the pass's pop references (quality_pass.h), else -1.
+  double pop_antialiased_mesh = -1, pop_antialiased = -1;
   std::string error;
 };
+
+// The value of ` name=` in the last event=quality_pass_pop_references line
+// of `log`, or -1.
+double PopReference(const std::string& log, const std::string& name) {
+  const size_t event = log.rfind("event=quality_pass_pop_references ");
+  if (event == std::string::npos) return -1;
+  const size_t line_end = log.find('\n', event);
+  const size_t at = log.find(" " + name + "=", event);
+  if (at == std::string::npos || at > line_end) return -1;
+  return std::atof(log.c_str() + at + name.size() + 2);
+}
 
 // The last `seconds=` of an event=quality_pass line in `log`, or 0.
 double PassSeconds(const std::string& log) {
@@ -107,6 +120,7 @@ int main(int argc, char** argv) {
   std::string layouts;  // manifest names, comma separated; empty = all
   int view_pixels = 0;
   bool on_frames = false;
+  bool pop_references = false;
   impostor::bench::BenchArgs("quality_table", "Bakes the quality table's assets in process and writes the table.")
       .Text("--out", &out_flag, "the Markdown file to write (default docs/quality.md)")
       .Uint("--resolution", &resolution, "atlas size in pixels (default 1024)")
@@ -115,6 +129,8 @@ int main(int argc, char** argv) {
       .Text("--layouts", &layouts, "layouts by manifest name, comma separated (default all)")
       .Int("--view-pixels", &view_pixels, "held-out view size (default 0: the pass's own, min(128, resolution / 8))")
       .Switch("--on-frames", &on_frames, "put the views on baked frames' own directions (the atlas's ceiling)")
+      .Switch("--pop-references", &pop_references,
+              "also measure the pop of smoother renderings (the mesh antialiased; both sides antialiased)")
       .ParseOrExit(argc, argv);
   std::vector<uint32_t> frame_counts;
   if (!ParseList(frames_flag, &frame_counts)) {
@@ -183,11 +199,25 @@ int main(int argc, char** argv) {
                                p.albedo_psnr_union_db_mean(), q.normal_error_deg_mean(), p.normal_error_deg_mean(),
                                q.pop(), p.pop(), r.seconds, r.seconds > 0 ? 100.0 * r.pass_seconds / r.seconds : 0.0));
     }
+    if (pop_references) {
+      absl::StrAppend(
+          &md, "\nPop references (`--pop-references`, quality_pass.h): the same pop formula applied to smoother "
+               "renderings. **Antialiased mesh**: the mesh's own orbit supersampled 3 x 3 against its one-sample "
+               "orbit, a rendering without any reconstruction error that only changes more evenly from step to "
+               "step. **Antialiased**: the depth reconstruction against the mesh with both orbits supersampled "
+               "3 x 3.\n\n| asset | layout | frames | pop (depth) | antialiased mesh | antialiased (depth) |\n"
+               "|---|---|---:|---:|---:|---:|\n");
+      for (const Row& r : rows) {
+        if (!r.error.empty()) continue;
+        absl::StrAppend(&md, absl::StrFormat("| %s | %s | %u | %.2f | %.2f | %.2f |\n", r.asset, r.layout, r.frames,
+                                             r.quality.pop(), r.pop_antialiased_mesh, r.pop_antialiased));
+      }
+    }
     if (!complete) absl::StrAppend(&md, "\n(incomplete: the run is still going or was stopped)\n");
     absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table --resolution ",
                     resolution, "` (writes this file; `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it; "
                     "`--view-pixels N` sets the held-out views' size, `--on-frames` measures on the frames' own "
-                    "directions instead).\n");
+                    "directions instead, `--pop-references` adds the pop references).\n");
     std::ofstream out(out_path, std::ios::trunc);
     out << md;
     out.close();
@@ -247,11 +277,16 @@ int main(int argc, char** argv) {
             .cache_key = absl::StrCat(asset.path, " ", row.layout, " ", frames, " ", resolution),
             .output_dir = scratch,
             .load_limits = {},
-            .quality_overrides = {.view_pixels = view_pixels, .on_frame_directions = on_frames}};
+            .scene = nullptr,
+            .serial_encode = false,
+            .quality_overrides = {
+                .view_pixels = view_pixels, .on_frame_directions = on_frames, .pop_references = pop_references}};
         const auto start = std::chrono::steady_clock::now();
         auto baked = impostor::BakeAtlas(request, **renderer, [](std::string_view, double) {}, cancelled);
         row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         row.pass_seconds = PassSeconds(log.str());
+        row.pop_antialiased_mesh = PopReference(log.str(), "pop_antialiased_mesh");
+        row.pop_antialiased = PopReference(log.str(), "pop_antialiased");
         log.str("");
         if (baked.ok()) {
           row.quality = baked->manifest.quality();

@@ -339,6 +339,18 @@ double MeanAbsoluteAlbedoChange(const ViewPixels& a, const ViewPixels& b) {
   return either == 0 ? 0.0 : sum / (3.0 * static_cast<double>(either));
 }
 
+double PopRatio(std::span<const double> changes, std::span<const double> mesh_changes) {
+  assert(changes.size() == mesh_changes.size());
+  if (mesh_changes.empty()) return 0.0;
+  double mesh_mean = 0;
+  for (double c : mesh_changes) mesh_mean += c;
+  mesh_mean /= static_cast<double>(mesh_changes.size());
+  const double floor = std::max(0.25 * mesh_mean, 0.5 / 255.0);
+  double pop = 0;
+  for (size_t i = 0; i < changes.size(); ++i) pop = std::max(pop, changes[i] / std::max(mesh_changes[i], floor));
+  return pop;
+}
+
 ViewMetrics CompareViews(const ViewPixels& reference, const ViewPixels& test) {
   AssertSameSize(reference, test);
   ViewMetrics m;

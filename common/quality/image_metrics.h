@@ -100,6 +100,17 @@ BoundaryError SilhouetteBoundaryError(const ViewPixels& a, const ViewPixels& b);
 // reconstruction with the mesh's.
 double MeanAbsoluteAlbedoChange(const ViewPixels& a, const ViewPixels& b);
 
+// Pop: the largest ratio, step by step, of `changes` (a rendering's
+// MeanAbsoluteAlbedoChange between neighbouring orbit steps) to the mesh's
+// own change over the same step, `mesh_changes` (same length). A step where
+// the mesh hardly changes (a symmetric object) would make the ratio explode
+// on noise, so the mesh's change is floored at a quarter of its mean over
+// the orbit and at half an 8-bit level. 0 for empty input.
+// The ratio rewards a rendering that changes in the same steps as the mesh:
+// one that changes as much in total, but evenly, scores up to 4 where the
+// mesh's one-sample-per-pixel orbit has quiet steps (PopRatio's test).
+double PopRatio(std::span<const double> changes, std::span<const double> mesh_changes);
+
 // Turns a mean squared error on a 0..1 scale into PSNR in dB, capped at
 // kMaxPsnrDb (so MSE 0 gives the cap, never infinity).
 double PsnrFromMse(double mse);

@@ -167,6 +167,31 @@ TEST(ImageMetricsTest, AlbedoChangeIsMeanAbsoluteDifferenceOverUnion) {
   EXPECT_DOUBLE_EQ(MeanAbsoluteAlbedoChange(a.Pixels(), a.Pixels()), 0.0);
 }
 
+TEST(ImageMetricsTest, PopIsTheLargestStepRatioToTheMeshsFlooredChange) {
+  // Same changes: 1.0. A step twice the mesh's: 2.0.
+  const std::vector<double> mesh = {0.02, 0.04, 0.02, 0.04};
+  EXPECT_DOUBLE_EQ(PopRatio(mesh, mesh), 1.0);
+  EXPECT_DOUBLE_EQ(PopRatio(std::vector<double>{0.02, 0.04, 0.04, 0.04}, mesh), 2.0);
+  // A quiet mesh step is floored at a quarter of the mesh's mean change
+  // (0.03 / 4), not divided by its own 0.
+  const std::vector<double> quiet = {0.0, 0.04, 0.04, 0.04};
+  EXPECT_DOUBLE_EQ(PopRatio(std::vector<double>{0.015, 0.04, 0.04, 0.04}, quiet), 2.0);
+  // ... and at half an 8-bit level.
+  const std::vector<double> still = {0.0, 0.0, 0.0, 0.0004};
+  EXPECT_DOUBLE_EQ(PopRatio(std::vector<double>{0.5 / 255.0, 0.0, 0.0, 0.0}, still), 1.0);
+  EXPECT_DOUBLE_EQ(PopRatio(std::vector<double>{}, std::vector<double>{}), 0.0);
+}
+
+// The limit quality_pass.h's pop references measure: a rendering that
+// changes as much as the mesh in total, but evenly, scores 4 against a mesh
+// whose change comes in one step of four.
+TEST(ImageMetricsTest, PopPenalisesAnEvenChangeAgainstASpikyMesh) {
+  const std::vector<double> spiky = {0.0, 0.0, 0.0, 0.04};
+  const std::vector<double> even = {0.01, 0.01, 0.01, 0.01};
+  EXPECT_DOUBLE_EQ(PopRatio(even, spiky), 4.0);
+  EXPECT_DOUBLE_EQ(PopRatio(spiky, spiky), 1.0);
+}
+
 TEST(ImageMetricsTest, PsnrFromMseIsCapped) {
   EXPECT_DOUBLE_EQ(PsnrFromMse(0.0), kMaxPsnrDb);
   EXPECT_DOUBLE_EQ(PsnrFromMse(1e-20), kMaxPsnrDb);

@@ -5,6 +5,7 @@
 #include "worker/bake/quality_pass.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -263,6 +264,55 @@ TEST_F(QualityPassTest, OnFrameDirectionsMeasureTheFramesThemselves) {
   EXPECT_NEAR(q.silhouette_iou_mean(), q.plain().silhouette_iou_mean(), 0.002);
   EXPECT_NEAR(q.albedo_psnr_shared_db_mean(), q.plain().albedo_psnr_shared_db_mean(), 0.05);
   EXPECT_GT(q.silhouette_iou_mean(), held_out->quality.silhouette_iou_mean());
+}
+
+// The pop references are a measuring tool's: a bake's pass leaves them out,
+// and asking for them changes none of the pass's own figures.
+TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
+  auto scene = LoadGltfScene(kHelmet);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  constexpr int kFrames = 4, kResolution = 256;
+  ImpostorAtlas atlas;
+  atlas.layout = LayoutKind::kOctahedral;
+  atlas.frames = kFrames;
+  atlas.resolution = kResolution;
+  atlas.sphere = ComputeBoundingSphere(*scene);
+  atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
+  RenderTimings timings;
+  auto maps = renderer_->Render(*scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
+  ASSERT_TRUE(maps.ok()) << maps.status();
+  atlas.width = maps->width;
+  atlas.height = maps->height;
+  atlas.albedo_alpha = maps->albedo_alpha;
+  atlas.normal_depth = maps->normal_depth;
+  QualityPassOptions o;
+  o.views = 2;
+  o.view_pixels = 32;
+  o.orbit_pairs = 6;
+  o.orbit_pixels = 32;
+
+  auto plain_pass = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  ASSERT_TRUE(plain_pass.ok()) << plain_pass.status();
+  EXPECT_EQ(plain_pass->pop_antialiased_mesh, -1.0);
+  EXPECT_EQ(plain_pass->pop_antialiased, -1.0);
+
+  o.pop_references = true;
+  auto with_references = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  ASSERT_TRUE(with_references.ok()) << with_references.status();
+  const double mesh = with_references->pop_antialiased_mesh;
+  const double both = with_references->pop_antialiased;
+  std::printf("pop %.3f, antialiased mesh %.3f, antialiased %.3f\n", with_references->quality.pop(), mesh, both);
+  EXPECT_TRUE(std::isfinite(mesh) && mesh > 0.0) << mesh;
+  EXPECT_TRUE(std::isfinite(both) && both > 0.0) << both;
+  EXPECT_EQ(with_references->quality.pop(), plain_pass->quality.pop());
+  EXPECT_EQ(with_references->quality.plain().pop(), plain_pass->quality.plain().pop());
+  EXPECT_EQ(with_references->quality.silhouette_iou_mean(), plain_pass->quality.silhouette_iou_mean());
+
+  // Without an orbit there is nothing to refer to.
+  o.orbit_steps = 0;
+  auto no_orbit = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  ASSERT_TRUE(no_orbit.ok()) << no_orbit.status();
+  EXPECT_EQ(no_orbit->pop_antialiased_mesh, -1.0);
 }
 
 TEST(HeldOutViewDirectionsTest, DeterministicSpreadAndNeverABakedFrame) {

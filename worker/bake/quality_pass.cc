@@ -18,6 +18,7 @@
 #include "common/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/output/map_writer.h"
+#include "worker/output/supersample.h"
 
 namespace impostor {
 namespace {
@@ -139,12 +140,45 @@ std::vector<glm::vec3> FrameDirections(const std::vector<FrameCamera>& frames, i
   return out;
 }
 
-// Largest change of the impostor between neighbouring orbit steps relative
-// to the mesh's (see the header for the floor).
-// Pop of each of `modes` (the mesh's orbit is rendered once).
-absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas,
-                                               const QualityPassOptions& o, const std::vector<Reconstruction>& modes,
-                                               AtlasRenderer& renderer) {
+// MeanAbsoluteAlbedoChange of every step's pair of views.
+std::vector<double> StepChanges(const std::vector<ViewBuffers>& views, const std::vector<std::pair<int, int>>& steps) {
+  std::vector<double> changes;
+  changes.reserve(steps.size());
+  for (const auto& [a, b] : steps) changes.push_back(MeanAbsoluteAlbedoChange(views[a].Pixels(), views[b].Pixels()));
+  return changes;
+}
+
+// The impostor's views drawn `factor` x `factor` times larger and box
+// filtered down as the mesh's supersampled views are (DownsampleMaps).
+absl::StatusOr<std::vector<ViewBuffers>> RenderImpostorViewsSupersampled(const ImpostorAtlas& atlas,
+                                                                        const std::vector<glm::vec3>& directions,
+                                                                        int pixels, int factor, BlendMode blend,
+                                                                        Reconstruction reconstruction) {
+  std::vector<ViewBuffers> views = RenderImpostorViews(atlas, directions, pixels * factor, blend, reconstruction);
+  for (ViewBuffers& v : views) {
+    AtlasMaps maps{.width = v.size,
+                   .height = v.size,
+                   .albedo_alpha = std::move(v.albedo_alpha),
+                   .normal_depth = std::move(v.normal_depth),
+                   .orm = std::vector<uint8_t>(static_cast<size_t>(v.size) * v.size * 4, 0),
+                   .emissive = {}};
+    if (auto s = DownsampleMaps(factor, &maps); !s.ok()) return s;
+    v.size = maps.width;
+    v.albedo_alpha = std::move(maps.albedo_alpha);
+    v.normal_depth = std::move(maps.normal_depth);
+  }
+  return views;
+}
+
+struct PopFigures {
+  std::vector<double> pops;  // one per mode
+  double antialiased_mesh = -1, antialiased = -1;  // the pop references, or -1
+};
+
+// Pop of each of `modes` (the mesh's orbit is rendered once) and, with
+// o.pop_references, the references of the first mode (quality_pass.h).
+absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas, const QualityPassOptions& o,
+                                      const std::vector<Reconstruction>& modes, AtlasRenderer& renderer) {
   const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
   const float step = 2.0f * std::numbers::pi_v<float> / static_cast<float>(o.orbit_steps);
   auto at = [&](float azimuth) {
@@ -171,26 +205,23 @@ absl::StatusOr<std::vector<double>> MeasurePop(const Scene& scene, const Imposto
   }
   auto mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, /*supersampling=*/1, renderer);
   if (!mesh.ok()) return mesh.status();
-  const int n = static_cast<int>(steps.size());
-  std::vector<double> mesh_change(n);
-  double mesh_mean = 0;
-  for (int i = 0; i < n; ++i) {
-    mesh_change[i] = MeanAbsoluteAlbedoChange((*mesh)[steps[i].first].Pixels(), (*mesh)[steps[i].second].Pixels());
-    mesh_mean += mesh_change[i] / n;
-  }
-  const double floor = std::max(0.25 * mesh_mean, 0.5 / 255.0);
-  std::vector<double> pops;
+  const std::vector<double> mesh_changes = StepChanges(*mesh, steps);
+  PopFigures out;
   for (Reconstruction mode : modes) {
     const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend, mode);
-    double pop = 0;
-    for (int i = 0; i < n; ++i) {
-      const double change =
-          MeanAbsoluteAlbedoChange(impostor[steps[i].first].Pixels(), impostor[steps[i].second].Pixels());
-      pop = std::max(pop, change / std::max(mesh_change[i], floor));
-    }
-    pops.push_back(pop);
+    out.pops.push_back(PopRatio(StepChanges(impostor, steps), mesh_changes));
   }
-  return pops;
+  if (o.pop_references && !modes.empty()) {
+    auto smooth_mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, kReferenceSupersampling, renderer);
+    if (!smooth_mesh.ok()) return smooth_mesh.status();
+    const std::vector<double> smooth_mesh_changes = StepChanges(*smooth_mesh, steps);
+    out.antialiased_mesh = PopRatio(smooth_mesh_changes, mesh_changes);
+    auto smooth = RenderImpostorViewsSupersampled(atlas, orbit, o.orbit_pixels, kReferenceSupersampling, o.blend,
+                                                  modes.front());
+    if (!smooth.ok()) return smooth.status();
+    out.antialiased = PopRatio(StepChanges(*smooth, steps), smooth_mesh_changes);
+  }
+  return out;
 }
 
 // Mean and min (or max) of a per-view figure.
@@ -404,10 +435,12 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     const auto pop_start = Clock::now();
     std::vector<Reconstruction> modes = {o.reconstruction};
     if (plain_too) modes.push_back(Reconstruction::kPlain);
-    auto pops = MeasurePop(scene, atlas, o, modes, renderer);
-    if (!pops.ok()) return pops.status();
-    q.set_pop(static_cast<float>((*pops)[0]));
-    if (plain_too) q.mutable_plain()->set_pop(static_cast<float>((*pops)[1]));
+    auto pop = MeasurePop(scene, atlas, o, modes, renderer);
+    if (!pop.ok()) return pop.status();
+    q.set_pop(static_cast<float>(pop->pops[0]));
+    if (plain_too) q.mutable_plain()->set_pop(static_cast<float>(pop->pops[1]));
+    result.pop_antialiased_mesh = pop->antialiased_mesh;
+    result.pop_antialiased = pop->antialiased;
     result.pop_seconds = std::chrono::duration<double>(Clock::now() - pop_start).count();
   }
   if (!o.worst_view_png.empty()) {
@@ -444,6 +477,7 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   options.view_pixels = std::clamp(static_cast<int>(p.resolution()) / 8, 8, options.view_pixels);
   if (overrides.view_pixels > 0) options.view_pixels = overrides.view_pixels;
   options.on_frame_directions = overrides.on_frame_directions;
+  options.pop_references = overrides.pop_references;
   options.orbit_pixels = std::min(options.orbit_pixels, options.view_pixels);
   if (!QualityPassSupports(layout)) {
     spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",
@@ -519,6 +553,11 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
       q.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(), q.albedo_ssim_shared_mean(), q.boundary_error_px_mean(),
       q.plain().silhouette_iou_mean(), q.plain().albedo_psnr_shared_db_mean(), q.normal_error_deg_mean(),
       q.depth_error_mean(), q.pop(), q.worst_view(), result->views_seconds, result->pop_seconds, result->seconds);
+  if (result->pop_antialiased_mesh >= 0) {
+    spdlog::info("event=quality_pass_pop_references cache_key={} pop={:.3f} pop_antialiased_mesh={:.3f} "
+                 "pop_antialiased={:.3f}",
+                 cache_key, q.pop(), result->pop_antialiased_mesh, result->pop_antialiased);
+  }
   return absl::OkStatus();
 }
 

@@ -29,7 +29,14 @@
 // same step, and the largest ratio is reported (1.0 = as smooth as the mesh).
 // A step where the mesh hardly changes (a symmetric object) would make the
 // ratio explode on noise, so the mesh's change is floored at a quarter of its
-// mean change over the orbit and at half an 8-bit level.
+// mean change over the orbit and at half an 8-bit level (PopRatio).
+// Pop references (options.pop_references, for bench/quality_table): the same
+// formula applied to smoother renderings, to tell a reconstruction's jumps
+// from the formula's own limits. "Antialiased mesh" is the mesh's orbit
+// supersampled 3 x 3 against its one-sample orbit: a rendering with no
+// reconstruction error at all, that only changes more evenly from step to
+// step. "Antialiased" is the reconstruction against the mesh with both
+// orbits supersampled 3 x 3 (what a game with MSAA or TAA shows).
 //
 // Held-out directions: a spherical Fibonacci set over the layout's domain
 // (the whole sphere for octahedral and azimuth-elevation, the upper
@@ -114,6 +121,10 @@ struct QualityPassOptions {
   // is what the atlas lacks (its tiles' resolution), the ceiling of the
   // held-out figures. Not for bakes: the manifest's views are held out.
   bool on_frame_directions = false;
+  // Also measure the pop references (top of this file). Not for bakes: one
+  // more mesh orbit at 3 x 3, and the headline reconstruction's orbit at 9
+  // times the pixels.
+  bool pop_references = false;
 };
 
 // What a measuring tool may change in a bake's pass (AtlasBakeRequest);
@@ -121,6 +132,7 @@ struct QualityPassOptions {
 struct QualityPassOverrides {
   int view_pixels = 0;  // > 0: held-out views this size instead of min(128, resolution / 8)
   bool on_frame_directions = false;  // QualityPassOptions::on_frame_directions
+  bool pop_references = false;       // QualityPassOptions::pop_references
 };
 
 struct QualityPassResult {
@@ -132,6 +144,9 @@ struct QualityPassResult {
   double seconds = 0;        // the whole pass
   double views_seconds = 0;  // held-out views: render both sides, measure
   double pop_seconds = 0;    // the orbit
+  // With options.pop_references and an orbit (else -1): the pop references.
+  double pop_antialiased_mesh = -1;
+  double pop_antialiased = -1;
 };
 
 // `count` held-out view directions (unit, sphere centre -> camera) for an
