@@ -64,6 +64,7 @@ const int IMPOSTOR_RECONSTRUCT_DEPTH = 2;
 const float IMPOSTOR_DEPTH_AGREEMENT = 0.05;  // kDepthAgreement, radius units
 const float IMPOSTOR_EXTRUSION_DEPTH = 2.0 * IMPOSTOR_DEPTH_AGREEMENT;  // kExtrusionDepth
 const float IMPOSTOR_EXTRUSION_CONFIRM = 0.75;                         // kExtrusionConfirm
+const float IMPOSTOR_EXTRUSION_CONFIRM_RAMP = 0.25;                    // kExtrusionConfirmRamp
 
 // ---- direction <-> layout square (common/atlas_layout.cc) ----
 
@@ -631,11 +632,11 @@ ImpostorFrameCamera impostorBlendCamera(ImpostorLayout atlas, ImpostorBlend blen
   return impostorFrameCameraAt(atlas, blend.index[i]);
 }
 
-// Whether the blended frames other than `own` see `point` inside their
-// silhouettes (OthersSeeInside): a march hit deep in its frame's extrusion
-// counts only then.
-bool impostorOthersSeeInside(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
-                             ImpostorLayout atlas, int tile_size, ImpostorBlend blend, int own, vec3 point) {
+// How far a march hit deep in its frame's extrusion counts, 0..1
+// (ExtrusionConfirmation of OthersInsideShare): by the share of the other
+// blended frames' weight that sees `point` inside their silhouettes.
+float impostorExtrusionConfirmation(sampler2D albedo_tex, sampler2D normal_depth_tex, sampler2D orm_tex,
+                                    ImpostorLayout atlas, int tile_size, ImpostorBlend blend, int own, vec3 point) {
   float others = 0.0;
   float inside = 0.0;
   for (int j = 0; j < min(blend.count, 4); ++j) {
@@ -647,7 +648,9 @@ bool impostorOthersSeeInside(sampler2D albedo_tex, sampler2D normal_depth_tex, s
     others += blend.weight[j];
     inside += blend.weight[j] * s.alpha;
   }
-  return !(others > 0.0) || inside >= IMPOSTOR_EXTRUSION_CONFIRM * others;
+  float share = others > 0.0 ? inside / others : 1.0;
+  return clamp((share - (IMPOSTOR_EXTRUSION_CONFIRM - IMPOSTOR_EXTRUSION_CONFIRM_RAMP)) / IMPOSTOR_EXTRUSION_CONFIRM_RAMP,
+               0.0, 1.0);
 }
 
 // Depth mode (common/runtime/depth_reconstruction.h, ReconstructDepth):
@@ -674,14 +677,15 @@ ImpostorSurface impostorShadeDepthLayout(sampler2D albedo_tex, sampler2D normal_
     if (hit.z == 0.0) continue;
     ImpostorSample s = impostorSampleTile(albedo_tex, normal_depth_tex, orm_tex, false, tile, hit.xy);
     if (!(s.alpha > 0.0)) continue;
-    if ((1.0 - 2.0 * s.depth) - hit.w > IMPOSTOR_EXTRUSION_DEPTH &&
-        !impostorOthersSeeInside(albedo_tex, normal_depth_tex, orm_tex, atlas, tile_size, blend, i,
-                                 hit.x * frame.right + hit.y * frame.up + hit.w * frame.direction)) {
-      continue;
+    float confirmed = 1.0;
+    if ((1.0 - 2.0 * s.depth) - hit.w > IMPOSTOR_EXTRUSION_DEPTH) {
+      confirmed = impostorExtrusionConfirmation(albedo_tex, normal_depth_tex, orm_tex, atlas, tile_size, blend, i,
+                                                hit.x * frame.right + hit.y * frame.up + hit.w * frame.direction);
     }
+    if (!(confirmed > 0.0)) continue;
     hits[i] = hit;
     hit_alpha[i] = s.alpha;
-    acc.alpha += blend.weight[i] * s.alpha;
+    acc.alpha += blend.weight[i] * s.alpha * confirmed;
     lambda[i] = dot(hit.x * frame.right + hit.y * frame.up + hit.w * frame.direction - ray_origin, ray_unit);
   }
   if (acc.alpha < 0.5) return impostorAccumSurface(acc);

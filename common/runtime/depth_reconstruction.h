@@ -16,13 +16,15 @@
 //     holds points far behind anything the frame saw: a ray passing just
 //     above a duck's head as the view sees it enters a lower frame's
 //     extrusion behind the head. A hit more than kExtrusionDepth behind the
-//     surface its frame saw counts only where the other blended frames
-//     (kExtrusionConfirm of their weight) see that point inside their
-//     silhouettes too (a visual hull of the blended frames); a surface the
+//     surface its frame saw counts only as far as the other blended frames
+//     see that point inside their silhouettes too (a visual hull of the
+//     blended frames): by ExtrusionConfirmation of the share of their
+//     weight that does, 0 up to half of it, 1 from three quarters. A surface the
 //     frame saw edge-on (a box's top from the horizon) passes, a point in
 //     empty space behind the object does not.
-//  2. Coverage: A = sum_i w_i a_i over the march hits (as parallax); the
-//     pixel is covered iff A >= 0.5.
+//  2. Coverage: A = sum_i w_i a_i c_i over the march hits (c_i = 1, or the
+//     confirmation of a hit deep in its extrusion); the pixel is covered
+//     iff A >= 0.5.
 //  3. Candidates: every frame's hit point P_i lies on the ray.
 //  4. Agreement (disocclusion): a candidate is projected into every blended
 //     frame j (s_j, t_j, height h_j = dot(P - c, d_j) / r) and the frame's
@@ -92,9 +94,22 @@ inline constexpr float kSupportShare = 0.5f;
 // 12x12, 2048 px) against no confirmation: Duck's pop 4.82 -> 1.70,
 // DamagedHelmet's IoU 0.978 -> 0.986, StylizedTree's 0.899 -> 0.942.
 inline constexpr float kExtrusionDepth = 2.0f * kDepthAgreement;
-// The share of the other frames' weight that must see such a hit inside
-// their silhouettes.
+// Such a hit counts by the share s of the other frames' weight that sees
+// it inside their silhouettes: c = ExtrusionConfirmation(s), fully from
+// kExtrusionConfirm of it (the rule up to baker 0.2.0-bake4, which counted
+// nothing below), and in proportion from kExtrusionConfirm -
+// kExtrusionConfirmRamp. The hard threshold flipped every pixel of a band
+// at the same orbit step, as the weights, the same over an orthographic
+// view, passed it; with the ramp the share, which varies from pixel to
+// pixel, spreads the flips over the steps. A ramp that also lowered hits
+// confirmed by more than kExtrusionConfirm (0.5..1) made octahedral
+// plants and the Duck pop more (Duck 1.73 -> 2.91). Measured on the
+// quality table: docs/quality.md.
 inline constexpr float kExtrusionConfirm = 0.75f;
+inline constexpr float kExtrusionConfirmRamp = 0.25f;
+inline float ExtrusionConfirmation(float share) {
+  return std::clamp((share - (kExtrusionConfirm - kExtrusionConfirmRamp)) / kExtrusionConfirmRamp, 0.0f, 1.0f);
+}
 
 // The agreement weight g of step 4 for a frame whose surface height at P's
 // projection is `surface_height` while P's own height in it is `point_height`.
@@ -145,11 +160,12 @@ using DepthSurface = std::function<float(int entry, glm::vec2 st, float* height)
 
 namespace depth_internal {
 
-// Whether the blended frames other than `own` see `point` inside their
-// silhouettes (kExtrusionConfirm of their weight, by filtered coverage).
+// The share of the weight of the blended frames other than `own` that sees
+// `point` inside their silhouettes (by filtered coverage); 1 when there is
+// no other frame.
 template <typename Surface>
-bool OthersSeeInside(const std::array<DepthEntry, 4>& entries, int count, int own, glm::vec3 point,
-                     const Surface& surface) {
+float OthersInsideShare(const std::array<DepthEntry, 4>& entries, int count, int own, glm::vec3 point,
+                        const Surface& surface) {
   float others = 0.0f;
   float inside = 0.0f;
   for (int j = 0; j < count; ++j) {
@@ -158,7 +174,7 @@ bool OthersSeeInside(const std::array<DepthEntry, 4>& entries, int count, int ow
     float height = 0.0f;
     inside += entries[j].weight * surface(j, ProjectPointToFrame(*entries[j].frame, point).st, &height);
   }
-  return !(others > 0.0f) || inside >= kExtrusionConfirm * others;
+  return others > 0.0f ? inside / others : 1.0f;
 }
 
 }  // namespace depth_internal
@@ -184,12 +200,15 @@ DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count,
       continue;
     }
     const glm::vec3 point = FramePoint(*entries[i].frame, hits[i]);
-    if (height - hits[i].height > kExtrusionDepth &&
-        !depth_internal::OthersSeeInside(entries, count, i, point, surface)) {
+    const float confirmed =
+        height - hits[i].height > kExtrusionDepth
+            ? ExtrusionConfirmation(depth_internal::OthersInsideShare(entries, count, i, point, surface))
+            : 1.0f;
+    if (!(confirmed > 0.0f)) {
       hits[i].valid = false;
       continue;
     }
-    out.coverage += entries[i].weight * hit_alpha[i];
+    out.coverage += entries[i].weight * hit_alpha[i] * confirmed;
     lambda[i] = RayDistance(origin, ray_unit, point);
   }
   if (out.coverage < 0.5f) return out;

@@ -307,7 +307,7 @@ TEST(DepthReconstruction, AgreementFallsToZeroBeyondTheTolerance) {
 }
 
 // A march hit deep behind the surface its frame saw lies in that frame's
-// extrusion (its silhouette pushed backwards): it counts only where the
+// extrusion (its silhouette pushed backwards): it counts only as far as the
 // other blended frames see the point inside their silhouettes.
 TEST(DepthReconstruction, AHitDeepInItsFramesExtrusionNeedsTheOtherFrames) {
   const FrameCamera front = CameraForDirection({0.0f, 0.0f, 1.0f});
@@ -319,15 +319,18 @@ TEST(DepthReconstruction, AHitDeepInItsFramesExtrusionNeedsTheOtherFrames) {
     float behind;       // how far the hit lies behind the surface the front frame saw
     float side_weight;  // the side frame's blend weight (the front frame has the rest)
     float side_alpha;   // the side frame's coverage wherever it is sampled
-    bool covered;
+    float coverage;     // the pixel's: the front frame's weight times its confirmation
   };
   const std::vector<Case> cases = {
-      {0.3f, 0.2f, 0.0f, false},                        // deep, the side frame sees empty space
-      {0.3f, 0.2f, 1.0f, true},                         // deep, the side frame sees the object there
-      {0.3f, 0.2f, 0.7f, false},                        // deep, seen inside by less than kExtrusionConfirm
-      {0.3f, 0.0f, 0.0f, true},                         // deep, but no other frame is blended
-      {0.5f * kExtrusionDepth, 0.2f, 0.0f, true},       // near the surface: no confirmation needed
-      {1.5f * kExtrusionDepth, 0.2f, 0.0f, false},      // just beyond the extrusion depth
+      {0.3f, 0.2f, 0.0f, 0.0f},                          // deep, the side frame sees empty space
+      {0.3f, 0.2f, 1.0f, 0.8f},                          // deep, the side frame sees the object there
+      {0.3f, 0.2f, 0.5f, 0.0f},                          // deep, seen inside by half: not yet
+      {0.3f, 0.2f, 0.6f, 0.8f * 0.4f},                   // deep, seen inside by 0.6: 0.4 of it, not covered
+      {0.3f, 0.2f, 0.7f, 0.8f * 0.8f},                   // deep, seen inside by 0.7: 0.8 of it, covered
+      {0.3f, 0.2f, 0.9f, 0.8f},                          // deep, seen inside by 0.9: all of it
+      {0.3f, 0.0f, 0.0f, 1.0f},                          // deep, but no other frame is blended
+      {0.5f * kExtrusionDepth, 0.2f, 0.0f, 0.8f},        // near the surface: no confirmation needed
+      {1.5f * kExtrusionDepth, 0.2f, 0.0f, 0.0f},        // just beyond the extrusion depth
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(::testing::Message() << "behind " << c.behind << " side weight " << c.side_weight
@@ -340,14 +343,18 @@ TEST(DepthReconstruction, AHitDeepInItsFramesExtrusionNeedsTheOtherFrames) {
       return entry == 0 ? 1.0f : c.side_alpha;
     };
     const DepthPixel pixel = ReconstructDepth(entries, 2, origin, ray_unit, march, surface);
-    if (c.covered) {
-      EXPECT_FLOAT_EQ(pixel.coverage, 1.0f - c.side_weight);
-      EXPECT_TRUE(pixel.samples[0].used);
-    } else {
-      EXPECT_EQ(pixel.coverage, 0.0f);
-      EXPECT_FALSE(pixel.samples[0].used);
-    }
+    EXPECT_NEAR(pixel.coverage, c.coverage, 1e-6f);
+    EXPECT_EQ(pixel.samples[0].used, c.coverage >= 0.5f);
   }
+}
+
+TEST(DepthReconstruction, ExtrusionConfirmationRampsOverTheOtherFramesShare) {
+  EXPECT_EQ(ExtrusionConfirmation(0.0f), 0.0f);
+  EXPECT_EQ(ExtrusionConfirmation(0.5f), 0.0f);
+  EXPECT_FLOAT_EQ(ExtrusionConfirmation(0.625f), 0.5f);
+  EXPECT_EQ(ExtrusionConfirmation(kExtrusionConfirm), 1.0f);
+  EXPECT_EQ(ExtrusionConfirmation(1.0f), 1.0f);
+  EXPECT_LT(ExtrusionConfirmation(0.6f), ExtrusionConfirmation(0.7f));
 }
 
 }  // namespace
