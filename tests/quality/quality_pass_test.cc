@@ -61,6 +61,24 @@ class QualityPassTest : public testing::SharedRendererTest {
     return BakeAtlas(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }
 
+  // A 4 x 4 octahedral atlas of 256 px of `scene`, rendered in memory.
+  static absl::StatusOr<ImpostorAtlas> SmallOctahedralAtlas(const Scene& scene) {
+    constexpr int kFrames = 4, kResolution = 256;
+    ImpostorAtlas atlas;
+    atlas.layout = LayoutKind::kOctahedral;
+    atlas.frames = kFrames;
+    atlas.resolution = kResolution;
+    atlas.sphere = ComputeBoundingSphere(scene);
+    atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
+    RenderTimings timings;
+    auto maps = renderer_->Render(scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
+    if (!maps.ok()) return maps.status();
+    atlas.width = maps->width;
+    atlas.height = maps->height;
+    atlas.albedo_alpha = std::move(maps->albedo_alpha);
+    atlas.normal_depth = std::move(maps->normal_depth);
+    return atlas;
+  }
 };
 
 TEST_F(QualityPassTest, HelmetBakeFillsTheQualityBlock) {
@@ -226,37 +244,25 @@ TEST_F(QualityPassTest, OnABakedFrameTheImpostorMatchesTheMesh) {
 TEST_F(QualityPassTest, OnFrameDirectionsMeasureTheFramesThemselves) {
   auto scene = LoadGltfScene(kHelmet);
   ASSERT_TRUE(scene.ok()) << scene.status();
-  constexpr int kFrames = 4, kResolution = 256;
-  ImpostorAtlas atlas;
-  atlas.layout = LayoutKind::kOctahedral;
-  atlas.frames = kFrames;
-  atlas.resolution = kResolution;
-  atlas.sphere = ComputeBoundingSphere(*scene);
-  atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
-  RenderTimings timings;
-  auto maps = renderer_->Render(*scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
-  ASSERT_TRUE(maps.ok()) << maps.status();
-  atlas.width = maps->width;
-  atlas.height = maps->height;
-  atlas.albedo_alpha = maps->albedo_alpha;
-  atlas.normal_depth = maps->normal_depth;
+  auto atlas = SmallOctahedralAtlas(*scene);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
   QualityPassOptions o;
   o.views = 6;
   o.view_pixels = 48;
   o.orbit_steps = 0;
   const auto on_a_frame = [&](glm::vec3 d) {
-    for (const FrameCamera& c : atlas.cameras) {
+    for (const FrameCamera& c : atlas->cameras) {
       if (c.direction == d) return true;
     }
     return false;
   };
 
-  auto held_out = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  auto held_out = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(held_out.ok()) << held_out.status();
   for (const glm::vec3& d : held_out->directions) EXPECT_FALSE(on_a_frame(d));
 
   o.on_frame_directions = true;
-  auto on_frames = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  auto on_frames = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(on_frames.ok()) << on_frames.status();
   ASSERT_EQ(on_frames->directions.size(), 6u);
   for (const glm::vec3& d : on_frames->directions) EXPECT_TRUE(on_a_frame(d));
@@ -271,33 +277,21 @@ TEST_F(QualityPassTest, OnFrameDirectionsMeasureTheFramesThemselves) {
 TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
   auto scene = LoadGltfScene(kHelmet);
   ASSERT_TRUE(scene.ok()) << scene.status();
-  constexpr int kFrames = 4, kResolution = 256;
-  ImpostorAtlas atlas;
-  atlas.layout = LayoutKind::kOctahedral;
-  atlas.frames = kFrames;
-  atlas.resolution = kResolution;
-  atlas.sphere = ComputeBoundingSphere(*scene);
-  atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
-  RenderTimings timings;
-  auto maps = renderer_->Render(*scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
-  ASSERT_TRUE(maps.ok()) << maps.status();
-  atlas.width = maps->width;
-  atlas.height = maps->height;
-  atlas.albedo_alpha = maps->albedo_alpha;
-  atlas.normal_depth = maps->normal_depth;
+  auto atlas = SmallOctahedralAtlas(*scene);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
   QualityPassOptions o;
   o.views = 2;
   o.view_pixels = 32;
   o.orbit_pairs = 6;
   o.orbit_pixels = 32;
 
-  auto plain_pass = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  auto plain_pass = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(plain_pass.ok()) << plain_pass.status();
   EXPECT_EQ(plain_pass->pop_antialiased_mesh, -1.0);
   EXPECT_EQ(plain_pass->pop_antialiased, -1.0);
 
   o.pop_references = true;
-  auto with_references = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  auto with_references = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(with_references.ok()) << with_references.status();
   const double mesh = with_references->pop_antialiased_mesh;
   const double both = with_references->pop_antialiased;
@@ -310,7 +304,7 @@ TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
 
   // Without an orbit there is nothing to refer to.
   o.orbit_steps = 0;
-  auto no_orbit = MeasureAtlasQuality(*scene, atlas, "key", o, *renderer_);
+  auto no_orbit = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(no_orbit.ok()) << no_orbit.status();
   EXPECT_EQ(no_orbit->pop_antialiased_mesh, -1.0);
 }
