@@ -62,6 +62,7 @@ int main(int argc, char** argv) {
   std::string keep_flag;
   std::string layout_name = "octahedral";
   std::vector<std::string> assets;
+  bool on_frames = false;
   impostor::bench::BenchArgs("bake_stages", "One atlas bake in process with each stage's wall and CPU time.")
       .Text("--layout", &layout_name, "layout by manifest name, e.g. hemi-octahedral (default octahedral)")
       .Uint("--frames", &frames, "frames per side (default 12)")
@@ -70,6 +71,9 @@ int main(int argc, char** argv) {
       .Int("--quality-views", &quality_views, "held-out views of the quality pass; 0 skips it (default: the bake's own)")
       .Int("--repeat", &repeat, "bakes in a row (default 1)")
       .Text("--keep", &keep_flag, "copy the last bake's output folder here")
+      .Switch("--on-frames", &on_frames,
+              "put the quality pass's views on baked frames' own directions (the atlas's ceiling; with --keep, "
+              "its view_NN files)")
       .Positional("ASSET.glb", &assets, "the asset (default DamagedHelmet)")
       .ParseOrExit(argc, argv);
   if (!keep_flag.empty()) keep = keep_flag;
@@ -115,7 +119,10 @@ int main(int argc, char** argv) {
                                        .parameters = *p,
                                        .cache_key = absl::StrCat("bake_stages ", asset.string()),
                                        .output_dir = scratch,
-                                       .load_limits = {}};
+                                       .load_limits = {},
+                                       .scene = nullptr,
+                                       .serial_encode = false,
+                                       .quality_overrides = {.on_frame_directions = on_frames}};
     StageClock clock;
     auto baked = impostor::BakeAtlas(
         request, **renderer, [&](std::string_view stage, double) { clock.Note(stage); }, cancelled);
