@@ -75,23 +75,17 @@ struct Row {
   std::string error;
 };
 
-// The value of ` name=` in the last event=quality_pass_pop_references line
-// of `log`, or -1.
-double PopReference(const std::string& log, const std::string& name) {
-  const size_t event = log.rfind("event=quality_pass_pop_references ");
-  if (event == std::string::npos) return -1;
+// The value of ` field=` on the last `event=NAME ` line of `log`, or
+// `missing` when there is no such line or field.
+double LastEventField(const std::string& log, const std::string& event_name, const std::string& field,
+                      double missing) {
+  const size_t event = log.rfind("event=" + event_name + " ");
+  if (event == std::string::npos) return missing;
   const size_t line_end = log.find('\n', event);
-  const size_t at = log.find(" " + name + "=", event);
-  if (at == std::string::npos || at > line_end) return -1;
-  return std::atof(log.c_str() + at + name.size() + 2);
-}
-
-// The last `seconds=` of an event=quality_pass line in `log`, or 0.
-double PassSeconds(const std::string& log) {
-  const size_t event = log.rfind("event=quality_pass ");
-  if (event == std::string::npos) return 0;
-  const size_t at = log.find(" seconds=", event);
-  return at == std::string::npos ? 0 : std::atof(log.c_str() + at + 9);
+  const std::string key = " " + field + "=";
+  const size_t at = log.find(key, event);
+  if (at == std::string::npos || at > line_end) return missing;
+  return std::atof(log.c_str() + at + key.size());
 }
 
 // "8,12,16"; false if any item is not a whole number.
@@ -284,9 +278,10 @@ int main(int argc, char** argv) {
         const auto start = std::chrono::steady_clock::now();
         auto baked = impostor::BakeAtlas(request, **renderer, [](std::string_view, double) {}, cancelled);
         row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        row.pass_seconds = PassSeconds(log.str());
-        row.pop_antialiased_mesh = PopReference(log.str(), "pop_antialiased_mesh");
-        row.pop_antialiased = PopReference(log.str(), "pop_antialiased");
+        row.pass_seconds = LastEventField(log.str(), "quality_pass", "seconds", 0);
+        row.pop_antialiased_mesh =
+            LastEventField(log.str(), "quality_pass_pop_references", "pop_antialiased_mesh", -1);
+        row.pop_antialiased = LastEventField(log.str(), "quality_pass_pop_references", "pop_antialiased", -1);
         log.str("");
         if (baked.ok()) {
           row.quality = baked->manifest.quality();
