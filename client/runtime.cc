@@ -46,6 +46,16 @@ ViewLayout ToViewLayout(const AtlasLayout& layout) {
   return v;
 }
 
+// An AtlasLayout a bake produces; anything else gets empty answers (the
+// header's "Layouts" paragraph), never a plausible-looking frame 0.
+bool Describes(const AtlasLayout& layout) {
+  if (layout.layout == Layout::kBillboard && layout.ring_views != kBillboardRingViews) return false;
+  const ViewLayout v = ToViewLayout(layout);
+  if (!IsBakeableLayout(v)) return false;
+  // The ring layouts' `frames` is their grid side.
+  return layout.frames == GridSide(v);
+}
+
 AtlasLayout FromFrames(Layout layout, int frames) {
   return {layout, frames, layout == Layout::kBillboard ? kBillboardRingViews : 0};
 }
@@ -84,21 +94,13 @@ std::optional<AtlasLayout> AtlasLayoutFromManifest(std::string_view name, int fr
   const std::optional<Layout> layout = LayoutFromName(name);
   if (!layout) return std::nullopt;
   AtlasLayout out{*layout, frames, 0};
-  switch (*layout) {
-    case Layout::kRingTop:
-      if (view_count < 2) return std::nullopt;
-      out.ring_views = view_count - 1;
-      break;
-    case Layout::kBillboard:
-      if (view_count != kBillboardRingViews + 1) return std::nullopt;
-      out.ring_views = kBillboardRingViews;
-      break;
-    default:
-      if (frames < 1 || view_count != frames * frames) return std::nullopt;
-      break;
+  if (*layout == Layout::kRingTop || *layout == Layout::kBillboard) {
+    out.ring_views = view_count - 1;
+    // The manifest's `frames` of a ring layout is the atlas grid side,
+    // which the ring count fixes.
+    if (frames != GridSide(ToViewLayout(out))) return std::nullopt;
   }
-  // The grid side of ring layouts follows from the ring count.
-  if (*layout == Layout::kRingTop || *layout == Layout::kBillboard) out.frames = GridSide(ToViewLayout(out));
+  if (!Describes(out) || view_count != FrameCount(out)) return std::nullopt;
   return out;
 }
 
@@ -115,6 +117,7 @@ std::string_view BlendModeName(BlendMode mode) {
 }
 
 FrameBlend BlendFrames(const AtlasLayout& layout, const float view_dir[3], BlendMode mode) {
+  if (!Describes(layout)) return {};
   const impostor::FrameBlend blend = impostor::BlendFrames(
       ToViewLayout(layout), Vec(view_dir),
       mode == BlendMode::kTriangle3 ? impostor::BlendMode::kTriangle3 : impostor::BlendMode::kBilinear4);
@@ -129,6 +132,7 @@ FrameBlend BlendFrames(Layout layout, int frames, const float view_dir[3], Blend
 }
 
 FrameBasis FrameCameraBasis(const AtlasLayout& layout, int frame) {
+  if (!Describes(layout) || frame < 0 || frame >= FrameCount(layout)) return FrameBasis{};
   const FrameCamera c = CameraOf(layout, frame);
   FrameBasis basis;
   Store(c.direction, basis.direction);
@@ -143,7 +147,7 @@ FrameBasis FrameCameraBasis(Layout layout, int frames, int frame) {
 
 FrameUv VirtualPlaneUv(const AtlasLayout& layout, int frame, const float sphere_center[3], float sphere_radius,
                        const float ray_origin[3], const float ray_dir[3], float height) {
-  if (!(sphere_radius > 0.0f)) return {};
+  if (!(sphere_radius > 0.0f) || !Describes(layout) || frame < 0 || frame >= FrameCount(layout)) return {};
   const glm::vec3 origin = (Vec(ray_origin) - Vec(sphere_center)) / sphere_radius;
   return ToUv(IntersectFramePlane(CameraOf(layout, frame), origin, Vec(ray_dir), height));
 }
@@ -157,7 +161,7 @@ FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_
 FrameUv VirtualPlaneUvParallax(const AtlasLayout& layout, int frame, const float sphere_center[3],
                                float sphere_radius, const float ray_origin[3], const float ray_dir[3],
                                const FrameDepthReader& read_depth) {
-  if (!(sphere_radius > 0.0f)) return {};
+  if (!(sphere_radius > 0.0f) || !Describes(layout) || frame < 0 || frame >= FrameCount(layout)) return {};
   const glm::vec3 origin = (Vec(ray_origin) - Vec(sphere_center)) / sphere_radius;
   return ToUv(IntersectFrameHeightField(CameraOf(layout, frame), origin, Vec(ray_dir),
                                         [&](glm::vec2 st, float* height) {
@@ -206,8 +210,11 @@ DepthReconstruction ReconstructDepth(const AtlasLayout& layout, const FrameBlend
                                      const FrameSurfaceReader& read) {
   DepthReconstruction out;
   const float len = glm::length(Vec(ray_dir));
-  if (!(sphere_radius > 0.0f) || !(len > 0.0f)) return out;
+  if (!(sphere_radius > 0.0f) || !(len > 0.0f) || !Describes(layout)) return out;
   const int count = std::clamp(blend.count, 0, 4);
+  for (int i = 0; i < count; ++i) {
+    if (blend.entries[i].frame < 0 || blend.entries[i].frame >= FrameCount(layout)) return out;
+  }
   std::array<FrameCamera, 4> cameras;
   std::array<DepthEntry, 4> entries;
   for (int i = 0; i < count; ++i) {

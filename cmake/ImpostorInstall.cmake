@@ -24,7 +24,8 @@
 # impostor::client, impostor::cache and impostor::c are interface targets
 # over the one libimpostor.so (each naming its own header dependencies);
 # impostor::runtime is pure math and its own libimpostor_runtime.so, so a
-# renderer can use it without any network code.
+# renderer can use it without any network code; impostor::lod (LOD chain
+# loading and level selection) is an interface target over the same library.
 include_guard(GLOBAL)
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -68,22 +69,30 @@ if(TARGET impostor_cache AND TARGET impostor_client)
   set(_impostor_export_targets impostor_sdk_shared impostor_pkg_client impostor_pkg_cache impostor_pkg_c)
 endif()
 
-if(TARGET impostor_runtime)
-  # libimpostor_runtime.so: the SDK's runtime adapters over common/runtime.
+if(TARGET impostor_runtime AND TARGET impostor_lod_sdk)
+  # libimpostor_runtime.so: the SDK's runtime adapters over common/runtime,
+  # and the LOD chain's loading and level selection (impostor/lod.h, also
+  # free of network code; whole-archive, as nothing here calls it).
   add_library(impostor_runtime_shared SHARED ${CMAKE_SOURCE_DIR}/client/runtime.cc)
-  target_link_libraries(impostor_runtime_shared PRIVATE impostor_runtime)
+  target_link_libraries(impostor_runtime_shared PRIVATE impostor_runtime
+    -Wl,--whole-archive impostor_lod_sdk -Wl,--no-whole-archive)
   target_include_directories(impostor_runtime_shared PUBLIC ${_impostor_includes})
   target_link_options(impostor_runtime_shared PRIVATE "LINKER:--version-script=${_impostor_map}" "LINKER:--no-undefined")
   set_target_properties(impostor_runtime_shared PROPERTIES
     OUTPUT_NAME impostor_runtime EXPORT_NAME runtime
     VERSION ${PROJECT_VERSION} SOVERSION ${_impostor_soversion}
     LINK_DEPENDS ${_impostor_map})
-  list(APPEND _impostor_export_targets impostor_runtime_shared)
+  # impostor::lod: the same library; lod.h's Status types need Abseil.
+  add_library(impostor_pkg_lod INTERFACE)
+  target_link_libraries(impostor_pkg_lod INTERFACE impostor_runtime_shared absl::status absl::statusor)
+  set_target_properties(impostor_pkg_lod PROPERTIES EXPORT_NAME lod)
+  list(APPEND _impostor_export_targets impostor_runtime_shared impostor_pkg_lod)
 endif()
 
 # The same names inside this build tree, for a project that adds this
 # repository with add_subdirectory.
-foreach(_pair client:impostor_pkg_client cache:impostor_pkg_cache c:impostor_pkg_c runtime:impostor_runtime_shared)
+foreach(_pair client:impostor_pkg_client cache:impostor_pkg_cache c:impostor_pkg_c runtime:impostor_runtime_shared
+              lod:impostor_pkg_lod)
   string(REPLACE ":" ";" _pair ${_pair})
   list(GET _pair 0 _name)
   list(GET _pair 1 _target)
@@ -103,6 +112,7 @@ if(_impostor_export_targets)
       ${_impostor_headers_dir}/impostor/client.h
       ${_impostor_headers_dir}/impostor/cache.h
       ${_impostor_headers_dir}/impostor/runtime.h
+      ${_impostor_headers_dir}/impostor/lod.h
       ${_impostor_headers_dir}/impostor/impostor_c.h
     DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/impostor COMPONENT sdk)
   install(EXPORT impostorTargets NAMESPACE impostor:: FILE impostorTargets.cmake

@@ -169,6 +169,24 @@ int FrameCount(const ViewLayout& layout) {
              : RingViews(layout) + 1;
 }
 
+bool IsBakeableLayout(const ViewLayout& layout) {
+  const auto in = [](int v, uint32_t lo, uint32_t hi) {
+    return v >= static_cast<int>(lo) && v <= static_cast<int>(hi);
+  };
+  switch (layout.kind) {
+    case LayoutKind::kOctahedral:
+    case LayoutKind::kHemiOctahedral:
+      return in(layout.frames, kMinFrames, kMaxFrames);
+    case LayoutKind::kAzimuthElevation:
+      return in(layout.frames, kMinFrames, kMaxFrames) && layout.frames % 2 == 1;
+    case LayoutKind::kRingTop:
+      return in(layout.ring_views, kMinRingViews, kMaxRingViews);
+    case LayoutKind::kBillboard:
+      return true;  // always 8 views around and one from above
+  }
+  return false;
+}
+
 int GridSide(const ViewLayout& layout) {
   if (IsOctahedral(layout.kind) || layout.kind == LayoutKind::kAzimuthElevation) return layout.frames;
   const int count = RingViews(layout) + 1;

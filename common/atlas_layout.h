@@ -122,6 +122,19 @@ struct ViewLayout {
 
 inline constexpr int kBillboardRingViews = 8;
 
+// The layouts a bake can produce (bake_request.h and layout_parameters.h
+// validate requests against these; the runtime validates manifests).
+inline constexpr uint32_t kMinFrames = 2;   // frames per axis of the grid layouts
+inline constexpr uint32_t kMaxFrames = 64;  // (azimuth-elevation: odd, 3..63)
+inline constexpr uint32_t kMinRingViews = 3;   // ring-top's horizontal views K
+inline constexpr uint32_t kMaxRingViews = 64;
+
+// True when `layout` is one a bake produces: grid layouts with kMinFrames..
+// kMaxFrames frames per axis (odd for azimuth-elevation), ring-top with
+// kMinRingViews..kMaxRingViews horizontal views, and billboard. The
+// frame math below assumes it; a runtime reading a manifest checks it first.
+bool IsBakeableLayout(const ViewLayout& layout);
+
 // Frames that are baked: N * N, or K + 1 for ring-top and billboard.
 int FrameCount(const ViewLayout& layout);
 // Tiles per atlas side: N, or ceil(sqrt(K + 1)) for ring-top, 3 for billboard.

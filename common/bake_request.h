@@ -9,6 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "common/atlas_layout.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor {
@@ -18,8 +19,6 @@ std::string_view BakerVersion();
 
 // Limits on BakeParameters (see types.proto).
 inline constexpr uint32_t kDefaultFrames = 12;
-inline constexpr uint32_t kMinFrames = 2;
-inline constexpr uint32_t kMaxFrames = 64;
 inline constexpr uint32_t kDefaultResolution = 2048;
 inline constexpr uint32_t kMinResolution = 64;
 inline constexpr uint32_t kMaxResolution = 16384;

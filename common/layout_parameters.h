@@ -14,8 +14,6 @@ namespace impostor {
 
 inline constexpr uint32_t kDefaultAzimuthElevationFrames = 11;
 inline constexpr uint32_t kDefaultRingViews = 24;
-inline constexpr uint32_t kMinRingViews = 3;
-inline constexpr uint32_t kMaxRingViews = 64;
 
 // With `out->layout()` already resolved from UNSPECIFIED: fills the
 // layout's frame defaults in and checks them. INVALID_ARGUMENT naming the

@@ -30,6 +30,7 @@
 #include "client/cache/entry_lock.h"
 #include "client/cache/lazy_transport.h"
 #include "client/cache/lru_index.h"
+#include "client/cache/manifest_summary.h"
 #include "client/cache/result_install.h"
 #include "client/cache/work_queue.h"
 #include "client/job_convert.h"
@@ -449,6 +450,9 @@ class Cache::Impl {
     absl::StatusOr<std::string> text = ReadText(view->manifest_path);
     if (!text.ok()) return text.status();
     view->manifest_json = std::move(*text);
+    ManifestSummary summary = SummarizeManifest(view->manifest_json);
+    view->product = std::move(summary.product);
+    view->view_count = summary.view_count;
     return std::shared_ptr<const EntryView>(std::move(view));
   }
 

@@ -30,6 +30,8 @@ int64_t CachedResult::size_bytes() const { return ViewOf(rep_).size_bytes; }
 const std::string& CachedResult::layout() const { return ViewOf(rep_).layout; }
 uint32_t CachedResult::frames() const { return ViewOf(rep_).frames; }
 uint32_t CachedResult::resolution() const { return ViewOf(rep_).resolution; }
+const std::string& CachedResult::product() const { return ViewOf(rep_).product; }
+uint32_t CachedResult::view_count() const { return ViewOf(rep_).view_count; }
 bool CachedResult::downloaded() const { return rep_ != nullptr && rep_->downloaded; }
 
 const CachedFile* CachedResult::map(const std::string& semantic) const {

@@ -24,6 +24,8 @@ struct EntryView {
   std::string layout;
   uint32_t frames = 0;
   uint32_t resolution = 0;
+  std::string product;  // ManifestSummary's
+  uint32_t view_count = 0;
 };
 
 // One per entry and process while any handle is alive: its shared file lock

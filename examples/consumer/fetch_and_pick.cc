@@ -1,7 +1,7 @@
 // What a game does with the SDK, in one file: fetch a baked impostor by its
 // cache key through the local cache (downloaded once, from disk afterwards),
 // then pick the atlas frames to blend for a few view directions with the
-// runtime math.
+// runtime math (and, for a LOD chain, list its levels).
 //
 //   fetch_and_pick SERVER CACHE_DIR KEY
 //
@@ -11,6 +11,7 @@
 #include <cstdio>
 
 #include "impostor/cache.h"
+#include "impostor/lod.h"
 #include "impostor/runtime.h"
 
 int main(int argc, char** argv) {
@@ -37,17 +38,38 @@ int main(int argc, char** argv) {
                 static_cast<long long>(file.size_bytes));
   }
 
-  const auto layout = impostor::sdk::LayoutFromName(result->layout());
-  if (!layout) {
-    std::printf("unknown layout \"%s\"\n", result->layout().c_str());
+  // A LOD chain: its levels, nearest first (the last is the atlas impostor,
+  // described by the same manifest fields as an atlas result).
+  if (result->product() == "lod-chain") {
+    const absl::StatusOr<impostor::sdk::LodChain> chain = impostor::sdk::LoadLodChain(result->manifest_path());
+    if (!chain.ok()) {
+      std::printf("lod chain: %s\n", chain.status().ToString().c_str());
+      return 1;
+    }
+    for (const impostor::sdk::LodLevelInfo& level : chain->levels) {
+      std::printf("lod %d %s %s threshold %g\n", level.level,
+                  level.kind == impostor::sdk::LodLevelInfo::Kind::kMesh ? "mesh" : "impostor", level.file.c_str(),
+                  level.threshold);
+    }
+  }
+  // Cards and surfels have no frames to pick.
+  if (result->product() != "atlas" && result->product() != "lod-chain") {
+    std::printf("product \"%s\" has no atlas frames to pick\n", result->product().c_str());
     return 1;
   }
-  const int frames = static_cast<int>(result->frames());
-  std::printf("layout %s frames %d\n", result->layout().c_str(), frames);
+  const auto layout = impostor::sdk::AtlasLayoutFromManifest(
+      result->layout(), static_cast<int>(result->frames()), static_cast<int>(result->view_count()));
+  if (!layout) {
+    std::printf("layout \"%s\" with %u frames and %u views is not one this runtime draws\n",
+                result->layout().c_str(), result->frames(), result->view_count());
+    return 1;
+  }
+  std::printf("layout %s frames %d views %d\n", result->layout().c_str(), layout->frames,
+              impostor::sdk::FrameCount(*layout));
   const float views[][3] = {{0, 1, 0}, {1, 0, 0}, {1, 1, 1}, {0, -0.2f, -1}};
   for (const auto& view : views) {
     const impostor::sdk::FrameBlend blend =
-        impostor::sdk::BlendFrames(*layout, frames, view, impostor::sdk::BlendMode::kTriangle3);
+        impostor::sdk::BlendFrames(*layout, view, impostor::sdk::BlendMode::kTriangle3);
     std::printf("pick %g %g %g:", view[0], view[1], view[2]);
     for (int i = 0; i < blend.count; ++i) {
       std::printf(" %d:%.4f", blend.entries[i].frame, blend.entries[i].weight);

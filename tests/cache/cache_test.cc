@@ -121,6 +121,8 @@ TEST(CacheGet, FirstGetDownloadsAndLaterGetsMakeNoRpc) {
   ExpectBytes(*first, published, "first get");
   EXPECT_EQ(first->layout(), "octahedral");
   EXPECT_EQ(first->frames(), 2u);
+  EXPECT_EQ(first->product(), "atlas") << "a manifest without `product` is an atlas";
+  EXPECT_EQ(first->view_count(), 4u);
   ASSERT_NE(first->map("normal_depth"), nullptr);
   EXPECT_EQ(first->map("normal_depth")->format, "png_rgba16");
   EXPECT_EQ(rpcs.Count(kGetResult), 1);

@@ -9,6 +9,7 @@
 #include "client/cache/cache_layout.h"
 #include "client/cache/download_coordinator.h"
 #include "client/cache/lru_index.h"
+#include "client/cache/manifest_summary.h"
 
 namespace impostor::sdk {
 namespace {
@@ -79,6 +80,26 @@ TEST(EntryRecord, BadRecordsAreRefusedByName) {
       json = EntryRecordToJson(r);
     }
     EXPECT_EQ(EntryRecordFromJson(json).status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+  }
+}
+
+TEST(ManifestSummary, ReadsProductAndViewCount) {
+  const ManifestSummary ring = SummarizeManifest(
+      R"({"product": "atlas", "layout": "ring-top", "frames": 3, "views": [{}, {}, {}, {}, {}, {}, {}, {}, {}]})");
+  EXPECT_EQ(ring.product, "atlas");
+  EXPECT_EQ(ring.view_count, 9u);
+  const ManifestSummary cards = SummarizeManifest(R"({"product": "cards", "views": []})");
+  EXPECT_EQ(cards.product, "cards");
+  EXPECT_EQ(cards.view_count, 0u);
+}
+
+TEST(ManifestSummary, MissingOrMistypedFieldsKeepTheDefaults) {
+  // Manifests older than products are atlases.
+  EXPECT_EQ(SummarizeManifest(R"({"views": [{}]})").product, "atlas");
+  for (const char* json : {"", "not json", "[1, 2]", R"({"product": 7, "views": {"a": 1}})"}) {
+    const ManifestSummary s = SummarizeManifest(json);
+    EXPECT_EQ(s.product, "atlas") << json;
+    EXPECT_EQ(s.view_count, 0u) << json;
   }
 }
 

@@ -35,6 +35,13 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
   manifest.set_frames(leased.job().parameters().frames());
   manifest.set_resolution(leased.job().parameters().resolution());
   manifest.set_tile_size(manifest.resolution() / std::max(1u, manifest.frames()));
+  // One view per frame, as every atlas manifest lists them (a game builds
+  // the runtime's layout from their count); their contents matter to no test.
+  for (uint32_t i = 0; i < manifest.frames() * manifest.frames(); ++i) {
+    v1::View* view = manifest.add_views();
+    view->set_index(i);
+    view->set_same_view_as(i);
+  }
   const char* semantics[] = {"albedo_alpha", "normal_depth", "orm"};
   for (size_t i = 0; i < map_sizes.size(); ++i) {
     const std::string bytes = RandomBytes(map_sizes[i], seed * 16 + static_cast<uint32_t>(i) + 1);

@@ -80,7 +80,7 @@ std::vector<std::string> Lines(const std::string& text) {
 
 TEST_F(InstallTest, InstalledTreeHoldsThePackageAndHidesTheInternals) {
   for (const char* file : {"include/impostor/client.h", "include/impostor/cache.h", "include/impostor/runtime.h",
-                           "include/impostor/impostor_c.h", "lib/libimpostor.so", "lib/libimpostor_runtime.so",
+                           "include/impostor/lod.h", "include/impostor/impostor_c.h", "lib/libimpostor.so", "lib/libimpostor_runtime.so",
                            "lib/cmake/impostor/impostorConfig.cmake", "lib/cmake/impostor/impostorConfigVersion.cmake",
                            "lib/cmake/impostor/impostorTargets.cmake", "lib/pkgconfig/impostor.pc"}) {
     EXPECT_TRUE(fs::exists(prefix_ / file)) << file;
@@ -117,6 +117,12 @@ TEST_F(InstallTest, InstalledTreeHoldsThePackageAndHidesTheInternals) {
     EXPECT_TRUE(name.rfind("impostor_", 0) == 0 || name.rfind("impostor::sdk::", 0) == 0) << "exported: " << line;
   }
   EXPECT_GT(exported, 20);
+  // The LOD chain API is in the runtime library (impostor::lod).
+  const ToolRun runtime_nm =
+      RunTool({"/bin/sh", "-c", "nm -DC --defined-only \"$0\"", (prefix_ / "lib/libimpostor_runtime.so").string()});
+  ASSERT_EQ(runtime_nm.exit_code, 0) << Describe(runtime_nm);
+  EXPECT_NE(runtime_nm.out.find("impostor::sdk::LoadLodChain"), std::string::npos);
+  EXPECT_NE(runtime_nm.out.find("impostor::sdk::SelectLod"), std::string::npos);
 }
 
 TEST_F(InstallTest, CppConsumerFetchesThroughTheCacheAndPicksFrames) {
@@ -149,7 +155,7 @@ TEST_F(InstallTest, CppConsumerFetchesThroughTheCacheAndPicksFrames) {
 
   // The picks, computed here by the SDK in this build tree: the installed
   // library must agree with it.
-  std::vector<std::string> picks = {"layout octahedral frames 2"};
+  std::vector<std::string> picks = {"layout octahedral frames 2 views 4"};
   const float views[][3] = {{0, 1, 0}, {1, 0, 0}, {1, 1, 1}, {0, -0.2f, -1}};
   for (const auto& view : views) {
     const sdk::FrameBlend blend = sdk::BlendFrames(sdk::Layout::kOctahedral, 2, view, sdk::BlendMode::kTriangle3);

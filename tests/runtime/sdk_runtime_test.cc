@@ -129,6 +129,54 @@ TEST(SdkRuntime, NewLayoutNamesAndManifestDescriptions) {
   EXPECT_FALSE(sdk::AtlasLayoutFromManifest("azimuth-elevation", 11, 120).has_value());
   EXPECT_FALSE(sdk::AtlasLayoutFromManifest("ring-top", 1, 1).has_value());
   EXPECT_FALSE(sdk::AtlasLayoutFromManifest("cube", 4, 16).has_value());
+  // Layouts no bake produces: a ring of 99 (3..64), a ring whose grid side
+  // is not `frames`, an even azimuth-elevation grid, 1 or 65 frames.
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("ring-top", 10, 100).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("ring-top", 3, 25).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("ring-top", 2, 3).has_value()) << "a ring of 2";
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("azimuth-elevation", 4, 16).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("octahedral", 1, 1).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("hemi-octahedral", 65, 65 * 65).has_value());
+  EXPECT_FALSE(sdk::AtlasLayoutFromManifest("billboard", 4, 9).has_value());
+  EXPECT_TRUE(sdk::AtlasLayoutFromManifest("ring-top", 2, 4).has_value()) << "a ring of 3";
+  EXPECT_TRUE(sdk::AtlasLayoutFromManifest("ring-top", 9, 65).has_value()) << "a ring of 64";
+}
+
+// The (Layout, frames) overloads cannot describe ring-top (its ring count is
+// not `frames`), and an AtlasLayout can be filled in by hand: such layouts
+// get empty answers, never a plausible-looking frame 0.
+TEST(SdkRuntime, LayoutsNoBakeProducesGetEmptyAnswers) {
+  const float dir[3] = {1.0f, 0.2f, 0.3f};
+  const float center[3] = {0.0f, 0.0f, 0.0f};
+  const float eye[3] = {3.0f, 0.0f, 0.0f};
+  const float ray[3] = {-1.0f, 0.0f, 0.0f};
+  EXPECT_EQ(sdk::BlendFrames(sdk::Layout::kRingTop, 3, dir, sdk::BlendMode::kTriangle3).count, 0);
+  EXPECT_FALSE(sdk::VirtualPlaneUv(sdk::Layout::kRingTop, 3, 0, center, 1.0f, eye, ray).valid);
+  const sdk::FrameBasis basis = sdk::FrameCameraBasis(sdk::Layout::kRingTop, 3, 0);
+  EXPECT_EQ(basis.direction[0] * basis.direction[0] + basis.direction[1] * basis.direction[1] +
+                basis.direction[2] * basis.direction[2],
+            0.0f);
+  for (const sdk::AtlasLayout& bad : {sdk::AtlasLayout{sdk::Layout::kRingTop, 3, 99},
+                                      sdk::AtlasLayout{sdk::Layout::kRingTop, 4, 8},
+                                      sdk::AtlasLayout{sdk::Layout::kAzimuthElevation, 4, 0},
+                                      sdk::AtlasLayout{sdk::Layout::kOctahedral, 0, 0},
+                                      sdk::AtlasLayout{sdk::Layout::kBillboard, 3, 5}}) {
+    EXPECT_EQ(sdk::BlendFrames(bad, dir, sdk::BlendMode::kBilinear4).count, 0) << sdk::LayoutName(bad.layout);
+    const sdk::FrameBlend one{1, {{0, 1.0f}}};
+    const sdk::DepthReconstruction depth = sdk::ReconstructDepth(
+        bad, one, center, 1.0f, eye, ray, [](int, float, float, float* d) { *d = 0.5f; return 1.0f; });
+    EXPECT_EQ(depth.coverage, 0.0f) << sdk::LayoutName(bad.layout);
+  }
+  // The same ring-top through a manifest's description works, and a frame
+  // index outside the layout is refused too.
+  const auto ring = sdk::AtlasLayoutFromManifest("ring-top", 3, 9);
+  ASSERT_TRUE(ring.has_value());
+  EXPECT_EQ(sdk::BlendFrames(*ring, dir, sdk::BlendMode::kTriangle3).count, 3);
+  const float above[3] = {0.0f, 3.0f, 0.0f};
+  const float down[3] = {0.0f, -1.0f, 0.0f};
+  EXPECT_TRUE(sdk::VirtualPlaneUv(*ring, 8, center, 1.0f, above, down).valid) << "the top frame";
+  EXPECT_FALSE(sdk::VirtualPlaneUv(*ring, 9, center, 1.0f, above, down).valid);
+  EXPECT_FALSE(sdk::VirtualPlaneUv(*ring, -1, center, 1.0f, above, down).valid);
 }
 
 TEST(SdkRuntime, NewLayoutsAreTheCommonImplementation) {

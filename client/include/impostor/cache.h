@@ -165,7 +165,10 @@ struct CachedFile {
   std::filesystem::path path;
   std::string sha256;  // lowercase hex
   int64_t size_bytes = 0;
-  // Map images only: pixels and "png_rgba8" / "png_rgba16".
+  // The manifest's width, height and format of the file: pixels and
+  // "png_rgba8" / "png_rgba16" for map images; for other files what their
+  // product's manifest says (cards.glb: the card count x 1; manifest.json
+  // and views.json: 0 x 0, "json"). common/manifest_format.md.
   uint32_t width = 0;
   uint32_t height = 0;
   std::string format;
@@ -201,10 +204,21 @@ class CachedResult {
   const CachedFile* map(const std::string& semantic) const;
   // Sum of the files' sizes.
   int64_t size_bytes() const;
-  // "octahedral" or "hemi-octahedral", frames per axis, atlas side (pixels).
+  // The manifest's `layout` ("octahedral", "hemi-octahedral",
+  // "azimuth-elevation", "ring-top" or "billboard"), `frames` (frames per
+  // axis; the atlas grid side for ring-top and billboard) and `resolution`
+  // (atlas side, pixels). With view_count(), what
+  // impostor::sdk::AtlasLayoutFromManifest (impostor/runtime.h) takes.
   const std::string& layout() const;
   uint32_t frames() const;
   uint32_t resolution() const;
+  // The manifest's `product`: "atlas", "surfels", "cards" or "lod-chain"
+  // (whose impostor level is an atlas). Only "atlas" and "lod-chain"
+  // results have views for the runtime math.
+  const std::string& product() const;
+  // Length of the manifest's `views` (the atlas's frames; 0 for cards and
+  // surfels).
+  uint32_t view_count() const;
   // True when this Get (or the download it joined) fetched the result over
   // the network; false when it was already on disk.
   bool downloaded() const;

@@ -2,7 +2,9 @@
 // the original mesh (lod0.glb), simplified levels (lod1.glb, ...) and an
 // atlas impostor as the last level (impostor.json, an atlas manifest).
 //
-// Plain C++ (no gRPC, no protobuf); link impostor_lod_sdk. LoadLodChain
+// Plain C++ (no gRPC, no protobuf); link impostor::lod (installed SDK:
+// find_package(impostor), libimpostor_runtime.so; in this build tree the
+// static impostor_lod_sdk). LoadLodChain
 // reads a result directory's manifest.json once; SelectLod / SelectLods are
 // pure functions of their arguments, cheap enough to run per instance per
 // frame, and thread-safe.

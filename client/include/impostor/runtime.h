@@ -14,13 +14,21 @@
 // billboard. A layout is described by an AtlasLayout; build it from the
 // manifest with AtlasLayoutFromManifest(manifest["layout"],
 // manifest["frames"], manifest["views"].size()) (ring-top's ring count is
-// views - 1). The (Layout, frames) overloads below are kept for the layouts
-// `frames` describes fully (all but ring-top).
+// views - 1), or from a cached result with AtlasLayoutFromManifest(
+// result.layout(), result.frames(), result.view_count()). The (Layout,
+// frames) overloads below are kept for the layouts `frames` describes fully
+// (all but ring-top). An AtlasLayout no bake produces (a ring-top through
+// those overloads, whose ring count `frames` does not give; frames out of
+// 2..64; an even azimuth-elevation grid) gets empty answers: no blend
+// entries (count 0), an invalid FrameUv, a zero FrameBasis, coverage 0.
 //
-// Typical per-instance use (the shader does the per-pixel part):
+// Typical per-instance use (the shader does the per-pixel part), with the
+// manifest parsed by nlohmann::json:
 //
 //   auto layout = impostor::sdk::AtlasLayoutFromManifest(
-//       manifest["layout"], manifest["frames"], manifest["views"].size());
+//       manifest["layout"].get<std::string>(), manifest["frames"].get<int>(),
+//       static_cast<int>(manifest["views"].size()));
+//   if (!layout) ...  // not an atlas this runtime can draw
 //   float dir[3] = {...};  // object space, centre -> camera
 //   impostor::sdk::FrameBlend blend = impostor::sdk::BlendFrames(
 //       *layout, dir, impostor::sdk::BlendMode::kTriangle3);
@@ -89,7 +97,7 @@ struct FrameWeight {
 };
 
 struct FrameBlend {
-  int count = 0;           // entries used, 1..4
+  int count = 0;           // entries used, 1..4 (0: the layout is not one a bake produces)
   FrameWeight entries[4];  // weights sum to 1
 };
 
@@ -145,8 +153,10 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
                                const FrameDepthReader& read_depth);
 
 // Atlas texture coordinates (0..1 over the whole atlas, v down) of a frame's
-// tile coordinates, for an atlas of `resolution` pixels (tiles of
-// floor(resolution / frames) pixels from the top-left corner). The
+// tile coordinates, for an atlas of `resolution` pixels: square tiles of the
+// manifest's `tile_size` pixels from the top-left corner (floor(resolution /
+// side) rounded down to a multiple of a power of two so that mip levels never
+// mix tiles; common/manifest_format.md), the rest of the atlas empty. The
 // AtlasLayout form places frame i in tile (i % side, i / side) of the
 // layout's side x side grid (side = frames, or ceil(sqrt(K + 1)) for
 // ring-top, 3 for billboard); the int form is for the grid layouts.
