@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -87,11 +88,17 @@ const char* StateName(grpc_connectivity_state state) {
   return "?";
 }
 
-// Why the channel's connection failed, when TLS is the reason: a sentence
-// for Connect's error, or "" when it is not about TLS (nothing listening).
-// The channel keeps its last connection error; a call that does not wait for
-// READY fails at once with it.
-std::string DescribeTlsFailure(grpc::Channel& channel, bool uses_tls) {
+// Why a channel in TRANSIENT_FAILURE cannot connect, from the last
+// connection error it keeps (a call that does not wait for READY fails at
+// once with it): a sentence for Connect's error. `silent` is set when a TCP
+// connection was accepted but no HTTP/2 greeting came (a stopped or
+// overloaded server), which is worth waiting out; the rest are not.
+struct ConnectFailure {
+  std::string sentence;
+  bool silent = false;
+};
+
+ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls) {
   v1::BakeService::Stub probe(std::shared_ptr<grpc::ChannelInterface>(&channel, [](grpc::ChannelInterface*) {}));
   grpc::ClientContext context;
   context.set_wait_for_ready(false);
@@ -104,60 +111,74 @@ std::string DescribeTlsFailure(grpc::Channel& channel, bool uses_tls) {
   const auto has = [&last](std::string_view text) { return last.find(text) != std::string::npos; };
   if (uses_tls) {
     if (has("certificate verify failed")) {
-      return absl::StrCat("TLS handshake failed: the server's certificate is not signed by the CA given "
-                          "(--tls-ca / tls_ca_file) (", last, ")");
+      return {absl::StrCat("TLS handshake failed: the server's certificate is not signed by the CA given "
+                           "(--tls-ca / tls_ca_file) (", last, ")")};
     }
     if (has("No match found for server name") || has("Peer name")) {
-      return absl::StrCat("TLS handshake failed: the server's certificate does not carry the name dialled; give "
-                          "the name it carries with --tls-server-name / tls_server_name (", last, ")");
+      return {absl::StrCat("TLS handshake failed: the server's certificate does not carry the name dialled; give "
+                           "the name it carries with --tls-server-name / tls_server_name (", last, ")")};
     }
     if (has("wrong version number") || has("packet length too long") || has("http request")) {
-      return absl::StrCat("TLS handshake failed: the server does not speak TLS; connect without --tls-ca (", last,
-                          ")");
+      return {absl::StrCat("TLS handshake failed: the server does not speak TLS; connect without --tls-ca (", last,
+                           ")")};
     }
     if (has("Handshake") || has("handshake") || has("SSL") || has("certificate") || has("Socket closed")) {
-      return absl::StrCat("TLS handshake failed (a server run with --tls-client-ca needs a client certificate "
-                          "it trusts: --tls-cert/--tls-key) (", last, ")");
+      return {absl::StrCat("TLS handshake failed (a server run with --tls-client-ca needs a client certificate "
+                           "it trusts: --tls-cert/--tls-key) (", last, ")")};
     }
-    return "";
+  }
+  if (has("DNS resolution failed") || has("Domain name not found") || has("name resolution")) {
+    return {absl::StrCat("the host name does not resolve (", last, ")")};
+  }
+  if (has("Connection refused")) return {"connection refused; is impostor-server running there?"};
+  if (has("Failed parsing HTTP/2") || has("http1") || has("HTTP/1")) {
+    return {absl::StrCat("something answers on that port, but it is not a gRPC server; is it impostor-server's "
+                         "port? (", last, ")")};
+  }
+  if (has("before receiving SETTINGS") || has("Deadline Exceeded") || has("timed out")) {
+    return {absl::StrCat("a connection was accepted but no gRPC server answered on it (a stopped or overloaded "
+                         "server, or another program on that port) (", last, ")"),
+            /*silent=*/true};
   }
   if (has("Socket closed") || has("Connection reset") || has("connection closed") || has("EOF")) {
-    return absl::StrCat("the server closed the connection; if it serves TLS, connect with its CA "
-                        "(--tls-ca / tls_ca_file) (", last, ")");
+    return {absl::StrCat("the server closed the connection; if it serves TLS, connect with its CA "
+                         "(--tls-ca / tls_ca_file) (", last, ")")};
   }
-  return "";
+  return {absl::StrCat("cannot connect (", last.empty() ? std::string("no reason given") : last, ")")};
 }
 
 // Waits until `channel` is READY: "" then, else why not, as a sentence for
-// Connect's error. Gives up early when the connection is refused outright:
-// a CI job or a game should hear "nobody there" in about a second, not
-// after the whole timeout. gRPC keeps the channel in TRANSIENT_FAILURE while
-// it retries, so after the first refusal allow one more second (a server
-// that is just starting) and then stop.
+// Connect's error. Gives up early when the connection fails outright (refused,
+// a name that does not resolve, not a gRPC server): a CI job or a game should
+// hear "nobody there" in about a second, not after the whole timeout. gRPC
+// keeps the channel in TRANSIENT_FAILURE while it retries, so after the
+// first failure allow one more second (a server that is just starting) and
+// then ask why. A server that accepts but does not answer (stopped, or
+// overloaded) gets the whole timeout.
 std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool uses_tls) {
   const auto deadline = DeadlineAfter(timeout_seconds);
-  bool refused = false;
+  bool failed_once = false;
+  std::optional<ConnectFailure> failure;
   grpc_connectivity_state state = channel.GetState(/*try_to_connect=*/true);
   while (state != GRPC_CHANNEL_READY) {
     auto wait_until = deadline;
-    if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) {
-      if (refused) break;
-      refused = true;
-      wait_until = std::min(deadline, DeadlineAfter(1.0));
+    if (state == GRPC_CHANNEL_TRANSIENT_FAILURE && !(failure && failure->silent)) {
+      if (failed_once) {
+        failure = DescribeConnectFailure(channel, uses_tls);
+        if (!failure->silent) break;
+      }
+      failed_once = true;
+      if (!failure) wait_until = std::min(deadline, DeadlineAfter(1.0));
     }
     if (!channel.WaitForStateChange(state, wait_until)) {
-      if (std::chrono::system_clock::now() >= deadline || state == GRPC_CHANNEL_TRANSIENT_FAILURE) break;
+      if (std::chrono::system_clock::now() >= deadline) break;
       continue;
     }
     state = channel.GetState(/*try_to_connect=*/true);
   }
   if (state == GRPC_CHANNEL_READY) return "";
-  // A failed TLS handshake (or a plaintext client of a TLS server) looks
-  // like a refusal to the channel's state; its last error tells them apart.
-  if (refused) {
-    if (std::string tls_problem = DescribeTlsFailure(channel, uses_tls); !tls_problem.empty()) return tls_problem;
-    return "connection refused; is impostor-server running there?";
-  }
+  if (failure) return failure->sentence;
+  if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) return DescribeConnectFailure(channel, uses_tls).sentence;
   return absl::StrCat("no impostor server answered within ", absl::SixDigits(timeout_seconds), " s (channel ",
                       StateName(state), ")");
 }
