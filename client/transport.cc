@@ -300,9 +300,19 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
 
 ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
-absl::Status Transport::Note(const grpc::Status& status, std::string_view rpc, const Route& route,
+absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc, const Route& route,
                              bool* try_next_now) {
   const std::string& target = stubs_->channels->target(route.index);
+  // Every call that cancels itself (TryCancel) returns before it gets here,
+  // so a CANCELLED here came from the server: one that stops gracefully
+  // cancels the calls still in flight. That is an outage like any other
+  // restart, to ride out within the retry policy, not a final answer.
+  const grpc::Status status =
+      received.error_code() == grpc::StatusCode::CANCELLED
+          ? grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                         absl::StrCat("the server cancelled the call, as one that is stopping does (",
+                                      received.error_message(), ")"))
+          : received;
   absl::Status error = ToStatus(status, rpc, target);
   // Another replica not yet tried since the last answer is no outage: the
   // call moves on to it at once.
@@ -312,9 +322,8 @@ absl::Status Transport::Note(const grpc::Status& status, std::string_view rpc, c
     case grpc::StatusCode::UNAVAILABLE:
       if (!next_now) stubs_->monitor.NoteFailure(error);
       break;
-    // Said by our own side (a deadline, a cancel), not by the server.
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-    case grpc::StatusCode::CANCELLED: break;
+    // Said by our own side (a deadline), not by the server.
+    case grpc::StatusCode::DEADLINE_EXCEEDED: break;
     default: NoteAnswer(route); break;
   }
   return error;

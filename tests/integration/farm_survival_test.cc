@@ -143,9 +143,15 @@ class WatcherThreads {
   size_t finished_ = 0;
 };
 
-TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
-  const fs::path data = testing::NewTempDir("server_death_data");
-  const fs::path pause = testing::NewTempDir("server_death_pause") / "pause";
+// The head node goes down mid-bake (one job running, two queued, a watcher
+// streaming each) and comes back on its address and data: no job is lost
+// and every watcher ends with the job's result. `graceful`: SIGTERM, which
+// lets the server close its streams ("watch again") and cancel what is in
+// flight as it stops; otherwise SIGKILL.
+void ServerStoppedMidBakeLosesNoJob(bool graceful) {
+  const std::string tag = graceful ? "server_stop" : "server_death";
+  const fs::path data = testing::NewTempDir(tag + "_data");
+  const fs::path pause = testing::NewTempDir(tag + "_pause") / "pause";
   // Port 0, then the restart on the address it got: no port number is
   // guessed or reused from a socket closed earlier.
   auto server = std::make_unique<testing::ServerProcess>(0, data, "127.0.0.1:0");
@@ -181,7 +187,11 @@ TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
   for (size_t i = 0; i < jobs.size(); ++i) {
     watchers.Start([&, i] { finals[i] = (*client)->WatchJob(jobs[i].job_id, [](const sdk::JobUpdate&) {}); });
   }
-  Kill9(server->process());
+  if (graceful) {
+    server->process().Terminate();
+  } else {
+    Kill9(server->process());
+  }
   server = std::make_unique<testing::ServerProcess>(0, data, address);
   ASSERT_EQ(server->address(), address) << "the restarted server is not on the old address";
   ASSERT_TRUE(server->channel()->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(60)))
@@ -194,15 +204,22 @@ TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) {
   for (size_t i = 0; i < jobs.size(); ++i) {
     ASSERT_TRUE(finals[i].ok()) << assets[i] << ": " << finals[i].status();
     EXPECT_EQ(finals[i]->state, sdk::JobState::kSucceeded) << assets[i] << ": " << finals[i]->error_message;
-    const fs::path out = testing::NewTempDir("server_death_fetch_" + std::to_string(i));
+    const fs::path out = testing::NewTempDir(tag + "_fetch_" + std::to_string(i));
     auto fetched = (*client)->Fetch(jobs[i].cache_key, out);  // verifies every digest
     ASSERT_TRUE(fetched.ok()) << assets[i] << ": " << fetched.status();
     completed += finals[i]->state == sdk::JobState::kSucceeded;
   }
   EXPECT_EQ(::waitpid(worker->pid(), nullptr, WNOHANG), 0) << "the worker outlived the server's death";
-  std::printf("farm survival: %zu jobs submitted, server killed mid-bake (1 running, %zu queued), %d completed\n",
-              jobs.size(), jobs.size() - 1, completed);
+  std::printf("farm survival: %zu jobs submitted, server %s mid-bake (1 running, %zu queued), %d completed\n",
+              jobs.size(), graceful ? "stopped (SIGTERM)" : "killed", jobs.size() - 1, completed);
 }
+
+TEST(FarmSurvival, ServerKilledMidBakeLosesNoJobAndWatchersReconnect) { ServerStoppedMidBakeLosesNoJob(false); }
+
+// A restart by the book (systemctl restart): the server cancels the calls
+// still in flight as it stops, which a client must take for the outage it
+// is, not for a final answer.
+TEST(FarmSurvival, ServerStoppedMidBakeLosesNoJobAndWatchersReconnect) { ServerStoppedMidBakeLosesNoJob(true); }
 
 TEST(FarmSurvival, CancelStopsTheRunningBakeAndFreesTheWorker) {
   testing::ServerProcess server(/*local_workers=*/0);
