@@ -24,6 +24,8 @@
 #include "common/bake_request.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/log_level.h"
+#include "server/http/listen_address.h"
 #include "common/grpc_log.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
@@ -145,6 +147,12 @@ int main(int argc, char** argv) {
   impostor::UnderscoreFlagNames(argc, argv);
   absl::ParseCommandLine(argc, argv);
   ::signal(SIGPIPE, SIG_IGN);
+  if (auto s = impostor::ValidateLogLevel("--log-level", absl::GetFlag(FLAGS_log_level)); !s.ok()) {
+    return Fail(std::string(s.message()));
+  }
+  if (auto a = impostor::ParseListenAddress(absl::GetFlag(FLAGS_listen), "--listen"); !a.ok()) {
+    return Fail(std::string(a.status().message()));
+  }
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ server %v");
   // gRPC's lines (a refused TLS handshake, ...) in the same format.
@@ -315,6 +323,10 @@ int main(int argc, char** argv) {
   if (!local_worker_socket.empty()) {
     builder.AddListeningPort("unix:" + local_worker_socket, grpc::InsecureServerCredentials());
   }
+  // No SO_REUSEPORT (gRPC's default): a second server on a port in use must
+  // fail to start, not share the port and split the clients between two
+  // farms with different stores.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.SetMaxReceiveMessageSize(16 << 20);
   impostor::TuneForManyCallers(builder);  // issue 18: server threads, mutex bookkeeping
   impostor::ApplyServerKeepalive(keepalive_seconds, builder);  // issue 15: quiet calls over a cut link

@@ -23,8 +23,9 @@ inline ProgramHelp ServerHelp() {
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},
                  {"Workers", {"local_workers", "worker_"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},
-      .footer = "Exit status: 0 after a clean shutdown, 2 for a bad flag value (one line on stderr naming the flag "
-                "and its range).\nSee impostor-worker(1) and impostor(1).",
+      .footer = "Exit status: 0 after a clean shutdown, 2 for a flag value out of range or unusable (one line on "
+                "stderr naming the flag and what it accepts), 1 for an unknown flag or a value that does not parse "
+                "(Abseil's message).\nSee impostor-worker(1) and impostor(1).",
   };
 }
 

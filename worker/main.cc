@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/log_level.h"
 #include "common/grpc_log.h"
 #include "common/keepalive.h"
 #include "common/server_list.h"
@@ -92,6 +93,10 @@ int main(int argc, char** argv) {
   // closed stdout must not take the process down.
   spdlog::set_default_logger(spdlog::stderr_color_mt("impostor"));
   ::signal(SIGPIPE, SIG_IGN);
+  if (auto s = impostor::ValidateLogLevel("--log-level", absl::GetFlag(FLAGS_log_level)); !s.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(s.message()).c_str());
+    return 2;
+  }
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
 
   char host[256] = {};

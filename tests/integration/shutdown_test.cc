@@ -200,7 +200,8 @@ TEST(WorkerOutage, AWorkerGivesUpOnAServerThatStaysAway) {
 }
 
 TEST(WorkerOutage, OutOfRangeDrainAndOutageFlagsAreUsageErrors) {
-  for (const char* flag : {"--drain-seconds=-1", "--drain-seconds=3601", "--max-outage-seconds=0"}) {
+  for (const char* flag : {"--drain-seconds=-1", "--drain-seconds=3601", "--max-outage-seconds=0",
+                           "--log-level=loud"}) {
     auto worker = testing::StartWorker("127.0.0.1:1", "bad-flags", {flag});
     EXPECT_EQ(worker->Wait(), 2) << flag;
   }
@@ -219,6 +220,33 @@ TEST(ServerFlags, OutOfRangeShutdownAndPauseFlagsAreUsageErrors) {
     testing::ChildProcess server({(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
                                   "--data=" + data.string(), flag});
     EXPECT_EQ(server.Wait(), 2) << flag;
+  }
+}
+
+// Values Abseil's parser accepts that the server could not use as given: a
+// log level spdlog would take for "off" (a silent server), a port gRPC would
+// wrap around (99999 -> 34463), and a port another server holds (gRPC's
+// SO_REUSEPORT would let two farms share it and split the clients).
+TEST(ServerFlags, UnusableLogLevelAndListenAddressesAreUsageErrors) {
+  const fs::path data = testing::NewTempDir("server_bad_listen");
+  testing::ServerProcess holder(/*local_workers=*/0);
+  const struct {
+    std::string flag;
+    std::string message;
+  } cases[] = {
+      {"--log-level=loud", "--log-level: \"loud\" is not a log level"},
+      {"--listen=127.0.0.1:99999", "--listen: \"127.0.0.1:99999\" has a port that is not a number in 0..65535"},
+      {"--listen=127.0.0.1", "--listen: \"127.0.0.1\" has no port"},
+      {"--listen=" + holder.address(), "--listen: cannot listen on " + holder.address()},
+  };
+  for (const auto& c : cases) {
+    const testing::ToolRun run = testing::RunTool(
+        {(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0", "--data=" + data.string(),
+         "--local-workers=0", c.flag},
+        std::chrono::seconds(60));
+    EXPECT_EQ(run.exit_code, 2) << c.flag << "\n" << run.err;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << c.flag << ": " << run.err;
+    EXPECT_EQ(run.out.find("listening on"), std::string::npos) << c.flag << ": started anyway";
   }
 }
 
