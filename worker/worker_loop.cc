@@ -16,6 +16,7 @@
 #include "common/server_list.h"
 #include "common/sha256.h"
 #include "worker/bake/atlas_bake.h"
+#include "worker/bake/bake_outputs.h"
 #include "worker/bearer_token.h"
 #include "worker/bake/cards_bake.h"
 #include "worker/bake/lod_bake.h"
@@ -466,7 +467,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     v1::BakeTimings* timings = out->manifest.mutable_timings();
     timings->set_load_seconds(timings->load_seconds() + isolated_load_seconds);
     timings->set_total_seconds(timings->total_seconds() + isolated_load_seconds);
-    return out;
+    // The bake wrote manifest.json before this loop's own stages (download,
+    // the isolated load) were added: written again, so that the file says
+    // what the proto does. (Its upload, store_seconds, comes after it.)
+    return WriteManifest(output_dir, std::move(out->manifest));
   }();
 
   absl::Status outcome = result.status();

@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 #include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "common/frame_camera.h"
 #include "common/manifest_json.h"
@@ -112,6 +113,15 @@ TEST_P(SilhouetteTest, EveryTileCoversTheMeshSilhouetteFromItsCamera) {
   EXPECT_EQ(from_json->views_size(), param.expect_views);
   EXPECT_EQ(from_json->layout(), param.layout);
   EXPECT_EQ(from_json->maps(0).digest().hash(), m.maps(0).digest().hash());
+  // Its timings include the worker's own stages (the download, the load in
+  // the isolated child), as the proto's do; only the upload comes after it.
+  const nlohmann::json timings = nlohmann::json::parse(json).at("timings_seconds");
+  EXPECT_GT(timings.at("load").get<double>(), 0.0) << timings.dump();
+  EXPECT_EQ(timings.at("load").get<double>(), m.timings().load_seconds()) << timings.dump();
+  EXPECT_EQ(timings.at("download").get<double>(), m.timings().download_seconds()) << timings.dump();
+  EXPECT_EQ(timings.at("total").get<double>(), m.timings().total_seconds()) << timings.dump();
+  EXPECT_EQ(timings.at("store").get<double>(), 0.0) << timings.dump();
+  EXPECT_GT(m.timings().store_seconds(), 0.0);
 
   std::string png;
   ASSERT_EQ(m.maps(0).semantic(), "albedo_alpha");
