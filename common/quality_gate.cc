@@ -22,6 +22,22 @@ absl::Status ValidateQualityGate(const v1::QualityGate& gate, const char* field)
   return absl::OkStatus();
 }
 
+absl::Status CheckQualityGateApplies(const v1::QualityGate& gate, const v1::BakeParameters& normalized,
+                                     const char* field) {
+  if (!HasQualityGate(gate)) return absl::OkStatus();
+  const v1::Product product = normalized.product();
+  if (product != v1::PRODUCT_ATLAS && product != v1::PRODUCT_LOD_CHAIN) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        field, ": only atlas and lod-chain bakes are gated (their quality pass measures what min_iou and "
+               "min_psnr_db judge); this request's product is ", v1::Product_Name(product)));
+  }
+  if (normalized.quality_views() == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        field, ": needs the quality pass, and this request turns it off (parameters.quality_views 0)"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status CheckQualityGate(const v1::QualityGate& gate, const v1::Manifest& result) {
   if (!HasQualityGate(gate)) return absl::OkStatus();
   const v1::AtlasQuality& q = result.quality();

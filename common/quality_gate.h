@@ -17,6 +17,14 @@ bool HasQualityGate(const v1::QualityGate& gate);
 // must be within 0..1 and `field`.min_psnr_db within 0..100 (NaN refused).
 absl::Status ValidateQualityGate(const v1::QualityGate& gate, const char* field = "gate");
 
+// OK when no threshold is set, or when the bake `normalized` describes
+// (NormalizeParameters' output) measures what the gate judges: an atlas or
+// lod-chain product with its quality pass (quality_views > 0). Otherwise
+// INVALID_ARGUMENT naming `field` and what the request lacks, so that a gate
+// that could never pass is refused before anything is baked.
+absl::Status CheckQualityGateApplies(const v1::QualityGate& gate, const v1::BakeParameters& normalized,
+                                     const char* field = "gate");
+
 // OK when no threshold is set, or when result.quality() meets every one set
 // (silhouette_iou_mean >= min_iou, albedo_psnr_shared_db_mean >= min_psnr_db: colour over the pixels both renders cover, manifest format 2).
 // FAILED_PRECONDITION otherwise, giving every measured value against its

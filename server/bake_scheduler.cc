@@ -513,6 +513,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
                                                    "..", kMaxPriority));
   }
   if (auto s = ValidateQualityGate(request.gate(), "gate"); !s.ok()) return s;
+  if (auto s = CheckQualityGateApplies(request.gate(), *params, "gate"); !s.ok()) return s;
   if (auto s = ValidateRequestId(request.request_id()); !s.ok()) return s;
   const std::string requester = client_id.substr(0, 128);
   const std::string key = ComputeCacheKey(request.mesh(), *params);

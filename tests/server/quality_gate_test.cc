@@ -176,6 +176,37 @@ TEST_F(GatedSchedulerTest, GateOutOfRangeIsInvalidArgument) {
   EXPECT_EQ(r.status().message(), "gate.min_psnr_db: 101 is out of range 0..100");
 }
 
+// A gate on a bake that measures nothing it judges could never pass: it is
+// refused at submit, before anything is baked or queued.
+TEST_F(GatedSchedulerTest, AGateOnABakeWithoutAQualityPassIsRefusedAtSubmit) {
+  struct Case {
+    v1::Product product;
+    std::optional<uint32_t> quality_views;
+    std::string message;
+  } cases[] = {
+      {v1::PRODUCT_SURFELS, {}, "gate: only atlas and lod-chain bakes are gated"},
+      {v1::PRODUCT_CARDS, {}, "gate: only atlas and lod-chain bakes are gated"},
+      {v1::PRODUCT_ATLAS, 0, "gate: needs the quality pass, and this request turns it off"},
+  };
+  for (const Case& c : cases) {
+    v1::SubmitBakeRequest r = Gated("rock", 0.5f, {});
+    r.mutable_parameters()->set_product(c.product);
+    if (c.quality_views) r.mutable_parameters()->set_quality_views(*c.quality_views);
+    auto submitted = scheduler_->Submit(r, "ci");
+    ASSERT_FALSE(submitted.ok()) << v1::Product_Name(c.product);
+    EXPECT_EQ(submitted.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(submitted.status().message().find(c.message), std::string::npos) << submitted.status();
+  }
+  EXPECT_TRUE(Lease().job_id().empty()) << "nothing was queued";
+  // The same bakes without a gate are accepted, and a gated lod chain too.
+  v1::SubmitBakeRequest ungated = Request("rock");
+  ungated.mutable_parameters()->set_product(v1::PRODUCT_CARDS);
+  EXPECT_TRUE(scheduler_->Submit(ungated, "ci").ok());
+  v1::SubmitBakeRequest chain = Gated("rock", 0.5f, {});
+  chain.mutable_parameters()->set_product(v1::PRODUCT_LOD_CHAIN);
+  EXPECT_TRUE(scheduler_->Submit(chain, "ci").ok());
+}
+
 TEST_F(GatedSchedulerTest, GateSurvivesARestart) {
   auto r = Submit(Gated("rock", 0.99f, {}), "ci");
   v1::LeasedJob job = Lease();
