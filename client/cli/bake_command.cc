@@ -28,7 +28,8 @@ class BakeReport {
   BakeReport(const CliArgs& args) : args_(args), start_(std::chrono::steady_clock::now()) {
     json_ = {{"model", args.target}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
              {"out_dir", args.out},  {"manifest", nullptr},  {"files", nlohmann::json::array()},
-             {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"error", nullptr}};
+             {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"warnings", nlohmann::json::array()},
+             {"error", nullptr}};
   }
   nlohmann::json& json() { return json_; }
 
@@ -138,19 +139,7 @@ int RunBake(const CliArgs& args) {
 
   absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(submitted->cache_key, args.out);
   if (!fetched.ok()) return report.Fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));
-  report.json()["manifest"] = fetched->manifest_path.string();
-  for (const fs::path& f : fetched->files) report.json()["files"].push_back(f.string());
-  report.json()["warnings"] = fetched->warnings;
-  // Warnings go to stderr even with --quiet: they say what the atlas lacks.
-  for (const std::string& w : fetched->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  const nlohmann::json quality = ReadQualityBlock(fetched->manifest_path);
-  report.json()["quality"] = quality;
-  if (!args.quiet && quality.is_object()) std::fprintf(stderr, "%s\n", QualitySummaryLine(quality).c_str());
-  for (const fs::path& f : fetched->files) {
-    if (f.filename() != "contact_sheet.png") continue;
-    report.json()["contact_sheet"] = f.string();
-    if (!args.quiet) std::fprintf(stderr, "contact sheet: %s\n", f.string().c_str());
-  }
+  ReportFetchedResult(*fetched, args.quiet, &report.json());
 
   if (!args.json) {
     std::printf("%s\n", fetched->manifest_path.string().c_str());

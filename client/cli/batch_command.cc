@@ -209,6 +209,7 @@ class BatchRunner {
       }
       for (const fs::path& f : fetched->files) outcome.files.push_back(f.string());
       outcome.quality = QualityOf(fetched->manifest_path);
+      outcome.warnings = fetched->warnings;
     }
     std::lock_guard lock(mu_);
     if (error_code != 0) {
@@ -269,6 +270,9 @@ class BatchRunner {
       case AssetStatus::kSkipped: ++counts_.skipped; break;
     }
     if (status == AssetStatus::kFailed) failures_.push_back(absl::StrCat(outcome.asset, ": ", outcome.error));
+    // Warnings go to stderr even with --quiet, as `impostor bake` prints
+    // them: they say what the result lacks.
+    for (const std::string& w : outcome.warnings) std::fprintf(stderr, "warning: %s: %s\n", outcome.name.c_str(), w.c_str());
     if (args_.json) {
       PrintJson(AssetJson(outcome));
     } else {

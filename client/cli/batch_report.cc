@@ -35,6 +35,7 @@ nlohmann::json AssetJson(const AssetOutcome& o) {
       {"wall_seconds", o.wall_seconds},
       {"priority", o.priority},
       {"quality", o.quality.is_object() ? o.quality : nlohmann::json(nullptr)},
+      {"warnings", o.warnings},
       {"error", OrNull(o.error)},
       {"error_code", o.error_code},
   };

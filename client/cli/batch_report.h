@@ -9,6 +9,7 @@
 //    "cache_key": hex or null, "job_id": id or null, "out_dir": DIR/<name>,
 //    "files": [paths], "wall_seconds": submit to result on disk,
 //    "priority": int, "quality": the manifest's quality block or null,
+//    "warnings": [the manifest's warnings, as `impostor bake` prints them],
 //    "error": null or "CODE: message", "error_code": 0 or a canonical code}
 //   {"type": "summary", "total", "succeeded", "baked", "cached", "failed",
 //    "skipped", "wall_seconds", "exit_code"}
@@ -39,6 +40,7 @@ struct AssetOutcome {
   double wall_seconds = 0;
   int32_t priority = 0;
   nlohmann::json quality;  // null when the manifest has no quality block
+  std::vector<std::string> warnings;  // the manifest's (what the result lacks)
   int error_code = 0;      // canonical status code, 0 = none
   std::string error;       // "CODE: message", empty = none
 };

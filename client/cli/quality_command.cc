@@ -72,14 +72,26 @@ void FetchGatedResult(sdk::Client& client, const std::string& cache_key, const s
                  Describe(fetched.status()).c_str());
     return;
   }
-  (*report)["manifest"] = fetched->manifest_path.string();
-  for (const fs::path& f : fetched->files) (*report)["files"].push_back(f.string());
-  const nlohmann::json quality = ReadQualityBlock(fetched->manifest_path);
-  (*report)["quality"] = quality;
+  ReportFetchedResult(*fetched, quiet, report);
   if (quiet) return;
-  if (quality.is_object()) std::fprintf(stderr, "%s\n", QualitySummaryLine(quality).c_str());
   std::fprintf(stderr, "the rejected result is in %s for inspection (impostor quality %s shows the worst view)\n",
                out_dir.c_str(), cache_key.c_str());
+}
+
+void ReportFetchedResult(const sdk::FetchResult& fetched, bool quiet, nlohmann::json* report) {
+  (*report)["manifest"] = fetched.manifest_path.string();
+  for (const fs::path& f : fetched.files) (*report)["files"].push_back(f.string());
+  (*report)["warnings"] = fetched.warnings;
+  // Warnings go to stderr even with --quiet: they say what the atlas lacks.
+  for (const std::string& w : fetched.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const nlohmann::json quality = ReadQualityBlock(fetched.manifest_path);
+  (*report)["quality"] = quality;
+  if (!quiet && quality.is_object()) std::fprintf(stderr, "%s\n", QualitySummaryLine(quality).c_str());
+  for (const fs::path& f : fetched.files) {
+    if (f.filename() != "contact_sheet.png") continue;
+    (*report)["contact_sheet"] = f.string();
+    if (!quiet) std::fprintf(stderr, "contact sheet: %s\n", f.string().c_str());
+  }
 }
 
 int RunQuality(const CliArgs& args) {

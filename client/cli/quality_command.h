@@ -27,10 +27,16 @@ std::string QualitySummaryLine(const nlohmann::json& quality);
 // FAILED_PRECONDITION, "quality gate: ..."): the result exists.
 bool IsQualityGateFailure(int error_code, const std::string& error_message);
 
+// What `impostor bake` says about a downloaded result: records "manifest",
+// "files", "warnings", "quality" and "contact_sheet" in `report`, prints
+// each warning on stderr (even when quiet: they say what the result lacks)
+// and, unless quiet, the quality line and the contact sheet's path.
+void ReportFetchedResult(const sdk::FetchResult& fetched, bool quiet, nlohmann::json* report);
+
 // After a quality-gate failure: downloads the result into `out_dir` anyway,
-// records "manifest", "files" and "quality" in `report` and tells the user
-// (stderr, unless quiet) where to look. A failed download is reported on
-// stderr only: the gate's failure stays the command's outcome.
+// reports it as ReportFetchedResult does and tells the user (stderr, unless
+// quiet) where to look. A failed download is reported on stderr only: the
+// gate's failure stays the command's outcome.
 void FetchGatedResult(sdk::Client& client, const std::string& cache_key, const std::string& out_dir, bool quiet,
                       nlohmann::json* report);
 

@@ -61,6 +61,32 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   EXPECT_NE(stdout_text.find("\"warnings\":[\"points/lines primitives skipped"),
             std::string::npos)
       << stdout_text;
+
+  // Also when the quality gate rejects the result (it is downloaded for
+  // inspection, warnings and all), and for each model of a batch.
+  const fs::path gated_out = testing::NewTempDir("warnings_gated");
+  testing::ChildProcess gated({(testing::BinaryDir() / "impostor").string(), "bake",
+                               (AssetsDir() / kPrimitiveModes).string(), "--frames", "2", "--resolution", "64",
+                               "--min-iou", "1", "--out", gated_out.string(), "--json", "--server", server.address()});
+  stdout_text.clear();
+  EXPECT_EQ(gated.Wait(&stdout_text), 1) << "the gate of IoU 1 fails";
+  EXPECT_NE(stdout_text.find("\"warnings\":[\"points/lines primitives skipped"), std::string::npos)
+      << stdout_text;
+  EXPECT_NE(gated.Stderr().find("warning: points/lines primitives skipped"), std::string::npos) << gated.Stderr();
+
+  const fs::path batch_out = testing::NewTempDir("warnings_batch");
+  testing::ChildProcess batch({(testing::BinaryDir() / "impostor").string(), "bake",
+                               (AssetsDir() / kPrimitiveModes).string(),
+                               (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string(), "--frames", "2",
+                               "--resolution", "64", "--out", batch_out.string(), "--json", "--server",
+                               server.address()});
+  stdout_text.clear();
+  EXPECT_EQ(batch.Wait(&stdout_text), 0) << batch.Stderr();
+  EXPECT_NE(stdout_text.find("\"warnings\":[\"points/lines primitives skipped"), std::string::npos)
+      << stdout_text;
+  EXPECT_NE(stdout_text.find("\"warnings\":[]"), std::string::npos) << "Box has none: " << stdout_text;
+  EXPECT_NE(batch.Stderr().find("warning: MeshPrimitiveModes: points/lines primitives skipped"), std::string::npos)
+      << batch.Stderr();
 }
 
 TEST(MaterialWarningsEndToEnd, MissingTextureFileFailsTheBakeNamingTheFile) {
