@@ -305,15 +305,19 @@ class BatchRunner {
                    counts_.total, counts_.baked + counts_.cached, counts_.baked, counts_.cached, counts_.failed,
                    counts_.skipped, wall);
     }
-    if (args_.json) PrintJson(SummaryJson(counts_, wall, exit_code));
+    std::string reason;
+    if (exit_code != kExitOk && !batch_error_.ok()) {
+      reason = Describe(batch_error_);
+    } else if (exit_code != kExitOk) {
+      // One line naming every failed asset (the first ten) and why.
+      std::vector<std::string> shown(failures_.begin(), failures_.begin() + std::min<size_t>(failures_.size(), 10));
+      reason = absl::StrCat(counts_.failed, " of ", counts_.total, " assets failed");
+      if (counts_.skipped > 0) absl::StrAppend(&reason, ", ", counts_.skipped, " not submitted");
+      absl::StrAppend(&reason, ": ", absl::StrJoin(shown, "; "));
+      if (failures_.size() > shown.size()) absl::StrAppend(&reason, "; and ", failures_.size() - shown.size(), " more");
+    }
+    if (args_.json) PrintJson(SummaryJson(counts_, wall, exit_code, reason));
     if (exit_code == kExitOk) return exit_code;
-    if (!batch_error_.ok()) return Fail(exit_code, Describe(batch_error_));
-    // One line naming every failed asset (the first ten) and why.
-    std::vector<std::string> shown(failures_.begin(), failures_.begin() + std::min<size_t>(failures_.size(), 10));
-    std::string reason = absl::StrCat(counts_.failed, " of ", counts_.total, " assets failed");
-    if (counts_.skipped > 0) absl::StrAppend(&reason, ", ", counts_.skipped, " not submitted");
-    absl::StrAppend(&reason, ": ", absl::StrJoin(shown, "; "));
-    if (failures_.size() > shown.size()) absl::StrAppend(&reason, "; and ", failures_.size() - shown.size(), " more");
     return Fail(exit_code, reason);
   }
 
@@ -337,16 +341,25 @@ class BatchRunner {
   BatchProgressLine progress_ ABSL_GUARDED_BY(mu_);
 };
 
+// A batch that fails before its first submit: the --json summary still
+// comes (every asset counted as not submitted), then the one line.
+int FailBeforeSubmitting(const CliArgs& args, int total, int exit_code, const std::string& reason) {
+  if (args.json) PrintJson(SummaryJson(BatchCounts{.total = total, .skipped = total}, 0.0, exit_code, reason));
+  return Fail(exit_code, reason);
+}
+
 int RunBatch(const CliArgs& args, const BatchSpec& spec) {
+  const int total = static_cast<int>(spec.entries.size());
   std::error_code ec;
   fs::create_directories(args.out, ec);
   if (ec || !fs::is_directory(args.out)) {
-    return Fail(kExitLocalIo, absl::StrCat("cannot create output directory ", args.out, ": ",
-                                           ec ? ec.message() : std::string("not a directory")));
+    return FailBeforeSubmitting(args, total, kExitLocalIo,
+                                absl::StrCat("cannot create output directory ", args.out, ": ",
+                                             ec ? ec.message() : std::string("not a directory")));
   }
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
-  if (!client.ok()) return Fail(kExitServer, Describe(client.status()));
+  if (!client.ok()) return FailBeforeSubmitting(args, total, kExitServer, Describe(client.status()));
   BatchRunner runner(args, spec, **client);
   return runner.Run();
 }
@@ -357,7 +370,7 @@ int RunBakeBatch(const CliArgs& args) {
   absl::StatusOr<BatchSpec> spec = args.command == Command::kBakeBatch
                                        ? LoadBatchSpec(args.target, args.priority)
                                        : BatchFromModels(args.targets, BakeSettingsFromArgs(args));
-  if (!spec.ok()) return Fail(kExitUsage, std::string(spec.status().message()));
+  if (!spec.ok()) return FailBeforeSubmitting(args, 0, kExitUsage, std::string(spec.status().message()));
   return RunBatch(args, *spec);
 }
 

@@ -41,11 +41,12 @@ nlohmann::json AssetJson(const AssetOutcome& o) {
   };
 }
 
-nlohmann::json SummaryJson(const BatchCounts& c, double wall_seconds, int exit_code) {
+nlohmann::json SummaryJson(const BatchCounts& c, double wall_seconds, int exit_code, const std::string& error) {
   return {
       {"type", "summary"},     {"total", c.total},     {"succeeded", c.baked + c.cached},
       {"baked", c.baked},      {"cached", c.cached},   {"failed", c.failed},
       {"skipped", c.skipped},  {"wall_seconds", wall_seconds}, {"exit_code", exit_code},
+      {"error", OrNull(error)},
   };
 }
 

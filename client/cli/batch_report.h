@@ -12,7 +12,10 @@
 //    "warnings": [the manifest's warnings, as `impostor bake` prints them],
 //    "error": null or "CODE: message", "error_code": 0 or a canonical code}
 //   {"type": "summary", "total", "succeeded", "baked", "cached", "failed",
-//    "skipped", "wall_seconds", "exit_code"}
+//    "skipped", "wall_seconds", "exit_code", "error": null or the one line
+//    the command prints on stderr when it fails}
+// The summary comes on every outcome, also when the batch fails before any
+// asset is submitted (a bad spec: exit 2, total 0; no server: exit 3).
 #ifndef IMPOSTOR_CLIENT_CLI_BATCH_REPORT_H_
 #define IMPOSTOR_CLIENT_CLI_BATCH_REPORT_H_
 
@@ -59,7 +62,8 @@ struct BatchCounts {
 };
 
 nlohmann::json AssetJson(const AssetOutcome& outcome);
-nlohmann::json SummaryJson(const BatchCounts& counts, double wall_seconds, int exit_code);
+nlohmann::json SummaryJson(const BatchCounts& counts, double wall_seconds, int exit_code,
+                           const std::string& error = "");
 
 // "[########------------]  9/20  queued 5  running 2  done 6  cached 3  failed 0"
 // (`bar_width` characters of bar; "skipped N" appears once there are any).

@@ -354,7 +354,25 @@ TEST(BatchCli, UnreachableServerExits3AndAnUncreatableOutExits4) {
     EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.err;
     EXPECT_NE(run.err.find("impostor: "), std::string::npos) << c.name << ": " << run.err;
     EXPECT_NE(run.err.find(c.mentions), std::string::npos) << c.name << ": " << run.err;
+    // --json: the summary comes on this outcome too, for CI to parse.
+    const nlohmann::json summary = nlohmann::json::parse(run.out, nullptr, /*allow_exceptions=*/false);
+    ASSERT_TRUE(summary.is_object()) << c.name << ": stdout " << run.out;
+    EXPECT_EQ(summary["type"], "summary") << run.out;
+    EXPECT_EQ(summary["exit_code"], c.exit_code) << run.out;
+    EXPECT_EQ(summary["total"], 1) << run.out;
+    EXPECT_EQ(summary["skipped"], 1) << run.out;
+    EXPECT_NE(summary["error"].get<std::string>().find(c.mentions), std::string::npos) << run.out;
   }
+  // A spec refused before anything is sent: exit 2, and the summary says so.
+  std::ofstream(dir / "empty.json") << R"({"assets": []})";
+  const ToolRun bad = RunTool({Impostor(), "bake-batch", (dir / "empty.json").string(), "--out",
+                               (dir / "out").string(), "--server", "127.0.0.1:1", "--json", "--quiet"});
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  const nlohmann::json summary = nlohmann::json::parse(bad.out, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(summary.is_object()) << bad.out;
+  EXPECT_EQ(summary["exit_code"], 2);
+  EXPECT_EQ(summary["total"], 0);
+  EXPECT_NE(summary["error"].get<std::string>().find("the list is empty"), std::string::npos) << bad.out;
 }
 
 // The server leases a batch's jobs highest priority first: the batch is

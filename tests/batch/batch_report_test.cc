@@ -56,6 +56,9 @@ TEST(SummaryJson, CountsAndExitCode) {
   EXPECT_EQ(j["failed"], 2);
   EXPECT_EQ(j["skipped"], 1);
   EXPECT_EQ(j["exit_code"], 1);
+  EXPECT_TRUE(j["error"].is_null());
+  EXPECT_EQ(SummaryJson(c, 1, 3, "UNAVAILABLE: Connect (server x:1): connection refused")["error"],
+            "UNAVAILABLE: Connect (server x:1): connection refused");
 }
 
 TEST(SummaryLine, ShowsEveryCountAndABar) {
