@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
+#include "common/sha256.h"
 #include "common/keepalive.h"
 #include "common/server_list.h"
 
@@ -346,6 +347,11 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   out.targets = positional;
   out.target = positional[0];
   if (out.target.empty()) return Usage(absl::StrCat("'", name, "': ", spec.target_name, " is empty"));
+  // A KEY that cannot be one is a usage error here, not a server's answer.
+  if ((spec.command == Command::kFetch || spec.command == Command::kQuality) && !IsSha256Hex(out.target)) {
+    return Usage(absl::StrCat("cache key \"", out.target.substr(0, 80),
+                              "\": expected 64 lowercase hex characters (as `impostor bake --json` prints it)"));
+  }
   if (spec.needs_out && !out_given) return Usage(absl::StrCat("'", name, "' needs --out DIR"));
   return out;
 }
@@ -549,11 +555,12 @@ Common flags:
 
 Exit codes:
   0  success
-  1  the bake failed, was cancelled, or the server refused the request as invalid;
-     for a batch: at least one asset failed or was skipped (the others are in DIR)
+  1  the bake failed, was cancelled, or the server refused the request (invalid,
+     or nothing under that KEY or JOB_ID); for a batch: at least one asset failed
+     or was skipped (the others are in DIR)
   2  usage error (unknown flag, missing value, not a number, ...); a malformed
      batch SPEC or a listed model that does not exist (nothing is submitted)
-  3  cannot reach the server, or an RPC failed
+  3  cannot reach the server, or an RPC failed otherwise (worth retrying later)
   4  local I/O error (model not found or unusable, cannot write DIR)
 Every failure prints exactly one line "impostor: <reason>" on stderr.
 

@@ -23,9 +23,15 @@ std::string Describe(const absl::Status& status) {
 }
 
 int ExitCodeFor(const absl::Status& status) {
-  if (sdk::GetRpcErrorInfo(status).has_value() || status.code() == absl::StatusCode::kDataLoss) {
+  if (sdk::GetRpcErrorInfo(status).has_value()) {
+    // The server answered, and refused: nothing under that key or job id,
+    // or a request it judged invalid. CI retries exit 3, not these.
+    if (status.code() == absl::StatusCode::kNotFound || status.code() == absl::StatusCode::kInvalidArgument) {
+      return kExitBakeFailed;
+    }
     return kExitServer;
   }
+  if (status.code() == absl::StatusCode::kDataLoss) return kExitServer;
   return kExitLocalIo;
 }
 

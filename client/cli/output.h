@@ -20,8 +20,10 @@ int Fail(int exit_code, std::string_view reason);
 // "CODE: message", without the payloads absl::Status::ToString would add.
 std::string Describe(const absl::Status& status);
 
-// kExitServer for RPC failures and corrupt downloads, kExitLocalIo for the
-// rest (local files).
+// kExitBakeFailed when the server refused the request (NOT_FOUND: nothing
+// under that key or job id; INVALID_ARGUMENT), kExitServer for the other RPC
+// failures (the farm down or failing) and corrupt downloads, kExitLocalIo for
+// the rest (local files).
 int ExitCodeFor(const absl::Status& status);
 
 // Writes `json` as one line on stdout.

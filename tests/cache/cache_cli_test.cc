@@ -37,7 +37,7 @@ TEST(CacheCli, GetLsGcReportAndExitAsDocumented) {
       {"ls is empty after", {"cache", "ls"}, 0, "0 results"},
       {"malformed key", {"cache", "get", "xyz"}, 2,
        "impostor: INVALID_ARGUMENT: cache key \"xyz\": expected 64 lowercase hex characters"},
-      {"never baked", {"cache", "get", std::string(64, 'd')}, 3, "impostor: NOT_FOUND: "},
+      {"never baked", {"cache", "get", std::string(64, 'd')}, 1, "impostor: NOT_FOUND: "},
       {"server unreachable", {"cache", "get", std::string(64, 'e'), "--server", "127.0.0.1:1"}, 3,
        "impostor: UNAVAILABLE: Connect (server 127.0.0.1:1)"},
       {"no verb", {"cache"}, 2, "impostor: 'cache' needs a subcommand: get, ls or gc"},

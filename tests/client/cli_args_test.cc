@@ -87,10 +87,10 @@ TEST(ParseCliArgs, HelpVersionAndOtherCommands) {
   EXPECT_EQ(ParseCliArgs({"help"}, nullptr)->command, Command::kHelp);
   EXPECT_EQ(ParseCliArgs({"bake", "--bogus", "-h"}, nullptr)->command, Command::kHelp);
   EXPECT_EQ(ParseCliArgs({"version"}, nullptr)->command, Command::kVersion);
-  absl::StatusOr<CliArgs> f = ParseCliArgs({"fetch", "abc", "--out", "d"}, nullptr);
+  absl::StatusOr<CliArgs> f = ParseCliArgs({"fetch", std::string(64, 'c'), "--out", "d"}, nullptr);
   ASSERT_TRUE(f.ok()) << f.status();
   EXPECT_EQ(f->command, Command::kFetch);
-  EXPECT_EQ(f->target, "abc");
+  EXPECT_EQ(f->target, std::string(64, 'c'));
   EXPECT_EQ(ParseCliArgs({"cancel", "j9"}, nullptr)->command, Command::kCancel);
   // "--" ends the flags: a model may start with a dash.
   EXPECT_EQ(ParseCliArgs({"bake", "--out", "o", "--", "-odd.glb"}, nullptr)->target, "-odd.glb");
@@ -118,19 +118,21 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
       {"unknown_layout", {"bake", "m.glb", "--out", "o", "--layout", "cube"}, "--layout"},
       {"missing_model", {"bake", "--out", "o"}, "MODEL"},
       {"two_models_without_out", {"bake", "a.glb", "b.glb"}, "needs --out DIR"},
-      {"two_keys", {"fetch", "k1", "k2", "--out", "o"}, "unexpected argument \"k2\""},
+      {"two_keys", {"fetch", std::string(64, 'a'), "k2", "--out", "o"}, "unexpected argument \"k2\""},
+      {"key_not_hex", {"fetch", "abc", "--out", "o"}, "cache key \"abc\": expected 64 lowercase hex characters"},
+      {"quality_key_upper", {"quality", std::string(64, 'A')}, "expected 64 lowercase hex characters"},
       {"bool_flag_with_value", {"bake", "m.glb", "--out", "o", "--json=yes"}, "--json takes no value"},
       {"missing_job_id", {"status"}, "JOB_ID"},
       {"outage_negative", {"bake", "m.glb", "--out", "o", "--max-outage-seconds", "-1"}, "--max-outage-seconds"},
-      {"outage_too_long", {"fetch", "k", "--out", "o", "--max-outage-seconds=90000"}, "0..86400"},
+      {"outage_too_long", {"fetch", std::string(64, 'a'), "--out", "o", "--max-outage-seconds=90000"}, "0..86400"},
       {"outage_not_a_number", {"bake-batch", "s.json", "--out", "o", "--max-outage-seconds", "soon"},
        "--max-outage-seconds"},
       {"outage_nan", {"status", "j1", "--max-outage-seconds", "nan"}, "--max-outage-seconds"},
-      {"outage_missing_value", {"fetch", "k", "--out", "o", "--max-outage-seconds"}, "missing value"},
+      {"outage_missing_value", {"fetch", std::string(64, 'a'), "--out", "o", "--max-outage-seconds"}, "missing value"},
       {"outage_on_cache_ls", {"cache", "ls", "--max-outage-seconds", "5"}, "unknown flag --max-outage-seconds"},
       {"keepalive_zero", {"bake", "m.glb", "--out", "o", "--keepalive-seconds", "0"}, "--keepalive-seconds"},
       {"keepalive_too_long", {"status", "j1", "--keepalive-seconds=7201"}, "1..7200"},
-      {"keepalive_fraction", {"fetch", "k", "--out", "o", "--keepalive-seconds", "1.5"}, "got \"1.5\""},
+      {"keepalive_fraction", {"fetch", std::string(64, 'a'), "--out", "o", "--keepalive-seconds", "1.5"}, "got \"1.5\""},
       {"keepalive_missing_value", {"bake-batch", "s.json", "--out", "o", "--keepalive-seconds"}, "missing value"},
       {"keepalive_on_cache_ls", {"cache", "ls", "--keepalive-seconds", "5"}, "unknown flag --keepalive-seconds"},
   };
@@ -145,8 +147,8 @@ TEST(ParseCliArgs, UsageErrorsNameTheCulprit) {
 
 TEST(ParseCliArgs, MaxOutageSecondsOnEveryCommandThatTalksToTheServer) {
   const std::vector<std::vector<std::string>> commands = {
-      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", "k", "--out", "o"},
-      {"quality", "k"},                {"status", "j"},                         {"cancel", "j"},
+      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", std::string(64, 'a'), "--out", "o"},
+      {"quality", std::string(64, 'a')},                {"status", "j"},                         {"cancel", "j"},
       {"cache", "get", "k"}};
   for (std::vector<std::string> args : commands) {
     EXPECT_FALSE(ParseCliArgs(args, nullptr)->max_outage_seconds.has_value()) << args[0] << ": unset by default";
@@ -155,14 +157,14 @@ TEST(ParseCliArgs, MaxOutageSecondsOnEveryCommandThatTalksToTheServer) {
     ASSERT_TRUE(a.ok()) << args[0] << ": " << a.status();
     EXPECT_EQ(a->max_outage_seconds, 12.5) << args[0];
   }
-  EXPECT_EQ(ParseCliArgs({"fetch", "k", "--out", "o", "--max-outage-seconds", "0"}, nullptr)->max_outage_seconds, 0);
+  EXPECT_EQ(ParseCliArgs({"fetch", std::string(64, 'a'), "--out", "o", "--max-outage-seconds", "0"}, nullptr)->max_outage_seconds, 0);
   EXPECT_NE(UsageText().find("--max-outage-seconds N"), std::string::npos);
 }
 
 TEST(ParseCliArgs, KeepaliveSecondsOnEveryCommandThatTalksToTheServer) {
   const std::vector<std::vector<std::string>> commands = {
-      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", "k", "--out", "o"},
-      {"quality", "k"},                {"status", "j"},                         {"cancel", "j"},
+      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", std::string(64, 'a'), "--out", "o"},
+      {"quality", std::string(64, 'a')},                {"status", "j"},                         {"cancel", "j"},
       {"cache", "get", "k"},           {"admin", "purge", "--worker", "w"}};
   for (std::vector<std::string> args : commands) {
     EXPECT_FALSE(ParseCliArgs(args, nullptr)->keepalive_seconds.has_value()) << args[0] << ": unset by default";
@@ -198,7 +200,7 @@ TEST(ParseCliArgs, TokenFile) {
   } cases[] = {
       {{"bake", "m.glb", "--out", "d", "--token-file", "t"}, true, ""},
       {{"bake-batch", "s.json", "--out", "d", "--token-file=t"}, true, ""},
-      {{"fetch", "k", "--out", "d", "--token-file", "t"}, true, ""},
+      {{"fetch", std::string(64, 'a'), "--out", "d", "--token-file", "t"}, true, ""},
       {{"status", "j", "--token-file", "t"}, true, ""},
       {{"cache", "get", "k", "--token-file", "t"}, true, ""},
       {{"cache", "ls", "--token-file", "t"}, false, "unknown flag --token-file"},

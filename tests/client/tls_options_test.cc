@@ -34,9 +34,9 @@ TEST(TlsCliArgs, RefusesFlagsThatCannotWorkTogether) {
       {{"status", "j1", "--tls-key", "k.pem"}, "--tls-key: needs --tls-cert too"},
       {{"status", "j1", "--tls-cert", "c.pem", "--tls-key", "k.pem"}, "need --tls-ca"},
       {{"status", "j1", "--tls-server-name", "bake.lan"}, "--tls-server-name: needs --tls-ca"},
-      {{"fetch", "k", "--out", "o", "--tls-ca"}, "--tls-ca: missing value"},
-      {{"fetch", "k", "--out", "o", "--tls-ca", "--json"}, "--tls-ca: missing value"},
-      {{"fetch", "k", "--out", "o", "--tls-ca="}, "--tls-ca: missing value"},
+      {{"fetch", std::string(64, 'a'), "--out", "o", "--tls-ca"}, "--tls-ca: missing value"},
+      {{"fetch", std::string(64, 'a'), "--out", "o", "--tls-ca", "--json"}, "--tls-ca: missing value"},
+      {{"fetch", std::string(64, 'a'), "--out", "o", "--tls-ca="}, "--tls-ca: missing value"},
       // cache ls never talks to the server.
       {{"cache", "ls", "--tls-ca", "ca.pem"}, "unknown flag --tls-ca"},
   };
@@ -52,8 +52,8 @@ TEST(TlsCliArgs, EveryCommandThatTalksToTheServerTakesTheFlags) {
   const std::vector<std::string> tls = {"--tls-ca", "ca.pem", "--tls-cert=c.pem", "--tls-key", "k.pem",
                                         "--tls-server-name", "bake.lan"};
   const std::vector<std::vector<std::string>> commands = {
-      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", "k", "--out", "o"},
-      {"quality", "k"},                {"status", "j"},                        {"cancel", "j"},
+      {"bake", "m.glb", "--out", "o"}, {"bake-batch", "s.json", "--out", "o"}, {"fetch", std::string(64, 'a'), "--out", "o"},
+      {"quality", std::string(64, 'a')},                {"status", "j"},                        {"cancel", "j"},
       {"cache", "get", "k"}};
   for (std::vector<std::string> args : commands) {
     const std::string name = args[0];

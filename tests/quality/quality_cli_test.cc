@@ -94,6 +94,20 @@ TEST(QualityCli, GateFailsAndPassesAroundTheMeasuredBakeAndQualityReports) {
                               " --frames auto --resolution 128 --server " + server.address());
   EXPECT_EQ(no_target.exit_code, 1) << no_target.output;
   EXPECT_NE(no_target.output.find("parameters.auto_target"), std::string::npos) << no_target.output;
+  // Nothing under that key or job id: the server's answer, exit 1 (CI
+  // retries exit 3, the farm's trouble, not this); a key that cannot be
+  // one is a usage error, refused before connecting.
+  const std::string never = std::string(64, '0');
+  for (const std::string& command : {" quality " + never, " fetch " + never + " --out " + Q((dir / "none").string()),
+                                     std::string(" status job-that-never-was")}) {
+    const CliRun missing = Shell(impostor + command + " --server " + server.address());
+    EXPECT_EQ(missing.exit_code, 1) << command << ": " << missing.output;
+    EXPECT_NE(missing.output.find("NOT_FOUND"), std::string::npos) << command << ": " << missing.output;
+  }
+  const CliRun not_a_key = Shell(impostor + " quality nothex --server 127.0.0.1:1");
+  EXPECT_EQ(not_a_key.exit_code, 2) << not_a_key.output;
+  EXPECT_NE(not_a_key.output.find("cache key \"nothex\": expected 64 lowercase hex characters"), std::string::npos)
+      << not_a_key.output;
 }
 
 }  // namespace
