@@ -186,12 +186,14 @@ absl::Status CollectUris(const nlohmann::json& json, const char* array_name, con
 
 absl::StatusOr<std::string> GlbJsonChunk(std::string_view glb, std::string_view name) {
   const std::string n(name);
-  if (glb.size() < kGlbHeaderBytes + kChunkHeaderBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(n, ": corrupt GLB header: file is ", glb.size(), " bytes, shorter than a GLB header"));
-  }
-  if (ReadLe32(glb.data()) != kGlbMagic) {
+  // The magic first: a file that is not a GLB at all says so, however short.
+  if (glb.size() < 4 || ReadLe32(glb.data()) != kGlbMagic) {
     return absl::InvalidArgumentError(absl::StrCat(n, ": corrupt GLB header: magic is not \"glTF\""));
+  }
+  if (glb.size() < kGlbHeaderBytes + kChunkHeaderBytes) {
+    return absl::InvalidArgumentError(absl::StrCat(n, ": corrupt GLB header: file is ", glb.size(),
+                                                   " bytes, shorter than the 12-byte header and the first "
+                                                   "chunk's 8-byte header"));
   }
   if (const uint32_t version = ReadLe32(glb.data() + 4); version != 2) {
     return absl::InvalidArgumentError(

@@ -114,8 +114,10 @@ void AppendFlag(std::string& out, const absl::CommandLineFlag& flag) {
   std::string help = flag.Help();
   if (flag.IsOfType<bool>()) help += absl::StrCat(" (--no", name, " to turn off)");
   // A help text that explains an empty default itself ("(default: next to
-  // this binary)") is not followed by "Default: none".
-  const bool explains_default = help.find("(default") != std::string::npos;
+  // this binary)", "Default: token unless ...") is not followed by
+  // "Default: none".
+  const bool explains_default =
+      help.find("(default") != std::string::npos || help.find("Default:") != std::string::npos;
   if (flag.DefaultValue().empty() && explains_default) {
     AppendWrapped(out, help + ".", kHelpColumn);
   } else {

@@ -362,7 +362,7 @@ std::string UsageText() {
 Usage:
   impostor bake MODEL --out DIR [--layout L] [--ring K]
                 [--frames N] [--resolution R] [--server HOST:PORT] [--json] [--quiet]
-                [--product atlas|surfels|lod-chain] [--preset NAME] [--point-budget N]
+                [--product atlas|surfels|lod-chain|cards] [--preset NAME] [--point-budget N]
                 [--lod-ratios R1,R2,...] [--max-planes N] [--tolerance E]
       Uploads MODEL (.gltf or .glb, with the files it refers to; only what the
       server lacks), bakes it, shows progress on stderr, and downloads the
@@ -383,7 +383,8 @@ Usage:
                       billboard derive it)
         --resolution R atlas side in pixels (server default 2048, range
                       64..16384 and at least 8 * frames)
-        --product P   atlas (default) or surfels: a point cloud for foliage at
+        --product P   atlas (default), surfels, lod-chain or cards (below).
+                      surfels: a point cloud for foliage at
                       extreme distance (surfels.bin: 12 float32 per point,
                       surfels.ply), read from a capture of --frames and
                       --resolution

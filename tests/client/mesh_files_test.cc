@@ -144,9 +144,14 @@ TEST_F(BadInputTest, RefusedWithCodeAndReason) {
        "buffers[0].uri is not a string"},
       {"bad_percent_escape", "m.gltf", Gltf(R"([{"uri":"a%zz.bin"}])"), absl::StatusCode::kInvalidArgument,
        "a%zz.bin"},
-      {"glb_bad_magic", "m.glb", Glb("{}", 0x12345678), absl::StatusCode::kInvalidArgument, "corrupt GLB header"},
+      {"glb_bad_magic", "m.glb", Glb("{}", 0x12345678), absl::StatusCode::kInvalidArgument,
+       "corrupt GLB header: magic is not \"glTF\""},
+      // Twelve zero bytes (the validator corpus's invalid_magic.glb): the
+      // magic is what is wrong, not the length.
+      {"glb_zeros", "m.glb", std::string(12, '\0'), absl::StatusCode::kInvalidArgument, "magic is not \"glTF\""},
       {"glb_bad_version", "m.glb", Glb("{}", 0x46546C67, 1), absl::StatusCode::kInvalidArgument, "version 1"},
-      {"glb_truncated", "m.glb", Glb("{}").substr(0, 10), absl::StatusCode::kInvalidArgument, "corrupt GLB header"},
+      {"glb_truncated", "m.glb", Glb("{}").substr(0, 10), absl::StatusCode::kInvalidArgument,
+       "file is 10 bytes, shorter than the 12-byte header and the first chunk's 8-byte header"},
       {"glb_chunk_overruns", "m.glb", Glb("{\"asset\":{}}").substr(0, 24), absl::StatusCode::kInvalidArgument,
        "truncated GLB"},
       {"glb_invalid_json", "m.glb", Glb("{oops"), absl::StatusCode::kInvalidArgument, "invalid JSON"},

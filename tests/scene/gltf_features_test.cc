@@ -62,6 +62,10 @@ TEST(GltfFeaturesTest, MeshPrimitiveModesDrawsTrianglesAndWarnsAboutPointsAndLin
                            "mesh with LINE_STRIP"}) {
     EXPECT_NE(w.find(mesh), std::string::npos) << mesh << " not named in: " << w;
   }
+  // Each by glTF's name of its mode.
+  for (const char* mode : {"mode 0 POINTS", "mode 1 LINES", "mode 2 LINE_LOOP", "mode 3 LINE_STRIP"}) {
+    EXPECT_NE(w.find(mode), std::string::npos) << mode << " not named in: " << w;
+  }
 }
 
 TEST(GltfFeaturesTest, OnlyPointsIsRefusedNamingTheMesh) {

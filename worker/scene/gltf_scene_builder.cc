@@ -410,8 +410,9 @@ class Builder {
     if (mode >= TINYGLTF_MODE_POINTS && mode <= TINYGLTF_MODE_LINE_STRIP) {
       spdlog::debug("gltf: {}: mode {} (points/lines) skipped", what, mode);
       if (!skipped_non_triangles_.empty()) skipped_non_triangles_ += ", ";
-      absl::StrAppend(&skipped_non_triangles_, what, " mode ", mode,
-                      mode == TINYGLTF_MODE_POINTS ? " POINTS" : " LINES");
+      // glTF's names for modes 0..3.
+      static constexpr const char* kModeNames[] = {" POINTS", " LINES", " LINE_LOOP", " LINE_STRIP"};
+      absl::StrAppend(&skipped_non_triangles_, what, " mode ", mode, kModeNames[mode - TINYGLTF_MODE_POINTS]);
       return nullptr;
     }
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
