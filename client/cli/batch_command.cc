@@ -34,6 +34,8 @@
 #include "client/cli/commands.h"
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
+#include "client/job_convert.h"
+#include "common/bake_request.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {
@@ -366,11 +368,34 @@ int RunBatch(const CliArgs& args, const BatchSpec& spec) {
 
 }  // namespace
 
+// Every entry's settings judged as the server will judge them (frames,
+// resolution, layout, ... in range and consistent), so that a spec with one
+// bad value is refused before anything is sent rather than failing that
+// asset after the others were submitted.
+absl::Status CheckEntriesAsTheServerWould(const BatchSpec& spec) {
+  for (size_t i = 0; i < spec.entries.size(); ++i) {
+    const BatchEntry& e = spec.entries[i];
+    absl::StatusOr<v1::BakeParameters> parameters = sdk::ToBakeParameters(e.settings);
+    if (parameters.ok()) parameters = NormalizeParameters(*parameters);
+    if (!parameters.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("assets[", i, "] (\"", e.asset, "\"): ", parameters.status().message()));
+    }
+  }
+  return absl::OkStatus();
+}
+
 int RunBakeBatch(const CliArgs& args) {
   absl::StatusOr<BatchSpec> spec = args.command == Command::kBakeBatch
                                        ? LoadBatchSpec(args.target, args.priority)
                                        : BatchFromModels(args.targets, BakeSettingsFromArgs(args));
   if (!spec.ok()) return FailBeforeSubmitting(args, 0, kExitUsage, std::string(spec.status().message()));
+  if (args.command == Command::kBakeBatch) {
+    if (absl::Status s = CheckEntriesAsTheServerWould(*spec); !s.ok()) {
+      return FailBeforeSubmitting(args, static_cast<int>(spec->entries.size()), kExitUsage,
+                                  std::string(s.message()));
+    }
+  }
   return RunBatch(args, *spec);
 }
 

@@ -39,7 +39,7 @@ absl::StatusOr<uint32_t> WholeNumber(const std::string& where, const json& v) {
   if (v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() <= UINT32_MAX) {
     return static_cast<uint32_t>(v.get<int64_t>());
   }
-  return Bad(where, absl::StrCat("expected a whole number 0..4294967295, got ", Shown(v)));
+  return Bad(where, absl::StrCat("expected a whole number, 0 or more, got ", Shown(v)));
 }
 
 absl::StatusOr<double> NumberIn(const std::string& where, const json& v, double lo, double hi) {
@@ -90,7 +90,7 @@ const std::map<std::string, Setter>& SettingKeys() {
            return absl::OkStatus();
          }
          auto n = WholeNumber(where, v);
-         if (!n.ok()) return Bad(where, absl::StrCat("expected a whole number 0..4294967295 or \"auto\", got ",
+         if (!n.ok()) return Bad(where, absl::StrCat("expected a whole number, 0 or more, or \"auto\", got ",
                                                      Shown(v)));
          s.frames = *n;
          s.frames_auto = false;

@@ -49,13 +49,14 @@ const std::map<std::string, CommandSpec>& Commands() {
 absl::Status Usage(std::string message) { return absl::InvalidArgumentError(std::move(message)); }
 
 // Whole decimal numbers only: "abc", "-1", "12x", "1e3" and overflow are
-// usage errors; the value's range is the server's to judge.
+// usage errors; the value's range is the server's to judge (its message
+// names the range), but no count is negative.
 absl::StatusOr<uint32_t> ParseNumber(const std::string& flag, const std::string& value) {
   uint32_t n = 0;
   const char* end = value.data() + value.size();
   auto [ptr, ec] = std::from_chars(value.data(), end, n);
   if (value.empty() || ec != std::errc() || ptr != end) {
-    return Usage(absl::StrCat(flag, ": expected a whole number, got \"", value, "\""));
+    return Usage(absl::StrCat(flag, ": expected a whole number, 0 or more, got \"", value, "\""));
   }
   return n;
 }
