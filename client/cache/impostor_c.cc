@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "absl/strings/str_cat.h"
 #include "impostor/cache.h"
 
 struct impostor_cache {
@@ -144,6 +145,49 @@ impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_p
   *found = looked->found ? 1 : 0;
   return Report(absl::OkStatus());
 }
+
+void impostor_bake_settings_init(impostor_bake_settings* settings) {
+  if (settings == nullptr) return;
+  *settings = impostor_bake_settings{};
+  settings->size = sizeof(impostor_bake_settings);
+  settings->quality_views = -1;
+}
+
+impostor_status impostor_cache_lookup_settings(impostor_cache* cache, const char* model_path,
+                                               const impostor_bake_settings* settings, char key_out[65],
+                                               int* found) {
+  if (cache == nullptr || model_path == nullptr || settings == nullptr || key_out == nullptr || found == nullptr) {
+    return Report(absl::InvalidArgumentError(
+        "impostor_cache_lookup_settings: cache, model_path, settings, key_out, found required"));
+  }
+  // The first version's fields; a later header's caller may pass more.
+  if (settings->size < sizeof(impostor_bake_settings)) {
+    return Report(absl::InvalidArgumentError(absl::StrCat(
+        "impostor_cache_lookup_settings: settings->size is ", settings->size, ", at least ",
+        sizeof(impostor_bake_settings), " expected (call impostor_bake_settings_init first)")));
+  }
+  impostor::sdk::BakeSettings s;
+  if (settings->layout != nullptr) s.layout = settings->layout;
+  s.frames = settings->frames;
+  s.resolution = settings->resolution;
+  if (settings->ring_views != 0) s.ring_views = settings->ring_views;
+  if (settings->supersampling != 0) s.supersampling = settings->supersampling;
+  if (settings->product != nullptr) s.product = settings->product;
+  if (settings->preset != nullptr) s.preset = settings->preset;
+  if (settings->point_budget != 0) s.point_budget = settings->point_budget;
+  if (settings->quality_views >= 0) s.quality_views = static_cast<uint32_t>(settings->quality_views);
+  auto looked = cache->cache->Lookup(model_path, s);
+  if (!looked.ok()) return Report(looked.status());
+  std::snprintf(key_out, 65, "%s", looked->cache_key.c_str());
+  *found = looked->found ? 1 : 0;
+  return Report(absl::OkStatus());
+}
+
+const char* impostor_result_product(const impostor_result* r) { return r ? r->result.product().c_str() : nullptr; }
+const char* impostor_result_layout(const impostor_result* r) { return r ? r->result.layout().c_str() : nullptr; }
+uint32_t impostor_result_frames(const impostor_result* r) { return r ? r->result.frames() : 0; }
+uint32_t impostor_result_resolution(const impostor_result* r) { return r ? r->result.resolution() : 0; }
+uint32_t impostor_result_view_count(const impostor_result* r) { return r ? r->result.view_count() : 0; }
 
 const char* impostor_result_key(const impostor_result* r) { return r ? r->result.key().c_str() : nullptr; }
 const char* impostor_result_dir(const impostor_result* r) { return r ? r->dir.c_str() : nullptr; }

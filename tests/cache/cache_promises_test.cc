@@ -229,6 +229,47 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   EXPECT_EQ(found, 0);
   EXPECT_EQ(std::string(key).size(), 64u);
   EXPECT_EQ(impostor_cache_lookup(cache, "/nonexistent.glb", nullptr, 0, 0, key, &found), IMPOSTOR_NOT_FOUND);
+  // Every setting through the settings struct: the same key as the short
+  // form for the same settings, another for a ring-top of 8 views than for
+  // the default ring of 24, and the C++ SDK's key for it.
+  impostor_bake_settings settings;
+  impostor_bake_settings_init(&settings);
+  settings.layout = "octahedral";
+  settings.frames = 2;
+  settings.resolution = 64;
+  char same[65] = {0};
+  ASSERT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, same, &found), IMPOSTOR_OK)
+      << impostor_last_error();
+  EXPECT_STREQ(same, key);
+  impostor_bake_settings_init(&settings);
+  settings.layout = "ring-top";
+  char ring8[65] = {0}, ring24[65] = {0};
+  settings.ring_views = 8;
+  ASSERT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, ring8, &found), IMPOSTOR_OK)
+      << impostor_last_error();
+  settings.ring_views = 0;
+  ASSERT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, ring24, &found), IMPOSTOR_OK)
+      << impostor_last_error();
+  EXPECT_STRNE(ring8, ring24);
+  sdk::BakeSettings cpp;
+  cpp.layout = "ring-top";
+  cpp.ring_views = 8;
+  sdk::CacheOptions cpp_options;
+  cpp_options.server = server.address();
+  cpp_options.dir = dir / "cpp";
+  auto cpp_key = sdk::CacheFactory::Open(cpp_options, {});
+  ASSERT_TRUE(cpp_key.ok()) << cpp_key.status();
+  auto looked = (*cpp_key)->Lookup(box, cpp);
+  ASSERT_TRUE(looked.ok()) << looked.status();
+  EXPECT_EQ(looked->cache_key, ring8);
+  // Bad settings: a size from no known header, a layout the server refuses.
+  settings.size = 8;
+  EXPECT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, key, &found), IMPOSTOR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(impostor_last_error()).find("impostor_bake_settings_init"), std::string::npos);
+  impostor_bake_settings_init(&settings);
+  settings.layout = "cube";
+  EXPECT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, key, &found), IMPOSTOR_INVALID_ARGUMENT);
+  EXPECT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), nullptr, key, &found), IMPOSTOR_INVALID_ARGUMENT);
 
   // Prefetch: b lands on disk in the background; then, with the server
   // gone, it is answered from disk.
@@ -240,6 +281,11 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   impostor_result* result = nullptr;
   ASSERT_EQ(impostor_cache_get(cache, b.key.c_str(), &result), IMPOSTOR_OK) << impostor_last_error();
   EXPECT_EQ(impostor_result_downloaded(result), 0);
+  EXPECT_STREQ(impostor_result_product(result), "atlas");
+  EXPECT_STREQ(impostor_result_layout(result), "octahedral");
+  EXPECT_EQ(impostor_result_frames(result), 2u);
+  EXPECT_EQ(impostor_result_resolution(result), 64u);
+  EXPECT_EQ(impostor_result_view_count(result), 4u);
   EXPECT_EQ(ReadFileBytes(impostor_result_map_path(result, "albedo_alpha")), b.files.at("albedo_alpha.png"));
   impostor_result_release(result);
   impostor_cache_close(cache);

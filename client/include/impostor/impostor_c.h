@@ -33,8 +33,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-// Every function below is exported from libimpostor_c.so even though the
-// library hides all other symbols.
+/* Every function below is exported from libimpostor.so even though the
+ * library hides all other symbols. */
 #if defined(__GNUC__)
 #define IMPOSTOR_C_EXPORT __attribute__((visibility("default")))
 #else
@@ -130,11 +130,36 @@ IMPOSTOR_C_EXPORT void impostor_cache_get_async(impostor_cache* cache, const cha
 IMPOSTOR_C_EXPORT void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count);
 
 /* The key of an already-baked result for a model and settings, without
- * baking: `layout` "octahedral" / "hemi-octahedral" (NULL = default),
- * `frames` and `resolution` 0 = server default. Writes 64 hex characters and
- * a NUL into key_out (65 bytes) and whether it is baked into *found. */
+ * baking: `layout` "octahedral", "hemi-octahedral", "azimuth-elevation",
+ * "ring-top" or "billboard" (NULL = default), `frames` and `resolution` 0 =
+ * server default, every other setting its default. Writes 64 hex characters
+ * and a NUL into key_out (65 bytes) and whether it is baked into *found. */
 IMPOSTOR_C_EXPORT impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
                                       uint32_t frames, uint32_t resolution, char key_out[65], int* found);
+
+/* The settings of a bake as impostor_cache_lookup_settings takes them (the
+ * C view of impostor::sdk::BakeSettings, impostor/client.h): NULL, 0 and -1
+ * mean the server's default. Initialise with impostor_bake_settings_init,
+ * then set what differs: `size` lets a later library add fields without
+ * breaking a caller built against this header. */
+typedef struct impostor_bake_settings {
+  size_t size;            /* sizeof(impostor_bake_settings); set by _init */
+  const char* layout;     /* as impostor_cache_lookup's; NULL = "octahedral" */
+  uint32_t frames;        /* 0 = default (12; azimuth-elevation 11) */
+  uint32_t resolution;    /* 0 = default (2048) */
+  uint32_t ring_views;    /* ring-top only; 0 = default (24) */
+  uint32_t supersampling; /* 0 = default (2) */
+  const char* product;    /* "atlas", "surfels", "lod-chain" or "cards"; NULL = "atlas" */
+  const char* preset;     /* surfels only; NULL = default ("vegetation") */
+  uint32_t point_budget;  /* surfels only; 0 = from the preset */
+  int32_t quality_views;  /* atlas and lod-chain: -1 = default (16), 0 = no quality pass */
+} impostor_bake_settings;
+IMPOSTOR_C_EXPORT void impostor_bake_settings_init(impostor_bake_settings* settings);
+/* impostor_cache_lookup for any settings. INVALID_ARGUMENT for a NULL
+ * argument or a `size` smaller than the first version's. */
+IMPOSTOR_C_EXPORT impostor_status impostor_cache_lookup_settings(impostor_cache* cache, const char* model_path,
+                                               const impostor_bake_settings* settings, char key_out[65],
+                                               int* found);
 
 /* Accessors; valid until impostor_result_release. */
 IMPOSTOR_C_EXPORT const char* impostor_result_key(const impostor_result* result);
@@ -148,6 +173,15 @@ IMPOSTOR_C_EXPORT const char* impostor_result_file_semantic(const impostor_resul
  * "orm"), or NULL. */
 IMPOSTOR_C_EXPORT const char* impostor_result_map_path(const impostor_result* result, const char* semantic);
 IMPOSTOR_C_EXPORT int64_t impostor_result_size_bytes(const impostor_result* result);
+/* The manifest's `product` ("atlas", "surfels", "cards", "lod-chain"),
+ * `layout`, `frames` (the grid side for ring-top and billboard),
+ * `resolution` and number of `views`: what the runtime math needs
+ * (impostor/runtime.h, AtlasLayoutFromManifest). */
+IMPOSTOR_C_EXPORT const char* impostor_result_product(const impostor_result* result);
+IMPOSTOR_C_EXPORT const char* impostor_result_layout(const impostor_result* result);
+IMPOSTOR_C_EXPORT uint32_t impostor_result_frames(const impostor_result* result);
+IMPOSTOR_C_EXPORT uint32_t impostor_result_resolution(const impostor_result* result);
+IMPOSTOR_C_EXPORT uint32_t impostor_result_view_count(const impostor_result* result);
 /* 1 when this Get downloaded it, 0 when it came from disk. */
 IMPOSTOR_C_EXPORT int impostor_result_downloaded(const impostor_result* result);
 IMPOSTOR_C_EXPORT void impostor_result_release(impostor_result* result);
