@@ -304,6 +304,7 @@ class Cache::Impl {
         if (record.ok() || record.status().code() != absl::StatusCode::kNotFound || fs::exists(dir)) {
           spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(),
                        record.ok() ? std::string("key mismatch") : record.status().ToString());
+          Count(&CacheStats::corrupt_entries);
           (void)RemoveEntryDir(layout_, dir);
         }
         continue;
@@ -344,6 +345,7 @@ class Cache::Impl {
       if (!record.ok()) {
         if (record.status().code() != absl::StatusCode::kNotFound) {
           spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(), record.status().ToString());
+          Count(&CacheStats::corrupt_entries);
           (void)RemoveEntryDir(layout_, dir);
         }
         return std::nullopt;
@@ -394,10 +396,10 @@ class Cache::Impl {
     }
     absl::Status check = CheckEntryFiles(dir, record, digest ? FileCheck::kDigest : FileCheck::kMetadata);
     if (check.code() == absl::StatusCode::kNotFound || check.code() == absl::StatusCode::kDataLoss) {
-      if (check.code() == absl::StatusCode::kDataLoss) {
-        spdlog::warn("cache: {} is damaged ({}); fetching it again", key, check.ToString());
-        Count(&CacheStats::corrupt_entries);
-      }
+      // A file gone from an installed entry is damage too (something deleted
+      // part of it): counted and said, not silently fetched again.
+      spdlog::warn("cache: {} is damaged ({}); fetching it again", key, check.ToString());
+      Count(&CacheStats::corrupt_entries);
       Forget(key);
       // Damaged files are useless to every holder, pinned or not.
       (void)RemoveEntryDir(layout_, dir);

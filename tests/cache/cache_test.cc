@@ -207,7 +207,22 @@ TEST(CacheGet, DamagedLocalFilesAreDetectedAndFetchedAgain) {
     ASSERT_TRUE(again.ok()) << c.name << ": " << again.status();
     EXPECT_TRUE(again->downloaded()) << c.name;
     ExpectBytes(*again, published, c.name);
+    EXPECT_EQ(cache->Stats().corrupt_entries, 1) << c.name << ": every damage is counted, a deleted file too";
   }
+  // An entry whose record (.entry) cannot be read, found by a new process.
+  const fs::path dir = testing::NewTempDir("cache_corrupt_record");
+  {
+    auto cache = OpenCache(Options(server.address(), dir));
+    ASSERT_TRUE(cache->Get(published.key).ok());
+  }
+  for (const auto& f : fs::recursive_directory_iterator(dir / "entries")) {
+    if (f.path().filename() == ".entry") std::ofstream(f.path(), std::ios::trunc) << "{ not json";
+  }
+  auto cache = OpenCache(Options(server.address(), dir));
+  auto again = cache->Get(published.key);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_TRUE(again->downloaded());
+  EXPECT_EQ(cache->Stats().corrupt_entries, 1) << "an unreadable record is damage too";
 }
 
 TEST(CacheGet, SixtyFourThreadsGettingOneKeyShareOneDownload) {

@@ -260,7 +260,7 @@ struct CacheStats {
   int64_t downloads = 0;       // results downloaded and installed
   int64_t bytes_downloaded = 0;
   int64_t bytes_resumed = 0;   // bytes a download did not fetch again because a partial file had them
-  int64_t corrupt_entries = 0; // local results found damaged and dropped
+  int64_t corrupt_entries = 0; // local results found damaged (a file changed or gone, an unreadable record) and dropped
   int64_t evicted_entries = 0;
 };
 
