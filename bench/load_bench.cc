@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
     impostor::v1::SubmitBakeRequest submit;
     submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
     *submit.mutable_mesh()->mutable_entry()->mutable_digest() = impostor::testing::DigestOf(model);
-    submit.mutable_parameters()->set_frames(2);
+    submit.mutable_parameters()->set_frames(3);
     submit.mutable_parameters()->set_resolution(64);
     if (!impostor::testing::UploadBytes(server.assets(), model, submit.mesh().entry().digest()).ok()) return 1;
     {

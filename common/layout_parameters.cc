@@ -65,6 +65,16 @@ absl::Status NormalizeLayoutFrames(v1::BakeParameters* out) {
   }
   switch (kind) {
     case LayoutKind::kOctahedral:
+      // The octahedral grid puts its frames on the map's corners, edges and
+      // centre; with 2 per axis only the corners are left, which all fold
+      // onto one point: four copies of the view from straight below. (Cards
+      // keep the layout's name but take no frames from it.)
+      if (out->frames() == 2 && out->product() != v1::PRODUCT_CARDS) {
+        return absl::InvalidArgumentError(
+            "parameters.frames: octahedral needs at least 3 frames per axis (with 2 all four frames are the "
+            "view from straight below); got 2 (use 3 or more, or hemi-octahedral)");
+      }
+      return absl::OkStatus();
     case LayoutKind::kHemiOctahedral: return absl::OkStatus();
     case LayoutKind::kAzimuthElevation: {
       if (out->frames() == 0) out->set_frames(kDefaultAzimuthElevationFrames);

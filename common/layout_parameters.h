@@ -23,7 +23,9 @@ inline constexpr uint32_t kDefaultRingViews = 24;
 //   ring-top: ring_views default 24 (3..64); frames is derived (the atlas
 //     grid side, ceil(sqrt(ring_views + 1))) and must be left unset.
 //   billboard: frames is derived (3); ring_views must be unset.
-//   octahedral layouts: ring_views must be unset.
+//   octahedral layouts: ring_views must be unset; octahedral needs frames
+//     >= 3 (2 puts every frame on the map's folded corners: one view, four
+//     times).
 // Surfel captures take the octahedral layouts only.
 absl::Status NormalizeLayoutFrames(v1::BakeParameters* out);
 

@@ -379,9 +379,9 @@ Usage:
         --supersampling S  render S x S samples per texel and filter them
                       down for clean alpha edges (default 2, range 1..4;
                       resolution x S at most 16384)
-        --frames N    frames per atlas axis (server default 12, range 2..64;
-                      azimuth-elevation: odd, default 11; ring-top and
-                      billboard derive it)
+        --frames N    frames per atlas axis (server default 12, range 2..64,
+                      octahedral 3..64; azimuth-elevation: odd, default 11;
+                      ring-top and billboard derive it)
         --resolution R atlas side in pixels (server default 2048, range
                       64..16384 and at least 8 * frames)
         --product P   atlas (default), surfels, lod-chain or cards (below).

@@ -49,7 +49,7 @@ def test_no_live_address_is_unavailable_naming_each(tmp_path: Path) -> None:
 
 def test_a_dead_first_address_is_skipped(farm: FarmServer, assets: Path) -> None:
     with impostor.Client(f"{dead_address()},{farm.address}") as client:
-        looked = client.lookup(assets / BOX, frames=2, resolution=64, quality_views=0)
+        looked = client.lookup(assets / BOX, frames=3, resolution=64, quality_views=0)
         assert len(looked.cache_key) == 64
 
 
@@ -61,11 +61,11 @@ def test_a_bake_moves_to_the_other_replica_when_the_first_is_killed(
         events: List[impostor.ConnectionEvent] = []
         with impostor.Client(f"{first.address},{farm.address}", on_connection_change=events.append) as client:
             # The first replica answers while it lives.
-            assert not client.lookup(assets / BOX, frames=2, resolution=72, quality_views=0).found
+            assert not client.lookup(assets / BOX, frames=3, resolution=72, quality_views=0).found
             first.kill9()
             # Every call of the bake (FindMissingBlobs, UploadBlob, SubmitBake,
             # WatchJob, GetResult, ReadBlob) now goes to the second replica.
-            result = client.bake(assets / BOX, tmp_path / "out", frames=2, resolution=72, quality_views=0)
+            result = client.bake(assets / BOX, tmp_path / "out", frames=3, resolution=72, quality_views=0)
         assert result.cache_key
         for m in result.manifest["maps"]:
             assert sha256_file(tmp_path / "out" / m["file"]) == m["digest"]["hash"]
@@ -84,13 +84,13 @@ def test_a_replica_that_stops_answering_is_left_on_deadline_exceeded(
     first = FarmServer(tmp_path / "first", local_workers=0)
     try:
         with impostor.Client(f"{first.address},{farm.address}", rpc_timeout_seconds=2, max_attempts=2) as client:
-            assert not client.lookup(assets / BOX, frames=2, resolution=76, quality_views=0).found
+            assert not client.lookup(assets / BOX, frames=3, resolution=76, quality_views=0).found
             assert client._transport.current_target == first.address
             first.freeze()
             # One attempt runs into the deadline on the frozen replica; the
             # retry goes to the other one at once. (With only UNAVAILABLE as a
             # reason to move, both attempts went to the frozen one.)
-            assert not client.lookup(assets / BOX, frames=2, resolution=76, quality_views=0).found
+            assert not client.lookup(assets / BOX, frames=3, resolution=76, quality_views=0).found
             assert client._transport.current_target == farm.address
     finally:
         first.freeze(False)
@@ -123,7 +123,7 @@ def test_a_watch_resumes_on_the_other_replica_of_one_database(assets: Path, tmp_
         a, b = servers
         events: List[impostor.ConnectionEvent] = []
         client = impostor.Client(f"{a.address},{b.address}", on_connection_change=events.append)
-        bake = BakeInBackground(client, assets / BOX, tmp_path / "out", frames=2, resolution=80, quality_views=0)
+        bake = BakeInBackground(client, assets / BOX, tmp_path / "out", frames=3, resolution=80, quality_views=0)
         assert bake.at_render.wait(STEP_DEADLINE_S), "the bake never reached B's worker's render stage"
         a.kill9()
         pause.unlink()

@@ -224,7 +224,7 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   char key[65] = {0};
   int found = -1;
   const std::string box = (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string();
-  ASSERT_EQ(impostor_cache_lookup(cache, box.c_str(), "octahedral", 2, 64, key, &found), IMPOSTOR_OK)
+  ASSERT_EQ(impostor_cache_lookup(cache, box.c_str(), "octahedral", 3, 64, key, &found), IMPOSTOR_OK)
       << impostor_last_error();
   EXPECT_EQ(found, 0);
   EXPECT_EQ(std::string(key).size(), 64u);
@@ -235,7 +235,7 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   impostor_bake_settings settings;
   impostor_bake_settings_init(&settings);
   settings.layout = "octahedral";
-  settings.frames = 2;
+  settings.frames = 3;
   settings.resolution = 64;
   char same[65] = {0};
   ASSERT_EQ(impostor_cache_lookup_settings(cache, box.c_str(), &settings, same, &found), IMPOSTOR_OK)
@@ -283,9 +283,9 @@ TEST(CApi, GetAsyncLookupAndPrefetch) {
   EXPECT_EQ(impostor_result_downloaded(result), 0);
   EXPECT_STREQ(impostor_result_product(result), "atlas");
   EXPECT_STREQ(impostor_result_layout(result), "octahedral");
-  EXPECT_EQ(impostor_result_frames(result), 2u);
+  EXPECT_EQ(impostor_result_frames(result), 3u);
   EXPECT_EQ(impostor_result_resolution(result), 64u);
-  EXPECT_EQ(impostor_result_view_count(result), 4u);
+  EXPECT_EQ(impostor_result_view_count(result), 9u);
   EXPECT_EQ(ReadFileBytes(impostor_result_map_path(result, "albedo_alpha")), b.files.at("albedo_alpha.png"));
   impostor_result_release(result);
   impostor_cache_close(cache);

@@ -120,9 +120,9 @@ TEST(CacheGet, FirstGetDownloadsAndLaterGetsMakeNoRpc) {
   EXPECT_TRUE(first->downloaded());
   ExpectBytes(*first, published, "first get");
   EXPECT_EQ(first->layout(), "octahedral");
-  EXPECT_EQ(first->frames(), 2u);
+  EXPECT_EQ(first->frames(), 3u);
   EXPECT_EQ(first->product(), "atlas") << "a manifest without `product` is an atlas";
-  EXPECT_EQ(first->view_count(), 4u);
+  EXPECT_EQ(first->view_count(), 9u);
   ASSERT_NE(first->map("normal_depth"), nullptr);
   EXPECT_EQ(first->map("normal_depth")->format, "png_rgba16");
   EXPECT_EQ(rpcs.Count(kGetResult), 1);
@@ -370,7 +370,7 @@ TEST(CacheLookup, FindsTheKeyOfABakedMeshWithoutBaking) {
   const fs::path box = testing::AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb";
   auto client = sdk::Client::Connect({.server = server.address()});
   ASSERT_TRUE(client.ok()) << client.status();
-  const sdk::BakeSettings settings = Settings("octahedral", 2, 64);
+  const sdk::BakeSettings settings = Settings("octahedral", 3, 64);
   auto submitted = (*client)->SubmitBake(box, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
   const PublishedResult published = testing::CompleteNextJob(server, kSmallMaps, 30);

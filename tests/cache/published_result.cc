@@ -83,7 +83,7 @@ PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>&
   submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
   *submit.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
   EXPECT_TRUE(UploadBytes(server.assets(), model, submit.mesh().entry().digest()).ok());
-  submit.mutable_parameters()->set_frames(2);
+  submit.mutable_parameters()->set_frames(3);
   submit.mutable_parameters()->set_resolution(64);
   grpc::ClientContext ctx;
   v1::SubmitBakeResponse submitted;

@@ -186,7 +186,7 @@ std::string Tail(const fs::path& log, size_t max_bytes = 4000) {
 v1::BakeParameters SmallParameters(uint32_t resolution = 64) {
   v1::BakeParameters p;
   p.set_layout(v1::LAYOUT_OCTAHEDRAL);
-  p.set_frames(2);
+  p.set_frames(3);
   p.set_resolution(resolution);
   return p;
 }

@@ -47,7 +47,7 @@ std::unique_ptr<ChildProcess> StartWorker(const ServerProcess& server, const fs:
 v1::BakeParameters SmallParameters(uint32_t resolution = 64) {
   v1::BakeParameters p;
   p.set_layout(v1::LAYOUT_OCTAHEDRAL);
-  p.set_frames(2);
+  p.set_frames(3);
   p.set_resolution(resolution);
   return p;
 }
@@ -243,7 +243,7 @@ TEST(HostileWorker, CliRefusesASymlinkOutOfTheModelFolder) {
     ChildProcess p({"/bin/sh", "-c",
                     "exec '" + cli + "' bake '" + (model / "WaterBottle.gltf").string() + "' --out='" +
                         (dir / "out").string() + "' --server=" + server.address() +
-                        " --frames=2 --resolution=64 --quiet " + flags + " 2>&1"});
+                        " --frames=3 --resolution=64 --quiet " + flags + " 2>&1"});
     return p.Wait(output);
   };
   std::string refused;

@@ -48,7 +48,7 @@ class FakeFarm final : public v1::WorkerService::Service, public v1::AssetServic
     job->mutable_mesh()->mutable_entry()->set_path("Box.glb");
     *job->mutable_mesh()->mutable_entry()->mutable_digest() = digest_;
     job->mutable_parameters()->set_layout(v1::LAYOUT_OCTAHEDRAL);
-    job->mutable_parameters()->set_frames(2);
+    job->mutable_parameters()->set_frames(3);
     job->mutable_parameters()->set_resolution(64);
     return grpc::Status::OK;
   }

@@ -155,10 +155,10 @@ TEST_F(InstallTest, CppConsumerFetchesThroughTheCacheAndPicksFrames) {
 
   // The picks, computed here by the SDK in this build tree: the installed
   // library must agree with it.
-  std::vector<std::string> picks = {"layout octahedral frames 2 views 4"};
+  std::vector<std::string> picks = {"layout octahedral frames 3 views 9"};
   const float views[][3] = {{0, 1, 0}, {1, 0, 0}, {1, 1, 1}, {0, -0.2f, -1}};
   for (const auto& view : views) {
-    const sdk::FrameBlend blend = sdk::BlendFrames(sdk::Layout::kOctahedral, 2, view, sdk::BlendMode::kTriangle3);
+    const sdk::FrameBlend blend = sdk::BlendFrames(sdk::Layout::kOctahedral, 3, view, sdk::BlendMode::kTriangle3);
     char line[256];
     int n = std::snprintf(line, sizeof(line), "pick %g %g %g:", view[0], view[1], view[2]);
     for (int i = 0; i < blend.count; ++i) {

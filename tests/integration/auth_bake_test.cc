@@ -36,7 +36,7 @@ v1::Manifest Forged(const std::string& cache_key, const v1::Digest& magenta) {
   v1::Manifest m;
   m.set_format_version(1);
   m.set_cache_key(cache_key);
-  m.set_frames(2);
+  m.set_frames(3);
   m.set_resolution(64);
   for (const char* semantic : {"albedo_alpha", "normal_depth", "orm"}) {
     v1::MapFile* map = m.add_maps();
@@ -60,7 +60,7 @@ TEST(AuthBake, ForgedResultIsRefusedAndTheRealBakeIsReturned) {
   const fs::path box = AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb";
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = UploadGlb(server.assets(), box);
-  request.mutable_parameters()->set_frames(2);
+  request.mutable_parameters()->set_frames(3);
   request.mutable_parameters()->set_resolution(64);
   v1::SubmitBakeResponse submitted;
   {
@@ -138,7 +138,7 @@ TEST(AuthBake, ForgedResultIsRefusedAndTheRealBakeIsReturned) {
   const fs::path out = dir / "out";
   const fs::path submitter_file = WriteTokenFile(dir, "artist", submitter);
   const std::string cli = (BinaryDir() / "impostor").string();
-  const ToolRun bake = RunTool({cli, "bake", box.string(), "--frames", "2", "--resolution", "64", "--out", out.string(),
+  const ToolRun bake = RunTool({cli, "bake", box.string(), "--frames", "3", "--resolution", "64", "--out", out.string(),
                                 "--json", "--server", server.address(), "--token-file", submitter_file.string()});
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   EXPECT_TRUE(nlohmann::json::parse(bake.out).at("cached").get<bool>());
@@ -148,7 +148,7 @@ TEST(AuthBake, ForgedResultIsRefusedAndTheRealBakeIsReturned) {
 
   // Without a token, and with a reader's (IMPOSTOR_TOKEN), the CLI is refused
   // with the reason.
-  const ToolRun anonymous = RunTool({cli, "bake", box.string(), "--frames", "2", "--resolution", "64", "--out",
+  const ToolRun anonymous = RunTool({cli, "bake", box.string(), "--frames", "3", "--resolution", "64", "--out",
                                      (dir / "anon").string(), "--server", server.address()},
                                     kExitTimeout, {"IMPOSTOR_TOKEN="});
   EXPECT_NE(anonymous.exit_code, 0);
@@ -185,7 +185,7 @@ TEST(AuthBake, LocalWorkersRunOnATokenTheServerMints) {
   }
   const fs::path out = NewTempDir("auth_local_out");
   const ToolRun bake = RunTool({(BinaryDir() / "impostor").string(), "bake",
-                                (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string(), "--frames", "2",
+                                (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string(), "--frames", "3",
                                 "--resolution", "64", "--out", out.string(), "--server", server.address()},
                                kExitTimeout, {"IMPOSTOR_TOKEN=" + submitter});
   EXPECT_EQ(bake.exit_code, 0) << bake.err;

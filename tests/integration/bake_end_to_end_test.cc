@@ -224,7 +224,7 @@ TEST(EndToEnd, SecondRequestComesFromTheCacheUnderAnyFileName) {
   ServerProcess server(/*local_workers=*/1);
   const auto glb = AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb";
   const v1::MeshInput mesh = testing::UploadGlb(server.assets(), glb);
-  const v1::Job first = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64));
+  const v1::Job first = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 3, 64));
   const v1::Job done = testing::WatchToEnd(server.bake(), first.job_id());
   ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
   EXPECT_EQ(done.attempts(), 1u);
@@ -233,7 +233,7 @@ TEST(EndToEnd, SecondRequestComesFromTheCacheUnderAnyFileName) {
   // once, from the store, by SubmitBake itself.
   const v1::MeshInput renamed = testing::UploadGlb(server.assets(), glb, "a_different_name.glb");
   v1::SubmitBakeResponse again;
-  Submit(server, renamed, Params(v1::LAYOUT_UNSPECIFIED, 2, 64), &again);
+  Submit(server, renamed, Params(v1::LAYOUT_UNSPECIFIED, 3, 64), &again);
   EXPECT_TRUE(again.cached());
   EXPECT_EQ(again.cache_key(), first.cache_key());
   EXPECT_EQ(again.job().state(), v1::JOB_STATE_SUCCEEDED);
@@ -258,7 +258,7 @@ TEST(EndToEnd, IdenticalConcurrentSubmissionsShareOneBake) {
   ServerProcess server(/*local_workers=*/0);
   const v1::MeshInput mesh =
       testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
-  const v1::BakeParameters params = Params(v1::LAYOUT_OCTAHEDRAL, 2, 64);
+  const v1::BakeParameters params = Params(v1::LAYOUT_OCTAHEDRAL, 3, 64);
   auto a = std::async(std::launch::async, [&] { return Submit(server, mesh, params); });
   auto b = std::async(std::launch::async, [&] { return Submit(server, mesh, params); });
   const v1::Job ja = a.get(), jb = b.get();
@@ -305,7 +305,7 @@ TEST(EndToEnd, MalformedGltfFailsWithInvalidArgumentAndTheWorkerKeepsServing) {
     mesh.mutable_entry()->set_path(c.path);
     *mesh.mutable_entry()->mutable_digest() = testing::DigestOf(c.bytes);
     ASSERT_TRUE(testing::UploadBytes(server.assets(), c.bytes, mesh.entry().digest()).ok()) << c.name;
-    const v1::Job job = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64));
+    const v1::Job job = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 3, 64));
     const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
     EXPECT_EQ(done.state(), v1::JOB_STATE_FAILED) << c.name;
     EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT)) << c.name;
@@ -314,7 +314,7 @@ TEST(EndToEnd, MalformedGltfFailsWithInvalidArgumentAndTheWorkerKeepsServing) {
   }
   // The same worker process is alive and bakes the next, valid job.
   const v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
-  const v1::Job job = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64));
+  const v1::Job job = Submit(server, mesh, Params(v1::LAYOUT_OCTAHEDRAL, 3, 64));
   EXPECT_EQ(testing::WatchToEnd(server.bake(), job.job_id()).state(), v1::JOB_STATE_SUCCEEDED);
   EXPECT_TRUE(worker.Running()) << "the worker process exited with " << worker.exit_code();
 }
@@ -368,9 +368,9 @@ TEST(EndToEnd, SubmitNamesTheBadFieldAndReadBlobResumes) {
        "parameters.frames"},
       {"huge atlas", mesh, Params(v1::LAYOUT_OCTAHEDRAL, 8, 1 << 20), grpc::StatusCode::INVALID_ARGUMENT,
        "parameters.resolution"},
-      {"path escape", escaping, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64), grpc::StatusCode::INVALID_ARGUMENT,
+      {"path escape", escaping, Params(v1::LAYOUT_OCTAHEDRAL, 3, 64), grpc::StatusCode::INVALID_ARGUMENT,
        "mesh.entry.path"},
-      {"blob not uploaded", absent, Params(v1::LAYOUT_OCTAHEDRAL, 2, 64), grpc::StatusCode::FAILED_PRECONDITION,
+      {"blob not uploaded", absent, Params(v1::LAYOUT_OCTAHEDRAL, 3, 64), grpc::StatusCode::FAILED_PRECONDITION,
        "upload it first"},
   };
   for (const Case& c : cases) {

@@ -32,7 +32,7 @@ TEST(CacheHitRpcTest, HitsAddNoRowAndTheirIdsAnswerWatchAndGetJob) {
   v1::SubmitBakeRequest submit;
   submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
   *submit.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
-  submit.mutable_parameters()->set_frames(2);
+  submit.mutable_parameters()->set_frames(3);
   submit.mutable_parameters()->set_resolution(64);
   ASSERT_TRUE(UploadBytes(server.assets(), model, submit.mesh().entry().digest()).ok());
   {

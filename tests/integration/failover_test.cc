@@ -30,7 +30,7 @@ TEST(Failover, CliBakeSkipsADeadFirstReplica) {
   const fs::path out = testing::NewTempDir("failover_cli") / "box";
   const testing::ToolRun run = testing::RunTool({(BinaryDir() / "impostor").string(), "bake",
                                                  (AssetsDir() / kBox).string(), "--out", out.string(), "--server",
-                                                 DeadAddress() + "," + live.address(), "--frames=2",
+                                                 DeadAddress() + "," + live.address(), "--frames=3",
                                                  "--resolution=64", "--quality-views=0"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(fs::exists(out / "manifest.json")) << run.out;

@@ -55,7 +55,7 @@ v1::SubmitBakeResponse SubmitSmall(v1::BakeService::Stub& bake, const v1::MeshIn
   grpc::ClientContext ctx;
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = mesh;
-  request.mutable_parameters()->set_frames(2);
+  request.mutable_parameters()->set_frames(3);
   request.mutable_parameters()->set_resolution(64);
   v1::SubmitBakeResponse response;
   const grpc::Status s = bake.SubmitBake(&ctx, request, &response);

@@ -87,7 +87,7 @@ TEST(FarmSurvival, AJobWhoseWorkerIsKilledMidBakeIsBakedByAnother) {
   auto doomed = testing::StartWorker(server.address(), {}, {"IMPOSTOR_WORKER_TEST_PAUSE_FILE=" + pause.string()});
   const v1::MeshInput mesh =
       testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
-  const v1::SubmitBakeResponse job = Submit(server.bake(), mesh, 2, 64);
+  const v1::SubmitBakeResponse job = Submit(server.bake(), mesh, 3, 64);
   ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server.bake(), job.job_id(), PausedAtRender)));
   doomed->KillAndReap();
   fs::remove(pause);
@@ -170,7 +170,7 @@ void ServerStoppedMidBakeLosesNoJob(bool graceful) {
                           "props_pbr/Duck/glTF-Binary/Duck.glb"};
   std::vector<sdk::SubmitResult> jobs;
   for (const char* asset : assets) {
-    auto r = (*client)->SubmitBake(AssetsDir() / asset, {.frames = 2, .resolution = 64});
+    auto r = (*client)->SubmitBake(AssetsDir() / asset, {.frames = 3, .resolution = 64});
     ASSERT_TRUE(r.ok()) << asset << ": " << r.status();
     jobs.push_back(*r);
   }
@@ -232,7 +232,7 @@ TEST(FarmSurvival, CancelStopsTheRunningBakeAndFreesTheWorker) {
   ASSERT_TRUE(PausedAtRender(testing::WatchUntil(server.bake(), big.job_id(), PausedAtRender)));
 
   const v1::MeshInput box = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
-  const v1::SubmitBakeResponse next = Submit(server.bake(), box, 2, 64);
+  const v1::SubmitBakeResponse next = Submit(server.bake(), box, 3, 64);
   const auto cancel_time = std::chrono::steady_clock::now();
   {
     auto ctx = testing::ContextWithin();
@@ -275,7 +275,7 @@ TEST(FarmLimits, AMeshOverTheWorkersTriangleLimitFailsNamingTheLimit) {
   testing::ServerProcess server(/*local_workers=*/0);
   auto worker = testing::StartWorker(server.address(), {"--max-triangles=1000"});
   const v1::MeshInput duck = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Duck/glTF-Binary/Duck.glb");
-  const v1::SubmitBakeResponse job = Submit(server.bake(), duck, 2, 64);
+  const v1::SubmitBakeResponse job = Submit(server.bake(), duck, 3, 64);
   const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
   EXPECT_EQ(done.state(), v1::JOB_STATE_FAILED);
   EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::RESOURCE_EXHAUSTED)) << done.error().message();

@@ -34,7 +34,7 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   ServerProcess server(/*local_workers=*/1);
   auto client = sdk::Client::Connect({.server = server.address()});
   ASSERT_TRUE(client.ok()) << client.status();
-  const sdk::BakeSettings settings{.frames = 2, .resolution = 64};
+  const sdk::BakeSettings settings{.frames = 3, .resolution = 64};
   auto submitted = (*client)->SubmitBake(AssetsDir() / kPrimitiveModes, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
   auto done = testing::WatchJobWithin(**client, submitted->job_id, [&] { server.Kill(); });
@@ -53,7 +53,7 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   // The CLI prints them (stderr as text, stdout in --json).
   const fs::path cli_out = testing::NewTempDir("warnings_cli");
   testing::ChildProcess cli({(testing::BinaryDir() / "impostor").string(), "bake",
-                             (AssetsDir() / kPrimitiveModes).string(), "--frames", "2",
+                             (AssetsDir() / kPrimitiveModes).string(), "--frames", "3",
                              "--resolution", "64", "--out", cli_out.string(), "--json", "--server",
                              server.address()});
   std::string stdout_text;
@@ -66,7 +66,7 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   // inspection, warnings and all), and for each model of a batch.
   const fs::path gated_out = testing::NewTempDir("warnings_gated");
   testing::ChildProcess gated({(testing::BinaryDir() / "impostor").string(), "bake",
-                               (AssetsDir() / kPrimitiveModes).string(), "--frames", "2", "--resolution", "64",
+                               (AssetsDir() / kPrimitiveModes).string(), "--frames", "3", "--resolution", "64",
                                "--min-iou", "1", "--out", gated_out.string(), "--json", "--server", server.address()});
   stdout_text.clear();
   EXPECT_EQ(gated.Wait(&stdout_text), 1) << "the gate of IoU 1 fails";
@@ -77,7 +77,7 @@ TEST(MaterialWarningsEndToEnd, WarningsTravelToTheSdkAndTheCli) {
   const fs::path batch_out = testing::NewTempDir("warnings_batch");
   testing::ChildProcess batch({(testing::BinaryDir() / "impostor").string(), "bake",
                                (AssetsDir() / kPrimitiveModes).string(),
-                               (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string(), "--frames", "2",
+                               (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string(), "--frames", "3",
                                "--resolution", "64", "--out", batch_out.string(), "--json", "--server",
                                server.address()});
   stdout_text.clear();
@@ -96,7 +96,7 @@ TEST(MaterialWarningsEndToEnd, MissingTextureFileFailsTheBakeNamingTheFile) {
   auto client = sdk::Client::Connect({.server = server.address()});
   ASSERT_TRUE(client.ok()) << client.status();
   auto submitted =
-      (*client)->SubmitBake(AssetsDir() / model, sdk::BakeSettings{.frames = 2, .resolution = 64});
+      (*client)->SubmitBake(AssetsDir() / model, sdk::BakeSettings{.frames = 3, .resolution = 64});
   std::string message;
   if (!submitted.ok()) {
     message = std::string(submitted.status().message());  // refused before upload
@@ -115,7 +115,7 @@ TEST(MaterialWarningsEndToEnd, EmissiveMapIsBakedListedAndFetched) {
   ServerProcess server(/*local_workers=*/1);
   auto client = sdk::Client::Connect({.server = server.address()});
   ASSERT_TRUE(client.ok()) << client.status();
-  sdk::BakeSettings settings{.frames = 2, .resolution = 64};
+  sdk::BakeSettings settings{.frames = 3, .resolution = 64};
   settings.emissive = true;
   auto submitted = (*client)->SubmitBake(AssetsDir() / model, settings);
   ASSERT_TRUE(submitted.ok()) << submitted.status();
@@ -139,7 +139,7 @@ TEST(MaterialWarningsEndToEnd, EmissiveMapIsBakedListedAndFetched) {
   EXPECT_TRUE(listed);
   // Without the flag: another cache key and no emissive map.
   auto plain = (*client)->SubmitBake(AssetsDir() / model,
-                                     sdk::BakeSettings{.frames = 2, .resolution = 64});
+                                     sdk::BakeSettings{.frames = 3, .resolution = 64});
   ASSERT_TRUE(plain.ok()) << plain.status();
   EXPECT_NE(plain->cache_key, submitted->cache_key);
 }

@@ -77,7 +77,7 @@ class NetnsMultiHost : public testing::NetnsTest {
       assets.push_back({{"path", (AssetsDir() / kBox).string()}, {"name", Name(i)}, {"resolution", 64 + i}});
     }
     const fs::path spec = dir_ / absl::StrCat("spec_", count, "_every_", every, ".json");
-    std::ofstream(spec) << nlohmann::json({{"defaults", {{"frames", 2}, {"quality_views", 0}}}, {"assets", assets}})
+    std::ofstream(spec) << nlohmann::json({{"defaults", {{"frames", 3}, {"quality_views", 0}}}, {"assets", assets}})
                                .dump();
     return spec;
   }
@@ -387,7 +387,7 @@ TEST_F(NetnsMultiHost, AQuietWatchOverACutLinkMovesToTheOtherReplica) {
   options.env = {"IMPOSTOR_LOG=debug"};  // the SDK logs its failover at debug
   ChildProcess bake(net_->Exec(client, {(BinaryDir() / "impostor").string(), "bake", (AssetsDir() / kBox).string(),
                                         "--out", (dir_ / "out").string(), "--server", a1 + "," + a2, "--token-file",
-                                        (dir_ / "submitter.token").string(), "--frames=2", "--resolution=64",
+                                        (dir_ / "submitter.token").string(), "--frames=3", "--resolution=64",
                                         "--quality-views=0", "--keepalive-seconds=2", "--json"}),
                     options);
   ASSERT_TRUE(r1->WaitForLog("event=submit")) << "the client did not submit through replica 1";
@@ -485,7 +485,7 @@ TEST_F(NetnsMultiHost, ADnsNameWithARecordPerReplicaSurvivesAKilledReplica) {
   options.name = "bake-client";
   ChildProcess bake(net_->Exec(client, {(BinaryDir() / "impostor").string(), "bake", (AssetsDir() / kBox).string(),
                                         "--out", (dir_ / "out").string(), "--server", target, "--token-file",
-                                        (dir_ / "submitter.token").string(), "--frames=2", "--resolution=64",
+                                        (dir_ / "submitter.token").string(), "--frames=3", "--resolution=64",
                                         "--quality-views=0", "--json"}),
                     options);
   ASSERT_TRUE(r1->WaitForLog("event=submit")) << "the client did not reach replica 1 by name";

@@ -47,7 +47,7 @@ class NetnsFarm : public testing::NetnsTest {
     return testing::RunTool(net_->Exec(client, {(BinaryDir() / "impostor").string(), "bake",
                                                 (AssetsDir() / kBox).string(), "--out", out.string(), "--server",
                                                 servers, "--token-file", (dir_ / "submitter.token").string(),
-                                                "--frames=2", "--resolution=64", "--quality-views=0"}));
+                                                "--frames=3", "--resolution=64", "--quality-views=0"}));
   }
 
   // Tokens for the workers and the client, in `data` (before its server starts).

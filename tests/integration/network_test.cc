@@ -63,7 +63,7 @@ std::vector<std::string> BakeCommand(const fs::path& model, const fs::path& out,
                                    out.string(),
                                    "--server",
                                    server,
-                                   "--frames=2",
+                                   "--frames=3",
                                    "--resolution=64",
                                    "--quality-views=0"};
   argv.insert(argv.end(), extra.begin(), extra.end());
@@ -217,7 +217,7 @@ TEST(BakeBatchWatches, AtMostEightStreamsForTenAssetsAndASharedBakeCountsAsBaked
 
   // Ten distinct assets: the Box at ten resolutions (one is the shared one).
   constexpr int kAssets = 10;
-  nlohmann::json spec = {{"defaults", {{"frames", 2}, {"quality_views", 0}}}, {"assets", nlohmann::json::array()}};
+  nlohmann::json spec = {{"defaults", {{"frames", 3}, {"quality_views", 0}}}, {"assets", nlohmann::json::array()}};
   for (int i = 0; i < kAssets; ++i) {
     spec["assets"].push_back({{"path", box.string()}, {"name", "box-" + std::to_string(64 + 8 * i)},
                               {"resolution", 64 + 8 * i}});

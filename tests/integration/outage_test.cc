@@ -95,7 +95,7 @@ const std::vector<BatchItem>& BatchItems() {
 constexpr char kCachedAsset[] = "props_pbr/Fox/glTF-Binary/Fox.glb";
 const sdk::BakeSettings kSettings = [] {
   sdk::BakeSettings settings;
-  settings.frames = 2;
+  settings.frames = 3;
   settings.resolution = 64;
   settings.quality_views = 0;
   return settings;
@@ -351,7 +351,7 @@ void RideOutAnOutage(int outage_seconds) {
   const std::string out = (work / "out").string();
   const std::string outage_flag = "--max-outage-seconds=120";
   CliProcess bake({"bake", (AssetsDir() / kBakeAsset).string(), "--out", out + "/bake", "--server", address,
-                   "--frames=2", "--resolution=64", "--quality-views=0", outage_flag},
+                   "--frames=3", "--resolution=64", "--quality-views=0", outage_flag},
                   work / "bake.stdout");
   const auto step = [] { return Clock::now() + kStepDeadline; };
   const std::optional<std::string> submitted = bake.WaitForStderr("submitted ", step());
@@ -369,7 +369,7 @@ void RideOutAnOutage(int outage_seconds) {
 
   // The batch: its items queue behind the paused bake; the cached one,
   // listed last, finishes at once.
-  nlohmann::json spec = {{"defaults", {{"frames", 2}, {"resolution", 64}, {"quality_views", 0}}},
+  nlohmann::json spec = {{"defaults", {{"frames", 3}, {"resolution", 64}, {"quality_views", 0}}},
                          {"assets", nlohmann::json::array()}};
   for (const BatchItem& item : BatchItems()) {
     spec["assets"].push_back(

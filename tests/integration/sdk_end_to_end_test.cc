@@ -84,9 +84,9 @@ TEST(CliEndToEnd, ExitCodesSayWhatHappened) {
   const fs::path out = testing::NewTempDir("cli_out");
   const std::string box = (AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb").string();
   const CliCase cases[] = {
-      {"bake succeeds", {"bake", box, "--frames", "2", "--resolution", "64", "--out", out.string(), "--json"}, 0,
+      {"bake succeeds", {"bake", box, "--frames", "3", "--resolution", "64", "--out", out.string(), "--json"}, 0,
        false, ""},
-      {"bake again is cached", {"bake", box, "--frames", "2", "--resolution", "64", "--out", out.string(), "--json"},
+      {"bake again is cached", {"bake", box, "--frames", "3", "--resolution", "64", "--out", out.string(), "--json"},
        0, true, ""},
       {"out-of-range frames", {"bake", box, "--frames", "80", "--out", out.string()}, 1, false,
        "impostor: bake failed: INVALID_ARGUMENT: parameters.frames: 80 is out of range"},

@@ -164,7 +164,7 @@ TEST(StoreRpc, ACachedResultWithACorruptMapIsBakedAgain) {
   const std::string model = "glTF" + RandomBytes(64, 7);
   submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
   *submit.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
-  submit.mutable_parameters()->set_frames(2);
+  submit.mutable_parameters()->set_frames(3);
   submit.mutable_parameters()->set_resolution(64);
   auto submit_ctx = ContextWithin();
   v1::SubmitBakeResponse response;
@@ -272,7 +272,7 @@ grpc::Status SubmitAs(ServerProcess& server, const std::string& client, uint32_t
   submit.mutable_mesh()->mutable_entry()->set_path("model.glb");
   *submit.mutable_mesh()->mutable_entry()->mutable_digest() = DigestOf(model);
   EXPECT_TRUE(UploadBytes(server.assets(), model, submit.mesh().entry().digest()).ok());
-  submit.mutable_parameters()->set_frames(2);
+  submit.mutable_parameters()->set_frames(3);
   submit.mutable_parameters()->set_resolution(64);
   auto ctx = ContextWithin();
   if (!client.empty()) ctx->AddMetadata("impostor-client-id", client);

@@ -89,7 +89,7 @@ TEST_F(TlsFarm, BakesThroughTlsWithAWorkerOverTls) {
 
   const fs::path out = testing::NewTempDir("tls_bake_out");
   const testing::ToolRun bake =
-      RunTool({Impostor(), "bake", (AssetsDir() / kBox).string(), "--frames=2", "--resolution=64", "--quiet",
+      RunTool({Impostor(), "bake", (AssetsDir() / kBox).string(), "--frames=3", "--resolution=64", "--quiet",
                "--out=" + out.string(), "--server=" + server.address(), "--tls-ca=" + ca_.cert.string()});
   ASSERT_EQ(bake.exit_code, 0) << bake.err;
   EXPECT_TRUE(fs::is_regular_file(out / "manifest.json"));
@@ -112,7 +112,7 @@ TEST_F(TlsFarm, MutualTlsBakesWithLocalWorkersOnTheirPrivateSocket) {
 
   const fs::path out = testing::NewTempDir("mtls_bake_out");
   const testing::ToolRun bake = RunTool(
-      {Impostor(), "bake", (AssetsDir() / kBox).string(), "--frames=2", "--resolution=64", "--quiet",
+      {Impostor(), "bake", (AssetsDir() / kBox).string(), "--frames=3", "--resolution=64", "--quiet",
        "--out=" + out.string(), "--server=" + server.address(), "--tls-ca=" + ca_.cert.string(),
        "--tls-cert=" + client_.cert.string(), "--tls-key=" + client_.key.string()});
   ASSERT_EQ(bake.exit_code, 0) << bake.err;

@@ -32,7 +32,7 @@ std::string SubmitSmall(ServerProcess& server, const std::string& asset) {
   const v1::MeshInput mesh = UploadGlb(server.assets(), AssetsDir() / asset);
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = mesh;
-  request.mutable_parameters()->set_frames(2);
+  request.mutable_parameters()->set_frames(3);
   request.mutable_parameters()->set_resolution(64);
   v1::SubmitBakeResponse response;
   auto ctx = ContextWithin();

@@ -34,6 +34,20 @@ TEST(BakeRequest, DefaultsAreFilledIn) {
   EXPECT_EQ(p->resolution(), 2048u);
 }
 
+TEST(BakeRequest, TwoFramesPerAxisAreRefusedOnlyWhereTheyFoldOntoOneView) {
+  v1::BakeParameters hemi;
+  hemi.set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  hemi.set_frames(2);
+  EXPECT_TRUE(NormalizeParameters(hemi).ok()) << "the hemisphere's 2 x 2 are four side views";
+  v1::BakeParameters octahedral;
+  octahedral.set_frames(3);
+  EXPECT_TRUE(NormalizeParameters(octahedral).ok());
+  octahedral.set_frames(2);
+  const auto refused = NormalizeParameters(octahedral);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("use 3 or more, or hemi-octahedral"), std::string::npos) << refused.status();
+}
+
 TEST(BakeRequest, OutOfRangeParametersNameTheFieldAndLimit) {
   struct Case {
     const char* name;
@@ -43,6 +57,8 @@ TEST(BakeRequest, OutOfRangeParametersNameTheFieldAndLimit) {
   } cases[] = {
       {"one frame", 1, 0, 0, "parameters.frames: 1 is out of range 2..64"},
       {"too many frames", 65, 0, 0, "parameters.frames: 65 is out of range 2..64"},
+      // Octahedral's 2 x 2 grid is its four folded corners: one view, four times.
+      {"octahedral 2 x 2", 2, 0, 0, "parameters.frames: octahedral needs at least 3 frames per axis"},
       {"tiny atlas", 0, 32, 0, "parameters.resolution: 32 is out of range 64..16384"},
       {"huge atlas", 0, 32768, 0, "parameters.resolution: 32768 is out of range 64..16384"},
       {"huge supersampled atlas", 0, 16384, 0,

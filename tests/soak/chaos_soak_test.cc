@@ -56,7 +56,7 @@ struct Request {
 // so shared bakes and cache hits happen while processes die.
 std::vector<Request> DistinctRequests() {
   std::vector<Request> out;
-  const uint32_t frames[] = {2, 3, 4, 5, 6};
+  const uint32_t frames[] = {3, 4, 5, 6, 7};
   const uint32_t resolutions[] = {64, 72, 80, 88, 96, 104, 112, 120, 128, 136};
   for (const char* asset : kAssets) {
     for (uint32_t f : frames) {

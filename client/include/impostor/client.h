@@ -185,7 +185,7 @@ struct BakeSettings {
 
   // Frames per atlas axis: the atlas holds frames x frames views.
   // Default: 0 = the server's default (12; azimuth-elevation 11). Range
-  // checked by the server: 2..64; azimuth-elevation odd 3..63; ring-top and
+  // checked by the server: 2..64 (octahedral 3..64); azimuth-elevation odd 3..63; ring-top and
   // billboard derive it and refuse an explicit value.
   uint32_t frames = 0;
 
