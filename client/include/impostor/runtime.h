@@ -96,6 +96,9 @@ struct FrameWeight {
   float weight = 0.0f;  // > 0
 };
 
+// Entries come in no particular order (not by weight): pick the dominant
+// frame by its weight. Within float rounding of a frame's own direction its
+// neighbours may still appear, with weights near 1e-7.
 struct FrameBlend {
   int count = 0;           // entries used, 1..4 (0: the layout is not one a bake produces)
   FrameWeight entries[4];  // weights sum to 1
