@@ -29,12 +29,13 @@ class BakeReport {
     json_ = {{"model", args.target}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
              {"out_dir", args.out},  {"manifest", nullptr},  {"files", nlohmann::json::array()},
              {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"warnings", nlohmann::json::array()},
-             {"error", nullptr}};
+             {"quality", nullptr},   {"error", nullptr},     {"exit_code", 0}};
   }
   nlohmann::json& json() { return json_; }
 
   int Fail(int exit_code, const std::string& reason) {
     json_["error"] = reason;
+    json_["exit_code"] = exit_code;
     Print();
     return cli::Fail(exit_code, reason);
   }

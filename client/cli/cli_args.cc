@@ -469,9 +469,10 @@ Usage:
                       "asset", asset, name, status (succeeded, failed or
                       skipped), cached, cache_key, job_id, out_dir, files,
                       wall_seconds, priority, quality (the manifest's quality
-                      block, or null), error (null or "CODE: message"),
-                      error_code}, then {type: "summary", total, succeeded,
-                      baked, cached, failed, skipped, wall_seconds, exit_code}
+                      block, or null), warnings, error (null or "CODE:
+                      message"), error_code}, then {type: "summary", total,
+                      succeeded, baked, cached, failed, skipped, wall_seconds,
+                      exit_code, error}: the summary on every outcome
   impostor fetch KEY --out DIR [--server HOST:PORT] [--json] [--quiet]
                 [--max-outage-seconds N]
       Downloads the result baked under cache key KEY into DIR. Files already
@@ -542,7 +543,9 @@ Common flags:
                       tunnel); needs --tls-ca. See README "Securing a farm: TLS"
   --json              print one JSON object on stdout instead of text; bake prints
                       {model, cache_key, job_id, cached, out_dir, manifest, files,
-                      wall_seconds, uploaded_bytes, error}
+                      wall_seconds, uploaded_bytes, warnings, quality, error,
+                      exit_code} on every outcome, and contact_sheet when the
+                      result has one
   --token-file FILE   (every command that takes --server) the bearer token for a
                       server with tokens (`impostor-server token create`); the
                       file wins over $IMPOSTOR_TOKEN
