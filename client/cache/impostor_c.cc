@@ -132,18 +132,12 @@ void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, siz
 
 impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,
                                       uint32_t frames, uint32_t resolution, char key_out[65], int* found) {
-  if (cache == nullptr || model_path == nullptr || key_out == nullptr || found == nullptr) {
-    return Report(absl::InvalidArgumentError("impostor_cache_lookup: cache, model_path, key_out, found required"));
-  }
-  impostor::sdk::BakeSettings settings;
-  if (layout != nullptr) settings.layout = layout;
+  impostor_bake_settings settings;
+  impostor_bake_settings_init(&settings);
+  settings.layout = layout;
   settings.frames = frames;
   settings.resolution = resolution;
-  auto looked = cache->cache->Lookup(model_path, settings);
-  if (!looked.ok()) return Report(looked.status());
-  std::snprintf(key_out, 65, "%s", looked->cache_key.c_str());
-  *found = looked->found ? 1 : 0;
-  return Report(absl::OkStatus());
+  return impostor_cache_lookup_settings(cache, model_path, &settings, key_out, found);
 }
 
 void impostor_bake_settings_init(impostor_bake_settings* settings) {
