@@ -110,7 +110,7 @@ TEST_F(SurfelBakeTest, ExplicitBudgetsOnANonPowerOfTwoCaptureAreFilledNotExceede
 
 TEST_F(SurfelBakeTest, ABudgetTheCaptureCannotReachIsReportedNotFaked) {
   const Scene scene = testing::SphereScene({0, 0, 0}, 1.0f, 16, {0.8f, 0.8f, 0.8f, 1.0f}, 1.0f, 0.0f);
-  auto cloud = Bake(scene, Params("prop", /*budget=*/4'000'000, /*frames=*/2, /*resolution=*/64));
+  auto cloud = Bake(scene, Params("prop", /*budget=*/4'000'000, /*frames=*/3, /*resolution=*/64));
   ASSERT_TRUE(cloud.ok()) << cloud.status();
   EXPECT_FALSE(cloud->fit.budget_reached);
   EXPECT_LT(cloud->points.size(), cloud->sample_count + 1);
