@@ -10,13 +10,13 @@ shift
 case "$role" in
   server)
     if [ -f /etc/impostor/server.conf ]; then . /etc/impostor/server.conf; fi
-    # Several replicas (issue 15): IMPOSTOR_DATABASE (a postgresql:// URL)
-    # and IMPOSTOR_BLOB_DIR (a shared filesystem); else one machine's
-    # IMPOSTOR_DATA (SQLite + DATA/cas).
+    # IMPOSTOR_DATA is the server's own directory in every case (--data is
+    # required: local workers' socket and state; on one machine also SQLite
+    # and DATA/cas). Several replicas (issue 15) add IMPOSTOR_DATABASE (a
+    # postgresql:// URL) and IMPOSTOR_BLOB_DIR (a shared filesystem).
+    store="--data=${IMPOSTOR_DATA:-/var/lib/impostor}"
     if [ -n "${IMPOSTOR_DATABASE:-}" ]; then
-      store="--database=$IMPOSTOR_DATABASE --blob-dir=${IMPOSTOR_BLOB_DIR:-/var/lib/impostor/cas}"
-    else
-      store="--data=${IMPOSTOR_DATA:-/var/lib/impostor}"
+      store="$store --database=$IMPOSTOR_DATABASE --blob-dir=${IMPOSTOR_BLOB_DIR:-/var/lib/impostor/cas}"
     fi
     # The flags are split on spaces on purpose (as in the systemd unit).
     # shellcheck disable=SC2086

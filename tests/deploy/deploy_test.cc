@@ -128,5 +128,42 @@ TEST(Deploy, EveryFlagPassedIsOneTheBinariesKnow) {
   }
 }
 
+// The entrypoint itself, run as a container would run it (with this build's
+// binary for /usr/bin/impostor-server and no /etc/impostor/server.conf):
+// with a database URL, as compose and the Kubernetes ConfigMap configure the
+// replicas, the server must get as far as the database, not stop at a flag
+// the script left out.
+TEST(Deploy, TheServerEntrypointPassesEveryRequiredFlagForReplicasAndForOneMachine) {
+  const fs::path work = testing::NewTempDir("entrypoint");
+  std::string script = Read(kSource / "deploy/container/entrypoint.sh");
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"/usr/bin/impostor-server",
+                                                                     (testing::BinaryDir() / "impostor-server").string()},
+                                 {"/etc/impostor/server.conf", (work / "absent.conf").string()}}) {
+    for (size_t at = script.find(from); at != std::string::npos; at = script.find(from, at + to.size())) {
+      script.replace(at, from.size(), to);
+    }
+  }
+  std::ofstream(work / "entrypoint.sh") << script;
+  const std::string data = "IMPOSTOR_DATA=" + (work / "data").string();
+  // Replicas: port 1 on loopback refuses at once, so the server stops at the
+  // database with its own message.
+  const testing::ToolRun replica =
+      testing::RunTool({"/usr/bin/env", data, "IMPOSTOR_DATABASE=postgresql://farm@127.0.0.1:1/farm",
+                        "IMPOSTOR_BLOB_DIR=" + (work / "blobs").string(), "IMPOSTOR_LISTEN=127.0.0.1:0", "/bin/sh",
+                        (work / "entrypoint.sh").string(), "server"},
+                       std::chrono::seconds(60));
+  EXPECT_EQ(replica.exit_code, 2) << replica.err;
+  EXPECT_EQ(replica.err.find("--data: required"), std::string::npos) << replica.err;
+  EXPECT_NE(replica.err.find("--database"), std::string::npos) << "stopped before the database: " << replica.err;
+  // One machine: a bad flag added through IMPOSTOR_SERVER_FLAGS is the only
+  // thing wrong (the server would otherwise run).
+  const testing::ToolRun single =
+      testing::RunTool({"/usr/bin/env", data, "IMPOSTOR_LISTEN=127.0.0.1:0", "IMPOSTOR_SERVER_FLAGS=--max-attempts=0",
+                        "/bin/sh", (work / "entrypoint.sh").string(), "server"},
+                       std::chrono::seconds(60));
+  EXPECT_EQ(single.exit_code, 2) << single.err;
+  EXPECT_NE(single.err.find("--max-attempts: must be in 1..100"), std::string::npos) << single.err;
+}
+
 }  // namespace
 }  // namespace impostor
