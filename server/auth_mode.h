@@ -14,11 +14,14 @@ enum class AuthMode { kNone, kToken };
 // True for localhost, 127.0.0.0/8 and ::1 (with or without brackets).
 bool IsLoopbackHost(std::string_view host);
 
-// `flag` is --auth ("" = not given), `listen` is --listen (HOST:PORT).
-// Not given: token unless the host is loopback. "none" on a non-loopback
-// address is INVALID_ARGUMENT saying why: anyone who can reach the port
-// could then bake, read every asset and publish forged results.
-absl::StatusOr<AuthMode> ResolveAuthMode(std::string_view flag, std::string_view listen);
+// `flag` is --auth ("" = not given), `listen` is --listen (HOST:PORT) and
+// `http_listen` is --http-listen ("" = no HTTP front end), which serves the
+// same jobs and assets. Not given: token unless every listener is on a
+// loopback host. "none" with a listener on a non-loopback address is
+// INVALID_ARGUMENT naming that flag and saying why: anyone who can reach the
+// port could then bake, read every asset and publish forged results.
+absl::StatusOr<AuthMode> ResolveAuthMode(std::string_view flag, std::string_view listen,
+                                         std::string_view http_listen = "");
 
 }  // namespace impostor
 

@@ -18,6 +18,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "absl/flags/declare.h"
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
@@ -49,6 +50,10 @@
 #include "server/token_quotas.h"
 #include "server/token_store.h"
 #include "server/token_store_factory.h"
+
+// Defined with the HTTP front end (server/http/http_frontend.cc); its
+// address decides --auth's default too.
+ABSL_DECLARE_FLAG(std::string, http_listen);
 
 ABSL_FLAG(std::string, listen, "localhost:50051", "HOST:PORT to serve on; port 0 picks a free port");
 ABSL_FLAG(std::string, data, "", "Directory for the blob store and the job database (required)");
@@ -98,7 +103,7 @@ ABSL_FLAG(int, tls_reload_seconds, 5,
 // Identity and roles (issue 14).
 ABSL_FLAG(std::string, auth, "",
           "none or token: whether callers need a bearer token (`impostor-server token create`). Default: token "
-          "unless --listen is a loopback address; none is refused on other addresses");
+          "unless --listen and --http-listen are loopback addresses; none is refused on other addresses");
 ABSL_FLAG(int64_t, token_max_pending_jobs, 1000, "Queued or running jobs per token (not admin) (>= 1)");
 ABSL_FLAG(int64_t, token_max_upload_bytes_per_day, int64_t{100} << 30,
           "Bytes a token (not admin) may upload in any 24 hours (>= 1)");
@@ -213,7 +218,8 @@ int main(int argc, char** argv) {
                                        .reload_seconds = absl::GetFlag(FLAGS_tls_reload_seconds)};
   auto listen_credentials = impostor::MakeServerCredentials(tls);
   if (!listen_credentials.ok()) return Fail(std::string(listen_credentials.status().message()));
-  auto auth_mode = impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen));
+  auto auth_mode =
+      impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen), absl::GetFlag(FLAGS_http_listen));
   if (!auth_mode.ok()) return Fail(std::string(auth_mode.status().message()));
   const impostor::QuotaOptions quota_options{
       .max_pending_jobs = absl::GetFlag(FLAGS_token_max_pending_jobs),

@@ -260,6 +260,18 @@ TEST(AuthMode, DefaultsAndRefusals) {
   auto refused = ResolveAuthMode("none", "10.0.0.5:50051");
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().message().find("not a loopback address"), std::string::npos);
+
+  // The HTTP front end serves the same jobs and meshes: a network-facing
+  // one turns tokens on by default and refuses none, even with a loopback
+  // gRPC port.
+  EXPECT_EQ(*ResolveAuthMode("", "127.0.0.1:0", "0.0.0.0:8080"), AuthMode::kToken);
+  EXPECT_EQ(*ResolveAuthMode("", "127.0.0.1:0", "127.0.0.1:8080"), AuthMode::kNone);
+  EXPECT_EQ(*ResolveAuthMode("", "127.0.0.1:0", ""), AuthMode::kNone) << "no HTTP front end";
+  auto http_refused = ResolveAuthMode("none", "127.0.0.1:0", "0.0.0.0:8080");
+  ASSERT_FALSE(http_refused.ok());
+  EXPECT_NE(http_refused.status().message().find("--auth none: refused with --http-listen 0.0.0.0:8080"),
+            std::string::npos)
+      << http_refused.status();
 }
 
 TEST(ExpiresIn, ParsesUnitsAndRefusesTheRest) {
