@@ -12,6 +12,7 @@
 #include "server/http/api_params.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
+#include "server/auth_mode.h"
 #include "server/http/login_page.h"
 #include "server/http/json_api.h"
 #include "server/metrics/rpc_metrics_interceptor.h"
@@ -131,6 +132,13 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::Start(BakeScheduler*
   http->thread_ = std::thread([server = http->server_.get()] { server->listen_after_bind(); });
   spdlog::info("event=http_listening address={}:{} static_dir={}", a.host, http->port_,
                http->options_.static_dir.string());
+  // As the gRPC port warns (tls_credentials.cc): this one has no TLS at all,
+  // and its bearer tokens and login cookie would cross the network in clear.
+  if (!IsLoopbackHost(a.host)) {
+    spdlog::warn("event=plaintext_listener host={} listener=http note=\"no TLS: tokens, cookies and assets sent "
+                 "to this port can be read on the network; put it behind a TLS proxy or listen on 127.0.0.1\"",
+                 a.host);
+  }
   return http;
 }
 
