@@ -1,5 +1,8 @@
 #include "common/token_source.h"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -31,8 +34,15 @@ absl::StatusOr<std::string> Checked(std::string token, const std::string& source
 absl::StatusOr<std::string> ResolveToken(const std::string& token_file, const std::string& token,
                                          const char* env_token) {
   if (!token_file.empty()) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(token_file, ec)) {
+      return absl::InvalidArgumentError(absl::StrCat("--token-file: ", token_file, " is a directory, not a file"));
+    }
     std::ifstream in(token_file, std::ios::binary);
-    if (!in) return absl::InvalidArgumentError(absl::StrCat("--token-file: cannot read ", token_file));
+    if (!in) {
+      const int err = errno;
+      return absl::InvalidArgumentError(absl::StrCat("--token-file: cannot read ", token_file, ": ", std::strerror(err)));
+    }
     std::string text;
     text.resize(kMaxTokenFileBytes + 1);
     in.read(text.data(), static_cast<std::streamsize>(text.size()));
@@ -42,7 +52,12 @@ absl::StatusOr<std::string> ResolveToken(const std::string& token_file, const st
                                                      " bytes; it should hold one token"));
     }
     std::string line = Trim(text.substr(0, text.find('\n')));
-    if (line.empty()) return absl::InvalidArgumentError(absl::StrCat("--token-file: ", token_file, " is empty"));
+    if (line.empty()) {
+      return absl::InvalidArgumentError(
+          Trim(text).empty() ? absl::StrCat("--token-file: ", token_file, " is empty")
+                             : absl::StrCat("--token-file: ", token_file,
+                                            ": its first line is empty; the token must be on the first line"));
+    }
     return Checked(std::move(line), absl::StrCat("--token-file ", token_file));
   }
   if (!token.empty()) return Checked(Trim(token), "token");

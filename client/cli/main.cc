@@ -15,6 +15,7 @@
 #include "client/cli/output.h"
 #include "common/grpc_log.h"
 #include "common/tls_files.h"
+#include "common/token_source.h"
 
 namespace {
 
@@ -59,6 +60,11 @@ int main(int argc, char** argv) {
         {.ca = parsed->tls_ca, .cert = parsed->tls_cert, .key = parsed->tls_key},
         {.ca = "--tls-ca", .cert = "--tls-cert", .key = "--tls-key"});
     if (!tls.ok()) return Fail(kExitUsage, std::string(tls.status().message()));
+  }
+  // So is a token file (or $IMPOSTOR_TOKEN) that cannot be used: exit 2, not
+  // the 3 of a farm that may come back.
+  if (auto token = impostor::ResolveToken(parsed->token_file, "", std::getenv(impostor::kTokenEnvVar)); !token.ok()) {
+    return Fail(kExitUsage, std::string(token.status().message()));
   }
   switch (parsed->command) {
     case Command::kHelp:

@@ -511,6 +511,14 @@ TEST_F(AuthServerNoGrace, PurgeRpcDropsResultsAndTheBlobsOnlyTheyUsed) {
                                  "--token-file", token_file.string()},
                                 kStartTimeout);
   ASSERT_EQ(fetch.exit_code, 0) << fetch.err;
+  // A token file that cannot be used is the caller's mistake, refused before
+  // connecting: exit 2 (3 would tell CI to retry).
+  for (const std::string& bad : {(out / "no-such-token").string(), out.string()}) {
+    const ToolRun refused =
+        RunTool({cli, "status", "job-1", "--server", server_->address(), "--token-file", bad}, kStartTimeout);
+    EXPECT_EQ(refused.exit_code, 2) << bad << ": " << refused.err;
+    EXPECT_NE(refused.err.find("--token-file: "), std::string::npos) << refused.err;
+  }
   const std::string manifest = ReadFileBytes(out / "manifest.json");
   EXPECT_NE(manifest.find("\"baked_by\": \"node-b\""), std::string::npos) << manifest;
   EXPECT_EQ(results[2].files.at("manifest.json").find("baked_by"), std::string::npos);

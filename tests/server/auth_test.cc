@@ -298,14 +298,17 @@ TEST(TokenSource, FileWinsThenTokenThenEnvironment) {
   EXPECT_EQ(*ResolveToken("", "", nullptr), "");
 
   std::ofstream(dir / "empty") << "\n";
+  std::ofstream(dir / "second") << "\nimp_a\n";
   std::ofstream(dir / "spaced") << "imp_a imp_b\n";
   std::ofstream(dir / "huge") << std::string(5000, 'a');
   struct Case {
     const char* name;
     fs::path file;
-    const char* expected;
-  } cases[] = {{"missing", dir / "nope", "cannot read"},
+    std::string expected;
+  } cases[] = {{"missing", dir / "nope", "cannot read " + (dir / "nope").string() + ": No such file or directory"},
                {"empty", dir / "empty", "is empty"},
+               {"token on the second line", dir / "second", "its first line is empty"},
+               {"a directory", dir, "is a directory, not a file"},
                {"two tokens", dir / "spaced", "space or control"},
                {"huge", dir / "huge", "over 4096 bytes"}};
   for (const Case& c : cases) {
