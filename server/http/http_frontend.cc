@@ -35,6 +35,14 @@ namespace {
 // of MB at most; a bigger blob is fetched over gRPC).
 constexpr int64_t kMaxServedBlobBytes = int64_t{512} << 20;
 
+// One line per refused request, as the gRPC side logs event=auth_refused
+// (authorized_services.cc): guessed tokens on /login show up too.
+void LogRefusal(const httplib::Request& req, const HttpAuthorization& auth) {
+  spdlog::warn("event=auth_refused listener=http method={} path=\"{}\" peer=\"{}\" status={} reason=\"{}\"",
+               req.method, EscapeUntrusted(req.path, 200), EscapeUntrusted(req.remote_addr, 80), auth.status,
+               EscapeUntrusted(auth.message, 300));
+}
+
 int HttpStatusFor(const absl::Status& s) {
   switch (s.code()) {
     case absl::StatusCode::kInvalidArgument: return 400;
@@ -174,10 +182,11 @@ void HttpFrontend::Route() {
                                                      .cookie = req.get_header_value("Cookie")},
                                                     options_.authenticator, scheduler_);
     if (auth.allowed) return httplib::Server::HandlerResponse::Unhandled;
-    if (auth.to_login) {
+    if (auth.to_login) {  // a browser's first visit: not worth a warning
       res.set_redirect("/login", 303);
       return httplib::Server::HandlerResponse::Handled;
     }
+    LogRefusal(req, auth);
     res.status = auth.status;
     if (auth.status == 401) res.set_header("WWW-Authenticate", "Bearer realm=\"impostor\"");
     res.set_content(ErrorJson(auth.status, auth.message), "application/json");
@@ -197,6 +206,7 @@ void HttpFrontend::Route() {
         {.method = "GET", .path = "/api/v1/summary", .authorization = token.empty() ? "" : "Bearer " + token},
         options_.authenticator, scheduler_);
     if (!auth.allowed) {
+      LogRefusal(req, auth);
       res.status = auth.status;
       res.set_content(LoginPageHtml(auth.message), "text/html; charset=utf-8");
       return;

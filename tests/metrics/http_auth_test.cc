@@ -64,6 +64,14 @@ TEST_F(HttpAuth, ReaderSubmitterAndAdminSeeTheFarmAWorkerTokenDoesNot) {
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 401);
   EXPECT_EQ(res->body.find(unknown), std::string::npos) << "the secret is echoed";
+  // Each refusal is one log line, as on the gRPC side; never the secret.
+  EXPECT_TRUE(server_.process().WaitForLog("event=auth_refused listener=http method=GET path=\"/metrics\"", 1,
+                                           std::chrono::seconds(10)))
+      << server_.process().Stderr();
+  EXPECT_TRUE(server_.process().WaitForLog("event=auth_refused listener=http method=GET path=\"/api/v1/summary\"", 1,
+                                           std::chrono::seconds(10)))
+      << "the worker token's 403: " << server_.process().Stderr();
+  EXPECT_EQ(server_.process().Stderr().find(unknown), std::string::npos) << "the secret is logged";
 }
 
 TEST_F(HttpAuth, LoginSetsAnHttpOnlyCookieThatOpensThePagesAndRefusesABadToken) {
