@@ -1,7 +1,12 @@
 #include "server/token_command.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 
 #include <chrono>
 #include <cstdio>
@@ -45,6 +50,24 @@ int UsageError(const std::string& message) {
 int StoreError(const absl::Status& status) {
   std::fprintf(stderr, "impostor-server token: %s\n", std::string(status.message()).c_str());
   return 1;
+}
+
+// `impostor-server token create --data /var/lib/impostor` is typically run
+// as root, before or beside a server that runs as the data directory's
+// owner (the packages' `impostor` user). A tokens.sqlite3 that root created
+// would be read-only to that server: it starts, reads tokens, and then fails
+// every quota write. So the files go to the directory's owner.
+void GiveTokenFilesToDataDirOwner(const std::filesystem::path& data_dir) {
+  if (::geteuid() != 0) return;
+  struct stat dir {};
+  if (::stat(data_dir.c_str(), &dir) != 0 || dir.st_uid == 0) return;
+  for (const char* name : {"tokens.sqlite3", "tokens.sqlite3-wal", "tokens.sqlite3-shm"}) {
+    const std::filesystem::path file = data_dir / name;
+    if (::lchown(file.c_str(), dir.st_uid, dir.st_gid) != 0 && errno != ENOENT) {
+      std::fprintf(stderr, "impostor-server token: warning: cannot give %s to the owner of %s (uid %u): %s\n",
+                   file.c_str(), data_dir.c_str(), static_cast<unsigned>(dir.st_uid), std::strerror(errno));
+    }
+  }
 }
 
 }  // namespace
@@ -137,6 +160,13 @@ int RunTokenCommand(const std::vector<std::string>& args) {
   auto storage = OpenTokenStorage({.database_url = database, .data_dir = database.empty() ? data : ""});
   if (!storage.ok()) return StoreError(storage.status());
   TokenStore* const store = storage->tokens.get();
+  // On every way out, after the verb wrote (and before the store closes).
+  struct OwnerFix {
+    std::string dir;
+    ~OwnerFix() {
+      if (!dir.empty()) GiveTokenFilesToDataDirOwner(dir);
+    }
+  } owner_fix{database.empty() ? data : ""};
   const int64_t now = NowMs();
   if (verb == "create") {
     const std::string secret = NewTokenSecret();

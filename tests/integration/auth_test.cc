@@ -14,6 +14,10 @@
 #include <thread>
 #include <vector>
 
+#include <pwd.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "impostor/v1/admin_service.grpc.pb.h"
@@ -704,6 +708,22 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
                               kStartTimeout);
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--token-max-pending-jobs"), std::string::npos) << bad.err;
+}
+
+// `token create --data DIR` run as root (as an admin does) leaves the token
+// database to DIR's owner, the user the server runs as: a root-owned one
+// would be read-only to the server and silently stop its quotas.
+TEST(AuthTokenCommands, TokenFilesBelongToTheDataDirectorysOwner) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to create a file for another user";
+  const fs::path data = NewTempDir("token_owner");
+  const passwd* nobody = ::getpwnam("nobody");
+  ASSERT_NE(nobody, nullptr);
+  ASSERT_EQ(::chown(data.c_str(), nobody->pw_uid, nobody->pw_gid), 0);
+  ASSERT_FALSE(CreateToken(data, "worker", "owned").empty());
+  struct stat st {};
+  ASSERT_EQ(::stat((data / "tokens.sqlite3").c_str(), &st), 0);
+  EXPECT_EQ(st.st_uid, nobody->pw_uid);
+  EXPECT_EQ(st.st_gid, nobody->pw_gid);
 }
 
 TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
