@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 
@@ -32,7 +33,10 @@ absl::StatusOr<Principal> Authenticator::Authenticate(const std::string* authori
         "no token: send the 'authorization: Bearer <token>' metadata (impostor --token-file FILE or "
         "IMPOSTOR_TOKEN); `impostor-server token create` makes one");
   }
-  if (authorization->size() < kBearer.size() || authorization->compare(0, kBearer.size(), kBearer) != 0) {
+  // The scheme is case-insensitive (RFC 7235 section 2.1): "bearer" too.
+  if (authorization->size() < kBearer.size() ||
+      !absl::EqualsIgnoreCase(absl::string_view(*authorization).substr(0, kBearer.size()),
+                              absl::string_view(kBearer.data(), kBearer.size()))) {
     return absl::UnauthenticatedError("malformed authorization metadata: expected 'Bearer <token>'");
   }
   const std::string_view token = std::string_view(*authorization).substr(kBearer.size());

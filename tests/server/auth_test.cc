@@ -168,6 +168,12 @@ TEST_F(AuthenticatorTest, ValidTokenGivesItsPrincipal) {
   ASSERT_TRUE(p.ok()) << p.status();
   EXPECT_EQ(p->name, "artist");
   EXPECT_EQ(p->role, Role::kSubmitter);
+  // The scheme is case-insensitive (RFC 7235); the token is not.
+  for (const char* scheme : {"bearer ", "BEARER "}) {
+    auto q = Call(auth, scheme + secret);
+    ASSERT_TRUE(q.ok()) << scheme << ": " << q.status();
+    EXPECT_EQ(q->name, "artist");
+  }
   auto listed = store_->List();
   ASSERT_TRUE(listed.ok());
   EXPECT_EQ((*listed)[0].last_used_ms, now_);
