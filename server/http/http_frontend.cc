@@ -110,8 +110,20 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeS
   if (listen.empty()) return std::unique_ptr<HttpFrontend>();
   auto address = ParseListenAddress(listen, "--http-listen");
   if (!address.ok()) return address.status();
-  return Start(scheduler, blobs,
-               {.listen = *address, .static_dir = StaticDirFromFlag(), .authenticator = authenticator});
+  const std::filesystem::path static_dir = StaticDirFromFlag();
+  std::error_code ec;
+  if (!std::filesystem::is_directory(static_dir, ec)) {
+    // Named by the admin: a typo, refused. Found by default: the API and
+    // /metrics still serve; the dashboard's pages would answer 404.
+    if (!absl::GetFlag(FLAGS_http_static_dir).empty()) {
+      return absl::InvalidArgumentError(absl::StrCat("--http-static-dir: ", static_dir.string(),
+                                                     " is not a directory (the dashboard's files)"));
+    }
+    spdlog::warn("event=http_static_missing dir={} note=\"the dashboard's pages answer 404; the JSON API and "
+                 "/metrics serve; give --http-static-dir\"",
+                 static_dir.string());
+  }
+  return Start(scheduler, blobs, {.listen = *address, .static_dir = static_dir, .authenticator = authenticator});
 }
 
 HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options)

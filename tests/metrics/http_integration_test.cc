@@ -221,6 +221,14 @@ TEST(HttpMetrics, BadHttpListenValuesAreRefusedAtStart) {
     EXPECT_NE(run.err.find(c.expect), std::string::npos) << c.value << "\n" << run.err;
     EXPECT_EQ(run.out.find("listening on"), std::string::npos) << c.value << ": started anyway";
   }
+  // A dashboard directory that is not there, named by the admin: a typo.
+  const auto dir = testing::NewTempDir("http_static_flag");
+  const testing::ToolRun run = testing::RunTool({(testing::BinaryDir() / "impostor-server").string(),
+                                                 "--listen=127.0.0.1:0", "--data=" + dir.string(),
+                                                 "--http-listen=127.0.0.1:0", "--http-static-dir=/nonexistent/web"},
+                                                std::chrono::seconds(60));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--http-static-dir: /nonexistent/web is not a directory"), std::string::npos) << run.err;
 }
 
 }  // namespace
