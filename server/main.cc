@@ -169,6 +169,9 @@ int main(int argc, char** argv) {
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
+  // A closed terminal or a stray `kill -HUP` stops the server as SIGTERM
+  // does (drained, logged), not abruptly; there is no configuration to reload.
+  sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   const std::string data = absl::GetFlag(FLAGS_data);
@@ -391,7 +394,7 @@ int main(int argc, char** argv) {
     if (auto s = supervisor->Start(); !s.ok()) return Fail(std::string(s.message()));
   }
 
-  // SIGINT/SIGTERM end the server gracefully within --shutdown-grace-seconds;
+  // SIGINT/SIGTERM/SIGHUP end the server gracefully within --shutdown-grace-seconds;
   // a watcher thread does it (signal handlers may not call into gRPC):
   // 1. local workers drain (finish or hand back their jobs) while the server
   //    still answers them;

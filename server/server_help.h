@@ -12,11 +12,15 @@ namespace impostor {
 inline ProgramHelp ServerHelp() {
   return {
       .program = "impostor-server",
-      .usage = {"--data=DIR [--listen=HOST:PORT] [--local-workers=N] [flags]"},
+      .usage = {"--data=DIR [--listen=HOST:PORT] [--local-workers=N] [flags]",
+                "token create|list|revoke --data=DIR|--database=URL [--role=R] [--name=N]",
+                "purge --worker=NAME --data=DIR"},
       .summary = "The bake farm's gRPC server: stores uploaded meshes and baked results (content-addressed, "
                  "under --data), queues bake jobs and leases them to impostor-worker processes, which it can "
                  "also start and supervise itself (--local-workers). Prints \"impostor-server listening on "
-                 "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM or SIGINT drains and stops it.",
+                 "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM, SIGINT or SIGHUP drains and stops it. "
+                 "`token` manages bearer tokens (README \"Identity, tokens and roles\"); `purge` drops the "
+                 "results a worker baked, offline.",
       .groups = {{"Listening", {"listen", "port_file", "http_", "tls_", "keepalive_"}},
                  {"Access control", {"auth", "token_"}},
                  {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "result_touch_"}},

@@ -24,7 +24,8 @@ inline ProgramHelp WorkerHelp() {
                                    "isolate_load", "load_"}},
                  {"Logging", {"log_"}}},
       .footer = "Exit status: 0 after --max-jobs jobs or a drain, 1 when the server stayed unreachable for "
-                "--max-outage-seconds or for an unknown flag or a value that does not parse (Abseil's message), 2 for "
+                "--max-outage-seconds, when the server refused its token (unknown, revoked, not a worker's), or for an "
+                "unknown flag or a value that does not parse (Abseil's message), 2 for "
                 "a flag value out of range, 3 when no usable Vulkan device exists.\n"
                 "See impostor-server(1) and impostor(1).",
   };

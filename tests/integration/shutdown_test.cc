@@ -223,6 +223,17 @@ TEST(ServerFlags, OutOfRangeShutdownAndPauseFlagsAreUsageErrors) {
   }
 }
 
+// A closed terminal (SIGHUP) drains and stops the server as SIGTERM does:
+// exit 0 and the shutdown lines, not death by the signal (exit 129).
+TEST(ServerFlags, SighupStopsTheServerGracefully) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  server.process().Signal(SIGHUP);
+  EXPECT_EQ(server.process().Wait(), 0) << server.process().Stderr();
+  EXPECT_GE(server.process().CountInLog("event=shutdown signal=" + std::to_string(SIGHUP)), 1)
+      << server.process().Stderr();
+  EXPECT_GE(server.process().CountInLog("event=shutdown_done"), 1) << server.process().Stderr();
+}
+
 // Values Abseil's parser accepts that the server could not use as given: a
 // log level spdlog would take for "off" (a silent server), a port gRPC would
 // wrap around (99999 -> 34463), and a port another server holds (gRPC's
