@@ -290,11 +290,12 @@ int main(int argc, char** argv) {
   std::unique_ptr<impostor::TokenStore> token_store;
   std::unique_ptr<impostor::Authenticator> authenticator;
   std::unique_ptr<impostor::QuotaLedger> quota_ledger;
+  // Checked whatever the mode: a bad value waits for the day tokens go on.
+  const int token_cache_ttl_ms = absl::GetFlag(FLAGS_token_cache_ttl_ms);
+  if (token_cache_ttl_ms < 0 || token_cache_ttl_ms > 60'000) {
+    return Fail("--token-cache-ttl-ms: " + std::to_string(token_cache_ttl_ms) + " is out of range 0..60000");
+  }
   if (*auth_mode == impostor::AuthMode::kToken) {
-    const int token_cache_ttl_ms = absl::GetFlag(FLAGS_token_cache_ttl_ms);
-    if (token_cache_ttl_ms < 0 || token_cache_ttl_ms > 60'000) {
-      return Fail("--token-cache-ttl-ms: " + std::to_string(token_cache_ttl_ms) + " is out of range 0..60000");
-    }
     auto opened = impostor::OpenTokenStorage({.database_url = store_config.database_url,
                                               .data_dir = data,
                                               .statement_timeout_ms = store_config.statement_timeout_ms,
