@@ -789,6 +789,7 @@ uint64_t BakeScheduler::WaitForChange(uint64_t seen, Deadline deadline) {
 void BakeScheduler::Shutdown() {
   std::lock_guard lock(mu_);
   shutdown_ = true;
+  stopping_ = true;
   changed_.notify_all();
 }
 

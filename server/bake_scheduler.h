@@ -247,8 +247,11 @@ class BakeScheduler {
   }
 
   // OK while the scheduler takes work: not shutting down and the job
-  // database answers. UNAVAILABLE otherwise, saying why.
+  // database answers within kReadyProbeTimeoutMs. UNAVAILABLE otherwise,
+  // saying why. Takes no scheduler lock, so it answers in time even while
+  // another call waits out a database outage.
   absl::Status CheckReady();
+  static constexpr int kReadyProbeTimeoutMs = 2000;
   // Questions the authorisation layer asks about objects (access_policy.h).
   // The token name that submitted `job_id` ('' for jobs from before tokens);
   // INVALID_ARGUMENT for an empty id, NOT_FOUND for an unknown job.
@@ -349,6 +352,7 @@ class BakeScheduler {
   std::condition_variable changed_;
   uint64_t changes_ ABSL_GUARDED_BY(mu_) = 0;
   bool shutdown_ ABSL_GUARDED_BY(mu_) = false;
+  std::atomic<bool> stopping_{false};  // shutdown_, for readers without mu_
   // Fairness between clients (which was served least recently) lives in
   // the JobStore (NoteServed, LastServed): shared by every server on one
   // database and kept across restarts.

@@ -1,7 +1,9 @@
 // BakeScheduler's read-only views for observers (the HTTP adapter and the
 // metrics in server/http/ and server/metrics/) and its worker table. They
 // read the same JobStore rows the scheduler writes, under the same mutex:
-// the dashboard never keeps a second copy of the farm's state.
+// the dashboard never keeps a second copy of the farm's state. While the
+// job database is known to be down, the views answer UNAVAILABLE at once
+// (JobStore::Outage) instead of queueing behind a reconnect.
 #include <algorithm>
 #include <set>
 
@@ -18,6 +20,7 @@ void BakeScheduler::SetObserver(SchedulerObserver* observer) {
 }
 
 absl::StatusOr<std::map<v1::JobState, int64_t>> BakeScheduler::JobCountsByState() {
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto counts = jobs_->CountByState();
   if (!counts.ok()) return counts.status();
@@ -45,6 +48,7 @@ BakeScheduler::JobListing Listing(const JobRecord& r, v1::Job view) {
 
 absl::StatusOr<std::vector<BakeScheduler::JobListing>> BakeScheduler::ListJobs(
     v1::JobState state, int limit, const std::optional<JobStore::JobCursor>& after) {
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto rows = jobs_->ListJobs(static_cast<int>(state), limit, after);
   if (!rows.ok()) return rows.status();
@@ -59,6 +63,7 @@ absl::StatusOr<std::vector<BakeScheduler::JobListing>> BakeScheduler::ListJobs(
 }
 
 absl::StatusOr<BakeScheduler::JobListing> BakeScheduler::DescribeJob(const std::string& job_id) {
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
@@ -67,6 +72,7 @@ absl::StatusOr<BakeScheduler::JobListing> BakeScheduler::DescribeJob(const std::
 
 absl::StatusOr<std::vector<JobStore::StoredResult>> BakeScheduler::ListResults(
     int limit, const std::optional<JobStore::ResultCursor>& after) {
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto results = jobs_->ListResults(limit, after);
   if (!results.ok()) return results;
@@ -80,6 +86,7 @@ absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::stri
     return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
                                                    cache_key.substr(0, 80), "\""));
   }
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto r = jobs_->GetStoredResult(cache_key);
   if (!r.ok()) return r.status();
@@ -113,6 +120,7 @@ void BakeScheduler::NoteWorkerSeen(const std::string& worker_id) {
 }
 
 absl::StatusOr<std::vector<BakeScheduler::WorkerInfo>> BakeScheduler::Workers() {
+  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
   std::lock_guard lock(mu_);
   auto pending = jobs_->Pending();
   if (!pending.ok()) return pending.status();
@@ -151,10 +159,9 @@ absl::StatusOr<std::vector<BakeScheduler::WorkerInfo>> BakeScheduler::Workers() 
 }
 
 absl::Status BakeScheduler::CheckReady() {
-  std::lock_guard lock(mu_);
-  if (shutdown_) return absl::UnavailableError("shutting down");
-  auto counts = jobs_->CountPending("");
-  if (!counts.ok()) return absl::UnavailableError(absl::StrCat("job database: ", counts.status().message()));
+  if (stopping_) return absl::UnavailableError("shutting down");
+  absl::Status probe = jobs_->Probe(kReadyProbeTimeoutMs);
+  if (!probe.ok()) return absl::UnavailableError(absl::StrCat("job database: ", probe.message()));
   return absl::OkStatus();
 }
 

@@ -6,7 +6,10 @@
 //
 // Plain persistence: no scheduling policy lives here (see BakeScheduler).
 // Thread-safety: an engine need not be thread-safe; the owner serialises
-// calls (BakeScheduler holds its mutex around every call).
+// calls (BakeScheduler holds its mutex around every call). Probe and
+// Outage are the exceptions: thread-safe, called without that mutex, so
+// that a readiness check or a dashboard is never queued behind a statement
+// that is waiting out a database outage.
 #ifndef IMPOSTOR_SERVER_JOB_STORE_H_
 #define IMPOSTOR_SERVER_JOB_STORE_H_
 
@@ -212,6 +215,17 @@ class JobStore {
   // then keeps no results in memory (ResultCache): their purges and
   // evictions would not reach it. True unless an engine knows better.
   virtual bool SharedWithOtherServers() const { return true; }
+
+  // --- Health, without the owner's serialisation (see the top) ---
+  // OK when the database answers a trivial statement within about
+  // `timeout_ms`; UNAVAILABLE saying why otherwise. Never waits for a
+  // reconnect window. An embedded engine (a local file) answers OK.
+  virtual absl::Status Probe(int timeout_ms) { return absl::OkStatus(); }
+  // UNAVAILABLE while the database is known to be unreachable (a reconnect
+  // or a Probe failed, and nothing has succeeded since), saying for how long
+  // and why; OK otherwise. Costs no round trip: read-only views check it
+  // first and answer at once.
+  virtual absl::Status Outage() const { return absl::OkStatus(); }
 };
 
 }  // namespace impostor

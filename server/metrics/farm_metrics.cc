@@ -93,7 +93,10 @@ FarmMetrics::FarmMetrics(BakeScheduler* scheduler, const BlobStore* blobs)
       rpcs_(registry_.AddCounter("impostor_rpcs_total", "Finished gRPC calls by method and status code",
                                  {"method", "code"})),
       scrape_errors_(registry_.AddCounter("impostor_scrape_errors_total",
-                                          "Scrapes whose job or worker gauges could not be read")) {
+                                          "Scrapes whose job or worker gauges could not be read")),
+      ready_(registry_.AddGauge("impostor_ready",
+                                "1 when /readyz would answer 200: not shutting down, and the job database "
+                                "answered a probe at this scrape")) {
   for (const char* name : {"impostor.v1.AssetService", "impostor.v1.BakeService", "impostor.v1.WorkerService"}) {
     const google::protobuf::ServiceDescriptor* service =
         google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(name);
@@ -168,6 +171,9 @@ void FarmMetrics::OnRpc(const std::string& method, int code) {
 
 std::string FarmMetrics::Scrape() {
   store_bytes_.Set({}, static_cast<double>(blobs_->total_bytes()));
+  // First, so that a database outage it finds makes the views below
+  // answer at once rather than wait out a reconnect.
+  ready_.Set({}, scheduler_->CheckReady().ok() ? 1.0 : 0.0);
   auto counts = scheduler_->JobCountsByState();
   auto workers = scheduler_->Workers();
   if (!counts.ok() || !workers.ok()) scrape_errors_.Add({});

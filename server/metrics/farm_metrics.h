@@ -92,6 +92,7 @@ class FarmMetrics final : public SchedulerObserver {
   metrics::ValueFamily& evicted_bytes_;
   metrics::ValueFamily& rpcs_;
   metrics::ValueFamily& scrape_errors_;
+  metrics::ValueFamily& ready_;
 
   mutable std::mutex labels_mu_;
   std::set<std::string> worker_labels_ ABSL_GUARDED_BY(labels_mu_);

@@ -68,7 +68,11 @@ absl::StatusOr<PgRows> PgSession::Exec(const std::string& what, const std::strin
   if (st == PGRES_COMMAND_OK || st == PGRES_TUPLES_OK) return rows;
   const std::string message = r && PQresultErrorMessage(r)[0] ? PQresultErrorMessage(r) : PQerrorMessage(conn_);
   std::string text = absl::StrCat("postgresql ", what, " (", *url_, "): ", message);
-  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  // One line (libpq's messages span several), for logs and statuses.
+  for (char& c : text) {
+    if (c == '\n' || c == '\t') c = ' ';
+  }
+  while (!text.empty() && text.back() == ' ') text.pop_back();
   if (PQstatus(conn_) == CONNECTION_BAD) return absl::UnavailableError(text);
   const char* state = r ? PQresultErrorField(r, PG_DIAG_SQLSTATE) : nullptr;
   const std::string code = state ? state : "";
@@ -87,6 +91,8 @@ PgConnectionPool::PgConnectionPool(Options options)
 PgConnectionPool::~PgConnectionPool() {
   std::lock_guard lock(mu_);
   for (pg_conn* c : idle_) PQfinish(c);
+  std::lock_guard probe_lock(probe_mu_);
+  if (probe_conn_ != nullptr) PQfinish(probe_conn_);
 }
 
 absl::StatusOr<std::unique_ptr<PgConnectionPool>> PgConnectionPool::Open(const Options& options) {
@@ -98,18 +104,22 @@ absl::StatusOr<std::unique_ptr<PgConnectionPool>> PgConnectionPool::Open(const O
   return pool;
 }
 
-absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
-  const PgDeadLinkSettings link = DeadLinkSettings(options_.dead_link_seconds);
+std::vector<std::pair<std::string, std::string>> PgConnectionPool::ConnectParams() const {
   // The dead-link keywords go before the URL (expanded as "dbname"), so
   // that keywords the URL sets itself win (libpq: the last value counts).
-  const auto params = DeadLinkConnectParams(link);
+  auto params = DeadLinkConnectParams(DeadLinkSettings(options_.dead_link_seconds));
+  params.emplace_back("dbname", options_.url);
+  return params;
+}
+
+absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
+  const PgDeadLinkSettings link = DeadLinkSettings(options_.dead_link_seconds);
+  const auto params = ConnectParams();
   std::vector<const char*> keywords, values;
   for (const auto& [k, v] : params) {
     keywords.push_back(k.c_str());
     values.push_back(v.c_str());
   }
-  keywords.push_back("dbname");
-  values.push_back(options_.url.c_str());
   keywords.push_back(nullptr);
   values.push_back(nullptr);
   PGconn* conn = PQconnectdbParams(keywords.data(), values.data(), /*expand_dbname=*/1);
@@ -185,10 +195,16 @@ absl::Status PgConnectionPool::Run(const std::function<absl::Status(PgSession&)>
       status = body(session);
       Return(*conn);
     }
-    if (!absl::IsUnavailable(status) || std::chrono::steady_clock::now() >= give_up) {
+    if (!absl::IsUnavailable(status)) {
+      // Any answer, an error included, means the database is reachable.
+      NoteReachable();
       if (tries > 1 && status.ok()) spdlog::info("event=database_reconnected url={} tries={}", redacted_url_, tries);
       return status;
     }
+    // One broken connection is routine after a database restart (the next
+    // try reconnects); a failed reconnect is an outage.
+    if (tries > 1 || !conn.ok()) NoteUnreachable(status);
+    if (std::chrono::steady_clock::now() >= give_up) return status;
     if (tries == 1) {
       spdlog::warn("event=database_unavailable url={} error=\"{}\" action=reconnect", redacted_url_,
                    std::string(status.message()));

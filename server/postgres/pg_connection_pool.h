@@ -11,12 +11,14 @@
 #ifndef IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_
 #define IMPOSTOR_SERVER_POSTGRES_PG_CONNECTION_POOL_H_
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -130,12 +132,26 @@ class PgConnectionPool {
   // A fresh connection outside the pool (LISTEN, advisory locks), with
   // the statement timeout and the dead-link settings. Caller owns it (PQfinish).
   absl::StatusOr<pg_conn*> Connect() const;
+
+  // Whether the database answers SELECT 1 within `timeout_ms`, on a
+  // connection of the probe's own (kept between probes): never queued
+  // behind the pool's statements or their reconnect window, and bounded
+  // however the link fails (refused, black-holed, a hung server). OK, or
+  // UNAVAILABLE naming the redacted URL and why. Feeds Outage().
+  absl::Status Probe(int timeout_ms);
+  // UNAVAILABLE ("unreachable for N s: WHY") from the moment a reconnect
+  // or a probe fails until a statement or a probe succeeds; OK otherwise.
+  absl::Status Outage() const;
   const std::string& redacted_url() const { return redacted_url_; }
 
  private:
   explicit PgConnectionPool(Options options);
   absl::StatusOr<pg_conn*> Borrow();
   void Return(pg_conn* conn);
+  // The libpq keywords and values every connection is made with.
+  std::vector<std::pair<std::string, std::string>> ConnectParams() const;
+  void NoteReachable();
+  void NoteUnreachable(const absl::Status& why);
 
   const Options options_;
   const std::string redacted_url_;
@@ -143,6 +159,13 @@ class PgConnectionPool {
   std::condition_variable available_;
   std::vector<pg_conn*> idle_;
   int open_ = 0;  // connections made and not closed (idle + borrowed)
+
+  std::mutex probe_mu_;  // one probe at a time, on probe_conn_
+  pg_conn* probe_conn_ = nullptr;
+  mutable std::mutex outage_mu_;
+  std::chrono::steady_clock::time_point unreachable_since_;  // meaningful while unreachable_
+  bool unreachable_ = false;
+  std::string unreachable_why_;
 };
 
 }  // namespace impostor

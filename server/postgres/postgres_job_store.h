@@ -95,6 +95,8 @@ class PostgresJobStore : public JobStore {
   bool SharedWithOtherServers() const override { return true; }
   absl::StatusOr<bool> HoldMaintenanceLock() override;
   void SetChangeCallback(std::function<void()> callback) override;
+  absl::Status Probe(int timeout_ms) override { return pool_->Probe(timeout_ms); }
+  absl::Status Outage() const override { return pool_->Outage(); }
 
  private:
   explicit PostgresJobStore(std::unique_ptr<PgConnectionPool> pool) : pool_(std::move(pool)) {}

@@ -62,6 +62,11 @@ TEST(Deploy, KustomizeRendersReplicasWorkersSecretAndProbes) {
   const size_t probe = y.find("readinessProbe:");
   ASSERT_NE(probe, std::string::npos) << y;
   EXPECT_EQ(y.find("path: /readyz", probe), y.find("path: ", probe)) << "the readiness probe asks /readyz: " << y;
+  // /readyz may take BakeScheduler::kReadyProbeTimeoutMs (2 s) to say the
+  // database is down; Kubernetes' default 1 s would call that a failure.
+  const size_t timeout = y.find("timeoutSeconds: ", probe);
+  ASSERT_NE(timeout, std::string::npos) << y;
+  EXPECT_GE(std::atoi(y.c_str() + timeout + 16), 3) << y;
   EXPECT_NE(y.find("path: /healthz"), std::string::npos) << y;
   EXPECT_NE(y.find("clusterIP: None"), std::string::npos) << "headless Service for the workers";
   EXPECT_NE(y.find("mountPath: /etc/impostor/server.conf"), std::string::npos);

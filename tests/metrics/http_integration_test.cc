@@ -2,6 +2,9 @@
 // scraped before and after a bake and a cache hit and every counter must
 // have moved by exactly what happened; the JSON API lists what the gRPC
 // side did; bad paths, parameters and flag values are refused.
+#include <chrono>
+#include <thread>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -68,12 +71,22 @@ TEST(HttpMetrics, CountersMoveByExactlyOneBakeAndOneCacheHit) {
   const v1::SubmitBakeResponse first = Submit(server, request);
   const v1::Job done = testing::WatchToEnd(server.bake(), first.job_id());
   ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
-  const Exposition baked = http.Scrape();
 
   auto delta = [&](const Exposition& a, const Exposition& b, const std::string& name,
                    const std::map<std::string, std::string>& labels = {}) {
     return b.Value(name, labels) - a.Value(name, labels);
   };
+  // The watch sees SUCCEEDED as soon as the result is committed, which can
+  // be before the worker's CompleteJob call has returned and been counted:
+  // scrape until it has (bounded).
+  const std::map<std::string, std::string> complete_ok = {{"method", "/impostor.v1.WorkerService/CompleteJob"},
+                                                           {"code", "OK"}};
+  Exposition baked = http.Scrape();
+  for (const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       delta(before, baked, "impostor_rpcs_total", complete_ok) < 1 && std::chrono::steady_clock::now() < give_up;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    baked = http.Scrape();
+  }
   const std::map<std::string, std::string> atlas = {{"product", "atlas"}};
   EXPECT_EQ(delta(before, baked, "impostor_submits_total", {{"product", "atlas"}, {"outcome", "queued"}}), 1);
   EXPECT_EQ(delta(before, baked, "impostor_cache_misses_total", atlas), 1);
@@ -88,10 +101,10 @@ TEST(HttpMetrics, CountersMoveByExactlyOneBakeAndOneCacheHit) {
   EXPECT_EQ(baked.Value("impostor_jobs", {{"state", "running"}}), 0);
   EXPECT_EQ(delta(before, baked, "impostor_rpcs_total",
                   {{"method", "/impostor.v1.BakeService/SubmitBake"}, {"code", "OK"}}), 1);
-  EXPECT_EQ(delta(before, baked, "impostor_rpcs_total",
-                  {{"method", "/impostor.v1.WorkerService/CompleteJob"}, {"code", "OK"}}), 1);
+  EXPECT_EQ(delta(before, baked, "impostor_rpcs_total", complete_ok), 1);
   EXPECT_GT(baked.Value("impostor_blob_store_bytes"), before.Value("impostor_blob_store_bytes"));
   EXPECT_EQ(baked.Sum("impostor_workers"), 1);
+  EXPECT_EQ(baked.Value("impostor_ready"), 1);
 
   const v1::SubmitBakeResponse second = Submit(server, request);
   EXPECT_TRUE(second.cached());
