@@ -1,19 +1,9 @@
 #include "server/auth_mode.h"
 
 #include "absl/strings/str_cat.h"
+#include "server/loopback_host.h"
 
 namespace impostor {
-
-bool IsLoopbackHost(std::string_view host) {
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
-  if (host == "localhost" || host == "::1") return true;
-  if (host.substr(0, 4) != "127.") return false;
-  // 127.a.b.c: digits and dots only.
-  for (char c : host) {
-    if (!(c == '.' || (c >= '0' && c <= '9'))) return false;
-  }
-  return true;
-}
 
 namespace {
 

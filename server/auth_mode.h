@@ -11,9 +11,6 @@ namespace impostor {
 
 enum class AuthMode { kNone, kToken };
 
-// True for localhost, 127.0.0.0/8 and ::1 (with or without brackets).
-bool IsLoopbackHost(std::string_view host);
-
 // `flag` is --auth ("" = not given), `listen` is --listen (HOST:PORT) and
 // `http_listen` is --http-listen ("" = no HTTP front end), which serves the
 // same jobs and assets. Not given: token unless every listener is on a

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -37,6 +38,7 @@
 #include "server/services.h"
 #include "server/serving_tuning.h"
 #include "server/tls_credentials.h"
+#include "server/tls_file_monitor.h"
 #include "server/worker_supervisor.h"
 // Identity and roles (issue 14).
 #include "server/auth_mode.h"
@@ -353,6 +355,16 @@ int main(int argc, char** argv) {
   spdlog::info("event=listening address={}:{} data={} baker_version={} auth={}", host, port, data,
                impostor::BakerVersion(), token_store ? "token" : "none");
   impostor::LogServerTls(tls, host);
+  // Says what gRPC's certificate reload does not (tls_file_monitor.h).
+  std::unique_ptr<impostor::TlsFileMonitor> tls_monitor;
+  if (tls.enabled()) {
+    tls_monitor = std::make_unique<impostor::TlsFileMonitor>(
+        tls, [] { return static_cast<int64_t>(std::time(nullptr)); },
+        [&http](int64_t not_after) {
+          if (*http) (*http)->metrics().SetTlsCertExpiry(not_after);
+        });
+    tls_monitor->Start();
+  }
   std::printf("impostor-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
   if (*http) (*http)->AnnounceAddress();

@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/tls_files.h"
+#include "server/loopback_host.h"
 
 namespace impostor {
 namespace {
@@ -35,18 +36,23 @@ absl::Status ValidateServerTls(const ServerTlsOptions& o) {
     return absl::OkStatus();
   }
   if (o.key_file.empty()) return absl::InvalidArgumentError("--tls-cert: needs --tls-key too");
+  absl::StatusOr<std::string> cert = ReadServableCertificate(o);
+  if (!cert.ok()) return cert.status();
+  return CheckNotExpired("--tls-cert", o.cert_file, *cert, NowUnixSeconds());
+}
+
+absl::StatusOr<std::string> ReadServableCertificate(const ServerTlsOptions& o) {
   absl::StatusOr<std::string> cert = ReadCertificateFile("--tls-cert", o.cert_file);
   if (!cert.ok()) return cert.status();
   absl::StatusOr<std::string> key = ReadPrivateKeyFile("--tls-key", o.key_file);
   if (!key.ok()) return key.status();
   if (absl::Status s = CheckKeyMatchesCertificate("--tls-cert", *cert, "--tls-key", *key); !s.ok()) return s;
-  if (absl::Status s = CheckNotExpired("--tls-cert", o.cert_file, *cert, NowUnixSeconds()); !s.ok()) return s;
   if (!o.client_ca_file.empty()) {
     if (absl::StatusOr<std::string> ca = ReadCertificateFile("--tls-client-ca", o.client_ca_file); !ca.ok()) {
       return ca.status();
     }
   }
-  return absl::OkStatus();
+  return cert;
 }
 
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(const ServerTlsOptions& o) {
@@ -64,11 +70,6 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(c
     options.set_cert_request_type(GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
   }
   return grpc::experimental::TlsServerCredentials(options);
-}
-
-bool IsLoopbackHost(const std::string& host) {
-  return host == "localhost" || host == "::1" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
-         host.rfind("unix:", 0) == 0 || host.rfind("unix-abstract:", 0) == 0;
 }
 
 void LogServerTls(const ServerTlsOptions& o, const std::string& listen_host) {

@@ -6,7 +6,8 @@
 // client CA is served to new connections without a restart; connections
 // already open keep the certificate they were made with. A renewal must
 // replace the key and the certificate together (see README "Securing a
-// farm: TLS"); a pair that does not match is ignored until it does.
+// farm: TLS"); while the pair does not match, every new handshake fails
+// (gRPC takes what it reads; tls_file_monitor.h logs it).
 //
 // Thread-safety: plain functions; the returned credentials are used by
 // gRPC's threads.
@@ -46,6 +47,12 @@ struct ServerTlsOptions {
 // INVALID_ARGUMENT naming the flag at fault otherwise.
 absl::Status ValidateServerTls(const ServerTlsOptions& options);
 
+// The file checks of ValidateServerTls without the expiry check, i.e. what
+// gRPC's reload takes: readable PEM of the right kind, the key matching the
+// certificate, a readable client CA when one is set. The certificate's PEM,
+// or INVALID_ARGUMENT naming the flag and the file.
+absl::StatusOr<std::string> ReadServableCertificate(const ServerTlsOptions& options);
+
 // Insecure credentials when TLS is off; otherwise watched TLS credentials
 // as described above. Runs ValidateServerTls first (same errors).
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(const ServerTlsOptions& options);
@@ -57,9 +64,6 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(c
 // loopback (or a Unix socket), warns "event=plaintext_listener": anyone
 // who can reach the port reads and writes in the clear.
 void LogServerTls(const ServerTlsOptions& options, const std::string& listen_host);
-
-// True for "localhost", 127.0.0.0/8, "::1" / "[::1]" and "unix:..." hosts.
-bool IsLoopbackHost(const std::string& host);
 
 // With TLS, --local-workers dial the server through a Unix socket,
 // <data>/run/local-workers.sock, in a directory only the server's user may

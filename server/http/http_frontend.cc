@@ -12,7 +12,7 @@
 #include "server/http/api_params.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
-#include "server/auth_mode.h"
+#include "server/loopback_host.h"
 #include "server/http/login_page.h"
 #include "server/http/json_api.h"
 #include "server/metrics/rpc_metrics_interceptor.h"

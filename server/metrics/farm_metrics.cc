@@ -96,7 +96,10 @@ FarmMetrics::FarmMetrics(BakeScheduler* scheduler, const BlobStore* blobs)
                                           "Scrapes whose job or worker gauges could not be read")),
       ready_(registry_.AddGauge("impostor_ready",
                                 "1 when /readyz would answer 200: not shutting down, and the job database "
-                                "answered a probe at this scrape")) {
+                                "answered a probe at this scrape")),
+      tls_cert_expiry_(registry_.AddGauge("impostor_tls_cert_expiry_timestamp_seconds",
+                                          "When the served TLS certificate expires (Unix seconds; absent "
+                                          "without TLS)")) {
   for (const char* name : {"impostor.v1.AssetService", "impostor.v1.BakeService", "impostor.v1.WorkerService"}) {
     const google::protobuf::ServiceDescriptor* service =
         google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(name);

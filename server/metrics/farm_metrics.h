@@ -46,6 +46,9 @@ class FarmMetrics final : public SchedulerObserver {
   // ("/impostor.v1.BakeService/SubmitBake"), `code` its grpc::StatusCode.
   void OnRpc(const std::string& method, int code);
 
+  // The served TLS certificate's expiry, Unix seconds (TlsFileMonitor).
+  void SetTlsCertExpiry(int64_t not_after) { tls_cert_expiry_.Set({}, static_cast<double>(not_after)); }
+
   // SchedulerObserver.
   void OnSubmit(v1::Product product, SubmitOutcome outcome) override;
   void OnLease(const std::string& worker_id, v1::Product product, uint32_t attempt, double queued_seconds) override;
@@ -93,6 +96,7 @@ class FarmMetrics final : public SchedulerObserver {
   metrics::ValueFamily& rpcs_;
   metrics::ValueFamily& scrape_errors_;
   metrics::ValueFamily& ready_;
+  metrics::ValueFamily& tls_cert_expiry_;
 
   mutable std::mutex labels_mu_;
   std::set<std::string> worker_labels_ ABSL_GUARDED_BY(labels_mu_);

@@ -2,6 +2,7 @@
 // cannot work is refused before the server starts, naming the flag at fault;
 // the ones that can work produce credentials.
 #include "server/tls_credentials.h"
+#include "server/loopback_host.h"
 
 #include <unistd.h>
 
@@ -122,7 +123,7 @@ TEST(ServerTlsListen, LoopbackHosts) {
   for (const char* host : {"localhost", "127.0.0.1", "127.1.2.3", "::1", "[::1]", "unix:/run/impostor.sock"}) {
     EXPECT_TRUE(IsLoopbackHost(host)) << host;
   }
-  for (const char* host : {"0.0.0.0", "[::]", "", "10.0.0.5", "bake.studio.lan", "128.0.0.1", "localhost.evil"}) {
+  for (const char* host : {"0.0.0.0", "[::]", "", "10.0.0.5", "bake.studio.lan", "128.0.0.1", "localhost.evil", "127.evil.lan"}) {
     EXPECT_FALSE(IsLoopbackHost(host)) << host;
   }
 }
