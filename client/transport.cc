@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -17,10 +18,13 @@
 #include "client/connection_monitor.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
+#include "common/connect_error.h"
 #include "common/failover_channel.h"
 #include "common/keepalive.h"
 #include "common/server_list.h"
 #include "common/tls_channel.h"
+#include "common/tls_files.h"
+#include "common/tls_peer_check.h"
 #include "common/token_source.h"
 #include "impostor/v1/admin_service.grpc.pb.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
@@ -90,15 +94,9 @@ const char* StateName(grpc_connectivity_state state) {
 
 // Why a channel in TRANSIENT_FAILURE cannot connect, from the last
 // connection error it keeps (a call that does not wait for READY fails at
-// once with it): a sentence for Connect's error. `silent` is set when a TCP
-// connection was accepted but no HTTP/2 greeting came (a stopped or
-// overloaded server), which is worth waiting out; the rest are not.
-struct ConnectFailure {
-  std::string sentence;
-  bool silent = false;
-};
-
-ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls) {
+// once with it): common/connect_error.h.
+ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls,
+                                      const std::function<std::string()>& diagnose_certificate) {
   v1::BakeService::Stub probe(std::shared_ptr<grpc::ChannelInterface>(&channel, [](grpc::ChannelInterface*) {}));
   grpc::ClientContext context;
   context.set_wait_for_ready(false);
@@ -106,45 +104,8 @@ ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls) {
   v1::GetJobRequest request;
   v1::Job job;
   const grpc::Status status = probe.GetJob(&context, request, &job);
-  const std::string& last = status.error_message();
-  spdlog::debug("connect probe: {} {}", static_cast<int>(status.error_code()), last);
-  const auto has = [&last](std::string_view text) { return last.find(text) != std::string::npos; };
-  if (uses_tls) {
-    if (has("certificate verify failed")) {
-      return {absl::StrCat("TLS handshake failed: the server's certificate is not signed by the CA given "
-                           "(--tls-ca / tls_ca_file) (", last, ")")};
-    }
-    if (has("No match found for server name") || has("Peer name")) {
-      return {absl::StrCat("TLS handshake failed: the server's certificate does not carry the name dialled; give "
-                           "the name it carries with --tls-server-name / tls_server_name (", last, ")")};
-    }
-    if (has("wrong version number") || has("packet length too long") || has("http request")) {
-      return {absl::StrCat("TLS handshake failed: the server does not speak TLS; connect without --tls-ca (", last,
-                           ")")};
-    }
-    if (has("Handshake") || has("handshake") || has("SSL") || has("certificate") || has("Socket closed")) {
-      return {absl::StrCat("TLS handshake failed (a server run with --tls-client-ca needs a client certificate "
-                           "it trusts: --tls-cert/--tls-key) (", last, ")")};
-    }
-  }
-  if (has("DNS resolution failed") || has("Domain name not found") || has("name resolution")) {
-    return {absl::StrCat("the host name does not resolve (", last, ")")};
-  }
-  if (has("Connection refused")) return {"connection refused; is impostor-server running there?"};
-  if (has("Failed parsing HTTP/2") || has("http1") || has("HTTP/1")) {
-    return {absl::StrCat("something answers on that port, but it is not a gRPC server; is it impostor-server's "
-                         "port? (", last, ")")};
-  }
-  if (has("before receiving SETTINGS") || has("Deadline Exceeded") || has("timed out")) {
-    return {absl::StrCat("a connection was accepted but no gRPC server answered on it (a stopped or overloaded "
-                         "server, or another program on that port) (", last, ")"),
-            /*silent=*/true};
-  }
-  if (has("Socket closed") || has("Connection reset") || has("connection closed") || has("EOF")) {
-    return {absl::StrCat("the server closed the connection; if it serves TLS, connect with its CA "
-                         "(--tls-ca / tls_ca_file) (", last, ")")};
-  }
-  return {absl::StrCat("cannot connect (", last.empty() ? std::string("no reason given") : last, ")")};
+  spdlog::debug("connect probe: {} {}", static_cast<int>(status.error_code()), status.error_message());
+  return ExplainConnectError(status.error_message(), uses_tls, diagnose_certificate);
 }
 
 // Waits until `channel` is READY: "" then, else why not, as a sentence for
@@ -155,7 +116,8 @@ ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls) {
 // first failure allow one more second (a server that is just starting) and
 // then ask why. A server that accepts but does not answer (stopped, or
 // overloaded) gets the whole timeout.
-std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool uses_tls) {
+std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool uses_tls,
+                         const std::function<std::string()>& diagnose_certificate) {
   const auto deadline = DeadlineAfter(timeout_seconds);
   bool failed_once = false;
   std::optional<ConnectFailure> failure;
@@ -164,7 +126,7 @@ std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool us
     auto wait_until = deadline;
     if (state == GRPC_CHANNEL_TRANSIENT_FAILURE && !(failure && failure->silent)) {
       if (failed_once) {
-        failure = DescribeConnectFailure(channel, uses_tls);
+        failure = DescribeConnectFailure(channel, uses_tls, diagnose_certificate);
         if (!failure->silent) break;
       }
       failed_once = true;
@@ -178,7 +140,9 @@ std::string WaitForReady(grpc::Channel& channel, double timeout_seconds, bool us
   }
   if (state == GRPC_CHANNEL_READY) return "";
   if (failure) return failure->sentence;
-  if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) return DescribeConnectFailure(channel, uses_tls).sentence;
+  if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) {
+    return DescribeConnectFailure(channel, uses_tls, diagnose_certificate).sentence;
+  }
   return absl::StrCat("no impostor server answered within ", absl::SixDigits(timeout_seconds), " s (channel ",
                       StateName(state), ")");
 }
@@ -286,7 +250,11 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
     const std::string& target = stubs->channels->target(route.index);
     const double left = std::chrono::duration<double>(deadline - std::chrono::system_clock::now()).count();
     const double share = std::max(0.0, left) / static_cast<double>(stubs->channels->size() - tried);
-    std::string reason = WaitForReady(*route.channel, share, UsesTls(tls));
+    const auto diagnose_certificate = [&tls, &target] {
+      absl::StatusOr<std::string> ca = ReadCertificateFile("--tls-ca", tls.files.ca);
+      return ca.ok() ? DiagnoseServerCertificate(target, *ca, tls.server_name, 2.0) : std::string();
+    };
+    std::string reason = WaitForReady(*route.channel, share, UsesTls(tls), diagnose_certificate);
     if (reason.empty()) {
       stubs->channels->NoteAnswer(route);
       spdlog::debug("connected to impostor server at {}", target);

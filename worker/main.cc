@@ -194,6 +194,7 @@ int main(int argc, char** argv) {
                              .test_pause_file = EnvOrEmpty("IMPOSTOR_WORKER_TEST_PAUSE_FILE"),
                              .channel_credentials = *credentials,
                              .tls_server_name = tls.server_name,
+                             .tls_ca_file = tls.files.ca,
                              .token = *token},
                             std::move(*renderer));
 

@@ -11,10 +11,13 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/connect_error.h"
 #include "common/keepalive.h"
 #include "common/log_escape.h"
 #include "common/server_list.h"
 #include "common/sha256.h"
+#include "common/tls_files.h"
+#include "common/tls_peer_check.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/bearer_token.h"
@@ -191,11 +194,21 @@ grpc::Status WorkerLoop::CallServer(const ChannelCall& call, bool* try_next_now)
   return s;
 }
 
+std::string WorkerLoop::ExplainUnreachable(const std::string& grpc_message) const {
+  const std::string target = channels_->target(channels_->Current().index);
+  const auto diagnose_certificate = [this, &target] {
+    absl::StatusOr<std::string> ca = ReadCertificateFile("--tls-ca", options_.tls_ca_file);
+    return ca.ok() ? DiagnoseServerCertificate(target, *ca, options_.tls_server_name, 2.0) : std::string();
+  };
+  return ExplainConnectError(grpc_message, !options_.tls_ca_file.empty(), diagnose_certificate).sentence;
+}
+
 absl::Status WorkerLoop::Run() {
   int jobs_done = 0;
   auto backoff = std::chrono::milliseconds(200);
   const auto max_outage = std::chrono::seconds(options_.max_outage_seconds);
   std::optional<Clock::time_point> outage_since;
+  std::string outage_why;
   while (!stop_) {
     v1::LeaseJobRequest request;
     request.set_worker_id(options_.worker_id);
@@ -218,15 +231,22 @@ absl::Status WorkerLoop::Run() {
     if (!s.ok() && try_next_now) continue;
     if (!s.ok()) {
       const auto now = Clock::now();
-      if (!outage_since) outage_since = now;
+      // Why, in words, once per outage (a TLS fault costs a handshake of
+      // its own to name: common/connect_error.h).
+      if (!outage_since) {
+        outage_since = now;
+        outage_why = s.error_code() == grpc::StatusCode::UNAVAILABLE ? ExplainUnreachable(s.error_message()) : "";
+      }
       const double down_s = std::chrono::duration<double>(now - *outage_since).count();
       spdlog::warn("event=lease_failed server={} code={} error=\"{}\" down_s={:.1f} retry_ms={}", options_.server,
-                   static_cast<int>(s.error_code()), s.error_message(), down_s, backoff.count());
+                   static_cast<int>(s.error_code()), EscapeUntrusted(outage_why.empty() ? s.error_message() : outage_why),
+                   down_s, backoff.count());
       if (now - *outage_since >= max_outage) {
         return absl::UnavailableError(absl::StrCat("server ", options_.server, " unreachable for ",
                                                    static_cast<int64_t>(down_s), " s (--max-outage-seconds ",
-                                                   options_.max_outage_seconds, "); last error: ",
-                                                   s.error_message()));
+                                                   options_.max_outage_seconds, "); ",
+                                                   outage_why.empty() ? "last error: " + s.error_message()
+                                                                      : outage_why));
       }
       // Wait for the channel to come back (or the backoff to pass) rather
       // than spinning on a dead server.

@@ -94,6 +94,9 @@ struct WorkerOptions {
   // --tls-server-name: the name the server's certificate must carry when it
   // differs from the host in `server`. Empty = that host.
   std::string tls_server_name;
+  // --tls-ca's path ('' = plaintext), for explaining a failed handshake
+  // (common/tls_peer_check.h); the credentials above hold its contents.
+  std::string tls_ca_file;
   // Bearer token sent on every call (issue 14); empty = none (a server with
   // --auth none).
   std::string token;
@@ -127,6 +130,9 @@ class WorkerLoop {
   // it went; `try_next_now` (optional) says whether another replica not yet
   // tried since the last answer is now current.
   grpc::Status CallServer(const ChannelCall& call, bool* try_next_now = nullptr);
+  // Why the current server cannot be reached, as a sentence naming the fix
+  // (common/connect_error.h), from gRPC's message for the failed call.
+  std::string ExplainUnreachable(const std::string& grpc_message) const;
   // Runs `call` (through CallServer) until it answers something other than
   // UNAVAILABLE, or a timeout that moved on to another replica, or the
   // outage budget is spent; returns its last status.

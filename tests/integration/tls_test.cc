@@ -189,6 +189,8 @@ TEST_F(TlsFarm, PlaintextAndWrongCaClientsAreRefusedSayingWhy) {
   ASSERT_FALSE(wrong_ca.ok());
   EXPECT_EQ(wrong_ca.status().code(), absl::StatusCode::kUnavailable) << wrong_ca.status();
   EXPECT_NE(wrong_ca.status().message().find("not signed by the CA"), std::string::npos) << wrong_ca.status();
+  EXPECT_NE(wrong_ca.status().message().find("issuer CN=farm-ca"), std::string::npos)
+      << "names the issuer it found: " << wrong_ca.status();
 
   // A certificate name that does not match the name asked for.
   sdk::ClientOptions wrong_name = Options(server.address(), ca_.cert.string());
@@ -324,6 +326,40 @@ TEST_F(TlsFarm, RotatedCertificateIsServedWithoutARestart) {
   auto old = sdk::Client::Connect(Options(server.address(), ca_.cert.string()));
   ASSERT_FALSE(old.ok());
   EXPECT_NE(old.status().message().find("not signed by the CA"), std::string::npos) << old.status();
+}
+
+TEST_F(TlsFarm, AnExpiredCertificateSwappedInIsNamedByTheServerAndByTheClient) {
+  const fs::path live = testing::NewTempDir("tls_expired_live");
+  fs::copy_file(server_.cert, live / "server.crt");
+  fs::copy_file(server_.key, live / "server.key");
+  ServerProcess server(/*local_workers=*/0,
+                       {"--tls-cert=" + (live / "server.crt").string(), "--tls-key=" + (live / "server.key").string(),
+                        "--tls-reload-seconds=1"},
+                       ChannelTls{.ca_file = ca_.cert.string()});
+  TestPki pki(pki_dir_);
+  const CertFiles expired = pki.MakeServerCert("server-expired", ca_, "DNS:localhost,IP:127.0.0.1", /*days=*/-1);
+  ASSERT_FALSE(expired.cert.empty());
+  ReplaceAtomically(expired.key, live / "server.key");
+  ReplaceAtomically(expired.cert, live / "server.crt");
+
+  // The server says so once it has looked (inotify, bounded).
+  ASSERT_TRUE(server.process().WaitForLog("event=tls_cert_expired"))
+      << server.process().Stderr();
+  // gRPC serves it; a client is told it expired, not that the CA is wrong.
+  const auto deadline = std::chrono::steady_clock::now() + testing::kStartTimeout;
+  absl::Status last;
+  while (std::chrono::steady_clock::now() < deadline) {
+    last = sdk::Client::Connect(Options(server.address(), ca_.cert.string())).status();
+    ASSERT_FALSE(last.ok());
+    if (last.message().find("expired on") != std::string::npos) break;
+  }
+  EXPECT_NE(last.message().find("the server's certificate expired on"), std::string::npos) << last;
+  EXPECT_EQ(last.message().find("not signed by the CA"), std::string::npos) << last;
+
+  // A worker reads the same explanation in its log and its exit.
+  auto worker = testing::StartWorker(server.address(), {"--tls-ca=" + ca_.cert.string(), "--max-outage-seconds=1"});
+  ASSERT_TRUE(worker->WaitForLog("event=lease_failed")) << worker->Stderr();
+  EXPECT_NE(worker->Stderr().find("the server's certificate expired on"), std::string::npos) << worker->Stderr();
 }
 
 TEST_F(TlsFarm, BadFlagsStopEachProgramAtStartNamingTheFlag) {
