@@ -32,6 +32,11 @@ CREATE UNIQUE INDEX IF NOT EXISTS tokens_live_name ON tokens (name) WHERE revoke
 
 constexpr const char* kColumns = "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms";
 
+// Marks the live token named ?1 that expired by ?2 as revoked at its expiry.
+constexpr const char* kRetireExpiredSql =
+    "UPDATE tokens SET revoked_ms = expires_ms WHERE name = ?1 AND revoked_ms = 0 AND expires_ms > 0 AND "
+    "expires_ms <= ?2";
+
 // Every statement's errors name this store.
 class Statement : public SqliteStatement {
  public:
@@ -60,6 +65,14 @@ class SqliteTokenStore final : public TokenStore {
   absl::Status Insert(const TokenRecord& r) override {
     if (auto s = ValidateTokenRecord(r); !s.ok()) return s;
     std::lock_guard lock(mu_);
+    {
+      // An expired token no longer holds its name (TokenStore::Insert).
+      Statement retire(db_, kRetireExpiredSql);
+      if (!retire.ok()) return retire.Error("prepare");
+      retire.Bind(1, r.name);
+      retire.Bind(2, r.created_ms);
+      if (retire.Step() != SQLITE_DONE) return retire.Error("retire expired");
+    }
     Statement st(db_,
                  "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)");
     if (!st.ok()) return st.Error("prepare");

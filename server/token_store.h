@@ -69,8 +69,10 @@ struct TokenRecord {
 class TokenStore {
  public:
   virtual ~TokenStore() = default;
-  // ALREADY_EXISTS when an unrevoked token has record.name;
-  // INVALID_ARGUMENT from ValidateTokenRecord.
+  // ALREADY_EXISTS when an unrevoked token that has not expired by
+  // record.created_ms has record.name (an expired one is marked revoked at
+  // its expiry and the name goes to the new token); INVALID_ARGUMENT from
+  // ValidateTokenRecord.
   virtual absl::Status Insert(const TokenRecord& record) = 0;
   virtual absl::StatusOr<std::optional<TokenRecord>> FindByHash(const std::string& secret_hash) = 0;
   // Every token ever created, revoked ones too, oldest first.

@@ -56,6 +56,12 @@ class PostgresTokenStore final : public TokenStore {
 
   absl::Status Insert(const TokenRecord& r) override {
     if (auto s = ValidateTokenRecord(r); !s.ok()) return s;
+    // An expired token no longer holds its name (TokenStore::Insert).
+    auto retired = pool_->Exec("retire expired token",
+                               "UPDATE tokens SET revoked_ms = expires_ms WHERE name = $1 AND revoked_ms = 0 AND "
+                               "expires_ms > 0 AND expires_ms <= $2",
+                               PgParams().Text(r.name).Int(r.created_ms));
+    if (!retired.ok()) return retired.status();
     auto rows = pool_->Exec("insert token",
                             "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) "
                             "VALUES ($1, $2, $3, $4, $5)",

@@ -103,6 +103,36 @@ TYPED_TEST(TokenStoreContract, InsertFindListRevokeAndReuseTheName) {
   EXPECT_EQ((*all)[1].secret_hash, twin.secret_hash);
 }
 
+TYPED_TEST(TokenStoreContract, AnExpiredTokenGivesUpItsNameAndStaysDead) {
+  TokenStore& store = this->tokens();
+  const std::string old_secret = NewTokenSecret();
+  ASSERT_TRUE(store
+                  .Insert({.name = "ci", .role = Role::kSubmitter, .secret_hash = TokenHash(old_secret),
+                           .created_ms = 1000, .expires_ms = 5000})
+                  .ok());
+  const TokenRecord renewed{.name = "ci", .role = Role::kSubmitter, .secret_hash = TokenHash(NewTokenSecret()),
+                            .created_ms = 5000, .expires_ms = 9000};
+  ASSERT_TRUE(store.Insert(renewed).ok()) << "the old one expired at 5000";
+  auto old = store.FindByHash(TokenHash(old_secret));
+  ASSERT_TRUE(old.ok() && old->has_value()) << old.status();
+  EXPECT_EQ((*old)->revoked_ms, 5000) << "ended at its expiry";
+  // The successor is live and holds the name until it expires too.
+  TokenRecord third = renewed;
+  third.secret_hash = TokenHash(NewTokenSecret());
+  third.created_ms = 8999;
+  EXPECT_EQ(store.Insert(third).code(), absl::StatusCode::kAlreadyExists);
+  // A token that never expires keeps its name.
+  ASSERT_TRUE(store
+                  .Insert({.name = "forever", .role = Role::kReader, .secret_hash = TokenHash(NewTokenSecret()),
+                           .created_ms = 1000})
+                  .ok());
+  EXPECT_EQ(store
+                .Insert({.name = "forever", .role = Role::kReader, .secret_hash = TokenHash(NewTokenSecret()),
+                         .created_ms = 1'000'000'000})
+                .code(),
+            absl::StatusCode::kAlreadyExists);
+}
+
 TYPED_TEST(TokenStoreContract, EveryRoleRoundTripsAndLastUsedNeverMovesBack) {
   TokenStore& store = this->tokens();
   for (Role role : {Role::kReader, Role::kSubmitter, Role::kWorker, Role::kAdmin}) {
