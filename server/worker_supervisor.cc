@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "common/worker_exit_codes.h"
 
 namespace impostor {
 namespace {
@@ -93,10 +94,19 @@ void WorkerSupervisor::Run() {
         Slot& slot = slots_[i];
         if (slot.pid != pid) continue;
         slot.pid = -1;
-        const std::string how = ExitDescription(status);
+        std::string how = ExitDescription(status);
         const std::string worker_id = absl::StrCat("local-", i, "-", pid);
         if (stopping_) {
           spdlog::info("event=worker_stopped index={} pid={} how=\"{}\"", i, pid, how);
+        } else if (WIFEXITED(status) &&
+                   (WEXITSTATUS(status) == kWorkerExitTokenRefused || WEXITSTATUS(status) == kWorkerExitUsage)) {
+          slot.parked = true;
+          how += "; not restarted";
+          spdlog::error("event=local_worker_parked index={} pid={} how=\"{}\" note=\"{}\"", i, pid, how,
+                        WEXITSTATUS(status) == kWorkerExitTokenRefused
+                            ? "the server refused the local workers' token (revoked?); restart impostor-server to "
+                              "mint a new one"
+                            : "the worker refused its command line; see its log");
         } else {
           const auto now = std::chrono::steady_clock::now();
           const bool died_young = now - slot.started < std::chrono::seconds(10);
@@ -128,7 +138,7 @@ void WorkerSupervisor::Run() {
     }
     const auto now = std::chrono::steady_clock::now();
     for (size_t i = 0; i < slots_.size() && !stopping_; ++i) {
-      if (slots_[i].pid < 0 && now >= slots_[i].restart_at) {
+      if (slots_[i].pid < 0 && !slots_[i].parked && now >= slots_[i].restart_at) {
         ++slots_[i].restarts;
         slots_[i].pid = Spawn(static_cast<int>(i));
       }

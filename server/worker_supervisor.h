@@ -4,7 +4,10 @@
 // stops (they drain: finish or hand back their job), SIGKILL if they outlive
 // the stop deadline, and SIGINT (hand the job back now) if the server is
 // killed (PR_SET_PDEATHSIG). Every exit is reported to `on_exit` with the worker's id and how
-// it ended, so the scheduler can end a dead worker's lease at once.
+// it ended, so the scheduler can end a dead worker's lease at once. A
+// worker whose token the server refused (kWorkerExitTokenRefused: revoked,
+// say) or whose command line it refused (kWorkerExitUsage) is not restarted:
+// the same token and flags would be refused again, every second, forever.
 //
 // Thread-safety: Start and Stop from one thread; the supervisor owns one
 // background thread that reaps and restarts children.
@@ -31,7 +34,8 @@ class WorkerSupervisor {
  public:
   // Called on the supervisor's thread when a child exits: its worker id
   // ("local-<i>-<pid>", as impostor-worker names itself) and how it ended,
-  // e.g. "killed by signal 11 (SIGSEGV)" or "exited with status 1".
+  // e.g. "killed by signal 11 (SIGSEGV)" or "exited with status 1" ("...;
+  // not restarted" for a parked one).
   using ExitCallback = std::function<void(const std::string& worker_id, const std::string& how)>;
 
   // `worker_binary` is started as: worker_binary --server <server_address>
@@ -54,6 +58,7 @@ class WorkerSupervisor {
     std::chrono::steady_clock::time_point restart_at;
     std::chrono::seconds backoff{1};
     int restarts = 0;
+    bool parked = false;  // not restarted (see the top)
   };
   pid_t Spawn(int index) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   void Run();

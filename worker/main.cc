@@ -27,6 +27,7 @@
 #include "common/token_source.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
+#include "common/worker_exit_codes.h"
 #include "worker/worker_help.h"
 
 ABSL_FLAG(std::string, server, "localhost:50051",
@@ -219,7 +220,9 @@ int main(int argc, char** argv) {
   if (!status.ok()) {
     spdlog::error("event=worker_exit error=\"{}\"", status.ToString());
     std::fprintf(stderr, "impostor-worker: %s\n", status.ToString().c_str());
-    return 1;
+    const bool token_refused =
+        absl::IsUnauthenticated(status) || absl::IsPermissionDenied(status);
+    return token_refused ? impostor::kWorkerExitTokenRefused : 1;
   }
   spdlog::info("event=worker_exit");
   return 0;

@@ -193,5 +193,20 @@ TEST(AuthBake, LocalWorkersRunOnATokenTheServerMints) {
   EXPECT_TRUE(server.process().WaitForLog("event=audit token=\"local-workers\" role=worker rpc=CompleteJob"));
 }
 
+TEST(AuthBake, LocalWorkersWhoseTokenIsRevokedStopInsteadOfRestartingForever) {
+  ServerProcess server(1, {"--auth=token", "--token-cache-ttl-ms=0"});
+  ASSERT_TRUE(server.process().WaitForLog("event=worker_ready")) << server.process().Stderr();
+  const ToolRun revoked = RunTool({(BinaryDir() / "impostor-server").string(), "token", "revoke",
+                                   "--data=" + server.data_dir().string(), "--name=local-workers"},
+                                  kStartTimeout);
+  ASSERT_EQ(revoked.exit_code, 0) << revoked.err;
+  // The worker's next lease is refused; it exits 4 and is parked, once.
+  ASSERT_TRUE(server.process().WaitForLog("event=local_worker_parked")) << server.process().Stderr();
+  EXPECT_EQ(server.process().CountInLog("event=local_worker_parked"), 1);
+  EXPECT_EQ(server.process().CountInLog("event=worker_exited"), 0) << "not scheduled for a restart";
+  EXPECT_TRUE(server.process().CountInLog("restart impostor-server to mint a new one") == 1);
+  EXPECT_TRUE(server.process().Running()) << "the farm keeps serving";
+}
+
 }  // namespace
 }  // namespace impostor::testing

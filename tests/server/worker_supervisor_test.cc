@@ -3,6 +3,8 @@
 // running at the deadline. Waits are on the exit reports, never on time.
 #include "server/worker_supervisor.h"
 
+#include "common/worker_exit_codes.h"
+
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -102,6 +104,19 @@ TEST_F(WorkerSupervisorTest, ReportsAnExitStatus) {
   supervisor.Stop();
   ASSERT_GE(exits.size(), 1u);
   EXPECT_EQ(exits[0].second, "exited with status 3");
+}
+
+TEST_F(WorkerSupervisorTest, AWorkerWhoseTokenOrFlagsWereRefusedIsNotRestarted) {
+  for (const int code : {kWorkerExitTokenRefused, kWorkerExitUsage}) {
+    ExitLog log;
+    WorkerSupervisor supervisor(Script("refused.sh", "exit " + std::to_string(code)), "127.0.0.1:1", 1, {},
+                                log.Callback());
+    ASSERT_TRUE(supervisor.Start().ok());
+    const auto exits = log.WaitFor(1);
+    supervisor.Stop();
+    ASSERT_GE(exits.size(), 1u);
+    EXPECT_EQ(exits[0].second, "exited with status " + std::to_string(code) + "; not restarted");
+  }
 }
 
 TEST_F(WorkerSupervisorTest, StopTerminatesWorkersThatHonourSigterm) {
