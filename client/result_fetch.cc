@@ -86,6 +86,16 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   // 0.35 s for a 67 MB result (bench/fetch_bench.sh, one run each,
   // alternating), the streams' hashing and writing competing with the
   // server for the same cores; Cache::Get downloads one at a time too.
+  // A manifest.json from another result goes first: replacing maps beside
+  // it would leave a manifest that does not describe them if this fetch
+  // then fails half-way (a CI job re-fetching into the same folder).
+  if (!AlreadyThere(result.manifest_path, manifest->manifest_json())) {
+    fs::remove(result.manifest_path, ec);
+    if (ec) {
+      return absl::InternalError(absl::StrCat("cannot remove the previous ", result.manifest_path.string(),
+                                              " before fetching ", cache_key, ": ", ec.message()));
+    }
+  }
   std::vector<bool> reused(wanted.size(), false);
   for (size_t i = 0; i < wanted.size(); ++i) {
     if (AlreadyThere(wanted[i].path, wanted[i].digest)) {

@@ -85,6 +85,8 @@ if(TARGET impostor_runtime AND TARGET impostor_lod_sdk)
   # impostor::lod: the same library; lod.h's Status types need Abseil.
   add_library(impostor_pkg_lod INTERFACE)
   target_link_libraries(impostor_pkg_lod INTERFACE impostor_runtime_shared absl::status absl::statusor)
+  # lod.h takes std::span: a consumer on C++17 gets C++20 for what links it.
+  target_compile_features(impostor_pkg_lod INTERFACE cxx_std_20)
   set_target_properties(impostor_pkg_lod PROPERTIES EXPORT_NAME lod)
   list(APPEND _impostor_export_targets impostor_runtime_shared impostor_pkg_lod)
 endif()

@@ -419,6 +419,21 @@ TEST_F(FakeServerTest, FetchReplacesAStaleFile) {
   EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), contents_["albedo_alpha.png"]);
 }
 
+TEST_F(FakeServerTest, AFailedFetchIntoAnotherResultsFolderLeavesNoManifestThatLies) {
+  const std::string key = AddResult();
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "manifest.json") << "{\"cache_key\": \"an older result\"}";
+  std::ofstream(dir_ / "albedo_alpha.png") << "the older result's albedo";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.corrupt.insert(Sha256Hex(contents_["normal_depth.png"]));
+  }
+  absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kDataLoss) << r.status();
+  EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), contents_["albedo_alpha.png"]) << "replaced before the failure";
+  EXPECT_FALSE(fs::exists(dir_ / "manifest.json")) << "the old manifest no longer describes the maps";
+}
+
 TEST_F(FakeServerTest, BrokenDownloadResumesFromOffset) {
   const std::string key = AddResult();
   {
