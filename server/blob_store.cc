@@ -10,6 +10,8 @@
 #include <cstring>
 #include <vector>
 
+#include <spdlog/spdlog.h>
+
 #include "absl/strings/str_cat.h"
 #include "server/disk_full.h"
 
@@ -222,18 +224,24 @@ absl::Status BlobStore::Verify(const BlobDigest& digest) const {
     verified_[digest.hash] = mtime_ns;
     return absl::OkStatus();
   }
+  return Quarantine(digest, *digest_on_disk);
+}
+
+absl::Status BlobStore::Quarantine(const BlobDigest& digest, const BlobDigest& found) const {
   // Keep the evidence out of the store: a later upload or bake restores it.
+  const fs::path path = PathFor(digest);
   std::error_code ec;
   fs::create_directories(quarantine_dir_, ec);
   fs::rename(path, quarantine_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix()), ec);
-  if (!ec) total_bytes_ -= digest_on_disk->size_bytes;
+  if (!ec) total_bytes_ -= found.size_bytes;
   {
     std::lock_guard lock(verified_mu_);
     verified_.erase(digest.hash);
   }
+  spdlog::error("event=blob_quarantined blob={} found_hash={} found_bytes={}", digest.ToString(), found.hash,
+                found.size_bytes);
   return absl::DataLossError(absl::StrCat("blob ", digest.hash, ": stored bytes no longer match the digest (",
-                                          digest_on_disk->size_bytes, " bytes hashing to ", digest_on_disk->hash,
-                                          "); quarantined"));
+                                          found.size_bytes, " bytes hashing to ", found.hash, "); quarantined"));
 }
 
 absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t limit, size_t chunk_bytes,
@@ -262,9 +270,17 @@ absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t l
   }
   int64_t end = digest.size_bytes;
   if (limit > 0 && offset + limit < end) end = offset + limit;
+  // A whole read is hashed on the way: Verify trusts a blob whose file has
+  // not changed since it was hashed, and bit rot changes no mtime. What
+  // went out is then already sent, but the reader gets DATA_LOSS instead of
+  // OK, and the blob is quarantined so the next request is a miss (a result
+  // that needs it is baked again) rather than the same bad bytes.
+  const bool whole = offset == 0 && end == digest.size_bytes;
+  Sha256 hasher;
   std::vector<char> buf(std::max<size_t>(chunk_bytes, 1));
   int64_t pos = offset;
   absl::Status status;
+  bool stopped = false;
   while (pos < end) {
     const size_t want = static_cast<size_t>(std::min<int64_t>(end - pos, static_cast<int64_t>(buf.size())));
     const ssize_t n = ::pread(fd, buf.data(), want, pos);
@@ -273,10 +289,20 @@ absl::Status BlobStore::Read(const BlobDigest& digest, int64_t offset, int64_t l
       status = n < 0 ? ErrnoError("read", path) : absl::DataLossError(absl::StrCat("blob ", digest.hash, " is truncated"));
       break;
     }
-    if (!sink(std::string_view(buf.data(), static_cast<size_t>(n)), pos)) break;
+    const std::string_view chunk(buf.data(), static_cast<size_t>(n));
+    if (whole) hasher.Update(chunk);
+    if (!sink(chunk, pos)) {
+      stopped = true;
+      break;
+    }
     pos += n;
   }
   ::close(fd);
+  if (whole && status.ok() && !stopped) {
+    if (const std::string hash = hasher.FinishHex(); hash != digest.hash) {
+      return Quarantine(digest, {hash, digest.size_bytes});
+    }
+  }
   return status;
 }
 
@@ -287,10 +313,7 @@ absl::StatusOr<std::string> BlobStore::ReadAll(const BlobDigest& digest) const {
     out.append(chunk);
     return true;
   });
-  if (!s.ok()) return s;
-  if (Sha256Hex(out) != digest.hash) {
-    return absl::DataLossError(absl::StrCat("blob ", digest.hash, ": stored bytes no longer match the digest"));
-  }
+  if (!s.ok()) return s;  // Read hashed the whole blob
   return out;
 }
 

@@ -80,7 +80,9 @@ class BlobStore {
                     const std::function<bool(std::string_view chunk, int64_t offset)>& sink) const;
 
   // The whole blob, its hash verified. Same errors as Read; DATA_LOSS when
-  // the bytes no longer hash to the digest.
+  // the bytes no longer hash to the digest. A whole Read (offset 0, to the
+  // end) hashes what it sends, and quarantines a blob whose bytes changed
+  // since it was last verified (bit rot keeps the file's mtime).
   absl::StatusOr<std::string> ReadAll(const BlobDigest& digest) const;
 
   // A blob file as found on disk.
@@ -107,6 +109,9 @@ class BlobStore {
  private:
   BlobStore(std::filesystem::path root, int64_t max_blob_bytes);
   void AddPublished(int64_t bytes) { total_bytes_ += bytes; }
+  // Moves the blob of `digest`, found to hold `found`, to quarantine/ and
+  // forgets that it was verified; returns the DATA_LOSS that says so.
+  absl::Status Quarantine(const BlobDigest& digest, const BlobDigest& found) const;
 
   const std::filesystem::path root_;
   const std::filesystem::path cas_dir_;

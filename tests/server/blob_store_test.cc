@@ -1,5 +1,8 @@
 #include "server/blob_store.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -117,6 +120,43 @@ TEST_F(BlobStoreTest, DetectsBytesThatNoLongerMatchTheirDigest) {
   auto r = store_->ReadAll(d);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), absl::StatusCode::kDataLoss);
+}
+
+// Bit rot changes bytes, not the file's mtime: Verify's "hashed since it
+// last changed" then vouches for the blob. A whole read hashes what it sends
+// and quarantines the blob, so the next request is a miss, not the same
+// bad bytes again.
+TEST_F(BlobStoreTest, AWholeReadCatchesBytesThatRottedAfterVerificationAndQuarantines) {
+  const std::string bytes(200'000, 'a');
+  const BlobDigest d = DigestOf(bytes);
+  ASSERT_TRUE(store_->Put(d, bytes).ok());
+  ASSERT_TRUE(store_->Verify(d).ok());
+  const fs::path path = store_->PathFor(d);
+  struct stat before {};
+  ASSERT_EQ(::stat(path.c_str(), &before), 0);
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(150'000);
+    f.put('X');
+  }
+  const timespec times[2] = {before.st_atim, before.st_mtim};
+  ASSERT_EQ(::utimensat(AT_FDCWD, path.c_str(), times, 0), 0);
+  ASSERT_TRUE(store_->Verify(d).ok()) << "the premise: unchanged mtime, so not hashed again";
+
+  int64_t sent = 0;
+  const absl::Status read = store_->Read(d, 0, 0, 64 << 10, [&](std::string_view chunk, int64_t) {
+    sent += static_cast<int64_t>(chunk.size());
+    return true;
+  });
+  EXPECT_EQ(read.code(), absl::StatusCode::kDataLoss) << read;
+  EXPECT_NE(read.message().find("quarantined"), std::string::npos) << read;
+  EXPECT_EQ(sent, d.size_bytes);
+  EXPECT_FALSE(store_->Contains(d));
+  EXPECT_EQ(store_->Verify(d).code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store_->total_bytes(), 0);
+  int quarantined = 0;
+  for (const auto& e : fs::directory_iterator(dir_ / "quarantine")) quarantined += e.path().filename().string().rfind(d.hash, 0) == 0;
+  EXPECT_EQ(quarantined, 1);
 }
 
 TEST_F(BlobStoreTest, ConcurrentUploadsOfOneBlobAllSucceed) {
