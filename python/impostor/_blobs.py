@@ -25,6 +25,22 @@ MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
 _Key = Tuple[str, int]
 
 
+def _umask() -> int:
+    """The process's umask: from /proc (Linux), which reads it without
+    changing it; else by setting it and back, which another thread could
+    race with."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def _digest(f: MeshFile) -> "pb.Digest":
     return pb.Digest(hash=f.hash, size_bytes=f.size_bytes)
 
@@ -163,6 +179,9 @@ def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path)
             raise ImpostorError(
                 grpc.StatusCode.DATA_LOSS, f"{path}: ReadBlob {name}: received bytes hash to {sha.hexdigest()}"
             )
+        # mkstemp makes 0600; a fetched result is a plain file (0666 less the
+        # umask), as the CLI writes it, so others sharing the folder read it.
+        os.chmod(tmp_name, 0o666 & ~_umask())
         os.replace(tmp_name, path)
     except BaseException:
         try:

@@ -12,13 +12,13 @@ land on a live replica."""
 from __future__ import annotations
 
 import os
-import queue
 import threading
 import time
 from typing import Any, Callable, Iterator, List, Optional, Sequence, Set, Tuple
 
 import grpc
 
+from ._connect_error import explain_connect_error
 from ._retry import ConnectionEvent, ConnectionMonitor, RetryPolicy
 from .errors import ImpostorError, rpc_error
 from .v1 import asset_service_pb2_grpc, bake_service_pb2_grpc
@@ -171,6 +171,7 @@ class Transport:
             metadata.append(("impostor-client-id", client_id[:128]))
         self._metadata: Sequence[Tuple[str, str]] = tuple(metadata)
         credentials: Optional[grpc.ChannelCredentials] = None
+        self._uses_tls = tls_ca is not None or tls_cert is not None
         if tls_ca is not None or tls_cert is not None:
             credentials = grpc.ssl_channel_credentials(
                 root_certificates=_read_bytes(tls_ca, "tls_ca") if tls_ca is not None else None,
@@ -248,42 +249,55 @@ class Transport:
             route.channel.close()
 
     def _wait_ready(self, channel: grpc.Channel, target: str, timeout: float) -> None:
-        """Waits for READY, but gives up a second after the first refusal: a
-        script should hear "nobody there" at once, not after the whole timeout."""
-        states: "queue.Queue[grpc.ChannelConnectivity]" = queue.Queue()
-        channel.subscribe(states.put, try_to_connect=True)
-        try:
-            deadline = time.monotonic() + timeout
-            refused_at: Optional[float] = None
-            state = grpc.ChannelConnectivity.IDLE
-            while True:
-                limit = deadline if refused_at is None else min(deadline, refused_at + 1.0)
-                remaining = limit - time.monotonic()
-                if remaining <= 0:
-                    break
-                try:
-                    state = states.get(timeout=remaining)
-                except queue.Empty:
-                    break
-                if state == grpc.ChannelConnectivity.READY:
+        """Returns once the server at `target` answers. Gives up a second after
+        the first failed connection attempt (a script should hear "nobody
+        there" at once, not after the whole timeout); a server that accepts
+        but does not answer gets the whole timeout.
+
+        Asks with gRPC health checks rather than channel.subscribe: a
+        subscribed channel that is never closed hangs the interpreter at exit
+        (grpc's connectivity thread), and a failed call carries gRPC's reason,
+        which says which failure it is."""
+        check = channel.unary_unary(
+            "/grpc.health.v1.Health/Check",
+            request_serializer=lambda _: b"",  # an empty HealthCheckRequest: the whole server
+            response_deserializer=lambda raw: raw,
+        )
+        deadline = time.monotonic() + timeout
+        failed_at: Optional[float] = None
+        last = ""
+        while True:
+            limit = deadline if failed_at is None else min(deadline, failed_at + 1.0)
+            remaining = limit - time.monotonic()
+            if remaining <= 0:
+                break
+            try:
+                # After a failure, wait for the channel's next attempt (a
+                # server that is just starting); before it, fail fast.
+                check(b"", timeout=remaining, wait_for_ready=failed_at is not None)
+                self.monitor.note_answer()
+                return
+            except grpc.RpcError as e:
+                code = e.code() if hasattr(e, "code") else None
+                if code not in (grpc.StatusCode.UNAVAILABLE, grpc.StatusCode.DEADLINE_EXCEEDED):
+                    # The server answered (UNIMPLEMENTED, UNAUTHENTICATED, ...).
                     self.monitor.note_answer()
                     return
-                if state == grpc.ChannelConnectivity.TRANSIENT_FAILURE and refused_at is None:
-                    refused_at = time.monotonic()
-            why = (
-                "connection refused; is impostor-server running there?"
-                if refused_at is not None
-                else f"no impostor server answered within {timeout:g} s (channel {state.name})"
-            )
-            raise ImpostorError(
-                grpc.StatusCode.UNAVAILABLE,
-                f"Connect to {target}: {why}",
-                server_message=why,
-                rpc="Connect",
-                server=target,
-            )
-        finally:
-            channel.unsubscribe(states.put)
+                if code == grpc.StatusCode.UNAVAILABLE:
+                    last = e.details() or ""
+                    if failed_at is None:
+                        failed_at = time.monotonic()
+        if last:
+            why, _ = explain_connect_error(last, self._uses_tls)
+        else:
+            why = f"no impostor server answered within {timeout:g} s"
+        raise ImpostorError(
+            grpc.StatusCode.UNAVAILABLE,
+            f"Connect to {target}: {why}",
+            server_message=why,
+            rpc="Connect",
+            server=target,
+        )
 
     def note(self, error: grpc.RpcError, rpc: str) -> ImpostorError:
         """The ImpostorError of a failed call, noted by the connection monitor."""

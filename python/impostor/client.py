@@ -209,7 +209,7 @@ class Client:
                 RESOURCE_EXHAUSTED, ...).
         """
         parsed = BakeSettings.from_kwargs(settings)
-        parsed.to_parameters()  # settings errors before any upload
+        parsed.validate()  # settings errors before any upload
         files = collect_mesh_files(model, parsed.follow_symlinks)
         (upload,) = upload_meshes(self._transport, [files])
         return self._submit_one(files, parsed, upload)
@@ -242,7 +242,7 @@ class Client:
             path, kwargs = (item[0], dict(item[1])) if isinstance(item, tuple) else (item, {})
             try:
                 parsed = BakeSettings.from_kwargs(kwargs)
-                parsed.to_parameters()
+                parsed.validate()
                 prepared.append((collect_mesh_files(path, parsed.follow_symlinks), parsed))
             except ImpostorError as e:
                 out[i] = BatchSubmission(error=e)

@@ -25,13 +25,23 @@ def _named_value(field: str, name: str, values: Dict[str, Any]) -> Any:
 def _set_field(message: Any, name: str, value: Any) -> None:
     """message.name = value; a value of the wrong type or out of the field's
     range is INVALID_ARGUMENT naming the setting."""
-    try:
-        if isinstance(value, (list, tuple)):
-            getattr(message, name).extend(value)
-        else:
-            setattr(message, name, value)
-    except (TypeError, ValueError) as e:
-        raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"{name}: {value!r} is not valid here ({e})") from None
+    field = message.DESCRIPTOR.fields_by_name[name]
+    repeated = field.label == field.LABEL_REPEATED
+    why = ""
+    if repeated and not isinstance(value, (list, tuple)):
+        why = "expected a list"
+    elif isinstance(value, bool) and field.type != field.TYPE_BOOL:
+        why = "expected a number, not True/False"  # protobuf takes a bool as 0 or 1
+    if not why:
+        try:
+            if repeated:
+                getattr(message, name).extend(value)
+            else:
+                setattr(message, name, value)
+            return
+        except (TypeError, ValueError, AttributeError) as e:
+            why = str(e)
+    raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"{name}: {value!r} is not valid here ({why})")
 
 
 @dataclasses.dataclass
@@ -132,17 +142,27 @@ class BakeSettings:
         _set_field(p, "lod_ratios", self.lod_ratios)
         # frames_auto's target is the request's gate: one pair of thresholds.
         if self.frames_auto:
-            p.frames_auto = True
+            _set_field(p, "frames_auto", self.frames_auto)
             if self.min_iou is not None:
-                p.auto_target.min_iou = self.min_iou
+                _set_field(p.auto_target, "min_iou", self.min_iou)
             if self.min_psnr_db is not None:
-                p.auto_target.min_psnr_db = self.min_psnr_db
+                _set_field(p.auto_target, "min_psnr_db", self.min_psnr_db)
         return p
 
     def apply_scheduling(self, request: Any) -> None:
-        """Sets the SubmitBakeRequest's priority and quality gate."""
-        request.priority = self.priority
+        """Sets the SubmitBakeRequest's priority and quality gate;
+        INVALID_ARGUMENT naming the setting for a value of the wrong type."""
+        _set_field(request, "priority", self.priority)
         if self.min_iou is not None:
-            request.gate.min_iou = self.min_iou
+            _set_field(request.gate, "min_iou", self.min_iou)
         if self.min_psnr_db is not None:
-            request.gate.min_psnr_db = self.min_psnr_db
+            _set_field(request.gate, "min_psnr_db", self.min_psnr_db)
+
+    def validate(self) -> None:
+        """Every setting's type, before anything is uploaded: the errors
+        to_parameters and apply_scheduling would raise (the server checks the
+        ranges)."""
+        from .v1 import bake_service_pb2 as bake_pb
+
+        self.to_parameters()
+        self.apply_scheduling(bake_pb.SubmitBakeRequest())

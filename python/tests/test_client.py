@@ -3,7 +3,10 @@ hit, fetch, lookup, batch, and bad input (local and the server's status)."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import sys
+import threading
 import time
 from pathlib import Path
 from typing import List
@@ -77,6 +80,16 @@ def test_same_bake_again_is_a_cache_hit_without_uploads(client, assets, tree_bak
     assert_files_match_manifest(tmp_path, again.manifest)
 
 
+def test_fetched_files_are_plain_files_others_can_read(client, tree_bake, tmp_path) -> None:
+    old = os.umask(0o022)
+    try:
+        fetched = client.fetch(tree_bake[0].cache_key, tmp_path / "shared")
+    finally:
+        os.umask(old)
+    for path in fetched.files:
+        assert path.stat().st_mode & 0o777 == 0o644, path
+
+
 def test_fetch_downloads_then_reuses_files_already_there(client, tree_bake, tmp_path) -> None:
     first, _ = tree_bake
     fetched = client.fetch(first.cache_key, tmp_path / "a")
@@ -121,6 +134,7 @@ def test_batch_bakes_good_items_and_reports_bad_ones(client, assets, tmp_path) -
         (assets / DUCK, settings),
         (assets / BOX, dict(settings, layout="cubic")),
         (assets / BOX, settings),  # the same bake as item 0
+        (assets / BOX, dict(settings, priority="50")),  # a wrong type: refused alone
     ]
     results = client.bake_batch(items, tmp_path, progress=lambda i, u: None)
     assert isinstance(results[0], impostor.BakeResult)
@@ -131,6 +145,8 @@ def test_batch_bakes_good_items_and_reports_bad_ones(client, assets, tmp_path) -
     assert "no/such/model.glb" in results[1].message
     assert isinstance(results[3], impostor.ImpostorError) and results[3].code == grpc.StatusCode.INVALID_ARGUMENT
     assert "layout" in results[3].message
+    assert isinstance(results[5], impostor.ImpostorError) and results[5].code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "priority" in results[5].message
     for r in (results[0], results[2]):
         assert_files_match_manifest(r.dir, r.manifest)
     assert results[0].dir == tmp_path / "0_Box" and results[2].dir == tmp_path / "2_Duck"
@@ -191,9 +207,14 @@ def test_bad_settings_carry_the_servers_status(client, assets, settings, field) 
         (BOX, {"product": "voxels"}, grpc.StatusCode.INVALID_ARGUMENT, "product"),
         (BOX, {"framez": 4}, grpc.StatusCode.INVALID_ARGUMENT, "framez"),
         (BOX, {"frames": -1}, grpc.StatusCode.INVALID_ARGUMENT, "frames"),
+        (BOX, {"priority": "high"}, grpc.StatusCode.INVALID_ARGUMENT, "priority: 'high'"),
+        (BOX, {"min_iou": "0.9"}, grpc.StatusCode.INVALID_ARGUMENT, "min_iou: '0.9'"),
+        (BOX, {"lod_ratios": 0.5}, grpc.StatusCode.INVALID_ARGUMENT, "lod_ratios: 0.5 is not valid here (expected a list)"),
+        (BOX, {"frames": True}, grpc.StatusCode.INVALID_ARGUMENT, "frames: True"),
     ],
     ids=["missing", "directory", "not-gltf", "bad-glb-magic", "bad-json", "missing-buffer", "missing-texture",
-         "layout", "product", "unknown-setting", "negative-frames"],
+         "layout", "product", "unknown-setting", "negative-frames", "priority-text", "gate-text", "ratios-scalar",
+         "frames-bool"],
 )
 def test_bad_local_input_is_refused_before_any_rpc(client, assets, model, settings, code, words) -> None:
     with pytest.raises(impostor.ImpostorError) as caught:
@@ -258,6 +279,58 @@ def test_connecting_to_nothing_is_unavailable(tmp_path) -> None:
             impostor.Client(f"127.0.0.1:{port}", connect_timeout_seconds=30)
     assert caught.value.code == grpc.StatusCode.UNAVAILABLE
     assert "refused" in caught.value.message and caught.value.rpc == "Connect"
+
+
+def test_each_kind_of_unreachable_server_is_named() -> None:
+    import http.server
+    import socket
+
+    web = http.server.HTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)
+    threading.Thread(target=web.serve_forever, daemon=True).start()
+    try:
+        with pytest.raises(impostor.ImpostorError) as not_grpc:
+            impostor.Client(f"127.0.0.1:{web.server_address[1]}", connect_timeout_seconds=30)
+    finally:
+        web.shutdown()
+        web.server_close()
+    assert "not a gRPC server" in not_grpc.value.message, not_grpc.value
+    with pytest.raises(impostor.ImpostorError) as no_name:
+        impostor.Client("nohost.invalid:50051", connect_timeout_seconds=30)
+    assert "does not resolve" in no_name.value.message, no_name.value
+    # A listener that never accepts: the connection is made (the kernel's
+    # backlog) but no gRPC server ever speaks.
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(8)
+        with pytest.raises(impostor.ImpostorError) as stopped:
+            impostor.Client(f"127.0.0.1:{silent.getsockname()[1]}", connect_timeout_seconds=2)
+    assert stopped.value.code == grpc.StatusCode.UNAVAILABLE
+    assert "refused" not in stopped.value.message, stopped.value
+
+
+def test_a_script_that_never_closes_its_client_still_exits(farm) -> None:
+    """A subscribed gRPC channel left open hung the interpreter at exit."""
+    import subprocess
+
+    script = (
+        "import impostor\n"
+        f"farm = impostor.Client({farm.address!r})\n"
+        "try:\n"
+        "    farm.get_job('job-that-does-not-exist')\n"
+        "except impostor.ImpostorError:\n"
+        "    pass\n"
+        "print('done')\n"
+    )
+    package_dir = str(Path(impostor.__file__).resolve().parent.parent)
+    run = subprocess.run(
+        [sys.executable, "-c", script],
+        env={**os.environ, "PYTHONPATH": package_dir},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "done"
 
 
 @pytest.mark.parametrize(
