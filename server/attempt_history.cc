@@ -4,6 +4,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
+#include "common/utf8.h"
 
 namespace impostor {
 
@@ -28,10 +29,8 @@ void CloseAttempt(v1::Job& job, v1::JobAttempt::Outcome outcome, std::string_vie
   if (a->outcome() != v1::JobAttempt::OUTCOME_RUNNING) return;
   a->set_outcome(outcome);
   a->set_ended_ms(now_ms);
-  // Cut on a UTF-8 boundary: the JSON API refuses invalid UTF-8.
-  size_t n = std::min(message.size(), kMaxAttemptMessageBytes);
-  while (n > 0 && n < message.size() && (static_cast<unsigned char>(message[n]) & 0xC0) == 0x80) --n;
-  a->set_message(std::string(message.substr(0, n)));
+  // Cut on a UTF-8 boundary: a stored proto string must stay valid UTF-8.
+  a->set_message(std::string(Utf8Prefix(message, kMaxAttemptMessageBytes)));
 }
 
 void CopyAttemptHistory(const v1::Job& from, v1::Job& to) {

@@ -17,6 +17,7 @@
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
 #include "common/sha256.h"
+#include "common/utf8.h"
 #include "server/attempt_history.h"
 
 namespace impostor {
@@ -515,7 +516,7 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   if (auto s = ValidateQualityGate(request.gate(), "gate"); !s.ok()) return s;
   if (auto s = CheckQualityGateApplies(request.gate(), *params, "gate"); !s.ok()) return s;
   if (auto s = ValidateRequestId(request.request_id()); !s.ok()) return s;
-  const std::string requester = client_id.substr(0, 128);
+  const std::string requester(Utf8Prefix(client_id, 128));
   const std::string key = ComputeCacheKey(request.mesh(), *params);
 
   // The common hit (no gate, the result in memory) takes the scheduler's
@@ -808,7 +809,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
   std::unique_lock lock(mu_);
   NoteWorkerSeen(request.worker_id());
-  workers_[request.worker_id()].device = request.device().substr(0, 256);
+  workers_[request.worker_id()].device = std::string(Utf8Prefix(request.device(), 256));
   // Counted as polling while it waits here (destroyed before `lock`).
   ++workers_[request.worker_id()].polling;
   struct PollEnd {
@@ -927,7 +928,7 @@ absl::StatusOr<v1::ReportProgressResponse> BakeScheduler::ReportProgress(const v
   NoteWorkerSeen(r->worker_id);
   r->lease_deadline_ms = options_.now_ms() + options_.lease_timeout_ms;
   r->job.set_progress(request.progress());
-  if (!request.stage().empty()) r->job.set_stage(request.stage().substr(0, 64));
+  if (!request.stage().empty()) r->job.set_stage(std::string(Utf8Prefix(request.stage(), 64)));
   if (auto s = Save(*r); !s.ok()) return s;
   response.set_lease_deadline_ms(r->lease_deadline_ms);
   return response;
@@ -1027,7 +1028,7 @@ absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
     r->job.set_progress(0.0f);
   }
   spdlog::info("event=release job={} worker={} reason=\"{}\"", r->job.job_id(), r->worker_id,
-               request.reason().substr(0, 200));
+               EscapeUntrusted(request.reason(), 200));
   return Save(*r);
 }
 

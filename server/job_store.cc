@@ -1,7 +1,12 @@
 #include "server/job_store.h"
 
-#include "server/attempt_history.h"
+#include <mutex>
+#include <set>
+#include <string>
 
+#include <spdlog/spdlog.h>
+
+#include "server/attempt_history.h"
 #include "server/sqlite_job_store.h"
 
 namespace impostor {
@@ -24,6 +29,17 @@ void ApplyLeaseGrant(JobRecord& r, const LeaseGrant& grant) {
   r.worker_id = grant.worker_id;
   r.lease_holder = grant.lease_holder;
   OpenAttempt(r.job, grant.worker_id, grant.device, grant.now_ms);
+}
+
+bool SkipUnreadableJobRow(const absl::Status& why) {
+  if (!absl::IsDataLoss(why)) return false;
+  static std::mutex mu;
+  static std::set<std::string> reported;
+  std::lock_guard lock(mu);
+  if (reported.size() < 1000 && reported.insert(std::string(why.message())).second) {
+    spdlog::error("event=job_record_unreadable error=\"{}\" action=skipped", std::string(why.message()));
+  }
+  return true;
 }
 
 }  // namespace impostor

@@ -85,6 +85,13 @@ struct LeaseGrant {
 // lease, worker, a new attempt_history entry); for engines.
 void ApplyLeaseGrant(JobRecord& record, const LeaseGrant& grant);
 
+// For engines' many-row queries: whether a row that did not read (`why`)
+// is skipped. A job row that no longer parses (DATA_LOSS) is logged once
+// per process and skipped, so one damaged record cannot stop the lease
+// sweeper, the queue or the dashboard for every other job (reading it by id
+// still answers DATA_LOSS). Anything else fails the query.
+bool SkipUnreadableJobRow(const absl::Status& why);
+
 class JobStore {
  public:
   // Opens or creates an SQLite database file (SqliteJobStore): the

@@ -145,7 +145,10 @@ absl::StatusOr<std::vector<JobRecord>> QueryMany(sqlite3* db, const std::string&
   int rc;
   while ((rc = st.Step()) == SQLITE_ROW) {
     auto r = ReadJob(st);
-    if (!r.ok()) return r.status();
+    if (!r.ok()) {
+      if (SkipUnreadableJobRow(r.status())) continue;
+      return r.status();
+    }
     out.push_back(std::move(*r));
   }
   if (rc != SQLITE_DONE) return st.Error("query");

@@ -6,12 +6,13 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "common/sha256.h"
+#include "common/utf8.h"
 
 namespace impostor {
 namespace {
 
 std::string Quoted(const std::string& value) {
-  std::string shown = value.substr(0, 80);
+  std::string shown = ValidUtf8(Utf8Prefix(value, 80));
   for (char& c : shown) {
     if (static_cast<unsigned char>(c) < 0x20 || c == '"' || c == '\\') c = '?';
   }

@@ -152,7 +152,11 @@ nlohmann::json SummaryJson(const std::map<v1::JobState, int64_t>& jobs_by_state,
 }
 
 std::string ErrorJson(int http_status, const std::string& message) {
-  return nlohmann::json({{"error", {{"code", http_status}, {"message", message}}}}).dump() + "\n";
+  // The message may echo a caller's bytes (a path, a query value): invalid
+  // UTF-8 becomes U+FFFD instead of an exception and an empty 500.
+  return nlohmann::json({{"error", {{"code", http_status}, {"message", message}}}})
+             .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
+         "\n";
 }
 
 }  // namespace impostor

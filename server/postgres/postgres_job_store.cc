@@ -190,7 +190,18 @@ absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::QueryOne(const std::s
 
 absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::QueryMany(const std::string& what, const std::string& sql,
                                                                    const PgParams& params) {
-  return ReadEachRow<JobRecord>(pool_->Exec(what, sql, params), ReadJob);
+  absl::StatusOr<PgRows> rows = pool_->Exec(what, sql, params);
+  if (!rows.ok()) return rows.status();
+  std::vector<JobRecord> out;
+  for (int i = 0; i < rows->size(); ++i) {
+    absl::StatusOr<JobRecord> r = ReadJob(*rows, i);
+    if (!r.ok()) {
+      if (SkipUnreadableJobRow(r.status())) continue;
+      return r.status();
+    }
+    out.push_back(std::move(*r));
+  }
+  return out;
 }
 
 absl::Status PostgresJobStore::Insert(const JobRecord& record) {

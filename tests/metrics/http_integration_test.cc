@@ -199,6 +199,12 @@ TEST(HttpMetrics, BadPathsAndParametersAreRefusedNamingWhatIsWrong) {
       {"/api/v1/results/0000000000000000000000000000000000000000000000000000000000000000/files/x.png", 404,
        "nothing baked"},
       {"/api/v1/results?page_token=1.zz", 400, "page_token"},
+      // Bytes that are not UTF-8 (echoed as U+FFFD, not an empty 500).
+      {"/api/v1/jobs?page_token=%ff", 400, "page_token"},
+      {"/api/v1/jobs?state=%ff", 400, "state: \"\xEF\xBF\xBD\" is not one of"},
+      {"/api/v1/jobs?%ff=1", 400, "unknown query parameter"},
+      {"/api/v1/jobs/%ff", 404, "job_id: no job"},
+      {"/api/v1/results/%ff", 400, "cache_key"},
   };
   for (const Case& c : cases) {
     const nlohmann::json body = http.Json(c.path, c.status);

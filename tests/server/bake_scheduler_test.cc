@@ -7,6 +7,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include "common/bake_request.h"
 #include "common/sha256.h"
@@ -107,6 +108,63 @@ TEST_F(BakeSchedulerTest, SecondIdenticalRequestIsACacheHit) {
   EXPECT_EQ(second->job().state(), v1::JOB_STATE_SUCCEEDED);
   EXPECT_EQ(second->job().result().maps(0).file(), "albedo_alpha.png");
   EXPECT_TRUE(NothingToLease()) << "a cache hit must not reach the queue";
+}
+
+// A worker's device and stage are cut to a byte limit; a cut inside a
+// multi-byte character made the stored record invalid UTF-8, which no longer
+// parses: DATA_LOSS for the job and a lease sweeper that stopped farm-wide.
+TEST_F(BakeSchedulerTest, LongNonAsciiDeviceAndStageLeaveTheJobReadable) {
+  std::string accents;
+  for (int i = 0; i < 300; ++i) accents += "\xC3\xA9";  // é
+  auto submitted = scheduler_->Submit(Request());
+  ASSERT_TRUE(submitted.ok()) << submitted.status();
+  v1::LeaseJobRequest lease;
+  lease.set_worker_id("w1");
+  lease.set_device("a" + accents);  // cut at 256 bytes: inside a character
+  auto job = scheduler_->Lease(lease, std::chrono::steady_clock::now(), nullptr);
+  ASSERT_TRUE(job.ok() && job->has_value()) << job.status();
+  v1::ReportProgressRequest p;
+  p.set_job_id((*job)->job_id());
+  p.set_lease_id((*job)->lease_id());
+  p.set_progress(0.5f);
+  p.set_stage("a" + accents.substr(0, 80));  // cut at 64 bytes: inside a character
+  ASSERT_TRUE(scheduler_->ReportProgress(p).ok());
+
+  Reopen();  // from the database
+  auto read = scheduler_->GetJob(submitted->job_id());
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(read->stage().size(), 63u);
+  ASSERT_EQ(read->attempt_history_size(), 1);
+  EXPECT_EQ(read->attempt_history(0).device().size(), 255u);
+  now_ms_ += 31'000;
+  EXPECT_TRUE(scheduler_->ExpireLeases().ok()) << "the sweeper reads every running job";
+}
+
+// Defence in depth: a job row damaged some other way is skipped by the
+// sweeper and the queue (logged once), not a stop for every other job.
+TEST_F(BakeSchedulerTest, ADamagedJobRowDoesNotStopTheLeaseSweeper) {
+  auto damaged = scheduler_->Submit(Request("mesh one"));
+  auto healthy = scheduler_->Submit(Request("mesh two"));
+  ASSERT_TRUE(damaged.ok() && healthy.ok());
+  const v1::LeasedJob first = Lease("w1");
+  const v1::LeasedJob second = Lease("w2");
+  ASSERT_FALSE(first.job_id().empty() || second.job_id().empty());
+  scheduler_.reset();
+  jobs_.reset();
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((dir_ / "jobs.sqlite3").c_str(), &db), SQLITE_OK);
+    const std::string sql = "UPDATE jobs SET job = x'0aff' WHERE job_id = '" + first.job_id() + "'";
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+    sqlite3_close(db);
+  }
+  Reopen();
+  now_ms_ += 31'000;
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  auto other = scheduler_->GetJob(second.job_id());
+  ASSERT_TRUE(other.ok()) << other.status();
+  EXPECT_EQ(other->state(), v1::JOB_STATE_QUEUED) << "the healthy job's expired lease was swept";
+  EXPECT_EQ(scheduler_->GetJob(first.job_id()).status().code(), absl::StatusCode::kDataLoss);
 }
 
 TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
