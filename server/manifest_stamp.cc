@@ -17,11 +17,29 @@ absl::StatusOr<v1::Digest> StampBakedBy(BlobStore& blobs, const v1::Digest& mani
     return absl::FailedPreconditionError("result.manifest_json: blob is not in the store; upload it first");
   }
   if (!text.ok()) return text.status();
-  nlohmann::json j = nlohmann::json::parse(*text, nullptr, /*allow_exceptions=*/false);
+  // Depth is checked while parsing: nothing deeper is ever built, so the
+  // recursive dump and destructor below stay shallow (a worker's 120 KB of
+  // nested brackets crashed the server on the stack).
+  bool too_deep = false;
+  nlohmann::json j = nlohmann::json::parse(
+      *text,
+      [&too_deep](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+        if (depth > kMaxManifestDepth) too_deep = true;
+        return !too_deep;
+      },
+      /*allow_exceptions=*/false);
+  if (too_deep) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("result.manifest_json: nested deeper than ", kMaxManifestDepth, " levels"));
+  }
   if (!j.is_object()) return absl::InvalidArgumentError("result.manifest_json: not a JSON object");
   j["baked_by"] = baked_by;
+  // Indented for people reading manifest.json, unless the worker's text is
+  // large: indentation grows with depth per element, so a large manifest is
+  // kept compact (about its own size) rather than inflated.
+  const int indent = manifest_json.size_bytes() <= kMaxIndentedManifestBytes ? 2 : -1;
   // Invalid UTF-8 from a worker must not throw: replace it.
-  const std::string stamped = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  const std::string stamped = j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   const BlobDigest digest{Sha256Hex(stamped), static_cast<int64_t>(stamped.size())};
   if (auto put = blobs.Put(digest, stamped); !put.ok()) return put.status();
   v1::Digest out;

@@ -17,6 +17,10 @@ namespace impostor {
 
 // Largest manifest.json the server stamps (a LOD chain's views fit easily).
 inline constexpr int64_t kMaxStampedManifestBytes = 16 << 20;
+// Deeper JSON is refused (ours is about 5 levels deep).
+inline constexpr int kMaxManifestDepth = 32;
+// Larger manifests are stored without indentation.
+inline constexpr int64_t kMaxIndentedManifestBytes = 1 << 20;
 
 // The digest of the worker's manifest.json (`manifest_json`) with
 // "baked_by": `baked_by` set, stored in `blobs`. Other members are kept as
