@@ -209,6 +209,7 @@ class BakeScheduler {
     int32_t lease_priority = 0;
     v1::MeshInput mesh;
     v1::BakeParameters parameters;  // normalised
+    std::string owner;  // the submitting token's name ('' without tokens)
   };
   // Jobs newest first, of `state` (JOB_STATE_UNSPECIFIED = every state), at
   // most `limit`, strictly after `after` in that order. Results are not

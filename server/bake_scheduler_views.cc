@@ -41,6 +41,7 @@ BakeScheduler::JobListing Listing(const JobRecord& r, v1::Job view) {
   l.lease_priority = r.lease_priority;
   l.mesh = r.mesh;
   l.parameters = r.parameters;
+  l.owner = r.owner;
   return l;
 }
 

@@ -29,6 +29,15 @@ std::string MeshJobId(std::string_view path) {
   return std::string(path.substr(0, slash));
 }
 
+// The header wins over the cookie, as a token file wins on the clients.
+std::string AuthorizationOf(const HttpRequestInfo& request) {
+  if (!request.authorization.empty()) return request.authorization;
+  if (const std::string cookie = CookieValue(request.cookie, kTokenCookie); !cookie.empty()) {
+    return "Bearer " + cookie;
+  }
+  return "";
+}
+
 HttpAuthorization Refuse(int status, std::string message, bool to_login = false) {
   return {.allowed = false, .status = status, .message = std::move(message), .to_login = to_login};
 }
@@ -46,13 +55,7 @@ std::string CookieValue(const std::string& cookie_header, const std::string& nam
 HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator* authenticator,
                                    BakeScheduler* scheduler) {
   if (authenticator == nullptr || IsOpenPath(request.path)) return {};
-  // The header wins over the cookie, as a token file wins on the clients.
-  std::string authorization = request.authorization;
-  if (authorization.empty()) {
-    if (const std::string cookie = CookieValue(request.cookie, kTokenCookie); !cookie.empty()) {
-      authorization = "Bearer " + cookie;
-    }
-  }
+  const std::string authorization = AuthorizationOf(request);
   auto principal = authenticator->Authenticate(authorization.empty() ? nullptr : &authorization);
   if (!principal.ok()) {
     return Refuse(401, std::string(principal.status().message()), IsBrowserPage(request));
@@ -72,6 +75,14 @@ HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator
     // NOT_FOUND and the like: the route answers them.
   }
   return {};
+}
+
+JobViewer ViewerOf(const HttpRequestInfo& request, Authenticator* authenticator) {
+  if (authenticator == nullptr) return {.name = "", .admin = true};
+  const std::string authorization = AuthorizationOf(request);
+  auto principal = authenticator->Authenticate(authorization.empty() ? nullptr : &authorization);
+  if (!principal.ok()) return {};
+  return {.name = principal->name, .admin = principal->role == Role::kAdmin};
 }
 
 }  // namespace impostor

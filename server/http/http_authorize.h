@@ -32,6 +32,22 @@ struct HttpAuthorization {
   bool to_login = false;  // a browser page: send it to /login instead
 };
 
+// Who may see a job's input digests (the mesh's files' hashes). A digest is
+// all it takes to name a blob in a SubmitBake and read it back through one's
+// own job, so only the submitting token and admins see them; `name` empty
+// and `admin` true with --auth none.
+struct JobViewer {
+  std::string name;
+  bool admin = false;
+  bool MaySeeInputsOf(const BakeScheduler::JobListing& listing) const {
+    return admin || (!name.empty() && name == listing.owner);
+  }
+};
+
+// The viewer of an allowed request: its token's name and role (admin with
+// --auth none, where every listener is on loopback).
+JobViewer ViewerOf(const HttpRequestInfo& request, Authenticator* authenticator);
+
 // The cookie /login sets and AuthorizeRequest reads.
 inline constexpr char kTokenCookie[] = "impostor_token";
 

@@ -179,6 +179,14 @@ void HttpFrontend::AnnounceAddress() const {
   std::fflush(stdout);
 }
 
+JobViewer HttpFrontend::Viewer(const httplib::Request& req) const {
+  return ViewerOf({.method = req.method,
+                   .path = req.path,
+                   .authorization = req.get_header_value("Authorization"),
+                   .cookie = req.get_header_value("Cookie")},
+                  options_.authenticator);
+}
+
 void HttpFrontend::Route() {
   httplib::Server& s = *server_;
   // SO_REUSEADDR only: the library's default adds SO_REUSEPORT, which would
@@ -277,7 +285,7 @@ void HttpFrontend::Route() {
     return absl::OkStatus();
   });
   api("/api/v1/jobs", {"state", "page_size", "page_token"},
-      [this](const httplib::Request&, const QueryParams& params, httplib::Response& res) {
+      [this](const httplib::Request& req, const QueryParams& params, httplib::Response& res) {
         auto state = ParseStateFilter(params);
         if (!state.ok()) return state.status();
         auto size = ParsePageSize(params);
@@ -286,13 +294,13 @@ void HttpFrontend::Route() {
         if (!after.ok()) return after.status();
         auto jobs = scheduler_->ListJobs(*state, *size, *after);
         if (!jobs.ok()) return jobs.status();
-        SendJson(res, JobsPageJson(*jobs, *size));
+        SendJson(res, JobsPageJson(*jobs, *size, Viewer(req)));
         return absl::OkStatus();
       });
   api(R"(/api/v1/jobs/([^/]+))", {}, [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
     auto job = scheduler_->DescribeJob(req.matches[1]);
     if (!job.ok()) return job.status();
-    SendJson(res, JobJson(*job, true));
+    SendJson(res, JobJson(*job, true, Viewer(req)));
     return absl::OkStatus();
   });
   // The mesh a job was submitted with, file by file (the viewer loads the

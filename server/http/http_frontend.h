@@ -28,11 +28,13 @@
 #include "server/authenticator.h"
 #include "server/bake_scheduler.h"
 #include "server/blob_store.h"
+#include "server/http/http_authorize.h"
 #include "server/http/listen_address.h"
 #include "server/metrics/farm_metrics.h"
 
 namespace httplib {
 class Server;
+struct Request;
 }
 
 namespace impostor {
@@ -71,6 +73,8 @@ class HttpFrontend {
  private:
   HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options);
   void Route();
+  // Who asks (http_authorize.h's JobViewer), for what a job shows them.
+  JobViewer Viewer(const httplib::Request& req) const;
 
   BakeScheduler* const scheduler_;
   BlobStore* const blobs_;

@@ -47,7 +47,7 @@ nlohmann::json ProtoJson(const google::protobuf::Message& message) {
   return j;
 }
 
-nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_result) {
+nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_result, const JobViewer& viewer) {
   v1::Job job = listing.job;
   if (!with_result) job.clear_result();
   nlohmann::json j = ProtoJson(job);
@@ -62,14 +62,25 @@ nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_resul
   j["product"] = ProductLabel(listing.parameters.product());
   j["parameters"] = ProtoJson(listing.parameters);
   j["mesh"] = ProtoJson(listing.mesh);
+  if (!viewer.MaySeeInputsOf(listing)) {
+    nlohmann::json& mesh = j["mesh"];
+    if (mesh.contains("entry") && mesh["entry"].is_object()) mesh["entry"].erase("digest");
+    if (mesh.contains("files") && mesh["files"].is_array()) {
+      for (auto& file : mesh["files"]) {
+        if (file.is_object()) file.erase("digest");
+      }
+    }
+    mesh["digests_hidden"] = true;
+  }
   if (!with_result || !job.has_result()) j.erase("result");
   return j;
 }
 
-nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, int page_size) {
+nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, int page_size,
+                            const JobViewer& viewer) {
   nlohmann::json j;
   j["jobs"] = nlohmann::json::array();
-  for (const auto& l : jobs) j["jobs"].push_back(JobJson(l, false));
+  for (const auto& l : jobs) j["jobs"].push_back(JobJson(l, false, viewer));
   if (static_cast<int>(jobs.size()) == page_size && !jobs.empty()) {
     j["next_page_token"] = JobPageToken({jobs.back().job.created_ms(), jobs.back().job.job_id()});
   }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/bake_scheduler.h"
+#include "server/http/http_authorize.h"
 #include "server/metrics/farm_metrics.h"
 
 namespace impostor {
@@ -20,10 +21,13 @@ namespace impostor {
 // every reader would have to convert).
 nlohmann::json ProtoJson(const google::protobuf::Message& message);
 
-// One job. With `with_result`, the result's manifest when it has one.
-nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_result);
+// One job. With `with_result`, the result's manifest when it has one. A
+// viewer who may not see its inputs gets the mesh's paths without digests
+// ("digests_hidden": true).
+nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_result, const JobViewer& viewer);
 // {"jobs": [...], "next_page_token": "..." (only when the page is full)}.
-nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, int page_size);
+nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, int page_size,
+                            const JobViewer& viewer);
 // {"workers": [...]} with each worker's jobs done and failed.
 nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers, const FarmMetrics& metrics);
 // One result: its manifest plus pinned, created_ms, last_used_ms.

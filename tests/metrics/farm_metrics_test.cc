@@ -152,14 +152,23 @@ TEST_F(FarmMetricsTest, ListJobsPagesNewestFirstWithStateFilter) {
   EXPECT_EQ((*page1)[0].job.job_id(), ids[4]);
   EXPECT_EQ((*page1)[1].job.job_id(), ids[3]);
   EXPECT_EQ((*page1)[0].client_id, "alice");
-  const nlohmann::json json = JobsPageJson(*page1, 2);
+  const nlohmann::json json = JobsPageJson(*page1, 2, JobViewer{.admin = true});
   ASSERT_TRUE(json.contains("next_page_token"));
+  EXPECT_TRUE(json["jobs"][0]["mesh"]["entry"].contains("digest")) << json.dump();
+  // Anyone but the submitter or an admin: the mesh's paths, not its digests
+  // (a digest named in one's own SubmitBake would read the blob back).
+  for (const JobViewer& stranger : {JobViewer{.name = "mallory"}, JobViewer{}}) {
+    const nlohmann::json hidden = JobsPageJson(*page1, 2, stranger);
+    EXPECT_FALSE(hidden["jobs"][0]["mesh"]["entry"].contains("digest")) << hidden.dump();
+    EXPECT_EQ(hidden["jobs"][0]["mesh"]["entry"]["path"], json["jobs"][0]["mesh"]["entry"]["path"]);
+    EXPECT_EQ(hidden["jobs"][0]["mesh"]["digests_hidden"], true);
+  }
   auto page2 = scheduler_->ListJobs(v1::JOB_STATE_UNSPECIFIED, 10,
                                     JobStore::JobCursor{(*page1)[1].job.created_ms(), (*page1)[1].job.job_id()});
   ASSERT_TRUE(page2.ok());
   ASSERT_EQ(page2->size(), 3u);
   EXPECT_EQ((*page2)[2].job.job_id(), ids[0]);
-  EXPECT_FALSE(JobsPageJson(*page2, 10).contains("next_page_token"));
+  EXPECT_FALSE(JobsPageJson(*page2, 10, JobViewer{.admin = true}).contains("next_page_token"));
   auto running = scheduler_->ListJobs(v1::JOB_STATE_RUNNING, 10, std::nullopt);
   ASSERT_TRUE(running.ok());
   ASSERT_EQ(running->size(), 1u);

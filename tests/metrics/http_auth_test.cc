@@ -123,8 +123,27 @@ TEST_F(HttpAuth, AJobsMeshIsReadableOnlyByItsSubmitterOrAnAdmin) {
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 403);
   EXPECT_NE(res->body.find("only the token that submitted the job or an admin"), std::string::npos) << res->body;
-  // The job itself (no mesh bytes) is on the dashboard for every reader.
-  EXPECT_EQ(http_.Status("/api/v1/jobs/" + submitted.job_id(), reader), 200);
+  // The job itself (no mesh bytes) is on the dashboard for every reader,
+  // but its input digests only for the submitter and admins: with a digest,
+  // anyone could name the blob in a SubmitBake of their own and read it
+  // back through that job's mesh.
+  const std::string job = "/api/v1/jobs/" + submitted.job_id();
+  const std::string digest = request.mesh().entry().digest().hash();
+  for (const std::string* token : {&reader, &other}) {
+    auto seen = http_.Get(job, *token);
+    ASSERT_TRUE(seen);
+    EXPECT_EQ(seen->status, 200);
+    EXPECT_EQ(seen->body.find(digest), std::string::npos) << seen->body;
+    EXPECT_NE(seen->body.find("\"digests_hidden\":true"), std::string::npos) << seen->body;
+    auto listed = http_.Get("/api/v1/jobs", *token);
+    ASSERT_TRUE(listed);
+    EXPECT_EQ(listed->body.find(digest), std::string::npos) << listed->body;
+  }
+  for (const std::string* token : {&owner, &admin}) {
+    auto seen = http_.Get(job, *token);
+    ASSERT_TRUE(seen);
+    EXPECT_NE(seen->body.find(digest), std::string::npos) << seen->body;
+  }
 }
 
 }  // namespace
