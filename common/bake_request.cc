@@ -10,12 +10,21 @@
 #include "common/card_parameters.h"
 #include "common/input_paths.h"
 #include "common/lod_parameters.h"
+#include "common/utf8.h"
 #include "common/quality_parameters.h"
 #include "common/texture_format_parameters.h"
 #include "common/sha256.h"
 
 namespace impostor {
 namespace {
+
+// A caller's string in an error message: at most 80 bytes of it (a status
+// travels in a header with a size limit), valid UTF-8.
+std::string Shown(std::string_view value) {
+  std::string shown = ValidUtf8(Utf8Prefix(value, 80));
+  if (value.size() > 80) shown += "...";
+  return shown;
+}
 
 bool EndsWithIgnoreCase(std::string_view s, std::string_view suffix) {
   if (s.size() < suffix.size()) return false;
@@ -66,7 +75,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
   // Every product but surfels refuses the surfel fields.
   if (out.product() != v1::PRODUCT_SURFELS) {
     if (!in.preset().empty()) {
-      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: \"", in.preset(),
+      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: \"", Shown(in.preset()),
                                                      "\" is only for product PRODUCT_SURFELS"));
     }
     if (in.has_point_budget()) {
@@ -79,7 +88,7 @@ absl::StatusOr<v1::BakeParameters> NormalizeParameters(const v1::BakeParameters&
       if (name == p.name) preset = &p;
     }
     if (preset == nullptr) {
-      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: unknown preset \"", name,
+      return absl::InvalidArgumentError(absl::StrCat("parameters.preset: unknown preset \"", Shown(name),
                                                      "\"; expected prop, building, vegetation or hero"));
     }
     if (!out.has_point_budget()) out.set_point_budget(preset->point_budget);

@@ -30,10 +30,10 @@ const std::vector<MethodRule>& AccessRules() {
       {"/impostor.v1.BakeService/GetJob", {S}, ObjectCheck::kOwnJob},
       {"/impostor.v1.BakeService/CancelJob", {S}, ObjectCheck::kOwnJob, true},
       {"/impostor.v1.WorkerService/LeaseJob", {W}, ObjectCheck::kNone, true},
-      {"/impostor.v1.WorkerService/ReportProgress", {W}},
-      {"/impostor.v1.WorkerService/CompleteJob", {W}, ObjectCheck::kNone, true},
-      {"/impostor.v1.WorkerService/FailJob", {W}, ObjectCheck::kNone, true},
-      {"/impostor.v1.WorkerService/ReleaseJob", {W}, ObjectCheck::kNone, true},
+      {"/impostor.v1.WorkerService/ReportProgress", {W}, ObjectCheck::kOwnLease},
+      {"/impostor.v1.WorkerService/CompleteJob", {W}, ObjectCheck::kOwnLease, true},
+      {"/impostor.v1.WorkerService/FailJob", {W}, ObjectCheck::kOwnLease, true},
+      {"/impostor.v1.WorkerService/ReleaseJob", {W}, ObjectCheck::kOwnLease, true},
       // Administration: admin tokens only (no role listed), audited.
       {"/impostor.v1.AdminService/PurgeWorkerResults", {}, ObjectCheck::kNone, true},
   };

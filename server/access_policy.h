@@ -7,7 +7,10 @@
 //  - kOwnJob: the job must have been submitted by the caller's token
 //    (WatchJob, GetJob, CancelJob for submitters);
 //  - kReadableBlob: readers and submitters may read result blobs only; a
-//    worker may read the input blobs of the job it holds (ReadBlob).
+//    worker may read the input blobs of the job it holds (ReadBlob);
+//  - kOwnLease: a worker may report on a job only while its own token
+//    holds the lease (a lease id seen by one worker token is no key for
+//    another; the result's baked_by names the token that took the lease).
 // Methods absent from the table are admin-only.
 #ifndef IMPOSTOR_SERVER_ACCESS_POLICY_H_
 #define IMPOSTOR_SERVER_ACCESS_POLICY_H_
@@ -21,7 +24,7 @@
 
 namespace impostor {
 
-enum class ObjectCheck { kNone, kOwnJob, kReadableBlob };
+enum class ObjectCheck { kNone, kOwnJob, kReadableBlob, kOwnLease };
 
 struct MethodRule {
   std::string_view method;  // full name, e.g. "/impostor.v1.AssetService/ReadBlob"

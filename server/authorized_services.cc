@@ -74,6 +74,17 @@ absl::Status AccessGuard::CheckObject(const Principal& principal, std::string_vi
       return absl::PermissionDeniedError(absl::StrCat("job_id: job ", object, " was not submitted by token '",
                                                       principal.name, "'; only its submitter or an admin may see it"));
     }
+    case ObjectCheck::kOwnLease: {
+      auto holder = scheduler_->JobLeaseHolder(object);
+      // Unknown ids and ended leases: the handler answers as it always did.
+      if (!holder.ok() || holder->empty() || *holder == principal.name) {
+        return holder.ok() || absl::IsNotFound(holder.status()) || absl::IsInvalidArgument(holder.status())
+                   ? absl::OkStatus()
+                   : holder.status();
+      }
+      return absl::PermissionDeniedError(absl::StrCat("job_id: job ", object, " is leased by another worker token, not '",
+                                                      principal.name, "'"));
+    }
     case ObjectCheck::kReadableBlob: {
       if (principal.role == Role::kWorker) {
         auto held = scheduler_->IsInputOfLeasedJob(principal.name, object);

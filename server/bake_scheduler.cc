@@ -977,7 +977,17 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   return absl::OkStatus();
 }
 
-absl::Status BakeScheduler::Fail(const v1::FailJobRequest& request) {
+absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
+  // The error reaches the submitter as the job's error: a real code, some
+  // words, and no more than a screenful of them.
+  const int32_t code = received.error().code();
+  if (code < 1 || code > 16) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("error.code: ", code, " is not a gRPC status code of a failure (1..16)"));
+  }
+  v1::FailJobRequest request = received;
+  if (request.error().message().empty()) request.mutable_error()->set_message("the worker gave no reason");
+  request.mutable_error()->set_message(std::string(Utf8Prefix(request.error().message(), kMaxJobErrorBytes)));
   std::lock_guard lock(mu_);
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
@@ -1131,6 +1141,13 @@ absl::StatusOr<std::string> BakeScheduler::JobOwner(const std::string& job_id) {
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
   return r->owner;
+}
+
+absl::StatusOr<std::string> BakeScheduler::JobLeaseHolder(const std::string& job_id) {
+  std::lock_guard lock(mu_);
+  auto r = LoadJob(job_id);
+  if (!r.ok()) return r.status();
+  return r->lease_id.empty() ? std::string() : r->lease_holder;
 }
 
 absl::StatusOr<int64_t> BakeScheduler::CountPendingOwnedBy(const std::string& owner) {

@@ -253,10 +253,15 @@ class BakeScheduler {
   // another call waits out a database outage.
   absl::Status CheckReady();
   static constexpr int kReadyProbeTimeoutMs = 2000;
+  // A FailJob's message is cut to this many bytes (on a UTF-8 boundary).
+  static constexpr size_t kMaxJobErrorBytes = 4096;
   // Questions the authorisation layer asks about objects (access_policy.h).
   // The token name that submitted `job_id` ('' for jobs from before tokens);
   // INVALID_ARGUMENT for an empty id, NOT_FOUND for an unknown job.
   absl::StatusOr<std::string> JobOwner(const std::string& job_id);
+  // The token name holding `job_id`'s lease ('' when none is held or
+  // without tokens); errors as JobOwner.
+  absl::StatusOr<std::string> JobLeaseHolder(const std::string& job_id);
   // QUEUED or RUNNING jobs the token `owner` submitted (per-token quota).
   absl::StatusOr<int64_t> CountPendingOwnedBy(const std::string& owner);
   // True when a result lists the blob (its manifest.json or a map).

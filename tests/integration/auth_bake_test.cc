@@ -208,5 +208,58 @@ TEST(AuthBake, LocalWorkersWhoseTokenIsRevokedStopInsteadOfRestartingForever) {
   EXPECT_TRUE(server.process().Running()) << "the farm keeps serving";
 }
 
+// A lease id is no key for another worker token: only the token that took
+// the lease may report on it (the result's baked_by names that token).
+TEST(AuthBake, OnlyTheWorkerTokenHoldingALeaseMayReportOnIt) {
+  ServerProcess server(0, {"--auth=token", "--token-cache-ttl-ms=0"});
+  const std::string submitter = CreateToken(server.data_dir(), "submitter", "artist");
+  const std::string holder = CreateToken(server.data_dir(), "worker", "render-node-1");
+  const std::string other = CreateToken(server.data_dir(), "worker", "render-node-2");
+  ASSERT_FALSE(submitter.empty() || holder.empty() || other.empty());
+  server.UseToken(submitter);
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  request.mutable_parameters()->set_frames(3);
+  request.mutable_parameters()->set_resolution(64);
+  v1::SubmitBakeResponse submitted;
+  ASSERT_TRUE(server.bake().SubmitBake(ContextWithin().get(), request, &submitted).ok());
+
+  auto workers = v1::WorkerService::NewStub(
+      grpc::CreateChannel(server.address(), grpc::InsecureChannelCredentials()));
+  v1::LeaseJobRequest lease;
+  lease.set_worker_id("node-1");
+  v1::LeaseJobResponse leased;
+  ASSERT_TRUE(workers->LeaseJob(ContextWithAuthorization("Bearer " + holder).get(), lease, &leased).ok());
+  ASSERT_TRUE(leased.has_job());
+  ASSERT_EQ(leased.job().job_id(), submitted.job_id());
+
+  // The other token, with the holder's lease id: refused, naming why.
+  v1::ReportProgressRequest progress;
+  progress.set_job_id(leased.job().job_id());
+  progress.set_lease_id(leased.job().lease_id());
+  progress.set_progress(0.5f);
+  v1::ReportProgressResponse progressed;
+  const grpc::Status p =
+      workers->ReportProgress(ContextWithAuthorization("Bearer " + other).get(), progress, &progressed);
+  EXPECT_EQ(p.error_code(), StatusCode::PERMISSION_DENIED) << p.error_message();
+  EXPECT_NE(p.error_message().find("leased by another worker token"), std::string::npos) << p.error_message();
+  v1::FailJobRequest fail;
+  fail.set_job_id(leased.job().job_id());
+  fail.set_lease_id(leased.job().lease_id());
+  fail.mutable_error()->set_code(13);
+  fail.mutable_error()->set_message("sabotage");
+  v1::FailJobResponse failed;
+  EXPECT_EQ(workers->FailJob(ContextWithAuthorization("Bearer " + other).get(), fail, &failed).error_code(),
+            StatusCode::PERMISSION_DENIED);
+  // The holder itself goes on.
+  EXPECT_TRUE(
+      workers->ReportProgress(ContextWithAuthorization("Bearer " + holder).get(), progress, &progressed).ok());
+  v1::GetJobRequest get;
+  get.set_job_id(submitted.job_id());
+  v1::Job job;
+  ASSERT_TRUE(server.bake().GetJob(ContextWithin().get(), get, &job).ok());
+  EXPECT_EQ(job.state(), v1::JOB_STATE_RUNNING);
+}
+
 }  // namespace
 }  // namespace impostor::testing

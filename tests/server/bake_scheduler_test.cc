@@ -346,6 +346,27 @@ TEST_F(BakeSchedulerTest, BadInputFailsAtOnce) {
   EXPECT_EQ(j->error().message(), "glTF: invalid JSON");
 }
 
+TEST_F(BakeSchedulerTest, AFailJobNeedsAFailureCodeAndIsCappedAtAScreenful) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::LeasedJob job = Lease();
+  v1::FailJobRequest f;
+  f.set_job_id(job.job_id());
+  f.set_lease_id(job.lease_id());
+  for (const int code : {0, 17, 999, -1}) {
+    f.mutable_error()->set_code(code);
+    const absl::Status refused = scheduler_->Fail(f);
+    EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument) << code;
+    EXPECT_NE(refused.message().find("error.code"), std::string::npos) << refused;
+  }
+  f.mutable_error()->set_code(13);
+  f.mutable_error()->set_message(std::string(8 << 20, 'x'));
+  ASSERT_TRUE(scheduler_->Fail(f).ok());
+  auto j = scheduler_->GetJob(job.job_id());
+  ASSERT_TRUE(j.ok());
+  EXPECT_EQ(j->state(), v1::JOB_STATE_FAILED);
+  EXPECT_LE(j->error().message().size(), BakeScheduler::kMaxJobErrorBytes);
+}
+
 TEST_F(BakeSchedulerTest, CancelReachesTheWorkerThroughItsNextReport) {
   auto s = scheduler_->Submit(Request());
   const v1::LeasedJob job = Lease();

@@ -63,7 +63,7 @@ TEST(SurfelRequest, BadParametersAreRefusedNamingFieldAndLimit) {
   struct Case {
     const char* name;
     v1::BakeParameters in;
-    const char* expect;
+    std::string expect;
   };
   auto with = [](v1::BakeParameters p, auto&& edit) {
     edit(p);
@@ -82,6 +82,9 @@ TEST(SurfelRequest, BadParametersAreRefusedNamingFieldAndLimit) {
        "at least 8 are needed (resolution >= 512)"},
       {"unknown preset", Surfels("forest"),
        "parameters.preset: unknown preset \"forest\"; expected prop, building, vegetation or hero"},
+      // Echoed in part: a status travels in a header with a size limit.
+      {"a 100 000-byte preset", Surfels(std::string(100'000, 'x')),
+       "parameters.preset: unknown preset \"" + std::string(80, 'x') + "...\"; expected prop"},
       {"unknown product", with(v1::BakeParameters(), [](auto& p) { p.set_product(static_cast<v1::Product>(7)); }),
        "parameters.product: unknown value 7"},
       {"budget on an atlas", with(v1::BakeParameters(), [](auto& p) { p.set_point_budget(2048); }),
