@@ -14,8 +14,20 @@ console.error = (...args) => { reportError(args.join(' ')); originalConsoleError
 export async function getJson(path) {
   const res = await fetch(path, { cache: 'no-store' });
   const body = await res.json().catch(() => ({}));
-  if (!res.ok) throw new Error(`${path}: ${res.status} ${body.error ? body.error.message : ''}`);
+  if (!res.ok) {
+    const error = new Error(`${path}: ${res.status} ${body.error ? body.error.message : ''}`);
+    error.status = res.status;
+    throw error;
+  }
   return body;
+}
+
+// gRPC status codes by number (a job's error.code), as the CLI names them.
+const GRPC_CODES = ['OK', 'CANCELLED', 'UNKNOWN', 'INVALID_ARGUMENT', 'DEADLINE_EXCEEDED', 'NOT_FOUND',
+  'ALREADY_EXISTS', 'PERMISSION_DENIED', 'RESOURCE_EXHAUSTED', 'FAILED_PRECONDITION', 'ABORTED', 'OUT_OF_RANGE',
+  'UNIMPLEMENTED', 'INTERNAL', 'UNAVAILABLE', 'DATA_LOSS', 'UNAUTHENTICATED'];
+export function grpcCodeName(code) {
+  return GRPC_CODES[code] || `code ${code}`;
 }
 
 export function el(tag, attrs = {}, ...children) {

@@ -1,6 +1,6 @@
 // One job: parameters, progress, stage timings, warnings, errors, attempts
 // and its worker, quality figures. Polls until the job ends.
-import { getJson, el, link, progressBar, replace, reportError, table } from './common.js';
+import { getJson, grpcCodeName, el, link, progressBar, replace, reportError, table } from './common.js';
 
 const POLL_MS = 2000;
 const jobId = decodeURIComponent(location.pathname.split('/').pop());
@@ -36,7 +36,7 @@ async function refresh() {
     ['shares the bake of', j.leader_job_id ? link(`/jobs/${j.leader_job_id}`, j.leader_job_id) : '—'],
     ['cache key', j.state === 'succeeded' ? link(`/results/${j.cache_key}`, j.cache_key) : j.cache_key],
     ['cached', j.cached], ['created', new Date(j.created_ms).toLocaleString()], ['updated', new Date(j.updated_ms).toLocaleString()],
-    ['error', j.error && j.error.message ? `${j.error.code}: ${j.error.message}` : '—'],
+    ['error', j.error && j.error.message ? `${grpcCodeName(j.error.code)}: ${j.error.message}` : '—'],
     ['mesh', `${j.mesh.entry.path} (${j.mesh.files.length} more files)`]]));
   replace('attempts', attemptsTable(j));
   replace('params', kv(Object.entries(j.parameters).filter(([, v]) => v !== '' && v !== 0 && v !== false && !(Array.isArray(v) && !v.length))
@@ -52,7 +52,14 @@ async function refresh() {
 
 async function loop() {
   let terminal = false;
-  try { terminal = await refresh(); } catch (e) { reportError(String(e)); }
+  try {
+    terminal = await refresh();
+  } catch (e) {
+    reportError(String(e));
+    // An unknown job, a bad id or a refused token will not change by
+    // asking again: say it once and stop.
+    if (e.status >= 400 && e.status < 500) terminal = true;
+  }
   if (!terminal) setTimeout(loop, POLL_MS);
   else document.body.dataset.final = '1';
 }

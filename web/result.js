@@ -113,7 +113,11 @@ async function showViewer(result) {
   // One camera for every canvas (the A/B canvas registered its line drag first).
   for (const canvas of [meshCanvas, impostorCanvas, debug.abCanvas]) {
     const c = new OrbitControls(camera, canvas);
+    // The constructor aimed the camera at the origin (its default target):
+    // aim it at the model again, or a tree whose pivot is at its foot shows
+    // in the top half of the view and jumps on the first drag.
     c.target.copy(centre);
+    c.update();
     c.addEventListener('change', draw);
   }
   for (const [id, apply] of [['blend', (v) => { impostor.options.blend = Number(v); }],

@@ -195,5 +195,48 @@ TEST_F(DashboardBrowser, ViewerImpostorMatchesTheMeshSilhouetteNotItsMirrorImage
   }
 }
 
+// The viewer orbits the model's bounding sphere: a tree whose pivot is at
+// its foot sits in the middle of the view (OrbitControls aimed the camera
+// at the origin, which put the tree in the top half). And a job page for an
+// unknown id says so once and stops asking.
+TEST_F(DashboardBrowser, TheViewerCentresAModelWhosePivotIsAtItsFootAndAnUnknownJobIsReportedOnce) {
+  ServerProcess server(/*local_workers=*/1, {"--http-listen=127.0.0.1:0"});
+  const std::string base = "http://127.0.0.1:" + std::to_string(HttpPort(server));
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() =
+      testing::UploadGlb(server.assets(), testing::AssetsDir() / "vegetation/Quaternius_CommonTree_1/CommonTree_1.glb");
+  request.mutable_parameters()->set_layout(v1::LAYOUT_HEMI_OCTAHEDRAL);
+  request.mutable_parameters()->set_frames(8);
+  request.mutable_parameters()->set_resolution(512);
+  request.mutable_parameters()->set_quality_views(0);
+  v1::SubmitBakeResponse submitted;
+  ASSERT_TRUE(server.bake().SubmitBake(testing::ContextWithin().get(), request, &submitted).ok());
+  const v1::Job done = testing::WatchToEnd(server.bake(), submitted.job_id());
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+
+  const std::string centroid =
+      "(() => { const c = document.getElementById('mesh'); const t = document.createElement('canvas');"
+      " t.width = c.width; t.height = c.height; const g = t.getContext('2d'); g.drawImage(c, 0, 0);"
+      " const d = g.getImageData(0, 0, t.width, t.height).data; let sy = 0, n = 0;"
+      " for (let i = 0; i < t.width * t.height; ++i) if (d[i * 4] + d[i * 4 + 1] + d[i * 4 + 2] > 384) {"
+      " sy += Math.floor(i / t.width); ++n; }"
+      " return { dy: n ? sy / n / t.height - 0.5 : 1, cover: n / (t.width * t.height) }; })()";
+  const PageRun page = RunPage(base + "/results/" + done.cache_key() + "?camera=0,0,4&mask=1",
+                               "document.body.dataset.viewerReady === '1'",
+                               {"--screenshot", (kArtifacts / "tree_level_camera.png").string(), "--eval", centroid});
+  EXPECT_EQ(page.exit_code, 0) << page.report.dump();
+  const nlohmann::json& v = page.report["value"];
+  ASSERT_TRUE(v.is_object()) << page.report.dump();
+  EXPECT_GT(v["cover"].get<double>(), 0.02) << page.report.dump();
+  EXPECT_LT(std::abs(v["dy"].get<double>()), 0.1) << "the tree's centroid is near the middle: " << page.report.dump();
+
+  const PageRun unknown = RunPage(base + "/jobs/job-that-does-not-exist", "document.body.dataset.final === '1'",
+                                  {"--eval", "document.getElementById('errors').textContent"});
+  EXPECT_EQ(unknown.exit_code, 0) << unknown.report.dump();
+  const std::string errors = unknown.report["value"].is_string() ? unknown.report["value"].get<std::string>() : "";
+  EXPECT_NE(errors.find("404"), std::string::npos) << unknown.report.dump();
+  EXPECT_EQ(errors.find("404"), errors.rfind("404")) << "reported once: " << errors;
+}
+
 }  // namespace
 }  // namespace impostor
