@@ -11,6 +11,8 @@
 
 namespace impostor {
 
+static_assert(v1::JOB_STATE_CANCELLED == 5, "kShownStateSql names JOB_STATE_CANCELLED by number");
+
 absl::StatusOr<std::unique_ptr<JobStore>> JobStore::Open(const std::filesystem::path& file) {
   auto store = SqliteJobStore::Open(file);
   if (!store.ok()) return store.status();

@@ -92,6 +92,10 @@ void ApplyLeaseGrant(JobRecord& record, const LeaseGrant& grant);
 // still answers DATA_LOSS). Anything else fails the query.
 bool SkipUnreadableJobRow(const absl::Status& why);
 
+// SQL (both engines) for a job row's state as its requester sees it.
+inline constexpr const char* kShownStateSql =
+    "(CASE WHEN requester_cancelled <> 0 THEN 5 ELSE state END)";  // 5: JOB_STATE_CANCELLED
+
 class JobStore {
  public:
   // Opens or creates an SQLite database file (SqliteJobStore): the
@@ -163,7 +167,10 @@ class JobStore {
   virtual absl::StatusOr<std::vector<JobRecord>> Pending() = 0;
 
   // --- Read-only listings for the HTTP adapter (server/http/) ---
-  // Rows per `state` column value.
+  // The state these listings go by is the one the job's requester sees
+  // (kShownStateSql): a requester-cancelled leader that baked on for its
+  // followers is CANCELLED, as GetJob shows it, not SUCCEEDED.
+  // Rows per shown state.
   virtual absl::StatusOr<std::map<int, int64_t>> CountByState() = 0;
   // Position in a newest-first listing: the last row of the previous page.
   struct JobCursor {
@@ -171,7 +178,7 @@ class JobStore {
     std::string job_id;
   };
   // Jobs newest first (created_ms, then job_id, both descending), of one
-  // state (0 = all), at most `limit`, strictly after `after`.
+  // shown state (0 = all), at most `limit`, strictly after `after`.
   virtual absl::StatusOr<std::vector<JobRecord>> ListJobs(int state, int limit, const std::optional<JobCursor>& after) = 0;
   struct ResultCursor {
     int64_t created_ms = 0;

@@ -570,7 +570,7 @@ absl::Status SqliteJobStore::DeleteResult(const std::string& cache_key) {
 }
 
 absl::StatusOr<std::map<int, int64_t>> SqliteJobStore::CountByState() {
-  Statement st(db_, "SELECT state, COUNT(*) FROM jobs GROUP BY state");
+  Statement st(db_, absl::StrCat("SELECT ", kShownStateSql, " AS shown, COUNT(*) FROM jobs GROUP BY shown").c_str());
   if (auto s = st.prepared(); !s.ok()) return s;
   std::map<int, int64_t> out;
   int rc;
@@ -581,7 +581,7 @@ absl::StatusOr<std::map<int, int64_t>> SqliteJobStore::CountByState() {
 
 absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::ListJobs(int state, int limit, const std::optional<JobCursor>& after) {
   std::string sql = absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE 1");
-  if (state != 0) sql += " AND state = ?1";
+  if (state != 0) sql += absl::StrCat(" AND ", kShownStateSql, " = ?1");
   if (after) sql += " AND (created_ms < ?2 OR (created_ms = ?2 AND job_id < ?3))";
   sql += " ORDER BY created_ms DESC, job_id DESC LIMIT ?4";
   return QueryMany(db_, sql, [&](Statement& st) {

@@ -426,7 +426,7 @@ absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::Pending() {
 }
 
 absl::StatusOr<std::map<int, int64_t>> PostgresJobStore::CountByState() {
-  auto rows = pool_->Exec("count by state", "SELECT state, COUNT(*) FROM jobs GROUP BY state");
+  auto rows = pool_->Exec("count by state", absl::StrCat("SELECT ", kShownStateSql, " AS shown, COUNT(*) FROM jobs GROUP BY shown"));
   if (!rows.ok()) return rows.status();
   std::map<int, int64_t> out;
   for (int i = 0; i < rows->size(); ++i) out[static_cast<int>(rows->Int(i, 0))] = rows->Int(i, 1);
@@ -439,7 +439,7 @@ absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::ListJobs(int state, int
   std::string sql = absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE TRUE");
   if (state != 0) {
     p.Int(state);
-    sql += absl::StrCat(" AND state = $", p.size());
+    sql += absl::StrCat(" AND ", kShownStateSql, " = $", p.size());
   }
   if (after) {
     p.Int(after->created_ms).Text(after->job_id);

@@ -289,6 +289,31 @@ TYPED_TEST(JobStoreContract, RunningJobsAreFoundByWorkerHolderAndDeadline) {
   EXPECT_EQ(counts->at(v1::JOB_STATE_QUEUED), 2);
 }
 
+// A leader whose requester cancelled but that baked on for its followers is
+// SUCCEEDED in its row and CANCELLED to its requester (GetJob): the listings
+// count and filter it as the requester sees it.
+TYPED_TEST(JobStoreContract, ListingsGoByTheStateTheRequesterSees) {
+  JobRecord kept = this->Job("job-kept", "k1");
+  kept.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  kept.requester_cancelled = true;
+  ASSERT_TRUE(this->store_->Insert(kept).ok());
+  JobRecord done = this->Job("job-done", "k2");
+  done.job.set_state(v1::JOB_STATE_SUCCEEDED);
+  ASSERT_TRUE(this->store_->Insert(done).ok());
+  auto counts = this->store_->CountByState();
+  ASSERT_TRUE(counts.ok()) << counts.status();
+  EXPECT_EQ(counts->at(v1::JOB_STATE_CANCELLED), 1);
+  EXPECT_EQ(counts->at(v1::JOB_STATE_SUCCEEDED), 1);
+  auto cancelled = this->store_->ListJobs(v1::JOB_STATE_CANCELLED, 10, std::nullopt);
+  ASSERT_TRUE(cancelled.ok());
+  ASSERT_EQ(cancelled->size(), 1u);
+  EXPECT_EQ((*cancelled)[0].job.job_id(), "job-kept");
+  auto succeeded = this->store_->ListJobs(v1::JOB_STATE_SUCCEEDED, 10, std::nullopt);
+  ASSERT_TRUE(succeeded.ok());
+  ASSERT_EQ(succeeded->size(), 1u);
+  EXPECT_EQ((*succeeded)[0].job.job_id(), "job-done");
+}
+
 TYPED_TEST(JobStoreContract, ResultsStoreTouchPinListAndDelete) {
   ASSERT_TRUE(this->store_->PutResult(this->Result("ka"), 10).ok());
   ASSERT_TRUE(this->store_->PutResult(this->Result("kb"), 20).ok());
