@@ -978,6 +978,9 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
 }
 
 absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
+  std::lock_guard lock(mu_);
+  auto r = HeldLease(received.job_id(), received.lease_id());
+  if (!r.ok()) return r.status();
   // The error reaches the submitter as the job's error: a real code, some
   // words, and no more than a screenful of them.
   const int32_t code = received.error().code();
@@ -988,9 +991,6 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   v1::FailJobRequest request = received;
   if (request.error().message().empty()) request.mutable_error()->set_message("the worker gave no reason");
   request.mutable_error()->set_message(std::string(Utf8Prefix(request.error().message(), kMaxJobErrorBytes)));
-  std::lock_guard lock(mu_);
-  auto r = HeldLease(request.job_id(), request.lease_id());
-  if (!r.ok()) return r.status();
   r->lease_id.clear();
   CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), options_.now_ms());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {

@@ -98,6 +98,7 @@ TEST_F(FarmMetricsTest, FailuresLostLeasesAndSharedBakes) {
   fail.set_job_id(job.job_id());
   fail.set_lease_id(job.lease_id());
   fail.set_retryable(true);
+  fail.mutable_error()->set_code(14);
   fail.mutable_error()->set_message("device lost");
   ASSERT_TRUE(scheduler_->Fail(fail).ok());
   job = Lease("worker-b");

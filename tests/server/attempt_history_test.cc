@@ -115,6 +115,7 @@ TEST_F(AttemptHistoryTest, LateReportAfterCancelKeepsTheCancelledOutcome) {
   v1::FailJobRequest f;
   f.set_job_id(a.job_id());
   f.set_lease_id(a.lease_id());
+  f.mutable_error()->set_code(1);  // CANCELLED, as the worker sends it
   f.mutable_error()->set_message("stopped: cancelled");
   ASSERT_TRUE(scheduler_->Fail(f).ok());
   ASSERT_EQ(Job(id).attempt_history_size(), 1);

@@ -216,6 +216,8 @@ TEST_F(MultiReplica, AStaleReplicasLeaseChangesNothing) {
   fail.set_job_id(first->job_id());
   fail.set_lease_id(first->lease_id());
   fail.set_retryable(true);
+  fail.mutable_error()->set_code(14);
+  fail.mutable_error()->set_message("device lost");
   EXPECT_EQ(replicas_[0]->Fail(fail).code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_EQ(SqlCount(absl::StrCat("SELECT count(*) FROM jobs WHERE state = 2 AND lease_id = '", second->lease_id(),
                                   "'")),
