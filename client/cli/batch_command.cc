@@ -137,6 +137,10 @@ class BatchRunner {
       return !stop_;
     }
     item.submitted = s.result;
+    // A cached result that failed this request's quality gate is a failure
+    // known now: without --keep-going nothing more is submitted (its
+    // watcher still records it and fetches the result for inspection).
+    if (s.result.error_code != 0 && !args_.keep_going) stop_ = true;
     SetPhase(i, Phase::kQueued);
     queue_.insert({-spec_.entries[i].settings.priority, i});
     wake_.notify_one();
@@ -204,9 +208,10 @@ class BatchRunner {
       if (!fetched.ok()) {
         std::lock_guard lock(mu_);
         if (IsConnectionError(fetched.status())) connection_failed_ = true;
-        Finish(i, Failed(i, absl::StrCat("download failed: ", Describe(fetched.status())),
-                         static_cast<int>(fetched.status().code())),
-               AssetStatus::kFailed);
+        AssetOutcome failed = Failed(i, absl::StrCat("download failed: ", Describe(fetched.status())),
+                                     static_cast<int>(fetched.status().code()));
+        failed.cached = cached;  // the bake was a hit; only its download failed
+        Finish(i, std::move(failed), AssetStatus::kFailed);
         return;
       }
       for (const fs::path& f : fetched->files) outcome.files.push_back(f.string());

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <map>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -296,6 +298,21 @@ TEST(BatchCli, QualityGateFailsTheAssetButKeepsItsResult) {
   EXPECT_EQ(hit.assets[0]["cached"], true);
   EXPECT_EQ(hit.assets[0]["status"], "failed") << "a cache hit is gated too";
   EXPECT_EQ(hit.assets[0]["error"], a["error"]);
+
+  // That failure is known at submit: without --keep-going nothing after it
+  // is submitted, as after any other failure.
+  json two = {{"defaults", {{"frames", 4}, {"resolution", 128}}},
+              {"assets",
+               {{{"path", box}, {"name", "box"}, {"min_iou", 1.0}, {"min_psnr_db", 100.0}},
+                {{"path", Asset("props_pbr/Duck/glTF-Binary/Duck.glb").string()}, {"name", "duck"}}}}};
+  std::ofstream(dir / "gated_then_duck.json") << two.dump();
+  const CliRun stopped = run(Quote((dir / "gated_then_duck.json").string()), "stopped");
+  EXPECT_EQ(stopped.exit_code, 1) << stopped.output;
+  ASSERT_EQ(stopped.assets.size(), 2u) << stopped.output;
+  std::map<std::string, json> by_name;
+  for (const json& asset : stopped.assets) by_name[asset["name"]] = asset;
+  EXPECT_EQ(by_name["box"]["status"], "failed") << stopped.output;
+  EXPECT_EQ(by_name["duck"]["status"], "skipped") << stopped.output;
 }
 
 // Plain output (one line per finished asset on stdout), the live progress
