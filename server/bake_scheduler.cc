@@ -1042,6 +1042,30 @@ absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
   return Save(*r);
 }
 
+absl::StatusOr<int> BakeScheduler::ReleaseLeasesOfPreviousLocalWorkers() {
+  if (jobs_->SharedWithOtherServers()) return 0;
+  std::lock_guard lock(mu_);
+  auto pending = jobs_->Pending();
+  if (!pending.ok()) return pending.status();
+  int released = 0;
+  for (JobRecord& r : *pending) {
+    if (r.job.state() != v1::JOB_STATE_RUNNING || r.lease_id.empty() || !r.worker_id.starts_with("local-")) continue;
+    r.lease_id.clear();
+    r.lease_deadline_ms = 0;
+    CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED,
+                 "the server stopped and its local worker with it; queued again at the restart",
+                 options_.now_ms());
+    r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
+    r.job.set_state(v1::JOB_STATE_QUEUED);
+    r.job.set_stage("queued");
+    r.job.set_progress(0.0f);
+    spdlog::info("event=release job={} worker={} reason=\"server restarted\"", r.job.job_id(), r.worker_id);
+    if (auto s = Save(r); !s.ok()) return s;
+    ++released;
+  }
+  return released;
+}
+
 absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
   const std::string worker = r.worker_id;
   const std::string stage = r.job.stage().empty() ? "leased" : r.job.stage();

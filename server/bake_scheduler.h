@@ -165,6 +165,14 @@ class BakeScheduler {
   // their leases now (as if they expired) and `how` (e.g. "killed by signal
   // 11 (SIGSEGV)") goes into the error of a job that runs out of attempts.
   absl::Status WorkerDied(const std::string& worker_id, const std::string& how);
+  // At start, on a database no other server shares: the previous server's
+  // local workers ("local-<i>-<pid>") died with it (PR_SET_PDEATHSIG), and
+  // their hand-back found no server. Their jobs go back to the queue at
+  // once without counting the attempt (a server crash is not the job's
+  // fault), instead of waiting out the lease and burning an attempt.
+  // Returns how many; 0 on a shared database (another replica's local
+  // workers may be alive).
+  absl::StatusOr<int> ReleaseLeasesOfPreviousLocalWorkers();
   // True while `worker_id` is paused for failing too many jobs in a row.
   bool WorkerPaused(const std::string& worker_id);
 

@@ -379,6 +379,11 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<impostor::WorkerSupervisor> supervisor;
   if (local_workers > 0) {
+    if (auto released = scheduler.ReleaseLeasesOfPreviousLocalWorkers(); !released.ok()) {
+      spdlog::error("event=local_leases_not_released error=\"{}\"", released.status().ToString());
+    } else if (*released > 0) {
+      spdlog::info("event=local_leases_released jobs={}", *released);
+    }
     std::filesystem::path worker_binary = absl::GetFlag(FLAGS_worker_binary);
     if (worker_binary.empty()) {
       worker_binary = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path() / "impostor-worker";

@@ -276,7 +276,10 @@ void WorkerLoop::Drain(std::chrono::seconds budget) {
   std::lock_guard lock(job_mu_);
   stop_ = true;
   const auto deadline = Clock::now() + budget;
-  if (!drain_deadline_ || deadline < *drain_deadline_) drain_deadline_ = deadline;
+  if (!drain_deadline_ || deadline < *drain_deadline_) {
+    drain_deadline_ = deadline;
+    drain_budget_s_ = budget.count();
+  }
   job_wake_.notify_all();
 }
 
@@ -514,7 +517,16 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   if (lease_lost) {
     spdlog::warn("event=job_dropped job={} reason=lease_lost", job.job_id());
   } else if (releasing && !outcome.ok()) {
-    ReleaseLease(job, absl::StrCat("worker draining: not done within --drain-seconds ", options_.drain_seconds));
+    int64_t budget_s = 0;
+    {
+      std::lock_guard lock(job_mu_);
+      budget_s = drain_budget_s_;
+    }
+    // Say which stop it was: SIGINT, a second SIGTERM or the supervising
+    // server's death hands the job back at once; a SIGTERM waits its budget.
+    ReleaseLease(job, budget_s == 0 ? std::string("worker stopped: handed back at once (SIGINT, a second SIGTERM, or its "
+                                                  "supervising server went away)")
+                                    : absl::StrCat("worker draining: not done within --drain-seconds ", budget_s));
   } else if (outcome.ok()) {
     v1::CompleteJobRequest r;
     r.set_job_id(job.job_id());

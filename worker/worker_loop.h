@@ -149,6 +149,7 @@ class WorkerLoop {
   std::mutex job_mu_;
   std::condition_variable job_wake_;
   std::optional<std::chrono::steady_clock::time_point> drain_deadline_ ABSL_GUARDED_BY(job_mu_);
+  int64_t drain_budget_s_ ABSL_GUARDED_BY(job_mu_) = 0;  // of the drain that set drain_deadline_
 };
 
 }  // namespace impostor

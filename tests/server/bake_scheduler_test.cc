@@ -167,6 +167,32 @@ TEST_F(BakeSchedulerTest, ADamagedJobRowDoesNotStopTheLeaseSweeper) {
   EXPECT_EQ(scheduler_->GetJob(first.job_id()).status().code(), absl::StatusCode::kDataLoss);
 }
 
+// A server killed mid-bake takes its local workers with it: at the restart
+// their jobs are queued again at once, the attempt not counted; a remote
+// worker's lease is left alone (it rides out the restart and reports).
+TEST_F(BakeSchedulerTest, ARestartQueuesThePreviousLocalWorkersJobsWithoutCountingTheAttempt) {
+  auto local = scheduler_->Submit(Request("local mesh"));
+  auto remote = scheduler_->Submit(Request("remote mesh"));
+  ASSERT_TRUE(local.ok() && remote.ok());
+  const v1::LeasedJob a = Lease("local-0-4242");
+  const v1::LeasedJob b = Lease("render-node-7");
+  ASSERT_FALSE(a.job_id().empty() || b.job_id().empty());
+  Reopen();
+  auto released = scheduler_->ReleaseLeasesOfPreviousLocalWorkers();
+  ASSERT_TRUE(released.ok()) << released.status();
+  EXPECT_EQ(*released, 1);
+  auto requeued = scheduler_->GetJob(a.job_id());
+  ASSERT_TRUE(requeued.ok());
+  EXPECT_EQ(requeued->state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(requeued->attempts(), 0u);
+  ASSERT_EQ(requeued->attempt_history_size(), 1);
+  EXPECT_EQ(requeued->attempt_history(0).outcome(), v1::JobAttempt::OUTCOME_RELEASED);
+  EXPECT_EQ(scheduler_->GetJob(b.job_id())->state(), v1::JOB_STATE_RUNNING);
+  const v1::LeasedJob again = Lease("local-0-5151");
+  EXPECT_EQ(again.job_id(), a.job_id()) << "leased again at once, not after the lease timeout";
+  EXPECT_EQ(again.attempt(), 1u);
+}
+
 TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
   v1::SubmitBakeRequest request = Request();
   auto miss = scheduler_->Lookup(request);
