@@ -3,6 +3,7 @@
 #include <cstring>
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <set>
 #include <string>
 
@@ -116,14 +117,24 @@ absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& f
   return out;
 }
 
+namespace {
+
+// An upload error that is about the blob, not about the caller or the link.
+bool IsRefusalOfTheBlob(const absl::Status& s) {
+  return absl::IsResourceExhausted(s) || absl::IsInvalidArgument(s) || absl::IsFailedPrecondition(s) ||
+         absl::IsDataLoss(s) || absl::IsNotFound(s);
+}
+
+}  // namespace
+
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
                                                                       const std::vector<const MeshFiles*>& models) {
   std::vector<absl::StatusOr<UploadedMesh>> out;
   out.reserve(models.size());
   // Every distinct blob once, with the first model that has it.
   std::vector<LocalBlob> blobs;
-  std::vector<size_t> first_user;
-  std::set<std::string> seen;
+  std::vector<std::vector<size_t>> users;  // per blob: the models that have it, first first
+  std::map<std::string, size_t> blob_of;    // "hash/size" -> index in blobs
   for (size_t m = 0; m < models.size(); ++m) {
     absl::StatusOr<v1::MeshInput> mesh = HashMesh(*models[m]);
     if (!mesh.ok()) {
@@ -135,10 +146,13 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
     auto add = [&](const v1::InputFile& input, const std::filesystem::path& local) {
       ++uploaded.stats.files;
       uploaded.stats.bytes_total += input.digest().size_bytes();
-      if (seen.insert(absl::StrCat(input.digest().hash(), "/", input.digest().size_bytes())).second) {
+      const std::string key = absl::StrCat(input.digest().hash(), "/", input.digest().size_bytes());
+      auto [it, added] = blob_of.emplace(key, blobs.size());
+      if (added) {
         blobs.push_back(LocalBlob{local, input.digest()});
-        first_user.push_back(m);
+        users.emplace_back();
       }
+      if (users[it->second].empty() || users[it->second].back() != m) users[it->second].push_back(m);
     };
     add(uploaded.mesh.entry(), models[m]->entry);
     for (int i = 0; i < uploaded.mesh.files_size(); ++i) add(uploaded.mesh.files(i), models[m]->files[i].local_path);
@@ -157,8 +171,18 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
   }
   for (size_t i = 0; i < blobs.size(); ++i) {
     if (!missing_keys.contains(absl::StrCat(blobs[i].digest.hash(), "/", blobs[i].digest.size_bytes()))) continue;
-    if (absl::Status s = UploadWithRetry(transport, blobs[i]); !s.ok()) return s;
-    UploadStats& stats = out[first_user[i]]->stats;
+    if (absl::Status s = UploadWithRetry(transport, blobs[i]); !s.ok()) {
+      // The server refused this blob (its disk is full, it is too large):
+      // the models that need it fail and the rest go on. A refusal of the
+      // caller or the connection ends the whole batch.
+      if (!IsRefusalOfTheBlob(s)) return s;
+      for (size_t m : users[i]) {
+        if (out[m].ok()) out[m] = absl::Status(s.code(), absl::StrCat("uploading ", blobs[i].path.string(), ": ", s.message()));
+      }
+      continue;
+    }
+    if (!out[users[i].front()].ok()) continue;
+    UploadStats& stats = out[users[i].front()]->stats;
     ++stats.uploaded;
     stats.bytes_uploaded += blobs[i].digest.size_bytes();
   }

@@ -30,8 +30,11 @@ inline constexpr size_t kMaxFindMissingDigests = 10'000;
 // UploadMesh for many models at once: one FindMissingBlobs for all of their
 // blobs (one per kMaxFindMissingDigests distinct blobs), each missing blob
 // uploaded once and counted in the stats of the first model that has it.
-// A model whose files cannot be read gets its own error in the result; the
-// call fails as a whole only when an RPC does.
+// A model whose files cannot be read, or one of whose blobs the server
+// refused (RESOURCE_EXHAUSTED: its disk is full; INVALID_ARGUMENT: too
+// large), gets its own error in the result and the others go on; the call
+// fails as a whole only when FindMissingBlobs does or an upload fails for
+// the caller or the link (UNAVAILABLE, UNAUTHENTICATED, PERMISSION_DENIED).
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
                                                                       const std::vector<const MeshFiles*>& models);
 

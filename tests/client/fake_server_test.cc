@@ -57,6 +57,7 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   std::map<std::string, std::vector<int64_t>> read_offsets_by_hash;  // the same per blob (maps download in parallel)
   std::set<std::string> break_once;            // hashes whose first ReadBlob breaks midway
   std::set<std::string> corrupt;               // hashes served with a flipped byte
+  int64_t refuse_uploads_over = 0;              // > 0: larger uploads get RESOURCE_EXHAUSTED (a full disk)
   size_t chunk = 1000;                         // ReadBlob chunk size
   v1::SubmitBakeRequest last_submit;
   std::vector<std::vector<v1::Job>> watch_scripts;  // one per WatchJob call; UNAVAILABLE after a script
@@ -114,6 +115,12 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
       data += msg.data();
     }
     if (first) return {grpc::StatusCode::INVALID_ARGUMENT, "no digest"};
+    {
+      std::lock_guard lock(mu);
+      if (refuse_uploads_over > 0 && static_cast<int64_t>(data.size()) > refuse_uploads_over) {
+        return {grpc::StatusCode::RESOURCE_EXHAUSTED, "cannot store the blob: No space left on device"};
+      }
+    }
     if (Sha256Hex(data) != digest.hash() || static_cast<int64_t>(data.size()) != digest.size_bytes()) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "hash mismatch"};
     }
@@ -344,6 +351,28 @@ TEST_F(FakeServerTest, SubmitBakeBatchAsksOnceAndUploadsEachBlobOnce) {
   EXPECT_FALSE(fake_.submits[1].gate().has_min_psnr_db());
   EXPECT_EQ(fake_.submits[0].priority(), 0);
   EXPECT_FALSE(fake_.submits[0].has_gate());
+}
+
+// A full disk refuses the large upload: the models that need it fail with
+// that reason, and the ones that fit are still submitted.
+TEST_F(FakeServerTest, SubmitBakeBatchGoesOnPastABlobTheServerHasNoRoomFor) {
+  const fs::path helmet = kAssets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+  const fs::path box = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.refuse_uploads_over = static_cast<int64_t>(fs::file_size(box)) + 1;
+  }
+  absl::StatusOr<std::vector<BatchSubmission>> r =
+      client_->SubmitBakeBatch({{helmet, {}}, {box, {}}, {helmet, {}}}, nullptr);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(r->size(), 3u);
+  for (size_t i : {0u, 2u}) {
+    EXPECT_EQ((*r)[i].status.code(), absl::StatusCode::kResourceExhausted) << (*r)[i].status;
+    EXPECT_NE((*r)[i].status.message().find("DamagedHelmet.glb"), std::string::npos) << (*r)[i].status;
+  }
+  EXPECT_TRUE((*r)[1].status.ok()) << (*r)[1].status;
+  std::lock_guard lock(fake_.mu);
+  ASSERT_EQ(fake_.submits.size(), 1u) << "only the box";
 }
 
 TEST_F(FakeServerTest, SubmitBakeBatchStopsWhenAsked) {

@@ -440,8 +440,10 @@ class Client {
   // on the calling thread with each item's index and outcome, in item order,
   // as soon as it is known; when it returns false, no further item is
   // submitted and each gets CANCELLED "not submitted: the batch stopped".
-  // Returns one BatchSubmission per item, or an RPC's error for the whole
-  // batch when FindMissingBlobs or an upload fails.
+  // Returns one BatchSubmission per item (an item whose upload the server
+  // refused, e.g. RESOURCE_EXHAUSTED on a full disk, gets that error and the
+  // rest go on), or an RPC's error for the whole batch when FindMissingBlobs
+  // fails or an upload fails for the caller or the connection.
   absl::StatusOr<std::vector<BatchSubmission>> SubmitBakeBatch(
       const std::vector<BatchItem>& items,
       const std::function<bool(size_t index, const BatchSubmission& submission)>& on_submitted);
