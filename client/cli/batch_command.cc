@@ -350,23 +350,39 @@ class BatchRunner {
 
 // A batch that fails before its first submit: the --json summary still
 // comes (every asset counted as not submitted), then the one line.
-int FailBeforeSubmitting(const CliArgs& args, int total, int exit_code, const std::string& reason) {
+// Nothing was submitted. A refused spec (exit 2) judged no asset: `total`
+// 0. Otherwise (no server, no output directory) every asset is skipped, with
+// one JSON line each as when a batch stops, then the summary.
+int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_code, const std::string& reason) {
+  int total = 0;
+  if (args.json && spec != nullptr && exit_code != kExitUsage) {
+    for (const BatchEntry& e : spec->entries) {
+      AssetOutcome o;
+      o.asset = e.asset;
+      o.name = e.name;
+      o.out_dir = (fs::path(args.out) / e.name).string();
+      o.priority = e.settings.priority;
+      o.status = AssetStatus::kSkipped;
+      o.error = absl::StrCat("not submitted: ", reason);
+      PrintJson(AssetJson(o));
+      ++total;
+    }
+  }
   if (args.json) PrintJson(SummaryJson(BatchCounts{.total = total, .skipped = total}, 0.0, exit_code, reason));
   return Fail(exit_code, reason);
 }
 
 int RunBatch(const CliArgs& args, const BatchSpec& spec) {
-  const int total = static_cast<int>(spec.entries.size());
   std::error_code ec;
   fs::create_directories(args.out, ec);
   if (ec || !fs::is_directory(args.out)) {
-    return FailBeforeSubmitting(args, total, kExitLocalIo,
+    return FailBeforeSubmitting(args, &spec, kExitLocalIo,
                                 absl::StrCat("cannot create output directory ", args.out, ": ",
                                              ec ? ec.message() : std::string("not a directory")));
   }
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
-  if (!client.ok()) return FailBeforeSubmitting(args, total, kExitServer, Describe(client.status()));
+  if (!client.ok()) return FailBeforeSubmitting(args, &spec, kExitServer, Describe(client.status()));
   BatchRunner runner(args, spec, **client);
   return runner.Run();
 }
@@ -394,11 +410,10 @@ int RunBakeBatch(const CliArgs& args) {
   absl::StatusOr<BatchSpec> spec = args.command == Command::kBakeBatch
                                        ? LoadBatchSpec(args.target, args.priority)
                                        : BatchFromModels(args.targets, BakeSettingsFromArgs(args));
-  if (!spec.ok()) return FailBeforeSubmitting(args, 0, kExitUsage, std::string(spec.status().message()));
+  if (!spec.ok()) return FailBeforeSubmitting(args, nullptr, kExitUsage, std::string(spec.status().message()));
   if (args.command == Command::kBakeBatch) {
     if (absl::Status s = CheckEntriesAsTheServerWould(*spec); !s.ok()) {
-      return FailBeforeSubmitting(args, static_cast<int>(spec->entries.size()), kExitUsage,
-                                  std::string(s.message()));
+      return FailBeforeSubmitting(args, &*spec, kExitUsage, std::string(s.message()));
     }
   }
   return RunBatch(args, *spec);

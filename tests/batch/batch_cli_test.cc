@@ -14,6 +14,8 @@
 #include <map>
 
 #include <gtest/gtest.h>
+
+#include "absl/strings/str_split.h"
 #include <nlohmann/json.hpp>
 
 #include "tests/integration/server_process.h"
@@ -371,8 +373,17 @@ TEST(BatchCli, UnreachableServerExits3AndAnUncreatableOutExits4) {
     EXPECT_EQ(run.exit_code, c.exit_code) << c.name << ": " << run.err;
     EXPECT_NE(run.err.find("impostor: "), std::string::npos) << c.name << ": " << run.err;
     EXPECT_NE(run.err.find(c.mentions), std::string::npos) << c.name << ": " << run.err;
-    // --json: the summary comes on this outcome too, for CI to parse.
-    const nlohmann::json summary = nlohmann::json::parse(run.out, nullptr, /*allow_exceptions=*/false);
+    // --json: every asset skipped, one line each, then the summary, as
+    // when a batch stops, for CI to parse.
+    std::vector<nlohmann::json> lines;
+    for (absl::string_view line : absl::StrSplit(run.out, '\n', absl::SkipEmpty())) {
+      lines.push_back(nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false));
+    }
+    ASSERT_EQ(lines.size(), 2u) << c.name << ": stdout " << run.out;
+    EXPECT_EQ(lines[0]["type"], "asset") << run.out;
+    EXPECT_EQ(lines[0]["status"], "skipped") << run.out;
+    EXPECT_EQ(lines[0]["name"], "Box") << run.out;
+    const nlohmann::json& summary = lines[1];
     ASSERT_TRUE(summary.is_object()) << c.name << ": stdout " << run.out;
     EXPECT_EQ(summary["type"], "summary") << run.out;
     EXPECT_EQ(summary["exit_code"], c.exit_code) << run.out;
@@ -390,6 +401,16 @@ TEST(BatchCli, UnreachableServerExits3AndAnUncreatableOutExits4) {
   EXPECT_EQ(summary["exit_code"], 2);
   EXPECT_EQ(summary["total"], 0);
   EXPECT_NE(summary["error"].get<std::string>().find("the list is empty"), std::string::npos) << bad.out;
+  // A value the server would refuse is a refused spec too: total 0, no asset lines.
+  std::ofstream(dir / "bad_value.json")
+      << json{{"assets", {{{"path", Asset("props_pbr/Box/glTF-Binary/Box.glb").string()}, {"resolution", 32}}}}}.dump();
+  const ToolRun bad_value = RunTool({Impostor(), "bake-batch", (dir / "bad_value.json").string(), "--out",
+                                     (dir / "out").string(), "--server", "127.0.0.1:1", "--json", "--quiet"});
+  EXPECT_EQ(bad_value.exit_code, 2) << bad_value.err;
+  const nlohmann::json refused = nlohmann::json::parse(bad_value.out, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(refused.is_object()) << bad_value.out;
+  EXPECT_EQ(refused["total"], 0) << bad_value.out;
+  EXPECT_EQ(refused["skipped"], 0) << bad_value.out;
 }
 
 // The server leases a batch's jobs highest priority first: the batch is
