@@ -24,6 +24,7 @@ import hashlib
 import json
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 import bpy
@@ -56,6 +57,8 @@ def configure(product: str = "atlas", frames: int = 4, resolution: int = 128) ->
     s = bpy.context.scene.impostor_farm
     s.server = SERVER
     s.product = product
+    s.layout = "octahedral"
+    s.ring_views = 0
     s.frames = frames
     s.resolution = resolution
     s.output_dir = str(WORK / "results")
@@ -194,6 +197,41 @@ def main() -> None:
           "the PNG impostor was left in place")
     check(bpy.context.scene.impostor_farm.status == "not imported (KTX2)", "the panel says why")
 
+    # Ring + top sends its ring, not Frames (the farm refuses frames with it),
+    # and billboard sends neither; an even azimuth-elevation grid and a
+    # selection with no mesh are refused before any export or upload.
+    configure(frames=8)
+    s = bpy.context.scene.impostor_farm
+    s.layout, s.ring_views = "ring-top", 8
+    ring = operators._bake_settings(s)
+    check(ring.get("ring_views") == 8 and "frames" not in ring, f"ring-top sends ring_views only: {ring}")
+    s.layout = "billboard"
+    check("frames" not in operators._bake_settings(s), "billboard sends no frames")
+    s.layout = "azimuth-elevation"
+    exports_before = len(list(Path(tempfile.gettempdir()).glob("impostor-export-*")))
+    try:
+        bpy.ops.impostor.bake_selected()
+        raise AssertionError("an even azimuth-elevation grid was sent")
+    except RuntimeError as e:
+        check("odd Frames" in str(e) and "try 7 or 9" in str(e), f"an even grid is refused locally: {e}")
+    light = bpy.data.objects.new("OnlyALight", bpy.data.lights.new("OnlyALight", "POINT"))
+    bpy.context.scene.collection.objects.link(light)
+    saved = list(bpy.context.selected_objects)
+    for o in saved:
+        o.select_set(False)
+    light.select_set(True)
+    try:
+        bpy.ops.impostor.bake_selected()
+        raise AssertionError("a selection without a mesh was baked")
+    except RuntimeError as e:
+        check("the selection has no mesh" in str(e), f"a selection without a mesh is refused locally: {e}")
+    light.select_set(False)
+    for o in saved:
+        o.select_set(True)
+    bpy.data.objects.remove(light)
+    check(len(list(Path(tempfile.gettempdir()).glob("impostor-export-*"))) == exports_before,
+          "nothing was exported for either")
+
     # An unreachable farm is reported within about a second (connection refused).
     configure()
     bpy.context.scene.impostor_farm.server = "127.0.0.1:1"
@@ -202,6 +240,8 @@ def main() -> None:
         raise AssertionError("a bake against 127.0.0.1:1 succeeded")
     except RuntimeError as e:
         check("UNAVAILABLE" in str(e) and "127.0.0.1:1" in str(e), f"an unreachable farm is reported: {e}")
+    check(len(list(Path(tempfile.gettempdir()).glob("impostor-export-*"))) == exports_before,
+          "the exported .glb of a failed bake is removed")
 
     # 5. LOD chain: the mesh levels as .glb and the impostor level as a quad.
     configure(product="lod-chain", frames=4, resolution=128)

@@ -5,6 +5,7 @@ background mode (execute) it runs to completion before returning. Farm
 errors become Blender error reports carrying the farm's message."""
 from __future__ import annotations
 
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Set
@@ -21,9 +22,36 @@ def _bake_settings(s: Any) -> Dict[str, Any]:
     # PNG explicitly: Blender cannot load the KTX2 maps a farm could make.
     settings: Dict[str, Any] = {"product": s.product, "resolution": s.resolution, "texture_format": "png"}
     if s.product != "cards":
-        settings["frames"] = s.frames
         settings["layout"] = s.layout
+        if s.layout == "ring-top":
+            settings["ring_views"] = s.ring_views  # the grid follows from it
+        elif s.layout != "billboard":
+            settings["frames"] = s.frames
     return settings
+
+
+# Object types the glTF exporter turns into triangles.
+_GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def _local_problem(context: bpy.types.Context, s: Any) -> Optional[str]:
+    """What the farm would refuse after the export and upload, said at once."""
+    if not any(o.type in _GEOMETRY_TYPES for o in context.selected_objects):
+        return "Impostor farm: nothing to bake: the selection has no mesh (select the objects to bake)"
+    if s.product != "cards" and s.layout == "azimuth-elevation" and s.frames and s.frames % 2 == 0:
+        return (f"Impostor farm: azimuth-elevation needs an odd Frames (a row at 0 degrees), got {s.frames}; "
+                f"try {s.frames - 1} or {s.frames + 1}")
+    return None
+
+
+def _remove_scratch(job: "BakeJob") -> None:
+    """The exported .glb's folder goes once the bake is over; a result folder
+    that stayed empty (the bake failed) goes too."""
+    shutil.rmtree(job.model.parent, ignore_errors=True)
+    try:
+        job.out_dir.rmdir()  # only when empty
+    except OSError:
+        pass
 
 
 def _error_text(e: BaseException) -> str:
@@ -58,6 +86,10 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
         if problem:
             self.report({"ERROR"}, problem)
             return None
+        problem = _local_problem(context, s)
+        if problem:
+            self.report({"ERROR"}, problem)
+            return None
         original = context.active_object if context.active_object in context.selected_objects \
             else context.selected_objects[0]
         self._original_name = original.name
@@ -66,6 +98,7 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
         try:
             model = export_selection(export_dir)
         except RuntimeError as e:
+            shutil.rmtree(export_dir, ignore_errors=True)
             self.report({"ERROR"}, f"glTF export of the selection failed: {e}")
             return None
         return BakeJob(server=s.server, token_file=bpy.path.abspath(s.token_file) if s.token_file else "",
@@ -73,6 +106,7 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
                        out_dir=default_out_dir(s.output_dir), settings=_bake_settings(s))
 
     def _finish(self, context: bpy.types.Context, job: BakeJob) -> Set[str]:
+        _remove_scratch(job)
         s = settings_of(context)
         if job.error is not None:
             if getattr(getattr(job.error, "code", None), "name", "") == "CANCELLED":

@@ -24,8 +24,12 @@ class VIEW3D_PT_impostor_farm(bpy.types.Panel):
         row.enabled = s.product in ("atlas", "lod-chain", "surfels")
         row.prop(s, "layout")
         sub = col.row(align=True)
-        sub.enabled = s.product != "cards"
-        sub.prop(s, "frames")
+        if s.layout == "ring-top" and s.product != "cards":
+            sub.prop(s, "ring_views")
+        else:
+            # Ring + top and billboard derive their grid; cards have none.
+            sub.enabled = s.product != "cards" and s.layout != "billboard"
+            sub.prop(s, "frames")
         col.prop(s, "resolution")
         col.prop(s, "output_dir")
         col.separator()

@@ -29,7 +29,13 @@ class ImpostorFarmSettings(bpy.types.PropertyGroup):
         name="TLS CA", description="CA certificate (PEM) of a TLS server (empty: plaintext)", subtype="FILE_PATH")
     layout: bpy.props.EnumProperty(name="Layout", items=LAYOUTS, default="octahedral")
     frames: bpy.props.IntProperty(
-        name="Frames", description="Frames per atlas axis (0 = the farm's default, 12)", default=0, min=0, max=64)
+        name="Frames",
+        description="Frames per atlas axis (0 = the farm's default: 12, azimuth-elevation 11; odd for "
+                    "azimuth-elevation; ring-top and billboard derive it)",
+        default=0, min=0, max=64)
+    ring_views: bpy.props.IntProperty(
+        name="Ring views", description="Ring + top: horizontal views around the object (0 = the farm's default, 24)",
+        default=0, min=0, max=64)
     resolution: bpy.props.IntProperty(
         name="Resolution", description="Atlas side in pixels (0 = the farm's default, 2048)",
         default=0, min=0, max=16384)
