@@ -22,6 +22,24 @@ function kv(pairs) {
   return dl;
 }
 
+// The cards' own held-out-view comparison (manifest cards.quality).
+function cardsQuality(m) {
+  const q = m.cards && m.cards.quality;
+  if (!q || !q.views) return null;
+  return [['product', 'cards (the quads rendered against the mesh)'], ['held-out views', q.views],
+    ['silhouette IoU (min / mean)', `${q.silhouette_iou_min.toFixed(4)} / ${q.silhouette_iou_mean.toFixed(4)}`],
+    ['albedo PSNR dB', q.albedo_psnr_db.toFixed(2)]];
+}
+
+// Files a product has besides its maps (cards.glb, surfels.bin/.ply).
+function productFiles(m) {
+  const files = [];
+  if (m.cards && m.cards.file) files.push([m.cards.file, 'cards', m.cards.digest]);
+  if (m.surfels && m.surfels.file) files.push([m.surfels.file, 'surfels', m.surfels.digest]);
+  if (m.surfels && m.surfels.ply_file) files.push([m.surfels.ply_file, 'surfels (PLY)', m.surfels.ply_digest]);
+  return files;
+}
+
 function showStatic(result) {
   const m = result.manifest;
   document.getElementById('title').textContent = key;
@@ -36,7 +54,7 @@ function showStatic(result) {
     ['albedo PSNR dB over the union, over black (mean)', (q.albedo_psnr_union_db_mean ?? q.albedo_psnr_db_mean ?? 0).toFixed(2)],
     ['normal error deg (mean / max)', `${q.normal_error_deg_mean.toFixed(2)} / ${q.normal_error_deg_max.toFixed(2)}`],
     ['depth error (mean / max)', `${q.depth_error_mean.toFixed(4)} / ${q.depth_error_max.toFixed(4)}`],
-    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : [['quality pass', 'not run for this bake']];
+    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : cardsQuality(m) || [['quality pass', 'not run for this bake']];
   replace('quality', kv(quality));
   const maps = el('div', { class: 'maps' });
   for (const map of m.maps) {
@@ -46,9 +64,19 @@ function showStatic(result) {
         el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.codec || 'KTX2'}, ${map.levels || 1} levels (${bytes(map.digest.size_bytes)})`)));
       continue;
     }
-    if (!map.file.endsWith('.png')) continue;
+    if (!map.file.endsWith('.png')) {  // meshes, point buffers: a download link
+      maps.append(el('figure', {}, el('a', { href: fileUrl(map.file), 'data-testid': `map-${map.semantic}` }, map.file),
+        el('figcaption', {}, `${map.semantic} (${bytes(map.digest.size_bytes)})`)));
+      continue;
+    }
     maps.append(el('figure', {}, el('img', { src: fileUrl(map.file), alt: map.semantic, 'data-testid': `map-${map.semantic}` }),
       el('figcaption', {}, `${map.semantic} ${map.width}×${map.height} ${map.format} (${bytes(map.digest.size_bytes)})`)));
+  }
+  const listed = new Set(m.maps.map((map) => map.file));
+  for (const [file, what, digest] of productFiles(m)) {
+    if (listed.has(file)) continue;
+    maps.append(el('figure', {}, el('a', { href: fileUrl(file), 'data-testid': `file-${file}` }, file),
+      el('figcaption', {}, digest ? `${what} (${bytes(digest.size_bytes)})` : what)));
   }
   replace('maps', maps);
   replace('manifest', kv([['product', m.product], ['layout', m.layout], ['frames', m.frames], ['resolution', m.resolution],
@@ -162,6 +190,11 @@ async function main() {
   } else if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
     await showViewer(result);
   } else {
+    // The viewer draws atlases; say so instead of showing empty canvases.
+    const section = document.getElementById('mesh').closest('section');
+    section.replaceChildren(el('h2', {}, '3D'), el('p', { class: 'muted', 'data-testid': 'no-viewer' },
+      `no 3D view here for product ${result.manifest.product.replace('PRODUCT_', '').toLowerCase()}: `
+      + 'its files are below (cards.glb and lod<N>.glb open in any glTF viewer)'));
     document.body.dataset.viewerReady = 'n/a';
   }
 }

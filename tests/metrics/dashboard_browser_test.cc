@@ -199,7 +199,7 @@ TEST_F(DashboardBrowser, ViewerImpostorMatchesTheMeshSilhouetteNotItsMirrorImage
 // its foot sits in the middle of the view (OrbitControls aimed the camera
 // at the origin, which put the tree in the top half). And a job page for an
 // unknown id says so once and stops asking.
-TEST_F(DashboardBrowser, TheViewerCentresAModelWhosePivotIsAtItsFootAndAnUnknownJobIsReportedOnce) {
+TEST_F(DashboardBrowser, TheViewerCentresAModelWhosePivotIsAtItsFootOtherProductsSayThereIsNoViewAndAnUnknownJobIsReportedOnce) {
   ServerProcess server(/*local_workers=*/1, {"--http-listen=127.0.0.1:0"});
   const std::string base = "http://127.0.0.1:" + std::to_string(HttpPort(server));
   v1::SubmitBakeRequest request;
@@ -229,6 +229,31 @@ TEST_F(DashboardBrowser, TheViewerCentresAModelWhosePivotIsAtItsFootAndAnUnknown
   ASSERT_TRUE(v.is_object()) << page.report.dump();
   EXPECT_GT(v["cover"].get<double>(), 0.02) << page.report.dump();
   EXPECT_LT(std::abs(v["dy"].get<double>()), 0.1) << "the tree's centroid is near the middle: " << page.report.dump();
+
+  // A cards result: its own quality figures, a link to cards.glb, and a
+  // note instead of an empty 3D viewer.
+  v1::SubmitBakeRequest cards_request;
+  *cards_request.mutable_mesh() =
+      testing::UploadGlb(server.assets(), testing::AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  cards_request.mutable_parameters()->set_product(v1::PRODUCT_CARDS);
+  cards_request.mutable_parameters()->set_resolution(256);
+  v1::SubmitBakeResponse cards_submitted;
+  ASSERT_TRUE(server.bake().SubmitBake(testing::ContextWithin().get(), cards_request, &cards_submitted).ok());
+  const v1::Job cards_done = testing::WatchToEnd(server.bake(), cards_submitted.job_id());
+  ASSERT_EQ(cards_done.state(), v1::JOB_STATE_SUCCEEDED) << cards_done.error().message();
+  const PageRun cards = RunPage(
+      base + "/results/" + cards_done.cache_key(), "document.body.dataset.viewerReady === 'n/a'",
+      {"--eval",
+       "({ note: !!document.querySelector('[data-testid=no-viewer]'), canvases: document.querySelectorAll('canvas').length,"
+       " quality: document.getElementById('quality').textContent,"
+       " glb: !!document.querySelector('a[href$=\"cards.glb\"]') })"});
+  EXPECT_EQ(cards.exit_code, 0) << cards.report.dump();
+  const nlohmann::json& c = cards.report["value"];
+  ASSERT_TRUE(c.is_object()) << cards.report.dump();
+  EXPECT_EQ(c["note"], true) << cards.report.dump();
+  EXPECT_EQ(c["canvases"], 0) << cards.report.dump();
+  EXPECT_EQ(c["glb"], true) << cards.report.dump();
+  EXPECT_NE(c["quality"].get<std::string>().find("silhouette IoU"), std::string::npos) << cards.report.dump();
 
   const PageRun unknown = RunPage(base + "/jobs/job-that-does-not-exist", "document.body.dataset.final === '1'",
                                   {"--eval", "document.getElementById('errors').textContent"});
