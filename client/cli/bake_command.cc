@@ -12,6 +12,7 @@
 #include "client/cli/bake_settings.h"
 #include "client/cli/commands.h"
 #include "client/cli/connection_options.h"
+#include "client/cli/flag_terms.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
 #include "client/cli/quality_command.h"
@@ -85,7 +86,8 @@ int RunBake(const CliArgs& args) {
     // The server judged the request itself (e.g. frames out of range): that
     // is the bake failing, not the transport.
     if (rpc.has_value() && rpc->rpc == "SubmitBake" && s.code() == absl::StatusCode::kInvalidArgument) {
-      return report.Fail(kExitBakeFailed, absl::StrCat("bake failed: INVALID_ARGUMENT: ", rpc->server_message));
+      return report.Fail(kExitBakeFailed,
+                         absl::StrCat("bake failed: INVALID_ARGUMENT: ", InFlagTerms(rpc->server_message)));
     }
     return report.Fail(ExitCodeFor(s), Describe(s));
   }

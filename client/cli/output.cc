@@ -1,10 +1,14 @@
 #include "client/cli/output.h"
 
+#include <cctype>
 #include <cstdio>
+#include <string_view>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_args.h"
+#include "client/cli/flag_terms.h"
 #include "common/log_escape.h"
 
 namespace impostor::cli {
@@ -19,7 +23,10 @@ int Fail(int exit_code, std::string_view reason) {
 }
 
 std::string Describe(const absl::Status& status) {
-  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", std::string(status.message()));
+  std::string message(status.message());
+  // Only what the server said about a request is in API terms.
+  if (sdk::GetRpcErrorInfo(status).has_value()) message = InFlagTerms(message);
+  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", message);
 }
 
 int ExitCodeFor(const absl::Status& status) {

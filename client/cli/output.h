@@ -18,6 +18,9 @@ namespace impostor::cli {
 int Fail(int exit_code, std::string_view reason);
 
 // "CODE: message", without the payloads absl::Status::ToString would add.
+// A message from the server names API fields (parameters.ring_views) and
+// enum values (PRODUCT_CARDS); these read as the flags and words the user
+// typed ("--ring (parameters.ring_views)", "cards").
 std::string Describe(const absl::Status& status);
 
 // kExitBakeFailed when the server refused the request (NOT_FOUND: nothing

@@ -1,4 +1,5 @@
 #include "client/cli/cli_args.h"
+#include "client/cli/flag_terms.h"
 
 #include <string>
 #include <vector>
@@ -258,5 +259,19 @@ TEST(ParseCliArgs, AdminPurge) {
   EXPECT_NE(UsageText().find("impostor admin purge --worker NAME"), std::string::npos);
 }
 
+TEST(InFlagTerms, TheServersApiNamesReadAsTheFlagsTyped) {
+  EXPECT_EQ(InFlagTerms("parameters.ring_views: 2 is out of range 3..64"),
+            "--ring (parameters.ring_views): 2 is out of range 3..64");
+  EXPECT_EQ(InFlagTerms("parameters.preset: \"prop\" is only for product PRODUCT_SURFELS"),
+            "--preset (parameters.preset): \"prop\" is only for product surfels");
+  EXPECT_EQ(InFlagTerms("parameters.frames: ring-top derives its grid; LAYOUT_RING_TOP and PRODUCT_LOD_CHAIN"),
+            "--frames (parameters.frames): ring-top derives its grid; ring-top and lod-chain");
+  // Longer names are not cut: frames_auto is not frames.
+  EXPECT_EQ(InFlagTerms("parameters.frames_auto: needs a gate"), "parameters.frames_auto: needs a gate");
+  EXPECT_EQ(InFlagTerms("PRODUCT_CARDSX"), "PRODUCT_CARDSX");
+  EXPECT_EQ(InFlagTerms(""), "");
+}
+
 }  // namespace
+
 }  // namespace impostor::cli

@@ -884,7 +884,9 @@ TEST_F(FakeServerTest, CliBakeRefusedByServerExitsOneWithOneLine) {
                           (dir_ / "atlas").string() + " --frames 80 --server 127.0.0.1:" + std::to_string(port_),
                       dir_ / "io");
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_EQ(run.err, "impostor: bake failed: INVALID_ARGUMENT: parameters.frames: 80 is out of range 2..64\n");
+  // The server's API name becomes the flag the user typed, the API name kept.
+  EXPECT_EQ(run.err,
+            "impostor: bake failed: INVALID_ARGUMENT: --frames (parameters.frames): 80 is out of range 2..64\n");
 }
 
 TEST_F(FakeServerTest, CliFailedBakeExitsOneWithServerReason) {

@@ -89,7 +89,7 @@ TEST(CliEndToEnd, ExitCodesSayWhatHappened) {
       {"bake again is cached", {"bake", box, "--frames", "3", "--resolution", "64", "--out", out.string(), "--json"},
        0, true, ""},
       {"out-of-range frames", {"bake", box, "--frames", "80", "--out", out.string()}, 1, false,
-       "impostor: bake failed: INVALID_ARGUMENT: parameters.frames: 80 is out of range"},
+       "impostor: bake failed: INVALID_ARGUMENT: --frames (parameters.frames): 80 is out of range"},
       {"missing model", {"bake", "/nonexistent/model.glb", "--out", out.string()}, 4, false, "/nonexistent/model.glb"},
       {"unknown flag", {"bake", box, "--out", out.string(), "--colour", "red"}, 2, false, "colour"},
       {"unreachable server", {"status", "job-x", "--server", "127.0.0.1:1"}, 3, false, "127.0.0.1:1"},
