@@ -455,6 +455,7 @@ class Cache::Impl {
     ManifestSummary summary = SummarizeManifest(view->manifest_json);
     view->product = std::move(summary.product);
     view->view_count = summary.view_count;
+    view->texture_array = summary.texture_array;
     return std::shared_ptr<const EntryView>(std::move(view));
   }
 

@@ -32,6 +32,7 @@ uint32_t CachedResult::frames() const { return ViewOf(rep_).frames; }
 uint32_t CachedResult::resolution() const { return ViewOf(rep_).resolution; }
 const std::string& CachedResult::product() const { return ViewOf(rep_).product; }
 uint32_t CachedResult::view_count() const { return ViewOf(rep_).view_count; }
+bool CachedResult::texture_array() const { return ViewOf(rep_).texture_array; }
 bool CachedResult::downloaded() const { return rep_ != nullptr && rep_->downloaded; }
 
 const CachedFile* CachedResult::map(const std::string& semantic) const {

@@ -26,6 +26,7 @@ struct EntryView {
   uint32_t resolution = 0;
   std::string product;  // ManifestSummary's
   uint32_t view_count = 0;
+  bool texture_array = false;
 };
 
 // One per entry and process while any handle is alive: its shared file lock

@@ -182,6 +182,7 @@ const char* impostor_result_layout(const impostor_result* r) { return r ? r->res
 uint32_t impostor_result_frames(const impostor_result* r) { return r ? r->result.frames() : 0; }
 uint32_t impostor_result_resolution(const impostor_result* r) { return r ? r->result.resolution() : 0; }
 uint32_t impostor_result_view_count(const impostor_result* r) { return r ? r->result.view_count() : 0; }
+int impostor_result_texture_array(const impostor_result* r) { return r && r->result.texture_array() ? 1 : 0; }
 
 const char* impostor_result_key(const impostor_result* r) { return r ? r->result.key().c_str() : nullptr; }
 const char* impostor_result_dir(const impostor_result* r) { return r ? r->dir.c_str() : nullptr; }

@@ -93,6 +93,17 @@ TEST(ManifestSummary, ReadsProductAndViewCount) {
   EXPECT_EQ(cards.view_count, 0u);
 }
 
+TEST(ManifestSummary, TellsTextureArraysFromAtlasesByTheirMapsShape) {
+  const std::string views = R"("views": [{}, {}, {}, {}])";
+  const ManifestSummary strip = SummarizeManifest(
+      R"({"tile_size": 64, )" + views + R"(, "maps": [{"semantic": "albedo_alpha", "width": 64, "height": 256}]})");
+  EXPECT_TRUE(strip.texture_array);
+  const ManifestSummary atlas = SummarizeManifest(
+      R"({"tile_size": 64, )" + views + R"(, "maps": [{"semantic": "albedo_alpha", "width": 128, "height": 128}]})");
+  EXPECT_FALSE(atlas.texture_array);
+  EXPECT_FALSE(SummarizeManifest(R"({"tile_size": 64, "views": [{}], "maps": "x"})").texture_array);
+}
+
 TEST(ManifestSummary, MissingOrMistypedFieldsKeepTheDefaults) {
   // Manifests older than products are atlases.
   EXPECT_EQ(SummarizeManifest(R"({"views": [{}]})").product, "atlas");

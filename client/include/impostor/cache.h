@@ -219,6 +219,12 @@ class CachedResult {
   // Length of the manifest's `views` (the atlas's frames; 0 for cards and
   // surfels).
   uint32_t view_count() const;
+  // True when the maps are texture arrays (baked with texture_array /
+  // `impostor bake --array`): each map a strip one tile wide with one tile
+  // per view, so files()' width is the tile and height view_count() tiles.
+  // Load them as arrays of view_count() layers: a frame's layer is its
+  // index and its UV is the frame UV (FrameUvToAtlasUv is for atlases).
+  bool texture_array() const;
   // True when this Get (or the download it joined) fetched the result over
   // the network; false when it was already on disk.
   bool downloaded() const;

@@ -182,6 +182,9 @@ IMPOSTOR_C_EXPORT const char* impostor_result_layout(const impostor_result* resu
 IMPOSTOR_C_EXPORT uint32_t impostor_result_frames(const impostor_result* result);
 IMPOSTOR_C_EXPORT uint32_t impostor_result_resolution(const impostor_result* result);
 IMPOSTOR_C_EXPORT uint32_t impostor_result_view_count(const impostor_result* result);
+/* 1 when the maps are texture arrays (one layer per view, see
+ * CachedResult::texture_array in impostor/cache.h), 0 for atlases. */
+IMPOSTOR_C_EXPORT int impostor_result_texture_array(const impostor_result* result);
 /* 1 when this Get downloaded it, 0 when it came from disk. */
 IMPOSTOR_C_EXPORT int impostor_result_downloaded(const impostor_result* result);
 IMPOSTOR_C_EXPORT void impostor_result_release(impostor_result* result);

@@ -163,6 +163,8 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
 // AtlasLayout form places frame i in tile (i % side, i / side) of the
 // layout's side x side grid (side = frames, or ceil(sqrt(K + 1)) for
 // ring-top, 3 for billboard); the int form is for the grid layouts.
+// Texture-array results (CachedResult::texture_array()) have no atlas: use
+// layer `frame` at `uv` directly.
 void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 
