@@ -8,7 +8,7 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
-from typing import Dict, Iterator, List, Sequence, Set, Tuple
+from typing import Dict, Iterator, List, Sequence, Set, Tuple, Union
 
 import grpc
 
@@ -84,23 +84,42 @@ def _upload_with_retry(transport: Transport, blob: MeshFile) -> None:
                 raise
 
 
-def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> List[UploadStats]:
+# Upload errors about the blob itself (the server's disk is full, the blob
+# is too large): the models needing it fail and the others go on. Anything
+# else (the caller refused, the link down) ends the whole upload.
+_BLOB_REFUSALS = (
+    grpc.StatusCode.RESOURCE_EXHAUSTED,
+    grpc.StatusCode.INVALID_ARGUMENT,
+    grpc.StatusCode.FAILED_PRECONDITION,
+    grpc.StatusCode.DATA_LOSS,
+    grpc.StatusCode.NOT_FOUND,
+)
+
+
+def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> "List[Union[UploadStats, ImpostorError]]":
     """Uploads every distinct blob of `models` the server lacks, once (one
     FindMissingBlobs per 10,000 blobs). Returns each model's UploadStats (an
-    upload counts for the first model that has the blob)."""
+    upload counts for the first model that has the blob), or the error of a
+    blob of it that the server refused (RESOURCE_EXHAUSTED on a full disk,
+    ...): the other models go on, as in the C++ SDK (client/mesh_upload.h).
+    Raises ImpostorError when FindMissingBlobs fails or an upload fails for
+    the caller or the connection."""
     blobs: List[MeshFile] = []
-    first_user: List[int] = []
-    seen: Set[_Key] = set()
+    users: List[List[int]] = []
+    index_of: Dict[_Key, int] = {}
     stats: List[Dict[str, int]] = []
     for m, model in enumerate(models):
         s = {"files": 0, "uploaded": 0, "bytes_total": 0, "bytes_uploaded": 0}
         for f in model.all():
             s["files"] += 1
             s["bytes_total"] += f.size_bytes
-            if (f.hash, f.size_bytes) not in seen:
-                seen.add((f.hash, f.size_bytes))
+            key = (f.hash, f.size_bytes)
+            if key not in index_of:
+                index_of[key] = len(blobs)
                 blobs.append(f)
-                first_user.append(m)
+                users.append([])
+            if not users[index_of[key]] or users[index_of[key]][-1] != m:
+                users[index_of[key]].append(m)
         stats.append(s)
     missing: Set[_Key] = set()
     for begin in range(0, len(blobs), MAX_FIND_MISSING_DIGESTS):
@@ -109,12 +128,22 @@ def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> List[Upl
         )
         response = transport.unary("FindMissingBlobs", transport.assets.FindMissingBlobs, request)
         missing.update((d.hash, d.size_bytes) for d in response.missing)
-    for blob, m in zip(blobs, first_user):
-        if (blob.hash, blob.size_bytes) in missing:
+    errors: Dict[int, ImpostorError] = {}
+    for blob, who in zip(blobs, users):
+        if (blob.hash, blob.size_bytes) not in missing:
+            continue
+        try:
             _upload_with_retry(transport, blob)
-            stats[m]["uploaded"] += 1
-            stats[m]["bytes_uploaded"] += blob.size_bytes
-    return [UploadStats(**s) for s in stats]
+        except ImpostorError as e:
+            if e.code not in _BLOB_REFUSALS:
+                raise
+            for m in who:
+                errors.setdefault(m, ImpostorError(e.code, f"uploading {blob.local_path}: {e.message}",
+                                                   server_message=e.server_message, rpc=e.rpc, server=e.server))
+            continue
+        stats[who[0]]["uploaded"] += 1
+        stats[who[0]]["bytes_uploaded"] += blob.size_bytes
+    return [errors[m] if m in errors else UploadStats(**s) for m, s in enumerate(stats)]
 
 
 def already_there(path: Path, digest: "pb.Digest") -> bool:

@@ -212,6 +212,8 @@ class Client:
         parsed.validate()  # settings errors before any upload
         files = collect_mesh_files(model, parsed.follow_symlinks)
         (upload,) = upload_meshes(self._transport, [files])
+        if isinstance(upload, ImpostorError):
+            raise upload
         return self._submit_one(files, parsed, upload)
 
     def submit_batch(
@@ -234,7 +236,9 @@ class Client:
 
         Raises:
             ImpostorError: an RPC's error for the whole batch when
-                FindMissingBlobs or an upload fails.
+                FindMissingBlobs fails or an upload fails for the caller or
+                the connection (an item whose blob the server refused, e.g.
+                RESOURCE_EXHAUSTED on a full disk, gets that error alone).
         """
         out: List[BatchSubmission] = [BatchSubmission() for _ in items]
         prepared: List[Optional[Tuple[MeshFiles, BakeSettings]]] = []
@@ -258,10 +262,14 @@ class Client:
                 )
                 continue
             if p is not None:
-                try:
-                    out[i] = BatchSubmission(result=self._submit_one(p[0], p[1], upload_of[i]))
-                except ImpostorError as e:
-                    out[i] = BatchSubmission(error=e)
+                upload = upload_of[i]
+                if isinstance(upload, ImpostorError):  # the server refused a blob of it
+                    out[i] = BatchSubmission(error=upload)
+                else:
+                    try:
+                        out[i] = BatchSubmission(result=self._submit_one(p[0], p[1], upload))
+                    except ImpostorError as e:
+                        out[i] = BatchSubmission(error=e)
             if on_submitted is not None and not on_submitted(i, out[i]):
                 stopped = True
         return out

@@ -152,6 +152,21 @@ def test_batch_bakes_good_items_and_reports_bad_ones(client, assets, tmp_path) -
     assert results[0].dir == tmp_path / "0_Box" and results[2].dir == tmp_path / "2_Duck"
 
 
+def test_batch_goes_on_past_a_blob_the_server_refuses(assets, tmp_path) -> None:
+    """A blob over the server's size limit (as a full disk would) fails the
+    models that need it; the others are submitted."""
+    small = FarmServer(tmp_path / "data", local_workers=0, extra_args=["--max-blob-bytes=100000"])
+    try:
+        with impostor.Client(small.address) as c:
+            helmet = assets / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb"
+            out = c.submit_batch([helmet, assets / BOX, helmet])
+    finally:
+        small.stop()
+    for refused in (out[0], out[2]):
+        assert refused.error is not None and "DamagedHelmet.glb" in refused.error.message, refused
+    assert out[1].error is None and out[1].result is not None, out[1]
+
+
 def test_batch_stops_when_the_callback_says_so(client, assets) -> None:
     settings = dict(frames=3, resolution=64, quality_views=0)
     seen: List[int] = []
