@@ -289,6 +289,7 @@ int main(int argc, char** argv) {
   // in --database when the replicas share one, so a token and its quota are
   // the same on every replica; else in DATA/tokens.sqlite3. Either way a
   // restart forgives nothing.
+  impostor::NoteWhereTokensLive(data, store_config.database_url);
   std::unique_ptr<impostor::TokenStore> token_store;
   std::unique_ptr<impostor::Authenticator> authenticator;
   std::unique_ptr<impostor::QuotaLedger> quota_ledger;

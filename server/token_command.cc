@@ -136,6 +136,10 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     if (!std::filesystem::is_directory(data, ec)) {
       return UsageError(absl::StrCat("--data: ", data, " is not a directory (give the server's --data)"));
     }
+    if (const std::string url = TokensInDatabaseOf(data); !url.empty()) {
+      return UsageError(absl::StrCat("--data: the server on ", data, " keeps its tokens in its --database (", url,
+                                     "); give --database with that URL instead"));
+    }
   }
 
   std::optional<Role> role;

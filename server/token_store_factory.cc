@@ -1,8 +1,10 @@
 #include "server/token_store_factory.h"
 
 #include <filesystem>
+#include <fstream>
 
 #include "server/job_store_factory.h"
+#include "server/postgres/pg_url.h"
 #include "server/postgres/postgres_token_store.h"
 
 namespace impostor {
@@ -22,6 +24,23 @@ absl::StatusOr<TokenStorage> OpenTokenStorage(const TokenStoreConfig& config) {
                                       .dead_link_seconds = config.dead_link_seconds});
   if (!pg.ok()) return pg.status();
   return TokenStorage{.tokens = std::move(pg->tokens), .quotas = std::move(pg->quotas)};
+}
+
+void NoteWhereTokensLive(const std::string& data_dir, const std::string& database_url) {
+  const std::filesystem::path marker = std::filesystem::path(data_dir) / kTokensInDatabaseMarker;
+  std::error_code ec;
+  if (database_url.empty()) {
+    std::filesystem::remove(marker, ec);
+    return;
+  }
+  std::ofstream(marker) << RedactDatabaseUrl(database_url) << "\n";
+}
+
+std::string TokensInDatabaseOf(const std::string& data_dir) {
+  std::ifstream in(std::filesystem::path(data_dir) / kTokensInDatabaseMarker);
+  std::string url;
+  if (!in || !std::getline(in, url)) return "";
+  return url.empty() ? "PostgreSQL" : url;
 }
 
 }  // namespace impostor

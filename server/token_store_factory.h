@@ -39,6 +39,16 @@ struct TokenStorage {
 // otherwise (a PostgreSQL URL named without its password).
 absl::StatusOr<TokenStorage> OpenTokenStorage(const TokenStoreConfig& config);
 
+// A server started with --database leaves this file in its --data (the
+// redacted URL inside) and removes it when started without: so that
+// `impostor-server token create --data DIR` on a replica's directory is
+// refused, naming --database, instead of writing a tokens.sqlite3 that no
+// replica reads.
+inline constexpr char kTokensInDatabaseMarker[] = "tokens-in-database";
+void NoteWhereTokensLive(const std::string& data_dir, const std::string& database_url);
+// The redacted URL the marker names; '' when there is none.
+std::string TokensInDatabaseOf(const std::string& data_dir);
+
 }  // namespace impostor
 
 #endif  // IMPOSTOR_SERVER_TOKEN_STORE_FACTORY_H_

@@ -142,6 +142,9 @@ TEST_F(SharedTokensFarm, BadCommandLinesAreRefusedNamingTheFlag) {
       {"neither", {"list"}, 2, "--data: required (the server's data directory), or --database"},
       {"unreachable", {"list", "--database=postgresql://farm:hunter2@127.0.0.1:1/x?connect_timeout=2"}, 1,
        "postgresql://farm:***@127.0.0.1:1/x"},
+      // A replica's --data: its tokens are in the database, not there.
+      {"a replica's data directory", {"create", "--data=" + a_->data_dir().string(), "--role=reader", "--name=r"}, 2,
+       "keeps its tokens in its --database"},
   };
   for (const Case& c : cases) {
     const ToolRun run = Token(c.args);
