@@ -804,11 +804,28 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
                                                                    const std::function<bool()>& caller_gone,
                                                                    const std::string& lease_holder) {
   if (request.worker_id().empty()) return absl::InvalidArgumentError("worker_id: required");
+  if (request.worker_id().size() > kMaxWorkerIdBytes) {
+    return absl::InvalidArgumentError(absl::StrCat("worker_id: ", request.worker_id().size(),
+                                                   " bytes, the limit is ", kMaxWorkerIdBytes));
+  }
   if (request.wait_seconds() > 60) {
     return absl::InvalidArgumentError(absl::StrCat("wait_seconds: ", request.wait_seconds(), " is over the limit of 60"));
   }
   std::unique_lock lock(mu_);
+  if (auto seen = workers_.find(request.worker_id());
+      !lease_holder.empty() && seen != workers_.end() && !seen->second.token.empty() &&
+      seen->second.token != lease_holder) {
+    // Gone quiet for a lease timeout: the id is free again (a token renamed).
+    const bool about = seen->second.polling > 0 ||
+                       options_.now_ms() - seen->second.last_seen_ms < options_.lease_timeout_ms;
+    if (about) {
+      return absl::PermissionDeniedError(absl::StrCat(
+          "worker_id: \"", EscapeUntrusted(request.worker_id(), 128),
+          "\" is in use by another worker token; give this worker a --name of its own"));
+    }
+  }
   NoteWorkerSeen(request.worker_id());
+  if (!lease_holder.empty()) workers_[request.worker_id()].token = lease_holder;
   workers_[request.worker_id()].device = std::string(Utf8Prefix(request.device(), 256));
   // Counted as polling while it waits here (destroyed before `lock`).
   ++workers_[request.worker_id()].polling;

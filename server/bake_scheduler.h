@@ -263,6 +263,9 @@ class BakeScheduler {
   static constexpr int kReadyProbeTimeoutMs = 2000;
   // A FailJob's message is cut to this many bytes (on a UTF-8 boundary).
   static constexpr size_t kMaxJobErrorBytes = 4096;
+  // LeaseJobRequest.worker_id: stored in every job and attempt it leases,
+  // and a metrics label.
+  static constexpr size_t kMaxWorkerIdBytes = 128;
   // Questions the authorisation layer asks about objects (access_policy.h).
   // The token name that submitted `job_id` ('' for jobs from before tokens);
   // INVALID_ARGUMENT for an empty id, NOT_FOUND for an unknown job.
@@ -380,6 +383,10 @@ class BakeScheduler {
   // Workers heard from (see Workers()). In memory only.
   struct WorkerSeen {
     std::string device;
+    // The worker token that leased under this id ('' without tokens): another
+    // token may not use the id while this worker is about (its failure
+    // streak, pause and attribution are keyed on the id).
+    std::string token;
     int64_t last_seen_ms = 0;
     int polling = 0;  // LeaseJob calls waiting now
   };

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/log_escape.h"
+#include "common/utf8.h"
 #include "server/grpc_status.h"
 #include "server/services.h"
 
@@ -28,7 +29,7 @@ bool WorthSending(const v1::Job& last, const v1::Job& now) {
 std::string ClientId(const grpc::ServerContext& context) {
   const auto& metadata = context.client_metadata();
   if (auto it = metadata.find("impostor-client-id"); it != metadata.end()) {
-    return std::string(it->second.data(), std::min<size_t>(it->second.size(), 128));
+    return std::string(Utf8Prefix(std::string_view(it->second.data(), it->second.size()), 128));
   }
   std::string peer = context.peer();
   if (const size_t colon = peer.rfind(':'); colon != std::string::npos && colon > peer.find(':')) {

@@ -34,12 +34,15 @@ absl::StatusOr<v1::Digest> StampBakedBy(BlobStore& blobs, const v1::Digest& mani
   }
   if (!j.is_object()) return absl::InvalidArgumentError("result.manifest_json: not a JSON object");
   j["baked_by"] = baked_by;
-  // Indented for people reading manifest.json, unless the worker's text is
-  // large: indentation grows with depth per element, so a large manifest is
-  // kept compact (about its own size) rather than inflated.
-  const int indent = manifest_json.size_bytes() <= kMaxIndentedManifestBytes ? 2 : -1;
+  // Indented for people reading manifest.json, unless that inflates it:
+  // indentation grows with depth per element (a deep array of small numbers
+  // grows 30-fold), so then it stays compact, about the upload's size.
   // Invalid UTF-8 from a worker must not throw: replace it.
-  const std::string stamped = j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  std::string stamped = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  if (manifest_json.size_bytes() <= kMaxIndentedManifestBytes) {
+    std::string indented = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    if (indented.size() <= kMaxIndentGrowth * stamped.size() + kIndentAllowanceBytes) stamped = std::move(indented);
+  }
   const BlobDigest digest{Sha256Hex(stamped), static_cast<int64_t>(stamped.size())};
   if (auto put = blobs.Put(digest, stamped); !put.ok()) return put.status();
   v1::Digest out;

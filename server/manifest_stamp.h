@@ -19,8 +19,12 @@ namespace impostor {
 inline constexpr int64_t kMaxStampedManifestBytes = 16 << 20;
 // Deeper JSON is refused (ours is about 5 levels deep).
 inline constexpr int kMaxManifestDepth = 32;
-// Larger manifests are stored without indentation.
-inline constexpr int64_t kMaxIndentedManifestBytes = 1 << 20;
+// Larger manifests are stored without indentation; smaller ones too when
+// indenting would make them more than kMaxIndentGrowth times (plus the
+// allowance) their compact size.
+inline constexpr int64_t kMaxIndentedManifestBytes = 256 << 10;
+inline constexpr size_t kMaxIndentGrowth = 2;
+inline constexpr size_t kIndentAllowanceBytes = 64 << 10;
 
 // The digest of the worker's manifest.json (`manifest_json`) with
 // "baked_by": `baked_by` set, stored in `blobs`. Other members are kept as

@@ -193,6 +193,35 @@ TEST_F(BakeSchedulerTest, ARestartQueuesThePreviousLocalWorkersJobsWithoutCounti
   EXPECT_EQ(again.attempt(), 1u);
 }
 
+// A worker id is bounded (it lands in every job it leases and in a metrics
+// label) and belongs to the worker token using it: another token cannot
+// lease under it to get that worker paused or its failures counted.
+TEST_F(BakeSchedulerTest, AWorkerIdIsBoundedAndBelongsToTheTokenUsingIt) {
+  ASSERT_TRUE(scheduler_->Submit(Request("one")).ok());
+  ASSERT_TRUE(scheduler_->Submit(Request("two")).ok());
+  v1::LeaseJobRequest r;
+  r.set_worker_id(std::string(129, 'w'));
+  const auto now = std::chrono::steady_clock::now();
+  auto too_long = scheduler_->Lease(r, now, nullptr, "render-node-1");
+  EXPECT_EQ(too_long.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(too_long.status().message().find("worker_id: 129 bytes, the limit is 128"), std::string::npos)
+      << too_long.status();
+
+  r.set_worker_id("node-1");
+  auto first = scheduler_->Lease(r, now, nullptr, "render-node-1");
+  ASSERT_TRUE(first.ok() && first->has_value()) << first.status();
+  auto hijack = scheduler_->Lease(r, now, nullptr, "render-node-2");
+  EXPECT_EQ(hijack.status().code(), absl::StatusCode::kPermissionDenied) << hijack.status();
+  EXPECT_NE(hijack.status().message().find("in use by another worker token"), std::string::npos) << hijack.status();
+  // Its own token goes on; once the id has been quiet for a lease timeout,
+  // another token may take it (a renamed token on the same machine).
+  auto again = scheduler_->Lease(r, now, nullptr, "render-node-1");
+  ASSERT_TRUE(again.ok()) << again.status();
+  now_ms_ += 31'000;
+  auto later = scheduler_->Lease(r, now, nullptr, "render-node-2");
+  EXPECT_TRUE(later.ok()) << later.status();
+}
+
 TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
   v1::SubmitBakeRequest request = Request();
   auto miss = scheduler_->Lookup(request);

@@ -64,6 +64,16 @@ TEST_F(ManifestStampTest, DeepNestingIsRefusedNamingTheFieldAndTheLimit) {
   EXPECT_TRUE(StampBakedBy(*blobs_, Upload(ok), "w").ok());
 }
 
+TEST_F(ManifestStampTest, ASmallDeepManifestIsNotInflatedEither) {
+  // 200 KB, 31 levels down: indentation alone would make it ~30 times larger.
+  std::string text = "{\"a\":" + std::string(30, '[');
+  while (text.size() < (200 << 10)) text += "0,";
+  text += "0" + std::string(30, ']') + "}";
+  auto stamped = StampBakedBy(*blobs_, Upload(text), "w");
+  ASSERT_TRUE(stamped.ok()) << stamped.status();
+  EXPECT_LT(stamped->size_bytes(), static_cast<int64_t>(text.size()) + 1024);
+}
+
 TEST_F(ManifestStampTest, ALargeManifestIsStoredCompactNotInflated) {
   // 2 MB of small numbers 30 levels down: indented, each would take ~60 bytes.
   std::string text = "{\"a\":" + std::string(29, '[') + "[";
