@@ -802,7 +802,8 @@ bool BakeScheduler::shutting_down() {
 absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::LeaseJobRequest& request,
                                                                    Deadline deadline,
                                                                    const std::function<bool()>& caller_gone,
-                                                                   const std::string& lease_holder) {
+                                                                   const std::string& lease_holder,
+                                                                   bool bind_worker_id) {
   if (request.worker_id().empty()) return absl::InvalidArgumentError("worker_id: required");
   if (request.worker_id().size() > kMaxWorkerIdBytes) {
     return absl::InvalidArgumentError(absl::StrCat("worker_id: ", request.worker_id().size(),
@@ -813,7 +814,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
   std::unique_lock lock(mu_);
   if (auto seen = workers_.find(request.worker_id());
-      !lease_holder.empty() && seen != workers_.end() && !seen->second.token.empty() &&
+      bind_worker_id && !lease_holder.empty() && seen != workers_.end() && !seen->second.token.empty() &&
       seen->second.token != lease_holder) {
     // Gone quiet for a lease timeout: the id is free again (a token renamed).
     const bool about = seen->second.polling > 0 ||
@@ -825,7 +826,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     }
   }
   NoteWorkerSeen(request.worker_id());
-  if (!lease_holder.empty()) workers_[request.worker_id()].token = lease_holder;
+  if (bind_worker_id && !lease_holder.empty()) workers_[request.worker_id()].token = lease_holder;
   workers_[request.worker_id()].device = std::string(Utf8Prefix(request.device(), 256));
   // Counted as polling while it waits here (destroyed before `lock`).
   ++workers_[request.worker_id()].polling;

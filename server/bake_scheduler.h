@@ -150,9 +150,12 @@ class BakeScheduler {
   // `caller_gone` is polled about once a second; when it turns true the
   // wait ends with no job.
   // `lease_holder` is the leasing worker token's name ('' without tokens).
+  // With `bind_worker_id` (a worker token), request.worker_id belongs to
+  // that token while its worker is about: PERMISSION_DENIED for another.
   absl::StatusOr<std::optional<v1::LeasedJob>> Lease(const v1::LeaseJobRequest& request, Deadline deadline,
                                                      const std::function<bool()>& caller_gone,
-                                                     const std::string& lease_holder = "");
+                                                     const std::string& lease_holder = "",
+                                                     bool bind_worker_id = true);
   absl::StatusOr<v1::ReportProgressResponse> ReportProgress(const v1::ReportProgressRequest& request);
   absl::Status Complete(const v1::CompleteJobRequest& request);
   absl::Status Fail(const v1::FailJobRequest& request);

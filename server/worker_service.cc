@@ -6,8 +6,11 @@ namespace impostor {
 grpc::Status WorkerServiceImpl::LeaseJob(grpc::ServerContext* context, const v1::LeaseJobRequest* request,
                                          v1::LeaseJobResponse* response) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(request->wait_seconds());
-  const std::string holder = principals_ ? principals_->Of(context).name : std::string();
-  auto job = scheduler_->Lease(*request, deadline, [context] { return context->IsCancelled(); }, holder);
+  const Principal principal = principals_ ? principals_->Of(context) : Principal{};
+  // Worker ids belong to worker tokens; an admin leasing (by hand, in a
+  // test) neither takes one nor is refused one.
+  auto job = scheduler_->Lease(*request, deadline, [context] { return context->IsCancelled(); }, principal.name,
+                               /*bind_worker_id=*/principal.role == Role::kWorker);
   if (!job.ok()) return ToGrpc(job.status());
   if (job->has_value()) *response->mutable_job() = std::move(**job);
   return grpc::Status::OK;

@@ -1,5 +1,6 @@
 #include "tests/cache/published_result.h"
 
+#include <atomic>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -19,7 +20,10 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
   PublishedResult out;
   grpc::ClientContext lease_ctx;
   v1::LeaseJobRequest lease;
-  lease.set_worker_id("cache-test-worker");
+  // An id per call: tests publish through tokens of their choosing, and a
+  // worker id belongs to the token using it (BakeScheduler::Lease).
+  static std::atomic<int> next_worker{0};
+  lease.set_worker_id("cache-test-worker-" + std::to_string(next_worker++));
   lease.set_wait_seconds(10);
   v1::LeaseJobResponse leased;
   grpc::Status s = server.workers().LeaseJob(&lease_ctx, lease, &leased);

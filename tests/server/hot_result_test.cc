@@ -31,7 +31,7 @@ class HotResultTest : public testing_support::SchedulerFixture {
     v1::SubmitBakeRequest request = Request(content);
     Submit(request, "ci-1");
     v1::LeaseJobRequest lease;
-    lease.set_worker_id("w1");
+    lease.set_worker_id(worker);  // a worker id belongs to its token
     auto job = scheduler_->Lease(lease, std::chrono::steady_clock::now(), nullptr, worker);
     EXPECT_TRUE(job.ok() && job->has_value());
     EXPECT_TRUE(scheduler_->Complete(Result(**job)).ok());
