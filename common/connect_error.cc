@@ -25,8 +25,9 @@ ConnectFailure ExplainConnectError(std::string_view grpc_message, bool uses_tls,
                            ")")};
     }
     if (has("Handshake") || has("handshake") || has("SSL") || has("certificate") || has("Socket closed")) {
-      return {absl::StrCat("TLS handshake failed (a server run with --tls-client-ca needs a client certificate "
-                           "it trusts: --tls-cert/--tls-key) (", last, ")")};
+      return {absl::StrCat("TLS handshake failed: the server ended it (a server run with --tls-client-ca needs a "
+                           "client certificate it trusts: --tls-cert/--tls-key; or the server's own certificate "
+                           "files are unusable: its log says event=tls_files_refused) (", last, ")")};
     }
   }
   if (has("DNS resolution failed") || has("Domain name not found") || has("name resolution")) {

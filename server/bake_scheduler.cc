@@ -845,6 +845,9 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     if (!IsPaused(request.worker_id())) candidates = LeaseCandidates();
     if (!candidates.ok()) return candidates.status();
     std::optional<JobRecord> claimed;
+    // A caller that gave up while this call waited (for the lock behind a
+    // database outage, say) would never start the job: claim nothing.
+    if (caller_gone && caller_gone()) return std::optional<v1::LeasedJob>();
     if (!candidates->empty()) {
       const int64_t now = options_.now_ms();
       // The claim is atomic in the store: when another server took every
@@ -858,6 +861,24 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       if (!got.ok()) return got.status();
       if (!got->has_value() && ++lost_claims < 16) continue;
       claimed = std::move(*got);
+    }
+    if (claimed.has_value() && caller_gone && caller_gone()) {
+      // Gone while the claim itself waited on the database: hand the job
+      // back at once, the attempt not counted, rather than let the lease
+      // expire (a lost attempt, and a failure streak for a worker that
+      // never had the job).
+      JobRecord& r = *claimed;
+      r.lease_id.clear();
+      r.lease_deadline_ms = 0;
+      CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED,
+                   "the worker's LeaseJob call ended before the lease reached it", options_.now_ms());
+      r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
+      r.job.set_state(v1::JOB_STATE_QUEUED);
+      r.job.set_stage("queued");
+      if (auto saved = Save(r); !saved.ok()) return saved;
+      spdlog::info("event=lease_unclaimed job={} worker=\"{}\" reason=\"caller gone\"", r.job.job_id(),
+                   EscapeUntrusted(request.worker_id()));
+      return std::optional<v1::LeasedJob>();
     }
     if (claimed.has_value()) {
       JobRecord& r = *claimed;

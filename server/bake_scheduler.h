@@ -394,6 +394,10 @@ class BakeScheduler {
     int polling = 0;  // LeaseJob calls waiting now
   };
   void NoteWorkerSeen(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Takes mu_ for a read-only view within kViewLockWaitMs; UNAVAILABLE
+  // (the outage, or "busy") otherwise.
+  absl::Status LockForView(std::unique_lock<std::mutex>& lock);
+  static constexpr int kViewLockWaitMs = 5000;
   std::map<std::string, WorkerSeen> workers_ ABSL_GUARDED_BY(mu_);
   // Result use times not yet written (cache key -> Unix ms). Its own lock:
   // hits answered from memory note uses without taking mu_ (order: mu_

@@ -5,13 +5,31 @@
 // job database is known to be down, the views answer UNAVAILABLE at once
 // (JobStore::Outage) instead of queueing behind a reconnect.
 #include <algorithm>
+#include <chrono>
 #include <set>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "common/sha256.h"
 #include "server/bake_scheduler.h"
 
 namespace impostor {
+
+absl::Status BakeScheduler::LockForView(std::unique_lock<std::mutex>& lock) {
+  // Bounded, re-checking for an outage: another call may hold the lock for
+  // as long as a hung database keeps it, and a dashboard or a scrape must
+  // not wait that out (nor take the HTTP server's threads with it).
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(kViewLockWaitMs);
+  while (!lock.try_lock()) {
+    if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
+    if (std::chrono::steady_clock::now() >= give_up) {
+      return absl::UnavailableError(absl::StrCat("the scheduler is busy: another call has held it for over ",
+                                                 kViewLockWaitMs / 1000, " s (waiting on the job database?)"));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // polling a held lock, bounded above
+  }
+  return absl::OkStatus();
+}
 
 void BakeScheduler::SetObserver(SchedulerObserver* observer) {
   static SchedulerObserver none;
@@ -20,8 +38,8 @@ void BakeScheduler::SetObserver(SchedulerObserver* observer) {
 }
 
 absl::StatusOr<std::map<v1::JobState, int64_t>> BakeScheduler::JobCountsByState() {
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto counts = jobs_->CountByState();
   if (!counts.ok()) return counts.status();
   std::map<v1::JobState, int64_t> out;
@@ -49,8 +67,8 @@ BakeScheduler::JobListing Listing(const JobRecord& r, v1::Job view) {
 
 absl::StatusOr<std::vector<BakeScheduler::JobListing>> BakeScheduler::ListJobs(
     v1::JobState state, int limit, const std::optional<JobStore::JobCursor>& after) {
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto rows = jobs_->ListJobs(static_cast<int>(state), limit, after);
   if (!rows.ok()) return rows.status();
   std::vector<JobListing> out;
@@ -64,8 +82,8 @@ absl::StatusOr<std::vector<BakeScheduler::JobListing>> BakeScheduler::ListJobs(
 }
 
 absl::StatusOr<BakeScheduler::JobListing> BakeScheduler::DescribeJob(const std::string& job_id) {
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto r = LoadJob(job_id);
   if (!r.ok()) return r.status();
   return Listing(*r, View(*r));
@@ -73,8 +91,8 @@ absl::StatusOr<BakeScheduler::JobListing> BakeScheduler::DescribeJob(const std::
 
 absl::StatusOr<std::vector<JobStore::StoredResult>> BakeScheduler::ListResults(
     int limit, const std::optional<JobStore::ResultCursor>& after) {
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto results = jobs_->ListResults(limit, after);
   if (!results.ok()) return results;
   // Uses noted in memory and not yet written (FlushResultTouches).
@@ -87,8 +105,8 @@ absl::StatusOr<JobStore::StoredResult> BakeScheduler::PeekResult(const std::stri
     return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
                                                    cache_key.substr(0, 80), "\""));
   }
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto r = jobs_->GetStoredResult(cache_key);
   if (!r.ok()) return r.status();
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
@@ -121,8 +139,8 @@ void BakeScheduler::NoteWorkerSeen(const std::string& worker_id) {
 }
 
 absl::StatusOr<std::vector<BakeScheduler::WorkerInfo>> BakeScheduler::Workers() {
-  if (absl::Status down = jobs_->Outage(); !down.ok()) return down;
-  std::lock_guard lock(mu_);
+  std::unique_lock lock(mu_, std::defer_lock);
+  if (absl::Status busy = LockForView(lock); !busy.ok()) return busy;
   auto pending = jobs_->Pending();
   if (!pending.ok()) return pending.status();
   std::map<std::string, WorkerInfo> out;

@@ -81,6 +81,11 @@ absl::Status TlsFileMonitor::CheckNow() {
       refused = not_after.status();
       if (refused.message() != last_error_) {
         last_error_ = std::string(refused.message());
+        // Some reasons name the flags only (a key that does not match).
+        if (last_error_.find(options_.cert_file) == std::string::npos &&
+            last_error_.find(options_.key_file) == std::string::npos) {
+          last_error_ += absl::StrCat(" (--tls-cert ", options_.cert_file, ", --tls-key ", options_.key_file, ")");
+        }
         spdlog::error("event=tls_files_refused error=\"{}\" note=\"every new TLS connection fails until the files "
                       "are fixed; open ones keep working\"",
                       EscapeUntrusted(last_error_));
@@ -92,7 +97,11 @@ absl::Status TlsFileMonitor::CheckNow() {
       not_after_ = *not_after;
       expired_logged_ = false;
       expiring_logged_at_ = 0;
-      spdlog::info("event=tls_reloaded cert={} cert_expires=\"{}\"", options_.cert_file, FormatUtc(not_after_));
+      // An expired one is served too, but is no reload to announce: the
+      // tls_cert_expired line below says what it is.
+      if (not_after_ > now) {
+        spdlog::info("event=tls_reloaded cert={} cert_expires=\"{}\"", options_.cert_file, FormatUtc(not_after_));
+      }
       if (on_expiry_) on_expiry_(not_after_);
     }
   } else if (!last_error_.empty()) {

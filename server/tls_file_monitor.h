@@ -7,7 +7,7 @@
 // checks the same files on the same period with the start's checks
 // (ReadServableCertificate) and logs one line per change of outcome:
 //  - event=tls_reloaded (info): new files in use, with the expiry;
-//  - event=tls_files_refused (error): the flag, the file and why; new
+//  - event=tls_files_refused (error): the flags, the files and why; new
 //    connections fail until the files are fixed;
 //  - event=tls_cert_expired (error): the certificate in use expired
 //    (swapped in so, or run out while served);

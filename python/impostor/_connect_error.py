@@ -32,8 +32,9 @@ def explain_connect_error(message: str, uses_tls: bool) -> Tuple[str, bool]:
             return (f"TLS handshake failed: the server does not speak TLS; connect without tls_ca ({message})", False)
         if has("Handshake") or has("handshake") or has("SSL") or has("certificate") or has("Socket closed"):
             return (
-                "TLS handshake failed (a server run with --tls-client-ca needs a client certificate it trusts: "
-                f"tls_cert/tls_key) ({message})",
+                "TLS handshake failed: the server ended it (a server run with --tls-client-ca needs a client "
+                "certificate it trusts: tls_cert/tls_key; or the server's own certificate files are unusable: "
+                f"its log says event=tls_files_refused) ({message})",
                 False,
             )
     if has("DNS resolution failed") or has("Domain name not found") or has("name resolution"):

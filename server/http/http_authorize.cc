@@ -58,6 +58,9 @@ HttpAuthorization AuthorizeRequest(const HttpRequestInfo& request, Authenticator
   const std::string authorization = AuthorizationOf(request);
   auto principal = authenticator->Authenticate(authorization.empty() ? nullptr : &authorization);
   if (!principal.ok()) {
+    // The token store not answering says nothing about the token: 503, as
+    // /readyz says, not 401 (which tells the caller its token is bad).
+    if (absl::IsUnavailable(principal.status())) return Refuse(503, std::string(principal.status().message()));
     return Refuse(401, std::string(principal.status().message()), IsBrowserPage(request));
   }
   if (principal->role == Role::kWorker) {

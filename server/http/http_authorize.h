@@ -27,7 +27,7 @@ struct HttpRequestInfo {
 
 struct HttpAuthorization {
   bool allowed = true;
-  int status = 200;      // 401 or 403 when refused
+  int status = 200;      // 401 or 403 when refused; 503 when tokens cannot be checked
   std::string message;   // why, when refused (never the secret)
   bool to_login = false;  // a browser page: send it to /login instead
 };

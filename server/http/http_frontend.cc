@@ -31,6 +31,8 @@ ABSL_FLAG(std::string, http_static_dir, "",
 namespace impostor {
 namespace {
 
+constexpr size_t kHttpThreads = 32;
+
 // Blobs served whole through the API at most this large (atlases are tens
 // of MB at most; a bigger blob is fetched over gRPC).
 constexpr int64_t kMaxServedBlobBytes = int64_t{512} << 20;
@@ -191,6 +193,10 @@ void HttpFrontend::Route() {
   httplib::Server& s = *server_;
   // SO_REUSEADDR only: the library's default adds SO_REUSEPORT, which would
   // let a second server share a port already in use instead of failing.
+  // More threads than cpp-httplib's default (8): a dashboard and a scrape
+  // waiting on a busy scheduler (up to BakeScheduler::kViewLockWaitMs) must
+  // not leave /healthz and /readyz without a thread.
+  s.new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
   s.set_socket_options([](socket_t sock) {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);

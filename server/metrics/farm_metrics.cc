@@ -180,6 +180,9 @@ std::string FarmMetrics::Scrape() {
   auto counts = scheduler_->JobCountsByState();
   auto workers = scheduler_->Workers();
   if (!counts.ok() || !workers.ok()) scrape_errors_.Add({});
+  // A gauge that cannot be read is left out, not shown at its last value.
+  if (!counts.ok()) jobs_.Clear();
+  if (!workers.ok()) workers_.Clear();
   if (counts.ok()) {
     // Every state is listed, 0 included, so a rate() never sees a gap.
     for (int s = v1::JOB_STATE_QUEUED; s <= v1::JOB_STATE_CANCELLED; ++s) {

@@ -111,17 +111,28 @@ absl::Status PgConnectionPool::Probe(int timeout_ms) {
   std::lock_guard lock(probe_mu_);
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
   absl::Status status;
-  if (probe_conn_ == nullptr || PQstatus(probe_conn_) != CONNECTION_OK) {
-    if (probe_conn_ != nullptr) PQfinish(probe_conn_);
-    probe_conn_ = nullptr;
-    auto conn = ConnectBefore(ConnectParams(), deadline, timeout_ms);
-    if (conn.ok()) {
-      probe_conn_ = *conn;
-    } else {
-      status = conn.status();
+  // A kept connection may have died with a database restart since the last
+  // probe (it reads as fine until used): one failure on it earns one fresh
+  // connection within the same deadline, so a restarted database that
+  // answers is not reported down.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const bool fresh = probe_conn_ == nullptr || PQstatus(probe_conn_) != CONNECTION_OK;
+    status = absl::OkStatus();
+    if (fresh) {
+      if (probe_conn_ != nullptr) PQfinish(probe_conn_);
+      probe_conn_ = nullptr;
+      auto conn = ConnectBefore(ConnectParams(), deadline, timeout_ms);
+      if (conn.ok()) {
+        probe_conn_ = *conn;
+      } else {
+        status = conn.status();
+      }
     }
+    if (status.ok()) status = SelectOneBefore(probe_conn_, deadline, timeout_ms);
+    if (status.ok() || fresh || Clock::now() >= deadline) break;
+    PQfinish(probe_conn_);
+    probe_conn_ = nullptr;
   }
-  if (status.ok()) status = SelectOneBefore(probe_conn_, deadline, timeout_ms);
   if (status.ok()) {
     NoteReachable();
     return status;

@@ -9,6 +9,8 @@
 namespace impostor {
 namespace {
 
+constexpr int64_t kTokenReconnectWindowMs = 3000;
+
 // Token schema migrations, version = index + 1; never edit a released one.
 constexpr const char* kMigrations[] = {
     // 1 (issue 15): SQLite's tokens.sqlite3 tables in PostgreSQL types.
@@ -79,6 +81,8 @@ class PostgresTokenStore final : public TokenStore {
   }
 
   absl::StatusOr<std::optional<TokenRecord>> FindByHash(const std::string& secret_hash) override {
+    // A known outage answers at once (the authenticator makes it UNAVAILABLE).
+    if (absl::Status down = pool_->Outage(); !down.ok()) return down;
     auto rows = pool_->Exec("find token", absl::StrCat("SELECT ", kColumns, " FROM tokens WHERE secret_hash = $1"),
                             PgParams().Text(secret_hash));
     if (!rows.ok()) return rows.status();
@@ -148,10 +152,14 @@ class PostgresQuotaLedger final : public QuotaLedger {
 int PostgresTokenSchemaVersion() { return static_cast<int>(std::size(kMigrations)); }
 
 absl::StatusOr<PostgresTokenStorage> OpenPostgresTokenStorage(const PostgresTokenOptions& options) {
+  // A token check waits for a database restart a few seconds, not the job
+  // store's 30: every call behind it is a caller kept waiting (answered
+  // UNAVAILABLE / HTTP 503 after that, never "bad token").
   auto opened = PgConnectionPool::Open(
       {.url = options.url,
        .size = options.pool_size,
        .statement_timeout_ms = options.statement_timeout_ms,
+       .reconnect_window_ms = kTokenReconnectWindowMs,
        .dead_link_seconds = options.dead_link_seconds});
   if (!opened.ok()) return opened.status();
   std::shared_ptr<PgConnectionPool> pool = std::move(*opened);

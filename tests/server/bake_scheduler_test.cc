@@ -222,6 +222,31 @@ TEST_F(BakeSchedulerTest, AWorkerIdIsBoundedAndBelongsToTheTokenUsingIt) {
   EXPECT_TRUE(later.ok()) << later.status();
 }
 
+// A LeaseJob whose caller gave up (its deadline passed while the call
+// waited behind a database outage) claims nothing; one that gave up while
+// the claim itself waited hands the job back, the attempt not counted.
+TEST_F(BakeSchedulerTest, ALeaseWhoseCallerIsGoneGrantsNothingAndLosesNoAttempt) {
+  auto submitted = scheduler_->Submit(Request());
+  ASSERT_TRUE(submitted.ok());
+  v1::LeaseJobRequest r;
+  r.set_worker_id("w1");
+  const auto now = std::chrono::steady_clock::now();
+  auto gone = scheduler_->Lease(r, now, [] { return true; });
+  ASSERT_TRUE(gone.ok()) << gone.status();
+  EXPECT_FALSE(gone->has_value());
+  int asked = 0;
+  auto gone_during_claim = scheduler_->Lease(r, now, [&asked] { return ++asked > 1; });
+  ASSERT_TRUE(gone_during_claim.ok()) << gone_during_claim.status();
+  EXPECT_FALSE(gone_during_claim->has_value());
+  auto job = scheduler_->GetJob(submitted->job_id());
+  ASSERT_TRUE(job.ok());
+  EXPECT_EQ(job->state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(job->attempts(), 0u);
+  const v1::LeasedJob leased = Lease("w1");
+  EXPECT_EQ(leased.job_id(), submitted->job_id());
+  EXPECT_EQ(leased.attempt(), 1u) << "the unclaimed lease cost nothing";
+}
+
 TEST_F(BakeSchedulerTest, LookupFindsOnlyWhatIsBaked) {
   v1::SubmitBakeRequest request = Request();
   auto miss = scheduler_->Lookup(request);

@@ -15,6 +15,7 @@
 
 #include "common/sha256.h"
 #include "server/bake_scheduler.h"
+#include "server/metrics/farm_metrics.h"
 #include "server/postgres/pg_connection_pool.h"
 #include "tests/server/job_store_test_engines.h"
 
@@ -55,6 +56,8 @@ TEST(DatabaseOutage, ReadinessAndViewsAnswerAtOnceWhileASubmitWaitsOutTheOutage)
   ASSERT_TRUE(blobs.ok()) << blobs.status();
   BakeScheduler scheduler(store->get(), blobs->get(), SchedulerOptions{});
   ASSERT_TRUE(scheduler.CheckReady().ok());
+  FarmMetrics metrics(&scheduler, blobs->get());
+  ASSERT_NE(metrics.Scrape().find("impostor_jobs{"), std::string::npos) << "the gauges are there before";
 
   const std::string mesh = "a mesh submitted during the outage";
   v1::SubmitBakeRequest request;
@@ -84,6 +87,13 @@ TEST(DatabaseOutage, ReadinessAndViewsAnswerAtOnceWhileASubmitWaitsOutTheOutage)
   EXPECT_NE(counts.status().message().find("unreachable for"), std::string::npos) << counts.status();
   EXPECT_EQ(workers.status().code(), absl::StatusCode::kUnavailable);
   EXPECT_EQ(jobs.status().code(), absl::StatusCode::kUnavailable);
+  // /metrics answers too: not ready, and no job or worker gauge left at
+  // its value from before the outage.
+  start = Clock::now();
+  const std::string scrape = metrics.Scrape();
+  EXPECT_LT(SecondsSince(start), kAnswerWithinSeconds);
+  EXPECT_NE(scrape.find("\nimpostor_ready 0"), std::string::npos) << scrape;
+  EXPECT_EQ(scrape.find("impostor_jobs{"), std::string::npos) << scrape;
 
   // Back: the waiting submit goes through, and everything answers again.
   ASSERT_TRUE((*pg)->StartAgain().ok());
@@ -123,6 +133,21 @@ TEST(DatabaseOutage, AProbeGivesUpOnAServerThatStopsAnsweringWithinItsBudget) {
 
   // The next probe starts a new connection and clears the outage.
   EXPECT_TRUE((*pool)->Probe(2000).ok());
+  EXPECT_TRUE((*pool)->Outage().ok());
+}
+
+// The probe keeps its connection between probes; a database restart kills
+// it unseen. The first probe after the restart must still say "up".
+TEST(DatabaseOutage, TheFirstProbeAfterARestartFindsTheDatabaseUp) {
+  auto pg = PostgresInstance::Start();  // its own: it is restarted below
+  ASSERT_TRUE(pg.ok()) << pg.status();
+  ASSERT_TRUE((*pg)->CreateDatabase("jobs").ok());
+  auto pool = PgConnectionPool::Open({.url = (*pg)->Url("jobs"), .size = 1});
+  ASSERT_TRUE(pool.ok()) << pool.status();
+  ASSERT_TRUE((*pool)->Probe(2000).ok());
+  ASSERT_TRUE((*pg)->Restart().ok());
+  const absl::Status after = (*pool)->Probe(2000);
+  EXPECT_TRUE(after.ok()) << after;
   EXPECT_TRUE((*pool)->Outage().ok());
 }
 
