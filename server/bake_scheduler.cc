@@ -868,13 +868,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
       // expire (a lost attempt, and a failure streak for a worker that
       // never had the job).
       JobRecord& r = *claimed;
-      r.lease_id.clear();
-      r.lease_deadline_ms = 0;
-      CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED,
-                   "the worker's LeaseJob call ended before the lease reached it", options_.now_ms());
-      r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
-      r.job.set_state(v1::JOB_STATE_QUEUED);
-      r.job.set_stage("queued");
+      HandBack(r, "the worker's LeaseJob call ended before the lease reached it");
       if (auto saved = Save(r); !saved.ok()) return saved;
       spdlog::info("event=lease_unclaimed job={} worker=\"{}\" reason=\"caller gone\"", r.job.job_id(),
                    EscapeUntrusted(request.worker_id()));
@@ -1058,6 +1052,19 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   return SettleFollowers(*r);
 }
 
+void BakeScheduler::HandBack(JobRecord& r, std::string_view why) {
+  r.lease_id.clear();
+  r.lease_deadline_ms = 0;
+  CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED, why, options_.now_ms());
+  if (r.job.state() == v1::JOB_STATE_RUNNING) {
+    // Handed back, not failed: the attempt does not count.
+    r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
+    r.job.set_state(v1::JOB_STATE_QUEUED);
+    r.job.set_stage("queued");
+    r.job.set_progress(0.0f);
+  }
+}
+
 absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
   if (request.reason().size() > kMaxReleaseReasonBytes) {
     return absl::InvalidArgumentError(absl::StrCat("reason: ", request.reason().size(), " bytes is over the limit of ",
@@ -1066,16 +1073,7 @@ absl::Status BakeScheduler::Release(const v1::ReleaseJobRequest& request) {
   std::lock_guard lock(mu_);
   auto r = HeldLease(request.job_id(), request.lease_id());
   if (!r.ok()) return r.status();
-  r->lease_id.clear();
-  r->lease_deadline_ms = 0;
-  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_RELEASED, request.reason(), options_.now_ms());
-  if (r->job.state() == v1::JOB_STATE_RUNNING) {
-    // Handed back, not failed: the attempt does not count.
-    r->job.set_attempts(r->job.attempts() > 0 ? r->job.attempts() - 1 : 0);
-    r->job.set_state(v1::JOB_STATE_QUEUED);
-    r->job.set_stage("queued");
-    r->job.set_progress(0.0f);
-  }
+  HandBack(*r, request.reason());
   spdlog::info("event=release job={} worker={} reason=\"{}\"", r->job.job_id(), r->worker_id,
                EscapeUntrusted(request.reason(), 200));
   return Save(*r);
@@ -1089,15 +1087,7 @@ absl::StatusOr<int> BakeScheduler::ReleaseLeasesOfPreviousLocalWorkers() {
   int released = 0;
   for (JobRecord& r : *pending) {
     if (r.job.state() != v1::JOB_STATE_RUNNING || r.lease_id.empty() || !r.worker_id.starts_with("local-")) continue;
-    r.lease_id.clear();
-    r.lease_deadline_ms = 0;
-    CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED,
-                 "the server stopped and its local worker with it; queued again at the restart",
-                 options_.now_ms());
-    r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
-    r.job.set_state(v1::JOB_STATE_QUEUED);
-    r.job.set_stage("queued");
-    r.job.set_progress(0.0f);
+    HandBack(r, "the server stopped and its local worker with it; queued again at the restart");
     spdlog::info("event=release job={} worker={} reason=\"server restarted\"", r.job.job_id(), r.worker_id);
     if (auto s = Save(r); !s.ok()) return s;
     ++released;

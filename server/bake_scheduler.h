@@ -358,6 +358,9 @@ class BakeScheduler {
   absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // A running job whose worker is gone (lease expired, or the process
   // died: `how`): queued again, or failed when out of attempts. Saves.
+  // Ends `r`'s lease as handed back (OUTCOME_RELEASED, `why`): a RUNNING
+  // job is queued again without counting the attempt. The caller saves it.
+  void HandBack(JobRecord& r, std::string_view why) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   absl::Status LoseLease(JobRecord& r, std::string_view how) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The failure streaks that pause a bad worker (see SchedulerOptions).
   void NoteWorkerFailure(const std::string& worker_id, const std::string& job_id)
