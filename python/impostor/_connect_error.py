@@ -1,21 +1,32 @@
 """Why a channel could not reach an impostor server, as a sentence that names
 the fix, from gRPC's message for the failed call: the Python twin of
-common/connect_error.cc (keep the two in step; the C++ side also tells an
-expired server certificate from a foreign one with a handshake of its own,
-which this one does not)."""
+common/connect_error.cc (keep the two in step)."""
 from __future__ import annotations
 
-from typing import Tuple
+from typing import Callable, Optional, Tuple
 
 
-def explain_connect_error(message: str, uses_tls: bool) -> Tuple[str, bool]:
+def explain_connect_error(
+    message: str, uses_tls: bool, diagnose_certificate: Optional[Callable[[], str]] = None
+) -> Tuple[str, bool]:
     """(sentence, silent): `silent` when a connection was accepted but no gRPC
-    server answered (a stopped or overloaded server), worth waiting out."""
+    server answered (a stopped or overloaded server), worth waiting out.
+    `diagnose_certificate` (_tls_peer_check) is called only when gRPC's
+    message is of a certificate the client refused, and says why, or "" when
+    it cannot tell."""
 
     def has(text: str) -> bool:
         return text in message
 
     if uses_tls:
+        # gRPC says "certificate verify failed" for an expired certificate,
+        # one not valid yet and one from another CA alike, and checks the
+        # name itself ("Peer name ... is not in peer certificate"); a
+        # handshake of our own tells which, and names the date, issuer or name.
+        refused = has("certificate verify failed") or has("No match found for server name") or has("Peer name")
+        why = diagnose_certificate() if refused and diagnose_certificate is not None else ""
+        if why:
+            return (f"TLS handshake failed: {why} ({message})", False)
         if has("certificate verify failed"):
             return (
                 "TLS handshake failed: the server's certificate does not verify against the CA given "

@@ -20,6 +20,7 @@ import grpc
 
 from ._connect_error import explain_connect_error
 from ._retry import ConnectionEvent, ConnectionMonitor, RetryPolicy
+from ._tls_peer_check import diagnose_server_certificate
 from .errors import ImpostorError, rpc_error
 from .v1 import asset_service_pb2_grpc, bake_service_pb2_grpc
 
@@ -39,6 +40,9 @@ _CHANNEL_OPTIONS: List[Tuple[str, Any]] = [
     ("grpc.use_local_subchannel_pool", 1),
 ]
 _MAX_KEEPALIVE_SECONDS = 7200
+# How long a refused certificate's diagnosis may take (its own handshakes);
+# the C++ SDK allows the same.
+_DIAGNOSIS_SECONDS = 2.0
 
 
 def keepalive_options(keepalive_seconds: int) -> List[Tuple[str, Any]]:
@@ -172,9 +176,13 @@ class Transport:
         self._metadata: Sequence[Tuple[str, str]] = tuple(metadata)
         credentials: Optional[grpc.ChannelCredentials] = None
         self._uses_tls = tls_ca is not None or tls_cert is not None
+        # Kept to explain a refused server certificate (_tls_peer_check).
+        self._tls_ca_pem = _read_bytes(tls_ca, "tls_ca") if tls_ca is not None else None
+        self._tls_cert = tls_cert
+        self._tls_key = tls_key
         if tls_ca is not None or tls_cert is not None:
             credentials = grpc.ssl_channel_credentials(
-                root_certificates=_read_bytes(tls_ca, "tls_ca") if tls_ca is not None else None,
+                root_certificates=self._tls_ca_pem,
                 private_key=_read_bytes(tls_key, "tls_key") if tls_key is not None else None,
                 certificate_chain=_read_bytes(tls_cert, "tls_cert") if tls_cert is not None else None,
             )
@@ -288,7 +296,7 @@ class Transport:
                     if failed_at is None:
                         failed_at = time.monotonic()
         if last:
-            why, _ = explain_connect_error(last, self._uses_tls)
+            why, _ = explain_connect_error(last, self._uses_tls, lambda: self._diagnose_certificate(target))
         else:
             why = f"no impostor server answered within {timeout:g} s"
         raise ImpostorError(
@@ -297,6 +305,15 @@ class Transport:
             server_message=why,
             rpc="Connect",
             server=target,
+        )
+
+    def _diagnose_certificate(self, target: str) -> str:
+        """Why `target`'s certificate was refused, or "" (no tls_ca: gRPC's
+        default roots are not ones this check can trust the same way)."""
+        if self._tls_ca_pem is None:
+            return ""
+        return diagnose_server_certificate(
+            target, self._tls_ca_pem, self._tls_cert, self._tls_key, _DIAGNOSIS_SECONDS
         )
 
     def note(self, error: grpc.RpcError, rpc: str) -> ImpostorError:

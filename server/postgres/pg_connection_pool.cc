@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "server/postgres/libpq_args.h"
 #include "server/postgres/pg_url.h"
 
 namespace impostor {
@@ -67,12 +68,7 @@ absl::StatusOr<PgRows> PgSession::Exec(const std::string& what, const std::strin
   const ExecStatusType st = r ? PQresultStatus(r) : PGRES_FATAL_ERROR;
   if (st == PGRES_COMMAND_OK || st == PGRES_TUPLES_OK) return rows;
   const std::string message = r && PQresultErrorMessage(r)[0] ? PQresultErrorMessage(r) : PQerrorMessage(conn_);
-  std::string text = absl::StrCat("postgresql ", what, " (", *url_, "): ", message);
-  // One line (libpq's messages span several), for logs and statuses.
-  for (char& c : text) {
-    if (c == '\n' || c == '\t') c = ' ';
-  }
-  while (!text.empty() && text.back() == ' ') text.pop_back();
+  const std::string text = absl::StrCat("postgresql ", what, " (", *url_, "): ", LibpqMessageLine(message));
   if (PQstatus(conn_) == CONNECTION_BAD) return absl::UnavailableError(text);
   const char* state = r ? PQresultErrorField(r, PG_DIAG_SQLSTATE) : nullptr;
   const std::string code = state ? state : "";
@@ -115,21 +111,10 @@ std::vector<std::pair<std::string, std::string>> PgConnectionPool::ConnectParams
 absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
   const PgDeadLinkSettings link = DeadLinkSettings(options_.dead_link_seconds);
   const auto params = ConnectParams();
-  std::vector<const char*> keywords, values;
-  for (const auto& [k, v] : params) {
-    keywords.push_back(k.c_str());
-    values.push_back(v.c_str());
-  }
-  keywords.push_back(nullptr);
-  values.push_back(nullptr);
-  PGconn* conn = PQconnectdbParams(keywords.data(), values.data(), /*expand_dbname=*/1);
+  const LibpqKeywords args(params);
+  PGconn* conn = PQconnectdbParams(args.keywords(), args.values(), /*expand_dbname=*/1);
   if (conn == nullptr || PQstatus(conn) != CONNECTION_OK) {
-    std::string why = conn ? PQerrorMessage(conn) : "out of memory";
-    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-    // One line: libpq's hint goes after a semicolon.
-    for (size_t i = why.find_first_of("\n\t"); i != std::string::npos; i = why.find_first_of("\n\t", i)) {
-      why.replace(i, 1, why[i] == '\n' ? "; " : "");
-    }
+    const std::string why = conn ? LibpqMessageLine(PQerrorMessage(conn)) : "out of memory";
     PQfinish(conn);
     return absl::UnavailableError(absl::StrCat("--database: cannot connect to ", redacted_url_, ": ", why));
   }
@@ -143,7 +128,7 @@ absl::StatusOr<pg_conn*> PgConnectionPool::Connect() const {
   const bool ok = r && PQresultStatus(r) == PGRES_TUPLES_OK;
   PQclear(r);
   if (!ok) {
-    std::string why = PQerrorMessage(conn);
+    const std::string why = LibpqMessageLine(PQerrorMessage(conn));
     PQfinish(conn);
     return absl::UnavailableError(absl::StrCat("--database: ", redacted_url_, ": session setup failed: ", why));
   }

@@ -18,6 +18,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/postgres/pg_connection_pool.h"
+#include "server/postgres/libpq_args.h"
 
 namespace impostor {
 namespace {
@@ -37,26 +38,12 @@ bool WaitFor(int fd, short events, Clock::time_point deadline) {
   }
 }
 
-std::string OneLine(std::string text) {
-  for (char& c : text) {
-    if (c == '\n' || c == '\t') c = ' ';
-  }
-  while (!text.empty() && text.back() == ' ') text.pop_back();
-  return text;
-}
-
 // Connects without blocking past `deadline` (a host name is still resolved
 // synchronously by libpq; an address that never answers is not waited on).
 absl::StatusOr<PGconn*> ConnectBefore(const std::vector<std::pair<std::string, std::string>>& params,
                                       Clock::time_point deadline, int timeout_ms) {
-  std::vector<const char*> keywords, values;
-  for (const auto& [k, v] : params) {
-    keywords.push_back(k.c_str());
-    values.push_back(v.c_str());
-  }
-  keywords.push_back(nullptr);
-  values.push_back(nullptr);
-  PGconn* conn = PQconnectStartParams(keywords.data(), values.data(), /*expand_dbname=*/1);
+  const LibpqKeywords args(params);
+  PGconn* conn = PQconnectStartParams(args.keywords(), args.values(), /*expand_dbname=*/1);
   if (conn == nullptr) return absl::UnavailableError("cannot connect: out of memory");
   PostgresPollingStatusType st = PGRES_POLLING_WRITING;
   while (PQstatus(conn) != CONNECTION_BAD && st != PGRES_POLLING_OK && st != PGRES_POLLING_FAILED) {
@@ -67,7 +54,7 @@ absl::StatusOr<PGconn*> ConnectBefore(const std::vector<std::pair<std::string, s
     st = PQconnectPoll(conn);
   }
   if (PQstatus(conn) != CONNECTION_OK) {
-    const std::string why = OneLine(PQerrorMessage(conn));
+    const std::string why = LibpqMessageLine(PQerrorMessage(conn));
     PQfinish(conn);
     return absl::UnavailableError(absl::StrCat("cannot connect: ", why));
   }
@@ -78,7 +65,7 @@ absl::StatusOr<PGconn*> ConnectBefore(const std::vector<std::pair<std::string, s
 // SELECT 1 on `conn`, answered before `deadline`.
 absl::Status SelectOneBefore(PGconn* conn, Clock::time_point deadline, int timeout_ms) {
   if (PQsendQuery(conn, "SELECT 1") == 0) {
-    return absl::UnavailableError(absl::StrCat("SELECT 1: ", OneLine(PQerrorMessage(conn))));
+    return absl::UnavailableError(absl::StrCat("SELECT 1: ", LibpqMessageLine(PQerrorMessage(conn))));
   }
   bool answered = false;
   std::string error;
@@ -92,7 +79,7 @@ absl::Status SelectOneBefore(PGconn* conn, Clock::time_point deadline, int timeo
       if (PQresultStatus(r) == PGRES_TUPLES_OK) {
         answered = true;
       } else {
-        error = OneLine(PQresultErrorMessage(r));
+        error = LibpqMessageLine(PQresultErrorMessage(r));
       }
       PQclear(r);
     }
@@ -100,7 +87,7 @@ absl::Status SelectOneBefore(PGconn* conn, Clock::time_point deadline, int timeo
       return absl::UnavailableError(absl::StrCat("SELECT 1: no answer within ", timeout_ms, " ms"));
     }
     if (PQconsumeInput(conn) == 0) {
-      return absl::UnavailableError(absl::StrCat("SELECT 1: ", OneLine(PQerrorMessage(conn))));
+      return absl::UnavailableError(absl::StrCat("SELECT 1: ", LibpqMessageLine(PQerrorMessage(conn))));
     }
   }
 }

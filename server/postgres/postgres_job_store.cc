@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "impostor/v1/bake_service.pb.h"
+#include "server/postgres/libpq_args.h"
 #include "server/postgres/pg_migrations.h"
 
 namespace impostor {
@@ -568,7 +569,7 @@ absl::StatusOr<pg_conn*> PostgresJobStore::ListenConnection() {
   const bool ok = r && PQresultStatus(r) == PGRES_COMMAND_OK;
   PQclear(r);
   if (ok) return *c;
-  std::string why = PQerrorMessage(*c);
+  const std::string why = LibpqMessageLine(PQerrorMessage(*c));
   PQfinish(*c);
   return absl::UnavailableError(absl::StrCat("postgresql listen (", pool_->redacted_url(), "): ", why));
 }
