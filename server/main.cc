@@ -26,6 +26,7 @@
 #include "common/bake_request.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/flag_precheck.h"
 #include "common/log_level.h"
 #include "server/http/listen_address.h"
 #include "common/grpc_log.h"
@@ -152,6 +153,7 @@ int main(int argc, char** argv) {
   // --help and --version are generated from the flag registry (common/flag_help.h).
   if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::ServerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
+  if (auto s = impostor::PrecheckFlags(argc, argv); !s.ok()) return Fail(std::string(s.message()));
   absl::ParseCommandLine(argc, argv);
   ::signal(SIGPIPE, SIG_IGN);
   if (auto s = impostor::ValidateLogLevel("--log-level", absl::GetFlag(FLAGS_log_level)); !s.ok()) {

@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/flag_help.h"
 #include "common/flag_names.h"
+#include "common/flag_precheck.h"
 #include "common/log_level.h"
 #include "common/grpc_log.h"
 #include "common/keepalive.h"
@@ -82,6 +83,10 @@ int main(int argc, char** argv) {
   // --help and --version are generated from the flag registry (common/flag_help.h).
   if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::WorkerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
+  if (auto s = impostor::PrecheckFlags(argc, argv); !s.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(s.message()).c_str());
+    return impostor::kWorkerExitUsage;
+  }
   absl::ParseCommandLine(argc, argv);
   // Blocked before any thread starts (Vulkan's, gRPC's), so only the
   // watcher thread below receives them.
