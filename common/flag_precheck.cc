@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/flags/commandlineflag.h"
 #include "absl/flags/reflection.h"
@@ -22,13 +23,45 @@ absl::CommandLineFlag* Find(std::string_view name) {
   return absl::FindCommandLineFlag(absl::string_view(name.data(), name.size()));
 }
 
+// Abseil's flag-file flags, and its usage flags, which it does not register
+// as flags but recognises by name while parsing.
 bool LeftToAbseil(std::string_view name) {
-  return name == "flagfile" || name == "fromenv" || name == "tryfromenv" || name == "undefok";
+  for (const char* own : {"flagfile", "fromenv", "tryfromenv", "undefok", "help", "helpfull", "helpshort",
+                          "helppackage", "helpon", "helpmatch", "version", "only_check_args"}) {
+    if (name == own) return true;
+  }
+  return false;
+}
+
+// The names --undefok=a,b lets through unknown (Abseil's rule: "--a" and
+// "--noa" both).
+std::vector<std::string> UndefinedOk(int argc, char** argv) {
+  std::vector<std::string> names;
+  for (int i = 1; i < argc; ++i) {
+    std::string_view arg = argv[i];
+    if (arg == "--") break;
+    for (std::string_view prefix : {"--undefok=", "-undefok="}) {
+      if (arg.substr(0, prefix.size()) != prefix) continue;
+      for (std::string_view rest = arg.substr(prefix.size()); !rest.empty();) {
+        const size_t comma = rest.find(',');
+        names.emplace_back(rest.substr(0, comma));
+        rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+      }
+    }
+  }
+  return names;
 }
 
 }  // namespace
 
 absl::Status PrecheckFlags(int argc, char** argv) {
+  const std::vector<std::string> undefined_ok = UndefinedOk(argc, argv);
+  auto may_be_undefined = [&](std::string_view name) {
+    for (const std::string& ok : undefined_ok) {
+      if (name == ok || (name.substr(0, 2) == "no" && name.substr(2) == ok)) return true;
+    }
+    return false;
+  };
   for (int i = 1; i < argc; ++i) {
     std::string_view arg = argv[i];
     if (arg == "--") break;
@@ -55,6 +88,7 @@ absl::Status PrecheckFlags(int argc, char** argv) {
             absl::StrCat(Dashed(name), ": ", Dashed(name.substr(2)), " is not a switch and has no negative form"));
       }
     }
+    if (flag == nullptr && may_be_undefined(name)) continue;
     if (flag == nullptr) {
       // A single-dash name keeps its dashes (only "--" names are rewritten),
       // so show it as typed.

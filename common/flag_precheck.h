@@ -11,7 +11,8 @@
 //   a bare "--" ends the flags; anything not starting with "-" is positional.
 // Names are matched as given: run UnderscoreFlagNames (flag_names.h) first.
 // Abseil's own flag-file flags (--flagfile, --fromenv, --tryfromenv,
-// --undefok) are left to Abseil.
+// --undefok) and usage flags (--only_check_args, --helpon=...) are left to
+// Abseil.
 #ifndef IMPOSTOR_COMMON_FLAG_PRECHECK_H_
 #define IMPOSTOR_COMMON_FLAG_PRECHECK_H_
 

@@ -42,6 +42,7 @@ TEST(PrecheckFlags, WhatAbseilAcceptsPasses) {
            {"--yy-name=", "positional"},
            {"--yy-name", "-looks-like-a-flag"},
            {"--", "--not-a-flag"},
+           {"--only_check_args", "--undefok=yy_gone", "--yy_gone=1"},
        }) {
     EXPECT_TRUE(Check(args).ok()) << (args.empty() ? "" : args[0]) << ": " << Check(args).message();
   }
