@@ -15,6 +15,9 @@ run_blender_test.py against a real impostor-server:
    $IMPOSTOR_ARTEFACT_DIR, next to original_render.png of the mesh) and its
    silhouette must match the mesh's;
 7. a hemi-octahedral bake replaces the impostor and renders as well.
+Before all that, test_atlas_material.py checks the material's frame choice
+(the nearest baked frame, in Python and rendered); both bakes' manifests
+check the directions it decodes frames to.
 
 Any failed check raises, and Blender exits with 1 (--python-exit-code).
 """
@@ -34,6 +37,7 @@ sys.path.insert(0, str(HERE))
 
 import impostor_farm  # noqa: E402
 from impostor_farm import bake_job, operators  # noqa: E402
+import test_atlas_material  # noqa: E402
 from scene_fixture import make_subject  # noqa: E402
 
 SERVER = os.environ["IMPOSTOR_TEST_SERVER"]
@@ -89,6 +93,7 @@ def check_atlas_import(original: bpy.types.Object) -> bpy.types.Object:
     check(all(abs(a - b) < 1e-3 for a, b in zip(got, expected)),
           f"the impostor sits at the bounding sphere's centre {expected} (got {tuple(got)})")
     check(abs(got.x - 2.0) < 0.2 and abs(got.y - 1.0) < 0.2, "which is where the original was")
+    test_atlas_material.check_frame_directions(manifest)
     return impostor
 
 
@@ -140,6 +145,7 @@ def render_and_compare(impostor: bpy.types.Object, original_objects: list, other
 
 def main() -> None:
     impostor_farm.register()
+    test_atlas_material.main()
     original = make_subject()
     originals = list(bpy.context.selected_objects)
 
@@ -293,6 +299,7 @@ def main() -> None:
     hemi = bpy.data.objects["Subject_impostor"]
     manifest = json.loads((Path(hemi["impostor_result_dir"]) / "manifest.json").read_text())
     check(manifest["layout"] == "hemi-octahedral", "it is the hemi-octahedral bake")
+    test_atlas_material.check_frame_directions(manifest)
     render_and_compare(hemi, originals, others, "_hemi")
     print("ALL BLENDER CHECKS PASSED")
 
