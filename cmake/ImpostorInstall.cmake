@@ -121,7 +121,8 @@ if(_impostor_export_targets)
     DESTINATION ${IMPOSTOR_CMAKE_INSTALL_DIR} COMPONENT sdk)
 
   configure_package_config_file(${CMAKE_SOURCE_DIR}/cmake/impostorConfig.cmake.in
-    ${CMAKE_BINARY_DIR}/cmake/impostorConfig.cmake INSTALL_DESTINATION ${IMPOSTOR_CMAKE_INSTALL_DIR})
+    ${CMAKE_BINARY_DIR}/cmake/impostorConfig.cmake INSTALL_DESTINATION ${IMPOSTOR_CMAKE_INSTALL_DIR}
+    PATH_VARS CMAKE_INSTALL_DATADIR)
   # 0.x: a minor version may break the API, so 0.1 satisfies only 0.1.*.
   write_basic_package_version_file(${CMAKE_BINARY_DIR}/cmake/impostorConfigVersion.cmake
     VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
@@ -134,6 +135,14 @@ if(_impostor_export_targets)
   configure_file(${CMAKE_SOURCE_DIR}/cmake/impostor.pc.in ${CMAKE_BINARY_DIR}/cmake/impostor.pc @ONLY)
   install(FILES ${CMAKE_BINARY_DIR}/cmake/impostor.pc
     DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT sdk)
+
+  # The reference GLSL runtime engines copy or #include (docs/runtime.md),
+  # beside the headers whose math it repeats: share/impostor/shaders.
+  install(FILES
+      ${CMAKE_SOURCE_DIR}/shaders/impostor_runtime.glsl
+      ${CMAKE_SOURCE_DIR}/shaders/impostor_material.glsl
+      ${CMAKE_SOURCE_DIR}/shaders/impostor_material_light.glsl
+    DESTINATION ${CMAKE_INSTALL_DATADIR}/impostor/shaders COMPONENT sdk)
 endif()
 
 foreach(_pair impostor-server:server impostor-worker:worker impostor:cli)

@@ -21,11 +21,13 @@ include_guard(GLOBAL)
 include(GNUInstallDirs)
 
 # System files: absolute destinations, as a Debian package has them (a
-# `cmake --install` of these components as root puts them there too).
+# `cmake --install --component server|worker` as root puts them there too).
+# EXCLUDE_FROM_ALL: a whole-tree `cmake --install --prefix P` (a developer's
+# staging prefix) stays inside P and needs no root.
 set(_deploy ${CMAKE_SOURCE_DIR}/deploy)
 if(TARGET impostor-server)
-  install(FILES ${_deploy}/systemd/impostor-server.service DESTINATION /lib/systemd/system COMPONENT server)
-  install(FILES ${_deploy}/debian/server.conf DESTINATION /etc/impostor COMPONENT server)
+  install(FILES ${_deploy}/systemd/impostor-server.service DESTINATION /lib/systemd/system COMPONENT server EXCLUDE_FROM_ALL)
+  install(FILES ${_deploy}/debian/server.conf DESTINATION /etc/impostor COMPONENT server EXCLUDE_FROM_ALL)
   # The dashboard (--http-listen) finds its files here (share/impostor/web
   # beside bin/): the pages, and the pinned three.js build and addons they
   # import (web/node_modules, from `npm ci` in deploy/install-deps.sh).
@@ -41,8 +43,8 @@ if(TARGET impostor-server)
   endif()
 endif()
 if(TARGET impostor-worker)
-  install(FILES ${_deploy}/systemd/impostor-worker@.service DESTINATION /lib/systemd/system COMPONENT worker)
-  install(FILES ${_deploy}/debian/worker.conf DESTINATION /etc/impostor COMPONENT worker)
+  install(FILES ${_deploy}/systemd/impostor-worker@.service DESTINATION /lib/systemd/system COMPONENT worker EXCLUDE_FROM_ALL)
+  install(FILES ${_deploy}/debian/worker.conf DESTINATION /etc/impostor COMPONENT worker EXCLUDE_FROM_ALL)
 endif()
 
 # Maintainer scripts: postinst and postrm are shared; prerm names the

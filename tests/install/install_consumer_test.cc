@@ -71,6 +71,13 @@ class InstallTest : public ::testing::Test {
   fs::path prefix_;
 };
 
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 std::vector<std::string> Lines(const std::string& text) {
   std::vector<std::string> lines;
   std::istringstream in(text);
@@ -84,6 +91,12 @@ TEST_F(InstallTest, InstalledTreeHoldsThePackageAndHidesTheInternals) {
                            "lib/cmake/impostor/impostorConfig.cmake", "lib/cmake/impostor/impostorConfigVersion.cmake",
                            "lib/cmake/impostor/impostorTargets.cmake", "lib/pkgconfig/impostor.pc"}) {
     EXPECT_TRUE(fs::exists(prefix_ / file)) << file;
+  }
+  // The reference GLSL runtime, as in the source tree (docs/runtime.md).
+  for (const char* shader : {"impostor_runtime.glsl", "impostor_material.glsl", "impostor_material_light.glsl"}) {
+    EXPECT_EQ(ReadFile(prefix_ / "share/impostor/shaders" / shader),
+              ReadFile(fs::path(IMPOSTOR_SOURCE_DIR) / "shaders" / shader))
+        << shader;
   }
   // Public headers include no gRPC, protobuf or private header.
   for (const auto& entry : fs::directory_iterator(prefix_ / "include/impostor")) {
@@ -219,6 +232,69 @@ TEST_F(InstallTest, FindPackageRefusesAnIncompatibleVersion) {
   EXPECT_NE((configure.out + configure.err).find("impostorConfig.cmake, version: " IMPOSTOR_PROJECT_VERSION),
             std::string::npos)
       << Describe(configure);
+}
+
+// A game that uses only the runtime math (or the C API) needs no Abseil
+// CMake package; one that asks for a component whose headers use Abseil's
+// Status is told what is missing; an unknown component is named.
+TEST_F(InstallTest, RuntimeOnlyConsumersNeedNoAbseil) {
+  const fs::path main_cc = work_ / "main.cc";
+  std::ofstream(main_cc) << "#include <impostor/runtime.h>\n"
+                            "int main() { return impostor::sdk::FrameCount(impostor::sdk::AtlasLayout{}) >= 0 ? 0 : 1; }\n";
+  struct Case {
+    std::string name, find, link;
+    bool configures;
+    std::string message;
+  };
+  const Case cases[] = {
+      {"components-runtime", "find_package(impostor CONFIG REQUIRED COMPONENTS runtime)", "impostor::runtime", true, ""},
+      {"no-components", "find_package(impostor CONFIG REQUIRED)", "impostor::runtime", true, ""},
+      {"components-cache", "find_package(impostor CONFIG REQUIRED COMPONENTS runtime cache)", "impostor::runtime", false,
+       "absl"},
+      {"unknown-component", "find_package(impostor CONFIG REQUIRED COMPONENTS shaders)", "impostor::runtime", false,
+       "impostor has no component 'shaders'"},
+  };
+  for (const Case& c : cases) {
+    const fs::path project = work_ / c.name;
+    fs::create_directories(project);
+    std::ofstream(project / "CMakeLists.txt") << "cmake_minimum_required(VERSION 3.25)\n"
+                                                 "project(game LANGUAGES CXX)\n"
+                                              << c.find << "\nadd_executable(game " << main_cc.string()
+                                              << ")\ntarget_link_libraries(game PRIVATE " << c.link << ")\n";
+    const fs::path build = work_ / (c.name + "-build");
+    const ToolRun configure = RunTool({IMPOSTOR_CMAKE_COMMAND, "-S", project.string(), "-B", build.string(), "-G",
+                                       IMPOSTOR_CMAKE_GENERATOR, "-DCMAKE_PREFIX_PATH=" + prefix_.string(),
+                                       "-DCMAKE_DISABLE_FIND_PACKAGE_absl=ON",
+                                       "-DCMAKE_CXX_COMPILER=" IMPOSTOR_CXX_COMPILER});
+    if (!c.configures) {
+      EXPECT_NE(configure.exit_code, 0) << c.name << ": " << Describe(configure);
+      EXPECT_NE((configure.out + configure.err).find(c.message), std::string::npos) << c.name << ": " << Describe(configure);
+      continue;
+    }
+    ASSERT_EQ(configure.exit_code, 0) << c.name << ": " << Describe(configure);
+    const ToolRun compile = RunTool({IMPOSTOR_CMAKE_COMMAND, "--build", build.string()});
+    EXPECT_EQ(compile.exit_code, 0) << c.name << ": " << Describe(compile);
+  }
+}
+
+// A whole-tree `cmake --install --prefix P` (no component) writes only
+// inside P: the systemd units and /etc files are the packages' (and a
+// component install's), not a developer's staging prefix's.
+TEST_F(InstallTest, AWholeTreeInstallStaysInsideItsPrefix) {
+  const fs::path whole = work_ / "whole";
+  const ToolRun install = RunTool({IMPOSTOR_CMAKE_COMMAND, "--install", IMPOSTOR_BUILD_DIR, "--prefix", whole.string()});
+  ASSERT_EQ(install.exit_code, 0) << Describe(install);
+  int lines = 0;
+  for (const std::string& line : Lines(install.out)) {
+    const size_t at = line.find(": /");  // "-- Installing: /path" and "-- Up-to-date: /path"
+    if (at == std::string::npos) continue;
+    ++lines;
+    EXPECT_EQ(line.compare(at + 2, whole.string().size(), whole.string()), 0) << line;
+  }
+  EXPECT_GT(lines, 20) << install.out;
+  EXPECT_TRUE(fs::exists(whole / "bin/impostor-server"));
+  EXPECT_TRUE(fs::exists(whole / "share/impostor/shaders/impostor_runtime.glsl"));
+  fs::remove_all(whole);
 }
 
 }  // namespace
