@@ -175,7 +175,7 @@ class Cache::Impl {
     Count(&CacheStats::misses);
     std::promise<absl::StatusOr<CachedResult>> promise;
     std::future<absl::StatusOr<CachedResult>> future = promise.get_future();
-    downloads_->Join(key, /*urgent=*/true, [&promise](const DownloadCoordinator::Result& r) { promise.set_value(r); });
+    downloads_->Join(key, /*urgent=*/true, [&promise](DownloadCoordinator::Result r) { promise.set_value(std::move(r)); });
     return future.get();
   }
 
@@ -193,7 +193,7 @@ class Cache::Impl {
       }
       Count(&CacheStats::misses);
       downloads_->Join(key, /*urgent=*/true,
-                       [done = std::move(done)](const DownloadCoordinator::Result& r) { done(r); });
+                       [done = std::move(done)](DownloadCoordinator::Result r) { done(std::move(r)); });
     });
   }
 
@@ -212,7 +212,7 @@ class Cache::Impl {
         if (done) io_->Post([done, key] { done(key, absl::OkStatus()); });
         continue;
       }
-      downloads_->Join(key, /*urgent=*/false, [done, key](const DownloadCoordinator::Result& r) {
+      downloads_->Join(key, /*urgent=*/false, [done, key](DownloadCoordinator::Result r) {
         if (done) done(key, r.status());
       });
     }

@@ -72,7 +72,8 @@ void DownloadCoordinator::RunThread() {
     std::vector<Done> waiters = std::move(flight->waiters);
     changed_.notify_all();
     lock.unlock();
-    for (Done& done : waiters) done(result);
+    for (size_t i = 0; i + 1 < waiters.size(); ++i) waiters[i](result);
+    if (!waiters.empty()) waiters.back()(std::move(result));
     lock.lock();
   }
 }

@@ -32,7 +32,10 @@ class DownloadCoordinator {
   using Result = absl::StatusOr<CachedResult>;
   // Produces the result of a key: runs once per flight, on a pool thread.
   using Work = std::function<Result(const std::string& key)>;
-  using Done = std::function<void(const Result&)>;
+  // Called with its own copy; the last waiter gets the flight's result
+  // itself, so once every waiter has it the coordinator holds no pin on it
+  // (a caller's Stats or CollectGarbage right after Get sees only its own).
+  using Done = std::function<void(Result)>;
 
   // `threads` >= 1 pool threads, of which at most `max_background` run
   // background flights at once.

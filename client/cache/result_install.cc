@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <system_error>
 #include <vector>
 
@@ -107,15 +108,20 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
 
   InstallOutcome outcome;
   outcome.record = RecordOf(key, *manifest);
+  std::set<fs::path> fetched;
   for (const EntryFile& f : outcome.record.files) {
     v1::Digest digest;
     digest.set_hash(f.sha256);
     digest.set_size_bytes(f.size_bytes);
     const fs::path partial = layout.PartialPath(f.sha256, f.size_bytes);
-    absl::StatusOr<PartialOutcome> got = DownloadToPartial(transport, digest, partial, hooks, cancel);
-    if (!got.ok()) return got.status();
-    outcome.bytes_downloaded += got->bytes_downloaded;
-    outcome.bytes_resumed += got->bytes_resumed;
+    // One blob under several names (a LOD chain's levels may share bytes)
+    // is fetched once and linked under each; counted once, not as resumed.
+    if (fetched.insert(partial).second) {
+      absl::StatusOr<PartialOutcome> got = DownloadToPartial(transport, digest, partial, hooks, cancel);
+      if (!got.ok()) return got.status();
+      outcome.bytes_downloaded += got->bytes_downloaded;
+      outcome.bytes_resumed += got->bytes_resumed;
+    }
     partials.push_back(partial);
   }
 

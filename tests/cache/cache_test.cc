@@ -147,6 +147,31 @@ TEST(CacheGet, FirstGetDownloadsAndLaterGetsMakeNoRpc) {
   EXPECT_EQ(stats.downloads, 0);
 }
 
+// One blob under several names (LOD levels that share bytes) is read once,
+// installed under every name, and counts as downloaded once, not "resumed"
+// (nothing was partial). Released, the result is unpinned at once and
+// eviction can take it.
+TEST(CacheGet, OneBlobUnderSeveralNamesIsFetchedOnceAndNothingCountsAsResumed) {
+  ServerProcess server(/*local_workers=*/0);
+  const int64_t size = 64 << 10;
+  const PublishedResult published = PublishResult(server, {size, size, size}, 7, /*one_blob=*/true);
+  const fs::path dir = testing::NewTempDir("cache_one_blob");
+  RpcCounter rpcs;
+  auto cache = OpenCache(Options(server.address(), dir), &rpcs);
+  {
+    auto got = cache->Get(published.key);
+    ASSERT_TRUE(got.ok()) << got.status();
+    ExpectBytes(*got, published, "one blob, three names");
+  }
+  EXPECT_EQ(rpcs.Count(kReadBlob), 2) << "the shared map blob and manifest.json";
+  const sdk::CacheStats stats = cache->Stats();
+  EXPECT_EQ(stats.bytes_resumed, 0);
+  EXPECT_EQ(stats.bytes_downloaded, size + static_cast<int64_t>(published.files.at("manifest.json").size()));
+  EXPECT_EQ(stats.pinned_entries, 0) << "no handle is left once the caller's is gone";
+  ASSERT_TRUE(cache->CollectGarbage(0).ok());
+  EXPECT_EQ(cache->Stats().entries, 0);
+}
+
 TEST(CacheGet, AsyncFormsAnswerWithoutBlocking) {
   ServerProcess server(0);
   const PublishedResult published = PublishResult(server, kSmallMaps, 2);

@@ -16,7 +16,8 @@ std::string RandomBytes(int64_t size, uint32_t seed) {
   return bytes;
 }
 
-PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed) {
+PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
+                                bool one_blob) {
   PublishedResult out;
   grpc::ClientContext lease_ctx;
   v1::LeaseJobRequest lease;
@@ -48,7 +49,7 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
   }
   const char* semantics[] = {"albedo_alpha", "normal_depth", "orm"};
   for (size_t i = 0; i < map_sizes.size(); ++i) {
-    const std::string bytes = RandomBytes(map_sizes[i], seed * 16 + static_cast<uint32_t>(i) + 1);
+    const std::string bytes = RandomBytes(map_sizes[i], seed * 16 + (one_blob ? 0u : static_cast<uint32_t>(i)) + 1);
     v1::MapFile* map = manifest.add_maps();
     map->set_semantic(semantics[i % 3]);
     map->set_file(std::string(semantics[i % 3]) + ".png");
@@ -79,7 +80,8 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
   return out;
 }
 
-PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed) {
+PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
+                              bool one_blob) {
   // A unique model: its bytes enter the cache key. The server never parses
   // it (no worker will), so any bytes with a .glb name do.
   const std::string model = "glTF" + RandomBytes(64, seed);
@@ -93,7 +95,7 @@ PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>&
   v1::SubmitBakeResponse submitted;
   const grpc::Status s = server.bake().SubmitBake(&ctx, submit, &submitted);
   EXPECT_TRUE(s.ok()) << s.error_message();
-  PublishedResult out = CompleteNextJob(server, map_sizes, seed);
+  PublishedResult out = CompleteNextJob(server, map_sizes, seed, one_blob);
   EXPECT_EQ(out.key, submitted.cache_key());
   return out;
 }

@@ -25,11 +25,15 @@ struct PublishedResult {
 
 // Maps "albedo_alpha.png", "normal_depth.png", "orm.png" with the given
 // sizes. `seed` makes the bytes (and the model, hence the key) unique.
-PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed);
+// `one_blob`: every map holds the first map's bytes (one blob under several
+// names, as a LOD chain's levels can be); give equal sizes.
+PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
+                              bool one_blob = false);
 
 // Completes the next queued job as PublishResult does (for a job submitted
 // by the caller). Returns the job's cache key.
-PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed);
+PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
+                                bool one_blob = false);
 
 std::string RandomBytes(int64_t size, uint32_t seed);
 

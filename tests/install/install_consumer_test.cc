@@ -244,31 +244,39 @@ TEST_F(InstallTest, RuntimeOnlyConsumersNeedNoAbseil) {
   struct Case {
     std::string name, find, link;
     bool configures;
-    std::string message;
+    std::string message;  // in the configure output
+    bool without_absl = true;
   };
+  const std::string data_dir = "impostor_DATA_DIR=" + (prefix_ / "share/impostor").string();
   const Case cases[] = {
-      {"components-runtime", "find_package(impostor CONFIG REQUIRED COMPONENTS runtime)", "impostor::runtime", true, ""},
-      {"no-components", "find_package(impostor CONFIG REQUIRED)", "impostor::runtime", true, ""},
+      {"components-runtime", "find_package(impostor CONFIG REQUIRED COMPONENTS runtime)", "impostor::runtime", true,
+       data_dir},
+      {"no-components", "find_package(impostor CONFIG REQUIRED)", "impostor::runtime", true, data_dir},
       {"components-cache", "find_package(impostor CONFIG REQUIRED COMPONENTS runtime cache)", "impostor::runtime", false,
        "absl"},
       {"unknown-component", "find_package(impostor CONFIG REQUIRED COMPONENTS shaders)", "impostor::runtime", false,
        "impostor has no component 'shaders'"},
+      // With Abseil found after impostor's own paths: its config must not
+      // move impostor_DATA_DIR to Abseil's prefix.
+      {"with-abseil", "find_package(impostor CONFIG REQUIRED COMPONENTS cache runtime)", "impostor::runtime", true,
+       data_dir, /*without_absl=*/false},
   };
   for (const Case& c : cases) {
     const fs::path project = work_ / c.name;
     fs::create_directories(project);
     std::ofstream(project / "CMakeLists.txt") << "cmake_minimum_required(VERSION 3.25)\n"
                                                  "project(game LANGUAGES CXX)\n"
-                                              << c.find << "\nadd_executable(game " << main_cc.string()
+                                              << c.find << "\nmessage(STATUS \"impostor_DATA_DIR=${impostor_DATA_DIR}\")"
+                                              << "\nadd_executable(game " << main_cc.string()
                                               << ")\ntarget_link_libraries(game PRIVATE " << c.link << ")\n";
     const fs::path build = work_ / (c.name + "-build");
     const ToolRun configure = RunTool({IMPOSTOR_CMAKE_COMMAND, "-S", project.string(), "-B", build.string(), "-G",
                                        IMPOSTOR_CMAKE_GENERATOR, "-DCMAKE_PREFIX_PATH=" + prefix_.string(),
-                                       "-DCMAKE_DISABLE_FIND_PACKAGE_absl=ON",
+                                       std::string("-DCMAKE_DISABLE_FIND_PACKAGE_absl=") + (c.without_absl ? "ON" : "OFF"),
                                        "-DCMAKE_CXX_COMPILER=" IMPOSTOR_CXX_COMPILER});
+    EXPECT_NE((configure.out + configure.err).find(c.message), std::string::npos) << c.name << ": " << Describe(configure);
     if (!c.configures) {
       EXPECT_NE(configure.exit_code, 0) << c.name << ": " << Describe(configure);
-      EXPECT_NE((configure.out + configure.err).find(c.message), std::string::npos) << c.name << ": " << Describe(configure);
       continue;
     }
     ASSERT_EQ(configure.exit_code, 0) << c.name << ": " << Describe(configure);
