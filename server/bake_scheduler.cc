@@ -379,7 +379,7 @@ bool BakeScheduler::BlobsIntact(const v1::Manifest& m) const {
   return intact;
 }
 
-absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(const std::string& key) {
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(const std::string& key, bool* dropped) {
   if (auto hot = HotResult(key)) return std::optional<v1::Manifest>(*hot);
   std::optional<v1::Manifest> found;
   {
@@ -396,10 +396,10 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::ReadIntactResult(cons
   }
   if (BlobsIntact(*found)) return found;
   std::lock_guard lock(mu_);
-  return IntactResult(key);  // checks again: the result may have been baked anew meanwhile
+  return IntactResult(key, dropped);  // checks again: the result may have been baked anew meanwhile
 }
 
-absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key) {
+absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const std::string& key, bool* dropped) {
   auto result = jobs_->GetResult(key);
   if (!result.ok() || !result->has_value()) return result;
   if (BlobsIntact(**result)) {
@@ -408,6 +408,7 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const st
   }
   spdlog::warn("event=cached_result_incomplete cache_key={} action=rebake", key);
   if (auto s = DeleteResultLocked(key); !s.ok()) return s;
+  if (dropped != nullptr) *dropped = true;
   return std::optional<v1::Manifest>();
 }
 
@@ -673,8 +674,16 @@ absl::StatusOr<v1::Manifest> BakeScheduler::GetResult(const std::string& cache_k
     return absl::InvalidArgumentError(absl::StrCat("cache_key: expected 64 lowercase hex characters, got \"",
                                                     cache_key.substr(0, 80), "\""));
   }
-  auto r = ReadIntactResult(cache_key);
+  bool dropped = false;
+  auto r = ReadIntactResult(cache_key, &dropped);
   if (!r.ok()) return r.status();
+  if (dropped) {
+    // Still NOT_FOUND (clients bake on a miss), but saying why: a key a game
+    // fetched yesterday is not "never baked".
+    return absl::NotFoundError(absl::StrCat("cache_key: the result baked under ", cache_key,
+                                            " was damaged on the server (a file failed its digest check) and has "
+                                            "been removed; submit the bake again to rebuild it"));
+  }
   if (!r->has_value()) return absl::NotFoundError(absl::StrCat("cache_key: nothing baked under ", cache_key));
   return std::move(**r);
 }

@@ -287,12 +287,14 @@ class BakeScheduler {
  private:
   absl::StatusOr<JobRecord> LoadJob(const std::string& job_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The result for `key` if present with all of its blobs; a result whose
-  // blobs are gone is dropped so the key bakes again.
-  absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key)
+  // blobs are gone is dropped so the key bakes again (and *dropped, when
+  // given, says so: GetResult tells "lost" from "never baked").
+  absl::StatusOr<std::optional<v1::Manifest>> IntactResult(const std::string& key, bool* dropped = nullptr)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The same for the read-only hit paths (LookupBake, GetResult), which
   // also count the use: takes the lock for the database only.
-  absl::StatusOr<std::optional<v1::Manifest>> ReadIntactResult(const std::string& key) ABSL_LOCKS_EXCLUDED(mu_);
+  absl::StatusOr<std::optional<v1::Manifest>> ReadIntactResult(const std::string& key, bool* dropped = nullptr)
+      ABSL_LOCKS_EXCLUDED(mu_);
   bool BlobsIntact(const v1::Manifest& m) const;
   // Records a use of the result for LRU eviction, in memory until
   // FlushResultTouches.

@@ -490,6 +490,28 @@ TEST_F(BakeSchedulerTest, CachedResultWithCorruptBlobIsRebaked) {
   EXPECT_FALSE(blobs_->Contains({map.hash(), map.size_bytes()})) << "the corrupt blob is quarantined";
 }
 
+// A game fetching by key learns its result was lost, not that it was never
+// baked; still NOT_FOUND (a miss: the client bakes again), and only once.
+TEST_F(BakeSchedulerTest, GetResultOfADamagedResultSaysItWasRemoved) {
+  ASSERT_TRUE(scheduler_->Submit(Request()).ok());
+  const v1::CompleteJobRequest result = Result(Lease());
+  ASSERT_TRUE(scheduler_->Complete(result).ok());
+  const std::string key = result.result().cache_key();
+  ASSERT_TRUE(scheduler_->GetResult(key).ok());
+  const auto& map = result.result().maps(0).digest();
+  {
+    std::ofstream f(blobs_->PathFor({map.hash(), map.size_bytes()}), std::ios::binary | std::ios::trunc);
+    f << std::string(static_cast<size_t>(map.size_bytes()), 'X');
+  }
+  auto lost = scheduler_->GetResult(key);
+  EXPECT_EQ(lost.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_NE(lost.status().message().find("was damaged on the server"), std::string::npos) << lost.status();
+  EXPECT_NE(lost.status().message().find("submit the bake again"), std::string::npos) << lost.status();
+  auto later = scheduler_->GetResult(key);
+  EXPECT_EQ(later.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_NE(later.status().message().find("nothing baked under"), std::string::npos) << later.status();
+}
+
 TEST_F(BakeSchedulerTest, CachedResultWithMissingBlobIsRebaked) {
   auto s = scheduler_->Submit(Request());
   const v1::LeasedJob job = Lease();
