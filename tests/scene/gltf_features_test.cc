@@ -132,6 +132,25 @@ std::string TexturedTriangle(int png_channels, const std::string& material_json)
   return TriangleGltf(o);
 }
 
+// A transmissive material bakes opaque (the unlit bake has no refraction):
+// said in a warning naming the material, not left for the artist to find.
+TEST(GltfFeaturesTest, TransmissiveMaterialsWarnThatTheyBakeOpaque) {
+  const std::string glass = R"("name": "glass", "extensions": {"KHR_materials_transmission": )";
+  absl::StatusOr<Scene> clear = FromText(TexturedTriangle(4, glass + R"({"transmissionFactor": 1.0}}, )"));
+  ASSERT_TRUE(clear.ok()) << clear.status();
+  EXPECT_TRUE(HasWarning(*clear, "is transmissive (KHR_materials_transmission, transmissionFactor 1)"))
+      << AllWarnings(*clear);
+  EXPECT_TRUE(HasWarning(*clear, "glass")) << AllWarnings(*clear);
+  absl::StatusOr<Scene> none = FromText(TexturedTriangle(4, glass + R"({"transmissionFactor": 0.0}}, )"));
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_TRUE(none->warnings.empty()) << AllWarnings(*none);
+  const fs::path vase = Asset("vegetation/GlassVaseFlowers/glTF-Binary/GlassVaseFlowers.glb");
+  SKIP_IF_MISSING(vase);
+  absl::StatusOr<Scene> scene = LoadGltfScene(vase);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_TRUE(HasWarning(*scene, "is transmissive")) << AllWarnings(*scene);
+}
+
 TEST(GltfFeaturesTest, MaskWarningDependsOnTheImagesAlphaChannel) {
   absl::StatusOr<Scene> rgb = FromText(TexturedTriangle(3, R"("alphaMode": "MASK", )"));
   ASSERT_TRUE(rgb.ok()) << rgb.status();

@@ -42,8 +42,16 @@ MaterialPushConstants MakeMaterialPushConstants(const SceneMaterial& m) {
 
 MaterialUniforms MakeMaterialUniforms(const SceneMaterial& m) {
   MaterialUniforms u;
+  const int textures[kTextureSlotCount] = {m.base_color_texture, m.metallic_roughness_texture, m.normal_texture,
+                                           m.occlusion_texture, m.emissive_texture};
   for (int slot = 0; slot < kTextureSlotCount; ++slot) {
-    const glm::mat3& t = m.uv[slot].transform;  // column-major: t[col][row]
+    // A slot without a texture samples the 1x1 default, the same value at
+    // any UV: map every UV to 0, so its derivatives are 0 too. Raw UVs can
+    // be huge (KHR_mesh_quantization's unnormalised texcoords, scaled only
+    // in the slots with a KHR_texture_transform), and lavapipe's
+    // anisotropic filtering of a 1x1 texture at such derivatives took 68 s
+    // for one 72-view orbit of the quantized Duck (0.35 s this way).
+    const glm::mat3 t = textures[slot] >= 0 ? m.uv[slot].transform : glm::mat3(0.0f);  // column-major: t[col][row]
     u.row0[slot] = glm::vec4(t[0][0], t[1][0], t[2][0], m.uv[slot].tex_coord == 1 ? 1.0f : 0.0f);
     u.row1[slot] = glm::vec4(t[0][1], t[1][1], t[2][1], 0.0f);
   }

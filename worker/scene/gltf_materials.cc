@@ -159,6 +159,17 @@ absl::StatusOr<int> MaterialTable::Convert(int gltf_index) {
                 /*srgb=*/true, gltf_index, kSlotEmissive, &out);
     if (!t.ok()) return t.status();
     out.emissive_texture = *t;
+    // Accepted (the file's opaque fallback is what the bake draws), but an
+    // artist must not learn from the atlas alone that a glass went solid.
+    if (auto it = m.extensions.find("KHR_materials_transmission");
+        it != m.extensions.end() && it->second.IsObject() && it->second.Get("transmissionFactor").IsNumber()) {
+      const double transmission = it->second.Get("transmissionFactor").GetNumberAsDouble();
+      if (std::isfinite(transmission) && transmission > 0.0) {
+        AddWarning(absl::StrCat(what, " is transmissive (KHR_materials_transmission, transmissionFactor ",
+                                transmission, "): baked as an opaque surface, so what shows through it is "
+                                "not in the impostor; for see-through glass use alphaMode BLEND"));
+      }
+    }
     if (out.alpha_mode == AlphaMode::kMask && out.base_color_texture >= 0 &&
         !scene_->textures[out.base_color_texture].has_alpha_channel) {
       AddWarning(absl::StrCat(what, " is MASK but its base colour image '",
