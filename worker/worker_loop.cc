@@ -434,6 +434,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     // render stage, or after each rendered chunk when the file says
     // "render-chunk".
     if (st == "render" && !options_.test_pause_file.empty() &&
+        ReadTestPauseMode(options_.test_pause_file) != "complete" &&
         entered_stage != (ReadTestPauseMode(options_.test_pause_file) == "render-chunk")) {
       std::error_code ec;
       while (!cancelled && fs::exists(options_.test_pause_file, ec)) {
@@ -497,15 +498,32 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   }();
 
   absl::Status outcome = result.status();
+  // The maps and manifest.json into the server's store (again, for a
+  // CompleteJob that found one gone: the store may evict between the
+  // upload and the completion, with --store-eviction-grace-seconds 0).
+  auto upload_result = [&] {
+    absl::Status uploaded;
+    for (const auto& map : result->manifest.maps()) {
+      if (uploaded = UploadThroughOutage(output_dir / map.file(), map.digest()); !uploaded.ok()) return uploaded;
+    }
+    return UploadThroughOutage(result->manifest_path, result->manifest.manifest_json());
+  };
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
     spdlog::info("event=job_upload job={} files={}", job.job_id(), result->manifest.maps_size() + 1);
     const auto t = Clock::now();
-    for (const auto& map : result->manifest.maps()) {
-      if (outcome = UploadThroughOutage(output_dir / map.file(), map.digest()); !outcome.ok()) break;
-    }
-    if (outcome.ok()) outcome = UploadThroughOutage(result->manifest_path, result->manifest.manifest_json());
+    outcome = upload_result();
     result->manifest.mutable_timings()->set_store_seconds(std::chrono::duration<double>(Clock::now() - t).count());
+    // Test hook (WorkerOptions::test_pause_file saying "complete"): between
+    // the upload and CompleteJob, heartbeats going on, the stage reading
+    // "uploaded" so a test knows the blobs are in.
+    if (!options_.test_pause_file.empty() && ReadTestPauseMode(options_.test_pause_file) == "complete") {
+      progress("uploaded", 0.97);
+      std::error_code ec;
+      while (!cancelled && fs::exists(options_.test_pause_file, ec)) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
   }
   {
     std::lock_guard lock(mu);
@@ -532,17 +550,31 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_job_id(job.job_id());
     r.set_lease_id(job.lease_id());
     *r.mutable_result() = result->manifest;
-    const grpc::Status s = RetryThroughOutage("CompleteJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-      v1::CompleteJobResponse resp;
-      auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-      return v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
-    });
+    auto complete = [&] {
+      return RetryThroughOutage("CompleteJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
+        v1::CompleteJobResponse resp;
+        auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+        return v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
+      });
+    };
+    grpc::Status s = complete();
+    if (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION &&
+        s.error_message().find("is not in the store") != std::string::npos) {
+      // Evicted since the upload: once more, rather than leave the job to
+      // wait out its lease and be baked again.
+      spdlog::warn("event=result_blob_gone job={} action=upload_again error=\"{}\"", job.job_id(),
+                   EscapeUntrusted(s.error_message()));
+      if (absl::Status again = upload_result(); again.ok()) s = complete();
+    }
     spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
                  std::chrono::duration<double>(Clock::now() - start).count(),
                  s.ok() ? "" : absl::StrCat(" error=\"", EscapeUntrusted(s.error_message()), "\""));
     // A refused result is failed now, with the reason, rather than left to
-    // time out and be baked again three times (issue 23).
-    if (ResultRefusedForGood(s.error_code())) {
+    // time out and be baked again three times (issue 23); so is one whose
+    // blobs the store dropped twice (the job is retried elsewhere at once).
+    if (ResultRefusedForGood(s.error_code()) ||
+        (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION &&
+         s.error_message().find("is not in the store") != std::string::npos)) {
       outcome = absl::Status(static_cast<absl::StatusCode>(s.error_code()),
                              absl::StrCat("the server refused the result: CompleteJob: ", s.error_message()));
     }

@@ -85,8 +85,10 @@ struct WorkerOptions {
   // Test hook: while this file exists, a bake pauses when it reaches its
   // render stage (heartbeats continue); when the file's first word is
   // "render-chunk", it pauses after each rendered chunk instead (a cancel
-  // then lands between chunks). Lets tests kill processes at a known point
-  // of a bake. Empty = off. Set from $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
+  // then lands between chunks); "complete": after uploading the result,
+  // before CompleteJob (the job's stage then reads "uploaded"). Lets tests kill processes or damage the store at a
+  // known point of a bake. Empty = off. Set from
+  // $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
   // Transport security of the channel to `server` (common/tls_channel.h,
   // from --tls-ca/--tls-cert/--tls-key). Null = plaintext.

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 
@@ -122,6 +123,37 @@ TEST(GracefulShutdown, ServerSigtermEndsStreamsWithUnavailableExitsZeroAndKeepsJ
   const v1::Job released = testing::GetJob(server->bake(), submitted.job_id());
   EXPECT_EQ(released.state(), v1::JOB_STATE_QUEUED);
   EXPECT_EQ(released.attempts(), 0u);
+}
+
+// The store loses a result's blobs between the worker's upload and its
+// CompleteJob (eviction with --store-eviction-grace-seconds 0 can): the
+// worker uploads them again and completes under the same lease, instead of
+// leaving the job to wait out its lease and bake again.
+TEST(WorkerOutage, AResultWhoseBlobsWentBeforeCompletionIsUploadedAgain) {
+  testing::ServerProcess server(/*local_workers=*/0);
+  const fs::path pause = testing::NewTempDir("blobs_gone") / "pause";
+  std::ofstream(pause) << "complete\n";
+  auto worker = testing::StartWorker(server.address(), "uploader", {}, {{kPauseEnv, pause.string()}});
+  const v1::MeshInput mesh = testing::UploadGlb(server.assets(), AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb");
+  const v1::SubmitBakeResponse job = testing::SubmitSmall(server.bake(), mesh);
+  const v1::Job uploaded = testing::WatchUntil(server.bake(), job.job_id(), [](const v1::Job& j) {
+    return j.state() == v1::JOB_STATE_RUNNING && j.stage() == "uploaded";
+  });
+  ASSERT_EQ(uploaded.stage(), "uploaded") << uploaded.DebugString();
+  // Every blob but the mesh: the result's maps and manifest.json.
+  int removed = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(server.data_dir() / "cas")) {
+    if (entry.is_regular_file() && entry.path().filename() != mesh.entry().digest().hash()) {
+      fs::remove(entry.path());
+      ++removed;
+    }
+  }
+  ASSERT_GE(removed, 4) << "three maps and manifest.json were uploaded";
+  fs::remove(pause);
+  const v1::Job done = testing::WatchToEnd(server.bake(), job.job_id());
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.attempts(), 1u) << "completed under its first lease";
+  EXPECT_GE(worker->CountInLog("event=result_blob_gone"), 1);
 }
 
 // The default 30 s lease timeout stays: only a hand-back gets the job to
