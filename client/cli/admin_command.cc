@@ -23,10 +23,10 @@ int RunAdminPurge(const CliArgs& args) {
   request.set_worker(args.worker);
   auto purged = (*transport)->PurgeWorkerResults(request);
   if (!purged.ok()) {
-    // A worker name the server refuses is the request's fault, like a bake
-    // it refuses as invalid; everything else is the RPC's.
-    const bool invalid = purged.status().code() == absl::StatusCode::kInvalidArgument;
-    return fail(invalid ? kExitBakeFailed : kExitServer, Describe(purged.status()));
+    // A worker name the server refuses, or a token that is not an admin's,
+    // is the request's fault, like a bake it refuses as invalid; everything
+    // else is the RPC's.
+    return fail(IsRefusal(purged.status().code()) ? kExitBakeFailed : kExitServer, Describe(purged.status()));
   }
   if (args.json) {
     nlohmann::json keys = nlohmann::json::array();

@@ -1,10 +1,12 @@
 // impostor bake: upload, submit, watch, fetch.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <system_error>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -16,6 +18,7 @@
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
 #include "client/cli/quality_command.h"
+#include "client/cli/quota_refusal.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {
@@ -27,10 +30,7 @@ namespace fs = std::filesystem;
 class BakeReport {
  public:
   BakeReport(const CliArgs& args) : args_(args), start_(std::chrono::steady_clock::now()) {
-    json_ = {{"model", args.target}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
-             {"out_dir", args.out},  {"manifest", nullptr},  {"files", nlohmann::json::array()},
-             {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"warnings", nlohmann::json::array()},
-             {"quality", nullptr},   {"error", nullptr},     {"exit_code", 0}};
+    json_ = BakeJson(args.target, args.out);
   }
   nlohmann::json& json() { return json_; }
 
@@ -58,6 +58,41 @@ class BakeReport {
   nlohmann::json json_;
 };
 
+// SubmitBake, sent again while the server refuses it for a quota that passes
+// with time (quota_refusal.h), with a doubling backoff (1 s up to 30 s),
+// for up to --max-outage-seconds; then that refusal. One line on stderr
+// (unless --quiet) says the bake waits and why.
+absl::StatusOr<sdk::SubmitResult> SubmitWaitingOutQuotas(sdk::Client& client, const CliArgs& args,
+                                                         const sdk::BakeSettings& settings) {
+  using Clock = std::chrono::steady_clock;
+  const auto give_up_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                             args.max_outage_seconds.value_or(kBakeOutageSeconds)));
+  double backoff_seconds = 1;
+  bool announced = false;
+  while (true) {
+    absl::StatusOr<sdk::SubmitResult> submitted = client.SubmitBake(args.target, settings);
+    if (submitted.ok()) return submitted;
+    const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(submitted.status());
+    if (!rpc.has_value() ||
+        QuotaWaitFor(submitted.status().code(), rpc->rpc, rpc->server_message) == QuotaWait::kNone) {
+      return submitted;
+    }
+    if (Clock::now() >= give_up_at) return submitted;
+    const auto next_try = std::min(
+        give_up_at,
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(backoff_seconds)));
+    if (!args.quiet && !announced) {
+      std::fprintf(stderr, "impostor: %s; waiting for the quota (up to %g s, see --max-outage-seconds)\n",
+                   Describe(submitted.status()).c_str(), args.max_outage_seconds.value_or(kBakeOutageSeconds));
+      announced = true;
+    }
+    // A backoff between attempts, not a synchronisation: nothing here can
+    // tell when the server's quota frees up.
+    std::this_thread::sleep_until(next_try);
+    backoff_seconds = std::min(backoff_seconds * 2, 30.0);
+  }
+}
+
 }  // namespace
 
 int RunBake(const CliArgs& args) {
@@ -79,7 +114,7 @@ int RunBake(const CliArgs& args) {
   if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
 
   const sdk::BakeSettings settings = BakeSettingsFromArgs(args);
-  absl::StatusOr<sdk::SubmitResult> submitted = (*client)->SubmitBake(args.target, settings);
+  absl::StatusOr<sdk::SubmitResult> submitted = SubmitWaitingOutQuotas(**client, args, settings);
   if (!submitted.ok()) {
     const absl::Status& s = submitted.status();
     const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(s);

@@ -6,9 +6,20 @@
 // DIR/<name>/ as soon as it finishes. Cached results need no stream: a
 // watcher downloads them at once.
 //
-// Threads: the calling thread submits; kWatchStreams watcher threads follow
-// and download. Everything shared lives in BatchRunner under `mu_`, and every
-// line of output is written under it, so JSON lines never interleave.
+// A submit the server refuses for a quota that passes with time (the
+// token's pending jobs, its bakes per hour: quota_refusal.h) is not the
+// asset's result: the asset is held back ("held N" on the live line) and
+// submitted again once one of the batch's own jobs ends, or after a backoff,
+// until the batch has made no progress for --max-outage-seconds.
+//
+// Once the server is declared lost (a call spent the outage budget), the
+// batch ends at once: every asset not yet followed or submitted is reported
+// with the outage's reason, rather than each asset trying on its own.
+//
+// Threads: the calling thread submits (and resubmits held assets);
+// kWatchStreams watcher threads follow and download. Everything shared
+// lives in BatchRunner under `mu_`, and every line of output is written
+// under it, so JSON lines never interleave.
 #include <unistd.h>
 
 #include <algorithm>
@@ -34,6 +45,7 @@
 #include "client/cli/commands.h"
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
+#include "client/cli/quota_refusal.h"
 #include "client/job_convert.h"
 #include "common/bake_request.h"
 #include "impostor/client.h"
@@ -49,6 +61,11 @@ using Clock = std::chrono::steady_clock;
 // cheap wait on the server.
 constexpr size_t kWatchStreams = 8;
 
+// Backoff between submits of held assets when no job of the batch ends
+// first: doubling from the first to the last.
+constexpr double kFirstQuotaRetrySeconds = 1;
+constexpr double kMaxQuotaRetrySeconds = 30;
+
 
 // A model's manifest.json "quality" block, or null.
 nlohmann::json QualityOf(const fs::path& manifest) {
@@ -63,17 +80,10 @@ std::string CodeAndMessage(int code, const std::string& message) {
 }
 
 // An RPC that failed for want of a working connection, as opposed to the
-// server judging this one request.
+// server judging this one request (a refusal, a quota or a full disk).
 bool IsConnectionError(const absl::Status& s) {
-  if (!sdk::GetRpcErrorInfo(s).has_value()) return false;
-  switch (s.code()) {
-    case absl::StatusCode::kInvalidArgument:
-    case absl::StatusCode::kFailedPrecondition:
-    case absl::StatusCode::kResourceExhausted:
-    case absl::StatusCode::kNotFound:
-    case absl::StatusCode::kOutOfRange: return false;
-    default: return true;
-  }
+  return sdk::GetRpcErrorInfo(s).has_value() && !IsRefusal(s.code()) &&
+         s.code() != absl::StatusCode::kResourceExhausted;
 }
 
 class BatchRunner {
@@ -97,20 +107,29 @@ class BatchRunner {
     absl::StatusOr<std::vector<sdk::BatchSubmission>> submitted = client_.SubmitBakeBatch(
         batch, [this](size_t i, const sdk::BatchSubmission& s) { return OnSubmitted(i, s); });
     {
-      std::lock_guard lock(mu_);
+      std::unique_lock lock(mu_);
       if (!submitted.ok()) {
         // Nothing was submitted: the uploads failed.
         batch_error_ = submitted.status();
         for (size_t i = 0; i < items_.size(); ++i) {
-          Finish(i, Failed(i, absl::StrCat("not submitted: ", Describe(submitted.status()))), AssetStatus::kSkipped);
+          Finish(i,
+                 Failed(i, absl::StrCat("not submitted: ", Describe(submitted.status())),
+                        static_cast<int>(submitted.status().code())),
+                 AssetStatus::kSkipped);
         }
       } else {
         for (size_t i = 0; i < items_.size(); ++i) {
-          if ((*submitted)[i].status.code() == absl::StatusCode::kCancelled && items_[i].phase == Phase::kPending) {
-            Finish(i, Failed(i, "not submitted: the batch stopped after a failure (use --keep-going to bake the rest)"),
-                   AssetStatus::kSkipped);
+          if ((*submitted)[i].status.code() != absl::StatusCode::kCancelled || items_[i].phase != Phase::kPending) {
+            continue;
+          }
+          // The pass stopped at a quota: the rest would be refused too.
+          if (!held_.empty() && !stop_ && !connection_failed_) {
+            Hold(i);
+          } else {
+            SkipUnsubmitted(i);
           }
         }
+        SubmitHeld(lock);
       }
       submitting_done_ = true;
     }
@@ -120,7 +139,7 @@ class BatchRunner {
   }
 
  private:
-  enum class Phase { kPending, kQueued, kRunning, kFinished };
+  enum class Phase { kPending, kHeld, kQueued, kRunning, kFinished };
   struct Item {
     Phase phase = Phase::kPending;
     sdk::SubmitResult submitted;
@@ -129,23 +148,178 @@ class BatchRunner {
 
   bool OnSubmitted(size_t i, const sdk::BatchSubmission& s) {
     std::lock_guard lock(mu_);
+    Accept(i, s.status, s.result);
+    // After a quota refusal the rest of this pass would be refused too: the
+    // pass stops and they are held (Run).
+    return !stop_ && !connection_failed_ && held_.empty();
+  }
+
+  // The outcome of submitting asset i (in the batch's pass or again).
+  void Accept(size_t i, const absl::Status& status, const sdk::SubmitResult& result)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     Item& item = items_[i];
     item.submit_time = Clock::now();
-    if (!s.status.ok()) {
-      if (IsConnectionError(s.status)) connection_failed_ = true;
-      Finish(i, Failed(i, Describe(s.status), static_cast<int>(s.status.code())), AssetStatus::kFailed);
-      return !stop_;
+    if (!status.ok()) {
+      if (IsConnectionError(status)) {
+        // The asset's own line first, then everything left at once.
+        Finish(i, Failed(i, Describe(status), static_cast<int>(status.code())), AssetStatus::kFailed);
+        ConnectionLost(status);
+        return;
+      }
+      const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(status);
+      const QuotaWait wait =
+          rpc.has_value() ? QuotaWaitFor(status.code(), rpc->rpc, rpc->server_message) : QuotaWait::kNone;
+      if (wait != QuotaWait::kNone && !stop_) {
+        if (held_.empty()) StartHolding(wait, status);
+        last_refusal_ = status;
+        hold_kind_ = wait;
+        Hold(i);
+        return;
+      }
+      Finish(i, Failed(i, Describe(status), static_cast<int>(status.code())), AssetStatus::kFailed);
+      return;
     }
-    item.submitted = s.result;
+    // A submit got through: the quota wait starts over.
+    last_progress_ = Clock::now();
+    retry_seconds_ = kFirstQuotaRetrySeconds;
+    item.submitted = result;
     // A cached result that failed this request's quality gate is a failure
     // known now: without --keep-going nothing more is submitted (its
     // watcher still records it and fetches the result for inspection).
-    if (s.result.error_code != 0 && !args_.keep_going) stop_ = true;
+    if (result.error_code != 0 && !args_.keep_going) stop_ = true;
     SetPhase(i, Phase::kQueued);
+    if (connection_failed_) {
+      Finish(i, Failed(i, absl::StrCat("not followed: ", Describe(connection_error_)),
+                       static_cast<int>(connection_error_.code())),
+             AssetStatus::kFailed);
+      return;
+    }
     queue_.insert({-spec_.entries[i].settings.priority, i});
     wake_.notify_one();
     Redraw();
-    return !stop_;
+  }
+
+  // A quota refused a submit: from now on assets are held. One line says
+  // so (the live line then counts them as "held").
+  void StartHolding(QuotaWait wait, const absl::Status& status) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    last_progress_ = Clock::now();
+    retry_seconds_ = kFirstQuotaRetrySeconds;
+    if (args_.quiet) return;
+    progress_.PrintLine(absl::StrCat(
+        "impostor: ", Describe(status), "; holding assets back and submitting them again ",
+        wait == QuotaWait::kOwnJobs ? "as this batch's jobs finish" : "after a backoff",
+        absl::StrFormat(" (for up to %g s without progress)", OutageBudgetSeconds())));
+  }
+
+  void Hold(size_t i) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    SetPhase(i, Phase::kHeld);
+    held_.insert({-spec_.entries[i].settings.priority, i});
+    Redraw();
+  }
+
+  // --max-outage-seconds: also how long held assets wait without progress.
+  double OutageBudgetSeconds() const { return args_.max_outage_seconds.value_or(kBakeOutageSeconds); }
+
+  // Submits the held assets again, highest priority first, whenever one of
+  // the batch's jobs ends or the backoff has passed, until none is left.
+  // Gives them up (failed, with the quota's refusal) once the batch made no
+  // progress for OutageBudgetSeconds() and no job of its own is left to
+  // free a pending-jobs quota.
+  void SubmitHeld(std::unique_lock<std::mutex>& lock) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    while (!held_.empty()) {
+      if (stop_ || connection_failed_) {
+        while (!held_.empty()) {
+          const size_t i = held_.begin()->second;
+          held_.erase(held_.begin());
+          SkipUnsubmitted(i);
+        }
+        return;
+      }
+      const auto budget = std::chrono::duration_cast<Clock::duration>(
+          std::chrono::duration<double>(OutageBudgetSeconds()));
+      const auto retry = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(retry_seconds_));
+      const Clock::time_point give_up_at = last_progress_ + budget;
+      const Clock::time_point next_try = std::min(Clock::now() + retry, give_up_at);
+      job_ended_ = false;
+      resubmit_wake_.wait_until(lock, next_try, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+        return job_ended_ || stop_ || connection_failed_;
+      });
+      if (stop_ || connection_failed_) continue;
+      const bool own_jobs_left = hold_kind_ == QuotaWait::kOwnJobs && counts_.queued + counts_.running > 0;
+      if (!job_ended_ && !own_jobs_left && Clock::now() >= give_up_at) {
+        GiveUpHeld();
+        return;
+      }
+      retry_seconds_ = std::min(retry_seconds_ * 2, kMaxQuotaRetrySeconds);
+      // Until one is refused again (it is then held once more).
+      while (!held_.empty() && !stop_ && !connection_failed_) {
+        const size_t i = held_.begin()->second;
+        held_.erase(held_.begin());
+        SetPhase(i, Phase::kPending);
+        sdk::BakeSettings settings = spec_.entries[i].settings;
+        settings.follow_symlinks = args_.follow_symlinks;
+        lock.unlock();
+        absl::StatusOr<sdk::SubmitResult> result = client_.SubmitBake(spec_.entries[i].model, settings);
+        lock.lock();
+        Accept(i, result.status(), result.ok() ? *result : sdk::SubmitResult{});
+        if (items_[i].phase == Phase::kHeld) break;
+      }
+    }
+  }
+
+  // Held assets whose quota did not free up in time: failed, with the
+  // server's refusal.
+  void GiveUpHeld() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    const std::string reason = absl::StrCat(
+        Describe(last_refusal_),
+        absl::StrFormat(" (held back; no progress for %g s, see --max-outage-seconds)", OutageBudgetSeconds()));
+    while (!held_.empty()) {
+      const size_t i = held_.begin()->second;
+      held_.erase(held_.begin());
+      Finish(i, Failed(i, reason, static_cast<int>(last_refusal_.code())), AssetStatus::kFailed);
+    }
+  }
+
+  // An asset that will not be submitted: the batch stopped, or the server
+  // is gone.
+  void SkipUnsubmitted(size_t i) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    if (connection_failed_) {
+      Finish(i,
+             Failed(i, absl::StrCat("not submitted: ", Describe(connection_error_)),
+                    static_cast<int>(connection_error_.code())),
+             AssetStatus::kSkipped);
+    } else {
+      Finish(i,
+             Failed(i, "not submitted: the batch stopped after a failure (use --keep-going to bake the rest)",
+                    static_cast<int>(absl::StatusCode::kCancelled)),
+             AssetStatus::kSkipped);
+    }
+  }
+
+  // A call spent the outage budget (--max-outage-seconds, counted once for
+  // the whole client): the server is gone for this batch. Every asset
+  // waiting for a watcher is reported now with that reason, instead of each
+  // one trying on its own; held assets are skipped; the pass of submits
+  // stops (OnSubmitted).
+  void ConnectionLost(const absl::Status& status) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    if (connection_failed_) return;
+    connection_failed_ = true;
+    connection_error_ = status;
+    while (!queue_.empty()) {
+      const size_t i = queue_.begin()->second;
+      queue_.erase(queue_.begin());
+      Finish(i, Failed(i, absl::StrCat("not followed: ", Describe(status)), static_cast<int>(status.code())),
+             AssetStatus::kFailed);
+    }
+    resubmit_wake_.notify_all();
+    wake_.notify_all();
+  }
+
+  // One of the batch's jobs ended: a pending-jobs quota may have room.
+  void JobEnded() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    job_ended_ = true;
+    last_progress_ = Clock::now();
+    resubmit_wake_.notify_all();
   }
 
   // A watcher: takes the next job in lease order and follows it to its end.
@@ -181,9 +355,13 @@ class BatchRunner {
       });
       if (!done.ok()) {
         std::lock_guard lock(mu_);
-        if (IsConnectionError(done.status())) connection_failed_ = true;
         Finish(i, Failed(i, Describe(done.status()), static_cast<int>(done.status().code())), AssetStatus::kFailed);
+        if (IsConnectionError(done.status())) ConnectionLost(done.status());
         return;
+      }
+      {
+        std::lock_guard lock(mu_);
+        JobEnded();
       }
       cached = done->cached;
       if (done->state == sdk::JobState::kCancelled) {
@@ -207,11 +385,11 @@ class BatchRunner {
       absl::StatusOr<sdk::FetchResult> fetched = client_.Fetch(submitted.cache_key, outcome.out_dir);
       if (!fetched.ok()) {
         std::lock_guard lock(mu_);
-        if (IsConnectionError(fetched.status())) connection_failed_ = true;
         AssetOutcome failed = Failed(i, absl::StrCat("download failed: ", Describe(fetched.status())),
                                      static_cast<int>(fetched.status().code()));
         failed.cached = cached;  // the bake was a hit; only its download failed
         Finish(i, std::move(failed), AssetStatus::kFailed);
+        if (IsConnectionError(fetched.status())) ConnectionLost(fetched.status());
         return;
       }
       for (const fs::path& f : fetched->files) outcome.files.push_back(f.string());
@@ -244,7 +422,7 @@ class BatchRunner {
     return o;
   }
 
-  AssetOutcome Failed(size_t i, const std::string& error, int code = 0) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+  AssetOutcome Failed(size_t i, const std::string& error, int code) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     AssetOutcome o = Base(i);
     o.error = error;
     o.error_code = code;
@@ -254,8 +432,10 @@ class BatchRunner {
   void SetPhase(size_t i, Phase phase) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     Phase& p = items_[i].phase;
     if (p == phase || p == Phase::kFinished) return;
+    if (p == Phase::kHeld) --counts_.held;
     if (p == Phase::kQueued) --counts_.queued;
     if (p == Phase::kRunning) --counts_.running;
+    if (phase == Phase::kHeld) ++counts_.held;
     if (phase == Phase::kQueued) ++counts_.queued;
     if (phase == Phase::kRunning) ++counts_.running;
     p = phase;
@@ -272,7 +452,10 @@ class BatchRunner {
       case AssetStatus::kSucceeded: ++(outcome.cached ? counts_.cached : counts_.baked); break;
       case AssetStatus::kFailed:
         ++counts_.failed;
-        if (!args_.keep_going) stop_ = true;
+        if (!args_.keep_going) {
+          stop_ = true;
+          resubmit_wake_.notify_all();
+        }
         break;
       case AssetStatus::kSkipped: ++counts_.skipped; break;
     }
@@ -341,7 +524,20 @@ class BatchRunner {
   std::set<std::pair<int32_t, size_t>> queue_ ABSL_GUARDED_BY(mu_);
   bool submitting_done_ ABSL_GUARDED_BY(mu_) = false;
   bool stop_ ABSL_GUARDED_BY(mu_) = false;
+  // The server is gone for this batch, and the call that found it so.
   bool connection_failed_ ABSL_GUARDED_BY(mu_) = false;
+  absl::Status connection_error_ ABSL_GUARDED_BY(mu_);
+  // Assets a quota refused, to submit again, ordered as queue_.
+  std::set<std::pair<int32_t, size_t>> held_ ABSL_GUARDED_BY(mu_);
+  QuotaWait hold_kind_ ABSL_GUARDED_BY(mu_) = QuotaWait::kNone;
+  absl::Status last_refusal_ ABSL_GUARDED_BY(mu_);
+  // The last accepted submit or ended job: held assets give up after
+  // OutageBudgetSeconds() without either.
+  Clock::time_point last_progress_ ABSL_GUARDED_BY(mu_);
+  double retry_seconds_ ABSL_GUARDED_BY(mu_) = kFirstQuotaRetrySeconds;
+  bool job_ended_ ABSL_GUARDED_BY(mu_) = false;
+  // Wakes SubmitHeld: a job ended, or the batch stops.
+  std::condition_variable resubmit_wake_;
   absl::Status batch_error_ ABSL_GUARDED_BY(mu_);
   BatchCounts counts_ ABSL_GUARDED_BY(mu_);
   std::vector<std::string> failures_ ABSL_GUARDED_BY(mu_);
@@ -353,7 +549,9 @@ class BatchRunner {
 // Nothing was submitted. A refused spec (exit 2) judged no asset: `total`
 // 0. Otherwise (no server, no output directory) every asset is skipped, with
 // one JSON line each as when a batch stops, then the summary.
-int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_code, const std::string& reason) {
+// `error_code`: the canonical code of the skipped assets' error.
+int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_code, const std::string& reason,
+                         absl::StatusCode error_code = absl::StatusCode::kInvalidArgument) {
   int total = 0;
   if (args.json && spec != nullptr && exit_code != kExitUsage) {
     for (const BatchEntry& e : spec->entries) {
@@ -364,6 +562,7 @@ int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_co
       o.priority = e.settings.priority;
       o.status = AssetStatus::kSkipped;
       o.error = absl::StrCat("not submitted: ", reason);
+      o.error_code = static_cast<int>(error_code);
       PrintJson(AssetJson(o));
       ++total;
     }
@@ -378,11 +577,14 @@ int RunBatch(const CliArgs& args, const BatchSpec& spec) {
   if (ec || !fs::is_directory(args.out)) {
     return FailBeforeSubmitting(args, &spec, kExitLocalIo,
                                 absl::StrCat("cannot create output directory ", args.out, ": ",
-                                             ec ? ec.message() : std::string("not a directory")));
+                                             ec ? ec.message() : std::string("not a directory")),
+                                absl::StatusCode::kInternal);
   }
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
-  if (!client.ok()) return FailBeforeSubmitting(args, &spec, kExitServer, Describe(client.status()));
+  if (!client.ok()) {
+    return FailBeforeSubmitting(args, &spec, kExitServer, Describe(client.status()), client.status().code());
+  }
   BatchRunner runner(args, spec, **client);
   return runner.Run();
 }

@@ -58,6 +58,7 @@ std::string SummaryLine(const BatchCounts& c, int bar_width) {
   absl::StrAppend(&line, absl::StrFormat("%*d/%d", digits, done, c.total), "  queued ", c.queued, "  running ",
                   c.running, "  done ", c.baked, "  cached ", c.cached, "  failed ", c.failed);
   if (c.skipped > 0) absl::StrAppend(&line, "  skipped ", c.skipped);
+  if (c.held > 0) absl::StrAppend(&line, "  held ", c.held);
   return line;
 }
 

@@ -48,10 +48,11 @@ struct AssetOutcome {
   std::string error;       // "CODE: message", empty = none
 };
 
-// Counts for the live line and the summary. queued + running + succeeded +
-// failed + skipped <= total (the rest are not submitted yet).
+// Counts for the live line and the summary. held + queued + running +
+// succeeded + failed + skipped <= total (the rest are not submitted yet).
 struct BatchCounts {
   int total = 0;
+  int held = 0;  // refused by a quota that passes; submitted again later
   int queued = 0;
   int running = 0;
   int baked = 0;   // succeeded by a new bake
@@ -66,7 +67,8 @@ nlohmann::json SummaryJson(const BatchCounts& counts, double wall_seconds, int e
                            const std::string& error = "");
 
 // "[########------------]  9/20  queued 5  running 2  done 6  cached 3  failed 0"
-// (`bar_width` characters of bar; "skipped N" appears once there are any).
+// (`bar_width` characters of bar; "held N" and "skipped N" appear while
+// there are any).
 std::string SummaryLine(const BatchCounts& counts, int bar_width = 24);
 
 // The live summary line on a stream: on a terminal one line rewritten in

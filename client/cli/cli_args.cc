@@ -494,6 +494,9 @@ Usage:
       Shows a job's state.
   impostor cancel JOB_ID [--server HOST:PORT] [--json] [--max-outage-seconds N]
       Cancels a queued or running job.
+      status and cancel --json: {job_id, cache_key, state, progress, stage,
+      cached, error}; error is null or {code, message}, the job's error or,
+      when the call itself failed, the RPC's (then with exit_code too).
   impostor cache get KEY [--cache-dir DIR] [--server HOST:PORT] [--json] [--quiet]
                 [--max-outage-seconds N]
       Puts the result KEY in the local cache (downloaded only when not there
@@ -561,11 +564,14 @@ Common flags:
 Exit codes:
   0  success
   1  the bake failed, was cancelled, or the server refused the request (invalid,
-     or nothing under that KEY or JOB_ID); for a batch: at least one asset failed
-     or was skipped (the others are in DIR)
+     nothing under that KEY or JOB_ID, no token, a bad one or one without the
+     role: retrying the same command gets the same answer); for a batch: at
+     least one asset failed or was skipped (the others are in DIR)
   2  usage error (unknown flag, missing value, not a number, ...); a malformed
      batch SPEC or a listed model that does not exist (nothing is submitted)
-  3  cannot reach the server, or an RPC failed otherwise (worth retrying later)
+  3  cannot reach the server, or an RPC failed otherwise, e.g. a quota
+     (RESOURCE_EXHAUSTED) that outlasted --max-outage-seconds (worth retrying
+     later)
   4  local I/O error (model not found or unusable, cannot write DIR)
 Every failure prints exactly one line "impostor: <reason>" on stderr.
 

@@ -16,15 +16,16 @@ namespace {
 using JobCall = std::function<absl::StatusOr<sdk::JobUpdate>(sdk::Client&, const std::string&)>;
 
 int RunJobCall(const CliArgs& args, const JobCall& call) {
-  auto fail = [&](int code, const std::string& reason) {
-    if (args.json) PrintJson({{"job_id", args.target}, {"error", reason}});
-    return Fail(code, reason);
+  // --json: `error` is the {code, message} object a job's error is too.
+  auto fail = [&](int code, const absl::Status& status) {
+    if (args.json) PrintJson({{"job_id", args.target}, {"error", ErrorJson(status)}, {"exit_code", code}});
+    return Fail(code, Describe(status));
   };
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));
-  if (!client.ok()) return fail(kExitServer, Describe(client.status()));
+  if (!client.ok()) return fail(kExitServer, client.status());
   absl::StatusOr<sdk::JobUpdate> job = call(**client, args.target);
-  if (!job.ok()) return fail(ExitCodeFor(job.status()), Describe(job.status()));
+  if (!job.ok()) return fail(ExitCodeFor(job.status()), job.status());
   if (args.json) {
     PrintJson(JobToJson(*job));
     return kExitOk;

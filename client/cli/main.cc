@@ -50,21 +50,25 @@ int main(int argc, char** argv) {
   SetUpLogging();
   const std::vector<std::string> args(argv + 1, argv + argc);
   absl::StatusOr<CliArgs> parsed = ParseCliArgs(args, std::getenv("IMPOSTOR_SERVER"));
-  if (!parsed.ok()) {
-    return Fail(kExitUsage, std::string(parsed.status().message()) + " (see 'impostor --help')");
-  }
+  // A refused command line still gets its --json object (README: "on every
+  // outcome").
+  auto usage_error = [&](const std::string& reason) {
+    if (nlohmann::json j = UsageErrorJson(args, reason); !j.is_null()) PrintJson(j);
+    return Fail(kExitUsage, reason);
+  };
+  if (!parsed.ok()) return usage_error(std::string(parsed.status().message()) + " (see 'impostor --help')");
   // TLS files are read here so that a bad one is a usage error naming its
   // flag (the SDK would name its ClientOptions field).
   if (!parsed->tls_ca.empty()) {
     absl::StatusOr<impostor::ClientTlsPem> tls = impostor::ReadClientTlsFiles(
         {.ca = parsed->tls_ca, .cert = parsed->tls_cert, .key = parsed->tls_key},
         {.ca = "--tls-ca", .cert = "--tls-cert", .key = "--tls-key"});
-    if (!tls.ok()) return Fail(kExitUsage, std::string(tls.status().message()));
+    if (!tls.ok()) return usage_error(std::string(tls.status().message()));
   }
   // So is a token file (or $IMPOSTOR_TOKEN) that cannot be used: exit 2, not
   // the 3 of a farm that may come back.
   if (auto token = impostor::ResolveToken(parsed->token_file, "", std::getenv(impostor::kTokenEnvVar)); !token.ok()) {
-    return Fail(kExitUsage, std::string(token.status().message()));
+    return usage_error(std::string(token.status().message()));
   }
   switch (parsed->command) {
     case Command::kHelp:

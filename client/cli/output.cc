@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/cli/batch_report.h"
 #include "client/cli/cli_args.h"
 #include "client/cli/flag_terms.h"
 #include "common/log_escape.h"
@@ -29,14 +30,25 @@ std::string Describe(const absl::Status& status) {
   return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", message);
 }
 
+bool IsRefusal(absl::StatusCode code) {
+  switch (code) {
+    case absl::StatusCode::kInvalidArgument:
+    case absl::StatusCode::kNotFound:
+    case absl::StatusCode::kAlreadyExists:
+    case absl::StatusCode::kFailedPrecondition:
+    case absl::StatusCode::kOutOfRange:
+    case absl::StatusCode::kUnauthenticated:
+    case absl::StatusCode::kPermissionDenied:
+    case absl::StatusCode::kUnimplemented: return true;
+    default: return false;
+  }
+}
+
 int ExitCodeFor(const absl::Status& status) {
   if (sdk::GetRpcErrorInfo(status).has_value()) {
-    // The server answered, and refused: nothing under that key or job id,
-    // or a request it judged invalid. CI retries exit 3, not these.
-    if (status.code() == absl::StatusCode::kNotFound || status.code() == absl::StatusCode::kInvalidArgument) {
-      return kExitBakeFailed;
-    }
-    return kExitServer;
+    // The server answered, and refused: CI retries exit 3, and a missing
+    // token or role does not come back by itself.
+    return IsRefusal(status.code()) ? kExitBakeFailed : kExitServer;
   }
   if (status.code() == absl::StatusCode::kDataLoss) return kExitServer;
   return kExitLocalIo;
@@ -59,10 +71,51 @@ nlohmann::json JobToJson(const sdk::JobUpdate& job) {
       {"cached", job.cached},
   };
   if (job.error_code != 0 || !job.error_message.empty()) {
+    // The object ErrorJson gives an RPC's error.
     j["error"] = {{"code", absl::StatusCodeToString(static_cast<absl::StatusCode>(job.error_code))},
                   {"message", job.error_message}};
   } else {
     j["error"] = nullptr;
+  }
+  return j;
+}
+
+nlohmann::json ErrorJson(const absl::Status& status) {
+  std::string message(status.message());
+  if (sdk::GetRpcErrorInfo(status).has_value()) message = InFlagTerms(message);
+  return {{"code", absl::StatusCodeToString(status.code())}, {"message", message}};
+}
+
+nlohmann::json BakeJson(const std::string& model, const std::string& out_dir) {
+  auto or_null = [](const std::string& s) { return s.empty() ? nlohmann::json(nullptr) : nlohmann::json(s); };
+  return {{"model", or_null(model)}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
+          {"out_dir", or_null(out_dir)}, {"manifest", nullptr},  {"files", nlohmann::json::array()},
+          {"wall_seconds", 0.0},  {"uploaded_bytes", 0},  {"warnings", nlohmann::json::array()},
+          {"quality", nullptr},   {"error", nullptr},     {"exit_code", 0}};
+}
+
+nlohmann::json UsageErrorJson(const std::vector<std::string>& args, const std::string& reason) {
+  bool json = false;
+  for (const std::string& a : args) {
+    if (a == "--") break;
+    if (a == "--json") json = true;
+  }
+  if (!json) return nullptr;
+  const std::string command = args.empty() ? "" : args[0];
+  if (command == "bake-batch") return SummaryJson(BatchCounts{}, 0.0, kExitUsage, reason);
+  nlohmann::json j = {{"error", reason}, {"exit_code", kExitUsage}};
+  if (command == "bake") {
+    // MODEL as in the usual `bake MODEL ...` and --out DIR, when given;
+    // null otherwise (the command line could not be read).
+    std::string model, out;
+    if (args.size() > 1 && args[1].rfind("-", 0) != 0) model = args[1];
+    for (size_t i = 1; i < args.size() && args[i] != "--"; ++i) {
+      if (args[i] == "--out" && i + 1 < args.size()) out = args[i + 1];
+      if (args[i].rfind("--out=", 0) == 0) out = args[i].substr(6);
+    }
+    j = BakeJson(model, out);
+    j["error"] = reason;
+    j["exit_code"] = kExitUsage;
   }
   return j;
 }

@@ -5,6 +5,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -23,16 +24,40 @@ int Fail(int exit_code, std::string_view reason);
 // typed ("--ring (parameters.ring_views)", "cards").
 std::string Describe(const absl::Status& status);
 
-// kExitBakeFailed when the server refused the request (NOT_FOUND: nothing
-// under that key or job id; INVALID_ARGUMENT), kExitServer for the other RPC
-// failures (the farm down or failing) and corrupt downloads, kExitLocalIo for
-// the rest (local files).
+// True for the codes with which a server refuses a request for good: the
+// same request gets the same answer until someone changes it or the farm
+// (INVALID_ARGUMENT, NOT_FOUND, ALREADY_EXISTS, FAILED_PRECONDITION,
+// OUT_OF_RANGE, UNAUTHENTICATED, PERMISSION_DENIED, UNIMPLEMENTED). The
+// others (UNAVAILABLE, DEADLINE_EXCEEDED, RESOURCE_EXHAUSTED, ABORTED,
+// INTERNAL, ...) may pass by themselves.
+bool IsRefusal(absl::StatusCode code);
+
+// kExitBakeFailed when the server refused the request (IsRefusal: e.g.
+// NOT_FOUND, nothing under that key or job id; INVALID_ARGUMENT; no token, a
+// bad one or one without the role), kExitServer for the other RPC failures
+// (the farm down or failing, a quota: worth retrying) and corrupt downloads,
+// kExitLocalIo for the rest (local files).
 int ExitCodeFor(const absl::Status& status);
 
 // Writes `json` as one line on stdout.
 void PrintJson(const nlohmann::json& json);
 
+// `status` and `cancel --json`: {job_id, cache_key, state, progress, stage,
+// cached, error}, where error is null or {"code": "FAILED_PRECONDITION",
+// "message": "..."}: the job's error. ErrorJson is the same object for an
+// RPC that failed, so that `error` has one shape whatever went wrong.
 nlohmann::json JobToJson(const sdk::JobUpdate& job);
+nlohmann::json ErrorJson(const absl::Status& status);
+
+// `bake --json`'s object before anything happened: every key, `model` and
+// `out_dir` as given (null when empty), error null and exit_code 0.
+nlohmann::json BakeJson(const std::string& model, const std::string& out_dir);
+
+// What `--json` prints when the command line itself is refused (exit 2), so
+// that the JSON comes on every outcome: for bake-batch its summary (total 0),
+// for bake its object, for the others {"error", "exit_code"}. `args` is
+// argv without argv[0]; null when it has no --json (before "--").
+nlohmann::json UsageErrorJson(const std::vector<std::string>& args, const std::string& reason);
 
 // Human-readable byte count, e.g. "12.3 MB".
 std::string HumanBytes(int64_t bytes);

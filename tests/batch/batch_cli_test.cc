@@ -228,6 +228,7 @@ TEST(BatchCli, WithoutKeepGoingNothingIsSubmittedAfterTheFirstFailure) {
       continue;
     }
     EXPECT_EQ(a["status"], "skipped") << a.dump();
+    EXPECT_EQ(a["error_code"], 1) << "CANCELLED, the code of its error: " << a.dump();
     EXPECT_TRUE(a["job_id"].is_null()) << "never submitted: " << a.dump();
     EXPECT_FALSE(fs::exists(a["out_dir"].get<std::string>())) << a.dump();
   }
@@ -383,6 +384,8 @@ TEST(BatchCli, UnreachableServerExits3AndAnUncreatableOutExits4) {
     EXPECT_EQ(lines[0]["type"], "asset") << run.out;
     EXPECT_EQ(lines[0]["status"], "skipped") << run.out;
     EXPECT_EQ(lines[0]["name"], "Box") << run.out;
+    // The code of its error: UNAVAILABLE (no server), INTERNAL (local I/O).
+    EXPECT_EQ(lines[0]["error_code"], c.exit_code == 3 ? 14 : 13) << run.out;
     const nlohmann::json& summary = lines[1];
     ASSERT_TRUE(summary.is_object()) << c.name << ": stdout " << run.out;
     EXPECT_EQ(summary["type"], "summary") << run.out;

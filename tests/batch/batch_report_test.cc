@@ -70,6 +70,13 @@ TEST(SummaryLine, ShowsEveryCountAndABar) {
             "[####################] 20/20  queued 0  running 0  done 6  cached 3  failed 1  skipped 10");
 }
 
+TEST(SummaryLine, CountsAssetsHeldBackByAQuotaWhileThereAreAny) {
+  BatchCounts c{.total = 8, .held = 6, .queued = 2};
+  EXPECT_EQ(SummaryLine(c, 8), "[--------] 0/8  queued 2  running 0  done 0  cached 0  failed 0  held 6");
+  c.held = 0;
+  EXPECT_EQ(SummaryLine(c, 8), "[--------] 0/8  queued 2  running 0  done 0  cached 0  failed 0");
+}
+
 TEST(BatchProgressLine, OutsideATerminalPrintsOnlyWhenSomethingFinished) {
   char* buffer = nullptr;
   size_t size = 0;

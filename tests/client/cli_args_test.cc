@@ -272,6 +272,49 @@ TEST(InFlagTerms, TheServersApiNamesReadAsTheFlagsTyped) {
   EXPECT_EQ(InFlagTerms(""), "");
 }
 
+// Every refusal of a field a bake flag sets, as the server words it
+// (common/quality_gate.cc, quality_parameters.cc, texture_format_parameters.cc,
+// layout_parameters.cc), names the flag typed.
+TEST(InFlagTerms, EveryFieldABakeFlagSetsNamesItsFlag) {
+  const struct {
+    const char* server;
+    const char* cli;
+  } cases[] = {
+      {"gate.min_iou: 1.5 is out of range 0..1", "--min-iou (gate.min_iou): 1.5 is out of range 0..1"},
+      {"gate.min_psnr_db: -1 is out of range 0..100", "--min-psnr (gate.min_psnr_db): -1 is out of range 0..100"},
+      {"SubmitBake (server h:1): gate: only atlas and lod-chain bakes are gated; this request's product is "
+       "PRODUCT_CARDS",
+       "SubmitBake (server h:1): --min-iou/--min-psnr (gate): only atlas and lod-chain bakes are gated; this "
+       "request's product is cards"},
+      {"gate: needs the quality pass, and this request turns it off (parameters.quality_views 0)",
+       "--min-iou/--min-psnr (gate): needs the quality pass, and this request turns it off (--quality-views "
+       "(parameters.quality_views) 0)"},
+      {"parameters.auto_target.min_iou: 2 is out of range 0..1",
+       "--min-iou (parameters.auto_target.min_iou): 2 is out of range 0..1"},
+      {"parameters.auto_target.min_psnr_db: 200 is out of range 0..100",
+       "--min-psnr (parameters.auto_target.min_psnr_db): 200 is out of range 0..100"},
+      {"parameters.auto_target: only with frames_auto",
+       "--min-iou/--min-psnr (parameters.auto_target): only with --frames auto"},
+      {"parameters.texture_format: TEXTURE_FORMAT_KTX2 cannot be combined with texture_array",
+       "--texture-format (parameters.texture_format): --texture-format ktx2 cannot be combined with --array"},
+      {"parameters.albedo_codec: only with TEXTURE_FORMAT_KTX2",
+       "--albedo-codec (parameters.albedo_codec): only with --texture-format ktx2"},
+      {"parameters.texture_format: TEXTURE_FORMAT_KTX2 needs an explicit frame count (not frames_auto)",
+       "--texture-format (parameters.texture_format): --texture-format ktx2 needs an explicit frame count (not "
+       "--frames auto)"},
+      {"parameters.texture_format: 7; expected TEXTURE_FORMAT_PNG (1) or TEXTURE_FORMAT_KTX2 (2)",
+       "--texture-format (parameters.texture_format): 7; expected --texture-format png (1) or --texture-format ktx2 "
+       "(2)"},
+      {"parameters.albedo_codec: ALBEDO_CODEC_UASTC_RDO or ALBEDO_CODEC_UASTC",
+       "--albedo-codec (parameters.albedo_codec): uastc-rdo or uastc"},
+      {"parameters.texture_array: only for products PRODUCT_ATLAS and PRODUCT_LOD_CHAIN",
+       "--array (parameters.texture_array): only for products atlas and lod-chain"},
+      // Not a field: a job's gate verdict and its measured values stay.
+      {"quality gate: silhouette IoU 0.912 < min_iou 0.95", "quality gate: silhouette IoU 0.912 < min_iou 0.95"},
+  };
+  for (const auto& c : cases) EXPECT_EQ(InFlagTerms(c.server), c.cli) << c.server;
+}
+
 }  // namespace
 
 }  // namespace impostor::cli

@@ -1,0 +1,159 @@
+// `impostor bake-batch` against a server's limits: per-token quotas that
+// pass with time (an asset the quota refuses is held back and submitted
+// again, not failed) and a server that is gone for good (the whole batch
+// ends within --max-outage-seconds, however many assets are left). Real
+// impostor-server and `impostor` processes on loopback; small bakes keep
+// lavapipe fast.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "absl/strings/str_split.h"
+#include "tests/integration/server_process.h"
+
+namespace impostor::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+fs::path Box() { return AssetsDir() / "props_pbr/Box/glTF-Binary/Box.glb"; }
+
+std::string Impostor() { return (BinaryDir() / "impostor").string(); }
+
+// `count` distinct bakes of the Box (frames 3, 4, ...), named f3, f4, ...
+fs::path DistinctBakesSpec(const fs::path& dir, int count) {
+  json spec = {{"defaults", {{"resolution", 128}, {"quality_views", 0}}}, {"assets", json::array()}};
+  for (int frames = 3; frames < 3 + count; ++frames) {
+    spec["assets"].push_back({{"path", Box().string()}, {"name", "f" + std::to_string(frames)}, {"frames", frames}});
+  }
+  const fs::path file = dir / "distinct.json";
+  std::ofstream(file) << spec.dump();
+  return file;
+}
+
+fs::path TokenFile(const ServerProcess& server, const fs::path& dir) {
+  const fs::path file = dir / "ci.token";
+  std::ofstream(file) << CreateToken(server.data_dir(), "submitter", "ci") << "\n";
+  return file;
+}
+
+struct JsonLines {
+  std::vector<json> assets;
+  json summary;
+};
+
+JsonLines ParseLines(const std::string& out) {
+  JsonLines lines;
+  for (absl::string_view line : absl::StrSplit(out, '\n', absl::SkipEmpty())) {
+    json j = json::parse(line, nullptr, /*allow_exceptions=*/false);
+    EXPECT_TRUE(j.is_object()) << "not a JSON object: " << line;
+    if (!j.is_object()) continue;
+    if (j.value("type", "") == "asset") lines.assets.push_back(j);
+    if (j.value("type", "") == "summary") lines.summary = j;
+  }
+  return lines;
+}
+
+// 8 bakes through a token allowed 2 pending jobs: the 6 it refuses at first
+// are held and submitted again as the batch's own jobs finish.
+TEST(BatchLimits, PendingJobsQuotaHoldsAssetsBackUntilTheBatchsOwnJobsFinish) {
+  ServerProcess server(1, {"--auth=token", "--token-max-pending-jobs=2"});
+  const fs::path dir = NewTempDir("batch_pending_quota");
+  const ToolRun run =
+      RunTool({Impostor(), "bake-batch", DistinctBakesSpec(dir, 8).string(), "--out", (dir / "out").string(),
+               "--server", server.address(), "--token-file", TokenFile(server, dir).string(), "--json",
+               "--keep-going"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  const JsonLines lines = ParseLines(run.out);
+  ASSERT_EQ(lines.assets.size(), 8u) << run.out;
+  for (const json& a : lines.assets) {
+    EXPECT_EQ(a["status"], "succeeded") << a.dump();
+    EXPECT_EQ(a["error_code"], 0) << a.dump();
+    EXPECT_TRUE(fs::exists(fs::path(a["out_dir"].get<std::string>()) / "manifest.json")) << a.dump();
+  }
+  EXPECT_EQ(lines.summary["succeeded"], 8) << run.out;
+  EXPECT_EQ(lines.summary["failed"], 0) << run.out;
+  // The log says why assets waited, naming the quota.
+  EXPECT_NE(run.err.find("pending jobs of token 'ci'"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("holding assets back"), std::string::npos) << run.err;
+}
+
+// A rate quota (bakes per hour) does not free up within the batch: the held
+// assets give up after --max-outage-seconds without progress, failed with
+// the server's refusal (RESOURCE_EXHAUSTED, code 8), and the bakes the quota
+// allowed succeed. `impostor bake` waits as long, then fails with it.
+TEST(BatchLimits, RateQuotaGivesUpAfterTheOutageBudgetWithTheRefusal) {
+  ServerProcess server(1, {"--auth=token", "--token-max-bakes-per-hour=2"});
+  const fs::path dir = NewTempDir("batch_rate_quota");
+  const fs::path token = TokenFile(server, dir);
+  const auto start = std::chrono::steady_clock::now();
+  const ToolRun run = RunTool({Impostor(), "bake-batch", DistinctBakesSpec(dir, 4).string(), "--out",
+                               (dir / "out").string(), "--server", server.address(), "--token-file", token.string(),
+                               "--json", "--keep-going", "--max-outage-seconds=2"});
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  const JsonLines lines = ParseLines(run.out);
+  ASSERT_EQ(lines.assets.size(), 4u) << run.out;
+  int succeeded = 0;
+  for (const json& a : lines.assets) {
+    if (a["status"] == "succeeded") {
+      ++succeeded;
+      continue;
+    }
+    EXPECT_EQ(a["status"], "failed") << a.dump();
+    EXPECT_EQ(a["error_code"], 8) << a.dump();
+    EXPECT_NE(a["error"].get<std::string>().find("bakes of token 'ci'"), std::string::npos) << a.dump();
+    EXPECT_NE(a["error"].get<std::string>().find("held back"), std::string::npos) << a.dump();
+  }
+  EXPECT_EQ(succeeded, 2) << run.out;
+  EXPECT_GE(seconds, 2.0) << "the held assets were tried again for --max-outage-seconds";
+  EXPECT_NE(run.err.find("holding assets back"), std::string::npos) << run.err;
+
+  const ToolRun bake = RunTool({Impostor(), "bake", Box().string(), "--frames", "9", "--resolution", "128", "--out",
+                                (dir / "single").string(), "--server", server.address(), "--token-file",
+                                token.string(), "--max-outage-seconds=1"});
+  EXPECT_EQ(bake.exit_code, 3) << bake.err;
+  EXPECT_NE(bake.err.find("waiting for the quota"), std::string::npos) << bake.err;
+  EXPECT_NE(bake.err.find("RESOURCE_EXHAUSTED"), std::string::npos) << bake.err;
+}
+
+// The server is killed and stays away while 100 assets wait for a watcher:
+// the batch reports every one of them and exits within --max-outage-seconds
+// plus a few seconds, not a fraction of a second per remaining asset.
+TEST(BatchLimits, ALostServerEndsTheWholeBatchWithinTheOutageBudget) {
+  ServerProcess server(0);  // no worker: every job stays queued
+  const fs::path dir = NewTempDir("batch_lost_server");
+  constexpr int kAssets = 100;
+  json spec = {{"defaults", {{"frames", 3}, {"resolution", 64}}}, {"assets", json::array()}};
+  for (int i = 0; i < kAssets; ++i) spec["assets"].push_back({{"path", Box().string()}, {"name", "a" + std::to_string(i)}});
+  std::ofstream(dir / "spec.json") << spec.dump();
+  constexpr double kBudget = 3;
+  ChildProcess cli({Impostor(), "bake-batch", (dir / "spec.json").string(), "--out", (dir / "out").string(), "--server",
+                    server.address(), "--json", "--keep-going", "--max-outage-seconds=3"});
+  ASSERT_TRUE(server.process().WaitForLog("event=submit ", kAssets)) << cli.Stderr();
+  server.Kill();
+  const auto killed = std::chrono::steady_clock::now();
+  std::string out;
+  const int exit_code = cli.Wait(&out, std::chrono::seconds(120));
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  EXPECT_EQ(exit_code, 3) << cli.Stderr();
+  EXPECT_LT(seconds, kBudget + 4) << "gave up " << seconds << " s after the kill";
+  const JsonLines lines = ParseLines(out);
+  ASSERT_EQ(lines.assets.size(), static_cast<size_t>(kAssets)) << out;
+  for (const json& a : lines.assets) {
+    EXPECT_EQ(a["status"], "failed") << a.dump();
+    EXPECT_EQ(a["error_code"], 14) << a.dump();  // UNAVAILABLE
+    EXPECT_NE(a["error"].get<std::string>().find("UNAVAILABLE"), std::string::npos) << a.dump();
+  }
+  EXPECT_EQ(lines.summary["exit_code"], 3) << out;
+  EXPECT_EQ(lines.summary["failed"], kAssets) << out;
+}
+
+}  // namespace
+}  // namespace impostor::testing
