@@ -2,16 +2,21 @@
 // with an outline around each frame the impostor blends for the current
 // camera, labelled with its index and weight. The frames come from the
 // runtime shader itself (blend_probe.js), so the marks are the frames drawn.
+// A texture-array result shows its layers at their frames' tiles (what the
+// viewer samples, texture_array.js), so a 128 × 8192 strip is not squeezed
+// into the square and the marks land on the layers they name.
 
 const COLOURS = ['#ff5252', '#ffd740', '#69f0ae', '#40c4ff'];  // by weight rank
 
 import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
+import { decodeLayerStrip, isTextureArray } from './texture_array.js';
 
 // Something drawImage takes: the PNG as an image, a KTX2 map decoded to
-// RGBA8 (ktx2_rgba.js) as an ImageBitmap.
-async function loadImage(url) {
-  if (isKtx2(url)) {
-    const { width, height, data } = await decodeKtx2Rgba(url);
+// RGBA8 (ktx2_rgba.js) or a texture-array strip laid out as the atlas
+// (texture_array.js) as an ImageBitmap.
+async function loadImage(url, manifest) {
+  if (isKtx2(url) || isTextureArray(manifest)) {
+    const { width, height, data } = isKtx2(url) ? await decodeKtx2Rgba(url) : await decodeLayerStrip(url, manifest);
     return createImageBitmap(new ImageData(new Uint8ClampedArray(data.buffer, data.byteOffset, data.length), width, height));
   }
   return new Promise((resolve, reject) => {
@@ -27,7 +32,8 @@ async function loadImage(url) {
 export async function createAtlasPanel(canvas, list, manifest, fileUrl) {
   const albedo = manifest.maps.find((m) => m.semantic === 'albedo_alpha');
   if (!albedo) throw new Error('atlas panel: the result has no albedo_alpha map');
-  const image = await loadImage(fileUrl(albedo.file));
+  const image = await loadImage(fileUrl(albedo.file), manifest);
+  const layers = isTextureArray(manifest);
   const ctx = canvas.getContext('2d');
   const scale = canvas.width / Math.max(image.width, image.height);
   const tile = manifest.tile_size * scale;
@@ -57,7 +63,7 @@ export async function createAtlasPanel(canvas, list, manifest, fileUrl) {
       }
       panel.marked = entries.map((e) => ({ index: e.index, weight: e.weight, tile: [...e.tile] }));
       list.textContent = entries.length
-        ? entries.map((e) => `frame ${e.index} (tile ${e.tile[0]},${e.tile[1]}) weight ${e.weight.toFixed(3)}`).join(' · ')
+        ? entries.map((e) => `frame ${e.index} (${layers ? `layer ${e.index}, shown at ` : ''}tile ${e.tile[0]},${e.tile[1]}) weight ${e.weight.toFixed(3)}`).join(' · ')
         : 'no frames';
     },
   };

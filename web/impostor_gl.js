@@ -9,8 +9,10 @@
 // the runtime expects); normal_depth and orm as RGBA8 (the browser decodes
 // 16-bit PNGs to 8 bits: normals and parallax depth are slightly coarser
 // than in an engine). KTX2 maps are decoded to the same RGBA8 first
-// (ktx2_rgba.js).
+// (ktx2_rgba.js); texture-array strips are laid out as the atlas first
+// (texture_array.js).
 import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
+import { decodeLayerStrip, isTextureArray } from './texture_array.js';
 
 const LAYOUT_KIND = {
   LAYOUT_OCTAHEDRAL: 0, LAYOUT_UNSPECIFIED: 0, LAYOUT_HEMI_OCTAHEDRAL: 1, LAYOUT_AZIMUTH_ELEVATION: 2,
@@ -80,15 +82,15 @@ function compile(gl, type, source) {
   return shader;
 }
 
-async function loadTexture(gl, url, srgb) {
+async function loadTexture(gl, url, srgb, manifest) {
   const tex = gl.createTexture();
   gl.bindTexture(gl.TEXTURE_2D, tex);
   gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
   gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
   const internal = srgb ? gl.SRGB8_ALPHA8 : gl.RGBA8;
-  if (isKtx2(url)) {
-    const { width, height, data } = await decodeKtx2Rgba(url);
+  if (isKtx2(url) || isTextureArray(manifest)) {
+    const { width, height, data } = isKtx2(url) ? await decodeKtx2Rgba(url) : await decodeLayerStrip(url, manifest);
     gl.bindTexture(gl.TEXTURE_2D, tex);
     gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, gl.RGBA, gl.UNSIGNED_BYTE, data);
   } else {
@@ -119,8 +121,9 @@ export async function createImpostorRenderer(canvas, manifest, fileUrl) {
   const normalDepth = mapFile('normal_depth');
   const orm = mapFile('orm');
   if (!albedo || !normalDepth) throw new Error('this result has no albedo_alpha/normal_depth maps to draw');
-  const textures = await Promise.all([loadTexture(gl, fileUrl(albedo.file), true), loadTexture(gl, fileUrl(normalDepth.file), false),
-    orm ? loadTexture(gl, fileUrl(orm.file), false) : Promise.resolve(null)]);
+  const textures = await Promise.all([loadTexture(gl, fileUrl(albedo.file), true, manifest),
+    loadTexture(gl, fileUrl(normalDepth.file), false, manifest),
+    orm ? loadTexture(gl, fileUrl(orm.file), false, manifest) : Promise.resolve(null)]);
   const kind = LAYOUT_KIND[manifest.layout] ?? 0;
   const ringViews = kind === 3 ? manifest.views.length - 1 : kind === 4 ? 8 : 0;
   const u = (name) => gl.getUniformLocation(program, name);

@@ -22,6 +22,7 @@
 // Vulkan's is clip.z / clip.w: the only deviation from the GLSL.
 import * as THREE from 'three';
 import { decodeKtx2Rgba, isKtx2 } from './ktx2_rgba.js';
+import { decodeLayerStrip, isTextureArray } from './texture_array.js';
 
 const LAYOUT_KIND = {
   LAYOUT_OCTAHEDRAL: 0, LAYOUT_UNSPECIFIED: 0, LAYOUT_HEMI_OCTAHEDRAL: 1, LAYOUT_AZIMUTH_ELEVATION: 2,
@@ -135,10 +136,11 @@ void main() {
   o_color = packDepthToRGBA(depth);
 }`;
 
-async function loadTexture(url, srgb) {
+async function loadTexture(url, srgb, manifest) {
   let tex;
-  if (isKtx2(url)) {
-    const { width, height, data } = await decodeKtx2Rgba(url);  // RGBA8, as a PNG decodes
+  if (isKtx2(url) || isTextureArray(manifest)) {
+    // RGBA8, as a PNG decodes; a texture-array strip laid out as the atlas (texture_array.js).
+    const { width, height, data } = isKtx2(url) ? await decodeKtx2Rgba(url) : await decodeLayerStrip(url, manifest);
     tex = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.UnsignedByteType);
   } else {
     const response = await fetch(url);
@@ -169,8 +171,9 @@ export async function createImpostorMaterialMesh(manifest, fileUrl, light = DEFA
   const normalDepth = mapFile('normal_depth');
   const orm = mapFile('orm');
   if (!albedo || !normalDepth) throw new Error('this result has no albedo_alpha/normal_depth maps to draw');
-  const [albedoTex, normalTex, ormTex] = await Promise.all([loadTexture(fileUrl(albedo.file), true),
-    loadTexture(fileUrl(normalDepth.file), false), orm ? loadTexture(fileUrl(orm.file), false) : Promise.resolve(null)]);
+  const [albedoTex, normalTex, ormTex] = await Promise.all([loadTexture(fileUrl(albedo.file), true, manifest),
+    loadTexture(fileUrl(normalDepth.file), false, manifest),
+    orm ? loadTexture(fileUrl(orm.file), false, manifest) : Promise.resolve(null)]);
   const kind = LAYOUT_KIND[manifest.layout] ?? 0;
   const ringViews = kind === 3 ? manifest.views.length - 1 : kind === 4 ? 8 : 0;
   const centre = new THREE.Vector3(...manifest.bounding_sphere.center);

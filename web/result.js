@@ -12,6 +12,8 @@ import { getJson, el, replace, reportError, bytes } from './common.js';
 import { createImpostorRenderer } from './impostor_gl.js';
 import { attachDebugViews } from './viewer_debug.js';
 import { showScene } from './impostor_scene_view.js';
+import { isTextureArray } from './texture_array.js';
+import { lodChainLevelNote, noViewerNote, productQuality } from './product_info.js';
 
 const key = decodeURIComponent(location.pathname.split('/').pop());
 const fileUrl = (name) => `/api/v1/results/${key}/files/${encodeURIComponent(name)}`;
@@ -20,15 +22,6 @@ function kv(pairs) {
   const dl = el('dl', { class: 'kv' });
   for (const [k, v] of pairs) dl.append(el('dt', {}, k), el('dd', {}, v instanceof Node ? v : String(v)));
   return dl;
-}
-
-// The cards' own held-out-view comparison (manifest cards.quality).
-function cardsQuality(m) {
-  const q = m.cards && m.cards.quality;
-  if (!q || !q.views) return null;
-  return [['product', 'cards (the quads rendered against the mesh)'], ['held-out views', q.views],
-    ['silhouette IoU (min / mean)', `${q.silhouette_iou_min.toFixed(4)} / ${q.silhouette_iou_mean.toFixed(4)}`],
-    ['albedo PSNR dB', q.albedo_psnr_db.toFixed(2)]];
 }
 
 // Files a product has besides its maps (cards.glb, surfels.bin/.ply).
@@ -54,7 +47,7 @@ function showStatic(result) {
     ['albedo PSNR dB over the union, over black (mean)', (q.albedo_psnr_union_db_mean ?? q.albedo_psnr_db_mean ?? 0).toFixed(2)],
     ['normal error deg (mean / max)', `${q.normal_error_deg_mean.toFixed(2)} / ${q.normal_error_deg_max.toFixed(2)}`],
     ['depth error (mean / max)', `${q.depth_error_mean.toFixed(4)} / ${q.depth_error_max.toFixed(4)}`],
-    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : cardsQuality(m) || [['quality pass', 'not run for this bake']];
+    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : productQuality(m) || [['quality pass', 'not run for this bake']];
   replace('quality', kv(quality));
   const maps = el('div', { class: 'maps' });
   for (const map of m.maps) {
@@ -124,7 +117,12 @@ async function showViewer(result) {
   }
   document.body.dataset.viewerStage = 'impostor';
   const impostor = await createImpostorRenderer(impostorCanvas, m, fileUrl);
-  document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`;
+  document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`
+    + (isTextureArray(m) ? `; texture array of ${m.views.length} layers, layer i = frame i` : '')
+    + (lodChainLevelNote(m) ? `. ${lodChainLevelNote(m)}` : '');
+  if (isTextureArray(m)) {
+    document.getElementById('atlas-caption').textContent = 'albedo texture-array layers, each at its frame\'s atlas tile';
+  }
 
   const blendParam = new URLSearchParams(location.search).get('blend');
   if (blendParam !== null) impostor.options.blend = Number(blendParam);
@@ -187,14 +185,14 @@ async function main() {
   } else if (query.get('scene')) {
     // The reference material in a three.js scene (impostor_scene_view.js).
     await showScene(result, fileUrl, await meshUrl(result), query.get('scene'), Number(query.get('size') || 256));
-  } else if (result.manifest.product === 'PRODUCT_ATLAS' || result.manifest.product === 'PRODUCT_UNSPECIFIED') {
+  } else if (['PRODUCT_ATLAS', 'PRODUCT_UNSPECIFIED', 'PRODUCT_LOD_CHAIN'].includes(result.manifest.product)) {
+    // A LOD chain's top-level atlas fields and maps are its impostor level's.
     await showViewer(result);
   } else {
     // The viewer draws atlases; say so instead of showing empty canvases.
     const section = document.getElementById('mesh').closest('section');
-    section.replaceChildren(el('h2', {}, '3D'), el('p', { class: 'muted', 'data-testid': 'no-viewer' },
-      `no 3D view here for product ${result.manifest.product.replace('PRODUCT_', '').toLowerCase()}: `
-      + 'its files are below (cards.glb and lod<N>.glb open in any glTF viewer)'));
+    section.replaceChildren(el('h2', {}, '3D'),
+      el('p', { class: 'muted', 'data-testid': 'no-viewer' }, noViewerNote(result.manifest)));
     document.body.dataset.viewerReady = 'n/a';
   }
 }

@@ -1,5 +1,8 @@
 #include "server/http/json_api.h"
 
+#include <cmath>
+#include <cstdint>
+
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 
@@ -32,6 +35,10 @@ void NumbersFor64BitFields(const google::protobuf::Descriptor* d, nlohmann::json
     }
   }
 }
+
+// FarmMetrics keeps counts as Prometheus counters (doubles); the API gives
+// counts as JSON integers (301, not 301.0), like the jobs-by-state counts.
+int64_t Count(double counter) { return std::llround(counter); }
 
 }  // namespace
 
@@ -97,8 +104,8 @@ nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers
                     {"last_seen_ms", w.last_seen_ms},
                     {"job_ids", w.job_ids},
                     {"paused_until_ms", w.paused_until_ms},
-                    {"jobs_completed", done},
-                    {"jobs_failed", failed}});
+                    {"jobs_completed", Count(done)},
+                    {"jobs_failed", Count(failed)}});
   }
   return {{"workers", list}};
 }
@@ -154,11 +161,11 @@ nlohmann::json SummaryJson(const std::map<v1::JobState, int64_t>& jobs_by_state,
   return {{"now_ms", now_ms},
           {"jobs", jobs},
           {"workers", by_state},
-          {"cache_hits", totals.cache_hits},
-          {"cache_misses", totals.cache_misses},
+          {"cache_hits", Count(totals.cache_hits)},
+          {"cache_misses", Count(totals.cache_misses)},
           {"cache_hit_ratio", lookups > 0 ? totals.cache_hits / lookups : 0.0},
-          {"jobs_completed", totals.jobs_completed},
-          {"jobs_failed", totals.jobs_failed},
+          {"jobs_completed", Count(totals.jobs_completed)},
+          {"jobs_failed", Count(totals.jobs_failed)},
           {"store_bytes", store_bytes}};
 }
 

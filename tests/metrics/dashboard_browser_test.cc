@@ -263,5 +263,87 @@ TEST_F(DashboardBrowser, TheViewerCentresAModelWhosePivotIsAtItsFootOtherProduct
   EXPECT_EQ(errors.find("404"), errors.rfind("404")) << "reported once: " << errors;
 }
 
+// A surfels result shows its own quality figures (manifest surfels.quality)
+// and a note that names its PLY, not the cards' and LOD chain's .glb; a LOD
+// chain's last level is an ordinary atlas impostor, so its page draws it in
+// the viewer beside the mesh and says which level it is.
+TEST_F(DashboardBrowser, SurfelsShowTheirQualityAndPlyNoteAndALodChainShowsItsImpostorLevel) {
+  ServerProcess server(/*local_workers=*/1, {"--http-listen=127.0.0.1:0"});
+  const std::string base = "http://127.0.0.1:" + std::to_string(HttpPort(server));
+  const v1::MeshInput box =
+      testing::UploadGlb(server.assets(), testing::AssetsDir() / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  v1::SubmitBakeRequest surfels_request;
+  *surfels_request.mutable_mesh() = box;
+  surfels_request.mutable_parameters()->set_product(v1::PRODUCT_SURFELS);
+  surfels_request.mutable_parameters()->set_preset("prop");
+  surfels_request.mutable_parameters()->set_point_budget(1024);
+  surfels_request.mutable_parameters()->set_frames(8);
+  surfels_request.mutable_parameters()->set_resolution(256);
+  v1::SubmitBakeRequest lod_request;
+  *lod_request.mutable_mesh() = box;
+  lod_request.mutable_parameters()->set_product(v1::PRODUCT_LOD_CHAIN);
+  lod_request.mutable_parameters()->set_frames(8);
+  lod_request.mutable_parameters()->set_resolution(256);
+  lod_request.mutable_parameters()->set_quality_views(0);
+  v1::SubmitBakeResponse surfels_submitted, lod_submitted;
+  ASSERT_TRUE(server.bake().SubmitBake(testing::ContextWithin().get(), surfels_request, &surfels_submitted).ok());
+  ASSERT_TRUE(server.bake().SubmitBake(testing::ContextWithin().get(), lod_request, &lod_submitted).ok());
+  const v1::Job surfels = testing::WatchToEnd(server.bake(), surfels_submitted.job_id());
+  const v1::Job lod = testing::WatchToEnd(server.bake(), lod_submitted.job_id());
+  ASSERT_EQ(surfels.state(), v1::JOB_STATE_SUCCEEDED) << surfels.error().message();
+  ASSERT_EQ(lod.state(), v1::JOB_STATE_SUCCEEDED) << lod.error().message();
+  const v1::SurfelQuality& q = surfels.result().surfels().quality();
+  ASSERT_GT(q.views(), 0u) << "the surfel bake ran no quality pass: the case this test is about";
+
+  const PageRun page = RunPage(
+      base + "/results/" + surfels.result().cache_key(), "document.body.dataset.viewerReady === 'n/a'",
+      {"--screenshot", (kArtifacts / "surfels_result.png").string(), "--eval",
+       "({ note: (document.querySelector('[data-testid=no-viewer]') || {}).textContent || '',"
+       " quality: document.getElementById('quality').textContent,"
+       " errors: document.getElementById('errors').textContent })"});
+  EXPECT_EQ(page.exit_code, 0) << page.report.dump();
+  EXPECT_EQ(page.report["console_errors"], nlohmann::json::array()) << page.report.dump();
+  const nlohmann::json& v = page.report["value"];
+  ASSERT_TRUE(v.is_object()) << page.report.dump();
+  EXPECT_EQ(v["errors"], "");
+  const std::string quality = v["quality"].get<std::string>();
+  EXPECT_EQ(quality.find("not run"), std::string::npos) << quality;
+  char iou[64], psnr[32];
+  std::snprintf(iou, sizeof(iou), "%.4f / %.4f", q.silhouette_iou_min(), q.silhouette_iou_mean());
+  std::snprintf(psnr, sizeof(psnr), "%.2f", q.albedo_psnr_db());
+  EXPECT_NE(quality.find(iou), std::string::npos) << "IoU min / mean " << iou << " missing: " << quality;
+  EXPECT_NE(quality.find(psnr), std::string::npos) << "PSNR " << psnr << " missing: " << quality;
+  EXPECT_NE(quality.find("held-out views" + std::to_string(q.views())), std::string::npos) << quality;
+  const std::string note = v["note"].get<std::string>();
+  EXPECT_NE(note.find("surfels.ply"), std::string::npos) << note;
+  EXPECT_EQ(note.find("cards.glb"), std::string::npos) << note;
+  EXPECT_EQ(note.find("lod<N>.glb"), std::string::npos) << note;
+
+  const std::string covered =
+      "(() => { const c = document.getElementById('impostor'); if (!c) return 0;"
+      " const t = document.createElement('canvas'); t.width = c.width; t.height = c.height; const g = t.getContext('2d'); g.drawImage(c, 0, 0);"
+      " const d = g.getImageData(0, 0, t.width, t.height).data; let n = 0;"
+      " for (let i = 0; i < d.length; i += 4) n += d[i + 3] > 127;"
+      " return n / (t.width * t.height); })()";
+  const PageRun chain = RunPage(
+      base + "/results/" + lod.result().cache_key() + "?camera=35,20,4",
+      "document.body.dataset.viewerReady === '1' || document.body.dataset.viewerReady === 'n/a'"
+      " || document.getElementById('errors').textContent !== ''",
+      {"--screenshot", (kArtifacts / "lod_chain_result.png").string(), "--eval",
+       "({ ready: document.body.dataset.viewerReady, impostor: " + covered +
+           ", frames: (document.getElementById('frames') || {}).textContent || '',"
+           " errors: document.getElementById('errors').textContent })"});
+  EXPECT_EQ(chain.exit_code, 0) << chain.report.dump();
+  EXPECT_EQ(chain.report["console_errors"], nlohmann::json::array()) << chain.report.dump();
+  const nlohmann::json& c = chain.report["value"];
+  ASSERT_TRUE(c.is_object()) << chain.report.dump();
+  EXPECT_EQ(c["errors"], "");
+  EXPECT_EQ(c["ready"], "1") << "no viewer for the LOD chain's impostor level: " << chain.report.dump();
+  EXPECT_GT(c["impostor"].get<double>(), 0.05) << chain.report.dump();
+  const std::string impostor_level = "lod" + std::to_string(lod.result().lods_size() - 1);
+  EXPECT_NE(c["frames"].get<std::string>().find(impostor_level), std::string::npos)
+      << "the page does not name the impostor level " << impostor_level << ": " << c["frames"];
+}
+
 }  // namespace
 }  // namespace impostor
