@@ -95,6 +95,20 @@ TEST_F(LodBakeTest, TreeChainHasOrderedLevelsSharedTexturesAndThresholds) {
   }
   EXPECT_EQ(m.lods(3).threshold(), 0.0f);
   EXPECT_FLOAT_EQ(m.lods(2).threshold(), impostor);
+  // Mesh levels whose threshold equals the one before are never drawn, and
+  // the manifest says which.
+  std::string never_drawn_warning;
+  for (const std::string& w : m.warnings()) {
+    if (w.find("never drawn") != std::string::npos) never_drawn_warning = w;
+  }
+  bool any_never_drawn = false;
+  for (int i = 1; i < 3; ++i) {
+    const bool never = m.lods(i).threshold() >= m.lods(i - 1).threshold();
+    any_never_drawn = any_never_drawn || never;
+    EXPECT_EQ(never_drawn_warning.find("lod" + std::to_string(i)) != std::string::npos, never)
+        << "level " << i << ": " << never_drawn_warning;
+  }
+  EXPECT_EQ(!never_drawn_warning.empty(), any_never_drawn) << never_drawn_warning;
   for (int i = 0; i < 2; ++i) {
     EXPECT_FLOAT_EQ(m.lods(i).threshold(), std::max(1.0f / m.lods(i + 1).error(), m.lods(i + 1).threshold()))
         << "level " << i;
@@ -173,6 +187,7 @@ TEST_F(LodBakeTest, HelmetThresholdsShrinkAsErrorGrows) {
   EXPECT_GT(m.lods(1).threshold(), m.lods(2).threshold());
   EXPECT_FLOAT_EQ(m.lods(0).threshold(), 1.0f / m.lods(1).error());
   EXPECT_FLOAT_EQ(m.lods(1).threshold(), 1.0f / m.lods(2).error());
+  for (const std::string& w : m.warnings()) EXPECT_EQ(w.find("never drawn"), std::string::npos) << w;
   // The five embedded JPEGs become five texture files, stored once.
   int textures = 0;
   for (const v1::MapFile& f : m.maps()) textures += f.semantic() == "lod_texture";

@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "common/manifest_json.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/lod/lod_glb_writer.h"
@@ -146,6 +147,19 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
   const float radius = atlas->manifest.bounding_sphere().radius();
   const std::vector<float> thresholds = LodThresholds(errors, radius, p.lod_pixel_error());
   for (size_t i = 0; i < errors.size(); ++i) chain.mutable_lods(static_cast<int>(i))->set_threshold(thresholds[i]);
+  // A level whose threshold equals the one before it is never drawn (the
+  // SDK's rule): its error would show before the next switch. Files an
+  // artist ships and never sees must be said, not found out.
+  std::vector<std::string> never_drawn;
+  for (size_t i = 1; i < errors.size(); ++i) {
+    if (thresholds[i] >= thresholds[i - 1]) never_drawn.push_back(absl::StrCat("lod", i));
+  }
+  if (!never_drawn.empty()) {
+    chain.add_warnings(absl::StrCat(absl::StrJoin(never_drawn, ", "), never_drawn.size() == 1 ? " is" : " are",
+                                    " never drawn: its geometric error would show more than lod_pixel_error pixels "
+                                    "until the impostor takes over, so the level before it is drawn down to the "
+                                    "next switch; milder --lod-ratios keep such levels"));
+  }
   v1::LodLevel* imp = chain.add_lods();
   imp->set_level(static_cast<uint32_t>(errors.size()));
   imp->set_kind("impostor");
