@@ -143,6 +143,13 @@ if(_impostor_export_targets)
       ${CMAKE_SOURCE_DIR}/shaders/impostor_material.glsl
       ${CMAKE_SOURCE_DIR}/shaders/impostor_material_light.glsl
     DESTINATION ${CMAKE_INSTALL_DATADIR}/impostor/shaders COMPONENT sdk)
+  # The documents the public headers name (share/doc/impostor).
+  install(FILES
+      ${CMAKE_SOURCE_DIR}/common/manifest_format.md
+      ${CMAKE_SOURCE_DIR}/client/cache/cache_layout.md
+      ${CMAKE_SOURCE_DIR}/docs/runtime.md
+      ${CMAKE_SOURCE_DIR}/docs/ktx2.md
+    DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/impostor COMPONENT sdk)
 endif()
 
 foreach(_pair impostor-server:server impostor-worker:worker impostor:cli)

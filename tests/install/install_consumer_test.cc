@@ -98,6 +98,17 @@ TEST_F(InstallTest, InstalledTreeHoldsThePackageAndHidesTheInternals) {
               ReadFile(fs::path(IMPOSTOR_SOURCE_DIR) / "shaders" / shader))
         << shader;
   }
+  // The documents the headers name, where the headers say they are.
+  for (const char* doc : {"manifest_format.md", "cache_layout.md", "runtime.md", "ktx2.md"}) {
+    EXPECT_TRUE(fs::exists(prefix_ / "share/doc/impostor" / doc)) << doc;
+  }
+  for (const auto& entry : fs::directory_iterator(prefix_ / "include/impostor")) {
+    const std::string text = ReadFile(entry.path());
+    for (const char* source_only : {"common/", "client/cache/", "docs/"}) {
+      EXPECT_EQ(text.find(source_only), std::string::npos)
+          << entry.path() << " names " << source_only << ", which is not installed";
+    }
+  }
   // Public headers include no gRPC, protobuf or private header.
   for (const auto& entry : fs::directory_iterator(prefix_ / "include/impostor")) {
     std::ifstream in(entry.path());

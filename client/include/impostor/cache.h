@@ -66,7 +66,7 @@ struct CacheOptions {
   // Directory of the cache; created if missing. Several Cache objects, in
   // this process or others, may share it (installs are atomic renames and
   // in-use results are locked against eviction), but one per process is the
-  // efficient way. Layout: client/cache/cache_layout.md.
+  // efficient way. Layout: cache_layout.md (installed in share/doc/impostor).
   // Default: none. Required.
   std::filesystem::path dir;
 
@@ -168,7 +168,7 @@ struct CachedFile {
   // The manifest's width, height and format of the file: pixels and
   // "png_rgba8" / "png_rgba16" for map images; for other files what their
   // product's manifest says (cards.glb: the card count x 1; manifest.json
-  // and views.json: 0 x 0, "json"). common/manifest_format.md.
+  // and views.json: 0 x 0, "json"). manifest_format.md (share/doc/impostor).
   uint32_t width = 0;
   uint32_t height = 0;
   std::string format;
@@ -195,7 +195,7 @@ class CachedResult {
   const std::string& key() const;
   // The directory holding the result's files.
   const std::filesystem::path& dir() const;
-  // manifest.json (format: common/manifest_format.md) and its text.
+  // manifest.json (format: manifest_format.md, share/doc/impostor) and its text.
   const std::filesystem::path& manifest_path() const;
   const std::string& manifest_json() const;
   // Every map image in manifest order, then manifest.json.
@@ -353,7 +353,7 @@ class Cache {
   class Impl;  // private
 
  private:
-  friend class CacheFactory;  // opens with test hooks (client/cache/cache_testing.h)
+  friend class CacheFactory;  // opens with test hooks (cache_testing.h, in the source tree)
   explicit Cache(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

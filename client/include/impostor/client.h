@@ -288,7 +288,7 @@ struct BakeSettings {
 
   // Product "atlas" only: file format of the maps, "png" or "ktx2" (each map
   // a KTX2 file, Basis Universal UASTC, with a mip chain made per tile so no
-  // level mixes frames; docs/ktx2.md). The server rounds resolution down so
+  // level mixes frames; ktx2.md in share/doc/impostor). The server rounds resolution down so
   // tiles are multiples of 4 px at every level. Default: empty = "png".
   // Not with texture_array or frames_auto. Checked by the server.
   std::string texture_format;

@@ -4,7 +4,7 @@
 // renderer and the reference shader shaders/impostor_runtime.glsl, and the
 // same direction <-> frame mapping the baker used (one implementation).
 //
-// Conventions (manifest.json, common/manifest_format.md): object space is
+// Conventions (manifest.json, manifest_format.md in share/doc/impostor): object space is
 // the glTF scene's space, +Y up. A view direction is the unit vector from the
 // bounding sphere's centre TOWARD the camera (for a perspective camera at
 // eye e: normalize(e - center)). Frame indices are those of the manifest's
@@ -45,7 +45,8 @@
 // around the view in (azimuth, elevation), wrapping in azimuth, with the
 // pole caps handed to one frame; ring-top and billboard blend the two ring
 // frames around the azimuth with the top frame by elevation (both modes);
-// see common/runtime/frame_blend.h for the exact weights.
+// the exact weights are runtime.md's (share/doc/impostor) and impostor_runtime.glsl's
+// (share/impostor/shaders), the same math.
 //
 // All functions are pure and thread-safe.
 #ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_RUNTIME_H_
@@ -143,7 +144,7 @@ FrameUv VirtualPlaneUv(Layout layout, int frames, int frame, const float sphere_
 
 // The same with parallax: marches the ray through the frame's captured depth
 // (16 steps from the front of the bounding sphere to the back, then 4
-// bisection steps; see common/runtime/virtual_plane.h). `read_depth(u, v,
+// bisection steps; see runtime.md in share/doc/impostor). `read_depth(u, v,
 // &depth01)` returns the frame's depth (the normal_depth map's A channel,
 // 0..1) at tile coordinates (u, v), or false where the frame is empty
 // (coverage below 0.5).
@@ -159,7 +160,7 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
 // tile coordinates, for an atlas of `resolution` pixels: square tiles of the
 // manifest's `tile_size` pixels from the top-left corner (floor(resolution /
 // side) rounded down to a multiple of a power of two so that mip levels never
-// mix tiles; common/manifest_format.md), the rest of the atlas empty. The
+// mix tiles; manifest_format.md), the rest of the atlas empty. The
 // AtlasLayout form places frame i in tile (i % side, i / side) of the
 // layout's side x side grid (side = frames, or ceil(sqrt(K + 1)) for
 // ring-top, 3 for billboard); the int form is for the grid layouts.
@@ -168,11 +169,11 @@ FrameUv VirtualPlaneUvParallax(Layout layout, int frames, int frame, const float
 void FrameUvToAtlasUv(const AtlasLayout& layout, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 void FrameUvToAtlasUv(int frames, int resolution, int frame, const FrameUv& uv, float atlas_uv[2]);
 
-// ---- Reconstruction modes (docs/runtime.md: cost of each) ----
+// ---- Reconstruction modes (runtime.md: cost of each) ----
 // plain: each blended frame sampled on its virtual plane (VirtualPlaneUv, or
 // VirtualPlaneUvParallax). depth: every blended frame samples the same
 // surface point and frames that did not see it drop out, which removes the
-// double image between frames (common/runtime/depth_reconstruction.h).
+// double image between frames (runtime.md).
 enum class Reconstruction { kPlain, kDepth };
 std::optional<Reconstruction> ReconstructionFromName(std::string_view name);  // "plain", "depth"
 std::string_view ReconstructionName(Reconstruction mode);
