@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
                     "planes), both unlit, each view ",
                     rows.empty() ? 0u : rows.front().quality.view_pixels(),
                     " px; the mesh's held-out views are supersampled 3 x 3 (each pixel its area, "
-                    "worker/bake/quality_pass.h), the pop orbit's are one sample per pixel like the impostor's. "
+                    "worker/bake/quality_pass.h), the pop orbit's are one sample per pixel like the impostor's (filtered by mip level, no anisotropic filtering on a CPU device). "
                     "Each cell is depth / plain. IoU: silhouette intersection over union. PSNR and SSIM: albedo "
                     "over the pixels both renders cover (colour fidelity; silhouette misses are IoU's and the "
                     "boundary error's). Boundary: mean distance in view pixels between the two silhouettes' "
