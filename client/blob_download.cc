@@ -2,11 +2,10 @@
 
 #include <memory>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/atomic_file.h"
 #include "client/retry.h"
+#include "client/sdk_log.h"
 #include "common/sha256.h"
 
 namespace impostor::sdk {
@@ -55,7 +54,7 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
     } else if (!retry.ShouldRetry(status)) {
       return status;
     }
-    spdlog::debug("download of {} interrupted at byte {} ({}); resuming", name, received, status.ToString());
+    SdkLog().debug("download of {} interrupted at byte {} ({}); resuming", name, received, status.ToString());
   }
   const std::string actual = hash.FinishHex();
   if (actual != digest.hash()) {

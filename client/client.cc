@@ -5,8 +5,6 @@
 #include <random>
 #include <utility>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/blob_download.h"
 #include "client/job_convert.h"
@@ -15,6 +13,7 @@
 #include "client/result_fetch.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
+#include "client/sdk_log.h"
 #include "client/transport.h"
 
 namespace impostor::sdk {
@@ -73,8 +72,8 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
 
   absl::StatusOr<UploadedMesh> uploaded = UploadMesh(impl_->transport(), *files);
   if (!uploaded.ok()) return uploaded.status();
-  spdlog::debug("{}: {} files, {} uploaded ({} bytes)", model.string(), uploaded->stats.files,
-                uploaded->stats.uploaded, uploaded->stats.bytes_uploaded);
+  SdkLog().debug("{}: {} files, {} uploaded ({} bytes)", model.string(), uploaded->stats.files,
+                 uploaded->stats.uploaded, uploaded->stats.bytes_uploaded);
 
   v1::SubmitBakeRequest request;
   *request.mutable_mesh() = std::move(uploaded->mesh);
@@ -190,7 +189,7 @@ absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
                             absl::StrCat("stream for job ", job_id, " ended before the job finished"));
     }
     if (!retry.ShouldRetry(status)) return status;
-    spdlog::debug("WatchJob {} interrupted ({}); resuming", job_id, status.ToString());
+    SdkLog().debug("WatchJob {} interrupted ({}); resuming", job_id, status.ToString());
     // GetJob rides out the rest of an outage itself (the same budget), so
     // its failure is final: the budget is spent or the job is gone.
     absl::StatusOr<v1::Job> job = transport.GetJob(job_id);

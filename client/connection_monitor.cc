@@ -2,7 +2,7 @@
 
 #include <utility>
 
-#include <spdlog/spdlog.h>
+#include "client/sdk_log.h"
 
 namespace impostor::sdk {
 
@@ -25,7 +25,7 @@ void ConnectionMonitor::NoteAnswer() {
   event.kind = ConnectionEvent::Kind::kRegained;
   event.server = server_;
   event.max_outage_seconds = max_outage_seconds_;
-  spdlog::debug("server {} answers again after {:.1f} s", server_, event.outage_seconds);
+  SdkLog().debug("server {} answers again after {:.1f} s", server_, event.outage_seconds);
   if (on_change_) on_change_(event);
 }
 
@@ -46,8 +46,8 @@ void ConnectionMonitor::NoteFailure(const absl::Status& status) {
   event.server = server_;
   event.error = status;
   event.max_outage_seconds = max_outage_seconds_;
-  spdlog::debug("lost server {} ({}); retrying for up to {} s", server_, std::string(status.message()),
-                max_outage_seconds_);
+  SdkLog().debug("lost server {} ({}); retrying for up to {} s", server_, std::string(status.message()),
+                 max_outage_seconds_);
   if (on_change_) on_change_(event);
 }
 

@@ -7,10 +7,9 @@
 #include <set>
 #include <string>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/retry.h"
+#include "client/sdk_log.h"
 #include "common/sha256.h"
 
 namespace impostor::sdk {
@@ -45,7 +44,7 @@ absl::Status UploadOnce(Transport& transport, const LocalBlob& blob) {
   };
   absl::StatusOr<v1::UploadBlobResponse> response = transport.UploadBlob(blob.digest, next);
   if (!response.ok()) return response.status();
-  if (response->already_present()) spdlog::debug("{} was already in the store", blob.path.string());
+  if (response->already_present()) SdkLog().debug("{} was already in the store", blob.path.string());
   return absl::OkStatus();
 }
 
@@ -56,8 +55,8 @@ absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
   while (true) {
     absl::Status status = UploadOnce(transport, blob);
     if (status.ok() || !retry.ShouldRetry(status)) return status;
-    spdlog::debug("upload of {} failed ({} in a row): {}; starting it over", blob.path.string(), retry.failures(),
-                  status.ToString());
+    SdkLog().debug("upload of {} failed ({} in a row): {}; starting it over", blob.path.string(), retry.failures(),
+                   status.ToString());
   }
 }
 

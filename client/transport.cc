@@ -11,13 +11,13 @@
 #include <grpcpp/create_channel.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/support/client_interceptor.h>
-#include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/connection_monitor.h"
 #include "client/retry.h"
 #include "client/rpc_error.h"
+#include "client/sdk_log.h"
 #include "common/connect_error.h"
 #include "common/failover_channel.h"
 #include "common/keepalive.h"
@@ -104,7 +104,7 @@ ConnectFailure DescribeConnectFailure(grpc::Channel& channel, bool uses_tls,
   v1::GetJobRequest request;
   v1::Job job;
   const grpc::Status status = probe.GetJob(&context, request, &job);
-  spdlog::debug("connect probe: {} {}", static_cast<int>(status.error_code()), status.error_message());
+  SdkLog().debug("connect probe: {} {}", static_cast<int>(status.error_code()), status.error_message());
   return ExplainConnectError(status.error_message(), uses_tls, diagnose_certificate);
 }
 
@@ -257,7 +257,7 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
     std::string reason = WaitForReady(*route.channel, share, UsesTls(tls), diagnose_certificate);
     if (reason.empty()) {
       stubs->channels->NoteAnswer(route);
-      spdlog::debug("connected to impostor server at {}", target);
+      SdkLog().debug("connected to impostor server at {}", target);
       return std::unique_ptr<Transport>(new Transport(options, std::move(stubs)));
     }
     reasons.push_back(stubs->channels->size() == 1 ? reason : absl::StrCat(target, ": ", reason));
@@ -321,13 +321,13 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
     absl::Status error = Note(status, rpc, route, &try_next_now);
     if (error.ok()) return response;
     if (try_next_now && ++moved_on < stubs_->channels->size()) {
-      spdlog::debug("{} failed on {}: {}; trying {}", std::string(rpc), stubs_->channels->target(route.index),
-                    error.ToString(), stubs_->channels->target(stubs_->channels->Current().index));
+      SdkLog().debug("{} failed on {}: {}; trying {}", std::string(rpc), stubs_->channels->target(route.index),
+                     error.ToString(), stubs_->channels->target(stubs_->channels->Current().index));
       continue;
     }
     moved_on = 0;
     if (!retry.ShouldRetry(error)) return error;
-    spdlog::debug("{} failed ({} in a row): {}; retrying", std::string(rpc), retry.failures(), error.ToString());
+    SdkLog().debug("{} failed ({} in a row): {}; retrying", std::string(rpc), retry.failures(), error.ToString());
   }
 }
 

@@ -116,6 +116,7 @@ if(_impostor_export_targets)
       ${_impostor_headers_dir}/impostor/runtime.h
       ${_impostor_headers_dir}/impostor/lod.h
       ${_impostor_headers_dir}/impostor/impostor_c.h
+      ${_impostor_headers_dir}/impostor/log.h
     DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/impostor COMPONENT sdk)
   install(EXPORT impostorTargets NAMESPACE impostor:: FILE impostorTargets.cmake
     DESTINATION ${IMPOSTOR_CMAKE_INSTALL_DIR} COMPONENT sdk)

@@ -7,6 +7,22 @@
 
 namespace impostor {
 
+// The SDK's own logger (client/sdk_log.h), which a move logged at debug
+// (LogMoves::kDebug, "inside the SDK") goes to, so that it reaches the log
+// handler a game set (impostor/log.h) and never the process's default
+// logger. Weak: a program without the SDK (the worker) has no such logger
+// and logs to the default one.
+[[gnu::weak]] spdlog::logger& SdkLog();
+
+namespace {
+
+spdlog::logger& MovesLogger(FailoverChannel::LogMoves log_moves) {
+  if (log_moves == FailoverChannel::LogMoves::kDebug && &SdkLog != nullptr) return SdkLog();
+  return *spdlog::default_logger_raw();
+}
+
+}  // namespace
+
 FailoverChannel::FailoverChannel(std::vector<std::string> targets, MakeChannel make, LogMoves log_moves)
     : targets_(std::move(targets)), make_(std::move(make)), log_moves_(log_moves), failed_(targets_.size(), false) {
   std::lock_guard lock(mu_);
@@ -38,9 +54,9 @@ bool FailoverChannel::NoteFailure(const Route& route, grpc::StatusCode code) {
   }
   if (current_ == route.index) {
     current_ = (current_ + 1) % targets_.size();
-    spdlog::log(log_moves_ == LogMoves::kInfo ? spdlog::level::info : spdlog::level::debug,
-                "event=server_failover from={} to={} code={}", targets_[route.index], targets_[current_],
-                static_cast<int>(code));
+    MovesLogger(log_moves_).log(log_moves_ == LogMoves::kInfo ? spdlog::level::info : spdlog::level::debug,
+                                "event=server_failover from={} to={} code={}", targets_[route.index],
+                                targets_[current_], static_cast<int>(code));
   }
   return !failed_[current_];
 }

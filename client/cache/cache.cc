@@ -20,8 +20,6 @@
 #include <system_error>
 #include <unordered_map>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/cache/cache_layout.h"
 #include "client/cache/cache_testing.h"
@@ -37,6 +35,7 @@
 #include "client/mesh_files.h"
 #include "client/mesh_upload.h"
 #include "client/result_fetch.h"
+#include "client/sdk_log.h"
 #include "common/keepalive.h"
 #include "common/server_list.h"
 #include "common/tls_files.h"
@@ -302,8 +301,8 @@ class Cache::Impl {
       absl::StatusOr<EntryRecord> record = ReadEntryRecord(dir);
       if (!record.ok() || record->key != key) {
         if (record.ok() || record.status().code() != absl::StatusCode::kNotFound || fs::exists(dir)) {
-          spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(),
-                       record.ok() ? std::string("key mismatch") : record.status().ToString());
+          SdkLog().warn("cache: dropping unreadable entry {}: {}", dir.string(),
+                        record.ok() ? std::string("key mismatch") : record.status().ToString());
           Count(&CacheStats::corrupt_entries);
           (void)RemoveEntryDir(layout_, dir);
         }
@@ -344,7 +343,7 @@ class Cache::Impl {
       absl::StatusOr<EntryRecord> record = ReadEntryRecord(dir);
       if (!record.ok()) {
         if (record.status().code() != absl::StatusCode::kNotFound) {
-          spdlog::warn("cache: dropping unreadable entry {}: {}", dir.string(), record.status().ToString());
+          SdkLog().warn("cache: dropping unreadable entry {}: {}", dir.string(), record.status().ToString());
           Count(&CacheStats::corrupt_entries);
           (void)RemoveEntryDir(layout_, dir);
         }
@@ -398,7 +397,7 @@ class Cache::Impl {
     if (check.code() == absl::StatusCode::kNotFound || check.code() == absl::StatusCode::kDataLoss) {
       // A file gone from an installed entry is damage too (something deleted
       // part of it): counted and said, not silently fetched again.
-      spdlog::warn("cache: {} is damaged ({}); fetching it again", key, check.ToString());
+      SdkLog().warn("cache: {} is damaged ({}); fetching it again", key, check.ToString());
       Count(&CacheStats::corrupt_entries);
       Forget(key);
       // Damaged files are useless to every holder, pinned or not.
@@ -521,8 +520,8 @@ class Cache::Impl {
         lru_.Erase(key);
         stats_.evicted_entries += 1;
       }
-      if (absl::Status s = RemoveEntryDir(layout_, dir); !s.ok()) spdlog::warn("cache: {}", s.ToString());
-      spdlog::debug("cache: evicted {} ({} bytes)", key, size);
+      if (absl::Status s = RemoveEntryDir(layout_, dir); !s.ok()) SdkLog().warn("cache: {}", s.ToString());
+      SdkLog().debug("cache: evicted {} ({} bytes)", key, size);
       if (report != nullptr) {
         report->evicted_entries += 1;
         report->evicted_bytes += size;
@@ -542,7 +541,7 @@ class Cache::Impl {
       const fs::path dir = layout_.EntryDir(key);
       absl::Status s = CheckEntryFiles(dir, record, FileCheck::kDigest);
       if (s.ok() || (s.code() != absl::StatusCode::kDataLoss && s.code() != absl::StatusCode::kNotFound)) continue;
-      spdlog::warn("cache: {} fails verification: {}", key, s.ToString());
+      SdkLog().warn("cache: {} fails verification: {}", key, s.ToString());
       Forget(key);
       (void)RemoveEntryDir(layout_, dir);
       report->broken_entries += 1;

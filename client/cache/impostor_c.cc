@@ -6,9 +6,12 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "impostor/cache.h"
+#include "impostor/log.h"
 
 struct impostor_cache {
   std::unique_ptr<impostor::sdk::Cache> cache;
@@ -24,6 +27,13 @@ struct impostor_result {
 };
 
 namespace {
+
+// impostor_log_level is impostor::sdk::LogLevel.
+static_assert(static_cast<int>(impostor::sdk::LogLevel::kDebug) == IMPOSTOR_LOG_DEBUG);
+static_assert(static_cast<int>(impostor::sdk::LogLevel::kInfo) == IMPOSTOR_LOG_INFO);
+static_assert(static_cast<int>(impostor::sdk::LogLevel::kWarning) == IMPOSTOR_LOG_WARNING);
+static_assert(static_cast<int>(impostor::sdk::LogLevel::kError) == IMPOSTOR_LOG_ERROR);
+static_assert(static_cast<int>(impostor::sdk::LogLevel::kOff) == IMPOSTOR_LOG_OFF);
 
 thread_local std::string last_error;
 
@@ -209,6 +219,22 @@ const char* impostor_result_map_path(const impostor_result* r, const char* seman
 int64_t impostor_result_size_bytes(const impostor_result* r) { return r ? r->result.size_bytes() : 0; }
 int impostor_result_downloaded(const impostor_result* r) { return r && r->result.downloaded() ? 1 : 0; }
 void impostor_result_release(impostor_result* r) { delete r; }
+
+impostor_status impostor_set_log_handler(impostor_log_fn fn, int min_level, void* user) {
+  if (min_level < IMPOSTOR_LOG_DEBUG || min_level > IMPOSTOR_LOG_OFF) {
+    return Report(absl::InvalidArgumentError(absl::StrCat("impostor_set_log_handler: min_level ", min_level,
+                                                          " is not an impostor_log_level (0..4)")));
+  }
+  impostor::sdk::LogHandler handler;
+  if (fn != nullptr) {
+    handler = [fn, user](impostor::sdk::LogLevel level, std::string_view message) {
+      const std::string text(message);  // NUL-terminated for C
+      fn(static_cast<int>(level), text.c_str(), user);
+    };
+  }
+  impostor::sdk::SetLogHandler(std::move(handler), static_cast<impostor::sdk::LogLevel>(min_level));
+  return Report(absl::OkStatus());
+}
 
 const char* impostor_status_name(impostor_status status) {
   switch (static_cast<int>(status)) {

@@ -10,11 +10,10 @@
 #include <optional>
 #include <vector>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/blob_download.h"
 #include "client/local_io_error.h"
+#include "client/sdk_log.h"
 #include "common/disk_space.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
@@ -134,8 +133,8 @@ absl::StatusOr<PartialOutcome> DownloadToPartial(Transport& transport, const v1:
     // resumed bytes: those bytes may be the bad ones. Start over once.
     const bool local_mismatch = status.code() == absl::StatusCode::kDataLoss && !GetRpcErrorInfo(status).has_value();
     if (local_mismatch && have > 0 && pass == 0) {
-      spdlog::warn("partial download {} did not verify ({}); fetching it again from zero", path.string(),
-                   status.ToString());
+      SdkLog().warn("partial download {} did not verify ({}); fetching it again from zero", path.string(),
+                    status.ToString());
       if (::ftruncate(file->fd(), 0) != 0) return LocalIoError("cannot truncate", path, errno);
       continue;
     }

@@ -11,11 +11,10 @@
 #include <system_error>
 #include <vector>
 
-#include <spdlog/spdlog.h>
-
 #include "absl/strings/str_cat.h"
 #include "client/local_io_error.h"
 #include "client/result_fetch.h"
+#include "client/sdk_log.h"
 #include "common/manifest_json.h"
 
 namespace impostor::sdk {
@@ -164,8 +163,8 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
     std::error_code ec;
     fs::remove(partial, ec);
   }
-  spdlog::debug("cache: installed {} ({} bytes downloaded, {} resumed)", key, outcome.bytes_downloaded,
-                outcome.bytes_resumed);
+  SdkLog().debug("cache: installed {} ({} bytes downloaded, {} resumed)", key, outcome.bytes_downloaded,
+                 outcome.bytes_resumed);
   return outcome;
 }
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -16,8 +17,23 @@
 #include "common/grpc_log.h"
 #include "common/tls_files.h"
 #include "common/token_source.h"
+#include "impostor/log.h"
 
 namespace {
+
+// The least SDK level the CLI's logger at `level` prints.
+impostor::sdk::LogLevel SdkLevelFor(spdlog::level::level_enum level) {
+  using impostor::sdk::LogLevel;
+  switch (level) {
+    case spdlog::level::trace:
+    case spdlog::level::debug: return LogLevel::kDebug;
+    case spdlog::level::info: return LogLevel::kInfo;
+    case spdlog::level::warn: return LogLevel::kWarning;
+    case spdlog::level::err:
+    case spdlog::level::critical: return LogLevel::kError;  // (critical: the logger drops SDK errors)
+    default: return LogLevel::kOff;
+  }
+}
 
 // Diagnostics go to stderr (stdout may carry --json) and are off unless
 // IMPOSTOR_LOG asks, so that a failure stays one line.
@@ -26,6 +42,15 @@ void SetUpLogging() {
   spdlog::set_default_logger(logger);
   const char* level = std::getenv("IMPOSTOR_LOG");
   spdlog::set_level(level != nullptr ? spdlog::level::from_str(level) : spdlog::level::off);
+  // The SDK logs through its own logger (impostor/log.h), not this one:
+  // its lines join the CLI's, with the CLI's format and level.
+  impostor::sdk::SetLogHandler(
+      [](impostor::sdk::LogLevel sdk_level, std::string_view message) {
+        static constexpr spdlog::level::level_enum kLevels[] = {spdlog::level::debug, spdlog::level::info,
+                                                                spdlog::level::warn, spdlog::level::err};
+        spdlog::default_logger_raw()->log(kLevels[static_cast<int>(sdk_level)], "{}", message);
+      },
+      SdkLevelFor(spdlog::get_level()));
   // gRPC's own log lines (e.g. "Handshake failed ..." for every TLS retry)
   // go to the same diagnostics, so that a failure stays the one line that
   // says why (the SDK puts gRPC's reason into it).

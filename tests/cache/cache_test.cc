@@ -12,6 +12,8 @@
 #include <latch>
 #include <map>
 #include <mutex>
+#include <string>
+#include <string_view>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -19,6 +21,7 @@
 #include "client/cache/cache_testing.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
+#include "impostor/log.h"
 #include "tests/cache/published_result.h"
 #include "tests/integration/server_process.h"
 
@@ -248,6 +251,39 @@ TEST(CacheGet, DamagedLocalFilesAreDetectedAndFetchedAgain) {
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_TRUE(again->downloaded());
   EXPECT_EQ(cache->Stats().corrupt_entries, 1) << "an unreadable record is damage too";
+}
+
+// The warning a game's tester saw on stderr ("cache: <key> is damaged
+// (...); fetching it again") goes to the log handler (impostor/log.h) with
+// its level, and not to stderr.
+TEST(CacheGet, DamagedFileWarningGoesToTheLogHandlerNotStderr) {
+  ServerProcess server(0);
+  const PublishedResult published = PublishResult(server, kSmallMaps, 3);
+  auto cache = OpenCache(Options(server.address(), testing::NewTempDir("cache_log_handler")));
+  {
+    auto first = cache->Get(published.key);
+    ASSERT_TRUE(first.ok()) << first.status();
+    const fs::path albedo = first->map("albedo_alpha")->path;
+    fs::resize_file(albedo, fs::file_size(albedo) / 2);
+  }
+  std::mutex mu;
+  std::vector<std::pair<sdk::LogLevel, std::string>> lines;
+  sdk::SetLogHandler([&](sdk::LogLevel level, std::string_view message) {
+    std::lock_guard lock(mu);
+    lines.emplace_back(level, std::string(message));
+  });
+  ::testing::internal::CaptureStderr();
+  auto again = cache->Get(published.key);
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  sdk::SetLogHandler(nullptr);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_TRUE(again->downloaded());
+  std::lock_guard lock(mu);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0].first, sdk::LogLevel::kWarning);
+  EXPECT_EQ(lines[0].second.rfind("cache: " + published.key + " is damaged (", 0), 0u) << lines[0].second;
+  EXPECT_NE(lines[0].second.find("; fetching it again"), std::string::npos) << lines[0].second;
+  EXPECT_EQ(err.find("is damaged"), std::string::npos) << err;
 }
 
 TEST(CacheGet, SixtyFourThreadsGettingOneKeyShareOneDownload) {

@@ -1,7 +1,8 @@
 /* A plain C API over the impostor result cache (impostor/cache.h), for
  * engines and tools written in other languages (C#, Rust, Python through
  * ctypes). Opaque handles, status codes, no callbacks across threads other
- * than impostor_cache_get_async's.
+ * than impostor_cache_get_async's and the log handler's
+ * (impostor_set_log_handler).
  *
  * Status codes are the canonical ones (absl::StatusCode = grpc::StatusCode):
  * IMPOSTOR_OK 0, IMPOSTOR_CANCELLED 1, IMPOSTOR_INVALID_ARGUMENT 3,
@@ -188,6 +189,41 @@ IMPOSTOR_C_EXPORT int impostor_result_texture_array(const impostor_result* resul
 /* 1 when this Get downloaded it, 0 when it came from disk. */
 IMPOSTOR_C_EXPORT int impostor_result_downloaded(const impostor_result* result);
 IMPOSTOR_C_EXPORT void impostor_result_release(impostor_result* result);
+
+/* The SDK's log lines (impostor/log.h): a damaged cache entry fetched again
+ * or an unreadable one dropped (IMPOSTOR_LOG_WARNING), retries, resumed
+ * downloads and failovers (IMPOSTOR_LOG_DEBUG). By default they go to
+ * stderr at IMPOSTOR_LOG_WARNING and above. */
+typedef enum impostor_log_level {
+  IMPOSTOR_LOG_DEBUG = 0,
+  IMPOSTOR_LOG_INFO = 1,
+  IMPOSTOR_LOG_WARNING = 2,
+  IMPOSTOR_LOG_ERROR = 3,
+  IMPOSTOR_LOG_OFF = 4 /* as min_level: no line at all */
+} impostor_log_level;
+
+/* Receives one line: its level (an impostor_log_level, never
+ * IMPOSTOR_LOG_OFF), its text (no timestamp, no trailing newline;
+ * valid only during the call) and the `user` pointer given with it. */
+typedef void (*impostor_log_fn)(int level, const char* message, void* user);
+
+/* Sends every SDK line at `min_level` or above to `fn` instead of stderr;
+ * `fn` NULL restores stderr (with `min_level` still applying:
+ * impostor_set_log_handler(NULL, IMPOSTOR_LOG_OFF, NULL) silences the SDK,
+ * (NULL, IMPOSTOR_LOG_WARNING, NULL) is the default). Process-wide, for
+ * every cache, and may be called at any time from any thread, before
+ * impostor_cache_open too. IMPOSTOR_INVALID_ARGUMENT (and no change) for a
+ * min_level outside IMPOSTOR_LOG_DEBUG..IMPOSTOR_LOG_OFF.
+ *
+ * `fn` is called on whichever thread logs, often a cache thread, one call
+ * at a time. Once this function returns, the handler it replaced is not
+ * running and is never called again (so its `user` data may be freed then),
+ * unless it is called from inside that handler. `fn` must not wait for a
+ * thread that logs or calls impostor_set_log_handler (so no blocking call
+ * such as impostor_cache_get from inside it), should return quickly, and
+ * must not unwind (a C# or Rust callback must catch its own exceptions or
+ * panics). */
+IMPOSTOR_C_EXPORT impostor_status impostor_set_log_handler(impostor_log_fn fn, int min_level, void* user);
 
 /* "OK", "NOT_FOUND", ... for a status code. */
 IMPOSTOR_C_EXPORT const char* impostor_status_name(impostor_status status);
