@@ -27,7 +27,7 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
   int64_t received = offset;
   // Progress starts the count of failures over, so a slow but moving
   // download on a flaky link is never given up.
-  RetryPolicy retry(transport.options(), transport.monitor());
+  RetryPolicy retry = transport.NewRetryPolicy();
   while (true) {
     const int64_t start = received;
     absl::Status status = transport.ReadBlob(digest, received, [&](const v1::ReadBlobResponse& msg) {

@@ -172,7 +172,7 @@ absl::StatusOr<JobUpdate> Client::WatchJob(const std::string& job_id,
     if (on_update) on_update(update);
   };
   // Failures in a row; news from the server starts the count over.
-  RetryPolicy retry(transport.options(), transport.monitor());
+  RetryPolicy retry = transport.NewRetryPolicy();
   while (true) {
     bool got_any = false;
     absl::Status status = transport.WatchJob(job_id, [&](const v1::Job& job) {

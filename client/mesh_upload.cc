@@ -51,7 +51,7 @@ absl::Status UploadOnce(Transport& transport, const LocalBlob& blob) {
 // The server keeps only complete blobs, so every retry starts the stream
 // over from the first byte.
 absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
-  RetryPolicy retry(transport.options(), transport.monitor());
+  RetryPolicy retry = transport.NewRetryPolicy();
   while (true) {
     absl::Status status = UploadOnce(transport, blob);
     if (status.ok() || !retry.ShouldRetry(status)) return status;

@@ -35,7 +35,13 @@ bool RetryPolicy::ShouldRetry(const absl::Status& error) {
       delay = std::min(delay, std::chrono::duration<double>(max_outage_seconds_ - *outage));
     }
   }
-  if (retry) std::this_thread::sleep_for(delay);
+  if (retry) {
+    if (wait_) {
+      wait_(delay);
+    } else {
+      std::this_thread::sleep_for(delay);
+    }
+  }
   return retry;
 }
 

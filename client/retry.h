@@ -5,6 +5,7 @@
 #define IMPOSTOR_CLIENT_RETRY_H_
 
 #include <chrono>
+#include <functional>
 
 #include "absl/status/status.h"
 #include "client/connection_monitor.h"
@@ -36,12 +37,20 @@ std::chrono::milliseconds BackoffDelay(int attempt);
 // Not thread-safe: one per call, on the caller's thread.
 class RetryPolicy {
  public:
-  RetryPolicy(const ClientOptions& options, const ConnectionMonitor& monitor)
-      : max_attempts_(options.max_attempts), max_outage_seconds_(options.max_outage_seconds), monitor_(monitor) {}
+  // How the backoff is waited out: `wait(d)` returns after at most `d`, and
+  // may return sooner when the server is back (Transport::WaitForServer).
+  using Wait = std::function<void(std::chrono::duration<double>)>;
 
-  // After a failed attempt: sleeps the backoff (never past the end of the
-  // outage budget) and returns true when the call should be tried again;
-  // false when `error` is the call's answer.
+  RetryPolicy(const ClientOptions& options, const ConnectionMonitor& monitor, Wait wait = {})
+      : max_attempts_(options.max_attempts),
+        max_outage_seconds_(options.max_outage_seconds),
+        monitor_(monitor),
+        wait_(std::move(wait)) {}
+
+  // After a failed attempt: waits the backoff (never past the end of the
+  // outage budget; with a Wait, until the server is back if that is
+  // sooner) and returns true when the call should be tried again; false
+  // when `error` is the call's answer.
   bool ShouldRetry(const absl::Status& error);
 
   // The last attempt made progress (bytes arrived, a stream brought news):
@@ -55,6 +64,7 @@ class RetryPolicy {
   const int max_attempts_;
   const double max_outage_seconds_;
   const ConnectionMonitor& monitor_;
+  const Wait wait_;
   int failures_ = 0;
 };
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <optional>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -297,6 +298,21 @@ absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc,
   return error;
 }
 
+void Transport::WaitForServer(std::chrono::duration<double> at_most) {
+  const auto until = std::chrono::system_clock::now() +
+                     std::chrono::duration_cast<std::chrono::system_clock::duration>(at_most);
+  const std::shared_ptr<grpc::Channel> channel = stubs_->channels->Current().channel;
+  if (channel->GetState(/*try_to_connect=*/false) == GRPC_CHANNEL_READY ||
+      !channel->WaitForConnected(until)) {
+    std::this_thread::sleep_until(until);  // connected already, or not back yet: the whole backoff
+  }
+}
+
+RetryPolicy Transport::NewRetryPolicy() {
+  return RetryPolicy(options_, stubs_->monitor,
+                     [this](std::chrono::duration<double> at_most) { WaitForServer(at_most); });
+}
+
 void Transport::NoteAnswer(const Route& route) {
   stubs_->monitor.NoteAnswer();
   stubs_->channels->NoteAnswer(route);
@@ -307,7 +323,7 @@ void Transport::NoteAnswer(const Route& route) {
 // tried there at once, outside that policy (at most once per address).
 template <typename Response, typename Call>
 absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
-  RetryPolicy retry(options_, stubs_->monitor);
+  RetryPolicy retry = NewRetryPolicy();
   size_t moved_on = 0;
   while (true) {
     grpc::ClientContext context;

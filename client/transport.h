@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "client/connection_monitor.h"
+#include "client/retry.h"
 #include "common/failover_channel.h"
 #include "impostor/client.h"
 #include "impostor/v1/admin_service.pb.h"
@@ -70,6 +71,17 @@ class Transport {
   // Every RPC's outcome is reported here (streams: each message too); the
   // callers' RetryPolicy reads the outage from it.
   ConnectionMonitor& monitor();
+
+  // Waits at most `at_most` for the current server's channel to connect,
+  // returning as soon as it has: a RetryPolicy's backoff (RetryPolicy::Wait)
+  // during an outage. Nothing else drives a sync channel's reconnection
+  // while every call sleeps in its backoff (gRPC's backup poller runs every
+  // 5 s), so a restarted server went unnoticed for 2-5 s after it listened.
+  // A channel that is connected already (a live server that answered
+  // UNAVAILABLE) waits the whole backoff.
+  void WaitForServer(std::chrono::duration<double> at_most);
+  // RetryPolicy for this transport, waiting with WaitForServer.
+  RetryPolicy NewRetryPolicy();
 
   // One UploadBlob stream, not retried (the caller restarts from byte 0: the
   // server only keeps complete blobs). Deadline: rpc_timeout_seconds plus one

@@ -116,5 +116,25 @@ TEST(RetryPolicy, UnavailableOutsideAnOutageCountsAgainstMaxAttempts) {
   EXPECT_TRUE(retry.ShouldRetry(absl::DeadlineExceededError("slow")));
 }
 
+// With a Wait (the transport's WaitForServer), the backoff is handed to it,
+// never slept here: the wait may end early when the server is back.
+TEST(RetryPolicy, TheBackoffIsWaitedOutByTheGivenWait) {
+  ConnectionMonitor monitor("bake:1", 300, nullptr);
+  monitor.NoteFailure(absl::UnavailableError("down"));
+  ClientOptions options;
+  options.max_attempts = 2;
+  std::vector<double> waited;
+  RetryPolicy retry(options, monitor, [&](std::chrono::duration<double> d) { waited.push_back(d.count()); });
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(retry.ShouldRetry(absl::UnavailableError("down"))) << i;
+  ASSERT_EQ(waited.size(), 4u);
+  for (size_t i = 0; i < waited.size(); ++i) {
+    const double expected = BackoffDelay(static_cast<int>(i) + 1).count() / 1000.0;
+    EXPECT_LE(waited[i], 0.1 * (1 << i) + 1e-9) << i;
+    EXPECT_GE(waited[i], 0.8 * 0.1 * (1 << i) - 1e-9) << i << " " << expected;
+  }
+  EXPECT_FALSE(retry.ShouldRetry(absl::NotFoundError("x")));
+  EXPECT_EQ(waited.size(), 4u) << "an answer is not waited on";
+}
+
 }  // namespace
 }  // namespace impostor::sdk

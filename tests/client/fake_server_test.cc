@@ -20,6 +20,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "client/transport.h"
 #include "common/sha256.h"
 #include "impostor/client.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
@@ -631,6 +632,53 @@ struct EventLog {
 // The outage outlasts max_attempts (2) on every step of a watch: the broken
 // stream, the GetJob that follows and the next stream. The old SDK returned
 // the first failed GetJob here.
+// A retry's backoff during an outage waits on the channel, which is what
+// drives a sync channel's reconnection: a server back on its port is found
+// as soon as it listens, not at the next backup poll (every 5 s), which a
+// 500-asset batch waited out 2-5 s after every restart.
+TEST_F(FakeServerTest, WaitForServerReturnsOnceARestartedServerListens) {
+  ClientOptions options;
+  options.server = "127.0.0.1:" + std::to_string(port_);
+  auto transport = Transport::Connect(options);
+  ASSERT_TRUE(transport.ok()) << transport.status();
+  server_->Shutdown();
+  server_.reset();
+  // Down: the whole wait (the channel cannot connect).
+  const auto down_start = std::chrono::steady_clock::now();
+  (*transport)->WaitForServer(std::chrono::milliseconds(300));
+  EXPECT_GE(std::chrono::steady_clock::now() - down_start, std::chrono::milliseconds(300));
+
+  constexpr auto kLongWait = std::chrono::seconds(60);
+  std::atomic<bool> waited{false};
+  std::chrono::steady_clock::duration waited_for{};
+  std::thread waiter([&] {
+    const auto start = std::chrono::steady_clock::now();
+    (*transport)->WaitForServer(kLongWait);
+    waited_for = std::chrono::steady_clock::now() - start;
+    waited = true;
+  });
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort("127.0.0.1:" + std::to_string(port_), grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(static_cast<v1::AssetService::Service*>(&fake_));
+  builder.RegisterService(static_cast<v1::BakeService::Service*>(&fake_));
+  server_ = builder.BuildAndStart();
+  ASSERT_NE(server_, nullptr);
+  ASSERT_EQ(port, port_);
+  waiter.join();
+  EXPECT_TRUE(waited.load());
+  EXPECT_LT(waited_for, kLongWait) << "returned once connected, not at the end of its wait";
+  // Connected: a call goes through at once.
+  absl::StatusOr<v1::Job> job = (*transport)->GetJob("job-1");
+  EXPECT_NE(job.status().code(), absl::StatusCode::kUnavailable) << job.status();
+
+  // Up and connected: a server that answers UNAVAILABLE is not hammered,
+  // the backoff is waited in full.
+  const auto up_start = std::chrono::steady_clock::now();
+  (*transport)->WaitForServer(std::chrono::milliseconds(200));
+  EXPECT_GE(std::chrono::steady_clock::now() - up_start, std::chrono::milliseconds(200));
+}
+
 TEST_F(FakeServerTest, WatchRidesOutAnOutageLongerThanItsAttempts) {
   {
     std::lock_guard lock(fake_.mu);
