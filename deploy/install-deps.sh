@@ -37,6 +37,10 @@ packages=(
   python3-grpcio python3-protobuf python3-pytest python3-mypy python3-pip python3-setuptools python3-wheel blender python3-numpy xvfb xauth
   # Network-namespace tests (issue 15, tests/support/netns.h): ip netns, veth, bridge
   iproute2
+  # TLS tests make their certificates with the openssl CLI (python/tests,
+  # tests/tls); the Python client reads a refused server certificate's dates
+  # and issuer with python3-cryptography (python/impostor/_tls_peer_check.py)
+  openssl python3-cryptography
 )
 
 export DEBIAN_FRONTEND=noninteractive
