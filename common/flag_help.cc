@@ -10,6 +10,7 @@
 #include "absl/flags/commandlineflag.h"
 #include "absl/flags/reflection.h"
 #include "absl/strings/numbers.h"
+#include "common/flag_names.h"
 #include "absl/strings/str_cat.h"
 
 namespace impostor {
@@ -26,12 +27,6 @@ constexpr const char* kParsingFlags[] = {"flagfile", "fromenv", "tryfromenv", "u
 
 bool IsAbseilFlag(const absl::CommandLineFlag& flag) {
   return flag.Filename().find("absl/flags/") != std::string::npos;
-}
-
-// (Debian's Abseil has its own string_view: names cross as std::string.)
-std::string Dashed(std::string dashed) {
-  std::replace(dashed.begin(), dashed.end(), '_', '-');
-  return dashed;
 }
 
 // What the value looks like, from the flag's type.
@@ -109,7 +104,7 @@ void AppendWrapped(std::string& out, const std::string& text, size_t indent) {
 }
 
 void AppendFlag(std::string& out, const absl::CommandLineFlag& flag) {
-  const std::string name = Dashed(std::string(flag.Name()));
+  const std::string name = DashedFlagName(std::string(flag.Name()));
   out += absl::StrCat("  --", name, Placeholder(flag));
   std::string help = flag.Help();
   if (flag.IsOfType<bool>()) help += absl::StrCat(" (--no", name, " to turn off)");
@@ -192,7 +187,7 @@ std::optional<int> HandleHelpAndVersion(int argc, char** argv, const ProgramHelp
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];
     if (arg == "--") break;
-    const std::string name = Dashed(std::string(arg.substr(0, arg.find('='))));
+    const std::string name = DashedFlagName(std::string(arg.substr(0, arg.find('='))));
     if (name == "--help" || name == "-h" || name == "--helpfull" || name == "--helpshort") {
       std::fputs(FlagHelpText(help).c_str(), stdout);
       return 0;

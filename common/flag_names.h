@@ -5,11 +5,20 @@
 #ifndef IMPOSTOR_COMMON_FLAG_NAMES_H_
 #define IMPOSTOR_COMMON_FLAG_NAMES_H_
 
+#include <algorithm>
 #include <cstring>
+#include <string>
 
 #include "absl/flags/usage_config.h"
 
 namespace impostor {
+
+// A flag name as users type it: Abseil's underscores as dashes
+// ("local_workers" -> "local-workers"; no leading dashes added).
+inline std::string DashedFlagName(std::string name) {
+  std::replace(name.begin(), name.end(), '_', '-');
+  return name;
+}
 
 inline void UnderscoreFlagNames(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {

@@ -1,6 +1,5 @@
 #include "common/flag_precheck.h"
 
-#include <algorithm>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -8,16 +7,13 @@
 #include "absl/flags/commandlineflag.h"
 #include "absl/flags/reflection.h"
 #include "absl/strings/str_cat.h"
+#include "common/flag_names.h"
 
 namespace impostor {
 namespace {
 
 // The flag as the user would type it (UnderscoreFlagNames rewrote it).
-std::string Dashed(std::string_view name) {
-  std::string out(name);
-  std::replace(out.begin(), out.end(), '_', '-');
-  return "--" + out;
-}
+std::string Dashed(std::string_view name) { return "--" + DashedFlagName(std::string(name)); }
 
 absl::CommandLineFlag* Find(std::string_view name) {
   return absl::FindCommandLineFlag(absl::string_view(name.data(), name.size()));

@@ -433,9 +433,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     // Test hook (WorkerOptions::test_pause_file): pause on entering the
     // render stage, or after each rendered chunk when the file says
     // "render-chunk".
-    if (st == "render" && !options_.test_pause_file.empty() &&
-        ReadTestPauseMode(options_.test_pause_file) != "complete" &&
-        entered_stage != (ReadTestPauseMode(options_.test_pause_file) == "render-chunk")) {
+    const std::string pause_mode =
+        st == "render" && !options_.test_pause_file.empty() ? ReadTestPauseMode(options_.test_pause_file) : "";
+    if (st == "render" && !options_.test_pause_file.empty() && pause_mode != "complete" &&
+        entered_stage != (pause_mode == "render-chunk")) {
       std::error_code ec;
       while (!cancelled && fs::exists(options_.test_pause_file, ec)) {
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
