@@ -8,6 +8,11 @@ capped exponential backoff (100 ms, 200 ms, ... 1 s, minus up to 20% jitter),
 up to ``max_attempts`` tries; while the server that answered once stays away
 (UNAVAILABLE), calls keep retrying until the outage, counted from the first
 failure after the last answer, has lasted ``max_outage_seconds``.
+
+The backoff is waited out with the transport's wait_for_server, which ends
+it as soon as the channel connects again (a restarted server), like the C++
+SDK's Transport::WaitForServer; a server that answers UNAVAILABLE over a
+live connection still gets the whole backoff.
 """
 from __future__ import annotations
 
@@ -110,13 +115,24 @@ class ConnectionMonitor:
 class RetryPolicy:
     """Decides, for one logical call, whether a failed attempt is tried again.
 
+    `wait(seconds)` waits out a backoff: it returns after at most `seconds`,
+    and may return sooner when the server is back (Transport.wait_for_server).
+    Default: time.sleep.
+
     Not thread-safe: one per call.
     """
 
-    def __init__(self, max_attempts: int, max_outage_seconds: float, monitor: ConnectionMonitor) -> None:
+    def __init__(
+        self,
+        max_attempts: int,
+        max_outage_seconds: float,
+        monitor: ConnectionMonitor,
+        wait: Optional[Callable[[float], None]] = None,
+    ) -> None:
         self._max_attempts = max_attempts
         self._max_outage_seconds = max_outage_seconds
         self._monitor = monitor
+        self._wait: Callable[[float], None] = wait if wait is not None else time.sleep
         self.failures = 0
 
     def made_progress(self) -> None:
@@ -124,7 +140,8 @@ class RetryPolicy:
         self.failures = 0
 
     def should_retry(self, error: ImpostorError) -> bool:
-        """True (after sleeping the backoff) when the call should be tried again."""
+        """True (after waiting the backoff out, or until the server is back if
+        that is sooner) when the call should be tried again."""
         if error.code not in _RETRYABLE:
             return False
         if error.failover_now:
@@ -139,5 +156,5 @@ class RetryPolicy:
                 # The last try comes when the budget ends, not up to a second later.
                 delay = min(delay, self._max_outage_seconds - outage)
         if retry:
-            time.sleep(delay)
+            self._wait(delay)
         return retry

@@ -45,6 +45,19 @@ _MAX_KEEPALIVE_SECONDS = 7200
 _DIAGNOSIS_SECONDS = 2.0
 
 
+def _reached_server(error: grpc.RpcError) -> bool:
+    """Whether a failed call's code can only have come from a server that
+    answered (not UNAVAILABLE, DEADLINE_EXCEEDED or CANCELLED, which our own
+    side also says)."""
+    code = error.code() if isinstance(error, grpc.Call) else None
+    return code not in (
+        None,
+        grpc.StatusCode.UNAVAILABLE,
+        grpc.StatusCode.DEADLINE_EXCEEDED,
+        grpc.StatusCode.CANCELLED,
+    )
+
+
 def keepalive_options(keepalive_seconds: int) -> List[Tuple[str, Any]]:
     """The C++ SDK's keepalive policy (common/keepalive.h): while a call is in
     flight, ping after `keepalive_seconds` of quiet and give the connection up
@@ -96,12 +109,23 @@ def parse_server_list(server: str) -> List[str]:
     return entries
 
 
+def _health_check(channel: grpc.Channel) -> Any:
+    """`channel`'s gRPC health check of the whole server (impostor-server
+    serves grpc.health.v1 without a token), raw bytes in and out."""
+    return channel.unary_unary(
+        "/grpc.health.v1.Health/Check",
+        request_serializer=lambda _: b"",  # an empty HealthCheckRequest: the whole server
+        response_deserializer=lambda raw: raw,
+    )
+
+
 class _Route:
-    """One address: its channel and stubs."""
+    """One address: its channel, stubs and health check."""
 
     def __init__(self, target: str, channel: grpc.Channel) -> None:
         self.target = target
         self.channel = channel
+        self.health = _health_check(channel)
         # The generated stubs are untyped (grpc_python_plugin writes no .pyi).
         self.bake = bake_service_pb2_grpc.BakeServiceStub(channel)  # type: ignore[no-untyped-call]
         self.assets = asset_service_pb2_grpc.AssetServiceStub(channel)  # type: ignore[no-untyped-call]
@@ -266,11 +290,7 @@ class Transport:
         subscribed channel that is never closed hangs the interpreter at exit
         (grpc's connectivity thread), and a failed call carries gRPC's reason,
         which says which failure it is."""
-        check = channel.unary_unary(
-            "/grpc.health.v1.Health/Check",
-            request_serializer=lambda _: b"",  # an empty HealthCheckRequest: the whole server
-            response_deserializer=lambda raw: raw,
-        )
+        check = _health_check(channel)
         deadline = time.monotonic() + timeout
         failed_at: Optional[float] = None
         last = ""
@@ -341,8 +361,57 @@ class Transport:
             self._failed.clear()
         self.monitor.note_answer()
 
+    def wait_for_server(self, at_most: float) -> None:
+        """A RetryPolicy's backoff: waits at most `at_most` seconds for the
+        channel of the address calls go to now, returning as soon as it
+        connects and the server answers (the C++ SDK's
+        Transport::WaitForServer). Nothing else makes a channel in
+        TRANSIENT_FAILURE try again while every call sleeps in its backoff
+        (gRPC's backup poller runs every 5 s), so a server restarted after a
+        SIGKILL went unnoticed for about 4 s after it listened.
+
+        First a health check that fails fast: answered, the channel is
+        connected (a live server answered UNAVAILABLE, or a call ran past its
+        deadline), and the whole backoff is waited. Refused without an
+        answer, the channel is not connected: a health check with
+        wait_for_ready then drives its reconnection and returns once the
+        server answers. (A channel left idle by a dropped connection is
+        connected by the first check; a server back by then is taken for a
+        live one: one whole backoff, at most a second.) Health checks rather
+        than channel.subscribe (see _wait_ready). The checks are not noted as
+        answers: the retried call's own outcome says whether the outage is
+        over (a healthy server may still answer it UNAVAILABLE)."""
+        deadline = time.monotonic() + at_most
+        with self._lock:
+            health = self._routes[self._current].health
+        try:
+            try:
+                health(b"", timeout=at_most, wait_for_ready=False)
+                connected = True
+            except grpc.RpcError as e:
+                # UNAVAILABLE: not connected (or a live server said so: it
+                # says so again below); DEADLINE_EXCEEDED: the backoff is over.
+                connected = _reached_server(e)
+            left = deadline - time.monotonic()
+            if not connected and left > 0:
+                try:
+                    health(b"", timeout=left, wait_for_ready=True)
+                    return  # connected again, and the server answers: retry now
+                except grpc.RpcError as e:
+                    if _reached_server(e):
+                        return  # it answers (UNAUTHENTICATED, ...): retry now
+                    # DEADLINE_EXCEEDED: not back within the backoff.
+                    # UNAVAILABLE: a live server said so, or the new
+                    # connection broke at once: the rest of the backoff.
+        except ValueError:
+            return  # the Client was closed ("Cannot invoke RPC on closed channel!"): the retry says so
+        remaining = deadline - time.monotonic()
+        if remaining > 0:
+            time.sleep(remaining)
+
     def retry_policy(self) -> RetryPolicy:
-        return RetryPolicy(self.max_attempts, self.max_outage_seconds, self.monitor)
+        """One call's RetryPolicy, waiting its backoffs with wait_for_server."""
+        return RetryPolicy(self.max_attempts, self.max_outage_seconds, self.monitor, self.wait_for_server)
 
     def unary(self, rpc: str, method: Callable[..., Any], request: Any) -> Any:
         """Calls a unary RPC, retried as RetryPolicy decides."""
