@@ -13,9 +13,10 @@
 namespace impostor::sdk {
 
 // A Status with `code` and the message "<rpc> (server <server>): <message>",
-// carrying RpcErrorInfo as payloads.
+// carrying RpcErrorInfo as payloads. `reason`: the server's error reason
+// (common/error_reason.h), "" for none.
 absl::Status MakeRpcError(absl::StatusCode code, std::string_view rpc, std::string_view server,
-                          std::string_view server_message);
+                          std::string_view server_message, std::string_view reason = {});
 
 }  // namespace impostor::sdk
 

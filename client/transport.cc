@@ -20,6 +20,7 @@
 #include "client/rpc_error.h"
 #include "client/sdk_log.h"
 #include "common/connect_error.h"
+#include "common/error_reason.h"
 #include "common/failover_channel.h"
 #include "common/keepalive.h"
 #include "common/server_list.h"
@@ -54,10 +55,18 @@ std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
          std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(seconds));
 }
 
-absl::Status ToStatus(const grpc::Status& status, std::string_view rpc, const std::string& server) {
+// The error reason the server sent with a refusal, or "".
+std::string ErrorReasonFrom(const grpc::ClientContext& context) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  const auto found = trailers.find(kErrorReasonMetadataKey);
+  return found == trailers.end() ? std::string() : std::string(found->second.data(), found->second.size());
+}
+
+absl::Status ToStatus(const grpc::Status& status, std::string_view rpc, const std::string& server,
+                      std::string_view reason) {
   if (status.ok()) return absl::OkStatus();
   return MakeRpcError(static_cast<absl::StatusCode>(static_cast<int>(status.error_code())), rpc, server,
-                      status.error_message());
+                      status.error_message(), reason);
 }
 
 absl::Status ValidateOptions(const ClientOptions& o) {
@@ -270,7 +279,7 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
 ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
 absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc, const Route& route,
-                             bool* try_next_now) {
+                             const grpc::ClientContext& context, bool* try_next_now) {
   const std::string& target = stubs_->channels->target(route.index);
   // Every call that cancels itself (TryCancel) returns before it gets here,
   // so a CANCELLED here came from the server: one that stops gracefully
@@ -282,7 +291,7 @@ absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc,
                          absl::StrCat("the server cancelled the call, as one that is stopping does (",
                                       received.error_message(), ")"))
           : received;
-  absl::Status error = ToStatus(status, rpc, target);
+  absl::Status error = ToStatus(status, rpc, target, status.ok() ? std::string() : ErrorReasonFrom(context));
   // Another replica not yet tried since the last answer is no outage: the
   // call moves on to it at once.
   const bool next_now = stubs_->channels->NoteFailure(route, status.error_code());
@@ -334,7 +343,7 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
     Response response;
     const grpc::Status status = call(route, &context, &response);
     bool try_next_now = false;
-    absl::Status error = Note(status, rpc, route, &try_next_now);
+    absl::Status error = Note(status, rpc, route, context, &try_next_now);
     if (error.ok()) return response;
     if (try_next_now && ++moved_on < stubs_->channels->size()) {
       SdkLog().debug("{} failed on {}: {}; trying {}", std::string(rpc), stubs_->channels->target(route.index),
@@ -432,7 +441,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
   }
   writer->WritesDone();
   const grpc::Status status = writer->Finish();
-  if (absl::Status error = Note(status, "UploadBlob", route); !error.ok()) return error;
+  if (absl::Status error = Note(status, "UploadBlob", route, context); !error.ok()) return error;
   return response;
 }
 
@@ -457,7 +466,8 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
       return s;
     }
   }
-  return Note(reader->Finish(), "ReadBlob", route);
+  const grpc::Status status = reader->Finish();
+  return Note(status, "ReadBlob", route, context);
 }
 
 absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {
@@ -478,7 +488,8 @@ absl::Status Transport::WatchJob(const std::string& job_id, const std::function<
       return absl::OkStatus();
     }
   }
-  return Note(reader->Finish(), "WatchJob", route);
+  const grpc::Status status = reader->Finish();
+  return Note(status, "WatchJob", route, context);
 }
 
 }  // namespace impostor::sdk

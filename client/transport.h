@@ -103,12 +103,14 @@ class Transport {
   Transport(ClientOptions options, std::unique_ptr<Stubs> stubs);
 
   using Route = FailoverChannel::Route;
-  // `status` of a call made on `route` as an absl::Status naming `rpc` and
-  // the address, after telling the monitor and the failover whether the
-  // server answered. `try_next_now` (optional) is set when the call may be
-  // tried again at once on another replica (FailoverChannel::NoteFailure).
+  // `status` of a call made on `route` with `context` (finished) as an
+  // absl::Status naming `rpc` and the address, with the server's error
+  // reason (common/error_reason.h), after telling the monitor and the
+  // failover whether the server answered. `try_next_now` (optional) is set
+  // when the call may be tried again at once on another replica
+  // (FailoverChannel::NoteFailure).
   absl::Status Note(const grpc::Status& status, std::string_view rpc, const Route& route,
-                    bool* try_next_now = nullptr);
+                    const grpc::ClientContext& context, bool* try_next_now = nullptr);
   // A stream message arrived on `route`.
   void NoteAnswer(const Route& route);
   template <typename Response, typename Call>

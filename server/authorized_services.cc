@@ -140,7 +140,7 @@ grpc::Status AuthorizedAssetService::UploadBlob(grpc::ServerContext* context,
   return guard_->Run(
       context, Method(kAsset, "UploadBlob"), "",
       [&](const Principal& principal) {
-        if (auto quota = guard_->CheckUploadQuota(principal); !quota.ok()) return ToGrpc(quota);
+        if (auto quota = guard_->CheckUploadQuota(principal); !quota.ok()) return ToGrpc(quota, context);
         grpc::Status status = inner_->UploadBlob(context, reader, response);
         if (status.ok() && !response->already_present())
           guard_->RecordUpload(principal, response->digest().size_bytes());
@@ -174,7 +174,7 @@ grpc::Status AuthorizedBakeService::SubmitBake(grpc::ServerContext* context, con
   return guard_->Run(
       context, Method(kBake, "SubmitBake"), "",
       [&](const Principal& principal) {
-        if (auto quota = guard_->CheckSubmitQuota(principal); !quota.ok()) return ToGrpc(quota);
+        if (auto quota = guard_->CheckSubmitQuota(principal); !quota.ok()) return ToGrpc(quota, context);
         grpc::Status status = inner_->SubmitBake(context, request, response);
         if (status.ok() && !response->cached()) guard_->RecordBake(principal);
         return status;

@@ -14,6 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
+#include "common/error_reason.h"
 #include "common/log_escape.h"
 #include "common/quality_gate.h"
 #include "common/sha256.h"
@@ -558,16 +559,20 @@ absl::StatusOr<v1::SubmitBakeResponse> BakeScheduler::Submit(const v1::SubmitBak
   auto pending = jobs_->CountPending("");
   if (!pending.ok()) return pending.status();
   if (*pending >= options_.max_pending_jobs) {
-    return absl::ResourceExhaustedError(absl::StrCat("pending jobs: ", *pending, " queued or running, the limit is ",
-                                                     options_.max_pending_jobs, "; retry later"));
+    return WithErrorReason(absl::ResourceExhaustedError(absl::StrCat("pending jobs: ", *pending,
+                                                                     " queued or running, the limit is ",
+                                                                     options_.max_pending_jobs, "; retry later")),
+                           error_reason::kFarmPendingJobs);
   }
   if (!record.client_id.empty()) {
     auto mine = jobs_->CountPending(record.client_id);
     if (!mine.ok()) return mine.status();
     if (*mine >= options_.max_pending_per_client) {
-      return absl::ResourceExhaustedError(absl::StrCat("pending jobs of client \"", record.client_id, "\": ", *mine,
-                                                       ", the limit per client is ", options_.max_pending_per_client,
-                                                       "; retry later"));
+      return WithErrorReason(
+          absl::ResourceExhaustedError(absl::StrCat("pending jobs of client \"", record.client_id, "\": ", *mine,
+                                                    ", the limit per client is ", options_.max_pending_per_client,
+                                                    "; retry later")),
+          error_reason::kClientPendingJobs);
     }
   }
 

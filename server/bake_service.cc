@@ -82,7 +82,7 @@ grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext* context, const v1:
   // the impostor-client-id label cannot make one token look like another.
   const std::string owner = principals_ ? principals_->Of(context).name : std::string();
   auto r = scheduler_->Submit(*request, owner.empty() ? ClientId(*context) : owner + "/" + ClientId(*context), owner);
-  if (!r.ok()) return ToGrpc(r.status());
+  if (!r.ok()) return ToGrpc(r.status(), context);
   *response = std::move(*r);
   return grpc::Status::OK;
 }

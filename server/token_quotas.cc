@@ -10,6 +10,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/strings/str_cat.h"
+#include "common/error_reason.h"
 #include "server/sqlite_open.h"
 #include "server/token_store.h"
 
@@ -145,29 +146,35 @@ int64_t TokenQuotas::Now() const {
 
 absl::Status TokenQuotas::CheckSubmit(const std::string& token, int64_t pending) {
   if (pending >= options_.max_pending_jobs) {
-    return absl::ResourceExhaustedError(absl::StrCat("pending jobs of token '", token, "': ", pending,
-                                                     " queued or running, the limit per token is ",
-                                                     options_.max_pending_jobs, "; retry once some finish"));
+    return WithErrorReason(absl::ResourceExhaustedError(absl::StrCat("pending jobs of token '", token, "': ", pending,
+                                                                     " queued or running, the limit per token is ",
+                                                                     options_.max_pending_jobs,
+                                                                     "; retry once some finish")),
+                           error_reason::kTokenPendingJobs);
   }
   return WindowLimit(token, "bakes", kHourMs, options_.max_bakes_per_hour,
-                     absl::StrCat("bakes of token '", token, "': "), " in the last hour", " per hour; retry later");
+                     absl::StrCat("bakes of token '", token, "': "), " in the last hour", " per hour; retry later",
+                     error_reason::kTokenBakesPerHour);
 }
 
 void TokenQuotas::RecordBake(const std::string& token) { Record(token, "bakes", 1); }
 
 absl::Status TokenQuotas::CheckUpload(const std::string& token) {
   return WindowLimit(token, "upload_bytes", kDayMs, options_.max_upload_bytes_per_day,
-                     absl::StrCat("uploads of token '", token, "': "), " bytes in the last 24 hours", " bytes per day");
+                     absl::StrCat("uploads of token '", token, "': "), " bytes in the last 24 hours", " bytes per day",
+                     error_reason::kTokenUploadBytesPerDay);
 }
 
 void TokenQuotas::RecordUpload(const std::string& token, int64_t bytes) { Record(token, "upload_bytes", bytes); }
 
 absl::Status TokenQuotas::WindowLimit(const std::string& token, std::string_view kind, int64_t window_ms,
-                                      int64_t limit, const std::string& what, const char* span, const char* unit) {
+                                      int64_t limit, const std::string& what, const char* span, const char* unit,
+                                      std::string_view reason) {
   auto used = ledger_->Sum(token, kind, Now() - window_ms);
   if (!used.ok()) return used.status();
   if (*used < limit) return absl::OkStatus();
-  return absl::ResourceExhaustedError(absl::StrCat(what, *used, span, ", the limit per token is ", limit, unit));
+  return WithErrorReason(
+      absl::ResourceExhaustedError(absl::StrCat(what, *used, span, ", the limit per token is ", limit, unit)), reason);
 }
 
 void TokenQuotas::Record(const std::string& token, std::string_view kind, int64_t amount) {

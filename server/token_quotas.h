@@ -81,9 +81,10 @@ class TokenQuotas {
  private:
   int64_t Now() const;
   // RESOURCE_EXHAUSTED "<what><used><span>, the limit per token is
-  // <limit><unit>" once the window's sum reaches `limit`.
+  // <limit><unit>", with error reason `reason`, once the window's sum
+  // reaches `limit`.
   absl::Status WindowLimit(const std::string& token, std::string_view kind, int64_t window_ms, int64_t limit,
-                           const std::string& what, const char* span, const char* unit);
+                           const std::string& what, const char* span, const char* unit, std::string_view reason);
   // Records an event (a failure is logged: the call it counts succeeded) and
   // forgets day-old events about once a minute.
   void Record(const std::string& token, std::string_view kind, int64_t amount);

@@ -74,7 +74,7 @@ absl::StatusOr<sdk::SubmitResult> SubmitWaitingOutQuotas(sdk::Client& client, co
     if (submitted.ok()) return submitted;
     const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(submitted.status());
     if (!rpc.has_value() ||
-        QuotaWaitFor(submitted.status().code(), rpc->rpc, rpc->server_message) == QuotaWait::kNone) {
+        QuotaWaitFor(submitted.status().code(), rpc->rpc, rpc->server_message, rpc->reason) == QuotaWait::kNone) {
       return submitted;
     }
     if (Clock::now() >= give_up_at) return submitted;

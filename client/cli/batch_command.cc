@@ -168,7 +168,7 @@ class BatchRunner {
       }
       const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(status);
       const QuotaWait wait =
-          rpc.has_value() ? QuotaWaitFor(status.code(), rpc->rpc, rpc->server_message) : QuotaWait::kNone;
+          rpc.has_value() ? QuotaWaitFor(status.code(), rpc->rpc, rpc->server_message, rpc->reason) : QuotaWait::kNone;
       if (wait != QuotaWait::kNone && !stop_) {
         if (held_.empty()) StartHolding(wait, status);
         last_refusal_ = status;
@@ -176,7 +176,7 @@ class BatchRunner {
         Hold(i);
         return;
       }
-      Finish(i, Failed(i, Describe(status), static_cast<int>(status.code())), AssetStatus::kFailed);
+      Finish(i, Failed(i, Describe(status), status), AssetStatus::kFailed);
       return;
     }
     // A submit got through: the quota wait starts over.
@@ -276,7 +276,7 @@ class BatchRunner {
     while (!held_.empty()) {
       const size_t i = held_.begin()->second;
       held_.erase(held_.begin());
-      Finish(i, Failed(i, reason, static_cast<int>(last_refusal_.code())), AssetStatus::kFailed);
+      Finish(i, Failed(i, reason, last_refusal_), AssetStatus::kFailed);
     }
   }
 
@@ -426,6 +426,13 @@ class BatchRunner {
     AssetOutcome o = Base(i);
     o.error = error;
     o.error_code = code;
+    return o;
+  }
+  // Failed with `status`'s code and the server's error reason, if any.
+  AssetOutcome Failed(size_t i, const std::string& error, const absl::Status& status)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    AssetOutcome o = Failed(i, error, static_cast<int>(status.code()));
+    if (const std::optional<sdk::RpcErrorInfo> rpc = sdk::GetRpcErrorInfo(status)) o.error_reason = rpc->reason;
     return o;
   }
 

@@ -38,6 +38,7 @@ nlohmann::json AssetJson(const AssetOutcome& o) {
       {"warnings", o.warnings},
       {"error", OrNull(o.error)},
       {"error_code", o.error_code},
+      {"error_reason", OrNull(o.error_reason)},
   };
 }
 

@@ -46,6 +46,9 @@ struct AssetOutcome {
   std::vector<std::string> warnings;  // the manifest's (what the result lacks)
   int error_code = 0;      // canonical status code, 0 = none
   std::string error;       // "CODE: message", empty = none
+  // The server's error reason of a refusal (RpcErrorInfo::reason, e.g.
+  // "TOKEN_BAKES_PER_HOUR"), empty = none.
+  std::string error_reason;
 };
 
 // Counts for the live line and the summary. held + queued + running +

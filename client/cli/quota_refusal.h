@@ -3,8 +3,10 @@
 // is not a verdict on the asset (bake-batch holds the asset back, `bake`
 // waits a while). Header-only and pure, so tests include it as is.
 //
-// The server says which quota only in its message (server/token_quotas.cc,
-// server/bake_scheduler.cc); these prefixes are its wording:
+// The server names the quota in its error reason (common/error_reason.h);
+// servers before the reasons said it only in their message
+// (server/token_quotas.cc, server/bake_scheduler.cc), so without a reason
+// these prefixes of that wording decide:
 //   "pending jobs of token 'ci': 20 queued or running, the limit per token
 //    is 20; retry once some finish"          -> kOwnJobs
 //   "pending jobs of client \"ci\": 20, the limit per client is 20; ..."
@@ -21,6 +23,7 @@
 #include <string_view>
 
 #include "absl/status/status.h"
+#include "common/error_reason.h"
 
 namespace impostor::cli {
 
@@ -30,9 +33,19 @@ enum class QuotaWait {
   kBackoff,   // frees up with time (a rate window, the farm's whole queue)
 };
 
-// `rpc` and `server_message` as sdk::RpcErrorInfo carries them.
-inline QuotaWait QuotaWaitFor(absl::StatusCode code, std::string_view rpc, std::string_view server_message) {
+// `rpc`, `server_message` and `reason` as sdk::RpcErrorInfo carries them.
+inline QuotaWait QuotaWaitFor(absl::StatusCode code, std::string_view rpc, std::string_view server_message,
+                              std::string_view reason) {
   if (code != absl::StatusCode::kResourceExhausted || rpc != "SubmitBake") return QuotaWait::kNone;
+  if (!reason.empty()) {
+    if (reason == error_reason::kTokenPendingJobs || reason == error_reason::kClientPendingJobs) {
+      return QuotaWait::kOwnJobs;
+    }
+    if (reason == error_reason::kFarmPendingJobs || reason == error_reason::kTokenBakesPerHour) {
+      return QuotaWait::kBackoff;
+    }
+    return QuotaWait::kNone;  // a reason this client does not know: not one to wait for
+  }
   auto starts_with = [&](std::string_view prefix) { return server_message.substr(0, prefix.size()) == prefix; };
   if (starts_with("pending jobs of token ") || starts_with("pending jobs of client ")) return QuotaWait::kOwnJobs;
   if (starts_with("pending jobs: ") || starts_with("bakes of token ")) return QuotaWait::kBackoff;

@@ -25,6 +25,10 @@ class ImpostorError(Exception):
         rpc: the RPC that failed (e.g. ``"SubmitBake"``), or None for local
             problems and failed bakes.
         server: the server address for RPC errors, else None.
+        reason: why the server refused, as a stable word to act on instead of
+            parsing server_message (the trailing metadata
+            ``impostor-error-reason``, e.g. ``"TOKEN_PENDING_JOBS"``; README.md,
+            Quotas, lists them); "" when the server gave none.
         job_id, cache_key: set when a bake failed or was cancelled (a result
             that failed a quality gate can still be fetched by cache_key).
     """
@@ -39,6 +43,7 @@ class ImpostorError(Exception):
         server: Optional[str] = None,
         job_id: Optional[str] = None,
         cache_key: Optional[str] = None,
+        reason: str = "",
     ) -> None:
         super().__init__(f"{code.name}: {message}")
         self.code = code
@@ -48,6 +53,7 @@ class ImpostorError(Exception):
         self.server = server
         self.job_id = job_id
         self.cache_key = cache_key
+        self.reason = reason
         # Set by the transport on an UNAVAILABLE when calls moved on to
         # another address that has not failed since the last answer: the
         # call may be tried there at once.
@@ -67,6 +73,19 @@ def status_code_from_int(value: int) -> grpc.StatusCode:
     return _CODES_BY_VALUE.get(value, grpc.StatusCode.UNKNOWN)
 
 
+# The trailing metadata that carries the server's error reason
+# (common/error_reason.h).
+_REASON_KEY = "impostor-error-reason"
+
+
+def _reason_of(error: grpc.RpcError) -> str:
+    trailers = error.trailing_metadata() if isinstance(error, grpc.Call) else None
+    for key, value in trailers or ():
+        if key == _REASON_KEY:
+            return value.decode("ascii", "replace") if isinstance(value, bytes) else str(value)
+    return ""
+
+
 def rpc_error(error: grpc.RpcError, rpc: str, server: str) -> ImpostorError:
     """Turns a grpc.RpcError into an ImpostorError naming the RPC and server."""
     code = error.code() if isinstance(error, grpc.Call) else grpc.StatusCode.UNKNOWN
@@ -77,4 +96,5 @@ def rpc_error(error: grpc.RpcError, rpc: str, server: str) -> ImpostorError:
         server_message=details,
         rpc=rpc,
         server=server,
+        reason=_reason_of(error),
     )

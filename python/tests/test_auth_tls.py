@@ -105,3 +105,21 @@ def test_plaintext_is_refused_by_the_tls_listener(secure_farm: FarmServer) -> No
     with pytest.raises(impostor.ImpostorError) as caught:
         impostor.Client(address(secure_farm), token="imp_" + "Q" * 43, connect_timeout_seconds=5)
     assert caught.value.code == grpc.StatusCode.UNAVAILABLE and caught.value.rpc == "Connect"
+
+
+def test_a_quota_refusal_carries_the_servers_reason(tmp_path: Path, assets: Path) -> None:
+    # No workers: the first job stays queued and fills the token's quota.
+    farm = FarmServer(tmp_path / "quota", local_workers=0,
+                      extra_args=["--auth=token", "--token-max-pending-jobs=1"])
+    try:
+        token = create_token(farm.data_dir, "submitter", "py-quota")
+        with impostor.Client(f"127.0.0.1:{farm.port}", token=token, max_attempts=1) as client:
+            client.submit(assets / BOX, **SMALL)
+            with pytest.raises(impostor.ImpostorError) as caught:
+                client.submit(assets / BOX, frames=6, resolution=128, quality_views=4)
+    finally:
+        farm.stop()
+    assert caught.value.code == grpc.StatusCode.RESOURCE_EXHAUSTED
+    assert caught.value.rpc == "SubmitBake"
+    assert caught.value.reason == "TOKEN_PENDING_JOBS", caught.value.server_message
+    assert "the limit per token is 1" in caught.value.server_message

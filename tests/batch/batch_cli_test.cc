@@ -64,7 +64,7 @@ fs::path Asset(const std::string& relative) { return AssetsDir() / relative; }
 // Every key the README promises on an asset line.
 void ExpectDocumentedKeys(const json& line) {
   for (const char* key : {"type", "asset", "name", "status", "cached", "cache_key", "job_id", "out_dir", "files",
-                          "wall_seconds", "priority", "quality", "error", "error_code"}) {
+                          "wall_seconds", "priority", "quality", "error", "error_code", "error_reason"}) {
     EXPECT_TRUE(line.contains(key)) << "missing \"" << key << "\" in " << line.dump();
   }
 }

@@ -110,6 +110,7 @@ TEST(BatchLimits, RateQuotaGivesUpAfterTheOutageBudgetWithTheRefusal) {
     EXPECT_EQ(a["error_code"], 8) << a.dump();
     EXPECT_NE(a["error"].get<std::string>().find("bakes of token 'ci'"), std::string::npos) << a.dump();
     EXPECT_NE(a["error"].get<std::string>().find("held back"), std::string::npos) << a.dump();
+    EXPECT_EQ(a["error_reason"], "TOKEN_BAKES_PER_HOUR") << a.dump();
   }
   EXPECT_EQ(succeeded, 2) << run.out;
   EXPECT_GE(seconds, 2.0) << "the held assets were tried again for --max-outage-seconds";

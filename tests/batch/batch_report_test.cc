@@ -24,7 +24,7 @@ TEST(AssetJson, HasEveryDocumentedKey) {
   o.quality = {{"silhouette_iou_mean", 0.97}};
   const nlohmann::json j = AssetJson(o);
   for (const char* key : {"type", "asset", "name", "status", "cached", "cache_key", "job_id", "out_dir", "files",
-                          "wall_seconds", "priority", "quality", "error", "error_code"}) {
+                          "wall_seconds", "priority", "quality", "error", "error_code", "error_reason"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
   EXPECT_EQ(j["type"], "asset");
@@ -43,6 +43,9 @@ TEST(AssetJson, HasEveryDocumentedKey) {
   EXPECT_TRUE(f["quality"].is_null());
   EXPECT_EQ(f["error"], "INVALID_ARGUMENT: bad magic");
   EXPECT_EQ(f["error_code"], 3);
+  EXPECT_TRUE(f["error_reason"].is_null()) << "no reason given";
+  failed.error_reason = "TOKEN_BAKES_PER_HOUR";
+  EXPECT_EQ(AssetJson(failed)["error_reason"], "TOKEN_BAKES_PER_HOUR");
 }
 
 TEST(SummaryJson, CountsAndExitCode) {

@@ -1,5 +1,6 @@
 // Which SubmitBake refusals bake-batch and bake wait out, and for what: the
-// server's own wording (server/token_quotas.cc, server/bake_scheduler.cc).
+// server's error reason (common/error_reason.h) and, from servers without
+// reasons, its wording (server/token_quotas.cc, server/bake_scheduler.cc).
 #include "client/cli/quota_refusal.h"
 
 #include <string>
@@ -9,7 +10,7 @@
 namespace impostor::cli {
 namespace {
 
-TEST(QuotaWaitFor, TellsOwnJobsFromBackoffFromFinal) {
+TEST(QuotaWaitFor, TellsOwnJobsFromBackoffFromFinalByTheServersWording) {
   using absl::StatusCode;
   const struct {
     const char* name;
@@ -37,8 +38,25 @@ TEST(QuotaWaitFor, TellsOwnJobsFromBackoffFromFinal) {
       {"another code", StatusCode::kUnavailable, "SubmitBake", "pending jobs of token 'ci': 1", QuotaWait::kNone},
   };
   for (const auto& c : cases) {
-    EXPECT_EQ(QuotaWaitFor(c.code, c.rpc, c.message), c.want) << c.name;
+    EXPECT_EQ(QuotaWaitFor(c.code, c.rpc, c.message, ""), c.want) << c.name;
   }
+}
+
+TEST(QuotaWaitFor, TheErrorReasonDecidesOverTheWording) {
+  using absl::StatusCode;
+  const StatusCode kExhausted = StatusCode::kResourceExhausted;
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "reworded", "TOKEN_PENDING_JOBS"), QuotaWait::kOwnJobs);
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "reworded", "CLIENT_PENDING_JOBS"), QuotaWait::kOwnJobs);
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "reworded", "FARM_PENDING_JOBS"), QuotaWait::kBackoff);
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "reworded", "TOKEN_BAKES_PER_HOUR"), QuotaWait::kBackoff);
+  // A reason wins over wording that says otherwise, and one this client
+  // does not know is final rather than guessed at from the text.
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "pending jobs of token 'ci': 20", "TOKEN_BAKES_PER_HOUR"),
+            QuotaWait::kBackoff);
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "SubmitBake", "pending jobs of token 'ci': 20", "SOMETHING_NEW"),
+            QuotaWait::kNone);
+  EXPECT_EQ(QuotaWaitFor(kExhausted, "UploadBlob", "", "TOKEN_UPLOAD_BYTES_PER_DAY"), QuotaWait::kNone);
+  EXPECT_EQ(QuotaWaitFor(StatusCode::kUnavailable, "SubmitBake", "", "TOKEN_PENDING_JOBS"), QuotaWait::kNone);
 }
 
 }  // namespace

@@ -70,6 +70,9 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   // server that is down would answer, before they are served normally.
   int get_job_unavailable = 0;
   int submit_unavailable = 0;
+  // When set, SubmitBake refuses with RESOURCE_EXHAUSTED and this error
+  // reason (trailing metadata impostor-error-reason).
+  std::string submit_refusal_reason;
   int upload_unavailable = 0;
   int read_unavailable = 0;
   int refuse_after_break = 0;  // read_unavailable once a break_once stream broke
@@ -177,12 +180,16 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     return grpc::Status::OK;
   }
 
-  grpc::Status SubmitBake(grpc::ServerContext*, const v1::SubmitBakeRequest* req,
+  grpc::Status SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* req,
                           v1::SubmitBakeResponse* resp) override {
     std::lock_guard lock(mu);
     last_submit = *req;
     submits.push_back(*req);
     if (Fail(submit_unavailable)) return Down();
+    if (!submit_refusal_reason.empty()) {
+      context->AddTrailingMetadata("impostor-error-reason", submit_refusal_reason);
+      return {grpc::StatusCode::RESOURCE_EXHAUSTED, "reworded: the queue is full"};
+    }
     if (req->parameters().frames() > 64) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "parameters.frames: 80 is out of range 2..64"};
     }
@@ -420,6 +427,23 @@ TEST_F(FakeServerTest, ServerRejectionKeepsCodeAndNamesRpcAndServer) {
   ASSERT_TRUE(info.has_value());
   EXPECT_EQ(info->rpc, "SubmitBake");
   EXPECT_EQ(info->server_message, "parameters.frames: 80 is out of range 2..64");
+  EXPECT_EQ(info->reason, "") << "the server gave no reason";
+}
+
+// The server's error reason (trailing metadata) reaches RpcErrorInfo
+// unchanged, whatever the message says.
+TEST_F(FakeServerTest, ServerErrorReasonReachesRpcErrorInfo) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_refusal_reason = "TOKEN_PENDING_JOBS";
+  }
+  absl::StatusOr<SubmitResult> r =
+      client_->SubmitBake(kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"octahedral", 8, 0});
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted) << r.status();
+  std::optional<RpcErrorInfo> info = GetRpcErrorInfo(r.status());
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->reason, "TOKEN_PENDING_JOBS");
+  EXPECT_EQ(info->server_message, "reworded: the queue is full");
 }
 
 TEST_F(FakeServerTest, FetchWritesVerifiedFilesThenReusesThem) {

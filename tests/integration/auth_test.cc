@@ -616,6 +616,8 @@ TEST_F(AuthServerNoGrace, PurgeRpcDropsResultsAndTheBlobsOnlyTheyUsed) {
   EXPECT_NE(run.err.find("--worker: required"), std::string::npos) << run.err;
 }
 
+// Each refusal also names its quota in the trailing metadata
+// impostor-error-reason (common/error_reason.h), which clients act on.
 TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
   ServerProcess server(0, {"--auth=token", "--token-max-pending-jobs=2", "--token-max-bakes-per-hour=3",
                            "--token-max-upload-bytes-per-day=1000"});
@@ -624,6 +626,12 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
   const std::string admin = CreateToken(server.data_dir(), "admin", "ops");
   auto assets = v1::AssetService::NewStub(server.channel());
   auto bake = v1::BakeService::NewStub(server.channel());
+  std::string reason;  // the last call's impostor-error-reason
+  auto reason_of = [](const grpc::ClientContext& ctx) {
+    const auto& trailers = ctx.GetServerTrailingMetadata();
+    const auto found = trailers.find("impostor-error-reason");
+    return found == trailers.end() ? std::string() : std::string(found->second.data(), found->second.size());
+  };
   auto upload = [&](const std::string& token, const std::string& bytes) {
     auto ctx = ContextWithAuthorization("Bearer " + token);
     v1::UploadBlobResponse response;
@@ -633,7 +641,9 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
     chunk.set_data(bytes);
     writer->Write(chunk);
     writer->WritesDone();
-    return writer->Finish();
+    const grpc::Status s = writer->Finish();
+    reason = reason_of(*ctx);
+    return s;
   };
   std::vector<std::string> jobs;
   auto submit = [&](const std::string& token, uint32_t seed) {
@@ -645,6 +655,7 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
     auto ctx = ContextWithAuthorization("Bearer " + token);
     v1::SubmitBakeResponse response;
     const grpc::Status s = bake->SubmitBake(ctx.get(), request, &response);
+    reason = reason_of(*ctx);
     if (s.ok()) jobs.push_back(response.job_id());
     return s;
   };
@@ -657,7 +668,9 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
   EXPECT_NE(s.error_message().find("pending jobs of token 'ci': 2 queued or running, the limit per token is 2"),
             std::string::npos)
       << s.error_message();
+  EXPECT_EQ(reason, "TOKEN_PENDING_JOBS");
   EXPECT_TRUE(submit(admin, 4).ok()) << "admins are exempt";
+  EXPECT_EQ(reason, "") << "an accepted call carries no reason";
   EXPECT_TRUE(submit(admin, 5).ok());
   EXPECT_TRUE(submit(admin, 6).ok());
 
@@ -675,6 +688,7 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
   EXPECT_NE(s.error_message().find("bakes of token 'ci': 3 in the last hour, the limit per token is 3 per hour"),
             std::string::npos)
       << s.error_message();
+  EXPECT_EQ(reason, "TOKEN_BAKES_PER_HOUR");
 
   // Upload bytes per day: checked as an upload starts.
   EXPECT_TRUE(upload(uploader, RandomBytes(600, 9)).ok());
@@ -685,6 +699,7 @@ TEST(AuthQuotas, PerTokenLimitsAnswerResourceExhaustedWithCountAndLimit) {
                                    "token is 1000 bytes per day"),
             std::string::npos)
       << s.error_message();
+  EXPECT_EQ(reason, "TOKEN_UPLOAD_BYTES_PER_DAY");
   EXPECT_TRUE(upload(admin, RandomBytes(10, 12)).ok());
 
   // The windows are in the token database: a restart forgives nothing.

@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/error_reason.h"
 #include "common/token_source.h"
 #include "server/access_policy.h"
 #include "server/auth_mode.h"
@@ -342,12 +343,14 @@ TEST(TokenQuotas, WindowsSlideAndRefusalsNameCountAndLimit) {
   EXPECT_NE(s.message().find("pending jobs of token 'ci': 2 queued or running, the limit per token is 2"),
             std::string::npos)
       << s;
+  EXPECT_EQ(ErrorReasonOf(s), "TOKEN_PENDING_JOBS");
 
   quotas.RecordBake("ci");
   now += 1000;
   quotas.RecordBake("ci");
   s = quotas.CheckSubmit("ci", 0);
   EXPECT_NE(s.message().find("bakes of token 'ci': 2 in the last hour"), std::string::npos) << s;
+  EXPECT_EQ(ErrorReasonOf(s), "TOKEN_BAKES_PER_HOUR");
   EXPECT_TRUE(quotas.CheckSubmit("other", 0).ok()) << "quotas are per token";
   now += 3'600'000 - 1000;  // the first bake leaves the window
   EXPECT_TRUE(quotas.CheckSubmit("ci", 0).ok());
@@ -358,6 +361,7 @@ TEST(TokenQuotas, WindowsSlideAndRefusalsNameCountAndLimit) {
   s = quotas.CheckUpload("ci");
   EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted);
   EXPECT_NE(s.message().find("1000 bytes in the last 24 hours, the limit per token is 1000"), std::string::npos) << s;
+  EXPECT_EQ(ErrorReasonOf(s), "TOKEN_UPLOAD_BYTES_PER_DAY");
   now += 24 * 3'600'000;
   EXPECT_TRUE(quotas.CheckUpload("ci").ok());
 }

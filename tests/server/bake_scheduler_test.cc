@@ -10,6 +10,7 @@
 #include <sqlite3.h>
 
 #include "common/bake_request.h"
+#include "common/error_reason.h"
 #include "common/sha256.h"
 
 namespace impostor {
@@ -336,10 +337,12 @@ TEST_F(BakeSchedulerTest, PendingLimitsAnswerResourceExhausted) {
   auto third = scheduler_->Submit(Request("c"), "ci");
   ASSERT_EQ(third.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_NE(third.status().message().find("limit per client is 2"), std::string::npos) << third.status();
+  EXPECT_EQ(ErrorReasonOf(third.status()), "CLIENT_PENDING_JOBS");
   ASSERT_TRUE(scheduler_->Submit(Request("c"), "artist").ok()) << "another client is not starved";
   auto fourth = scheduler_->Submit(Request("d"), "artist");
   ASSERT_EQ(fourth.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_NE(fourth.status().message().find("the limit is 3"), std::string::npos) << fourth.status();
+  EXPECT_EQ(ErrorReasonOf(fourth.status()), "FARM_PENDING_JOBS");
   // Finishing work frees room.
   ASSERT_TRUE(scheduler_->Complete(Result(Lease())).ok());
   EXPECT_TRUE(scheduler_->Submit(Request("d"), "artist").ok());

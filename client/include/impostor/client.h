@@ -394,6 +394,10 @@ struct RpcErrorInfo {
   std::string rpc;             // e.g. "SubmitBake"
   std::string server;          // the ClientOptions::server address
   std::string server_message;  // the server's own message, unchanged
+  // Why the server refused, as a stable word to act on instead of parsing
+  // server_message (e.g. "TOKEN_PENDING_JOBS"; README.md, Quotas, lists
+  // them); "" when the server gave none.
+  std::string reason;
 };
 
 // Every Status a Client returns for a failed RPC carries the RPC's status

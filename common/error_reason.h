@@ -1,0 +1,52 @@
+// Why the server refused a call, as a stable word a program can act on
+// without parsing the message, which is for people and may be reworded.
+// Inside the server the word rides on the absl::Status as a payload; at the
+// service edge ToGrpc (server/grpc_status.h) sends it as the trailing
+// metadata `impostor-error-reason`, where every gRPC client can read it
+// (grpcurl prints it too). The C++ SDK puts it in RpcErrorInfo::reason, the
+// Python client in ImpostorError.reason. The words are listed here, in the
+// proto comments of the calls that send them and in README.md (Quotas); a
+// word, once sent, keeps its meaning.
+#ifndef IMPOSTOR_COMMON_ERROR_REASON_H_
+#define IMPOSTOR_COMMON_ERROR_REASON_H_
+
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/strings/cord.h"
+
+namespace impostor {
+
+inline constexpr char kErrorReasonMetadataKey[] = "impostor-error-reason";
+
+namespace error_reason {
+// RESOURCE_EXHAUSTED from SubmitBake: frees up as jobs finish.
+inline constexpr char kTokenPendingJobs[] = "TOKEN_PENDING_JOBS";    // this token's queued + running jobs
+inline constexpr char kClientPendingJobs[] = "CLIENT_PENDING_JOBS";  // this client id's (within its token)
+// RESOURCE_EXHAUSTED from SubmitBake: frees up with time.
+inline constexpr char kFarmPendingJobs[] = "FARM_PENDING_JOBS";        // the whole farm's queue
+inline constexpr char kTokenBakesPerHour[] = "TOKEN_BAKES_PER_HOUR";  // a sliding one-hour window
+// RESOURCE_EXHAUSTED from UploadBlob: a sliding 24-hour window.
+inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
+}  // namespace error_reason
+
+namespace internal {
+inline constexpr char kErrorReasonPayload[] = "type.impostor.dev/error_reason";
+}  // namespace internal
+
+// `status` with `reason` attached (no-op on OK).
+inline absl::Status WithErrorReason(absl::Status status, std::string_view reason) {
+  if (!status.ok()) status.SetPayload(internal::kErrorReasonPayload, absl::Cord(std::string(reason)));
+  return status;
+}
+
+// The reason attached to `status`, or "" when none is.
+inline std::string ErrorReasonOf(const absl::Status& status) {
+  auto reason = status.GetPayload(internal::kErrorReasonPayload);  // absl::optional in Debian's abseil
+  return reason.has_value() ? std::string(*reason) : std::string();
+}
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_COMMON_ERROR_REASON_H_
