@@ -15,6 +15,7 @@
 #include "client/rpc_error.h"
 #include "client/sdk_log.h"
 #include "client/transport.h"
+#include "common/error_reason.h"
 
 namespace impostor::sdk {
 namespace {
@@ -38,6 +39,37 @@ std::string NewRequestId() {
     for (int i = 0; i < 16; ++i, bits >>= 4) id[half * 16 + i] = kHex[bits & 0xf];
   }
   return id;
+}
+
+// Submits are tried this many times more when the server has lost one of
+// the mesh's blobs since it was uploaded (evicted under store pressure while
+// a large batch uploaded the rest, or while a quota held the asset back).
+constexpr int kReuploadsPerSubmit = 2;
+
+bool InputBlobMissing(const absl::Status& status) {
+  const std::optional<RpcErrorInfo> rpc = GetRpcErrorInfo(status);
+  return status.code() == absl::StatusCode::kFailedPrecondition && rpc.has_value() &&
+         rpc->reason == error_reason::kInputBlobMissing;
+}
+
+// SubmitBake of `request` (its mesh from uploading `files`); when the server
+// answers that one of the blobs is not in the store, uploads what it lacks
+// again (added to *stats) and submits once more, kReuploadsPerSubmit times
+// at most. The request id stays: no attempt that was refused made a job.
+absl::StatusOr<v1::SubmitBakeResponse> SubmitUploaded(Transport& transport, const MeshFiles& files,
+                                                      const v1::SubmitBakeRequest& request, UploadStats* stats) {
+  absl::StatusOr<v1::SubmitBakeResponse> response = transport.SubmitBake(request);
+  for (int attempt = 0; attempt < kReuploadsPerSubmit && !response.ok() && InputBlobMissing(response.status());
+       ++attempt) {
+    SdkLog().info("{}: the server no longer has one of its files ({}); uploading again", files.entry.string(),
+                  std::string(response.status().message()));
+    absl::StatusOr<UploadedMesh> again = UploadMesh(transport, files);
+    if (!again.ok()) return again.status();
+    stats->uploaded += again->stats.uploaded;
+    stats->bytes_uploaded += again->stats.bytes_uploaded;
+    response = transport.SubmitBake(request);
+  }
+  return response;
 }
 
 }  // namespace
@@ -80,7 +112,8 @@ absl::StatusOr<SubmitResult> Client::SubmitBake(const std::filesystem::path& mod
   *request.mutable_parameters() = *parameters;
   ApplySchedulingSettings(settings, &request);
   request.set_request_id(NewRequestId());
-  absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
+  absl::StatusOr<v1::SubmitBakeResponse> response =
+      SubmitUploaded(impl_->transport(), *files, request, &uploaded->stats);
   if (!response.ok()) return response.status();
 
   SubmitResult result;
@@ -142,7 +175,8 @@ absl::StatusOr<std::vector<BatchSubmission>> Client::SubmitBakeBatch(
       *request.mutable_parameters() = parameters[i];
       ApplySchedulingSettings(items[i].settings, &request);
       request.set_request_id(NewRequestId());
-      absl::StatusOr<v1::SubmitBakeResponse> response = impl_->transport().SubmitBake(request);
+      absl::StatusOr<v1::SubmitBakeResponse> response =
+          SubmitUploaded(impl_->transport(), files[i], request, &meshes[i]->stats);
       if (response.ok()) {
         out[i].result.job_id = response->job_id();
         out[i].result.cache_key = response->cache_key();

@@ -29,6 +29,9 @@ inline constexpr char kFarmPendingJobs[] = "FARM_PENDING_JOBS";        // the wh
 inline constexpr char kTokenBakesPerHour[] = "TOKEN_BAKES_PER_HOUR";  // a sliding one-hour window
 // RESOURCE_EXHAUSTED from UploadBlob: a sliding 24-hour window.
 inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
+// FAILED_PRECONDITION from SubmitBake: one of the mesh's blobs is not in the
+// store (never uploaded, or evicted since the upload): upload it, submit again.
+inline constexpr char kInputBlobMissing[] = "INPUT_BLOB_MISSING";
 }  // namespace error_reason
 
 namespace internal {

@@ -416,8 +416,10 @@ absl::StatusOr<std::optional<v1::Manifest>> BakeScheduler::IntactResult(const st
 absl::Status BakeScheduler::RequireInputBlobs(const v1::MeshInput& mesh) const {
   auto require_blob = [&](const std::string& field, const v1::InputFile& f) -> absl::Status {
     if (blobs_->Contains(ToDigest(f.digest()))) return absl::OkStatus();
-    return absl::FailedPreconditionError(absl::StrCat(field, " (\"", f.path(), "\"): blob ", f.digest().hash(), "/",
-                                                      f.digest().size_bytes(), " is not in the store; upload it first"));
+    return WithErrorReason(
+        absl::FailedPreconditionError(absl::StrCat(field, " (\"", f.path(), "\"): blob ", f.digest().hash(), "/",
+                                                   f.digest().size_bytes(), " is not in the store; upload it first")),
+        error_reason::kInputBlobMissing);
   };
   if (auto s = require_blob("mesh.entry", mesh.entry()); !s.ok()) return s;
   for (int i = 0; i < mesh.files_size(); ++i) {

@@ -8,6 +8,7 @@
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import secrets
@@ -57,6 +58,15 @@ def _job_update(job: "pb.Job") -> JobUpdate:
         error_message=job.error.message if job.HasField("error") else "",
         cached=job.cached,
     )
+
+
+# Submits are tried this many times more when the server has lost one of the
+# mesh's blobs since it was uploaded (the C++ SDK's kReuploadsPerSubmit).
+_REUPLOADS_PER_SUBMIT = 2
+
+
+def _input_blob_missing(error: ImpostorError) -> bool:
+    return error.code == grpc.StatusCode.FAILED_PRECONDITION and error.reason == "INPUT_BLOB_MISSING"
 
 
 def _submit_result(response: "bake_pb.SubmitBakeResponse", upload: Any) -> SubmitResult:
@@ -192,7 +202,23 @@ class Client:
         # The same id on every retry: a retried submit never makes a second job.
         request.request_id = secrets.token_hex(16)
         t = self._transport
-        return _submit_result(t.unary("SubmitBake", t.bake.SubmitBake, request), upload)
+        for reuploads in range(_REUPLOADS_PER_SUBMIT + 1):
+            try:
+                return _submit_result(t.unary("SubmitBake", t.bake.SubmitBake, request), upload)
+            except ImpostorError as e:
+                # The server lost a blob since the upload (evicted under store
+                # pressure while a batch uploaded the rest): upload it again.
+                if reuploads == _REUPLOADS_PER_SUBMIT or not _input_blob_missing(e):
+                    raise
+            (again,) = upload_meshes(t, [files])
+            if isinstance(again, ImpostorError):
+                raise again
+            upload = dataclasses.replace(
+                upload,
+                uploaded=upload.uploaded + again.uploaded,
+                bytes_uploaded=upload.bytes_uploaded + again.bytes_uploaded,
+            )
+        raise AssertionError("unreachable")
 
     def submit(self, model: PathLike, **settings: Any) -> SubmitResult:
         """Uploads what the server lacks of `model` (a .gltf or .glb and every

@@ -9,7 +9,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import List
+from typing import List, Set
 
 import grpc
 import pytest
@@ -399,3 +399,64 @@ def test_token_and_client_id_reach_the_wire_as_metadata(tmp_path) -> None:
     assert seen[0]["authorization"] == "Bearer s3cret-token"
     assert seen[0]["impostor-client-id"] == "ci-nightly"
     assert seen[1]["authorization"] == "Bearer explicit"
+
+
+def test_a_blob_lost_between_upload_and_submit_is_uploaded_again(assets: Path) -> None:
+    """A server that evicted the model's blob after its upload refuses the
+    submit with the reason INPUT_BLOB_MISSING: the client uploads it again and
+    submits once more, with the same request id, twice at most (a stand-in
+    server that loses the blob at the first two, then at every submit)."""
+    from concurrent import futures
+
+    from impostor.v1 import asset_service_pb2, asset_service_pb2_grpc, bake_service_pb2, bake_service_pb2_grpc
+
+    store: Set[str] = set()
+    submits: List[str] = []
+    evictions = {"left": 1}
+
+    class Assets(asset_service_pb2_grpc.AssetServiceServicer):
+        def FindMissingBlobs(self, request, context):  # noqa: N802 (gRPC's name)
+            return asset_service_pb2.FindMissingBlobsResponse(
+                missing=[d for d in request.digests if d.hash not in store])
+
+        def UploadBlob(self, request_iterator, context):  # noqa: N802
+            digest = None
+            for chunk in request_iterator:
+                if chunk.HasField("digest"):
+                    digest = chunk.digest
+            store.add(digest.hash)
+            return asset_service_pb2.UploadBlobResponse(digest=digest)
+
+    class Bake(bake_service_pb2_grpc.BakeServiceServicer):
+        def SubmitBake(self, request, context):  # noqa: N802
+            submits.append(request.request_id)
+            if evictions["left"] != 0:
+                evictions["left"] -= 1
+                store.clear()
+            if request.mesh.entry.digest.hash not in store:
+                context.set_trailing_metadata((("impostor-error-reason", "INPUT_BLOB_MISSING"),))
+                context.set_code(grpc.StatusCode.FAILED_PRECONDITION)
+                context.set_details("mesh.entry: blob is not in the store; upload it first")
+                return bake_service_pb2.SubmitBakeResponse()
+            return bake_service_pb2.SubmitBakeResponse(job_id="job-1", cache_key="a" * 64)
+
+    server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
+    asset_service_pb2_grpc.add_AssetServiceServicer_to_server(Assets(), server)
+    bake_service_pb2_grpc.add_BakeServiceServicer_to_server(Bake(), server)
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    try:
+        with impostor.Client(f"127.0.0.1:{port}", max_attempts=1) as c:
+            result = c.submit(assets / BOX, **SMALL)
+            assert result.job_id == "job-1"
+            assert result.upload.uploaded == 2, "uploaded, lost, uploaded again"
+            assert len(submits) == 2 and submits[0] == submits[1], "one logical submit"
+            evictions["left"] = -1  # every submit from now on
+            submits.clear()
+            with pytest.raises(impostor.ImpostorError) as caught:
+                c.submit(assets / BOX, **SMALL)
+    finally:
+        server.stop(None)
+    assert caught.value.code == grpc.StatusCode.FAILED_PRECONDITION
+    assert caught.value.reason == "INPUT_BLOB_MISSING"
+    assert len(submits) == 3, "the first try and two uploads again, then the answer"

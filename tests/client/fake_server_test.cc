@@ -73,6 +73,12 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   // When set, SubmitBake refuses with RESOURCE_EXHAUSTED and this error
   // reason (trailing metadata impostor-error-reason).
   std::string submit_refusal_reason;
+  // The next N SubmitBake calls first forget every blob (an eviction between
+  // upload and submit); a missing blob is refused as the server refuses it,
+  // with the reason INPUT_BLOB_MISSING unless missing_blob_reason is false
+  // (a server from before the reasons).
+  int submit_evicts = 0;
+  bool missing_blob_reason = true;
   int upload_unavailable = 0;
   int read_unavailable = 0;
   int refuse_after_break = 0;  // read_unavailable once a break_once stream broke
@@ -193,11 +199,14 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
     if (req->parameters().frames() > 64) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "parameters.frames: 80 is out of range 2..64"};
     }
-    for (const auto* f : {&req->mesh().entry()}) {
-      if (!blobs.contains(f->digest().hash())) return {grpc::StatusCode::FAILED_PRECONDITION, f->path()};
-    }
+    if (Fail(submit_evicts)) blobs.clear();
+    auto missing = [&](const v1::InputFile& f) -> grpc::Status {
+      if (missing_blob_reason) context->AddTrailingMetadata("impostor-error-reason", "INPUT_BLOB_MISSING");
+      return {grpc::StatusCode::FAILED_PRECONDITION, f.path() + ": blob is not in the store; upload it first"};
+    };
+    if (!blobs.contains(req->mesh().entry().digest().hash())) return missing(req->mesh().entry());
     for (const auto& f : req->mesh().files()) {
-      if (!blobs.contains(f.digest().hash())) return {grpc::StatusCode::FAILED_PRECONDITION, f.path()};
+      if (!blobs.contains(f.digest().hash())) return missing(f);
     }
     resp->set_job_id("job-1");
     resp->set_cache_key(std::string(64, 'a'));
@@ -428,6 +437,65 @@ TEST_F(FakeServerTest, ServerRejectionKeepsCodeAndNamesRpcAndServer) {
   EXPECT_EQ(info->rpc, "SubmitBake");
   EXPECT_EQ(info->server_message, "parameters.frames: 80 is out of range 2..64");
   EXPECT_EQ(info->reason, "") << "the server gave no reason";
+}
+
+// The server lost the model's blobs between the upload and the submit (an
+// eviction under store pressure): the client uploads them again and the
+// submit goes through, counting the second upload; twice at most, so a
+// server that keeps losing them gets an answer, not a loop.
+TEST_F(FakeServerTest, SubmitUploadsAgainWhatTheServerLostSinceTheUpload) {
+  const fs::path model = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_evicts = 1;
+  }
+  absl::StatusOr<SubmitResult> r = client_->SubmitBake(model, BakeSettings{"octahedral", 8, 0});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->upload.uploaded, 2) << "the one file, uploaded twice";
+  {
+    std::lock_guard lock(fake_.mu);
+    EXPECT_EQ(fake_.submits.size(), 2u);
+    EXPECT_EQ(fake_.submits[0].request_id(), fake_.submits[1].request_id()) << "one logical submit";
+    fake_.submit_evicts = 5;
+  }
+  r = client_->SubmitBake(model, BakeSettings{"octahedral", 8, 0});
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kFailedPrecondition) << r.status();
+  EXPECT_EQ(GetRpcErrorInfo(r.status())->reason, "INPUT_BLOB_MISSING");
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.submits.size(), 5u) << "three tries of the second submit";
+}
+
+// Without the reason (an older server) a refused submit is the answer: the
+// message alone does not say what to do.
+TEST_F(FakeServerTest, AMissingBlobWithoutTheReasonIsNotUploadedAgain) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_evicts = 1;
+    fake_.missing_blob_reason = false;
+  }
+  absl::StatusOr<SubmitResult> r =
+      client_->SubmitBake(kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"octahedral", 8, 0});
+  ASSERT_EQ(r.status().code(), absl::StatusCode::kFailedPrecondition) << r.status();
+  std::lock_guard lock(fake_.mu);
+  EXPECT_EQ(fake_.submits.size(), 1u);
+}
+
+// The batch submit does the same for each model.
+TEST_F(FakeServerTest, BatchSubmitUploadsAgainWhatTheServerLost) {
+  {
+    std::lock_guard lock(fake_.mu);
+    fake_.submit_evicts = 1;
+  }
+  std::vector<BatchItem> items = {
+      {kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"octahedral", 8, 0}},
+      {kAssets / "props_pbr/Box/glTF-Binary/Box.glb", BakeSettings{"octahedral", 10, 0}},
+  };
+  absl::StatusOr<std::vector<BatchSubmission>> r = client_->SubmitBakeBatch(items, nullptr);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_TRUE((*r)[0].status.ok()) << (*r)[0].status;
+  ASSERT_TRUE((*r)[1].status.ok()) << (*r)[1].status;
+  EXPECT_EQ((*r)[0].result.upload.uploaded, 2) << "uploaded, lost, uploaded again";
+  EXPECT_EQ((*r)[1].result.upload.uploaded, 0) << "the blob is back by then";
 }
 
 // The server's error reason (trailing metadata) reaches RpcErrorInfo

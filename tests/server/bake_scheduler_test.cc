@@ -355,6 +355,7 @@ TEST_F(BakeSchedulerTest, MissingInputBlobIsAFailedPrecondition) {
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_NE(s.status().message().find("mesh.entry"), std::string::npos) << s.status();
+  EXPECT_EQ(ErrorReasonOf(s.status()), "INPUT_BLOB_MISSING");
 }
 
 TEST_F(BakeSchedulerTest, ExpiredLeaseRequeuesAndStaleWorkerIsRefused) {
