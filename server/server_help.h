@@ -19,7 +19,7 @@ inline ProgramHelp ServerHelp() {
                  "under --data), queues bake jobs and leases them to impostor-worker processes, which it can "
                  "also start and supervise itself (--local-workers). Prints \"impostor-server listening on "
                  "HOST:PORT\" on stdout once serving; logs go to stderr. SIGTERM, SIGINT or SIGHUP drains and stops it. "
-                 "`token` manages bearer tokens (README \"Identity, tokens and roles\"); `purge` drops the "
+                 "`token` manages bearer tokens (README \"Securing a farm: tokens and roles\"); `purge` drops the "
                  "results a worker baked, offline.",
       .groups = {{"Listening", {"listen", "port_file", "http_", "tls_", "keepalive_"}},
                  {"Access control", {"auth", "token_"}},
@@ -27,9 +27,10 @@ inline ProgramHelp ServerHelp() {
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},
                  {"Workers", {"local_workers", "worker_"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},
-      .footer = "Exit status: 0 after a clean shutdown, 2 for a flag value out of range or unusable (one line on "
-                "stderr naming the flag and what it accepts), 1 for an unknown flag or a value that does not parse "
-                "(Abseil's message).\nSee impostor-worker(1) and impostor(1).",
+      .footer = "Exit status: 0 after a clean shutdown; 2, with one line on stderr, for an unknown flag or a "
+                "value that does not parse, is out of range or is unusable (naming the flag and what it accepts), "
+                "and for what stops it from starting: a data directory, database, certificate or address it cannot "
+                "use.\nSee impostor-worker(1) and impostor(1).",
   };
 }
 

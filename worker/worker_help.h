@@ -24,8 +24,8 @@ inline ProgramHelp WorkerHelp() {
                                    "isolate_load", "load_"}},
                  {"Logging", {"log_"}}},
       .footer = "Exit status: 0 after --max-jobs jobs or a drain, 1 when the server stayed unreachable for "
-                "--max-outage-seconds, or for an unknown flag or a value that does not parse (Abseil's message), 2 "
-                "for a flag value out of range or an unreadable --token-file, 3 when no usable Vulkan device exists, "
+                "--max-outage-seconds, 2 for an unknown flag or a value that does not parse or is out of range (one "
+                "line on stderr naming the flag) or an unreadable --token-file, 3 when no usable Vulkan device exists, "
                 "4 when the server refused its token (unknown, revoked, expired, not a worker's).\n"
                 "See impostor-server(1) and impostor(1).",
   };

@@ -108,6 +108,7 @@ FarmMetrics::FarmMetrics(BakeScheduler* scheduler, const BlobStore* blobs)
       rpc_methods_.insert("/" + service->full_name() + "/" + service->method(i)->name());
     }
   }
+  tls_cert_expiry_.set_absent_until_set();
   rpc_methods_.insert("/grpc.health.v1.Health/Check");
   rpc_methods_.insert("/grpc.health.v1.Health/Watch");
 }

@@ -108,8 +108,9 @@ double ValueFamily::Get(const std::vector<std::string>& label_values) const {
 }
 
 void ValueFamily::Render(std::string& out) const {
-  RenderHeader(out);
   std::lock_guard lock(mu_);
+  if (absent_until_set_ && values_.empty()) return;
+  RenderHeader(out);
   // A family without labels always has its one series, 0 until touched.
   if (label_names_.empty() && values_.empty()) out += name_ + " 0\n";
   for (const auto& [labels, value] : values_) out += name_ + LabelText(labels) + " " + FormatValue(value) + "\n";

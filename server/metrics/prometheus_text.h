@@ -69,9 +69,14 @@ class ValueFamily final : public Family {
   void Clear();
   // 0 for a child never touched.
   double Get(const std::vector<std::string>& label_values) const;
+  // A family without labels is rendered as one series, 0 until set; after
+  // this call it is left out of the exposition until Set, for a gauge that
+  // means nothing on some servers (a certificate's expiry without TLS).
+  void set_absent_until_set() { absent_until_set_ = true; }
   void Render(std::string& out) const override;
 
  private:
+  bool absent_until_set_ = false;
   mutable std::mutex mu_;
   std::map<std::vector<std::string>, double> values_ ABSL_GUARDED_BY(mu_);
 };

@@ -143,6 +143,21 @@ TEST_F(FarmMetricsTest, WorkerLabelsAreBounded) {
   EXPECT_EQ(e.Sum("impostor_worker_jobs_failed_total"), static_cast<double>(workers));
 }
 
+// The certificate's expiry means nothing without TLS: no series at all, so
+// an alert on "expires within a week" cannot fire on a plaintext server; with
+// TLS it is the expiry, 0 while the files are unusable (main.cc sets it).
+TEST_F(FarmMetricsTest, TlsCertExpiryIsAbsentUntilTlsSetsIt) {
+  EXPECT_FALSE(Scrape().Has("impostor_tls_cert_expiry_timestamp_seconds"));
+  EXPECT_EQ(metrics_->Scrape().find("impostor_tls_cert_expiry_timestamp_seconds"), std::string::npos)
+      << "no HELP or TYPE line either";
+  metrics_->SetTlsCertExpiry(1'900'000'000);
+  EXPECT_EQ(Scrape().Value("impostor_tls_cert_expiry_timestamp_seconds"), 1'900'000'000);
+  metrics_->SetTlsCertExpiry(0);
+  Exposition e = Scrape();
+  ASSERT_TRUE(e.Has("impostor_tls_cert_expiry_timestamp_seconds"));
+  EXPECT_EQ(e.Value("impostor_tls_cert_expiry_timestamp_seconds"), 0);
+}
+
 TEST_F(FarmMetricsTest, ListJobsPagesNewestFirstWithStateFilter) {
   std::vector<std::string> ids;
   for (int i = 0; i < 5; ++i) ids.push_back(Submit(Request("mesh " + std::to_string(i)), "alice").job_id());
