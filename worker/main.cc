@@ -31,8 +31,9 @@
 #include "common/worker_exit_codes.h"
 #include "worker/worker_help.h"
 
-ABSL_FLAG(std::string, server, "localhost:50051",
-          "HOST:PORT of impostor-server, or several replicas of one farm: HOST1:PORT,HOST2:PORT (fails over)");
+ABSL_FLAG(std::string, server, "",
+          "HOST:PORT of impostor-server, or several replicas of one farm: HOST1:PORT,HOST2:PORT (fails over) "
+          "(default: $IMPOSTOR_SERVER, else localhost:50051)");
 ABSL_FLAG(std::string, name, "", "Worker name for logs and leases (default: host-pid)");
 ABSL_FLAG(std::string, device, "", "Substring of the Vulkan device name to use (default: best available)");
 ABSL_FLAG(std::string, scratch, "", "Directory for per-job files (default: $TMPDIR/impostor-worker-<pid>)");
@@ -118,8 +119,17 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // As the CLI: the flag, else $IMPOSTOR_SERVER (what README, the systemd
+  // unit's Environment= and the containers set), else the local default.
+  std::string server = absl::GetFlag(FLAGS_server);
+  const char* server_source = "--server";
+  if (server.empty()) {
+    server = EnvOrEmpty("IMPOSTOR_SERVER");
+    server_source = "$IMPOSTOR_SERVER";
+  }
+  if (server.empty()) server = "localhost:50051";
   // Several replicas (issue 15): a malformed list fails here, naming the flag.
-  if (auto targets = impostor::ParseServerList(absl::GetFlag(FLAGS_server), "--server"); !targets.ok()) {
+  if (auto targets = impostor::ParseServerList(server, server_source); !targets.ok()) {
     std::fprintf(stderr, "impostor-worker: %s\n", std::string(targets.status().message()).c_str());
     return 2;
   }
@@ -179,7 +189,7 @@ int main(int argc, char** argv) {
   std::error_code ec;
   std::filesystem::create_directories(scratch, ec);
 
-  impostor::WorkerLoop loop({.server = absl::GetFlag(FLAGS_server),
+  impostor::WorkerLoop loop({.server = server,
                              .worker_id = worker_id,
                              .scratch_dir = scratch,
                              .heartbeat_seconds = heartbeat,
@@ -219,7 +229,7 @@ int main(int argc, char** argv) {
     }
   }).detach();
 
-  spdlog::info("event=worker_ready server={}", absl::GetFlag(FLAGS_server));
+  spdlog::info("event=worker_ready server={}", server);
   const auto status = loop.Run();
   std::filesystem::remove_all(scratch, ec);
   if (!status.ok()) {

@@ -62,11 +62,36 @@ TEST(Failover, MalformedListsFailAtOnceNamingTheFlag) {
   EXPECT_NE(worker.err.find("--server: address 2 of \"127.0.0.1:1,,127.0.0.1:2\" is empty"), std::string::npos)
       << worker.err;
 
+  // Without --server the worker takes $IMPOSTOR_SERVER, as the CLI does,
+  // and names it when it is malformed.
+  const testing::ToolRun from_env = testing::RunTool({(BinaryDir() / "impostor-worker").string()},
+                                                     std::chrono::seconds(60), {"IMPOSTOR_SERVER=127.0.0.1:1,,"});
+  EXPECT_EQ(from_env.exit_code, 2) << from_env.err;
+  EXPECT_NE(from_env.err.find("$IMPOSTOR_SERVER: address 2 of \"127.0.0.1:1,,\" is empty"), std::string::npos)
+      << from_env.err;
+
   const testing::ToolRun cli = testing::RunTool(
       {(BinaryDir() / "impostor").string(), "status", "job-1", "--server", "bake.lan,bake2.lan:50051"},
       std::chrono::seconds(60));
   EXPECT_NE(cli.exit_code, 0);
   EXPECT_NE(cli.err.find("--server: \"bake.lan\" has no port"), std::string::npos) << cli.err;
+}
+
+// A worker started with only $IMPOSTOR_SERVER (the systemd unit's
+// Environment=, a container's env) goes to that server, not localhost:50051;
+// --server wins over it.
+TEST(Failover, WorkerTakesTheServerFromTheEnvironmentWithoutTheFlag) {
+  const testing::ToolRun env_only =
+      testing::RunTool({(BinaryDir() / "impostor-worker").string(), "--max-outage-seconds=1"},
+                       std::chrono::seconds(60), {"IMPOSTOR_SERVER=127.0.0.1:1"});
+  EXPECT_EQ(env_only.exit_code, 1) << env_only.err;
+  EXPECT_NE(env_only.err.find("server 127.0.0.1:1 unreachable"), std::string::npos) << env_only.err;
+
+  const testing::ToolRun flag_wins = testing::RunTool(
+      {(BinaryDir() / "impostor-worker").string(), "--server=127.0.0.1:2", "--max-outage-seconds=1"},
+      std::chrono::seconds(60), {"IMPOSTOR_SERVER=127.0.0.1:1"});
+  EXPECT_EQ(flag_wins.exit_code, 1) << flag_wins.err;
+  EXPECT_NE(flag_wins.err.find("server 127.0.0.1:2 unreachable"), std::string::npos) << flag_wins.err;
 }
 
 }  // namespace
