@@ -11,6 +11,7 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <cstdlib>
 #include <thread>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
@@ -127,6 +128,11 @@ ABSL_FLAG(int, result_touch_flush_seconds, 10,
 namespace {
 
 std::atomic<bool> g_stop{false};
+
+// How long past --shutdown-grace-seconds the server may take to exit before
+// it exits anyway (the drain, the gRPC shutdown and the last flush normally
+// end within the grace).
+constexpr std::chrono::seconds kShutdownOverrun{3};
 
 int Fail(const std::string& message) {
   std::fprintf(stderr, "impostor-server: %s\n", message.c_str());
@@ -431,6 +437,19 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     const auto deadline = start + std::chrono::seconds(grace_s);
     spdlog::info("event=shutdown signal={} grace_s={}", sig, grace_s);
+    // The grace is a promise to systemd and to whoever waits on the stop:
+    // work blocked on a database that went away during the stop (a pool
+    // waits out its reconnect window per call) cannot hold the exit past it.
+    // What is cut off is safe to cut: every accepted job is committed, an
+    // open transaction rolls back, blob writes are renamed into place whole.
+    std::thread([start, deadline] {
+      std::this_thread::sleep_until(deadline + kShutdownOverrun);
+      spdlog::warn("event=shutdown_forced seconds={:.2f} reason=\"calls or database work still running past "
+                   "--shutdown-grace-seconds (a database that stopped answering?)\"",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      spdlog::default_logger()->flush();
+      std::_Exit(0);
+    }).detach();
     if (supervisor) supervisor->Stop(deadline - std::chrono::seconds(grace_s) / 4);
     g_stop = true;
     scheduler.Shutdown();
