@@ -13,8 +13,9 @@
 namespace impostor::cli {
 
 int RunAdminPurge(const CliArgs& args) {
+  // --json: every key of the answer (null: not known) and exit_code.
   auto fail = [&](int code, const std::string& reason) {
-    if (args.json) PrintJson({{"worker", args.worker}, {"error", reason}});
+    if (args.json) PrintJson(PurgeErrorJson(args.worker, reason, code));
     return Fail(code, reason);
   };
   auto transport = sdk::Transport::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));

@@ -34,11 +34,19 @@ class BakeReport {
   }
   nlohmann::json& json() { return json_; }
 
-  int Fail(int exit_code, const std::string& reason) {
-    json_["error"] = reason;
+  // `error` is the JSON's "CODE: message"; `line` the one stderr line
+  // (default the same), which may say more ("bake failed: CODE: message").
+  int Fail(int exit_code, const std::string& error, const std::string& line = "") {
+    json_["error"] = error;
     json_["exit_code"] = exit_code;
     Print();
-    return cli::Fail(exit_code, reason);
+    return cli::Fail(exit_code, line.empty() ? error : line);
+  }
+  int Fail(int exit_code, const absl::Status& status) { return Fail(exit_code, Describe(status)); }
+  // The bake itself failed (exit 1): "bake failed: CODE: message" on stderr.
+  int BakeFailed(int code, const std::string& message) {
+    const std::string error = CodeAndMessage(code, message);
+    return Fail(kExitBakeFailed, error, absl::StrCat("bake failed: ", error));
   }
   int Succeed() {
     Print();
@@ -102,16 +110,21 @@ int RunBake(const CliArgs& args) {
 
   // Local problems first, so they are reported without needing a server.
   std::error_code ec;
-  if (!fs::exists(args.target, ec)) return report.Fail(kExitLocalIo, absl::StrCat("model ", args.target, " not found"));
+  // (The JSON's codes as bake-batch gives them: NOT_FOUND, INTERNAL.)
+  if (!fs::exists(args.target, ec)) {
+    const std::string reason = absl::StrCat("model ", args.target, " not found");
+    return report.Fail(kExitLocalIo, CodeAndMessage(static_cast<int>(absl::StatusCode::kNotFound), reason), reason);
+  }
   fs::create_directories(args.out, ec);
   if (ec || !fs::is_directory(args.out)) {
-    return report.Fail(kExitLocalIo, absl::StrCat("cannot create output directory ", args.out, ": ",
-                                                  ec ? ec.message() : std::string("not a directory")));
+    const std::string reason = absl::StrCat("cannot create output directory ", args.out, ": ",
+                                            ec ? ec.message() : std::string("not a directory"));
+    return report.Fail(kExitLocalIo, CodeAndMessage(static_cast<int>(absl::StatusCode::kInternal), reason), reason);
   }
 
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
-  if (!client.ok()) return report.Fail(kExitServer, Describe(client.status()));
+  if (!client.ok()) return report.Fail(kExitServer, client.status());
 
   const sdk::BakeSettings settings = BakeSettingsFromArgs(args);
   absl::StatusOr<sdk::SubmitResult> submitted = SubmitWaitingOutQuotas(**client, args, settings);
@@ -121,10 +134,9 @@ int RunBake(const CliArgs& args) {
     // The server judged the request itself (e.g. frames out of range): that
     // is the bake failing, not the transport.
     if (rpc.has_value() && rpc->rpc == "SubmitBake" && s.code() == absl::StatusCode::kInvalidArgument) {
-      return report.Fail(kExitBakeFailed,
-                         absl::StrCat("bake failed: INVALID_ARGUMENT: ", InFlagTerms(rpc->server_message)));
+      return report.BakeFailed(static_cast<int>(s.code()), InFlagTerms(rpc->server_message));
     }
-    return report.Fail(ExitCodeFor(s), Describe(s));
+    return report.Fail(ExitCodeFor(s), s);
   }
   report.json()["cache_key"] = submitted->cache_key;
   report.json()["job_id"] = submitted->job_id;
@@ -141,10 +153,7 @@ int RunBake(const CliArgs& args) {
     if (IsQualityGateFailure(submitted->error_code, submitted->error_message)) {
       FetchGatedResult(**client, submitted->cache_key, args.out, args.quiet, &report.json());
     }
-    return report.Fail(kExitBakeFailed,
-                       absl::StrCat("bake failed: ",
-                                    absl::StatusCodeToString(static_cast<absl::StatusCode>(submitted->error_code)),
-                                    ": ", submitted->error_message));
+    return report.BakeFailed(submitted->error_code, submitted->error_message);
   }
   if (!submitted->cached) {
     ProgressPrinter printer(stderr, isatty(STDERR_FILENO) == 1);
@@ -152,31 +161,34 @@ int RunBake(const CliArgs& args) {
       if (!args.quiet) printer.Update(u);
     });
     printer.Finish();
-    if (!final_state.ok()) return report.Fail(ExitCodeFor(final_state.status()), Describe(final_state.status()));
+    if (!final_state.ok()) return report.Fail(ExitCodeFor(final_state.status()), final_state.status());
     report.json()["cached"] = final_state->cached;
     if (final_state->state == sdk::JobState::kFailed) {
       // The gate rejected a finished bake: its result is kept; fetch it.
       if (IsQualityGateFailure(final_state->error_code, final_state->error_message)) {
         FetchGatedResult(**client, submitted->cache_key, args.out, args.quiet, &report.json());
       }
-      return report.Fail(kExitBakeFailed,
-                         absl::StrCat("bake failed: ",
-                                      absl::StatusCodeToString(static_cast<absl::StatusCode>(final_state->error_code)),
-                                      ": ", final_state->error_message));
+      // (A failed job without a code: UNKNOWN, as bake-batch says.)
+      return report.BakeFailed(final_state->error_code != 0 ? final_state->error_code
+                                                            : static_cast<int>(absl::StatusCode::kUnknown),
+                               final_state->error_message);
     }
     if (final_state->state == sdk::JobState::kCancelled) {
       std::string reason = "bake was cancelled";
       if (!final_state->error_message.empty()) absl::StrAppend(&reason, ": ", final_state->error_message);
-      return report.Fail(kExitBakeFailed, reason);
+      const int code = final_state->error_code != 0 ? final_state->error_code
+                                                    : static_cast<int>(absl::StatusCode::kCancelled);
+      return report.Fail(kExitBakeFailed, CodeAndMessage(code, reason), reason);
     }
     if (final_state->state != sdk::JobState::kSucceeded) {
-      return report.Fail(kExitServer, absl::StrCat("job ", submitted->job_id, " ended in state ",
-                                                   std::string(sdk::JobStateName(final_state->state))));
+      const std::string reason = absl::StrCat("job ", submitted->job_id, " ended in state ",
+                                              std::string(sdk::JobStateName(final_state->state)));
+      return report.Fail(kExitServer, CodeAndMessage(static_cast<int>(absl::StatusCode::kUnknown), reason), reason);
     }
   }
 
   absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(submitted->cache_key, args.out);
-  if (!fetched.ok()) return report.Fail(ExitCodeFor(fetched.status()), Describe(fetched.status()));
+  if (!fetched.ok()) return report.Fail(ExitCodeFor(fetched.status()), fetched.status());
   ReportFetchedResult(*fetched, args.quiet, &report.json());
 
   if (!args.json) {

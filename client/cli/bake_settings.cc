@@ -16,6 +16,7 @@ sdk::BakeSettings BakeSettingsFromArgs(const CliArgs& args) {
   s.tolerance = args.tolerance;
   s.priority = args.priority.value_or(0);
   s.lod_ratios = args.lod_ratios;
+  s.lod_pixel_error = args.lod_pixel_error;
   s.min_iou = args.min_iou;
   s.min_psnr_db = args.min_psnr_db;
   s.frames_auto = args.frames_auto;

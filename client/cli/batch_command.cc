@@ -75,10 +75,6 @@ nlohmann::json QualityOf(const fs::path& manifest) {
   return nullptr;
 }
 
-std::string CodeAndMessage(int code, const std::string& message) {
-  return absl::StrCat(absl::StatusCodeToString(static_cast<absl::StatusCode>(code)), ": ", message);
-}
-
 // An RPC that failed for want of a working connection, as opposed to the
 // server judging this one request (a refusal, a quota or a full disk).
 bool IsConnectionError(const absl::Status& s) {
@@ -113,7 +109,7 @@ class BatchRunner {
         batch_error_ = submitted.status();
         for (size_t i = 0; i < items_.size(); ++i) {
           Finish(i,
-                 Failed(i, absl::StrCat("not submitted: ", Describe(submitted.status())),
+                 Failed(i, Describe(submitted.status(), "not submitted"),
                         static_cast<int>(submitted.status().code())),
                  AssetStatus::kSkipped);
         }
@@ -170,7 +166,10 @@ class BatchRunner {
       const QuotaWait wait =
           rpc.has_value() ? QuotaWaitFor(status.code(), rpc->rpc, rpc->server_message, rpc->reason) : QuotaWait::kNone;
       if (wait != QuotaWait::kNone && !stop_) {
-        if (held_.empty()) StartHolding(wait, status);
+        // The first refusal starts the hold (its line, clock and backoff);
+        // a held asset refused again continues it, also the last one, which
+        // is out of held_ while SubmitHeld sends it again.
+        if (!holding_) StartHolding(wait, status);
         last_refusal_ = status;
         hold_kind_ = wait;
         Hold(i);
@@ -179,9 +178,11 @@ class BatchRunner {
       Finish(i, Failed(i, Describe(status), status), AssetStatus::kFailed);
       return;
     }
-    // A submit got through: the quota wait starts over.
+    // A submit got through: the quota wait starts over, and once nothing is
+    // held the hold is over (a later refusal starts a new one).
     last_progress_ = Clock::now();
     retry_seconds_ = kFirstQuotaRetrySeconds;
+    if (held_.empty()) holding_ = false;
     item.submitted = result;
     // A cached result that failed this request's quality gate is a failure
     // known now: without --keep-going nothing more is submitted (its
@@ -189,8 +190,7 @@ class BatchRunner {
     if (result.error_code != 0 && !args_.keep_going) stop_ = true;
     SetPhase(i, Phase::kQueued);
     if (connection_failed_) {
-      Finish(i, Failed(i, absl::StrCat("not followed: ", Describe(connection_error_)),
-                       static_cast<int>(connection_error_.code())),
+      Finish(i, Failed(i, Describe(connection_error_, "not followed"), static_cast<int>(connection_error_.code())),
              AssetStatus::kFailed);
       return;
     }
@@ -202,6 +202,7 @@ class BatchRunner {
   // A quota refused a submit: from now on assets are held. One line says
   // so (the live line then counts them as "held").
   void StartHolding(QuotaWait wait, const absl::Status& status) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    holding_ = true;
     last_progress_ = Clock::now();
     retry_seconds_ = kFirstQuotaRetrySeconds;
     if (args_.quiet) return;
@@ -233,6 +234,7 @@ class BatchRunner {
           held_.erase(held_.begin());
           SkipUnsubmitted(i);
         }
+        holding_ = false;
         return;
       }
       const auto budget = std::chrono::duration_cast<Clock::duration>(
@@ -278,19 +280,20 @@ class BatchRunner {
       held_.erase(held_.begin());
       Finish(i, Failed(i, reason, last_refusal_), AssetStatus::kFailed);
     }
+    holding_ = false;
   }
 
   // An asset that will not be submitted: the batch stopped, or the server
   // is gone.
   void SkipUnsubmitted(size_t i) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     if (connection_failed_) {
-      Finish(i,
-             Failed(i, absl::StrCat("not submitted: ", Describe(connection_error_)),
-                    static_cast<int>(connection_error_.code())),
+      Finish(i, Failed(i, Describe(connection_error_, "not submitted"), static_cast<int>(connection_error_.code())),
              AssetStatus::kSkipped);
     } else {
       Finish(i,
-             Failed(i, "not submitted: the batch stopped after a failure (use --keep-going to bake the rest)",
+             Failed(i,
+                    CodeAndMessage(static_cast<int>(absl::StatusCode::kCancelled),
+                                   "not submitted: the batch stopped after a failure (use --keep-going to bake the rest)"),
                     static_cast<int>(absl::StatusCode::kCancelled)),
              AssetStatus::kSkipped);
     }
@@ -308,8 +311,7 @@ class BatchRunner {
     while (!queue_.empty()) {
       const size_t i = queue_.begin()->second;
       queue_.erase(queue_.begin());
-      Finish(i, Failed(i, absl::StrCat("not followed: ", Describe(status)), static_cast<int>(status.code())),
-             AssetStatus::kFailed);
+      Finish(i, Failed(i, Describe(status, "not followed"), static_cast<int>(status.code())), AssetStatus::kFailed);
     }
     resubmit_wake_.notify_all();
     wake_.notify_all();
@@ -385,8 +387,8 @@ class BatchRunner {
       absl::StatusOr<sdk::FetchResult> fetched = client_.Fetch(submitted.cache_key, outcome.out_dir);
       if (!fetched.ok()) {
         std::lock_guard lock(mu_);
-        AssetOutcome failed = Failed(i, absl::StrCat("download failed: ", Describe(fetched.status())),
-                                     static_cast<int>(fetched.status().code()));
+        AssetOutcome failed =
+            Failed(i, Describe(fetched.status(), "download failed"), static_cast<int>(fetched.status().code()));
         failed.cached = cached;  // the bake was a hit; only its download failed
         Finish(i, std::move(failed), AssetStatus::kFailed);
         if (IsConnectionError(fetched.status())) ConnectionLost(fetched.status());
@@ -536,6 +538,11 @@ class BatchRunner {
   absl::Status connection_error_ ABSL_GUARDED_BY(mu_);
   // Assets a quota refused, to submit again, ordered as queue_.
   std::set<std::pair<int32_t, size_t>> held_ ABSL_GUARDED_BY(mu_);
+  // A hold is under way: from the first quota refusal until nothing is held
+  // (a submit accepted with held_ empty, or the held assets given up or
+  // skipped). Not the same as !held_.empty(): SubmitHeld takes an asset out
+  // of held_ while it sends it again.
+  bool holding_ ABSL_GUARDED_BY(mu_) = false;
   QuotaWait hold_kind_ ABSL_GUARDED_BY(mu_) = QuotaWait::kNone;
   absl::Status last_refusal_ ABSL_GUARDED_BY(mu_);
   // The last accepted submit or ended job: held assets give up after
@@ -556,9 +563,10 @@ class BatchRunner {
 // Nothing was submitted. A refused spec (exit 2) judged no asset: `total`
 // 0. Otherwise (no server, no output directory) every asset is skipped, with
 // one JSON line each as when a batch stops, then the summary.
-// `error_code`: the canonical code of the skipped assets' error.
+// `reason` is the one line on stderr (and the summary's error); `why` gives
+// each skipped asset's error ("CODE: not submitted: message") and error_code.
 int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_code, const std::string& reason,
-                         absl::StatusCode error_code = absl::StatusCode::kInvalidArgument) {
+                         const absl::Status& why) {
   int total = 0;
   if (args.json && spec != nullptr && exit_code != kExitUsage) {
     for (const BatchEntry& e : spec->entries) {
@@ -568,8 +576,8 @@ int FailBeforeSubmitting(const CliArgs& args, const BatchSpec* spec, int exit_co
       o.out_dir = (fs::path(args.out) / e.name).string();
       o.priority = e.settings.priority;
       o.status = AssetStatus::kSkipped;
-      o.error = absl::StrCat("not submitted: ", reason);
-      o.error_code = static_cast<int>(error_code);
+      o.error = Describe(why, "not submitted");
+      o.error_code = static_cast<int>(why.code());
       PrintJson(AssetJson(o));
       ++total;
     }
@@ -582,15 +590,14 @@ int RunBatch(const CliArgs& args, const BatchSpec& spec) {
   std::error_code ec;
   fs::create_directories(args.out, ec);
   if (ec || !fs::is_directory(args.out)) {
-    return FailBeforeSubmitting(args, &spec, kExitLocalIo,
-                                absl::StrCat("cannot create output directory ", args.out, ": ",
-                                             ec ? ec.message() : std::string("not a directory")),
-                                absl::StatusCode::kInternal);
+    const std::string reason = absl::StrCat("cannot create output directory ", args.out, ": ",
+                                            ec ? ec.message() : std::string("not a directory"));
+    return FailBeforeSubmitting(args, &spec, kExitLocalIo, reason, absl::InternalError(reason));
   }
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =
       sdk::Client::Connect(ClientOptionsFor(args, kBakeOutageSeconds));
   if (!client.ok()) {
-    return FailBeforeSubmitting(args, &spec, kExitServer, Describe(client.status()), client.status().code());
+    return FailBeforeSubmitting(args, &spec, kExitServer, Describe(client.status()), client.status());
   }
   BatchRunner runner(args, spec, **client);
   return runner.Run();
@@ -619,10 +626,12 @@ int RunBakeBatch(const CliArgs& args) {
   absl::StatusOr<BatchSpec> spec = args.command == Command::kBakeBatch
                                        ? LoadBatchSpec(args.target, args.priority)
                                        : BatchFromModels(args.targets, BakeSettingsFromArgs(args));
-  if (!spec.ok()) return FailBeforeSubmitting(args, nullptr, kExitUsage, std::string(spec.status().message()));
+  if (!spec.ok()) {
+    return FailBeforeSubmitting(args, nullptr, kExitUsage, std::string(spec.status().message()), spec.status());
+  }
   if (args.command == Command::kBakeBatch) {
     if (absl::Status s = CheckEntriesAsTheServerWould(*spec); !s.ok()) {
-      return FailBeforeSubmitting(args, &*spec, kExitUsage, std::string(s.message()));
+      return FailBeforeSubmitting(args, &*spec, kExitUsage, std::string(s.message()), s);
     }
   }
   return RunBatch(args, *spec);

@@ -439,6 +439,12 @@ absl::StatusOr<BatchSpec> ParseBatchSpec(std::string_view text, SpecFormat forma
     } else {
       return Bad(where, absl::StrCat("expected a model path or an object with \"path\", got ", Shown(a)));
     }
+    // As `bake --product lod-chain` without --layout: a LOD chain's
+    // impostor takes the server's default (hemi-octahedral), not the SDK's
+    // "octahedral" sent as given.
+    const bool layout_given =
+        (root.contains("defaults") && root["defaults"].contains("layout")) || (a.is_object() && a.contains("layout"));
+    if (entry.settings.product == "lod-chain" && !layout_given) entry.settings.layout.clear();
     entry.model = fs::path(entry.asset).is_absolute() ? fs::path(entry.asset) : base_dir / entry.asset;
     if (auto s = CheckModel(a.is_object() ? absl::StrCat(where, ".path") : where, entry.model, entry.asset); !s.ok()) {
       return s;

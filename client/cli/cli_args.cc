@@ -26,7 +26,7 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views", "--texture-format", "--albedo-codec"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
+       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--lod-pixel-error", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views", "--texture-format", "--albedo-codec"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going", "--follow-symlinks"},
@@ -281,6 +281,19 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
         out.lod_ratios.push_back(r);
         start = end + 1;
       }
+    } else if (flag == "--lod-pixel-error") {
+      // The batch key's range (the server's), checked here so that a value
+      // out of it is a usage error naming the flag, as in a batch spec.
+      float e = 0;
+      auto [ptr, ec] = std::from_chars(value->data(), value->data() + value->size(), e);
+      if (value->empty() || ec != std::errc() || ptr != value->data() + value->size()) {
+        return Usage(absl::StrCat("--lod-pixel-error: expected a number like 1, got \"", *value, "\""));
+      }
+      if (!(e >= kLodPixelErrorMin && e <= kLodPixelErrorMax)) {
+        return Usage(absl::StrCat("--lod-pixel-error: ", *value, " is out of range ", kLodPixelErrorMin, "..",
+                                  kLodPixelErrorMax));
+      }
+      out.lod_pixel_error = e;
     } else if (flag == "--max-planes") {
       absl::StatusOr<uint32_t> n = ParseNumber(flag, *value);
       if (!n.ok()) return n.status();
@@ -364,11 +377,13 @@ Usage:
   impostor bake MODEL --out DIR [--layout L] [--ring K]
                 [--frames N] [--resolution R] [--server HOST:PORT] [--json] [--quiet]
                 [--product atlas|surfels|lod-chain|cards] [--preset NAME] [--point-budget N]
-                [--lod-ratios R1,R2,...] [--max-planes N] [--tolerance E]
+                [--lod-ratios R1,R2,...] [--lod-pixel-error E] [--max-planes N] [--tolerance E]
       Uploads MODEL (.gltf or .glb, with the files it refers to; only what the
       server lacks), bakes it, shows progress on stderr, and downloads the
       atlas into DIR (manifest.json, albedo_alpha.png, normal_depth.png,
-      orm.png). Prints the paths of the files on stdout.
+      orm.png, contact_sheet.png, and the quality pass's
+      quality_worst_view.png, view_NN_mesh.png, view_NN_impostor.png and
+      views.json). Prints the paths of the files on stdout.
         --layout      view directions: octahedral (full sphere, default),
                       hemi-octahedral (upper hemisphere), azimuth-elevation
                       (N azimuth columns x N elevation rows, N odd so a row
@@ -393,12 +408,15 @@ Usage:
                       (16384, 16, 1024), vegetation (32768, 24, 2048, the
                       default) or hero (65536, 32, 2048); explicit flags win
         --point-budget N surfels: most points in the cloud (range 1..4194304)
-        --product lod-chain [--lod-ratios 0.5,0.1]: the mesh at LOD0, simplified
-                      levels at those triangle ratios (default 0.5,0.1) as
-                      lod<N>.glb sharing the input's textures, and an atlas
-                      impostor as the last level (layout default
-                      hemi-octahedral); manifest.json lists the levels and
-                      their switch thresholds (see impostor/lod.h)
+        --product lod-chain [--lod-ratios 0.5,0.1] [--lod-pixel-error E]: the
+                      mesh at LOD0, simplified levels at those triangle
+                      ratios (default 0.5,0.1) as lod<N>.glb sharing the
+                      input's textures, and an atlas impostor as the last
+                      level (layout default hemi-octahedral); manifest.json
+                      lists the levels and their switch thresholds (see
+                      impostor/lod.h), set so that each switch costs at most
+                      E pixels of screen-space error (default 1, range
+                      0.1..16)
         --product cards [--max-planes N] [--tolerance E]: a card cluster
                       ("billboard cloud"): at most N textured quads (default
                       8, range 1..64) fitted to the mesh within E x the
@@ -496,7 +514,8 @@ Usage:
       Cancels a queued or running job.
       status and cancel --json: {job_id, cache_key, state, progress, stage,
       cached, error}; error is null or {code, message}, the job's error or,
-      when the call itself failed, the RPC's (then with exit_code too).
+      when the call itself failed, the RPC's (then every key still comes,
+      null where not known, with exit_code too).
   impostor cache get KEY [--cache-dir DIR] [--server HOST:PORT] [--json] [--quiet]
                 [--max-outage-seconds N]
       Puts the result KEY in the local cache (downloaded only when not there
@@ -518,7 +537,8 @@ Usage:
       cache keys on stdout, one per line, and a summary on stderr.
         --worker NAME the worker token's name (`impostor-server token list`)
         --json        {worker, cache_keys, blobs_removed, bytes_freed,
-                      blobs_kept, error}
+                      blobs_kept, error}; on a failure error is "CODE:
+                      message", the others null, with exit_code too
   impostor help | --help | -h
   impostor version
 
@@ -548,7 +568,7 @@ Common flags:
                       {model, cache_key, job_id, cached, out_dir, manifest, files,
                       wall_seconds, uploaded_bytes, warnings, quality, error,
                       exit_code} on every outcome, and contact_sheet when the
-                      result has one
+                      result has one; error is null or "CODE: message"
   --token-file FILE   (every command that takes --server) the bearer token for a
                       server with tokens (`impostor-server token create`); the
                       file wins over $IMPOSTOR_TOKEN
@@ -566,12 +586,15 @@ Exit codes:
   1  the bake failed, was cancelled, or the server refused the request (invalid,
      nothing under that KEY or JOB_ID, no token, a bad one or one without the
      role: retrying the same command gets the same answer); for a batch: at
-     least one asset failed or was skipped (the others are in DIR)
+     least one asset failed or was skipped, whatever the reason, a quota that
+     outlasted --max-outage-seconds included (each asset's error_code says
+     which; the others are in DIR)
   2  usage error (unknown flag, missing value, not a number, ...); a malformed
      batch SPEC or a listed model that does not exist (nothing is submitted)
   3  cannot reach the server, or an RPC failed otherwise, e.g. a quota
      (RESOURCE_EXHAUSTED) that outlasted --max-outage-seconds (worth retrying
-     later)
+     later); for a batch: the server could not be reached or was lost, so
+     the batch as a whole ended
   4  local I/O error (model not found or unusable, cannot write DIR)
 Every failure prints exactly one line "impostor: <reason>" on stderr.
 

@@ -31,6 +31,12 @@ inline constexpr char kDefaultServer[] = "localhost:50051";
 inline constexpr double kBakeOutageSeconds = 300;
 inline constexpr double kInteractiveOutageSeconds = 30;
 
+// --lod-pixel-error's range: the server's (kMinLodPixelError and
+// kMaxLodPixelError in common/lod_parameters.h, which this library cannot
+// include; tests/batch/lod_pixel_error_request_test.cc keeps them equal).
+inline constexpr float kLodPixelErrorMin = 0.1f;
+inline constexpr float kLodPixelErrorMax = 16.0f;
+
 struct CliArgs {
   Command command = Command::kHelp;
   // The positional argument: MODEL (bake), SPEC (bake-batch), KEY (fetch) or
@@ -89,6 +95,11 @@ struct CliArgs {
   // product lod-chain and no --layout, `layout` is empty: the server's
   // default for LOD chains (hemi-octahedral).
   std::vector<float> lod_ratios;
+  // --lod-pixel-error E (product lod-chain): screen-space error allowed at
+  // each switch, pixels; the batch key lod_pixel_error. The number and its
+  // range (0.1..16, the server's) are checked here; that it needs product
+  // lod-chain is the server's to say. Unset = not given (the server's 1).
+  std::optional<float> lod_pixel_error;
   // --max-planes N and --tolerance E (product cards): passed to the server
   // unchecked (it owns the ranges); unset = not given.
   std::optional<uint32_t> max_planes;

@@ -33,6 +33,7 @@ std::string InFlagTerms(std::string_view message) {
       {"parameters.preset", "--preset"},
       {"parameters.point_budget", "--point-budget"},
       {"parameters.lod_ratios", "--lod-ratios"},
+      {"parameters.lod_pixel_error", "--lod-pixel-error"},
       {"parameters.max_planes", "--max-planes"},
       {"parameters.tolerance", "--tolerance"},
       {"parameters.quality_views", "--quality-views"},

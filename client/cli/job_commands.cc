@@ -16,9 +16,11 @@ namespace {
 using JobCall = std::function<absl::StatusOr<sdk::JobUpdate>(sdk::Client&, const std::string&)>;
 
 int RunJobCall(const CliArgs& args, const JobCall& call) {
-  // --json: `error` is the {code, message} object a job's error is too.
+  // --json: the job's object with every key (the job's fields null, not
+  // known), `error` the {code, message} object a job's error is too, and
+  // exit_code.
   auto fail = [&](int code, const absl::Status& status) {
-    if (args.json) PrintJson({{"job_id", args.target}, {"error", ErrorJson(status)}, {"exit_code", code}});
+    if (args.json) PrintJson(JobErrorJson(args.target, status, code));
     return Fail(code, Describe(status));
   };
   absl::StatusOr<std::unique_ptr<sdk::Client>> client =

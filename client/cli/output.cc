@@ -30,6 +30,16 @@ std::string Describe(const absl::Status& status) {
   return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", message);
 }
 
+std::string Describe(const absl::Status& status, std::string_view what) {
+  std::string message(status.message());
+  if (sdk::GetRpcErrorInfo(status).has_value()) message = InFlagTerms(message);
+  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", std::string(what), ": ", message);
+}
+
+std::string CodeAndMessage(int code, std::string_view message) {
+  return absl::StrCat(absl::StatusCodeToString(static_cast<absl::StatusCode>(code)), ": ", std::string(message));
+}
+
 bool IsRefusal(absl::StatusCode code) {
   switch (code) {
     case absl::StatusCode::kInvalidArgument:
@@ -86,6 +96,27 @@ nlohmann::json ErrorJson(const absl::Status& status) {
   return {{"code", absl::StatusCodeToString(status.code())}, {"message", message}};
 }
 
+nlohmann::json JobErrorJson(const std::string& job_id, const absl::Status& status, int exit_code) {
+  return {{"job_id", job_id.empty() ? nlohmann::json(nullptr) : nlohmann::json(job_id)},
+          {"cache_key", nullptr},
+          {"state", nullptr},
+          {"progress", nullptr},
+          {"stage", nullptr},
+          {"cached", nullptr},
+          {"error", ErrorJson(status)},
+          {"exit_code", exit_code}};
+}
+
+nlohmann::json PurgeErrorJson(const std::string& worker, const std::string& error, int exit_code) {
+  return {{"worker", worker.empty() ? nlohmann::json(nullptr) : nlohmann::json(worker)},
+          {"cache_keys", nullptr},
+          {"blobs_removed", nullptr},
+          {"bytes_freed", nullptr},
+          {"blobs_kept", nullptr},
+          {"error", error},
+          {"exit_code", exit_code}};
+}
+
 nlohmann::json BakeJson(const std::string& model, const std::string& out_dir) {
   auto or_null = [](const std::string& s) { return s.empty() ? nlohmann::json(nullptr) : nlohmann::json(s); };
   return {{"model", or_null(model)}, {"cache_key", nullptr}, {"job_id", nullptr}, {"cached", false},
@@ -103,18 +134,29 @@ nlohmann::json UsageErrorJson(const std::vector<std::string>& args, const std::s
   if (!json) return nullptr;
   const std::string command = args.empty() ? "" : args[0];
   if (command == "bake-batch") return SummaryJson(BatchCounts{}, 0.0, kExitUsage, reason);
+  // The value of `flag` ("--out DIR" or "--out=DIR") before "--"; "" if none.
+  auto flag_value = [&](const std::string& flag) {
+    std::string value;
+    for (size_t i = 1; i < args.size() && args[i] != "--"; ++i) {
+      if (args[i] == flag && i + 1 < args.size()) value = args[i + 1];
+      if (args[i].rfind(flag + "=", 0) == 0) value = args[i].substr(flag.size() + 1);
+    }
+    return value;
+  };
+  // The first argument when it is not a flag (MODEL, JOB_ID).
+  const std::string first = args.size() > 1 && args[1].rfind("-", 0) != 0 ? args[1] : "";
+  if (command == "status" || command == "cancel") {
+    return JobErrorJson(first, absl::InvalidArgumentError(reason), kExitUsage);
+  }
+  if (command == "admin" && args.size() > 1 && args[1] == "purge") {
+    return PurgeErrorJson(flag_value("--worker"), absl::StrCat("INVALID_ARGUMENT: ", reason), kExitUsage);
+  }
   nlohmann::json j = {{"error", reason}, {"exit_code", kExitUsage}};
   if (command == "bake") {
     // MODEL as in the usual `bake MODEL ...` and --out DIR, when given;
     // null otherwise (the command line could not be read).
-    std::string model, out;
-    if (args.size() > 1 && args[1].rfind("-", 0) != 0) model = args[1];
-    for (size_t i = 1; i < args.size() && args[i] != "--"; ++i) {
-      if (args[i] == "--out" && i + 1 < args.size()) out = args[i + 1];
-      if (args[i].rfind("--out=", 0) == 0) out = args[i].substr(6);
-    }
-    j = BakeJson(model, out);
-    j["error"] = reason;
+    j = BakeJson(first, flag_value("--out"));
+    j["error"] = absl::StrCat("INVALID_ARGUMENT: ", reason);
     j["exit_code"] = kExitUsage;
   }
   return j;

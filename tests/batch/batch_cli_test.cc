@@ -301,6 +301,19 @@ TEST(BatchCli, QualityGateFailsTheAssetButKeepsItsResult) {
   EXPECT_EQ(hit.assets[0]["cached"], true);
   EXPECT_EQ(hit.assets[0]["status"], "failed") << "a cache hit is gated too";
   EXPECT_EQ(hit.assets[0]["error"], a["error"]);
+  // `impostor bake` with the same gate: its --json error is the same
+  // "CODE: message" (no "bake failed: ", which only its stderr line has).
+  const CliRun single = RunShell(Impostor() + " bake " + Quote(box) + " --frames 4 --resolution 128 --min-iou 1" +
+                                 " --min-psnr 100 --out " + Quote((dir / "single").string()) + " --server " +
+                                 server.address() + " --json --quiet 2>" + Quote((dir / "single.err").string()));
+  EXPECT_EQ(single.exit_code, 1) << single.output;
+  const json single_json = json::parse(single.output, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(single_json.is_object()) << single.output;
+  EXPECT_EQ(single_json["error"], a["error"]) << single.output;
+  std::ifstream single_err(dir / "single.err");
+  const std::string single_line((std::istreambuf_iterator<char>(single_err)), std::istreambuf_iterator<char>());
+  EXPECT_NE(single_line.find("impostor: bake failed: " + a["error"].get<std::string>() + "\n"), std::string::npos)
+      << single_line;
 
   // That failure is known at submit: without --keep-going nothing after it
   // is submitted, as after any other failure.

@@ -124,6 +124,83 @@ TEST(BatchLimits, RateQuotaGivesUpAfterTheOutageBudgetWithTheRefusal) {
   EXPECT_NE(bake.err.find("RESOURCE_EXHAUSTED"), std::string::npos) << bake.err;
 }
 
+// How many lines of `text` contain `needle`.
+int LinesContaining(const std::string& text, const std::string& needle) {
+  int n = 0;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) n += line.find(needle) != absl::string_view::npos;
+  return n;
+}
+
+// The token's one bake of the hour is spent before the batch starts, and
+// the batch has ONE new asset: the held asset is the last one every time it
+// is refused again, which must not start the hold over (it used to: the
+// batch never ended and printed the holding line once a second). It gives
+// up after --max-outage-seconds without progress, failed with the quota's
+// refusal, and the holding line comes once. `impostor bake` in the same
+// spot waits as long and exits 3 (retry later), where the batch exits 1 (an
+// asset failed; its error_code 8 says why).
+TEST(BatchLimits, OneHeldAssetGivesUpAfterTheOutageBudgetAndSaysSoOnce) {
+  ServerProcess server(0, {"--auth=token", "--token-max-bakes-per-hour=1"});  // no worker: nothing ends
+  const fs::path dir = NewTempDir("batch_one_held");
+  const std::string secret = CreateToken(server.data_dir(), "submitter", "ci");
+  ASSERT_FALSE(secret.empty());
+  const fs::path token = dir / "ci.token";
+  std::ofstream(token) << secret << "\n";
+  // The hour's one bake: a submit that is not a cache hit counts.
+  server.UseToken(secret);
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = UploadGlb(server.assets(), Box());
+  request.mutable_parameters()->set_frames(9);
+  request.mutable_parameters()->set_resolution(128);
+  v1::SubmitBakeResponse first;
+  ASSERT_TRUE(server.bake().SubmitBake(ContextWithin().get(), request, &first).ok());
+  ASSERT_FALSE(first.cached());
+
+  constexpr double kBudget = 3;
+  const auto start = std::chrono::steady_clock::now();
+  const ToolRun run = RunTool({Impostor(), "bake-batch", DistinctBakesSpec(dir, 1).string(), "--out",
+                               (dir / "out").string(), "--server", server.address(), "--token-file", token.string(),
+                               "--json", "--max-outage-seconds=3"},
+                              std::chrono::seconds(60));
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_GE(seconds, kBudget) << "the held asset was tried again for --max-outage-seconds";
+  EXPECT_LT(seconds, kBudget + 10) << "gave up " << seconds << " s after starting";
+  const JsonLines lines = ParseLines(run.out);
+  ASSERT_EQ(lines.assets.size(), 1u) << run.out;
+  const json& a = lines.assets[0];
+  EXPECT_EQ(a["status"], "failed") << a.dump();
+  EXPECT_EQ(a["error_code"], 8) << a.dump();
+  EXPECT_EQ(a["error_reason"], "TOKEN_BAKES_PER_HOUR") << a.dump();
+  const std::string error = a["error"].is_string() ? a["error"].get<std::string>() : "";
+  EXPECT_EQ(error.rfind("RESOURCE_EXHAUSTED: ", 0), 0u) << error;
+  EXPECT_NE(error.find("bakes of token 'ci'"), std::string::npos) << error;
+  EXPECT_NE(error.find("held back"), std::string::npos) << error;
+  EXPECT_EQ(lines.summary["exit_code"], 1) << run.out;
+  EXPECT_EQ(lines.summary["failed"], 1) << run.out;
+  // One line for the hold, naming the quota; one for the failure.
+  EXPECT_EQ(LinesContaining(run.err, "holding assets back"), 1) << run.err;
+  EXPECT_EQ(LinesContaining(run.err, "bakes of token 'ci'"), 2) << run.err;
+  // The backoff doubles from 1 s: refused at 0 s and 1 s; the next try
+  // would be at 3 s, where the budget ends (a backoff that started over
+  // tried every second).
+  ASSERT_TRUE(server.process().WaitForLog("outcome=RESOURCE_EXHAUSTED", 2));
+  EXPECT_EQ(server.process().CountInLog("outcome=RESOURCE_EXHAUSTED"), 2);
+
+  const ToolRun bake = RunTool({Impostor(), "bake", Box().string(), "--frames", "5", "--resolution", "128", "--out",
+                                (dir / "single").string(), "--server", server.address(), "--token-file",
+                                token.string(), "--json", "--max-outage-seconds=1"},
+                               std::chrono::seconds(60));
+  EXPECT_EQ(bake.exit_code, 3) << bake.err;
+  const json j = json::parse(bake.out, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(j.is_object()) << bake.out;
+  EXPECT_EQ(j["exit_code"], 3) << bake.out;
+  const std::string bake_error = j["error"].is_string() ? j["error"].get<std::string>() : "";
+  EXPECT_EQ(bake_error.rfind("RESOURCE_EXHAUSTED: ", 0), 0u) << bake.out;
+  EXPECT_NE(bake_error.find("bakes of token 'ci'"), std::string::npos) << bake.out;
+  EXPECT_EQ(LinesContaining(bake.err, "waiting for the quota"), 1) << bake.err;
+}
+
 // The server is killed and stays away while 100 assets wait for a watcher:
 // the batch reports every one of them and exits within --max-outage-seconds
 // plus a few seconds, not a fraction of a second per remaining asset.
@@ -150,7 +227,8 @@ TEST(BatchLimits, ALostServerEndsTheWholeBatchWithinTheOutageBudget) {
   for (const json& a : lines.assets) {
     EXPECT_EQ(a["status"], "failed") << a.dump();
     EXPECT_EQ(a["error_code"], 14) << a.dump();  // UNAVAILABLE
-    EXPECT_NE(a["error"].get<std::string>().find("UNAVAILABLE"), std::string::npos) << a.dump();
+    // "UNAVAILABLE: not followed: ...": the code first, as every error.
+    EXPECT_EQ(a["error"].get<std::string>().rfind("UNAVAILABLE: ", 0), 0u) << a.dump();
   }
   EXPECT_EQ(lines.summary["exit_code"], 3) << out;
   EXPECT_EQ(lines.summary["failed"], kAssets) << out;

@@ -1035,7 +1035,7 @@ TEST_F(FakeServerTest, CliFailedBakeExitsOneWithServerReason) {
   failed.mutable_error()->set_message("mesh: no triangles");
   {
     std::lock_guard lock(fake_.mu);
-    fake_.watch_scripts = {{failed}};
+    fake_.watch_scripts = {{failed}, {failed}};
   }
   CliRun run = RunCli("bake " + (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string() + " --out " +
                           (dir_ / "atlas").string() + " --quiet --server 127.0.0.1:" + std::to_string(port_),
@@ -1043,6 +1043,18 @@ TEST_F(FakeServerTest, CliFailedBakeExitsOneWithServerReason) {
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err, "impostor: bake failed: INVALID_ARGUMENT: mesh: no triangles\n");
   EXPECT_EQ(run.out, "");
+  // --json: the same stderr line; the object's error is "CODE: message",
+  // without the "bake failed: " the line has.
+  CliRun json_run = RunCli("bake " + (kAssets / "props_pbr/Box/glTF-Binary/Box.glb").string() + " --out " +
+                               (dir_ / "atlas").string() + " --quiet --json --server 127.0.0.1:" +
+                               std::to_string(port_),
+                           dir_ / "io");
+  EXPECT_EQ(json_run.exit_code, 1);
+  EXPECT_EQ(json_run.err, "impostor: bake failed: INVALID_ARGUMENT: mesh: no triangles\n");
+  const nlohmann::json j = nlohmann::json::parse(json_run.out, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(j.is_object()) << json_run.out;
+  EXPECT_EQ(j["error"], "INVALID_ARGUMENT: mesh: no triangles") << json_run.out;
+  EXPECT_EQ(j["exit_code"], 1) << json_run.out;
 }
 
 TEST_F(FakeServerTest, CliPrintsOneLineWhenItLosesTheServerAndOneWhenItIsBack) {
