@@ -151,7 +151,7 @@ nlohmann::json UsageErrorJson(const std::vector<std::string>& args, const std::s
   if (command == "admin" && args.size() > 1 && args[1] == "purge") {
     return PurgeErrorJson(flag_value("--worker"), absl::StrCat("INVALID_ARGUMENT: ", reason), kExitUsage);
   }
-  nlohmann::json j = {{"error", reason}, {"exit_code", kExitUsage}};
+  nlohmann::json j = {{"error", absl::StrCat("INVALID_ARGUMENT: ", reason)}, {"exit_code", kExitUsage}};
   if (command == "bake") {
     // MODEL as in the usual `bake MODEL ...` and --out DIR, when given;
     // null otherwise (the command line could not be read).

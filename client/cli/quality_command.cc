@@ -113,7 +113,7 @@ int RunQuality(const CliArgs& args) {
   report["warnings"] = fetched->warnings;
   const nlohmann::json q = ReadQualityBlock(fetched->manifest_path);
   if (!q.is_object()) {
-    return fail(kExitBakeFailed, absl::StrCat("result ", args.target,
+    return fail(kExitBakeFailed, absl::StrCat("FAILED_PRECONDITION: result ", args.target,
                                               " has no quality block (not an atlas, or baked with --quality-views 0)"));
   }
   report["quality"] = q;
@@ -126,7 +126,7 @@ int RunQuality(const CliArgs& args) {
     std::ifstream in(views);
     views_doc = in ? nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false) : nlohmann::json();
     if (!views_doc.is_object() || !views_doc.contains("views") || !views_doc["views"].is_array()) {
-      return fail(kExitBakeFailed, absl::StrCat("result ", args.target,
+      return fail(kExitBakeFailed, absl::StrCat("FAILED_PRECONDITION: result ", args.target,
                                                 " has no per-view files (views.json; baked before manifest format 2)"));
     }
     report["views_json"] = views.string();
