@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/log_escape.h"
 #include "server/http/api_params.h"
+#include "server/http/bounded_http_server.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
 #include "server/loopback_host.h"
@@ -133,7 +134,7 @@ HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options o
       blobs_(blobs),
       options_(std::move(options)),
       metrics_(scheduler, blobs),
-      server_(std::make_unique<httplib::Server>()) {}
+      server_(std::make_unique<BoundedHttpServer>()) {}
 
 absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::Start(BakeScheduler* scheduler, BlobStore* blobs,
                                                                   Options options) {

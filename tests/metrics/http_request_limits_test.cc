@@ -1,0 +1,73 @@
+// The HTTP side bounds every request (server/http/bounded_http_server.h):
+// a request line without an end, sent by anyone who can reach the port, is
+// cut off after a few hundred kilobytes instead of growing the server until
+// it dies, and a request body over the API's largest is refused with 413
+// before it is read.
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "tests/integration/server_process.h"
+#include "tests/metrics/http_test_client.h"
+
+namespace impostor {
+namespace {
+
+using testing::HttpPort;
+using testing::HttpTestClient;
+using testing::ServerProcess;
+
+int ConnectTo(int port) {
+  const int sock = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(sock);
+    return -1;
+  }
+  return sock;
+}
+
+TEST(HttpRequestLimits, ARequestLineWithoutEndIsCutOffAndTheServerLives) {
+  ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});
+  const int port = HttpPort(server);
+  const int sock = ConnectTo(port);
+  ASSERT_GE(sock, 0);
+  const std::string chunk(64 * 1024, 'A');
+  ASSERT_EQ(::send(sock, "GET /", 5, MSG_NOSIGNAL), 5);
+  // The server reads at most 256 KiB of one request; the socket buffers take
+  // a few megabytes more before the reset reaches this side.
+  constexpr size_t kOffered = size_t{64} << 20;
+  size_t sent = 0;
+  while (sent < kOffered) {
+    const ssize_t n = ::send(sock, chunk.data(), chunk.size(), MSG_NOSIGNAL);
+    if (n <= 0) break;
+    sent += static_cast<size_t>(n);
+  }
+  ::close(sock);
+  EXPECT_LT(sent, size_t{16} << 20) << "the server kept reading an endless request line";
+  HttpTestClient http(port);
+  EXPECT_EQ(http.Status("/healthz"), 200);
+  EXPECT_TRUE(server.process().Running()) << server.process().Stderr();
+}
+
+TEST(HttpRequestLimits, ABodyOverTheLimitIsRefusedWith413) {
+  ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});
+  HttpTestClient http(HttpPort(server));
+  const std::string body = "token=" + std::string(1 << 20, 'x');
+  // Not form-encoded: the library caps only those bodies (8 KiB) by itself.
+  auto res = http.client.Post("/login", body, "text/plain");
+  ASSERT_TRUE(res) << "no answer";
+  EXPECT_EQ(res->status, 413);
+  EXPECT_EQ(http.Status("/healthz"), 200);
+}
+
+}  // namespace
+}  // namespace impostor
