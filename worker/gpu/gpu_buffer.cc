@@ -10,6 +10,9 @@ absl::StatusOr<GpuBuffer> GpuBuffer::Create(const VulkanContext& ctx, VkDeviceSi
                                             VkMemoryPropertyFlags required,
                                             VkMemoryPropertyFlags preferred,
                                             const std::string& name) {
+  // Before vkCreateBuffer: a driver need not refuse an oversized buffer or
+  // allocation (lavapipe crashed writing past 2 GiB).
+  IMPOSTOR_GPU_RETURN_IF_ERROR(CheckBufferFits(ctx, name, size, usage));
   const VkDevice device = ctx.device();
   GpuBuffer out;
   out.device_ = device;
@@ -30,6 +33,7 @@ absl::StatusOr<GpuBuffer> GpuBuffer::Create(const VulkanContext& ctx, VkDeviceSi
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(
       const uint32_t type,
       FindMemoryType(ctx.memory_properties(), requirements.memoryTypeBits, required, preferred));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(CheckAllocationFits(ctx, name, requirements.size));
   VkMemoryAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
   alloc.allocationSize = requirements.size;

@@ -1,5 +1,6 @@
 #include "worker/gpu/gpu_image.h"
 
+#include "absl/strings/str_cat.h"
 #include "worker/gpu/gpu_memory.h"
 #include "worker/gpu/vk_check.h"
 
@@ -35,6 +36,9 @@ absl::StatusOr<GpuImage> GpuImage::Create(const VulkanContext& ctx, const ImageS
   IMPOSTOR_GPU_ASSIGN_OR_RETURN(const uint32_t type,
                                 FindMemoryType(ctx.memory_properties(), requirements.memoryTypeBits,
                                                VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(CheckAllocationFits(
+      ctx, name, requirements.size,
+      absl::StrCat(spec.width, "x", spec.height, " image, ", spec.mip_levels, " mip levels")));
   VkMemoryAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
   alloc.allocationSize = requirements.size;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "worker/gpu/gpu_memory.h"
 #include "worker/gpu/vk_check.h"
 
 namespace impostor::gpu {
@@ -139,6 +140,20 @@ absl::StatusOr<std::unique_ptr<SceneResources>> SceneResources::Upload(const Vul
                                                                        const BakePipeline& pipeline,
                                                                        const Scene& scene,
                                                                        const TextureFilter& filter) {
+  // Checked before anything is staged, naming the scene's counts: instancing
+  // can flatten a few-KB glTF into more vertices than one device allocation
+  // holds, and the staging copy (same size) would not fit either.
+  const VkDeviceSize vertex_bytes = VkDeviceSize{scene.vertices.size()} * sizeof(SceneVertex);
+  const VkDeviceSize index_bytes = VkDeviceSize{scene.indices.size()} * sizeof(uint32_t);
+  IMPOSTOR_GPU_RETURN_IF_ERROR(CheckBufferFits(
+      ctx, "vertex buffer", vertex_bytes,
+      VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+      absl::StrCat(scene.vertices.size(), " vertices after instancing")));
+  IMPOSTOR_GPU_RETURN_IF_ERROR(CheckBufferFits(
+      ctx, "index buffer", index_bytes,
+      VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+      absl::StrCat(scene.indices.size(), " indices after instancing")));
+
   std::unique_ptr<SceneResources> res(new SceneResources());
   res->filter_ = filter;
   StagingUploader uploader(ctx, runner);

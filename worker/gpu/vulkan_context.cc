@@ -129,6 +129,22 @@ absl::StatusOr<std::unique_ptr<VulkanContext>> VulkanContext::Create(
   ctx->physical_device_ = chosen->handle;
   ctx->queue_family_ = chosen->graphics_queue_family;
   vkGetPhysicalDeviceProperties(ctx->physical_device_, &ctx->properties_);
+  {
+    // Both structs are core on the 1.3 devices SelectPhysicalDevice accepts.
+    VkPhysicalDeviceMaintenance4Properties maintenance4{};
+    maintenance4.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_4_PROPERTIES;
+    VkPhysicalDeviceMaintenance3Properties maintenance3{};
+    maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+    maintenance3.pNext = &maintenance4;
+    VkPhysicalDeviceProperties2 props2{};
+    props2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    props2.pNext = &maintenance3;
+    vkGetPhysicalDeviceProperties2(ctx->physical_device_, &props2);
+    ctx->max_allocation_size_ = maintenance3.maxMemoryAllocationSize;
+    ctx->max_buffer_size_ = maintenance4.maxBufferSize;
+    spdlog::debug("gpu: largest allocation {} bytes, largest buffer {} bytes",
+                  ctx->max_allocation_size_, ctx->max_buffer_size_);
+  }
   vkGetPhysicalDeviceMemoryProperties(ctx->physical_device_, &ctx->memory_properties_);
   ctx->info_.name = chosen->name;
   ctx->info_.type = DeviceTypeName(chosen->type);

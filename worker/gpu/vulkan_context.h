@@ -41,6 +41,19 @@ class VulkanContext {
   const DeviceInfo& info() const { return info_; }
   // 0 when the device has no anisotropic filtering.
   float max_anisotropy() const { return max_anisotropy_; }
+  // The largest single VkDeviceMemory allocation the device promises
+  // (VkPhysicalDeviceMaintenance3Properties::maxMemoryAllocationSize, e.g.
+  // 2 GiB on lavapipe), and the largest VkBuffer
+  // (VkPhysicalDeviceMaintenance4Properties::maxBufferSize). Every buffer and
+  // image is checked against them before it is created (gpu_memory.h).
+  VkDeviceSize max_allocation_size() const { return max_allocation_size_; }
+  VkDeviceSize max_buffer_size() const { return max_buffer_size_; }
+  // Tests only: pretends the device allows at most `bytes` per allocation
+  // and per buffer, so a small scene exercises the over-the-limit path.
+  void SetMaxAllocationSizeForTesting(VkDeviceSize bytes) {
+    max_allocation_size_ = bytes;
+    max_buffer_size_ = bytes;
+  }
 
   // Labels an object for debuggers and validation messages; a no-op unless
   // VK_EXT_debug_utils is present.
@@ -63,6 +76,8 @@ class VulkanContext {
   VkPhysicalDeviceMemoryProperties memory_properties_{};
   DeviceInfo info_;
   float max_anisotropy_ = 0.0f;
+  VkDeviceSize max_allocation_size_ = 0;
+  VkDeviceSize max_buffer_size_ = 0;
   PFN_vkSetDebugUtilsObjectNameEXT set_object_name_ = nullptr;
   PFN_vkDestroyDebugUtilsMessengerEXT destroy_messenger_ = nullptr;
 };
