@@ -11,13 +11,14 @@
 namespace impostor::sdk {
 
 absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
-                          const std::function<absl::Status(std::string_view)>& sink) {
+                          const std::function<absl::Status(std::string_view)>& sink, const CancelSource* cancel) {
   Sha256 hash;
-  return ResumeBlobDownload(transport, digest, 0, hash, sink);
+  return ResumeBlobDownload(transport, digest, 0, hash, sink, cancel);
 }
 
 absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, int64_t offset, Sha256& hash,
-                                const std::function<absl::Status(std::string_view)>& sink) {
+                                const std::function<absl::Status(std::string_view)>& sink,
+                                const CancelSource* cancel) {
   if (absl::Status s = ValidateDigest("digest", digest.hash(), digest.size_bytes()); !s.ok()) return s;
   const std::string name = absl::StrCat(digest.hash(), "/", digest.size_bytes());
   if (offset < 0 || offset > digest.size_bytes()) {
@@ -26,8 +27,10 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
   }
   int64_t received = offset;
   // Progress starts the count of failures over, so a slow but moving
-  // download on a flaky link is never given up.
-  RetryPolicy retry = transport.NewRetryPolicy();
+  // download on a flaky link is never given up: each stream is only cut
+  // when it stalls (Transport::ReadBlob has no deadline on the whole
+  // stream), and the next resumes at the last byte received.
+  RetryPolicy retry = transport.NewRetryPolicy(cancel);
   while (true) {
     const int64_t start = received;
     absl::Status status = transport.ReadBlob(digest, received, [&](const v1::ReadBlobResponse& msg) {
@@ -42,7 +45,7 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
       hash.Update(msg.data());
       received += static_cast<int64_t>(msg.data().size());
       return sink(msg.data());
-    });
+    }, cancel);
     if (status.ok() && received == digest.size_bytes()) break;
     if (received > start) retry.MadeProgress();
     // A stream that ended OK but short is treated like a broken one (the
@@ -50,9 +53,11 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
     if (status.ok()) {
       const absl::Status short_stream = absl::DataLossError(absl::StrCat(
           "ReadBlob ", name, ": stream ended after ", received, " of ", digest.size_bytes(), " bytes"));
-      if (!retry.ShouldRetry(absl::UnavailableError(short_stream.message()))) return short_stream;
+      if (!retry.ShouldRetry(absl::UnavailableError(short_stream.message()))) {
+        return retry.cancelled() ? cancel->error() : short_stream;
+      }
     } else if (!retry.ShouldRetry(status)) {
-      return status;
+      return retry.cancelled() ? cancel->error() : status;
     }
     SdkLog().debug("download of {} interrupted at byte {} ({}); resuming", name, received, status.ToString());
   }

@@ -12,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/retry.h"
 #include "client/transport.h"
 #include "common/sha256.h"
 #include "impostor/v1/types.pb.h"
@@ -19,22 +20,33 @@
 namespace impostor::sdk {
 
 // Feeds the blob's bytes, in order and each once, to `sink`. A broken stream
-// (UNAVAILABLE, DEADLINE_EXCEEDED, or an early end) is resumed at the next
-// offset, as RetryPolicy decides: up to max_attempts tries in a row that
-// bring no bytes, and through a server outage for up to max_outage_seconds.
+// (UNAVAILABLE, a stalled link, or an early end) is resumed at the byte after
+// the last one received, as RetryPolicy decides: up to max_attempts tries in
+// a row that bring no bytes, and through a server outage for up to
+// max_outage_seconds. Bytes arriving start the count over, so a download
+// that keeps moving is never given up, however slow the link; only a link
+// that brings nothing for rpc_timeout_seconds, max_attempts times in a row,
+// ends it (DEADLINE_EXCEEDED, "the link stalled"; Transport::ReadBlob).
 // DATA_LOSS
 // when the server sends more bytes than the digest's size, a wrong offset, or
 // bytes whose SHA-256 differs (the sink has then seen bad bytes: the caller
 // must discard them). A non-OK status from `sink` is returned as is.
+//
+// `cancel` (may be null; must outlive the call): CancelSource::Cancel() from
+// any thread ends the download promptly wherever it is (a stream in
+// flight, a backoff wait through an outage) with cancel->error()
+// (CANCELLED); `sink` is not called after that.
 absl::Status DownloadBlob(Transport& transport, const v1::Digest& digest,
-                          const std::function<absl::Status(std::string_view)>& sink);
+                          const std::function<absl::Status(std::string_view)>& sink,
+                          const CancelSource* cancel = nullptr);
 
 // DownloadBlob from byte `offset` on, for a caller that already holds bytes
 // [0, offset) and has fed them to `hash`: only the rest is requested and fed
 // to `sink` and `hash`, and the SHA-256 of the whole blob is checked at the
 // end. INVALID_ARGUMENT when offset is outside 0..size_bytes.
 absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, int64_t offset, Sha256& hash,
-                                const std::function<absl::Status(std::string_view)>& sink);
+                                const std::function<absl::Status(std::string_view)>& sink,
+                                const CancelSource* cancel = nullptr);
 
 // DownloadBlob into `path` through an AtomicFileWriter: on any error the
 // temporary file is removed and `path` is left untouched.

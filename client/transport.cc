@@ -35,11 +35,16 @@
 namespace impostor::sdk {
 namespace {
 
-// ReadBlob sends at most 1 MiB per message and a manifest with 64 x 64
-// views is well under 1 MiB; the margin is for future fields.
+// ReadBlob sends at most 1 MiB per message (64 KiB from servers of this
+// version) and a manifest with 64 x 64 views is well under 1 MiB; the
+// margin is for future fields.
 constexpr int kMaxReceiveBytes = 64 << 20;
-// A stream's deadline grows by one second per this many bytes.
+// An upload's deadline grows by one second per this many bytes.
 constexpr double kStreamBytesPerSecond = 256 * 1024;
+// How often a backoff wait on a channel that is not connected looks at its
+// CancelSource: a channel's state change cannot be waited for together
+// with a condition variable.
+constexpr auto kCancelPollInterval = std::chrono::milliseconds(50);
 // Reconnect backoff of the channel: gRPC's default grows to 120 s, so a
 // server back after a restart would go unnoticed for minutes. Tries every
 // second at most (a refused connection costs the server nothing); each try
@@ -279,7 +284,7 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
 ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
 absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc, const Route& route,
-                             const grpc::ClientContext& context, bool* try_next_now) {
+                             const grpc::ClientContext& context, bool* try_next_now, bool answered) {
   const std::string& target = stubs_->channels->target(route.index);
   // Every call that cancels itself (TryCancel) returns before it gets here,
   // so a CANCELLED here came from the server: one that stops gracefully
@@ -298,7 +303,7 @@ absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc,
   if (try_next_now != nullptr) *try_next_now = next_now;
   switch (status.error_code()) {
     case grpc::StatusCode::UNAVAILABLE:
-      if (!next_now) stubs_->monitor.NoteFailure(error);
+      if (!next_now && !answered) stubs_->monitor.NoteFailure(error);
       break;
     // Said by our own side (a deadline), not by the server.
     case grpc::StatusCode::DEADLINE_EXCEEDED: break;
@@ -307,19 +312,39 @@ absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc,
   return error;
 }
 
-void Transport::WaitForServer(std::chrono::duration<double> at_most) {
+void Transport::WaitForServer(std::chrono::duration<double> at_most, const CancelSource* cancel) {
   const auto until = std::chrono::system_clock::now() +
                      std::chrono::duration_cast<std::chrono::system_clock::duration>(at_most);
   const std::shared_ptr<grpc::Channel> channel = stubs_->channels->Current().channel;
-  if (channel->GetState(/*try_to_connect=*/false) == GRPC_CHANNEL_READY ||
-      !channel->WaitForConnected(until)) {
-    std::this_thread::sleep_until(until);  // connected already, or not back yet: the whole backoff
+  if (channel->GetState(/*try_to_connect=*/false) != GRPC_CHANNEL_READY) {
+    // Not back yet: wait for the connection, in slices when a cancel may
+    // end the wait early.
+    while (true) {
+      if (cancel != nullptr && cancel->cancelled()) return;
+      const auto now = std::chrono::system_clock::now();
+      if (now >= until) return;
+      const auto slice_end =
+          cancel == nullptr ? until
+                            : std::min(until, now + std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                                                        kCancelPollInterval));
+      if (channel->WaitForConnected(slice_end)) return;
+    }
+  }
+  // Connected already (a live server that answered UNAVAILABLE): the whole
+  // backoff.
+  const auto left = until - std::chrono::system_clock::now();
+  if (left <= left.zero()) return;
+  if (cancel != nullptr) {
+    cancel->WaitFor(left);
+  } else {
+    std::this_thread::sleep_until(until);
   }
 }
 
-RetryPolicy Transport::NewRetryPolicy() {
-  return RetryPolicy(options_, stubs_->monitor,
-                     [this](std::chrono::duration<double> at_most) { WaitForServer(at_most); });
+RetryPolicy Transport::NewRetryPolicy(const CancelSource* cancel) {
+  return RetryPolicy(
+      options_, stubs_->monitor,
+      [this, cancel](std::chrono::duration<double> at_most) { WaitForServer(at_most, cancel); }, cancel);
 }
 
 void Transport::NoteAnswer(const Route& route) {
@@ -331,17 +356,25 @@ void Transport::NoteAnswer(const Route& route) {
 // decides; a failure that moves calls on to a replica not yet tried is
 // tried there at once, outside that policy (at most once per address).
 template <typename Response, typename Call>
-absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
-  RetryPolicy retry = NewRetryPolicy();
+absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call, const CancelSource* cancel) {
+  RetryPolicy retry = NewRetryPolicy(cancel);
   size_t moved_on = 0;
   while (true) {
+    if (cancel != nullptr && cancel->cancelled()) return cancel->error();
     grpc::ClientContext context;
     stubs_->AddToken(context);
     context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds));
     if (!options_.client_id.empty()) context.AddMetadata("impostor-client-id", options_.client_id);
     const Route route = stubs_->channels->Current();
     Response response;
-    const grpc::Status status = call(route, &context, &response);
+    grpc::Status status;
+    {
+      CancelSource::Registration registration;
+      if (cancel != nullptr) registration = cancel->OnCancel([&context] { context.TryCancel(); });
+      status = call(route, &context, &response);
+    }
+    // Cancelled by our side: not the server's answer (see Note).
+    if (!status.ok() && cancel != nullptr && cancel->cancelled()) return cancel->error();
     bool try_next_now = false;
     absl::Status error = Note(status, rpc, route, context, &try_next_now);
     if (error.ok()) return response;
@@ -351,7 +384,7 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call) {
       continue;
     }
     moved_on = 0;
-    if (!retry.ShouldRetry(error)) return error;
+    if (!retry.ShouldRetry(error)) return retry.cancelled() ? cancel->error() : error;
     SdkLog().debug("{} failed ({} in a row): {}; retrying", std::string(rpc), retry.failures(), error.ToString());
   }
 }
@@ -383,11 +416,15 @@ absl::StatusOr<v1::Job> Transport::CancelJob(const std::string& job_id) {
                             [&](const Route& route, auto* ctx, auto* resp) { return v1::BakeService::Stub(route.channel).CancelJob(ctx, request, resp); });
 }
 
-absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key) {
+absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key, const CancelSource* cancel) {
   v1::GetResultRequest request;
   request.set_cache_key(cache_key);
-  return CallUnary<v1::Manifest>("GetResult",
-                                 [&](const Route& route, auto* ctx, auto* resp) { return v1::AssetService::Stub(route.channel).GetResult(ctx, request, resp); });
+  return CallUnary<v1::Manifest>(
+      "GetResult",
+      [&](const Route& route, auto* ctx, auto* resp) {
+        return v1::AssetService::Stub(route.channel).GetResult(ctx, request, resp);
+      },
+      cancel);
 }
 
 absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {
@@ -446,28 +483,98 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
 }
 
 absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
-                                 const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk) {
+                                 const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk,
+                                 const CancelSource* cancel) {
+  if (cancel != nullptr && cancel->cancelled()) return cancel->error();
   grpc::ClientContext context;
   stubs_->AddToken(context);
-  const double remaining = static_cast<double>(digest.size_bytes() - offset);
-  context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds + std::max(0.0, remaining) / kStreamBytesPerSecond));
   v1::ReadBlobRequest request;
   *request.mutable_digest() = digest;
   request.set_offset(offset);
   const Route route = stubs_->channels->Current();
   v1::AssetService::Stub stub(route.channel);
-  std::unique_ptr<grpc::ClientReader<v1::ReadBlobResponse>> reader = stub.ReadBlob(&context, request);
-  v1::ReadBlobResponse message;
-  while (reader->Read(&message)) {
-    NoteAnswer(route);
-    if (absl::Status s = on_chunk(message); !s.ok()) {
-      context.TryCancel();
-      reader->Finish();
-      return s;
+  // An async reader on a queue of its own: each step is waited for with the
+  // stall deadline, which a sync reader cannot do. No deadline on the call:
+  // gRPC has none per message.
+  grpc::CompletionQueue queue;
+  std::unique_ptr<grpc::ClientAsyncReader<v1::ReadBlobResponse>> reader =
+      stub.PrepareAsyncReadBlob(&context, request, &queue);
+  CancelSource::Registration registration;
+  if (cancel != nullptr) registration = cancel->OnCancel([&context] { context.TryCancel(); });
+  const auto stall_limit = std::chrono::duration_cast<std::chrono::system_clock::duration>(
+      std::chrono::duration<double>(options_.rpc_timeout_seconds));
+  bool stalled = false;
+  // Waits for the one operation in flight. Once stall_limit passes without
+  // it, cancels the call, which then completes it at once (not ok).
+  const auto await = [&](void* expected) {
+    void* tag = nullptr;
+    bool ok = false;
+    const auto deadline = std::chrono::system_clock::now() + stall_limit;
+    while (true) {
+      const grpc::CompletionQueue::NextStatus next =
+          stalled ? (queue.Next(&tag, &ok) ? grpc::CompletionQueue::GOT_EVENT : grpc::CompletionQueue::SHUTDOWN)
+                  : queue.AsyncNext(&tag, &ok, deadline);
+      if (next == grpc::CompletionQueue::TIMEOUT) {
+        stalled = true;
+        context.TryCancel();
+        continue;
+      }
+      if (next == grpc::CompletionQueue::SHUTDOWN) return false;  // not before Shutdown below
+      if (tag == expected) return ok;
+    }
+  };
+  int tags[3];  // distinct addresses: start, read, finish
+  reader->StartCall(&tags[0]);
+  bool answered = false;  // a message arrived on this call
+  int64_t received = 0;
+  absl::Status local_error;
+  if (await(&tags[0])) {
+    v1::ReadBlobResponse message;
+    while (true) {
+      reader->Read(&message, &tags[1]);
+      if (!await(&tags[1])) break;
+      answered = true;
+      received += static_cast<int64_t>(message.data().size());
+      NoteAnswer(route);
+      local_error = on_chunk(message);
+      if (!local_error.ok()) {
+        context.TryCancel();
+        break;
+      }
     }
   }
-  const grpc::Status status = reader->Finish();
-  return Note(status, "ReadBlob", route, context);
+  grpc::Status status;
+  reader->Finish(&status, &tags[2]);
+  {
+    void* tag = nullptr;
+    bool ok = false;
+    while (queue.Next(&tag, &ok) && tag != &tags[2]) {
+    }
+  }
+  queue.Shutdown();
+  {
+    void* tag = nullptr;
+    bool ok = false;
+    while (queue.Next(&tag, &ok)) {
+    }
+  }
+  registration.Reset();
+  if (!local_error.ok()) return local_error;
+  if (status.ok()) return Note(status, "ReadBlob", route, context);
+  // Every cancel of our own side ends here, before Note, which takes a
+  // CANCELLED for the server's.
+  if (cancel != nullptr && cancel->cancelled()) return cancel->error();
+  if (stalled && (status.error_code() == grpc::StatusCode::CANCELLED ||
+                  status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)) {
+    // The watchdog's own cancel: the link (or the server) stalled.
+    const grpc::Status stall(
+        grpc::StatusCode::DEADLINE_EXCEEDED,
+        absl::StrCat("the link stalled: no bytes arrived for ", absl::SixDigits(options_.rpc_timeout_seconds),
+                     " s (rpc_timeout_seconds)",
+                     answered ? absl::StrCat(", after ", received, " bytes of this stream") : std::string()));
+    return Note(stall, "ReadBlob", route, context);
+  }
+  return Note(status, "ReadBlob", route, context, nullptr, answered);
 }
 
 absl::Status Transport::WatchJob(const std::string& job_id, const std::function<bool(const v1::Job&)>& on_job) {

@@ -8,6 +8,7 @@
 #ifndef IMPOSTOR_CLIENT_TRANSPORT_H_
 #define IMPOSTOR_CLIENT_TRANSPORT_H_
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -58,7 +59,9 @@ class Transport {
   absl::StatusOr<v1::SubmitBakeResponse> SubmitBake(const v1::SubmitBakeRequest& request);
   absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
-  absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key);
+  // `cancel` (may be null): once cancelled, the call in flight is cancelled
+  // and the backoff wait ends; the answer is then cancel->error().
+  absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key, const CancelSource* cancel = nullptr);
   absl::StatusOr<v1::LookupBakeResponse> LookupBake(const v1::SubmitBakeRequest& request);
   // AdminService (admin tokens only; `impostor admin purge`).
   absl::StatusOr<v1::PurgeWorkerResultsResponse> PurgeWorkerResults(const v1::PurgeWorkerResultsRequest& request);
@@ -78,10 +81,12 @@ class Transport {
   // while every call sleeps in its backoff (gRPC's backup poller runs every
   // 5 s), so a restarted server went unnoticed for 2-5 s after it listened.
   // A channel that is connected already (a live server that answered
-  // UNAVAILABLE) waits the whole backoff.
-  void WaitForServer(std::chrono::duration<double> at_most);
-  // RetryPolicy for this transport, waiting with WaitForServer.
-  RetryPolicy NewRetryPolicy();
+  // UNAVAILABLE) waits the whole backoff. Returns at once when `cancel`
+  // (may be null) is cancelled, before or during the wait.
+  void WaitForServer(std::chrono::duration<double> at_most, const CancelSource* cancel = nullptr);
+  // RetryPolicy for this transport, waiting with WaitForServer; `cancel`
+  // (may be null) ends its waits and its retries (RetryPolicy).
+  RetryPolicy NewRetryPolicy(const CancelSource* cancel = nullptr);
 
   // One UploadBlob stream, not retried (the caller restarts from byte 0: the
   // server only keeps complete blobs). Deadline: rpc_timeout_seconds plus one
@@ -91,8 +96,22 @@ class Transport {
   // One ReadBlob stream from `offset` to the end, not retried (the caller
   // resumes from what it got). `on_chunk` sees every message in order; a
   // non-OK status from it cancels the stream and is returned as is.
+  //
+  // No deadline on the whole stream: a download that keeps moving goes on
+  // however slow the link. A stall watchdog cancels it when no message
+  // arrives for rpc_timeout_seconds (the first one included):
+  // DEADLINE_EXCEEDED, saying that the link stalled. The server is only
+  // reported lost (ConnectionMonitor) when a stream fails UNAVAILABLE
+  // before any message of its own: a stream cut after bytes arrived is a
+  // broken link, which the caller's resume will tell apart from a server
+  // gone.
+  //
+  // `cancel` (may be null): Cancel() from any thread cancels the stream at
+  // once, wherever it is (connecting, waiting for bytes); the answer is
+  // then cancel->error(), and `on_chunk` is not called again.
   absl::Status ReadBlob(const v1::Digest& digest, int64_t offset,
-                        const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk);
+                        const std::function<absl::Status(const v1::ReadBlobResponse&)>& on_chunk,
+                        const CancelSource* cancel = nullptr);
 
   // One WatchJob stream, without deadline. `on_job` sees every message; the
   // stream is closed early once it returns false.
@@ -108,13 +127,15 @@ class Transport {
   // reason (common/error_reason.h), after telling the monitor and the
   // failover whether the server answered. `try_next_now` (optional) is set
   // when the call may be tried again at once on another replica
-  // (FailoverChannel::NoteFailure).
+  // (FailoverChannel::NoteFailure). `answered`: the call itself brought
+  // messages before it failed, so an UNAVAILABLE is a broken stream, not a
+  // server gone: the monitor is not told of an outage.
   absl::Status Note(const grpc::Status& status, std::string_view rpc, const Route& route,
-                    const grpc::ClientContext& context, bool* try_next_now = nullptr);
+                    const grpc::ClientContext& context, bool* try_next_now = nullptr, bool answered = false);
   // A stream message arrived on `route`.
   void NoteAnswer(const Route& route);
   template <typename Response, typename Call>
-  absl::StatusOr<Response> CallUnary(std::string_view rpc, Call call);
+  absl::StatusOr<Response> CallUnary(std::string_view rpc, Call call, const CancelSource* cancel = nullptr);
 
   ClientOptions options_;
   std::unique_ptr<Stubs> stubs_;

@@ -6,7 +6,14 @@ namespace impostor {
 namespace {
 
 constexpr int kMaxFindMissing = 10'000;
-constexpr size_t kReadChunkBytes = 1 << 20;
+// ReadBlob's message size. A client keeps whole messages only: a stream
+// cut midway loses the message under way, and a message is all a slow
+// link's stall watchdog can see arrive (gRPC has no per-byte progress). At
+// 1 MiB a 12 KB/s link took 87 s per message and lost it at every cut; at
+// 64 KiB it takes 5 s. A fast link does not notice: bench/cache_bench on
+// loopback measured the same throughput as with 1 MiB messages (medians of
+// 6 x 9 runs: raw ReadBlob 865 vs 852 MB/s, Cache::Get 698 vs 693 MB/s).
+constexpr size_t kReadChunkBytes = size_t{64} << 10;
 
 BlobDigest ToDigest(const v1::Digest& d) { return {d.hash(), d.size_bytes()}; }
 

@@ -77,9 +77,11 @@ struct ClientOptions {
   std::string server = "localhost:50051";
 
   // Deadline of every unary RPC (FindMissingBlobs, SubmitBake, GetJob,
-  // CancelJob, GetResult), in seconds. Streams scale it: an upload or a
-  // download gets this much plus one second per 256 KiB of blob; WatchJob
-  // has no deadline (a bake may take long) but resumes when the stream breaks.
+  // CancelJob, GetResult), in seconds. An upload gets this much plus one
+  // second per 256 KiB of blob; a download has no overall deadline, only
+  // this long at most without a byte arriving (a stalled link: it resumes at
+  // the last byte kept, however slow the link); WatchJob has no deadline (a
+  // bake may take long) but resumes when the stream breaks.
   // Default: 30. Range: > 0.
   double rpc_timeout_seconds = 30;
 
