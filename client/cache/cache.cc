@@ -4,11 +4,6 @@
 // (result_install) and the lazily opened connection (lazy_transport).
 #include "impostor/cache.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -19,6 +14,7 @@
 #include <sstream>
 #include <system_error>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "absl/strings/str_cat.h"
 #include "client/cache/cache_layout.h"
@@ -29,6 +25,7 @@
 #include "client/cache/lazy_transport.h"
 #include "client/cache/lru_index.h"
 #include "client/cache/manifest_summary.h"
+#include "client/cache/partial_download.h"
 #include "client/cache/result_install.h"
 #include "client/cache/work_queue.h"
 #include "client/job_convert.h"
@@ -45,9 +42,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Staging leftovers younger than this may belong to an install running in
-// another process.
-constexpr int64_t kStagingMaxAgeSeconds = 3600;
+// Staging directories younger than this are kept even when unlocked: an
+// install locks its directory right after creating it, and an older build
+// of this library (which does not lock it) creates it only once every blob
+// is on disk and renames it moments later. Older unlocked ones are
+// leftovers of killed installs, holding links to the blobs they had.
+constexpr double kStagingMaxAgeSeconds = 60;
 
 int64_t NowUnixSeconds() {
   return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -127,12 +127,6 @@ absl::StatusOr<std::string> ReadText(const fs::path& path) {
   return text.str();
 }
 
-int64_t AgeSeconds(const fs::path& path) {
-  struct stat st;
-  if (::lstat(path.c_str(), &st) != 0) return 0;
-  return NowUnixSeconds() - static_cast<int64_t>(st.st_mtim.tv_sec);
-}
-
 }  // namespace
 
 class Cache::Impl {
@@ -144,7 +138,7 @@ class Cache::Impl {
         transport_(TransportOptions(options), hooks.transport, options.offline_retry_seconds) {}
 
   ~Impl() {
-    cancel_.store(true);
+    cancel_.Cancel();
     if (downloads_ != nullptr) downloads_->Shutdown();
     if (io_ != nullptr) io_->Drain();
   }
@@ -248,6 +242,7 @@ class Cache::Impl {
 
   absl::StatusOr<GarbageReport> CollectGarbage(int64_t max_bytes, bool verify) {
     GarbageReport report;
+    if (absl::Status s = EnsureLayout(); !s.ok()) return s;
     LoadNewEntries();
     if (verify) VerifyAll(&report);
     Trim(max_bytes < 0 ? options_.max_bytes : max_bytes, &report);
@@ -282,14 +277,30 @@ class Cache::Impl {
 
   // Adds entries present on disk but not in the index (installed by another
   // process, or before this object opened); drops unreadable ones.
+  // Also forgets entries no longer on disk that nothing here uses (evicted
+  // by another process, or the directory deleted).
   void LoadNewEntries() {
     std::vector<std::string> unknown;
+    std::vector<std::string> unlisted;
     {
       std::vector<std::string> keys = layout_.ListEntryKeys();
+      const std::unordered_set<std::string> listed(keys.begin(), keys.end());
       std::lock_guard lock(mu_);
       for (std::string& key : keys) {
         if (!nodes_.contains(key)) unknown.push_back(std::move(key));
       }
+      for (const auto& [key, node] : nodes_) {
+        if (!listed.contains(key) && node.pin.expired()) unlisted.push_back(key);
+      }
+    }
+    for (const std::string& key : unlisted) {
+      // Looked at again: it may have been installed since the listing.
+      if (fs::exists(layout_.EntryDir(key) / kEntryRecordName)) continue;
+      std::lock_guard lock(mu_);
+      auto it = nodes_.find(key);
+      if (it == nodes_.end() || !it->second.pin.expired()) continue;
+      nodes_.erase(it);
+      lru_.Erase(key);
     }
     struct Loaded {
       EntryRecord record;
@@ -458,20 +469,40 @@ class Cache::Impl {
     return std::shared_ptr<const EntryView>(std::move(view));
   }
 
+  // Rebuilds the directory layout when someone deleted it (or part of it)
+  // under this cache, so that a running game recovers without a restart.
+  absl::Status EnsureLayout() {
+    if (layout_.Intact()) return absl::OkStatus();
+    std::lock_guard lock(layout_mu_);
+    if (layout_.Intact()) return absl::OkStatus();
+    SdkLog().warn("cache: {} lost its layout (deleted under a running cache?); rebuilding it",
+                  layout_.root().string());
+    return layout_.Init();
+  }
+
   // A flight's work: local copy if one appeared, else download and install.
   DownloadCoordinator::Result Download(const std::string& key) {
-    if (cancel_.load()) return absl::CancelledError("the cache is shutting down");
+    if (cancel_.cancelled()) return cancel_.error();
     absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
     if (!local.ok()) return local.status();
     if (local->has_value()) return **local;
+    if (absl::Status s = EnsureLayout(); !s.ok()) return s;
     absl::StatusOr<Transport*> transport = transport_.Get();
     if (!transport.ok()) return transport.status();
     absl::StatusOr<InstallOutcome> installed =
         DownloadAndInstall(**transport, layout_, key, hooks_.download, &cancel_);
     if (!installed.ok()) return installed.status();
+    // This process downloaded the result when it moved some of its bytes
+    // over the network; a Get that found them all on disk (another process's
+    // download, finished or installed while we waited) did not.
+    const bool downloaded = installed->bytes_downloaded > 0;
+    // The pin taken before the entry became visible: no evictor, in this
+    // process or another, can take it before the caller holds it.
+    auto pin = std::make_shared<EntryPin>();
+    pin->lock = std::move(installed->pin);
     {
       std::lock_guard lock(mu_);
-      stats_.downloads += 1;
+      if (downloaded) stats_.downloads += 1;
       stats_.bytes_downloaded += installed->bytes_downloaded;
       stats_.bytes_resumed += installed->bytes_resumed;
       if (!nodes_.contains(key)) {  // else another thread found the entry first and knows it
@@ -481,8 +512,15 @@ class Cache::Impl {
         // Every byte was just hashed on its way in.
         node.verified = !installed->raced;
       }
+      Node& node = nodes_[key];
+      if (std::shared_ptr<EntryPin> existing = node.pin.lock(); existing != nullptr) {
+        pin = std::move(existing);  // one pin per entry and process
+      } else {
+        node.pin = pin;
+      }
     }
-    absl::StatusOr<std::optional<CachedResult>> result = TryLocal(key, /*downloaded=*/true);
+    absl::StatusOr<std::optional<CachedResult>> result = TryLocal(key, downloaded);
+    pin.reset();  // `result` holds it now
     if (!result.ok()) return result.status();
     if (!result->has_value()) {
       return absl::InternalError(absl::StrCat("cache: ", key, " vanished right after its install"));
@@ -548,32 +586,30 @@ class Cache::Impl {
     }
   }
 
-  // Partial downloads untouched for `max_age` seconds and not being written
-  // (their lock is free), and staging leftovers of crashed installs.
+  // Partial downloads untouched for `max_age` seconds that no download is
+  // using (their lock is free; see partial_download.h: a download links a
+  // partial into its staging directory under that lock, so removing one
+  // never breaks an install), and staging leftovers of crashed installs
+  // (old, and not locked by a running install).
   void RemoveStaleFiles(double max_age, GarbageReport* report) {
     std::error_code ec;
     for (fs::directory_iterator it(layout_.PartialDir(), ec), end; !ec && it != end; it.increment(ec)) {
-      const fs::path path = it->path();
-      if (AgeSeconds(path) < max_age) continue;
-      const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-      if (fd < 0) continue;
-      if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
-        struct stat st;
-        const int64_t size = ::fstat(fd, &st) == 0 ? st.st_size : 0;
-        std::error_code rm;
-        if (fs::remove(path, rm) && report != nullptr) {
-          report->removed_partials += 1;
-          report->removed_partial_bytes += size;
-        }
+      const int64_t size = RemovePartialIfUnused(it->path(), nullptr, max_age);
+      if (size >= 0 && report != nullptr) {
+        report->removed_partials += 1;
+        report->removed_partial_bytes += size;
       }
-      ::close(fd);
     }
     for (fs::directory_iterator it(layout_.StagingDir(), ec), end; !ec && it != end; it.increment(ec)) {
       const fs::path path = it->path();
-      const bool trash = path.filename().string().rfind("trash-", 0) == 0;
-      if (!trash && AgeSeconds(path) < kStagingMaxAgeSeconds) continue;
-      std::error_code rm;
-      if (fs::remove_all(path, rm) > 0 && report != nullptr) report->removed_partials += 1;
+      bool removed;
+      if (path.filename().string().rfind("trash-", 0) == 0) {
+        std::error_code rm;
+        removed = fs::remove_all(path, rm) > 0;
+      } else {
+        removed = RemoveStagingIfUnused(path, kStagingMaxAgeSeconds);
+      }
+      if (removed && report != nullptr) report->removed_partials += 1;
     }
   }
 
@@ -581,8 +617,11 @@ class Cache::Impl {
   const CacheLayout layout_;
   const CacheTestHooks hooks_;
   LazyTransport transport_;
-  std::atomic<bool> cancel_{false};
+  // Cancel() ends every download at once: backoff waits, a partial held by
+  // another download, and the ReadBlob or GetResult in flight (TryCancel).
+  CancelSource cancel_{"the cache is shutting down"};
 
+  std::mutex layout_mu_;  // one rebuild at a time
   std::mutex mu_;
   std::unordered_map<std::string, Node> nodes_ ABSL_GUARDED_BY(mu_);
   LruIndex lru_ ABSL_GUARDED_BY(mu_);

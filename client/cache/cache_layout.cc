@@ -70,14 +70,28 @@ absl::Status CacheLayout::Init() const {
     return absl::OkStatus();
   }
   // Written through a rename so that a reader never sees it half-written.
-  const fs::path temp = root_ / absl::StrCat(".FORMAT.", ::getpid());
+  // One name per call: threads of a process may rebuild the layout at once.
+  static std::atomic<uint64_t> calls{0};
+  const fs::path temp = root_ / absl::StrCat(".FORMAT.", ::getpid(), ".", calls.fetch_add(1));
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     out << kFormatText;
     if (!out.flush()) return LocalIoError("cannot write", temp, errno);
   }
-  if (::rename(temp.c_str(), format.c_str()) != 0) return LocalIoError("cannot create", format, errno);
+  if (::rename(temp.c_str(), format.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    return LocalIoError("cannot create", format, err);
+  }
   return absl::OkStatus();
+}
+
+bool CacheLayout::Intact() const {
+  struct stat st;
+  for (const fs::path& dir : {EntriesDir(), StagingDir(), PartialDir()}) {
+    if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) return false;
+  }
+  return ::stat((root_ / kFormatFileName).c_str(), &st) == 0;
 }
 
 std::vector<std::string> CacheLayout::ListEntryKeys() const {

@@ -53,6 +53,10 @@ class CacheLayout {
   // Creates the directories and the FORMAT file, or checks that an existing
   // FORMAT names this version. INTERNAL naming the path otherwise.
   absl::Status Init() const;
+  // True when the directories and the FORMAT file are all there (a few
+  // stat calls): false after someone deleted the cache directory, or part
+  // of it, under a running cache; Init then rebuilds it.
+  bool Intact() const;
 
   const std::filesystem::path& root() const { return root_; }
   std::filesystem::path EntriesDir() const { return root_ / "entries"; }

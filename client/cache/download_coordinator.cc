@@ -5,25 +5,26 @@
 namespace impostor::sdk {
 
 DownloadCoordinator::DownloadCoordinator(int threads, int max_background, Work work)
-    : max_background_(max_background), work_(std::move(work)) {
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { RunThread(); });
+    : state_(std::make_shared<State>(max_background, std::move(work))) {
+  for (int i = 0; i < threads; ++i) threads_.emplace_back([state = state_] { RunThread(state); });
 }
 
 DownloadCoordinator::~DownloadCoordinator() { Shutdown(); }
 
 void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done) {
-  std::unique_lock lock(mu_);
-  if (shutdown_) {
+  State& s = *state_;
+  std::unique_lock lock(s.mu);
+  if (s.shutdown) {
     lock.unlock();
     done(absl::CancelledError("the cache is shutting down"));
     return;
   }
-  auto it = flights_.find(key);
-  if (it != flights_.end()) {
+  auto it = s.flights.find(key);
+  if (it != s.flights.end()) {
     it->second->waiters.push_back(std::move(done));
     if (urgent && !it->second->urgent) {
       it->second->urgent = true;
-      changed_.notify_all();
+      s.changed.notify_all();
     }
     return;
   }
@@ -31,49 +32,52 @@ void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done) {
   flight->key = key;
   flight->urgent = urgent;
   flight->waiters.push_back(std::move(done));
-  flights_[key] = flight;
-  queue_.push_back(flight);
-  changed_.notify_all();
+  s.flights[key] = flight;
+  s.queue.push_back(flight);
+  s.changed.notify_all();
 }
 
-std::shared_ptr<DownloadCoordinator::Flight> DownloadCoordinator::PopRunnable() {
-  auto pick = queue_.end();
-  for (auto it = queue_.begin(); it != queue_.end(); ++it) {
+std::shared_ptr<DownloadCoordinator::Flight> DownloadCoordinator::State::PopRunnable() {
+  auto pick = queue.end();
+  for (auto it = queue.begin(); it != queue.end(); ++it) {
     if ((*it)->urgent) {
       pick = it;
       break;
     }
-    if (pick == queue_.end() && running_background_ < max_background_) pick = it;
+    if (pick == queue.end() && running_background < max_background) pick = it;
   }
-  if (pick == queue_.end()) return nullptr;
+  if (pick == queue.end()) return nullptr;
   std::shared_ptr<Flight> flight = *pick;
-  queue_.erase(pick);
+  queue.erase(pick);
   if (!flight->urgent) {
     flight->counts_as_background = true;
-    ++running_background_;
+    ++running_background;
   }
-  ++started_;
+  ++started;
   return flight;
 }
 
-void DownloadCoordinator::RunThread() {
-  std::unique_lock lock(mu_);
+// Uses nothing but `state`: a waiter callback may destroy the coordinator.
+void DownloadCoordinator::RunThread(const std::shared_ptr<State>& state) {
+  State& s = *state;
+  std::unique_lock lock(s.mu);
   while (true) {
     std::shared_ptr<Flight> flight;
-    changed_.wait(lock, [&] { return shutdown_ || (flight = PopRunnable()) != nullptr; });
+    s.changed.wait(lock, [&] { return s.shutdown || (flight = s.PopRunnable()) != nullptr; });
     if (flight == nullptr) return;  // shutdown
     lock.unlock();
-    Result result = work_(flight->key);
+    Result result = s.work(flight->key);
     lock.lock();
     // Under the lock, so a Join either made it into `waiters` or starts a
     // new flight.
-    flights_.erase(flight->key);
-    if (flight->counts_as_background) --running_background_;
+    s.flights.erase(flight->key);
+    if (flight->counts_as_background) --s.running_background;
     std::vector<Done> waiters = std::move(flight->waiters);
-    changed_.notify_all();
+    s.changed.notify_all();
     lock.unlock();
     for (size_t i = 0; i + 1 < waiters.size(); ++i) waiters[i](result);
     if (!waiters.empty()) waiters.back()(std::move(result));
+    waiters.clear();  // the callbacks' captures go before the next flight
     lock.lock();
   }
 }
@@ -81,26 +85,33 @@ void DownloadCoordinator::RunThread() {
 void DownloadCoordinator::Shutdown() {
   std::vector<std::shared_ptr<Flight>> cancelled;
   {
-    std::lock_guard lock(mu_);
-    if (shutdown_ && threads_.empty()) return;
-    shutdown_ = true;
-    cancelled.assign(queue_.begin(), queue_.end());
-    queue_.clear();
-    for (const auto& flight : cancelled) flights_.erase(flight->key);
-    changed_.notify_all();
+    State& s = *state_;
+    std::lock_guard lock(s.mu);
+    if (s.shutdown && threads_.empty()) return;
+    s.shutdown = true;
+    cancelled.assign(s.queue.begin(), s.queue.end());
+    s.queue.clear();
+    for (const auto& flight : cancelled) s.flights.erase(flight->key);
+    s.changed.notify_all();
   }
   for (auto& flight : cancelled) {
     for (Done& done : flight->waiters) done(absl::CancelledError("the cache is shutting down"));
   }
+  const std::thread::id self = std::this_thread::get_id();
   for (std::thread& t : threads_) {
-    if (t.joinable()) t.join();
+    if (!t.joinable()) continue;
+    if (t.get_id() == self) {
+      t.detach();  // we are in its callback: it ends when that returns
+    } else {
+      t.join();
+    }
   }
   threads_.clear();
 }
 
 int64_t DownloadCoordinator::flights_started() {
-  std::lock_guard lock(mu_);
-  return started_;
+  std::lock_guard lock(state_->mu);
+  return state_->started;
 }
 
 }  // namespace impostor::sdk

@@ -7,7 +7,10 @@
 //
 // Thread-safety: every method may be called from any thread. Waiter
 // callbacks run on a pool thread (or on the caller's thread, with
-// CANCELLED, after Shutdown) without any lock held.
+// CANCELLED, after Shutdown) without any lock held. A waiter callback may
+// shut the coordinator down and destroy it (a Cache closed from inside its
+// own callback): the pool thread it runs on is then let go instead of
+// joined, and touches nothing of the coordinator's but the state it shares.
 #ifndef IMPOSTOR_CLIENT_CACHE_DOWNLOAD_COORDINATOR_H_
 #define IMPOSTOR_CLIENT_CACHE_DOWNLOAD_COORDINATOR_H_
 
@@ -50,7 +53,9 @@ class DownloadCoordinator {
 
   // Fails queued flights with CANCELLED, waits for running ones (the Work
   // must notice cancellation itself) and stops the threads. Later Joins are
-  // answered CANCELLED at once.
+  // answered CANCELLED at once. Called on a pool thread (from a waiter
+  // callback), it waits for the other threads and detaches that one, which
+  // ends once its callbacks return without running any more Work.
   void Shutdown();
 
   // Flights started so far.
@@ -64,20 +69,28 @@ class DownloadCoordinator {
     std::vector<Done> waiters;
   };
 
-  void RunThread();
-  // The next flight allowed to start, removed from the queue; nullptr if none.
-  std::shared_ptr<Flight> PopRunnable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Everything the pool threads use: shared with them, so that a thread
+  // whose callback destroyed the coordinator can still finish its loop.
+  struct State {
+    State(int max_background, Work work) : max_background(max_background), work(std::move(work)) {}
+    const int max_background;
+    const Work work;
+    std::mutex mu;
+    std::condition_variable changed;
+    std::map<std::string, std::shared_ptr<Flight>> flights ABSL_GUARDED_BY(mu);  // queued and running
+    std::list<std::shared_ptr<Flight>> queue ABSL_GUARDED_BY(mu);                // not started, FIFO
+    int running_background ABSL_GUARDED_BY(mu) = 0;
+    int64_t started ABSL_GUARDED_BY(mu) = 0;
+    bool shutdown ABSL_GUARDED_BY(mu) = false;
 
-  const int max_background_;
-  const Work work_;
-  std::mutex mu_;
-  std::condition_variable changed_;
-  std::map<std::string, std::shared_ptr<Flight>> flights_ ABSL_GUARDED_BY(mu_);  // queued and running
-  std::list<std::shared_ptr<Flight>> queue_ ABSL_GUARDED_BY(mu_);                // not started, FIFO
-  int running_background_ ABSL_GUARDED_BY(mu_) = 0;
-  int64_t started_ ABSL_GUARDED_BY(mu_) = 0;
-  bool shutdown_ ABSL_GUARDED_BY(mu_) = false;
-  std::vector<std::thread> threads_;
+    // The next flight allowed to start, removed from the queue; nullptr if none.
+    std::shared_ptr<Flight> PopRunnable() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu);
+  };
+
+  static void RunThread(const std::shared_ptr<State>& state);
+
+  const std::shared_ptr<State> state_;
+  std::vector<std::thread> threads_;  // touched by the owner only (constructor, Shutdown)
 };
 
 }  // namespace impostor::sdk

@@ -5,9 +5,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
-#include <optional>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -21,21 +24,29 @@
 namespace impostor::sdk {
 namespace {
 
+namespace fs = std::filesystem;
+
 // Closes the descriptor (and so drops its flock) on every path out.
-class LockedFile {
+class Fd {
  public:
-  explicit LockedFile(int fd) : fd_(fd) {}
-  ~LockedFile() {
+  explicit Fd(int fd) : fd_(fd) {}
+  ~Fd() {
     if (fd_ >= 0) ::close(fd_);
   }
-  int fd() const { return fd_; }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  int get() const { return fd_; }
 
  private:
   int fd_;
 };
 
+absl::Status Cancelled() { return absl::CancelledError("the cache is shutting down"); }
+
+bool IsCancelled(const CancelSource* cancel) { return cancel != nullptr && cancel->cancelled(); }
+
 // Feeds the first `size` bytes of `fd` to `hash`.
-absl::Status HashPrefix(int fd, int64_t size, Sha256& hash, const std::filesystem::path& path) {
+absl::Status HashPrefix(int fd, int64_t size, Sha256& hash, const fs::path& path) {
   std::vector<char> buffer(1 << 20);
   int64_t done = 0;
   while (done < size) {
@@ -48,7 +59,7 @@ absl::Status HashPrefix(int fd, int64_t size, Sha256& hash, const std::filesyste
   return absl::OkStatus();
 }
 
-absl::Status WriteAll(int fd, std::string_view data, const std::filesystem::path& path) {
+absl::Status WriteAll(int fd, std::string_view data, const fs::path& path) {
   while (!data.empty()) {
     const ssize_t n = ::write(fd, data.data(), data.size());
     if (n < 0) {
@@ -60,101 +71,229 @@ absl::Status WriteAll(int fd, std::string_view data, const std::filesystem::path
   return absl::OkStatus();
 }
 
+// True when `path` names the file open as `fd` (it was not deleted or
+// replaced meanwhile); fills `identity` with the open file's.
+bool SameFile(int fd, const fs::path& path, FileIdentity* identity) {
+  struct stat open_file, named;
+  if (::fstat(fd, &open_file) != 0) return false;
+  if (identity != nullptr) *identity = {open_file.st_dev, open_file.st_ino};
+  return ::lstat(path.c_str(), &named) == 0 && named.st_dev == open_file.st_dev && named.st_ino == open_file.st_ino;
+}
+
+// flock(LOCK_EX | LOCK_NB): 0, or the errno.
+int TryLockExclusive(int fd) {
+  int rc;
+  do {
+    rc = ::flock(fd, LOCK_EX | LOCK_NB);
+  } while (rc != 0 && errno == EINTR);
+  return rc == 0 ? 0 : errno;
+}
+
+enum class Locked { kYes, kHolderStalled };
+
+// Takes the exclusive lock of the partial file open as `fd`. While another
+// download holds it, polls (never blocks: `cancel` is honoured, and a
+// stopped holder does not hold us forever) for as long as the file keeps
+// changing; kHolderStalled once it has not for the stall limit.
+absl::StatusOr<Locked> LockPartial(int fd, const fs::path& path, const std::string& sha256, const DownloadHooks& hooks,
+                                   const CancelSource* cancel) {
+  int err = TryLockExclusive(fd);
+  if (err == 0) return Locked::kYes;
+  if (err != EWOULDBLOCK) return LocalIoError("cannot lock", path, err);
+  if (hooks.on_partial_wait) hooks.on_partial_wait(sha256);
+  const std::chrono::duration<double> stall_limit(hooks.partial_stall_seconds > 0 ? hooks.partial_stall_seconds
+                                                                                 : kPartialStallSeconds);
+  // Progress is the holder writing: the size or the modification time moves.
+  auto mark = [fd] {
+    struct stat st;
+    if (::fstat(fd, &st) != 0) return std::pair<int64_t, int64_t>(-1, -1);
+    return std::pair<int64_t, int64_t>(st.st_size,
+                                       static_cast<int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec);
+  };
+  std::pair<int64_t, int64_t> last_mark = mark();
+  auto last_progress = std::chrono::steady_clock::now();
+  std::chrono::milliseconds pause(1);
+  while (true) {
+    if (IsCancelled(cancel)) return Cancelled();
+    // The pause ends at once when the cache closes.
+    if (cancel != nullptr ? cancel->WaitFor(pause) : (std::this_thread::sleep_for(pause), false)) return Cancelled();
+    pause = std::min(pause * 2, std::chrono::milliseconds(50));
+    err = TryLockExclusive(fd);
+    if (err == 0) return Locked::kYes;
+    if (err != EWOULDBLOCK) return LocalIoError("cannot lock", path, err);
+    const auto now = std::chrono::steady_clock::now();
+    if (const std::pair<int64_t, int64_t> current = mark(); current != last_mark) {
+      last_mark = current;
+      last_progress = now;
+    } else if (now - last_progress >= stall_limit) {
+      return Locked::kHolderStalled;
+    }
+  }
+}
+
+// Fetches the blob from byte `have` on into `fd` (positioned there), hashing
+// into `hash` (which has seen bytes [0, have)).
+absl::Status Transfer(Transport& transport, const v1::Digest& digest, int fd, const fs::path& path, int64_t have,
+                      Sha256& hash, const DownloadHooks& hooks, const CancelSource* cancel,
+                      int64_t* downloaded) {
+  int64_t received = have;
+  return ResumeBlobDownload(transport, digest, have, hash, [&](std::string_view data) -> absl::Status {
+    if (IsCancelled(cancel)) return Cancelled();
+    if (absl::Status s = WriteAll(fd, data, path); !s.ok()) return s;
+    received += static_cast<int64_t>(data.size());
+    *downloaded += static_cast<int64_t>(data.size());
+    if (hooks.on_blob_bytes) hooks.on_blob_bytes(digest.hash(), received);
+    return absl::OkStatus();
+  }, cancel);
+}
+
+absl::Status LinkAll(const fs::path& from, const std::vector<fs::path>& links, size_t first) {
+  for (size_t i = first; i < links.size(); ++i) {
+    if (::link(from.c_str(), links[i].c_str()) != 0) {
+      return LocalIoError(absl::StrCat("cannot link ", from.string(), " to"), links[i], errno);
+    }
+  }
+  return absl::OkStatus();
+}
+
+// The blob fetched from zero straight into links[0] (in the caller's staging
+// directory, which is removed with everything in it if the install fails),
+// then linked under the other names. For a partial file held up by a
+// download that makes no progress.
+absl::StatusOr<BlobOutcome> FetchPrivately(Transport& transport, const v1::Digest& digest,
+                                           const std::vector<fs::path>& links, const DownloadHooks& hooks,
+                                           const CancelSource* cancel) {
+  const fs::path& target = links.front();
+  Fd file(::open(target.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (file.get() < 0) return LocalIoError("cannot create", target, errno);
+  BlobOutcome outcome;
+  outcome.shared = false;
+  if (hooks.on_blob_start) hooks.on_blob_start(digest.hash(), 0);
+  Sha256 hash;
+  absl::Status status = Transfer(transport, digest, file.get(), target, 0, hash, hooks, cancel, &outcome.bytes_downloaded);
+  if (status.ok() && ::fdatasync(file.get()) != 0) status = LocalIoError("cannot sync", target, errno);
+  if (!status.ok()) {
+    ::unlink(target.c_str());
+    return status;
+  }
+  if (absl::Status s = LinkAll(target, links, 1); !s.ok()) return s;
+  return outcome;
+}
+
 }  // namespace
 
-absl::StatusOr<PartialOutcome> DownloadToPartial(Transport& transport, const v1::Digest& digest,
-                                                 const std::filesystem::path& path, const DownloadHooks& hooks,
-                                                 const std::atomic<bool>* cancel) {
-  // A holder that hit a full disk unlinks the file under the lock (see
-  // below): a waiter then holds an orphan, and opens the path afresh.
-  std::optional<LockedFile> file;
-  for (int tries = 0;; ++tries) {
-    file.emplace(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
-    if (file->fd() < 0) return LocalIoError("cannot open", path, errno);
-    int rc;
-    do {
-      rc = ::flock(file->fd(), LOCK_EX);
-    } while (rc != 0 && errno == EINTR);
-    if (rc != 0) return LocalIoError("cannot lock", path, errno);
-    struct stat st;
-    if (::fstat(file->fd(), &st) != 0) return LocalIoError("cannot stat", path, errno);
-    if (st.st_nlink > 0 || tries == 8) break;
+absl::StatusOr<BlobOutcome> FetchBlob(Transport& transport, const v1::Digest& digest, const fs::path& partial,
+                                      const std::vector<fs::path>& links, const DownloadHooks& hooks,
+                                      const CancelSource* cancel) {
+  if (links.empty()) return absl::InternalError(absl::StrCat(partial.string(), ": nothing to link it to"));
+  if (IsCancelled(cancel)) return Cancelled();
+  Fd file(::open(partial.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
+  if (file.get() < 0) return LocalIoError("cannot open", partial, errno);
+  absl::StatusOr<Locked> locked = LockPartial(file.get(), partial, digest.hash(), hooks, cancel);
+  if (!locked.ok()) return locked.status();
+  if (*locked == Locked::kHolderStalled) {
+    SdkLog().warn("cache: {} is held by a download that has written nothing for {} s (a stopped process?); "
+                  "fetching the blob on its own",
+                  partial.string(), hooks.partial_stall_seconds > 0 ? hooks.partial_stall_seconds : kPartialStallSeconds);
+    return FetchPrivately(transport, digest, links, hooks, cancel);
+  }
+  BlobOutcome outcome;
+  // A holder that finished an install (or hit a full disk), or garbage
+  // collection, may have deleted the name while we waited: the file we
+  // locked is then no partial any more.
+  if (!SameFile(file.get(), partial, &outcome.identity)) {
+    return absl::AbortedError(absl::StrCat(partial.string(), ": deleted while waiting for it"));
   }
 
-  PartialOutcome outcome;
+  const int fd = file.get();
   const int64_t size = digest.size_bytes();
   // Two passes at most: resume from what is there, and if those bytes were
   // bad, once more from zero.
   for (int pass = 0; pass < 2; ++pass) {
     struct stat st;
-    if (::fstat(file->fd(), &st) != 0) return LocalIoError("cannot stat", path, errno);
+    if (::fstat(fd, &st) != 0) return LocalIoError("cannot stat", partial, errno);
     int64_t have = st.st_size;
     if (have > size) {
-      if (::ftruncate(file->fd(), 0) != 0) return LocalIoError("cannot truncate", path, errno);
+      if (::ftruncate(fd, 0) != 0) return LocalIoError("cannot truncate", partial, errno);
       have = 0;
     }
     Sha256 hash;
-    if (absl::Status s = HashPrefix(file->fd(), have, hash, path); !s.ok()) return s;
-    if (::lseek(file->fd(), have, SEEK_SET) < 0) return LocalIoError("cannot seek", path, errno);
+    if (absl::Status s = HashPrefix(fd, have, hash, partial); !s.ok()) return s;
+    if (::lseek(fd, have, SEEK_SET) < 0) return LocalIoError("cannot seek", partial, errno);
     if (hooks.on_blob_start) hooks.on_blob_start(digest.hash(), have);
-    int64_t received = have;
     absl::Status status;
     if (have == size) {
-      // Complete already (an earlier run stopped after the last byte, or
-      // another thread finished it while we waited for the lock).
+      // Whole already (another download finished it, or an earlier run
+      // stopped after the last byte): nothing of it is this call's.
       status = hash.FinishHex() == digest.hash()
                    ? absl::OkStatus()
-                   : absl::DataLossError(absl::StrCat(path.string(), ": partial file does not match its digest"));
+                   : absl::DataLossError(absl::StrCat(partial.string(), ": partial file does not match its digest"));
     } else {
-      status = ResumeBlobDownload(transport, digest, have, hash, [&](std::string_view data) -> absl::Status {
-        if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) {
-          return absl::CancelledError("the cache is shutting down");
-        }
-        if (absl::Status s = WriteAll(file->fd(), data, path); !s.ok()) return s;
-        received += static_cast<int64_t>(data.size());
-        outcome.bytes_downloaded += static_cast<int64_t>(data.size());
-        if (hooks.on_blob_bytes) hooks.on_blob_bytes(digest.hash(), received);
-        return absl::OkStatus();
-      });
+      status = Transfer(transport, digest, fd, partial, have, hash, hooks, cancel, &outcome.bytes_downloaded);
     }
     if (status.ok()) {
-      if (::fdatasync(file->fd()) != 0) {
+      if (::fdatasync(fd) != 0) {
         const int err = errno;
         if (IsDiskFull(err)) {
-          ::ftruncate(file->fd(), 0);
-          ::unlink(path.c_str());
+          ::ftruncate(fd, 0);
+          ::unlink(partial.c_str());
         }
-        return LocalIoError("cannot sync", path, err);
+        return LocalIoError("cannot sync", partial, err);
       }
-      outcome.bytes_resumed += have;
+      // Linked while locked: once we let go, the bytes are the staging
+      // directory's as well, whatever becomes of the partial's name.
+      if (absl::Status s = LinkAll(partial, links, 0); !s.ok()) return s;
+      if (have < size) outcome.bytes_resumed += have;
       return outcome;
     }
     // A digest mismatch of our own check (not an RPC's DATA_LOSS) with
     // resumed bytes: those bytes may be the bad ones. Start over once.
     const bool local_mismatch = status.code() == absl::StatusCode::kDataLoss && !GetRpcErrorInfo(status).has_value();
     if (local_mismatch && have > 0 && pass == 0) {
-      SdkLog().warn("partial download {} did not verify ({}); fetching it again from zero", path.string(),
+      SdkLog().warn("partial download {} did not verify ({}); fetching it again from zero", partial.string(),
                     status.ToString());
-      if (::ftruncate(file->fd(), 0) != 0) return LocalIoError("cannot truncate", path, errno);
+      if (::ftruncate(fd, 0) != 0) return LocalIoError("cannot truncate", partial, errno);
       continue;
     }
     if (local_mismatch) {
       // Bad bytes from the server: keeping them would poison the next try.
-      ::ftruncate(file->fd(), 0);
+      ::ftruncate(fd, 0);
       return status;
     }
     if (IsLocalDiskFull(status)) {
       // The disk is full: the bytes kept for a resume would hold space that
       // everything else on it needs. Nothing is left behind.
-      ::ftruncate(file->fd(), 0);
-      ::unlink(path.c_str());
+      ::ftruncate(fd, 0);
+      ::unlink(partial.c_str());
       return status;
     }
     // Interrupted: keep what arrived, durably, for the next try.
-    ::fdatasync(file->fd());
+    ::fdatasync(fd);
     return status;
   }
-  return absl::DataLossError(absl::StrCat(path.string(), ": download does not match its digest"));
+  return absl::DataLossError(absl::StrCat(partial.string(), ": download does not match its digest"));
+}
+
+int64_t RemovePartialIfUnused(const fs::path& path, const FileIdentity* identity, double min_age_seconds) {
+  auto old_enough = [min_age_seconds](const struct stat& st) {
+    if (min_age_seconds <= 0) return true;
+    const double age = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() -
+                       (static_cast<double>(st.st_mtim.tv_sec) + st.st_mtim.tv_nsec * 1e-9);
+    return age >= min_age_seconds;
+  };
+  struct stat st;
+  // Young files are not even locked: that would make a download that wants
+  // the lock right then wait a moment, or an install's cleanup skip them.
+  if (::lstat(path.c_str(), &st) != 0 || !old_enough(st)) return -1;
+  Fd file(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW));
+  if (file.get() < 0) return -1;
+  if (TryLockExclusive(file.get()) != 0) return -1;  // a download is using it
+  FileIdentity locked;
+  if (!SameFile(file.get(), path, &locked)) return -1;  // deleted or replaced meanwhile
+  if (identity != nullptr && (identity->dev != locked.dev || identity->ino != locked.ino)) return -1;
+  if (::fstat(file.get(), &st) != 0 || !old_enough(st)) return -1;  // written since we looked
+  if (::unlink(path.c_str()) != 0) return -1;
+  return static_cast<int64_t>(st.st_size);
 }
 
 }  // namespace impostor::sdk

@@ -2,13 +2,18 @@
 
 #include <fcntl.h>
 #include <stdlib.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <fstream>
-#include <set>
+#include <memory>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -22,22 +27,88 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Removes a staging directory unless released (installed).
-class StagingDir {
+// How often in a row a blob's partial file may vanish under this install
+// (FetchBlob's ABORTED), or another process's entry of the key be evicted
+// before we could pin it, before the install gives up.
+constexpr int kMaxRetries = 8;
+
+double AgeSeconds(const struct stat& st) {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() -
+         (static_cast<double>(st.st_mtim.tv_sec) + st.st_mtim.tv_nsec * 1e-9);
+}
+
+// An install's staging directory: locked (flock on the directory) while the
+// install runs, so that garbage collection in any process leaves it alone
+// however long the download takes; removed with everything in it unless
+// released (installed).
+class Staging {
  public:
-  explicit StagingDir(fs::path path) : path_(std::move(path)) {}
-  ~StagingDir() {
+  static absl::StatusOr<std::unique_ptr<Staging>> Create(const CacheLayout& layout, const std::string& key) {
+    std::string pattern = (layout.StagingDir() / absl::StrCat(key, ".XXXXXX")).string();
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      return LocalIoError("cannot create a directory in", layout.StagingDir(), errno);
+    }
+    auto staging = std::unique_ptr<Staging>(new Staging(pattern));
+    staging->fd_ = ::open(pattern.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    // Garbage collection looks at old directories only, so a fresh one is
+    // never held by it: the lock is free.
+    if (staging->fd_ < 0 || ::flock(staging->fd_, LOCK_EX | LOCK_NB) != 0) {
+      return LocalIoError("cannot lock", staging->path_, errno);
+    }
+    return staging;
+  }
+  ~Staging() {
     if (!path_.empty()) {
       std::error_code ec;
       fs::remove_all(path_, ec);
     }
+    if (fd_ >= 0) ::close(fd_);
   }
+  Staging(const Staging&) = delete;
+  Staging& operator=(const Staging&) = delete;
   const fs::path& path() const { return path_; }
   void Release() { path_.clear(); }
 
  private:
+  explicit Staging(fs::path path) : path_(std::move(path)) {}
   fs::path path_;
+  int fd_ = -1;
 };
+
+// A shared partial file this install linked from; deleted at the end by
+// whoever uses it last.
+struct UsedPartial {
+  fs::path path;
+  FileIdentity identity;
+};
+
+struct Pinned {
+  EntryRecord record;
+  std::unique_ptr<EntryLock> lock;
+};
+
+// The entry of `key` another install put in place, pinned before its record
+// is read. NOT_FOUND when there is none (or it was evicted meanwhile).
+absl::StatusOr<Pinned> PinInstalled(const CacheLayout& layout, const std::string& key) {
+  const fs::path entry = layout.EntryDir(key);
+  absl::StatusOr<std::unique_ptr<EntryLock>> lock = EntryLock::Shared(entry);
+  if (!lock.ok()) return lock.status();
+  absl::StatusOr<EntryRecord> record = ReadEntryRecord(entry);
+  if (!record.ok()) {
+    if (record.status().code() == absl::StatusCode::kNotFound) return record.status();
+    return absl::InternalError(absl::StrCat("cannot install ", key, ": ", entry.string(),
+                                            " exists and is unreadable: ", record.status().message()));
+  }
+  if (record->key != key) {
+    return absl::InternalError(
+        absl::StrCat("cannot install ", key, ": ", entry.string(), " exists and holds ", record->key));
+  }
+  return Pinned{std::move(*record), std::move(*lock)};
+}
+
+void RemoveUsedPartials(const std::vector<UsedPartial>& used) {
+  for (const UsedPartial& u : used) (void)RemovePartialIfUnused(u.path, &u.identity);
+}
 
 absl::Status WriteSynced(const fs::path& path, const std::string& text) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -89,12 +160,12 @@ EntryRecord RecordOf(const std::string& key, const v1::Manifest& manifest) {
   return record;
 }
 
-// DownloadAndInstall, which gives back the space of `partials` (those this
-// call completed) when the disk is full.
+// DownloadAndInstall; `used` gets the shared partial files linked from, for
+// the caller to give back their space when the disk is full.
 absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& layout, const std::string& key,
-                                       const DownloadHooks& hooks, const std::atomic<bool>* cancel,
-                                       std::vector<fs::path>& partials) {
-  absl::StatusOr<v1::Manifest> manifest = transport.GetResult(key);
+                                       const DownloadHooks& hooks, const CancelSource* cancel,
+                                       std::vector<UsedPartial>& used) {
+  absl::StatusOr<v1::Manifest> manifest = transport.GetResult(key, cancel);
   if (!manifest.ok()) return manifest.status();
   if (absl::Status s = CheckManifestFiles(*manifest); !s.ok()) {
     return absl::InternalError(
@@ -107,62 +178,86 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
 
   InstallOutcome outcome;
   outcome.record = RecordOf(key, *manifest);
-  std::set<fs::path> fetched;
-  for (const EntryFile& f : outcome.record.files) {
+  // Another install that finished meanwhile: its entry is used, and the
+  // partials this one used are cleaned up.
+  auto use_theirs = [&](Pinned theirs) {
+    outcome.record = std::move(theirs.record);
+    outcome.pin = std::move(theirs.lock);
+    outcome.raced = true;
+    RemoveUsedPartials(used);
+    SdkLog().debug("cache: {} was installed by another download ({} bytes downloaded here, {} resumed)", key,
+                   outcome.bytes_downloaded, outcome.bytes_resumed);
+    return std::move(outcome);
+  };
+
+  absl::StatusOr<std::unique_ptr<Staging>> staging = Staging::Create(layout, key);
+  if (!staging.ok()) return staging.status();
+  const fs::path& staged = (*staging)->path();
+  // Each blob once, in manifest order, with every name it goes under (one
+  // blob under several names, as a LOD chain's levels may share bytes, is
+  // fetched once and linked under each).
+  struct Blob {
     v1::Digest digest;
-    digest.set_hash(f.sha256);
-    digest.set_size_bytes(f.size_bytes);
+    fs::path partial;
+    std::vector<fs::path> links;
+  };
+  std::vector<Blob> blobs;
+  for (const EntryFile& f : outcome.record.files) {
     const fs::path partial = layout.PartialPath(f.sha256, f.size_bytes);
-    // One blob under several names (a LOD chain's levels may share bytes)
-    // is fetched once and linked under each; counted once, not as resumed.
-    if (fetched.insert(partial).second) {
-      absl::StatusOr<PartialOutcome> got = DownloadToPartial(transport, digest, partial, hooks, cancel);
-      if (!got.ok()) return got.status();
-      outcome.bytes_downloaded += got->bytes_downloaded;
-      outcome.bytes_resumed += got->bytes_resumed;
+    auto it = std::find_if(blobs.begin(), blobs.end(), [&](const Blob& b) { return b.partial == partial; });
+    if (it == blobs.end()) {
+      Blob blob;
+      blob.digest.set_hash(f.sha256);
+      blob.digest.set_size_bytes(f.size_bytes);
+      blob.partial = partial;
+      it = blobs.insert(blobs.end(), std::move(blob));
     }
-    partials.push_back(partial);
+    it->links.push_back(staged / f.name);
+  }
+  for (const Blob& blob : blobs) {
+    absl::StatusOr<BlobOutcome> got = absl::UnknownError("not fetched");
+    for (int attempt = 0;; ++attempt) {
+      if (absl::StatusOr<Pinned> theirs = PinInstalled(layout, key); theirs.ok()) return use_theirs(std::move(*theirs));
+      got = FetchBlob(transport, blob.digest, blob.partial, blob.links, hooks, cancel);
+      if (got.status().code() != absl::StatusCode::kAborted || attempt == kMaxRetries) break;
+    }
+    if (!got.ok()) return got.status();
+    outcome.bytes_downloaded += got->bytes_downloaded;
+    outcome.bytes_resumed += got->bytes_resumed;
+    if (got->shared) used.push_back({blob.partial, got->identity});
   }
 
-  std::string pattern = (layout.StagingDir() / absl::StrCat(key, ".XXXXXX")).string();
-  if (::mkdtemp(pattern.data()) == nullptr) return LocalIoError("cannot create a directory in", layout.StagingDir(), errno);
-  StagingDir staging(pattern);
-  // Hard links: the partial file becomes the installed file without a copy,
-  // and two maps with equal bytes may share one partial.
-  for (size_t i = 0; i < partials.size(); ++i) {
-    const fs::path target = staging.path() / outcome.record.files[i].name;
-    if (::link(partials[i].c_str(), target.c_str()) != 0) {
-      return LocalIoError(absl::StrCat("cannot link ", partials[i].string(), " to"), target, errno);
-    }
-  }
-  // Identities are those of the linked files, which the partials' removal
-  // below does not change.
-  if (absl::Status s = RecordFileIdentities(staging.path(), outcome.record); !s.ok()) return s;
-  if (absl::Status s = WriteSynced(staging.path() / kEntryRecordName, EntryRecordToJson(outcome.record)); !s.ok()) {
-    return s;
-  }
-  if (absl::Status s = SyncDir(staging.path()); !s.ok()) return s;
+  if (absl::Status s = RecordFileIdentities(staged, outcome.record); !s.ok()) return s;
+  if (absl::Status s = WriteSynced(staged / kEntryRecordName, EntryRecordToJson(outcome.record)); !s.ok()) return s;
+  // Pinned before it is visible: an evictor in another process finds it in
+  // use from the first moment.
+  absl::StatusOr<std::unique_ptr<EntryLock>> pin = EntryLock::Shared(staged);
+  if (!pin.ok()) return absl::InternalError(absl::StrCat("cannot install ", key, ": ", pin.status().message()));
+  if (absl::Status s = SyncDir(staged); !s.ok()) return s;
 
   const fs::path entry = layout.EntryDir(key);
-  if (::rename(staging.path().c_str(), entry.c_str()) != 0) {
+  for (int attempt = 0;; ++attempt) {
+    if (::rename(staged.c_str(), entry.c_str()) == 0) break;
     const int err = errno;
     if (err != EEXIST && err != ENOTEMPTY) return LocalIoError(absl::StrCat("cannot install ", key, " as"), entry, err);
     // Someone (another process) installed it first; theirs is as good.
-    absl::StatusOr<EntryRecord> theirs = ReadEntryRecord(entry);
-    if (!theirs.ok()) {
+    absl::StatusOr<Pinned> theirs = PinInstalled(layout, key);
+    if (theirs.ok()) return use_theirs(std::move(*theirs));
+    if (theirs.status().code() != absl::StatusCode::kNotFound) return theirs.status();
+    if (attempt == kMaxRetries) {
       return absl::InternalError(absl::StrCat("cannot install ", key, ": ", entry.string(),
-                                              " exists and is unreadable: ", theirs.status().message()));
+                                              " exists but holds no readable entry"));
     }
-    outcome.record = std::move(*theirs);
-    outcome.raced = true;
-  } else {
-    staging.Release();
-    if (absl::Status s = SyncDir(layout.EntriesDir()); !s.ok()) return s;
+    // Evicted between its install and our look: ours goes in instead.
   }
-  for (const fs::path& partial : partials) {
-    std::error_code ec;
-    fs::remove(partial, ec);
-  }
+  (*staging)->Release();
+  outcome.pin = std::move(*pin);
+  if (hooks.on_installed) hooks.on_installed(key);
+  if (absl::Status s = SyncDir(layout.EntriesDir()); !s.ok()) return s;
+  // The partials' bytes live on in the entry (hard links); their names are
+  // not needed any more, unless another download is using them now (it then
+  // deletes them when done).
+  RemoveUsedPartials(used);
   SdkLog().debug("cache: installed {} ({} bytes downloaded, {} resumed)", key, outcome.bytes_downloaded,
                  outcome.bytes_resumed);
   return outcome;
@@ -172,18 +267,37 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
 
 absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
-                                                  const std::atomic<bool>* cancel) {
-  std::vector<fs::path> partials;
-  absl::StatusOr<InstallOutcome> outcome = Install(transport, layout, key, hooks, cancel, partials);
+                                                  const CancelSource* cancel) {
+  std::vector<UsedPartial> used;
+  absl::StatusOr<InstallOutcome> outcome = Install(transport, layout, key, hooks, cancel, used);
   if (!outcome.ok() && IsLocalDiskFull(outcome.status())) {
     // Complete partial files would hold the very space that is missing,
-    // and a result is useless without all its files: nothing stays behind.
-    for (const fs::path& partial : partials) {
-      std::error_code ec;
-      fs::remove(partial, ec);
-    }
+    // and a result is useless without all its files: nothing stays behind
+    // (but what another download is using right now).
+    RemoveUsedPartials(used);
   }
   return outcome;
+}
+
+bool RemoveStagingIfUnused(const fs::path& dir, double min_age_seconds) {
+  struct stat st;
+  if (::lstat(dir.c_str(), &st) != 0) return false;
+  // Young ones are left alone: one may not be locked yet by the install
+  // creating it.
+  if (AgeSeconds(st) < min_age_seconds) return false;
+  if (!S_ISDIR(st.st_mode)) {
+    std::error_code ec;
+    return fs::remove(dir, ec);  // a stray file
+  }
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) return false;
+  bool removed = false;
+  if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
+    std::error_code ec;
+    removed = fs::remove_all(dir, ec) > 0;
+  }
+  ::close(fd);
+  return removed;
 }
 
 }  // namespace impostor::sdk

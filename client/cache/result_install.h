@@ -1,18 +1,25 @@
 // Downloads a baked result into the cache and installs it atomically: every
-// blob is fetched into its partial file (resumable) and verified, hard-linked
-// into a fresh staging directory with the `.entry` record, synced, and the
-// directory renamed to entries/<key> in one step. A reader therefore sees
-// either no entry or a complete one, never a partial result. Runs on the
-// caller's thread; safe to call concurrently (also from several processes)
-// for any keys.
+// blob is fetched into its partial file (resumable), verified and
+// hard-linked into a fresh staging directory (under the partial's lock; see
+// partial_download.h), the `.entry` record written and pinned, everything
+// synced, and the directory renamed to entries/<key> in one step. A reader
+// therefore sees either no entry or a complete one, never a partial result,
+// and no evictor can take the entry between its rename and the caller's
+// pin. Runs on the caller's thread; safe to call concurrently (also from
+// several processes) for any keys: when another install of the key wins,
+// its entry is used, and the partial files of a result are deleted by the
+// last install to use them.
 #ifndef IMPOSTOR_CLIENT_CACHE_RESULT_INSTALL_H_
 #define IMPOSTOR_CLIENT_CACHE_RESULT_INSTALL_H_
 
 #include <atomic>
+#include <filesystem>
+#include <memory>
 #include <string>
 
 #include "absl/status/statusor.h"
 #include "client/cache/cache_layout.h"
+#include "client/cache/entry_lock.h"
 #include "client/cache/partial_download.h"
 #include "client/transport.h"
 
@@ -20,9 +27,17 @@ namespace impostor::sdk {
 
 struct InstallOutcome {
   EntryRecord record;
+  // A shared lock on the installed entry's `.entry` (what EntryPin holds),
+  // taken before the entry became visible (or, when another install won,
+  // on theirs before its record was read).
+  std::unique_ptr<EntryLock> pin;
+  // What this call moved over the network, and the bytes of unfinished
+  // partial files (interrupted downloads') it completed instead of fetching
+  // them again; partials another download had finished count as neither.
   int64_t bytes_downloaded = 0;
   int64_t bytes_resumed = 0;
-  // Another process installed the same key first; its copy is used.
+  // Another install (another process or Cache) of the key came first; its
+  // copy is used.
   bool raced = false;
 };
 
@@ -34,7 +49,12 @@ struct InstallOutcome {
 // error.
 absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
-                                                  const std::atomic<bool>* cancel);
+                                                  const CancelSource* cancel);
+
+// Deletes the staging directory `dir` (an install's, see cache_layout.md)
+// unless an install is using it (its lock is held) or it is younger than
+// `min_age_seconds`. True when deleted.
+bool RemoveStagingIfUnused(const std::filesystem::path& dir, double min_age_seconds);
 
 }  // namespace impostor::sdk
 

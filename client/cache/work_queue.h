@@ -1,13 +1,16 @@
 // A fixed pool of threads running short tasks in FIFO order: the cache's
 // answers to GetAsync that need no download (hit checks, callbacks).
 //
-// Thread-safety: Post may be called from any thread, also from a task.
+// Thread-safety: Post may be called from any thread, also from a task. A
+// task may drain and destroy the queue (a Cache closed from inside its own
+// callback): see Drain.
 #ifndef IMPOSTOR_CLIENT_CACHE_WORK_QUEUE_H_
 #define IMPOSTOR_CLIENT_CACHE_WORK_QUEUE_H_
 
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -28,19 +31,30 @@ class WorkQueue {
 
   // Runs every task posted so far (and those they post), then stops the
   // threads. Tasks posted afterwards run on the posting thread. Call from the
-  // owner only.
+  // owner only. Called from a task (on a pool thread), it waits for the
+  // other threads, runs what is still queued itself, and detaches its own
+  // thread, which ends when that task returns without touching the queue.
   void Drain();
 
  private:
-  void RunThread();
+  // What the pool threads use: shared with them, so that a thread whose
+  // task destroyed the queue can still finish its loop.
+  struct State {
+    std::mutex mu;
+    std::condition_variable changed;
+    std::deque<std::function<void()>> tasks ABSL_GUARDED_BY(mu);
+    bool draining ABSL_GUARDED_BY(mu) = false;
+    // Threads not yet exited; a task posted when none is left runs inline.
+    int active_threads ABSL_GUARDED_BY(mu) = 0;
+    // The pool thread that drained the queue from one of its tasks: already
+    // counted out of active_threads, it leaves without looking further.
+    std::thread::id released ABSL_GUARDED_BY(mu);
+  };
 
-  std::mutex mu_;
-  std::condition_variable changed_;
-  std::deque<std::function<void()>> tasks_ ABSL_GUARDED_BY(mu_);
-  bool draining_ ABSL_GUARDED_BY(mu_) = false;
-  // Threads not yet exited; a task posted when none is left runs inline.
-  int active_threads_ ABSL_GUARDED_BY(mu_) = 0;
-  std::vector<std::thread> threads_;
+  static void RunThread(const std::shared_ptr<State>& state);
+
+  const std::shared_ptr<State> state_;
+  std::vector<std::thread> threads_;  // touched by the owner only
 };
 
 }  // namespace impostor::sdk

@@ -45,7 +45,9 @@ absl::StatusOr<std::unique_ptr<sdk::Cache>> OpenCache(const CliArgs& args) {
   options.dir = CacheDir(args);
   // A command-line run is short: the cap is applied by `gc`, not on open.
   options.max_bytes = int64_t{1} << 62;
-  options.partial_max_age_seconds = 0;
+  // Partial downloads keep the library's default age (7 days): the
+  // directory may be shared with a game whose downloads are under way, and
+  // a killed download's partial files are what its next try resumes from.
   return sdk::Cache::Open(options);
 }
 

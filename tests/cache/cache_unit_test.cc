@@ -1,7 +1,10 @@
 // Pure pieces of the cache: LRU accounting, the `.entry` record format and
 // its bad inputs, and the single-flight coordinator.
 #include <atomic>
+#include <chrono>
+#include <future>
 #include <latch>
+#include <memory>
 #include <mutex>
 
 #include <gtest/gtest.h>
@@ -11,6 +14,7 @@
 #include "client/cache/download_coordinator.h"
 #include "client/cache/lru_index.h"
 #include "client/cache/manifest_summary.h"
+#include "client/cache/work_queue.h"
 
 namespace impostor::sdk {
 namespace {
@@ -166,6 +170,54 @@ TEST(DownloadCoordinator, TheLastWaiterHoldsTheOnlyCopyOfTheResult) {
   });
   done.wait();
   coordinator.Shutdown();
+}
+
+// A Cache closed from inside its own GetAsync callback destroys the
+// coordinator on one of its pool threads: that thread is let go, the others
+// are joined, and the flight's other waiters still get their answer. (It
+// aborted with std::system_error "Resource deadlock avoided": the
+// destructor joined the thread it ran on.)
+TEST(DownloadCoordinator, AWaiterCallbackMayDestroyTheCoordinator) {
+  std::latch both_joined(1);  // one flight with two waiters
+  auto coordinator =
+      std::make_unique<DownloadCoordinator>(2, 1, [&](const std::string& key) -> DownloadCoordinator::Result {
+        both_joined.wait();
+        return absl::NotFoundError(key);
+      });
+  std::promise<absl::StatusCode> first, second;
+  coordinator->Join("k", true, [&](DownloadCoordinator::Result r) {
+    coordinator.reset();
+    first.set_value(r.status().code());
+  });
+  coordinator->Join("k", true, [&](DownloadCoordinator::Result r) { second.set_value(r.status().code()); });
+  both_joined.count_down();
+  auto first_done = first.get_future(), second_done = second.get_future();
+  ASSERT_EQ(first_done.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  ASSERT_EQ(second_done.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_EQ(first_done.get(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(second_done.get(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(coordinator, nullptr);
+}
+
+// The same for the I/O pool (a hit's callback): with one thread, what is
+// still queued when a task drains and destroys the queue runs at once, on
+// that thread, exactly once; later posts run on the poster.
+TEST(WorkQueue, ATaskMayDrainAndDestroyTheQueue) {
+  auto queue = std::make_unique<WorkQueue>(1);
+  std::latch second_posted(1);
+  std::promise<void> first_done;
+  std::atomic<int> second_runs{0};
+  queue->Post([&] {
+    second_posted.wait();
+    queue.reset();
+    first_done.set_value();
+  });
+  queue->Post([&] { ++second_runs; });
+  second_posted.count_down();
+  auto done = first_done.get_future();
+  ASSERT_EQ(done.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_EQ(second_runs.load(), 1) << "a task queued behind the draining one was lost or run twice";
+  EXPECT_EQ(queue, nullptr);
 }
 
 }  // namespace

@@ -17,7 +17,7 @@ std::string RandomBytes(int64_t size, uint32_t seed) {
 }
 
 PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
-                                bool one_blob) {
+                                bool one_blob, uint32_t map_seed) {
   PublishedResult out;
   grpc::ClientContext lease_ctx;
   v1::LeaseJobRequest lease;
@@ -49,7 +49,9 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
   }
   const char* semantics[] = {"albedo_alpha", "normal_depth", "orm"};
   for (size_t i = 0; i < map_sizes.size(); ++i) {
-    const std::string bytes = RandomBytes(map_sizes[i], seed * 16 + (one_blob ? 0u : static_cast<uint32_t>(i)) + 1);
+    const uint32_t bytes_seed = map_seed != 0 ? map_seed : seed;
+    const std::string bytes =
+        RandomBytes(map_sizes[i], bytes_seed * 16 + (one_blob ? 0u : static_cast<uint32_t>(i)) + 1);
     v1::MapFile* map = manifest.add_maps();
     map->set_semantic(semantics[i % 3]);
     map->set_file(std::string(semantics[i % 3]) + ".png");
@@ -81,7 +83,7 @@ PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t
 }
 
 PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
-                              bool one_blob) {
+                              bool one_blob, uint32_t map_seed) {
   // A unique model: its bytes enter the cache key. The server never parses
   // it (no worker will), so any bytes with a .glb name do.
   const std::string model = "glTF" + RandomBytes(64, seed);
@@ -95,7 +97,7 @@ PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>&
   v1::SubmitBakeResponse submitted;
   const grpc::Status s = server.bake().SubmitBake(&ctx, submit, &submitted);
   EXPECT_TRUE(s.ok()) << s.error_message();
-  PublishedResult out = CompleteNextJob(server, map_sizes, seed, one_blob);
+  PublishedResult out = CompleteNextJob(server, map_sizes, seed, one_blob, map_seed);
   EXPECT_EQ(out.key, submitted.cache_key());
   return out;
 }

@@ -26,14 +26,17 @@ struct PublishedResult {
 // Maps "albedo_alpha.png", "normal_depth.png", "orm.png" with the given
 // sizes. `seed` makes the bytes (and the model, hence the key) unique.
 // `one_blob`: every map holds the first map's bytes (one blob under several
-// names, as a LOD chain's levels can be); give equal sizes.
+// names, as a LOD chain's levels can be); give equal sizes. `map_seed`
+// (non-zero) makes the maps' bytes instead: two results of different seeds
+// and one map_seed share their map blobs (not their manifests), as two bakes
+// of one mesh that differ only in the manifest do.
 PublishedResult PublishResult(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
-                              bool one_blob = false);
+                              bool one_blob = false, uint32_t map_seed = 0);
 
 // Completes the next queued job as PublishResult does (for a job submitted
 // by the caller). Returns the job's cache key.
 PublishedResult CompleteNextJob(ServerProcess& server, const std::vector<int64_t>& map_sizes, uint32_t seed,
-                                bool one_blob = false);
+                                bool one_blob = false, uint32_t map_seed = 0);
 
 std::string RandomBytes(int64_t size, uint32_t seed);
 

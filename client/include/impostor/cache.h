@@ -63,10 +63,14 @@ struct CacheOptions {
   // Default: "localhost:50051". Must not be empty.
   std::string server = "localhost:50051";
 
-  // Directory of the cache; created if missing. Several Cache objects, in
-  // this process or others, may share it (installs are atomic renames and
-  // in-use results are locked against eviction), but one per process is the
-  // efficient way. Layout: cache_layout.md (installed in share/doc/impostor).
+  // Directory of the cache; created if missing, and created again if it is
+  // deleted while the cache runs (the next miss or CollectGarbage rebuilds
+  // it). Several Cache objects, in this process or others, may share it
+  // (installs are atomic renames, in-use results are locked against
+  // eviction, and partial downloads are locked while in use: concurrent
+  // Gets of one key, or of keys sharing files, share the bytes on disk and
+  // all succeed), but one per process is the efficient way. Layout:
+  // cache_layout.md (installed in share/doc/impostor).
   // Default: none. Required.
   std::filesystem::path dir;
 
@@ -98,8 +102,9 @@ struct CacheOptions {
   // Default: kDigestOncePerProcess.
   HitVerification hit_verification = HitVerification::kDigestOncePerProcess;
 
-  // Deadline of each unary RPC, in seconds; streams add one second per
-  // 256 KiB (as ClientOptions::rpc_timeout_seconds). Default: 30. Range: > 0.
+  // Deadline of each unary RPC, in seconds; a download may take any time
+  // while bytes keep arriving, and fails after this long without one (as
+  // ClientOptions::rpc_timeout_seconds). Default: 30. Range: > 0.
   double rpc_timeout_seconds = 30;
 
   // Tries per RPC while the server answers UNAVAILABLE or DEADLINE_EXCEEDED,
@@ -138,7 +143,9 @@ struct CacheOptions {
 
   // Partial downloads (kept so that a broken transfer resumes where it
   // stopped, also after a restart) untouched for longer than this are
-  // deleted when the cache opens and by Cache::CollectGarbage.
+  // deleted when the cache opens and by Cache::CollectGarbage. One that a
+  // download, in any process, is using is never deleted, whatever its age
+  // (0 deletes all the others, resume data of killed downloads included).
   // Default: 7 days. Range: >= 0.
   double partial_max_age_seconds = 7 * 24 * 3600;
 
@@ -225,8 +232,10 @@ class CachedResult {
   // Load them as arrays of view_count() layers: a frame's layer is its
   // index and its UV is the frame UV (FrameUvToAtlasUv is for atlases).
   bool texture_array() const;
-  // True when this Get (or the download it joined) fetched the result over
-  // the network; false when it was already on disk.
+  // True when this Get (or the download it joined) fetched some of the
+  // result's bytes over the network; false when they were all on disk
+  // already: installed, or downloaded by another process (or Cache object)
+  // whose download this Get waited for.
   bool downloaded() const;
 
   struct Rep;  // private
@@ -263,9 +272,15 @@ struct CacheStats {
   int64_t pinned_entries = 0;  // with live handles in this process
   int64_t hits = 0;            // Gets answered from disk
   int64_t misses = 0;          // Gets that needed the network (shared or not)
-  int64_t downloads = 0;       // results downloaded and installed
-  int64_t bytes_downloaded = 0;
-  int64_t bytes_resumed = 0;   // bytes a download did not fetch again because a partial file had them
+  // Results of which this object fetched bytes over the network (those
+  // whose CachedResult::downloaded() is true); a miss answered by another
+  // process's download counts as a miss only.
+  int64_t downloads = 0;
+  int64_t bytes_downloaded = 0;  // received over the network by this object
+  // Bytes of unfinished partial files (downloads interrupted earlier, in any
+  // process) that this object completed instead of fetching them again.
+  // Partial files another download had finished count as neither.
+  int64_t bytes_resumed = 0;
   int64_t corrupt_entries = 0; // local results found damaged (a file changed or gone, an unreadable record) and dropped
   int64_t evicted_entries = 0;
 };
@@ -287,7 +302,9 @@ struct GarbageReport {
 // but must not block for long (they hold up the pool). Destroying the Cache
 // cancels queued and running downloads (their callbacks get CANCELLED, with
 // partial files kept for resuming) and waits for running callbacks; handles
-// stay valid.
+// stay valid. A GetAsync or Prefetch callback may destroy the Cache itself
+// (the last thing it does with it): the destructor then waits for the other
+// threads, and the one running that callback ends when it returns.
 class Cache {
  public:
   // Validates `options`, creates options.dir, loads the index of installed
@@ -303,7 +320,12 @@ class Cache {
   // The result under `cache_key`: from disk when present and intact (no
   // network traffic), else downloaded, verified, installed and returned.
   // Blocks the caller until then. A damaged local copy is dropped and
-  // downloaded again. Concurrent Gets of one key share one download.
+  // downloaded again. Concurrent Gets of one key share one download; so do,
+  // through the files on disk, Gets in other processes sharing the
+  // directory, for as long as the download they wait for keeps writing (one
+  // that has written nothing for 5 seconds, e.g. its process is stopped in
+  // a debugger, is not waited for any longer: this Get then downloads the
+  // file itself).
   // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars), NOT_FOUND
   // (nothing baked under that key), UNAVAILABLE (not cached and the server
   // cannot be reached: fast when it was never reached, see
@@ -342,9 +364,11 @@ class Cache {
   std::vector<CacheEntryInfo> List();
 
   // Trims to `max_bytes` (< 0: options.max_bytes) by evicting least
-  // recently used results not in use, removes stale partial downloads and
-  // staging leftovers, and with `verify` re-hashes every result not in use
-  // and drops those that do not match.
+  // recently used results not in use, removes stale partial downloads (see
+  // partial_max_age_seconds) and staging leftovers of crashed installs
+  // (never what a running download or install, in any process, uses), and
+  // with `verify` re-hashes every result not in use and drops those that do
+  // not match. Rebuilds the directory if it was deleted.
   absl::StatusOr<GarbageReport> CollectGarbage(int64_t max_bytes = -1, bool verify = false);
 
   CacheStats Stats();

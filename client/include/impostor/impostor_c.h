@@ -113,7 +113,12 @@ IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* optio
  * success *out must be closed with impostor_cache_close. */
 IMPOSTOR_C_EXPORT impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out);
 
-/* Cancels pending downloads and frees the cache. NULL is a no-op. */
+/* Cancels pending downloads (their callbacks get IMPOSTOR_CANCELLED), waits
+ * for callbacks running on other threads, and frees the cache. NULL is a
+ * no-op. May be called from inside impostor_cache_get_async's callback (a
+ * program that shuts the cache down once its last request is answered):
+ * the cache is closed when it returns, the callback goes on, and the
+ * cache's thread it runs on ends once it returns. */
 IMPOSTOR_C_EXPORT void impostor_cache_close(impostor_cache* cache);
 
 /* Blocking Get: the result under the 64-hex-character key, from disk or
