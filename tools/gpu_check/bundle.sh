@@ -17,6 +17,7 @@ assets=$(cd "$assets" && pwd)
 binaries="bake_bench bake_stages png_bench impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
   atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests runtime_gpu_tests runtime_bake_tests"
 rm -rf "$out" && mkdir -p "$out/glvnd"
+out=$(cd "$out" && pwd)  # the asset step below runs from another folder
 python3 "$here/pack.py" "$out/pack" $(for b in $binaries; do echo "$build/bin/$b"; done)
 for lib in libGLdispatch.so.0 libGLX.so.0 libEGL.so.1 libOpenGL.so.0; do
   cp -L "$(ldconfig -p | awk -v l="$lib" '$1 == l && /x86-64/ {print $NF; exit}')" "$out/glvnd/"
