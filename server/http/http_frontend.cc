@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/log_escape.h"
 #include "server/http/api_params.h"
+#include "server/http/blob_response.h"
 #include "server/http/bounded_http_server.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
@@ -34,8 +35,10 @@ namespace {
 
 constexpr size_t kHttpThreads = 32;
 
-// Blobs served whole through the API at most this large (atlases are tens
-// of MB at most; a bigger blob is fetched over gRPC).
+// Blobs served through the API at most this large (atlases are tens of MB
+// at most; a bigger blob is fetched over gRPC). They stream in chunks
+// (blob_response.h), so the cap bounds how long one of kHttpThreads is held,
+// not memory.
 constexpr int64_t kMaxServedBlobBytes = int64_t{512} << 20;
 
 // One line per refused request, as the gRPC side logs event=auth_refused
@@ -329,10 +332,7 @@ void HttpFrontend::Route() {
         if (file->digest().size_bytes() > kMaxServedBlobBytes) {
           return absl::ResourceExhaustedError("mesh file is over the HTTP limit; fetch it over gRPC");
         }
-        auto bytes = blobs_->ReadAll({file->digest().hash(), file->digest().size_bytes()});
-        if (!bytes.ok()) return bytes.status();
-        res.set_content(std::move(*bytes), ContentTypeFor(path));
-        return absl::OkStatus();
+        return ServeBlob(*blobs_, {file->digest().hash(), file->digest().size_bytes()}, ContentTypeFor(path), req, res);
       });
   api("/api/v1/workers", {}, [this](const httplib::Request&, const QueryParams&, httplib::Response& res) {
     auto workers = scheduler_->Workers();
@@ -380,11 +380,12 @@ void HttpFrontend::Route() {
         if (digest->size_bytes() > kMaxServedBlobBytes) {
           return absl::ResourceExhaustedError("file is over the HTTP limit; fetch it over gRPC");
         }
-        auto bytes = blobs_->ReadAll({digest->hash(), digest->size_bytes()});
-        if (!bytes.ok()) return bytes.status();
-        res.set_header("Cache-Control", "max-age=86400, immutable");  // content-addressed
-        res.set_content(std::move(*bytes), ContentTypeFor(name));
-        return absl::OkStatus();
+        const absl::Status served =
+            ServeBlob(*blobs_, {digest->hash(), digest->size_bytes()}, ContentTypeFor(name), req, res);
+        // Content-addressed: the bytes (and a 416 for a range past them)
+        // never change; an error may (a re-bake restores an evicted blob).
+        if (served.ok()) res.set_header("Cache-Control", "max-age=86400, immutable");
+        return served;
       });
 
   // The runtime shader, for the viewer's WebGL2 impostor (GLSL ES 3.00
