@@ -4,6 +4,7 @@
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <span>
 #include <thread>
 #include <utility>
 
@@ -21,6 +22,11 @@
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/bearer_token.h"
+#include "worker/input_links.h"
+#include "worker/input_plan.h"
+#include "worker/scratch_file.h"
+#include "worker/scratch_shortage.h"
+#include "worker/scratch_space.h"
 #include "worker/bake/cards_bake.h"
 #include "worker/bake/lod_bake.h"
 #include "worker/bake/surfel_bake.h"
@@ -56,26 +62,14 @@ std::unique_ptr<grpc::ClientContext> ContextWithDeadline(std::chrono::seconds ti
 // `hash`, so a ReadBlob cut off midway (a server restart) resumes at
 // `received` instead of from zero.
 struct InputSink {
-  std::ofstream out;
+  ScratchFile out;
   Sha256 hash;
   int64_t received = 0;
 };
 
-absl::Status OpenInput(const fs::path& path, InputSink& sink) {
-  // The error_code overload: a path another input holds as a file used to
-  // throw here and terminate the worker (issue 23).
-  std::error_code ec;
-  fs::create_directories(path.parent_path(), ec);
-  if (ec) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("cannot create the folder for input ", path.filename().string(), ": ", ec.message()));
-  }
-  sink.out.open(path, std::ios::binary | std::ios::trunc);
-  if (!sink.out) return absl::InternalError(absl::StrCat("cannot create ", path.string()));
-  return absl::OkStatus();
-}
-
-// One ReadBlob of `digest` from sink.received on.
+// One ReadBlob of `digest` from sink.received on. A write that fails (a
+// full scratch) ends the call at once with the write's error, which is no
+// UNAVAILABLE: RetryThroughOutage must not wait for a disk.
 absl::Status ReadBlobInto(v1::AssetService::Stub& assets, const v1::Digest& digest, InputSink& sink) {
   v1::ReadBlobRequest request;
   *request.mutable_digest() = digest;
@@ -83,23 +77,30 @@ absl::Status ReadBlobInto(v1::AssetService::Stub& assets, const v1::Digest& dige
   auto ctx = ContextWithDeadline(std::chrono::seconds(600));
   auto reader = assets.ReadBlob(ctx.get(), request);
   v1::ReadBlobResponse chunk;
+  auto stop = [&](absl::Status why) {
+    ctx->TryCancel();
+    reader->Finish();
+    return why;
+  };
   while (reader->Read(&chunk)) {
     if (chunk.offset() != sink.received) {
-      ctx->TryCancel();
-      reader->Finish();
-      return absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " sent offset ", chunk.offset(),
-                                              ", expected ", sink.received));
+      return stop(absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " sent offset ", chunk.offset(),
+                                                   ", expected ", sink.received)));
     }
+    // The scratch check counted size_bytes: no more may land on disk.
+    if (static_cast<int64_t>(chunk.data().size()) > digest.size_bytes() - sink.received) {
+      return stop(absl::DataLossError(
+          absl::StrCat("ReadBlob: blob ", digest.hash(), " sent more than its ", digest.size_bytes(), " bytes")));
+    }
+    if (absl::Status written = sink.out.Append(chunk.data()); !written.ok()) return stop(written);
     sink.hash.Update(chunk.data());
-    sink.out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
     sink.received += static_cast<int64_t>(chunk.data().size());
   }
   return FromGrpc(reader->Finish(), "ReadBlob");
 }
 
-absl::Status FinishInput(const v1::Digest& digest, const fs::path& path, InputSink& sink) {
-  sink.out.close();
-  if (!sink.out) return absl::InternalError(absl::StrCat("cannot write ", path.string()));
+absl::Status FinishInput(const v1::Digest& digest, InputSink& sink) {
+  if (absl::Status closed = sink.out.Close(); !closed.ok()) return closed;
   if (sink.received != digest.size_bytes() || sink.hash.FinishHex() != digest.hash()) {
     return absl::DataLossError(absl::StrCat("ReadBlob: blob ", digest.hash(), " arrived corrupt"));
   }
@@ -310,7 +311,7 @@ absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const f
   // The lease survives a server restart, so the inputs are worth waiting
   // for: the download resumes where it was cut off, within the outage budget.
   InputSink sink;
-  if (absl::Status s = OpenInput(path, sink); !s.ok()) return s;
+  if (absl::Status s = sink.out.Create(path); !s.ok()) return s;
   absl::Status outcome;
   RetryThroughOutage("ReadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
     v1::AssetService::Stub assets(channel);
@@ -318,7 +319,7 @@ absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const f
     return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
   });
   if (!outcome.ok()) return outcome;
-  return FinishInput(digest, path, sink);
+  return FinishInput(digest, sink);
 }
 
 absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
@@ -451,18 +452,28 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   fs::remove_all(job_dir, ec);
   fs::create_directories(input_dir, ec);
   fs::create_directories(output_dir, ec);
+  // The scratch as the job found it: what its inputs must fit, and what a
+  // shortage later is measured against (scratch_shortage.h).
+  const absl::StatusOr<ScratchSpace> scratch_at_start = MeasureScratch(options_.scratch_dir);
+  int64_t inputs_need = -1;
 
   absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
     if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
     if (auto s = FailureForTest(options_.test_fail_on, job.mesh()); !s.ok()) return s;
+    if (!scratch_at_start.ok()) return scratch_at_start.status();
     // Inputs: the entry under its own name, the rest under their relative
-    // paths (validated above: no absolute paths, no "..").
-    const fs::path entry = input_dir / fs::path(job.mesh().entry().path()).filename();
+    // paths (validated above: no absolute paths, no ".."), each distinct
+    // blob downloaded once and linked under its other paths.
+    const InputPlan plan = PlanInputs(job.mesh(), input_dir);
+    const ScratchDemand demand = EstimateScratchDemand(plan, input_dir, scratch_at_start->block_bytes);
+    inputs_need = demand.bytes;
+    if (auto s = CheckInputsFit(demand, *scratch_at_start, options_.scratch_dir); !s.ok()) return s;
+    const fs::path entry = plan.entry_path;
     const auto t = Clock::now();
-    if (auto s = DownloadThroughOutage(job.mesh().entry().digest(), entry); !s.ok()) return s;
-    for (const auto& f : job.mesh().files()) {
+    for (const InputBlob& blob : plan.blobs) {
       if (cancelled) return absl::CancelledError("cancelled while downloading");
-      if (auto s = DownloadThroughOutage(f.digest(), input_dir / f.path()); !s.ok()) return s;
+      if (auto s = DownloadThroughOutage(blob.digest, blob.paths.front()); !s.ok()) return s;
+      if (auto s = LinkInputCopies(blob.paths.front(), std::span(blob.paths).subspan(1)); !s.ok()) return s;
     }
     const double download_seconds = std::chrono::duration<double>(Clock::now() - t).count();
     // Untrusted bytes meet the loader in a child process first (issue 23).
@@ -579,6 +590,16 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
       outcome = absl::Status(static_cast<absl::StatusCode>(s.error_code()),
                              absl::StrCat("the server refused the result: CompleteJob: ", s.error_message()));
     }
+  }
+  if (!lease_lost && !outcome.ok() && scratch_at_start.ok()) {
+    // A full scratch is named, and ended as the job's fault or the worker's
+    // (scratch_shortage.h), instead of an unnamed, retryable INTERNAL.
+    outcome = AttributeScratchShortage(outcome,
+                                       {.at_start = *scratch_at_start,
+                                        .now = MeasureScratch(job_dir).value_or(*scratch_at_start),
+                                        .job = BytesHeldUnder(job_dir),
+                                        .inputs_need = inputs_need},
+                                       options_.scratch_dir);
   }
   if (!lease_lost && !outcome.ok()) {
     v1::FailJobRequest r;

@@ -43,7 +43,9 @@ struct WorkerOptions {
   // fails with UNAVAILABLE or times out (common/failover_channel.h).
   std::string server = "localhost:50051";
   std::string worker_id;                   // unique per process
-  std::filesystem::path scratch_dir;       // per-job folders go here
+  // Per-job folders go here. A job's inputs are measured against this
+  // filesystem before they are downloaded (worker/scratch_space.h).
+  std::filesystem::path scratch_dir;
   // Seconds between lease renewals while baking; well under the server's
   // lease timeout (default 30 s). Each renewal also tells the worker whether
   // the job was cancelled, so this bounds how long a cancelled bake runs on.
@@ -121,7 +123,8 @@ class WorkerLoop {
  private:
   void ProcessJob(const v1::LeasedJob& job);
   // Downloads one input blob to `path`, verified, resuming through an
-  // outage (within max_outage_seconds).
+  // outage (within max_outage_seconds). A full scratch ends it at once with
+  // a ScratchWriteError (scratch_shortage.h).
   absl::Status DownloadThroughOutage(const v1::Digest& digest, const std::filesystem::path& path);
   // Uploads one output file, retrying through an outage.
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
