@@ -5,7 +5,8 @@
 // other processes compete for the cores, wall seconds do.
 //
 //   bake_stages [--layout NAME] [--frames N] [--resolution R] [--supersampling S]
-//               [--quality-views K] [--repeat N] [--keep DIR] [ASSET.glb]
+//               [--quality-views K] [--view-pixels P] [--repeat N] [--keep DIR]
+//               [--impostor-views auto|cpu|device] [ASSET.glb]
 //
 // Meant to run under `perf record -g`. Not a test: prints figures.
 #include <sys/resource.h>
@@ -56,13 +57,14 @@ struct StageClock {
 int main(int argc, char** argv) {
   spdlog::set_level(std::getenv("BAKE_STAGES_DEBUG") ? spdlog::level::debug : spdlog::level::info);
   uint32_t frames = 12, resolution = 2048;
-  int supersampling = -1, quality_views = -1, repeat = 1;
+  int supersampling = -1, quality_views = -1, repeat = 1, view_pixels = 0;
   fs::path asset = fs::path(IMPOSTOR_BENCH_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
   fs::path keep;
   std::string keep_flag;
   std::string layout_name = "octahedral";
   std::vector<std::string> assets;
   bool on_frames = false;
+  std::string impostor_views = "auto";
   impostor::bench::BenchArgs("bake_stages", "One atlas bake in process with each stage's wall and CPU time.")
       .Text("--layout", &layout_name, "layout by manifest name, e.g. hemi-octahedral (default octahedral)")
       .Uint("--frames", &frames, "frames per side (default 12)")
@@ -70,12 +72,24 @@ int main(int argc, char** argv) {
       .Int("--supersampling", &supersampling, "samples per side per pixel (default: the bake's own)")
       .Int("--quality-views", &quality_views, "held-out views of the quality pass; 0 skips it (default: the bake's own)")
       .Int("--repeat", &repeat, "bakes in a row (default 1)")
+      .Int("--view-pixels", &view_pixels, "the quality pass's held-out view size (default 0: the bake's own)")
       .Text("--keep", &keep_flag, "copy the last bake's output folder here")
       .Switch("--on-frames", &on_frames,
               "put the quality pass's views on baked frames' own directions (the atlas's ceiling; with --keep, "
               "its view_NN files)")
+      .Text("--impostor-views", &impostor_views,
+            "who draws the quality pass's impostor views: auto, cpu or device (quality_pass.h; default auto)")
       .Positional("ASSET.glb", &assets, "the asset (default DamagedHelmet)")
       .ParseOrExit(argc, argv);
+  impostor::ImpostorViewsOn views_on = impostor::ImpostorViewsOn::kAuto;
+  if (impostor_views == "cpu") {
+    views_on = impostor::ImpostorViewsOn::kCpu;
+  } else if (impostor_views == "device") {
+    views_on = impostor::ImpostorViewsOn::kDevice;
+  } else if (impostor_views != "auto") {
+    std::fprintf(stderr, "bake_stages: --impostor-views: '%s' is not auto, cpu or device\n", impostor_views.c_str());
+    return 2;
+  }
   if (!keep_flag.empty()) keep = keep_flag;
   if (!assets.empty()) asset = assets.back();
   impostor::v1::BakeParameters in;
@@ -122,7 +136,9 @@ int main(int argc, char** argv) {
                                        .load_limits = {},
                                        .scene = nullptr,
                                        .serial_encode = false,
-                                       .quality_overrides = {.on_frame_directions = on_frames}};
+                                       .quality_overrides = {.view_pixels = view_pixels,
+                                                             .on_frame_directions = on_frames,
+                                                             .impostor_views_on = views_on}};
     StageClock clock;
     auto baked = impostor::BakeAtlas(
         request, **renderer, [&](std::string_view stage, double) { clock.Note(stage); }, cancelled);

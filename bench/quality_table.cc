@@ -155,7 +155,11 @@ int main(int argc, char** argv) {
                               : "",
                     "Every row is one bake by the worker's own pipeline. The quality pass renders the mesh from 16 "
                     "held-out view directions that are not baked frames (spread over the layout's domain) and the "
-                    "impostor for the same cameras with the CPU reference renderer (3-frame triangle blend) in both "
+                    "impostor for the same cameras with ",
+                    (*renderer)->device().type == "cpu"
+                        ? "the CPU reference renderer"
+                        : "the runtime shader on the device (the CPU reference renderer's pixels up to float ties)",
+                    " (3-frame triangle blend) in both "
                     "runtime reconstructions (docs/runtime.md): **depth** (the default; every blended frame samples "
                     "the common surface point, frames that did not see it drop out) and **plain** (flat virtual "
                     "planes), both unlit, each view ",

@@ -1,8 +1,9 @@
 #version 450
 // Renders one orthographic view of an impostor with impostor_runtime.glsl,
 // pixel for pixel as RenderImpostorView (common/runtime/reference_renderer.h)
-// does, so tests can compare the shader's shading with the C++
-// (tests/runtime/glsl_runtime_test.cc).
+// does: the quality pass's impostor views on a GPU
+// (worker/gpu/device_impostor_views.h), and the check of the shader's shading
+// against the C++ (tests/runtime/glsl_runtime_test.cc).
 #extension GL_GOOGLE_include_directive : require
 #include "impostor_runtime.glsl"
 
@@ -14,6 +15,7 @@ layout(push_constant) uniform Push {
   vec4 view_right;
   ivec4 params;     // layout, frames, tile_size, blend mode
   ivec4 flags;      // reconstruction mode (IMPOSTOR_RECONSTRUCT_*), has_orm, pixels, ring_views
+  ivec4 placement;  // x: this view's first pixel in `pixels` (several views share one buffer)
 } push;
 
 layout(set = 0, binding = 0) uniform sampler2D albedo_alpha_tex;  // SRGB view
@@ -35,7 +37,7 @@ void main() {
   ImpostorBlend blend = impostorBlendFramesLayout(atlas, v, push.params.w);
   ImpostorSurface s = impostorReconstructLayout(albedo_alpha_tex, normal_depth_tex, orm_tex, push.flags.y != 0,
                                                 atlas, push.params.z, blend, origin, -v, push.flags.x);
-  uint o = uint(p.y * n + p.x) * 3u;
+  uint o = uint(push.placement.x + p.y * n + p.x) * 3u;
   pixels[o + 0u] = vec4(s.albedo, s.alpha);
   pixels[o + 1u] = vec4(s.normal, impostorViewDepth(s.position, v));
   pixels[o + 2u] = vec4(s.orm, 0.0);

@@ -206,25 +206,10 @@ struct PixelBlend {
   }
 
   void Write(size_t pixel, bool has_orm, ViewImages* view) {
-    const size_t o = pixel * 4;
-    albedo /= covered;
-    view->albedo_alpha[o + 0] = ToUnorm8(LinearToSrgb(albedo.x));
-    view->albedo_alpha[o + 1] = ToUnorm8(LinearToSrgb(albedo.y));
-    view->albedo_alpha[o + 2] = ToUnorm8(LinearToSrgb(albedo.z));
-    view->albedo_alpha[o + 3] = 255;
     const float len = glm::length(normal);
     if (len > 1e-12f) normal /= len;
-    view->normal_depth[o + 0] = ToUnorm16(normal.x * 0.5f + 0.5f);
-    view->normal_depth[o + 1] = ToUnorm16(normal.y * 0.5f + 0.5f);
-    view->normal_depth[o + 2] = ToUnorm16(normal.z * 0.5f + 0.5f);
-    view->normal_depth[o + 3] = ToUnorm16(depth / covered);
-    if (has_orm) {
-      orm /= covered;
-      view->orm[o + 0] = ToUnorm8(orm.x);
-      view->orm[o + 1] = ToUnorm8(orm.y);
-      view->orm[o + 2] = ToUnorm8(orm.z);
-      view->orm[o + 3] = 255;
-    }
+    const glm::vec3 mean_orm = orm / covered;
+    StoreShadedPixel(pixel, albedo / covered, normal, depth / covered, has_orm ? &mean_orm : nullptr, view);
   }
 };
 
@@ -255,6 +240,8 @@ void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, cons
   }
 }
 
+}  // namespace
+
 bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
   const ViewLayout layout = AtlasViewLayout(atlas);
   const bool ring = layout.kind == LayoutKind::kRingTop || layout.kind == LayoutKind::kBillboard;
@@ -273,8 +260,6 @@ bool AtlasIsConsistent(const ImpostorAtlas& atlas) {
   return true;
 }
 
-}  // namespace
-
 ViewLayout AtlasViewLayout(const ImpostorAtlas& atlas) {
   ViewLayout layout{.kind = atlas.layout, .frames = atlas.frames, .ring_views = atlas.ring_views};
   if (atlas.layout == LayoutKind::kBillboard) layout.ring_views = kBillboardRingViews;
@@ -284,10 +269,8 @@ ViewLayout AtlasViewLayout(const ImpostorAtlas& atlas) {
 
 FrameCamera ViewCameraFor(glm::vec3 direction) { return CameraForDirection(direction); }
 
-ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& camera, int pixels,
-                              const ReferenceRenderOptions& options) {
+ViewImages EmptyViewImages(int pixels, bool has_orm) {
   ViewImages view;
-  if (pixels <= 0 || !AtlasIsConsistent(atlas)) return view;
   view.width = pixels;
   view.height = pixels;
   const size_t count = static_cast<size_t>(pixels) * pixels;
@@ -299,8 +282,34 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
     view.normal_depth[i * 4 + 2] = kEmptyNormal16;
     view.normal_depth[i * 4 + 3] = kEmptyDepth16;
   }
-  const bool has_orm = !atlas.orm.empty();
   if (has_orm) view.orm.assign(count * 4, 0);
+  return view;
+}
+
+void StoreShadedPixel(size_t pixel, glm::vec3 albedo, glm::vec3 normal, float depth, const glm::vec3* orm,
+                      ViewImages* view) {
+  const size_t o = pixel * 4;
+  view->albedo_alpha[o + 0] = ToUnorm8(LinearToSrgb(albedo.x));
+  view->albedo_alpha[o + 1] = ToUnorm8(LinearToSrgb(albedo.y));
+  view->albedo_alpha[o + 2] = ToUnorm8(LinearToSrgb(albedo.z));
+  view->albedo_alpha[o + 3] = 255;
+  view->normal_depth[o + 0] = ToUnorm16(normal.x * 0.5f + 0.5f);
+  view->normal_depth[o + 1] = ToUnorm16(normal.y * 0.5f + 0.5f);
+  view->normal_depth[o + 2] = ToUnorm16(normal.z * 0.5f + 0.5f);
+  view->normal_depth[o + 3] = ToUnorm16(depth);
+  if (orm != nullptr && !view->orm.empty()) {
+    view->orm[o + 0] = ToUnorm8(orm->x);
+    view->orm[o + 1] = ToUnorm8(orm->y);
+    view->orm[o + 2] = ToUnorm8(orm->z);
+    view->orm[o + 3] = 255;
+  }
+}
+
+ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& camera, int pixels,
+                              const ReferenceRenderOptions& options) {
+  if (pixels <= 0 || !AtlasIsConsistent(atlas)) return {};
+  const bool has_orm = !atlas.orm.empty();
+  ViewImages view = EmptyViewImages(pixels, has_orm);
 
   // The view is orthographic: one view direction, one set of frames.
   const FrameBlend blend = BlendFrames(AtlasViewLayout(atlas), camera.direction, options.blend);

@@ -52,8 +52,11 @@
 #ifndef IMPOSTOR_COMMON_RUNTIME_REFERENCE_RENDERER_H_
 #define IMPOSTOR_COMMON_RUNTIME_REFERENCE_RENDERER_H_
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
+
+#include <glm/vec3.hpp>
 
 #include "common/atlas_layout.h"
 #include "common/frame_camera.h"
@@ -100,9 +103,26 @@ struct ReferenceRenderOptions {
 // The shared mapping's description of the atlas's layout.
 ViewLayout AtlasViewLayout(const ImpostorAtlas& atlas);
 
+// Whether the atlas can be drawn: its layout has frames, its maps have
+// width x height texels, and it has one camera per frame, each tile inside.
+bool AtlasIsConsistent(const ImpostorAtlas& atlas);
+
 // Empty-texel encodings (atlas_renderer.h, the bake's clear values).
 inline constexpr uint16_t kEmptyNormal16 = 32768;  // 0.5 in UNORM16
 inline constexpr uint16_t kEmptyDepth16 = 65535;   // 1.0
+
+// A view with no pixel covered: albedo and alpha 0, the empty normal and
+// depth encodings, orm 0 (none without has_orm).
+ViewImages EmptyViewImages(int pixels, bool has_orm);
+
+// Stores one covered pixel (index y * width + x) in the bake's encodings:
+// linear `albedo` as sRGB bytes with alpha 255, unit `normal` as
+// n * 0.5 + 0.5 and view `depth` (0 near .. 1 far) in UNORM16, `orm` (may be
+// null; ignored when the view has none) in UNORM8. Every renderer of impostor
+// views stores its pixels so (RenderImpostorView, the device's runtime views
+// in worker/gpu), so their images compare byte for byte.
+void StoreShadedPixel(size_t pixel, glm::vec3 albedo, glm::vec3 normal, float depth, const glm::vec3* orm,
+                      ViewImages* view);
 
 // Renders the impostor as a game would for an orthographic camera `camera` framed by
 // atlas.sphere exactly like a bake camera (FrameViewProjection), into pixels x pixels.

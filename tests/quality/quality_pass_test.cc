@@ -309,6 +309,55 @@ TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
   EXPECT_EQ(no_orbit->pop_antialiased_mesh, -1.0);
 }
 
+// On a GPU the pass draws the impostor with the runtime shader, on a CPU
+// device with the reference renderer (ImpostorViewsOn); both must give the
+// same figures. Lavapipe runs both here. The shader's float rounding may flip
+// a pixel on a tie (GlslBlend.ShaderViewMatchesTheReferenceRenderer allows 2
+// a view), hence bounds rather than equality; the pop compares whole orbits
+// and moves with any pixel, so it gets a relative bound.
+TEST_F(QualityPassTest, DeviceAndCpuImpostorViewsGiveTheSameFigures) {
+  auto scene = LoadGltfScene(kHelmet);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  auto atlas = SmallOctahedralAtlas(*scene);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  QualityPassOptions o;
+  o.views = 6;
+  o.view_pixels = 48;
+  o.orbit_pairs = 8;
+  o.orbit_pixels = 32;
+
+  auto automatic = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
+  ASSERT_TRUE(automatic.ok()) << automatic.status();
+  EXPECT_EQ(automatic->impostor_views_on_device, renderer_->device().type != "cpu");
+  o.impostor_views_on = ImpostorViewsOn::kCpu;
+  auto cpu = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
+  ASSERT_TRUE(cpu.ok()) << cpu.status();
+  EXPECT_FALSE(cpu->impostor_views_on_device);
+  o.impostor_views_on = ImpostorViewsOn::kDevice;
+  auto device = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
+  ASSERT_TRUE(device.ok()) << device.status();
+  EXPECT_TRUE(device->impostor_views_on_device);
+
+  const v1::AtlasQuality& c = cpu->quality;
+  const v1::AtlasQuality& d = device->quality;
+  std::printf("[ figures  ] cpu vs device: IoU %.4f / %.4f, shared PSNR %.2f / %.2f dB, pop %.3f / %.3f, plain pop "
+              "%.3f / %.3f\n",
+              c.silhouette_iou_mean(), d.silhouette_iou_mean(), c.albedo_psnr_shared_db_mean(),
+              d.albedo_psnr_shared_db_mean(), c.pop(), d.pop(), c.plain().pop(), d.plain().pop());
+  ASSERT_EQ(cpu->per_view.size(), device->per_view.size());
+  for (size_t i = 0; i < cpu->per_view.size(); ++i) {
+    // 2 of a view's ~1000 covered pixels.
+    EXPECT_NEAR(cpu->per_view[i].iou, device->per_view[i].iou, 0.002) << "view " << i;
+    EXPECT_NEAR(cpu->per_view[i].albedo_psnr_shared_db, device->per_view[i].albedo_psnr_shared_db, 0.1) << "view " << i;
+  }
+  EXPECT_NEAR(c.silhouette_iou_mean(), d.silhouette_iou_mean(), 0.002);
+  EXPECT_NEAR(c.plain().silhouette_iou_mean(), d.plain().silhouette_iou_mean(), 0.002);
+  EXPECT_NEAR(c.albedo_ssim_shared_mean(), d.albedo_ssim_shared_mean(), 0.005);
+  EXPECT_NEAR(c.pop(), d.pop(), 0.03 * c.pop());
+  EXPECT_NEAR(c.plain().pop(), d.plain().pop(), 0.03 * c.plain().pop());
+  EXPECT_EQ(c.worst_view(), d.worst_view());
+}
+
 TEST(HeldOutViewDirectionsTest, DeterministicSpreadAndNeverABakedFrame) {
   for (LayoutKind layout : {LayoutKind::kOctahedral, LayoutKind::kHemiOctahedral}) {
     for (int frames : {2, 8, 12, 24, 64}) {

@@ -11,19 +11,14 @@
 #include <vulkan/vulkan.h>
 
 #include "absl/status/statusor.h"
+#include "worker/gpu/compute_pipeline.h"
 #include "worker/gpu/gpu_image.h"
 #include "worker/gpu/vulkan_context.h"
 
 namespace impostor::testing {
 
-// One descriptor of set 0, binding = its position in the list: a storage
-// buffer (`buffer`) or a combined image sampler (`view` + `sampler`).
-struct KernelBinding {
-  VkDescriptorType type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-  VkBuffer buffer = VK_NULL_HANDLE;
-  VkImageView view = VK_NULL_HANDLE;
-  VkSampler sampler = VK_NULL_HANDLE;
-};
+// One descriptor of set 0, binding = its position in the list.
+using KernelBinding = gpu::ComputeBinding;
 
 // Builds a pipeline from `spirv`, binds `bindings`, pushes `push`
 // (push_size bytes) and dispatches groups_x x groups_y groups; returns when

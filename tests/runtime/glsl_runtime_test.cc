@@ -194,6 +194,7 @@ struct ViewPush {
   glm::vec4 view_dir, view_up, view_right;
   glm::ivec4 params;  // layout, frames, tile_size, mode
   glm::ivec4 flags;   // reconstruction (IMPOSTOR_RECONSTRUCT_*), has_orm, pixels, ring_views
+  glm::ivec4 placement{0};  // x: the view's first pixel in the output buffer
 };
 
 uint8_t Srgb8(float linear) {

@@ -88,6 +88,9 @@ absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, con
   renderer.set_supersampling(1);
   renderer.set_resolve_on_device(false);
   if (!atlas.ok()) return atlas.status();
+  spdlog::debug("event=quality_pass_mesh_views views={} pixels={} supersampling={} upload_seconds={:.3f} "
+                "render_seconds={:.3f} readback_seconds={:.3f}",
+                n, pixels, supersampling, timings.upload_seconds, timings.render_seconds, timings.readback_seconds);
   std::vector<ViewBuffers> views(n);
   const size_t row = static_cast<size_t>(pixels) * 4;
   for (int i = 0; i < n; ++i) {
@@ -105,29 +108,91 @@ absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, con
   return views;
 }
 
-// The impostor from every direction, rendered on all cores (the reference
-// renderer is pure).
-std::vector<ViewBuffers> RenderImpostorViews(const ImpostorAtlas& atlas, const std::vector<glm::vec3>& directions,
-                                             int pixels, BlendMode blend, Reconstruction reconstruction) {
-  std::vector<ViewBuffers> views(directions.size());
-  const ReferenceRenderOptions options{.blend = blend, .reconstruction = reconstruction};
-  const size_t threads = std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 16);
+// Runs each(i) for i in [0, count) on up to 16 threads (every view's work
+// is independent: rendering a view, comparing a pair).
+template <typename F>
+void ForEachView(size_t count, F each) {
+  const size_t threads = std::min<size_t>(count, std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 16));
   std::vector<std::future<void>> jobs;
   for (size_t worker = 0; worker < threads; ++worker) {
     jobs.push_back(std::async(std::launch::async, [&, worker] {
-      for (size_t i = worker; i < directions.size(); i += threads) {
-        FrameCamera camera = ViewCameraFor(directions[i]);
-        camera.tile = {0, 0, pixels, pixels};
-        ViewImages image = RenderImpostorView(atlas, camera, pixels, options);
-        views[i].size = pixels;
-        views[i].albedo_alpha = std::move(image.albedo_alpha);
-        views[i].normal_depth = std::move(image.normal_depth);
-      }
+      for (size_t i = worker; i < count; i += threads) each(i);
     }));
   }
   for (auto& j : jobs) j.get();
+}
+
+// The impostor from every direction, rendered on all cores (the reference
+// renderer is pure).
+std::vector<ViewBuffers> RenderImpostorViewsOnCpu(const ImpostorAtlas& atlas, const std::vector<glm::vec3>& directions,
+                                                  int pixels, const ReferenceRenderOptions& options) {
+  std::vector<ViewBuffers> views(directions.size());
+  ForEachView(directions.size(), [&](size_t i) {
+    FrameCamera camera = ViewCameraFor(directions[i]);
+    camera.tile = {0, 0, pixels, pixels};
+    ViewImages image = RenderImpostorView(atlas, camera, pixels, options);
+    views[i].size = pixels;
+    views[i].albedo_alpha = std::move(image.albedo_alpha);
+    views[i].normal_depth = std::move(image.normal_depth);
+  });
   return views;
 }
+
+// CompareViews of every pair, on all cores: with the views drawn on a GPU
+// the metrics (two SSIMs, a distance transform per pair) were the pass's
+// largest cost (H100, 16 views of 256 px: 0.34 s of 1.2 s one pair at a time).
+std::vector<ViewMetrics> CompareAll(const std::vector<ViewBuffers>& mesh, const std::vector<ViewBuffers>& impostor) {
+  std::vector<ViewMetrics> out(mesh.size());
+  ForEachView(mesh.size(), [&](size_t i) { out[i] = CompareViews(mesh[i].Pixels(), impostor[i].Pixels()); });
+  return out;
+}
+
+// Draws the impostor's views for the pass, on the device or on the CPU
+// (QualityPassOptions::impostor_views_on).
+class ImpostorViewSource {
+ public:
+  static absl::StatusOr<ImpostorViewSource> Create(const ImpostorAtlas& atlas, ImpostorViewsOn on,
+                                                   AtlasRenderer& renderer) {
+    ImpostorViewSource source(atlas);
+    if (on == ImpostorViewsOn::kCpu || (on == ImpostorViewsOn::kAuto && renderer.device().type == "cpu")) {
+      return source;
+    }
+    auto device = renderer.UploadImpostor(atlas);
+    if (device.ok()) {
+      source.device_ = std::move(*device);
+    } else if (on == ImpostorViewsOn::kDevice) {
+      return device.status();
+    } else {
+      spdlog::warn("event=quality_pass_device_views_unavailable device=\"{}\" error=\"{}\" fallback=cpu",
+                   renderer.device().name, device.status().ToString());
+    }
+    return source;
+  }
+
+  bool on_device() const { return device_ != nullptr; }
+
+  absl::StatusOr<std::vector<ViewBuffers>> Render(const std::vector<glm::vec3>& directions, int pixels,
+                                                  BlendMode blend, Reconstruction reconstruction) const {
+    const ReferenceRenderOptions options{.blend = blend, .reconstruction = reconstruction};
+    if (!device_) return RenderImpostorViewsOnCpu(*atlas_, directions, pixels, options);
+    std::vector<FrameCamera> cameras;
+    for (const glm::vec3& d : directions) cameras.push_back(ViewCameraFor(d));
+    auto images = device_->RenderViews(cameras, pixels, options);
+    if (!images.ok()) return images.status();
+    std::vector<ViewBuffers> views(images->size());
+    for (size_t i = 0; i < views.size(); ++i) {
+      views[i].size = pixels;
+      views[i].albedo_alpha = std::move((*images)[i].albedo_alpha);
+      views[i].normal_depth = std::move((*images)[i].normal_depth);
+    }
+    return views;
+  }
+
+ private:
+  explicit ImpostorViewSource(const ImpostorAtlas& atlas) : atlas_(&atlas) {}
+  const ImpostorAtlas* atlas_;
+  std::unique_ptr<DeviceImpostor> device_;
+};
 
 // `count` of the baked frames' own directions, spread over the frames in
 // index order (repeating when count > frames): on_frame_directions.
@@ -150,11 +215,13 @@ std::vector<double> StepChanges(const std::vector<ViewBuffers>& views, const std
 
 // The impostor's views drawn `factor` x `factor` times larger and box
 // filtered down as the mesh's supersampled views are (DownsampleMaps).
-absl::StatusOr<std::vector<ViewBuffers>> RenderImpostorViewsSupersampled(const ImpostorAtlas& atlas,
+absl::StatusOr<std::vector<ViewBuffers>> RenderImpostorViewsSupersampled(const ImpostorViewSource& source,
                                                                         const std::vector<glm::vec3>& directions,
                                                                         int pixels, int factor, BlendMode blend,
                                                                         Reconstruction reconstruction) {
-  std::vector<ViewBuffers> views = RenderImpostorViews(atlas, directions, pixels * factor, blend, reconstruction);
+  auto rendered = source.Render(directions, pixels * factor, blend, reconstruction);
+  if (!rendered.ok()) return rendered.status();
+  std::vector<ViewBuffers> views = std::move(*rendered);
   for (ViewBuffers& v : views) {
     AtlasMaps maps{.width = v.size,
                    .height = v.size,
@@ -177,7 +244,8 @@ struct PopFigures {
 
 // Pop of each of `modes` (the mesh's orbit is rendered once) and, with
 // o.pop_references, the references of the first mode (quality_pass.h).
-absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas, const QualityPassOptions& o,
+absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas,
+                                      const ImpostorViewSource& source, const QualityPassOptions& o,
                                       const std::vector<Reconstruction>& modes, AtlasRenderer& renderer) {
   const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
   const float step = 2.0f * std::numbers::pi_v<float> / static_cast<float>(o.orbit_steps);
@@ -208,15 +276,16 @@ absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& a
   const std::vector<double> mesh_changes = StepChanges(*mesh, steps);
   PopFigures out;
   for (Reconstruction mode : modes) {
-    const std::vector<ViewBuffers> impostor = RenderImpostorViews(atlas, orbit, o.orbit_pixels, o.blend, mode);
-    out.pops.push_back(PopRatio(StepChanges(impostor, steps), mesh_changes));
+    auto impostor = source.Render(orbit, o.orbit_pixels, o.blend, mode);
+    if (!impostor.ok()) return impostor.status();
+    out.pops.push_back(PopRatio(StepChanges(*impostor, steps), mesh_changes));
   }
   if (o.pop_references && !modes.empty()) {
     auto smooth_mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, kReferenceSupersampling, renderer);
     if (!smooth_mesh.ok()) return smooth_mesh.status();
     const std::vector<double> smooth_mesh_changes = StepChanges(*smooth_mesh, steps);
     out.antialiased_mesh = PopRatio(smooth_mesh_changes, mesh_changes);
-    auto smooth = RenderImpostorViewsSupersampled(atlas, orbit, o.orbit_pixels, kReferenceSupersampling, o.blend,
+    auto smooth = RenderImpostorViewsSupersampled(source, orbit, o.orbit_pixels, kReferenceSupersampling, o.blend,
                                                   modes.front());
     if (!smooth.ok()) return smooth.status();
     out.antialiased = PopRatio(StepChanges(*smooth, steps), smooth_mesh_changes);
@@ -372,14 +441,28 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
                                                    o.orbit_pixels, " must be 8..1024"));
   }
   const auto start = Clock::now();
+  // Each step's seconds, logged at debug level (the profile of the pass).
+  std::string steps;
+  auto lap_start = start;
+  const auto lap = [&](std::string_view step) {
+    const auto now = Clock::now();
+    steps += fmt::format(" {}_seconds={:.3f}", step, std::chrono::duration<double>(now - lap_start).count());
+    lap_start = now;
+  };
   QualityPassResult result;
   result.directions = o.on_frame_directions ? FrameDirections(atlas.cameras, o.views)
                                              : HeldOutViewDirections(AtlasViewLayout(atlas), cache_key, o.views);
   auto mesh =
       RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, kReferenceSupersampling, renderer);
   if (!mesh.ok()) return mesh.status();
-  const std::vector<ViewBuffers> impostor =
-      RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend, o.reconstruction);
+  lap("mesh_views");
+  auto source = ImpostorViewSource::Create(atlas, o.impostor_views_on, renderer);
+  if (!source.ok()) return source.status();
+  result.impostor_views_on_device = source->on_device();
+  auto impostor_views = source->Render(result.directions, o.view_pixels, o.blend, o.reconstruction);
+  if (!impostor_views.ok()) return impostor_views.status();
+  const std::vector<ViewBuffers>& impostor = *impostor_views;
+  lap("impostor_views");
   const bool plain_too = o.also_plain && o.reconstruction != Reconstruction::kPlain;
 
   v1::AtlasQuality& q = result.quality;
@@ -389,9 +472,9 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   double iou_min = 1, iou_sum = 0, psnr_min = kMaxPsnrDb, psnr_sum = 0, ssim_min = 1, ssim_sum = 0;
   double normal_sum = 0, normal_max = 0, depth_sum = 0, depth_max = 0;
   int worst = 0;
+  result.per_view = CompareAll(*mesh, impostor);
   for (int i = 0; i < o.views; ++i) {
-    const ViewMetrics m = CompareViews((*mesh)[i].Pixels(), impostor[i].Pixels());
-    result.per_view.push_back(m);
+    const ViewMetrics& m = result.per_view[i];
     if (m.iou < iou_min) worst = i;
     iou_min = std::min(iou_min, m.iou);
     psnr_min = std::min(psnr_min, m.albedo_psnr_db);
@@ -416,6 +499,7 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   q.set_depth_error_mean(static_cast<float>(depth_sum / n));
   q.set_depth_error_max(static_cast<float>(depth_max));
   q.set_worst_view(static_cast<uint32_t>(worst));
+  lap("metrics");
   const v1::ReconstructionQuality headline = ModeFigures(o.reconstruction, result.per_view);
   q.set_reconstruction(headline.reconstruction());
   q.set_albedo_psnr_shared_db_min(headline.albedo_psnr_shared_db_min());
@@ -425,23 +509,25 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
   q.set_boundary_error_px_mean(headline.boundary_error_px_mean());
   q.set_boundary_error_px_max(headline.boundary_error_px_max());
   if (plain_too) {
-    const std::vector<ViewBuffers> plain =
-        RenderImpostorViews(atlas, result.directions, o.view_pixels, o.blend, Reconstruction::kPlain);
-    for (int i = 0; i < o.views; ++i) result.plain_per_view.push_back(CompareViews((*mesh)[i].Pixels(), plain[i].Pixels()));
+    auto plain = source->Render(result.directions, o.view_pixels, o.blend, Reconstruction::kPlain);
+    if (!plain.ok()) return plain.status();
+    result.plain_per_view = CompareAll(*mesh, *plain);
     *q.mutable_plain() = ModeFigures(Reconstruction::kPlain, result.plain_per_view);
+    lap("plain");
   }
   result.views_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (o.orbit_steps > 0) {
     const auto pop_start = Clock::now();
     std::vector<Reconstruction> modes = {o.reconstruction};
     if (plain_too) modes.push_back(Reconstruction::kPlain);
-    auto pop = MeasurePop(scene, atlas, o, modes, renderer);
+    auto pop = MeasurePop(scene, atlas, *source, o, modes, renderer);
     if (!pop.ok()) return pop.status();
     q.set_pop(static_cast<float>(pop->pops[0]));
     if (plain_too) q.mutable_plain()->set_pop(static_cast<float>(pop->pops[1]));
     result.pop_antialiased_mesh = pop->antialiased_mesh;
     result.pop_antialiased = pop->antialiased;
     result.pop_seconds = std::chrono::duration<double>(Clock::now() - pop_start).count();
+    lap("pop");
   }
   if (!o.worst_view_png.empty()) {
     if (auto s = WriteSideBySide(o.worst_view_png, (*mesh)[worst], impostor[worst]); !s.ok()) return s;
@@ -454,6 +540,9 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     if (!files.ok()) return files.status();
     result.view_files = std::move(*files);
   }
+  lap("files");
+  spdlog::debug("event=quality_pass_steps cache_key={} impostor_views={}{}", cache_key,
+                result.impostor_views_on_device ? "device" : "cpu", steps);
   result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return result;
 }
@@ -478,6 +567,7 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   if (overrides.view_pixels > 0) options.view_pixels = overrides.view_pixels;
   options.on_frame_directions = overrides.on_frame_directions;
   options.pop_references = overrides.pop_references;
+  options.impostor_views_on = overrides.impostor_views_on;
   options.orbit_pixels = std::min(options.orbit_pixels, options.view_pixels);
   if (!QualityPassSupports(layout)) {
     spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",
@@ -548,11 +638,12 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
       "event=quality_pass cache_key={} frames={} views={} view_pixels={} blend={} reconstruction={} iou_mean={:.4f} "
       "iou_min={:.4f} shared_psnr_db_mean={:.2f} shared_ssim_mean={:.4f} boundary_px_mean={:.2f} plain_iou_mean={:.4f} "
       "plain_shared_psnr_db_mean={:.2f} normal_deg_mean={:.2f} depth_error_mean={:.4f} pop={:.3f} "
-      "worst_view={} views_seconds={:.2f} pop_seconds={:.2f} seconds={:.2f}",
+      "worst_view={} impostor_views={} views_seconds={:.2f} pop_seconds={:.2f} seconds={:.2f}",
       cache_key, atlas.frames, q.views(), q.view_pixels(), q.blend(), q.reconstruction(), q.silhouette_iou_mean(),
       q.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(), q.albedo_ssim_shared_mean(), q.boundary_error_px_mean(),
       q.plain().silhouette_iou_mean(), q.plain().albedo_psnr_shared_db_mean(), q.normal_error_deg_mean(),
-      q.depth_error_mean(), q.pop(), q.worst_view(), result->views_seconds, result->pop_seconds, result->seconds);
+      q.depth_error_mean(), q.pop(), q.worst_view(), result->impostor_views_on_device ? "device" : "cpu",
+      result->views_seconds, result->pop_seconds, result->seconds);
   if (result->pop_antialiased_mesh >= 0) {
     spdlog::info("event=quality_pass_pop_references cache_key={} pop={:.3f} pop_antialiased_mesh={:.3f} "
                  "pop_antialiased={:.3f}",

@@ -3,9 +3,10 @@
 // The mesh is rendered by the bake's own renderer (unlit albedo, the same
 // orthographic camera convention as the bake, common/frame_camera.h) from K
 // held-out view directions that are not baked frames, and the impostor is
-// reconstructed for the very same cameras by the CPU reference renderer
-// (common/runtime/reference_renderer.h), i.e. exactly as a game would draw
-// it. Both sides are unlit, so every difference is the impostor's. The mesh
+// reconstructed for the very same cameras by the shipped runtime shader on a
+// GPU, or the CPU reference renderer (common/runtime/reference_renderer.h)
+// on a CPU device (ImpostorViewsOn), i.e. exactly as a game would draw it.
+// Both sides are unlit, so every difference is the impostor's. The mesh
 // views are supersampled (kReferenceSupersampling, filtered down on the
 // device, textures sampled as a supersampled bake samples them), so the
 // reference pixel is its area, not one point of it: a 1-sample view held
@@ -85,6 +86,14 @@ inline constexpr float kMinDegreesFromFrame = 1.0f;
 inline constexpr char kQualityWorstViewSemantic[] = "quality_worst_view";
 inline constexpr char kQualityWorstViewFile[] = "quality_worst_view.png";
 
+// Who draws the impostor's side of every view: the shipped runtime shader on
+// the bake's device (AtlasRenderer::UploadImpostor), or the CPU reference
+// renderer on all cores. The two draw the same pixels up to float ties
+// (tests/runtime/glsl_runtime_test.cc, tests/quality). kAuto: the device
+// unless it is a CPU device (lavapipe), where the shader runs ~3 x slower
+// than the C++ on the same cores; the CPU too when the upload fails (logged).
+enum class ImpostorViewsOn { kAuto, kCpu, kDevice };
+
 struct QualityPassOptions {
   int views = kDefaultQualityViews;  // held-out views, 1..kMaxQualityViews
   // Side of each compared view. The bake uses min(128, resolution / 8):
@@ -125,6 +134,7 @@ struct QualityPassOptions {
   // more mesh orbit at 3 x 3, and the headline reconstruction's orbit at 9
   // times the pixels.
   bool pop_references = false;
+  ImpostorViewsOn impostor_views_on = ImpostorViewsOn::kAuto;
 };
 
 // What a measuring tool may change in a bake's pass (AtlasBakeRequest);
@@ -133,6 +143,7 @@ struct QualityPassOverrides {
   int view_pixels = 0;  // > 0: held-out views this size instead of min(128, resolution / 8)
   bool on_frame_directions = false;  // QualityPassOptions::on_frame_directions
   bool pop_references = false;       // QualityPassOptions::pop_references
+  ImpostorViewsOn impostor_views_on = ImpostorViewsOn::kAuto;
 };
 
 struct QualityPassResult {
@@ -144,6 +155,7 @@ struct QualityPassResult {
   double seconds = 0;        // the whole pass
   double views_seconds = 0;  // held-out views: render both sides, measure
   double pop_seconds = 0;    // the orbit
+  bool impostor_views_on_device = false;  // who drew them (ImpostorViewsOn)
   // With options.pop_references and an orbit (else -1): the pop references.
   double pop_antialiased_mesh = -1;
   double pop_antialiased = -1;

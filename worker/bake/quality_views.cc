@@ -1,6 +1,9 @@
 #include "worker/bake/quality_views.h"
 
+#include <algorithm>
 #include <fstream>
+#include <future>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -23,12 +26,31 @@ absl::StatusOr<std::vector<QualityViewsFile>> WriteQualityViews(
     return absl::InvalidArgumentError("quality views: directions, images and metrics differ in count");
   }
   const int count = static_cast<int>(directions.size());
+  // The PNGs on all cores: one after another they were a tenth of the pass
+  // once the views were drawn on a GPU (33 files of 256 px: 0.15 s).
+  std::vector<absl::Status> written(2 * static_cast<size_t>(count));
+  {
+    const int threads = std::min(2 * count, std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16));
+    std::vector<std::future<void>> jobs;
+    for (int worker = 0; worker < threads; ++worker) {
+      jobs.push_back(std::async(std::launch::async, [&, worker] {
+        for (int k = worker; k < 2 * count; k += threads) {
+          const int i = k / 2;
+          const bool mesh = k % 2 == 0;
+          written[k] = WritePngRgba8(dir / QualityViewFileName(i, count, mesh),
+                                     mesh ? images[i].mesh : images[i].impostor, view_pixels, view_pixels);
+        }
+      }));
+    }
+    for (auto& j : jobs) j.get();
+  }
+  for (const absl::Status& s : written) {
+    if (!s.ok()) return s;
+  }
   std::vector<QualityViewsFile> files;
   nlohmann::json views = nlohmann::json::array();
   for (int i = 0; i < count; ++i) {
     const std::string mesh = QualityViewFileName(i, count, true), impostor = QualityViewFileName(i, count, false);
-    if (auto s = WritePngRgba8(dir / mesh, images[i].mesh, view_pixels, view_pixels); !s.ok()) return s;
-    if (auto s = WritePngRgba8(dir / impostor, images[i].impostor, view_pixels, view_pixels); !s.ok()) return s;
     files.push_back({mesh, kQualityViewMeshSemantic, view_pixels, view_pixels});
     files.push_back({impostor, kQualityViewImpostorSemantic, view_pixels, view_pixels});
     const FrameCamera c = ViewCameraFor(directions[i]);

@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "common/frame_camera.h"
+#include "common/runtime/reference_renderer.h"
 #include "worker/scene/scene.h"
 
 namespace impostor {
@@ -57,6 +58,21 @@ struct DeviceInfo {
   std::string driver;       // driverName / driverInfo
 };
 
+// An impostor atlas held on the device, drawn by the shipped runtime shader
+// (shaders/impostor_runtime.glsl). Made by AtlasRenderer::UploadImpostor;
+// must not outlive it. Thread-safety: as its AtlasRenderer.
+class DeviceImpostor {
+ public:
+  virtual ~DeviceImpostor() = default;
+  // Every camera's orthographic view of the impostor, pixels x pixels,
+  // framed, shaded, encoded and covered (alpha >= 0.5) exactly as
+  // RenderImpostorView draws it with `options` (camera.tile is ignored); the
+  // device's float rounding may flip a pixel whose choice sits on a tie
+  // (tests/runtime/glsl_runtime_test.cc bounds how many).
+  virtual absl::StatusOr<std::vector<ViewImages>> RenderViews(const std::vector<FrameCamera>& cameras, int pixels,
+                                                              const ReferenceRenderOptions& options) = 0;
+};
+
 class AtlasRenderer {
  public:
   // Creates the Vulkan 1.3 instance and device (no window system, no
@@ -90,6 +106,13 @@ class AtlasRenderer {
   // scene from the bake through its quality pass, which renders the mesh
   // again (ScopedKeptScene below).
   virtual void KeepSceneUploaded(const Scene* scene) = 0;
+
+  // Uploads `atlas` (its maps; the atlas itself need not outlive the
+  // result) for views drawn on the device by the runtime shader: what the
+  // quality pass draws its impostor side with on a GPU, where the CPU
+  // reference renderer would cost most of the pass. INVALID_ARGUMENT for an
+  // inconsistent atlas; the device's limits and errors otherwise.
+  virtual absl::StatusOr<std::unique_ptr<DeviceImpostor>> UploadImpostor(const ImpostorAtlas& atlas) = 0;
 
   // While set, Render checks `*flag` after each submitted chunk of frames
   // (well under a second of work on lavapipe for typical meshes) and returns

@@ -19,6 +19,7 @@
 #include "worker/gpu/atlas_targets.h"
 #include "worker/gpu/bake_pipeline.h"
 #include "worker/gpu/command_runner.h"
+#include "worker/gpu/device_impostor_views.h"
 #include "worker/gpu/render_validation.h"
 #include "worker/gpu/scene_resources.h"
 #include "worker/gpu/supersample_resolve.h"
@@ -95,6 +96,13 @@ class AtlasRendererVulkan final : public AtlasRenderer {
     kept_resources_.reset();
   }
 
+  absl::StatusOr<std::unique_ptr<DeviceImpostor>> UploadImpostor(const ImpostorAtlas& atlas) override {
+    if (!view_kernel_) {
+      IMPOSTOR_GPU_ASSIGN_OR_RETURN(view_kernel_, gpu::ImpostorViewKernel::Create(*ctx_));
+    }
+    return gpu::DeviceImpostorViews::Create(*ctx_, *view_kernel_, atlas);
+  }
+
  private:
   // The scene's resources for this Render, filtering as `filter` says: the
   // kept upload when it is of `scene`, else a fresh one (kept when `scene`
@@ -113,6 +121,7 @@ class AtlasRendererVulkan final : public AtlasRenderer {
   CommandRunner runner_;
   const Scene* kept_scene_ = nullptr;
   std::unique_ptr<SceneResources> kept_resources_;  // of kept_scene_
+  std::unique_ptr<gpu::ImpostorViewKernel> view_kernel_;  // made by the first UploadImpostor
 };
 
 absl::StatusOr<const SceneResources*> AtlasRendererVulkan::ResourcesFor(const Scene& scene,

@@ -5,8 +5,8 @@
 // final maps saves factor^2 - 1 of the readback bytes and the CPU filter
 // pass: on lavapipe, the largest cost of a supersampled bake before this.
 //
-// Ownership: owns its pipeline, layouts, sampler and a one-set descriptor
-// pool; must be destroyed before the VulkanContext. Thread-safety: one
+// Ownership: owns its pipeline (compute_pipeline.h) and sampler; must be
+// destroyed before the VulkanContext. Thread-safety: one
 // thread; Record rewrites the single descriptor set, so the previous
 // submission that used it must have completed (the renderer waits on every
 // submission).
@@ -18,6 +18,7 @@
 #include <cstdint>
 
 #include "absl/status/statusor.h"
+#include "worker/gpu/compute_pipeline.h"
 #include "worker/gpu/vk_handle.h"
 #include "worker/gpu/vulkan_context.h"
 
@@ -50,13 +51,8 @@ class SupersampleResolve {
   void Record(VkCommandBuffer cmd, const ResolveBindings& b) const;
 
  private:
-  VkDevice device_ = VK_NULL_HANDLE;
   UniqueSampler sampler_;
-  UniqueDescriptorSetLayout set_layout_;
-  UniquePipelineLayout layout_;
-  UniquePipeline pipeline_;
-  UniqueDescriptorPool pool_;
-  VkDescriptorSet set_ = VK_NULL_HANDLE;  // freed with pool_
+  ComputePipeline pipeline_;
 };
 
 }  // namespace impostor::gpu
