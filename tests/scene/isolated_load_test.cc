@@ -6,6 +6,11 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -50,6 +55,40 @@ TEST(IsolatedLoadTest, BombPastTheBudgetEndsTheChildOnly) {
   EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
   EXPECT_NE(s.message().find("LoadIsolation::address_space_bytes"), std::string::npos) << s;
   EXPECT_LT(testing::PeakRss(), testing::kPeakRssBound);
+}
+
+// A worker started under a hard address-space limit lower than its size
+// plus the loader's budget (a container, `ulimit -v`): the child cannot
+// raise its limit, so it used to exit 3 "without a report" on every load,
+// a retryable INTERNAL. Now it loads within what the limit leaves, and a
+// load that needs more is refused naming the worker's limit. Run in a
+// forked process (a death test), since the limit cannot be raised again.
+TEST(IsolatedLoadTest, AWorkersOwnAddressSpaceLimitCapsTheLoaderInsteadOfFailingIt) {
+  const fs::path box = testing::Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  if (!fs::exists(box)) GTEST_SKIP() << "no assets";
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const auto under_limit = [](const fs::path& file, const GltfLoadLimits& limits, const char* expect_code) {
+    std::ifstream statm("/proc/self/statm");
+    uint64_t pages = 0;
+    statm >> pages;
+    const uint64_t size = pages * static_cast<uint64_t>(::sysconf(_SC_PAGESIZE));
+    // 512 MiB above the process: far below the loader's default 8 GiB budget.
+    const rlimit as{size + (uint64_t{512} << 20), size + (uint64_t{512} << 20)};
+    if (::setrlimit(RLIMIT_AS, &as) != 0) std::_Exit(10);
+    const absl::Status s = CheckLoadInChild(file, limits, {});
+    std::fprintf(stderr, "status: %s\n", s.ToString().c_str());
+    std::_Exit(absl::StatusCodeToString(s.code()) == expect_code ? 0 : 1);
+  };
+  EXPECT_EXIT(under_limit(box, {}, "OK"), ::testing::ExitedWithCode(0), "status: OK");
+  // The bomb of BombPastTheBudgetEndsTheChildOnly needs 720 MB: refused,
+  // naming the worker's own limit.
+  GltfLoadLimits lax;
+  lax.max_triangles = 700'000'000;
+  lax.max_draws = uint64_t{1} << 31;
+  lax.max_load_bytes = std::numeric_limits<uint64_t>::max();
+  EXPECT_EXIT(under_limit(testing::HostileCorpusDir() / "instancing_60m_no_bufferview.gltf", lax,
+                          "RESOURCE_EXHAUSTED"),
+              ::testing::ExitedWithCode(0), "own limit leaves it .RLIMIT_AS");
 }
 
 TEST(IsolatedLoadTest, CancelledLoadEnds) {

@@ -57,7 +57,12 @@ bool WriteAll(int fd, std::string_view bytes) {
   if (spdlog::logger* logger = spdlog::default_logger_raw()) logger->set_level(spdlog::level::off);
   const rlimit as{address_space, address_space};
   const rlimit cpu{static_cast<rlim_t>(cpu_seconds), static_cast<rlim_t>(cpu_seconds) + 1};
-  if (::setrlimit(RLIMIT_AS, &as) != 0 || ::setrlimit(RLIMIT_CPU, &cpu) != 0) ::_exit(3);
+  if (::setrlimit(RLIMIT_AS, &as) != 0 || ::setrlimit(RLIMIT_CPU, &cpu) != 0) {
+    // Said, not just exited: "status 3 without a report" told nobody why.
+    WriteAll(report_fd, absl::StrCat(static_cast<int>(absl::StatusCode::kInternal),
+                                     " cannot set the loader's limits: ", std::strerror(errno)));
+    ::_exit(3);
+  }
   // No core files for a bomb.
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
@@ -102,7 +107,15 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
   if (::pipe2(fds, O_CLOEXEC) != 0) {
     return absl::InternalError(absl::StrCat("pipe: ", std::strerror(errno)));
   }
-  const uint64_t address_space = CurrentAddressSpace() + isolation.address_space_bytes;
+  // The child can lower its limits but never raise them past the worker's
+  // own hard RLIMIT_AS (a container or `ulimit -v`): asking for more failed
+  // setrlimit and every load with it. Within that limit the loader gets what
+  // is left, and a load that needs more is the usual out-of-memory refusal.
+  uint64_t address_space = CurrentAddressSpace() + isolation.address_space_bytes;
+  rlimit worker_as{};
+  const bool capped = ::getrlimit(RLIMIT_AS, &worker_as) == 0 && worker_as.rlim_max != RLIM_INFINITY &&
+                      worker_as.rlim_max < address_space;
+  if (capped) address_space = worker_as.rlim_max;
   const auto start = Clock::now();
   const pid_t pid = ::fork();
   if (pid < 0) {
@@ -173,6 +186,12 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
   const std::string message = space == std::string::npos ? "" : report.substr(space + 1);
   if (code == 0) return absl::OkStatus();
   if (code == static_cast<int>(absl::StatusCode::kResourceExhausted) && message == "out of memory") {
+    if (capped) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "loading needed more address space than the worker's own limit leaves it (RLIMIT_AS ",
+          worker_as.rlim_max, " bytes, below the ", isolation.address_space_bytes,
+          " bytes of LoadIsolation::address_space_bytes) and was stopped in its isolated process"));
+    }
     return absl::ResourceExhaustedError(absl::StrCat(
         "loading needed more than ", isolation.address_space_bytes,
         " bytes of address space (LoadIsolation::address_space_bytes) and was stopped in its "
