@@ -4,6 +4,7 @@
 // to within the stated error of the maps they were made from.
 #include <unistd.h>
 
+#include <atomic>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -273,6 +274,17 @@ TEST_F(Ktx2EncoderTest, BadInputsAndAMissingEncoderAreClearErrors) {
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(missing.status().message().find("no-such-basisu"), std::string::npos) << missing.status();
   EXPECT_EQ(CheckBasisuVersion("/bin/true").code(), absl::StatusCode::kFailedPrecondition);
+}
+
+// A cancelled job's encoder is stopped, not waited for (basisu can run for
+// minutes on a large atlas): the encode ends CANCELLED and no file is left.
+TEST_F(Ktx2EncoderTest, ACancelledJobStopsTheEncoder) {
+  const std::vector<MipLevel<uint8_t>> one = {{256, 256, std::vector<uint8_t>(256 * 256 * 4, 128)}};
+  const std::atomic<bool> cancelled{true};
+  auto encoded = EncodeUastcKtx2(
+      one, {.basisu = DefaultBasisuPath(), .scratch = dir_ / "cancelled", .name = "albedo", .cancelled = &cancelled});
+  EXPECT_EQ(encoded.status().code(), absl::StatusCode::kCancelled) << encoded.status();
+  EXPECT_FALSE(fs::exists(dir_ / "cancelled" / "albedo_level0.ktx2"));
 }
 
 }  // namespace

@@ -202,7 +202,8 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
                                                                   : std::span<const uint8_t>(),
                                          .tiles = tiles,
                                          .levels = MipSafeLevels(resolution, GridSide(view_layout)) + 1,
-                                         .albedo_codec = p.albedo_codec()});
+                                         .albedo_codec = p.albedo_codec(),
+                                         .cancelled = &cancelled});
       if (!written.ok()) return written.status();
       out.ktx2_maps = std::move(*written);
     }

@@ -27,13 +27,15 @@ namespace {
 
 absl::StatusOr<v1::MapFile> EncodeOne(const std::filesystem::path& dir, const std::string& semantic,
                                       std::span<const MipLevel<uint8_t>> chain, bool srgb, bool rdo,
-                                      const char* precision, bool alpha = true) {
+                                      const char* precision, const std::atomic<bool>* cancelled,
+                                      bool alpha = true) {
   Ktx2EncodeOptions options{.basisu = DefaultBasisuPath(),
                             .scratch = dir / ".ktx2_scratch",
                             .name = semantic,
                             .srgb = srgb,
                             .rdo = rdo,
-                            .alpha = alpha};
+                            .alpha = alpha,
+                            .cancelled = cancelled};
   auto bytes = EncodeUastcKtx2(chain, options);
   if (!bytes.ok()) return bytes.status();
   const std::string file = semantic + ".ktx2";
@@ -62,7 +64,7 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
   // basisu uses every core for one image; the maps still overlap their
   // file writes and chain building.
   auto albedo_file = std::async(std::launch::async, [&] {
-    return EncodeOne(dir, "albedo_alpha", *albedo, /*srgb=*/true, rdo, kKtx2AlbedoPrecision);
+    return EncodeOne(dir, "albedo_alpha", *albedo, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled);
   });
   std::vector<v1::MapFile> normal_files;  // the depth map, written by normal_file's task
   auto normal_file = std::async(std::launch::async, [&]() -> absl::StatusOr<v1::MapFile> {
@@ -75,7 +77,8 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
       if (auto s = DilateDepth(l, (*albedo)[level], tiles); !s.ok()) return s;
       chain.push_back(To8Bit(l));
     }
-    auto normal = EncodeOne(dir, "normal_depth", chain, /*srgb=*/false, /*rdo=*/false, kKtx2NormalDepthPrecision);
+    auto normal = EncodeOne(dir, "normal_depth", chain, /*srgb=*/false, /*rdo=*/false, kKtx2NormalDepthPrecision,
+                            in.cancelled);
     if (!normal.ok()) return normal;
     // normal_depth.A shares its blocks with three normal channels and keeps
     // little precision; depth alone in an RGB texture keeps ~8 bits.
@@ -85,7 +88,8 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
         l.rgba[i + 3] = 255;
       }
     }
-    auto depth = EncodeOne(dir, "depth", chain, /*srgb=*/false, /*rdo=*/false, kKtx2DepthPrecision, /*alpha=*/false);
+    auto depth = EncodeOne(dir, "depth", chain, /*srgb=*/false, /*rdo=*/false, kKtx2DepthPrecision, in.cancelled,
+                           /*alpha=*/false);
     if (!depth.ok()) return depth;
     for (const char* c : {"R: depth as normal_depth.A, linear (empty texels: dilated, coverage is albedo_alpha.A)",
                           "G: = R", "B: = R", "A: 1"}) {
@@ -97,7 +101,7 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
   auto orm_file = std::async(std::launch::async, [&]() -> absl::StatusOr<v1::MapFile> {
     auto chain = BuildCoverageMipChain(in.orm, in.width, in.height, in.tiles, in.levels);
     if (!chain.ok()) return chain.status();
-    return EncodeOne(dir, "orm", *chain, /*srgb=*/false, /*rdo=*/false, kKtx2OrmPrecision);
+    return EncodeOne(dir, "orm", *chain, /*srgb=*/false, /*rdo=*/false, kKtx2OrmPrecision, in.cancelled);
   });
   std::vector<v1::MapFile> maps;
   absl::Status first = absl::OkStatus();
@@ -112,7 +116,7 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
     if (!chain.ok()) {
       first = chain.status();
     } else {
-      auto m = EncodeOne(dir, "emissive", *chain, /*srgb=*/true, rdo, kKtx2AlbedoPrecision);
+      auto m = EncodeOne(dir, "emissive", *chain, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled);
       if (m.ok()) maps.push_back(std::move(*m));
       else first = m.status();
     }

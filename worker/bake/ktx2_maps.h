@@ -4,6 +4,7 @@
 #ifndef IMPOSTOR_WORKER_BAKE_KTX2_MAPS_H_
 #define IMPOSTOR_WORKER_BAKE_KTX2_MAPS_H_
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -27,6 +28,8 @@ struct Ktx2MapsInput {
   std::span<const TileRect> tiles;
   int levels = 1;  // MipSafeLevels + 1: down to the 16 px tile
   v1::AlbedoCodec albedo_codec = v1::ALBEDO_CODEC_UASTC;
+  // The job's cancel flag (may be null): ends the encoders at once.
+  const std::atomic<bool>* cancelled = nullptr;
 };
 
 // The precision each KTX2 map keeps, as the manifest states it (measured by

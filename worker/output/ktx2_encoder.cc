@@ -75,7 +75,7 @@ absl::StatusOr<std::string> EncodeUastcKtx2(std::span<const MipLevel<uint8_t>> l
       // same bytes (results are content-addressed).
       for (const char* a : {"-uastc_rdo_l", "1.0", "-uastc_rdo_m"}) argv.push_back(a);
     }
-    auto ran = RunTool(argv, options.scratch / (stem + ".log"));
+    auto ran = RunTool(argv, options.scratch / (stem + ".log"), options.cancelled);
     if (!ran.ok()) return ran.status();
     auto bytes = ReadAll(ktx2);
     if (!bytes.ok()) return bytes.status();

