@@ -21,6 +21,7 @@
 #include "common/tls_peer_check.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/bake_outputs.h"
+#include "worker/bake_memory_check.h"
 #include "worker/bearer_token.h"
 #include "worker/input_links.h"
 #include "worker/input_plan.h"
@@ -460,6 +461,10 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
     if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
     if (auto s = FailureForTest(options_.test_fail_on, job.mesh()); !s.ok()) return s;
+    // Too large for this worker's memory: refused before the download, as
+    // the job's fault (RESOURCE_EXHAUSTED, final) or, when only what is
+    // free now falls short, the worker's (UNAVAILABLE, retried elsewhere).
+    if (auto s = CheckBakeFitsWorker(job.parameters(), renderer_->device(), HostMemoryForTest()); !s.ok()) return s;
     if (!scratch_at_start.ok()) return scratch_at_start.status();
     // Inputs: the entry under its own name, the rest under their relative
     // paths (validated above: no absolute paths, no ".."), each distinct

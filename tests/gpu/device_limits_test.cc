@@ -43,6 +43,10 @@ TEST(DeviceLimits, ContextReadsTheDevicesLimits) {
   // The spec's minimums: 1 GiB for both.
   EXPECT_GE((*ctx)->max_allocation_size(), VkDeviceSize{1} << 30);
   EXPECT_GE((*ctx)->max_buffer_size(), VkDeviceSize{1} << 30);
+  // The same figures, and the largest device-local heap, as the renderer
+  // reports them to the worker's memory check (gpu/device_memory_limits.h).
+  EXPECT_EQ((*ctx)->info().max_allocation_bytes, static_cast<int64_t>((*ctx)->max_allocation_size()));
+  EXPECT_GT((*ctx)->info().device_local_heap_bytes, 0);
   // One byte over the device's largest allocation is refused before Vulkan
   // sees it (no memory is touched).
   const VkDeviceSize over = (*ctx)->max_allocation_size() + 1;

@@ -56,6 +56,11 @@ struct DeviceInfo {
   std::string type;         // "discrete", "integrated", "virtual", "cpu", "other"
   uint32_t api_version = 0;
   std::string driver;       // driverName / driverInfo
+  // The largest device-local heap and VkPhysicalDeviceMaintenance3Properties::
+  // maxMemoryAllocationSize, bytes (what a bake may ask of the device:
+  // gpu/device_memory_limits.h); 0 when unknown.
+  int64_t device_local_heap_bytes = 0;
+  int64_t max_allocation_bytes = 0;
 };
 
 // An impostor atlas held on the device, drawn by the shipped runtime shader

@@ -150,6 +150,14 @@ absl::StatusOr<std::unique_ptr<VulkanContext>> VulkanContext::Create(
   ctx->info_.type = DeviceTypeName(chosen->type);
   ctx->info_.api_version = chosen->api_version;
   ctx->info_.driver = chosen->driver;
+  ctx->info_.max_allocation_bytes = static_cast<int64_t>(ctx->max_allocation_size_);
+  for (uint32_t i = 0; i < ctx->memory_properties_.memoryHeapCount; ++i) {
+    const VkMemoryHeap& heap = ctx->memory_properties_.memoryHeaps[i];
+    if (heap.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) {
+      ctx->info_.device_local_heap_bytes =
+          std::max(ctx->info_.device_local_heap_bytes, static_cast<int64_t>(heap.size));
+    }
+  }
 
   VkPhysicalDeviceFeatures supported{};
   vkGetPhysicalDeviceFeatures(ctx->physical_device_, &supported);

@@ -1,0 +1,97 @@
+// A request too large for a worker's memory, through a real impostor-server
+// and real impostor-worker processes whose host memory is made small with
+// IMPOSTOR_WORKER_TEST_HOST_MEMORY (worker/test_faults.h):
+//  * over the worker's total: the job fails for good on its first attempt,
+//    RESOURCE_EXHAUSTED naming the estimate and the limit, without rendering
+//    (the worker would crash at its render stage: IMPOSTOR_WORKER_TEST_CRASH_ON),
+//    and the worker bakes the next job (it used to die in std::bad_alloc,
+//    three attempts, each one a worker down);
+//  * within the total but over what is available now: UNAVAILABLE, and the
+//    job is baked by another worker.
+// Every wait is for a job event (WatchJob).
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/integration/server_process.h"
+
+namespace impostor {
+namespace {
+
+using testing::ServerProcess;
+
+constexpr char kBox[] = "props_pbr/Box/glTF-Binary/Box.glb";
+constexpr char kBoxTextured[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
+
+// A worker whose leases of one job ended badly is paused for an hour: a
+// retryable failure shows at once, as a worker that takes no more jobs.
+const std::vector<std::string> kPauseAfterOneFailure = {"--worker-failure-limit=1", "--worker-pause-seconds=3600"};
+
+std::string Submit(ServerProcess& server, const char* mesh, uint32_t resolution) {
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = testing::UploadGlb(server.assets(), testing::AssetsDir() / mesh);
+  request.mutable_parameters()->set_frames(8);
+  request.mutable_parameters()->set_resolution(resolution);  // supersampling: the default, 2
+  v1::SubmitBakeResponse response;
+  auto ctx = testing::ContextWithin();
+  const grpc::Status s = server.bake().SubmitBake(ctx.get(), request, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  return response.job_id();
+}
+
+// Ended, or queued again after a failed attempt.
+bool EndedOrRequeued(const v1::Job& j) {
+  return testing::IsTerminalState(j.state()) || (j.state() == v1::JOB_STATE_QUEUED && j.attempts() >= 1);
+}
+
+TEST(MemoryLimit, ARequestOverTheWorkersMemoryFailsForGoodBeforeItRenders) {
+  ServerProcess server(/*local_workers=*/0, kPauseAfterOneFailure);
+  auto worker = testing::StartWorker(server.address(), {"--name=small"},
+                                     {"IMPOSTOR_WORKER_TEST_HOST_MEMORY=100000000",
+                                      std::string("IMPOSTOR_WORKER_TEST_CRASH_ON=") + "Box.glb"});
+  // 1024 px at supersampling 2: about 134 MB on lavapipe, more than the
+  // worker's 100 MB.
+  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, kBox, 1024), EndedOrRequeued);
+  ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED) << "retried: " << failed.DebugString();
+  EXPECT_EQ(failed.error().code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << failed.error().message();
+  EXPECT_EQ(failed.attempts(), 1u);
+  const std::string& message = failed.error().message();
+  EXPECT_EQ(message.rfind("an atlas of 1024 px at supersampling 2 (frames 8) needs about ", 0), 0u) << message;
+  EXPECT_NE(message.find(" of host memory; this worker has 100 MB (IMPOSTOR_WORKER_TEST_HOST_MEMORY): lower "
+                         "--supersampling or --resolution"),
+            std::string::npos)
+      << message;
+
+  // Not held against the worker: it bakes the next job, one that fits.
+  const v1::Job next = testing::WatchToEnd(server.bake(), Submit(server, kBoxTextured, 64));
+  EXPECT_EQ(next.state(), v1::JOB_STATE_SUCCEEDED) << next.error().message();
+  EXPECT_EQ(next.worker_id(), failed.worker_id());
+  EXPECT_TRUE(worker->Running()) << "the worker died";
+}
+
+TEST(MemoryLimit, AWorkerShortOfFreeMemorySendsTheJobToAnother) {
+  ServerProcess server(/*local_workers=*/0, kPauseAfterOneFailure);
+  auto tight = testing::StartWorker(server.address(), {"--name=tight"},
+                                    {"IMPOSTOR_WORKER_TEST_HOST_MEMORY=64000000000:100000000"});
+  const std::string id = Submit(server, kBox, 1024);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << requeued.DebugString();
+  ASSERT_GE(requeued.attempt_history_size(), 1);
+  const v1::JobAttempt& first = requeued.attempt_history(0);
+  EXPECT_EQ(first.outcome(), v1::JobAttempt::OUTCOME_FAILED);
+  EXPECT_NE(first.message().find("this worker has 64.0 GB (IMPOSTOR_WORKER_TEST_HOST_MEMORY) but 100 MB available "
+                                 "now (IMPOSTOR_WORKER_TEST_HOST_MEMORY): another worker may take it"),
+            std::string::npos)
+      << first.message();
+
+  // The tight worker is paused; a worker with room bakes the job.
+  auto roomy = testing::StartWorker(server.address(), {"--name=roomy"});
+  const v1::Job done = testing::WatchToEnd(server.bake(), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.worker_id().rfind("roomy-", 0), 0u) << done.worker_id();
+  EXPECT_EQ(done.attempts(), 2u);
+}
+
+}  // namespace
+}  // namespace impostor
