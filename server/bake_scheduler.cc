@@ -134,6 +134,7 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
         return options;
       }()),
       hot_results_(jobs->SharedWithOtherServers() ? 0 : options.hot_result_entries),
+      outages_seen_(jobs->OutagesRecovered()),
       observer_(NoObserver()) {
   // Jobs other servers change on a shared database wake our waiters too.
   jobs_->SetChangeCallback([this] {
@@ -144,7 +145,7 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
 }
 
 absl::Status BakeScheduler::Save(JobRecord& record) {
-  record.job.set_updated_ms(options_.now_ms());
+  record.job.set_updated_ms(SharedNowMs());
   if (auto s = jobs_->Update(record); !s.ok()) return s;
   ++record.row_version;
   ++changes_;
@@ -278,7 +279,7 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
   auto followers = jobs_->ActiveFollowers(leader.job.job_id());
   if (!followers.ok()) return followers.status();
   if (!followers->empty()) return absl::OkStatus();
-  CloseAttempt(leader.job, v1::JobAttempt::OUTCOME_CANCELLED, "cancelled by CancelJob", options_.now_ms());
+  CloseAttempt(leader.job, v1::JobAttempt::OUTCOME_CANCELLED, "cancelled by CancelJob", SharedNowMs());
   leader.job.set_state(v1::JOB_STATE_CANCELLED);
   leader.job.set_stage("cancelled");
   leader.job.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kCancelled));
@@ -289,7 +290,7 @@ absl::Status BakeScheduler::CancelBakeIfUnwanted(JobRecord& leader) {
 }
 
 void BakeScheduler::TouchResult(const std::string& key) {
-  const int64_t now = options_.now_ms();
+  const int64_t now = SharedNowMs();
   std::lock_guard lock(touch_mu_);
   touched_[key] = now;
 }
@@ -334,7 +335,7 @@ absl::StatusOr<int64_t> BakeScheduler::FlushResultTouches() {
 
 absl::StatusOr<int64_t> BakeScheduler::SweepFinishedJobs() {
   if (options_.job_retention_ms <= 0) return 0;
-  const int64_t cutoff = options_.now_ms() - options_.job_retention_ms;
+  const int64_t cutoff = SharedNowMs() - options_.job_retention_ms;
   constexpr int kBatch = 500;
   int64_t total = 0;
   {
@@ -455,7 +456,7 @@ absl::StatusOr<std::optional<v1::SubmitBakeResponse>> BakeScheduler::RetryAnswer
 
 JobRecord BakeScheduler::NewRecord(const v1::SubmitBakeRequest& request, const v1::BakeParameters& params,
                                    const std::string& key, const std::string& requester, const std::string& owner) {
-  const int64_t now = options_.now_ms();
+  const int64_t now = SharedNowMs();
   JobRecord record;
   record.mesh = request.mesh();
   record.parameters = params;
@@ -865,7 +866,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     // database outage, say) would never start the job: claim nothing.
     if (caller_gone && caller_gone()) return std::optional<v1::LeasedJob>();
     if (!candidates->empty()) {
-      const int64_t now = options_.now_ms();
+      const int64_t now = SharedNowMs();
       // The claim is atomic in the store: when another server took every
       // candidate first, look again at once (the queue moved).
       auto got = jobs_->ClaimQueued(*candidates, {.lease_id = NewId("lease-"),
@@ -892,7 +893,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     }
     if (claimed.has_value()) {
       JobRecord& r = *claimed;
-      const int64_t now = options_.now_ms();
+      const int64_t now = SharedNowMs();
       ++changes_;
       changed_.notify_all();
       if (auto s = jobs_->NoteServed(r.client_id); !s.ok()) {
@@ -975,7 +976,7 @@ absl::StatusOr<v1::ReportProgressResponse> BakeScheduler::ReportProgress(const v
     return absl::FailedPreconditionError(absl::StrCat("job ", request.job_id(), " is no longer running"));
   }
   NoteWorkerSeen(r->worker_id);
-  r->lease_deadline_ms = options_.now_ms() + options_.lease_timeout_ms;
+  r->lease_deadline_ms = SharedNowMs() + options_.lease_timeout_ms;
   r->job.set_progress(request.progress());
   if (!request.stage().empty()) r->job.set_stage(std::string(Utf8Prefix(request.stage(), 64)));
   if (auto s = Save(*r); !s.ok()) return s;
@@ -1012,8 +1013,8 @@ absl::Status BakeScheduler::Complete(const v1::CompleteJobRequest& request) {
   }
   // Even a cancelled job's result is good: keep it for the next request.
   hot_results_.Erase(m.cache_key());  // a re-bake replaces the row; the next read remembers it
-  if (auto s = jobs_->PutResult(m, options_.now_ms()); !s.ok()) return s;
-  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_SUCCEEDED, "", options_.now_ms());
+  if (auto s = jobs_->PutResult(m, SharedNowMs()); !s.ok()) return s;
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_SUCCEEDED, "", SharedNowMs());
   if (r->job.state() == v1::JOB_STATE_RUNNING) ApplyResult(*r, m);
   r->lease_id.clear();
   if (auto s = Save(*r); !s.ok()) return s;
@@ -1041,7 +1042,7 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   if (request.error().message().empty()) request.mutable_error()->set_message("the worker gave no reason");
   request.mutable_error()->set_message(std::string(Utf8Prefix(request.error().message(), kMaxJobErrorBytes)));
   r->lease_id.clear();
-  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), options_.now_ms());
+  CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), SharedNowMs());
   if (r->job.state() == v1::JOB_STATE_RUNNING) {
     const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
     if (retry) {
@@ -1071,7 +1072,7 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
 void BakeScheduler::HandBack(JobRecord& r, std::string_view why) {
   r.lease_id.clear();
   r.lease_deadline_ms = 0;
-  CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED, why, options_.now_ms());
+  CloseAttempt(r.job, v1::JobAttempt::OUTCOME_RELEASED, why, SharedNowMs());
   if (r.job.state() == v1::JOB_STATE_RUNNING) {
     // Handed back, not failed: the attempt does not count.
     r.job.set_attempts(r.job.attempts() > 0 ? r.job.attempts() - 1 : 0);
@@ -1122,7 +1123,7 @@ absl::Status BakeScheduler::LoseLease(JobRecord& r, std::string_view how) {
                how.empty() ? absl::StrCat("no report within the lease timeout of ", options_.lease_timeout_ms / 1000.0,
                                           " s at stage ", stage)
                            : how,
-               options_.now_ms());
+               SharedNowMs());
   NoteWorkerFailure(worker, r.job.job_id());
   if (r.job.attempts() >= options_.max_attempts) {
     r.job.set_state(v1::JOB_STATE_FAILED);
@@ -1182,13 +1183,39 @@ bool BakeScheduler::WorkerPaused(const std::string& worker_id) {
   return IsPaused(worker_id);
 }
 
+int64_t BakeScheduler::SharedNowMs() const { return options_.now_ms() + jobs_->ClockOffsetMs(); }
+
+bool BakeScheduler::LeaseExpiryDeferred() {
+  // While the database was unreachable no worker's heartbeat could be
+  // recorded, so every deadline that passed meanwhile says nothing about
+  // the worker. Running leases get one lease timeout from when the database
+  // answers again (as this sweep sees it: at worst later, never earlier) for
+  // their workers' next heartbeats, rather than have their outage-length
+  // added in the database: that would be one write per running job, by
+  // whichever replicas noticed, and a replica that missed the outage would
+  // add nothing. Local clock: the grace is a span on this server.
+  const uint64_t recovered = jobs_->OutagesRecovered();
+  const int64_t now = options_.now_ms();
+  if (recovered != outages_seen_) {
+    outages_seen_ = recovered;
+    expiry_resumes_ms_ = now + options_.lease_timeout_ms;
+    spdlog::info("event=lease_expiry_deferred reason=database_outage_ended resume_in_ms={}",
+                 options_.lease_timeout_ms);
+  }
+  return now < expiry_resumes_ms_;
+}
+
 absl::Status BakeScheduler::ExpireLeases() {
   std::lock_guard lock(mu_);
   // One server on a shared database sweeps; the others skip.
   auto maintainer = jobs_->HoldMaintenanceLock();
   if (!maintainer.ok()) return maintainer.status();
+  // Every server notes ended outages, so one that takes the role over later
+  // knows when its grace ran out.
+  const bool deferred = LeaseExpiryDeferred();
   if (!*maintainer) return absl::OkStatus();
-  auto expired = jobs_->ExpiredLeases(options_.now_ms());
+  absl::StatusOr<std::vector<JobRecord>> expired = std::vector<JobRecord>();
+  if (!deferred) expired = jobs_->ExpiredLeases(SharedNowMs());
   if (!expired.ok()) return expired.status();
   for (JobRecord& r : *expired) {
     absl::Status s = LoseLease(r, "");

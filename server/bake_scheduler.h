@@ -368,6 +368,15 @@ class BakeScheduler {
   void NoteWorkerFailure(const std::string& worker_id, const std::string& job_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   bool IsPaused(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Unix ms on the clock every server on the job database shares: the
+  // local clock (options_.now_ms) plus the store's ClockOffsetMs. Lease
+  // deadlines, the lease sweep and stored job times use it, so one server's
+  // wrong clock cannot expire the leases another wrote. In-memory per-server
+  // times (worker last seen, pauses) stay on the local clock.
+  int64_t SharedNowMs() const;
+  // True while the lease sweep waits out the grace after a database outage
+  // ended (see the .cc); notes a newly ended outage.
+  bool LeaseExpiryDeferred() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   JobStore* const jobs_;
   BlobStore* const blobs_;
@@ -415,6 +424,10 @@ class BakeScheduler {
   // store is next recounted from the directory even if this process's own
   // count says it is under the cap.
   std::atomic<int64_t> next_shared_recount_ms_{0};
+  // jobs_->OutagesRecovered() as the lease sweep last saw it, and until
+  // when (options_.now_ms) it expires no lease because of the latest.
+  uint64_t outages_seen_ ABSL_GUARDED_BY(mu_) = 0;
+  int64_t expiry_resumes_ms_ ABSL_GUARDED_BY(mu_) = 0;
   // Never null: a do-nothing observer until SetObserver. Atomic: hits
   // answered without mu_ count through it too.
   std::atomic<SchedulerObserver*> observer_;

@@ -6,8 +6,9 @@
 //
 // Plain persistence: no scheduling policy lives here (see BakeScheduler).
 // Thread-safety: an engine need not be thread-safe; the owner serialises
-// calls (BakeScheduler holds its mutex around every call). Probe and
-// Outage are the exceptions: thread-safe, called without that mutex, so
+// calls (BakeScheduler holds its mutex around every call). Probe,
+// Outage, OutagesRecovered and ClockOffsetMs are the exceptions:
+// thread-safe, called without that mutex, so
 // that a readiness check or a dashboard is never queued behind a statement
 // that is waiting out a database outage.
 #ifndef IMPOSTOR_SERVER_JOB_STORE_H_
@@ -240,6 +241,18 @@ class JobStore {
   // and why; OK otherwise. Costs no round trip: read-only views check it
   // first and answer at once.
   virtual absl::Status Outage() const { return absl::OkStatus(); }
+  // How many outages have ended since the engine opened: the database
+  // became reachable again after statements failed for want of it. While
+  // it was unreachable no worker's heartbeat could be recorded, so the
+  // lease sweep gives running leases one lease timeout after each before it
+  // expires any. An embedded engine has no outages: 0.
+  virtual uint64_t OutagesRecovered() const { return 0; }
+  // What to add to this server's system clock to read the clock every
+  // server on the database shares (lease deadlines and the sweep's "now"
+  // must be on one clock, or a server whose clock runs ahead expires
+  // everyone's leases). Measured by the engine as it talks to the
+  // database; 0 for an engine with one server per database.
+  virtual int64_t ClockOffsetMs() const { return 0; }
 };
 
 }  // namespace impostor

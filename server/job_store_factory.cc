@@ -28,7 +28,8 @@ absl::StatusOr<std::unique_ptr<JobStore>> OpenJobStore(const JobStoreConfig& con
   auto store = PostgresJobStore::Open({.url = config.database_url,
                                        .pool_size = config.pool_size,
                                        .statement_timeout_ms = config.statement_timeout_ms,
-                                       .dead_link_seconds = config.dead_link_seconds});
+                                       .dead_link_seconds = config.dead_link_seconds,
+                                       .maintenance_takeover_ms = config.maintenance_takeover_ms});
   if (!store.ok()) return store.status();
   return std::unique_ptr<JobStore>(std::move(*store));
 }

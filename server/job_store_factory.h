@@ -4,6 +4,7 @@
 #ifndef IMPOSTOR_SERVER_JOB_STORE_FACTORY_H_
 #define IMPOSTOR_SERVER_JOB_STORE_FACTORY_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -24,6 +25,9 @@ struct JobStoreConfig {
   int statement_timeout_ms = 10'000;
   // PostgreSQL only: --database-dead-link-seconds (pg_dead_link.h).
   int dead_link_seconds = kDefaultDeadLinkSeconds;
+  // PostgreSQL only: --database-maintenance-takeover-seconds, in ms
+  // (PostgresJobStore::Options::maintenance_takeover_ms).
+  int64_t maintenance_takeover_ms = 30'000;
 };
 
 // True for the URL schemes the PostgreSQL engine takes.

@@ -75,6 +75,10 @@ ABSL_FLAG(int, database_dead_link_seconds, impostor::kDefaultDeadLinkSeconds,
           "Seconds after which a PostgreSQL connection whose link died without a reset is given up, by this "
           "server and by the database (which then frees a vanished replica's maintenance lock); the URL's own "
           "keepalive and timeout keywords win (2..3600)");
+ABSL_FLAG(int, database_maintenance_takeover_seconds, 30,
+          "Seconds a replica holding the maintenance role (lease expiry, eviction, retention) may go without a "
+          "sweep before another replica ends its database session and takes the role over, e.g. when it hangs "
+          "(2..3600)");
 ABSL_FLAG(int, local_workers, 0, "Number of impostor-worker processes to run and keep alive (0..64)");
 ABSL_FLAG(std::string, worker_binary, "", "Worker executable for --local-workers (default: next to this binary)");
 ABSL_FLAG(int, lease_timeout_s, 30, "Seconds without a worker report before its job is queued again (1..3600)");
@@ -265,7 +269,12 @@ int main(int argc, char** argv) {
       .data_dir = data,
       .pool_size = absl::GetFlag(FLAGS_database_pool_size),
       .statement_timeout_ms = absl::GetFlag(FLAGS_database_statement_timeout_ms),
-      .dead_link_seconds = absl::GetFlag(FLAGS_database_dead_link_seconds)};
+      .dead_link_seconds = absl::GetFlag(FLAGS_database_dead_link_seconds),
+      .maintenance_takeover_ms = int64_t{absl::GetFlag(FLAGS_database_maintenance_takeover_seconds)} * 1000};
+  if (store_config.maintenance_takeover_ms < 2000 || store_config.maintenance_takeover_ms > 3'600'000) {
+    return Fail("--database-maintenance-takeover-seconds: " +
+                std::to_string(store_config.maintenance_takeover_ms / 1000) + " is out of range 2..3600");
+  }
   if (store_config.pool_size < 1 || store_config.pool_size > 64) {
     return Fail("--database-pool-size: " + std::to_string(store_config.pool_size) + " is out of range 1..64");
   }

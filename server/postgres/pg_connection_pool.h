@@ -142,6 +142,15 @@ class PgConnectionPool {
   // UNAVAILABLE ("unreachable for N s: WHY") from the moment a reconnect
   // or a probe fails until a statement or a probe succeeds; OK otherwise.
   absl::Status Outage() const;
+  // How many outages have ended: the database became reachable again after
+  // a reconnect, a probe or a connection outside the pool failed. Workers'
+  // heartbeats could not be recorded meanwhile (see BakeScheduler's lease
+  // sweep).
+  uint64_t OutagesRecovered() const;
+  // For connections outside the pool (the maintenance lock's): a statement
+  // on one failed for want of the database, or one succeeded.
+  void NoteUnreachable(const absl::Status& why);
+  void NoteReachable();
   const std::string& redacted_url() const { return redacted_url_; }
 
  private:
@@ -150,8 +159,6 @@ class PgConnectionPool {
   void Return(pg_conn* conn);
   // The libpq keywords and values every connection is made with.
   std::vector<std::pair<std::string, std::string>> ConnectParams() const;
-  void NoteReachable();
-  void NoteUnreachable(const absl::Status& why);
 
   const Options options_;
   const std::string redacted_url_;
@@ -166,6 +173,7 @@ class PgConnectionPool {
   std::chrono::steady_clock::time_point unreachable_since_;  // meaningful while unreachable_
   bool unreachable_ = false;
   std::string unreachable_why_;
+  uint64_t outages_recovered_ = 0;  // guarded by outage_mu_
 };
 
 }  // namespace impostor

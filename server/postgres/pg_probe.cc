@@ -136,6 +136,7 @@ void PgConnectionPool::NoteReachable() {
   std::lock_guard lock(outage_mu_);
   if (!unreachable_) return;
   unreachable_ = false;
+  ++outages_recovered_;
   const double seconds = std::chrono::duration<double>(Clock::now() - unreachable_since_).count();
   spdlog::info("event=database_reachable url={} unreachable_seconds={:.1f}", redacted_url_, seconds);
 }
@@ -146,6 +147,11 @@ void PgConnectionPool::NoteUnreachable(const absl::Status& why) {
   if (unreachable_) return;
   unreachable_ = true;
   unreachable_since_ = Clock::now();
+}
+
+uint64_t PgConnectionPool::OutagesRecovered() const {
+  std::lock_guard lock(outage_mu_);
+  return outages_recovered_;
 }
 
 absl::Status PgConnectionPool::Outage() const {

@@ -67,6 +67,9 @@ END $$ LANGUAGE plpgsql;
 CREATE TRIGGER jobs_changed AFTER INSERT OR UPDATE OR DELETE ON jobs
   FOR EACH STATEMENT EXECUTE FUNCTION impostor_notify_jobs();
 )sql",
+    // 2: the maintenance holder's heartbeat, so a hung holder can be
+    // replaced (pg_maintenance_lock.h).
+    kMaintenanceHolderTableSql,
 };
 constexpr int kSchemaVersion = static_cast<int>(std::size(kMigrations));
 
@@ -159,8 +162,9 @@ absl::StatusOr<std::unique_ptr<PostgresJobStore>> PostgresJobStore::Open(const O
                                       .reconnect_window_ms = options.reconnect_window_ms,
                                       .dead_link_seconds = options.dead_link_seconds});
   if (!pool.ok()) return pool.status();
-  std::unique_ptr<PostgresJobStore> store(new PostgresJobStore(std::move(*pool)));
+  std::unique_ptr<PostgresJobStore> store(new PostgresJobStore(std::move(*pool), options));
   if (auto s = store->Migrate(); !s.ok()) return s;
+  if (auto s = store->SampleClock(); !s.ok()) return s;
   // LISTEN before Open returns, so no change made after it is missed.
   auto conn = store->ListenConnection();
   if (!conn.ok()) return conn.status();
@@ -168,11 +172,22 @@ absl::StatusOr<std::unique_ptr<PostgresJobStore>> PostgresJobStore::Open(const O
   return store;
 }
 
+PostgresJobStore::PostgresJobStore(std::unique_ptr<PgConnectionPool> pool, const Options& options)
+    : pool_(std::move(pool)),
+      clock_(options.local_clock_ms, pool_->redacted_url()),
+      maintenance_(pool_.get(), &clock_, kMaintenanceLockKey, options.maintenance_takeover_ms) {}
+
 PostgresJobStore::~PostgresJobStore() {
   stop_ = true;
   if (listener_.joinable()) listener_.join();
-  std::lock_guard lock(maintenance_mu_);
-  if (maintenance_conn_ != nullptr) PQfinish(maintenance_conn_);
+}
+
+absl::Status PostgresJobStore::SampleClock() {
+  const int64_t sent = clock_.LocalNowMs();
+  auto rows = pool_->Exec("read the database clock", absl::StrCat("SELECT ", kDatabaseClockMsSql));
+  if (!rows.ok()) return rows.status();
+  clock_.Note(sent, rows->Int(0, 0), clock_.LocalNowMs());
+  return absl::OkStatus();
 }
 
 absl::Status PostgresJobStore::Migrate() {
@@ -522,40 +537,7 @@ absl::StatusOr<std::map<std::string, int64_t>> PostgresJobStore::LastServed() {
   return out;
 }
 
-absl::StatusOr<bool> PostgresJobStore::HoldMaintenanceLock() {
-  std::lock_guard lock(maintenance_mu_);
-  auto query = [&](const std::string& sql) -> std::optional<std::string> {
-    PGresult* r = PQexec(maintenance_conn_, sql.c_str());
-    std::optional<std::string> out;
-    if (r && PQresultStatus(r) == PGRES_TUPLES_OK && PQntuples(r) == 1) out = PQgetvalue(r, 0, 0);
-    PQclear(r);
-    return out;
-  };
-  if (maintenance_conn_ != nullptr && maintenance_held_) {
-    // Still ours while the session lives: check that it does.
-    if (query("SELECT 1").has_value()) return true;
-    spdlog::warn("event=maintenance_lock_lost url={}", pool_->redacted_url());
-    PQfinish(maintenance_conn_);
-    maintenance_conn_ = nullptr;
-    maintenance_held_ = false;
-  }
-  if (maintenance_conn_ == nullptr || PQstatus(maintenance_conn_) != CONNECTION_OK) {
-    if (maintenance_conn_ != nullptr) PQfinish(maintenance_conn_);
-    maintenance_conn_ = nullptr;
-    auto conn = pool_->Connect();
-    if (!conn.ok()) return conn.status();
-    maintenance_conn_ = *conn;
-  }
-  const auto got = query(absl::StrCat("SELECT pg_try_advisory_lock(", kMaintenanceLockKey, ")"));
-  if (!got.has_value()) {
-    PQfinish(maintenance_conn_);
-    maintenance_conn_ = nullptr;
-    return absl::UnavailableError(absl::StrCat("postgresql maintenance lock (", pool_->redacted_url(), "): failed"));
-  }
-  maintenance_held_ = *got == "t";
-  if (maintenance_held_) spdlog::info("event=maintenance_lock_acquired url={}", pool_->redacted_url());
-  return maintenance_held_;
-}
+absl::StatusOr<bool> PostgresJobStore::HoldMaintenanceLock() { return maintenance_.Hold(); }
 
 void PostgresJobStore::SetChangeCallback(std::function<void()> callback) {
   std::lock_guard lock(callback_mu_);

@@ -11,8 +11,12 @@
 // - Wake-ups: a trigger NOTIFYs `impostor_jobs` on every job change; a
 //   listener thread on its own connection runs the change callback.
 // - Maintenance: HoldMaintenanceLock holds a session advisory lock on its
-//   own connection; when that replica dies its session ends and the next
-//   replica to ask gets it.
+//   own connection and renews a heartbeat row each sweep; when that replica
+//   dies its session ends, and when it hangs another replica ends its
+//   session after `maintenance_takeover_ms` (pg_maintenance_lock.h).
+// - Time: ClockOffsetMs puts lease deadlines and sweeps on the database's
+//   clock, measured each sweep (pg_clock_offset.h); OutagesRecovered counts
+//   the database coming back after an outage (the sweep's grace).
 // - Connections: a pool with a statement timeout and reconnects
 //   (pg_connection_pool.h); errors name the URL without its password.
 //
@@ -29,7 +33,9 @@
 #include <thread>
 
 #include "server/job_store.h"
+#include "server/postgres/pg_clock_offset.h"
 #include "server/postgres/pg_connection_pool.h"
+#include "server/postgres/pg_maintenance_lock.h"
 
 namespace impostor {
 
@@ -47,6 +53,14 @@ class PostgresJobStore : public JobStore {
     int statement_timeout_ms = 10'000;
     int64_t reconnect_window_ms = 30'000;
     int dead_link_seconds = kDefaultDeadLinkSeconds;  // PgConnectionPool::Options
+    // A maintenance holder whose heartbeat is older than this (on the
+    // database's clock) is taken to have hung: another replica ends its
+    // session and takes the role (pg_maintenance_lock.h). More than a sweep
+    // can take: default 30 s (three statement timeouts); range 2 s .. 1 h.
+    int64_t maintenance_takeover_ms = 30'000;
+    // This server's clock, Unix ms; null = the system clock. Test-only: a
+    // skewed clock, as a host's wrong time would give (pg_clock_offset.h).
+    std::function<int64_t()> local_clock_ms = nullptr;
   };
   // Connects, migrates and starts the listener. UNAVAILABLE naming the
   // redacted URL when the database cannot be reached; FAILED_PRECONDITION
@@ -97,9 +111,11 @@ class PostgresJobStore : public JobStore {
   void SetChangeCallback(std::function<void()> callback) override;
   absl::Status Probe(int timeout_ms) override { return pool_->Probe(timeout_ms); }
   absl::Status Outage() const override { return pool_->Outage(); }
+  uint64_t OutagesRecovered() const override { return pool_->OutagesRecovered(); }
+  int64_t ClockOffsetMs() const override { return clock_.offset_ms(); }
 
  private:
-  explicit PostgresJobStore(std::unique_ptr<PgConnectionPool> pool) : pool_(std::move(pool)) {}
+  PostgresJobStore(std::unique_ptr<PgConnectionPool> pool, const Options& options);
   absl::Status Migrate();
   absl::StatusOr<std::optional<JobRecord>> QueryOne(const std::string& what, const std::string& sql,
                                                     const PgParams& params);
@@ -109,11 +125,12 @@ class PostgresJobStore : public JobStore {
   absl::StatusOr<pg_conn*> ListenConnection();
   void Listen(pg_conn* conn);  // the listener thread's body; owns `conn`
 
-  std::unique_ptr<PgConnectionPool> pool_;
+  // Measures the offset once, at Open (later, each sweep samples it).
+  absl::Status SampleClock();
 
-  std::mutex maintenance_mu_;
-  pg_conn* maintenance_conn_ = nullptr;  // holds the advisory lock while alive
-  bool maintenance_held_ = false;
+  std::unique_ptr<PgConnectionPool> pool_;
+  PgClockOffset clock_;
+  PgMaintenanceLock maintenance_;
 
   std::mutex callback_mu_;
   std::function<void()> callback_;
