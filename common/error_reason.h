@@ -29,6 +29,11 @@ inline constexpr char kFarmPendingJobs[] = "FARM_PENDING_JOBS";        // the wh
 inline constexpr char kTokenBakesPerHour[] = "TOKEN_BAKES_PER_HOUR";  // a sliding one-hour window
 // RESOURCE_EXHAUSTED from UploadBlob: a sliding 24-hour window.
 inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
+// RESOURCE_EXHAUSTED from UploadBlob: the server's blob store has no space
+// (disk or quota full). The farm's state, not the blob's: writes succeed
+// again by themselves once space is freed, so a worker waits and retries
+// its result upload as through an outage (worker/worker_loop.cc).
+inline constexpr char kStoreFull[] = "STORE_FULL";
 // FAILED_PRECONDITION from SubmitBake: one of the mesh's blobs is not in the
 // store (never uploaded, or evicted since the upload): upload it, submit again.
 inline constexpr char kInputBlobMissing[] = "INPUT_BLOB_MISSING";

@@ -33,19 +33,22 @@ grpc::Status AssetServiceImpl::FindMissingBlobs(grpc::ServerContext*, const v1::
   return grpc::Status::OK;
 }
 
-grpc::Status AssetServiceImpl::UploadBlob(grpc::ServerContext*, grpc::ServerReader<v1::UploadBlobRequest>* reader,
+// Refusals go out with their error reason: STORE_FULL when the store has no
+// space, which a worker waits out (common/error_reason.h).
+grpc::Status AssetServiceImpl::UploadBlob(grpc::ServerContext* context,
+                                          grpc::ServerReader<v1::UploadBlobRequest>* reader,
                                           v1::UploadBlobResponse* response) {
   v1::UploadBlobRequest chunk;
   if (!reader->Read(&chunk)) return ToGrpc(absl::InvalidArgumentError("digest: the stream carried no message"));
   if (!chunk.has_digest()) return ToGrpc(absl::InvalidArgumentError("digest: required in the first message"));
   const BlobDigest digest = ToDigest(chunk.digest());
   auto writer = blobs_->NewWriter(digest);
-  if (!writer.ok()) return ToGrpc(writer.status());
+  if (!writer.ok()) return ToGrpc(writer.status(), context);
   do {
-    if (auto s = (*writer)->Append(chunk.data()); !s.ok()) return ToGrpc(s);
+    if (auto s = (*writer)->Append(chunk.data()); !s.ok()) return ToGrpc(s, context);
   } while (reader->Read(&chunk));
   auto present = (*writer)->Commit();
-  if (!present.ok()) return ToGrpc(present.status());
+  if (!present.ok()) return ToGrpc(present.status(), context);
   response->mutable_digest()->set_hash(digest.hash);
   response->mutable_digest()->set_size_bytes(digest.size_bytes);
   response->set_already_present(*present);

@@ -13,17 +13,25 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "common/error_reason.h"
 #include "server/disk_full.h"
 
 namespace impostor {
 namespace fs = std::filesystem;
 namespace {
 
-// INTERNAL naming the call and path; RESOURCE_EXHAUSTED with the free space
-// when the disk or quota is full.
+// RESOURCE_EXHAUSTED with the free space, marked STORE_FULL: a full store
+// is the farm's state, not the blob's, so a worker's result upload waits
+// for space instead of failing its job for good (common/error_reason.h).
+absl::Status StoreFullError(std::string_view what, const fs::path& path, std::string_view cause) {
+  return WithErrorReason(DiskFullError(what, path, cause), error_reason::kStoreFull);
+}
+
+// INTERNAL naming the call and path; StoreFullError when the disk or quota
+// is full.
 absl::Status ErrnoError(std::string_view what, const fs::path& path) {
   const int error_number = errno;
-  if (IsDiskFull(error_number)) return DiskFullError(what, path, std::strerror(error_number));
+  if (IsDiskFull(error_number)) return StoreFullError(what, path, std::strerror(error_number));
   return absl::InternalError(absl::StrCat(std::string(what), " ", path.string(), ": ", std::strerror(error_number)));
 }
 
@@ -93,7 +101,7 @@ class FileWriter final : public BlobStore::Writer {
     std::error_code ec;
     if (fs::exists(final_path_, ec)) return true;
     fs::create_directories(final_path_.parent_path(), ec);
-    if (ec && IsDiskFull(ec.value())) return DiskFullError("create", final_path_.parent_path(), ec.message());
+    if (ec && IsDiskFull(ec.value())) return StoreFullError("create", final_path_.parent_path(), ec.message());
     if (::rename(tmp_path_.c_str(), final_path_.c_str()) != 0) return ErrnoError("rename into", final_path_);
     committed_ = true;
     on_published_(digest_.size_bytes);

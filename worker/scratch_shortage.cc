@@ -3,6 +3,8 @@
 #include <cstring>
 #include <string>
 
+#include <spdlog/spdlog.h>
+
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "common/disk_space.h"
@@ -62,9 +64,44 @@ absl::Status AttributeScratchShortage(const absl::Status& failure, const Scratch
                      "give the workers a larger --scratch (",
                      failure.message(), ")"));
   }
-  return absl::UnavailableError(absl::StrCat("the worker's scratch ", dir.string(), " ran out of space (", held,
+  return ShortOnThisWorker(absl::StrCat("the worker's scratch ", dir.string(), " ran out of space (", held,
                                              "; other files hold the rest): another worker may take it (",
                                              failure.message(), ")"));
+}
+
+int64_t BytesToLeaseAgain(const ScratchFacts& facts) {
+  if (facts.inputs_need > facts.at_start.available_bytes) return facts.inputs_need;
+  return facts.at_start.available_bytes + kFullMarginBytes;
+}
+
+bool WaitForScratchRoom(const std::filesystem::path& dir, int64_t need_bytes, std::chrono::seconds budget,
+                        const std::function<bool(std::chrono::milliseconds)>& pause) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto available = [&dir] {
+    const absl::StatusOr<ScratchSpace> space = MeasureScratch(dir);
+    return space.ok() ? space->available_bytes : int64_t{-1};
+  };
+  int64_t now_available = available();
+  if (now_available >= need_bytes) return true;
+  spdlog::warn("event=scratch_wait dir=\"{}\" need_bytes={} available_bytes={} max_wait_s={} action=no_lease",
+               dir.string(), need_bytes, now_available, budget.count());
+  auto backoff = std::chrono::milliseconds(200);
+  bool stopped = false;
+  while (now_available < need_bytes && Clock::now() - start < budget) {
+    if (!pause(backoff)) {
+      stopped = true;
+      break;
+    }
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+    now_available = available();
+  }
+  const bool room = now_available >= need_bytes;
+  spdlog::info("event=scratch_wait_end dir=\"{}\" need_bytes={} available_bytes={} waited_s={:.1f} outcome={}",
+               dir.string(), need_bytes, now_available,
+               std::chrono::duration<double>(Clock::now() - start).count(),
+               room ? "room" : (stopped ? "stopping" : "budget_spent_leasing_anyway"));
+  return room;
 }
 
 }  // namespace impostor

@@ -12,14 +12,19 @@
 //    small neighbour): it would not fit on an empty scratch of this size
 //    either. RESOURCE_EXHAUSTED, final: no retry, no pause.
 //  * otherwise the worker's state: other files hold enough of the scratch
-//    that the job might fit without them. UNAVAILABLE, retryable: another
-//    worker takes the job, and a worker whose disk stays full is paused.
+//    that the job might fit without them. UNAVAILABLE (ShortOnThisWorker),
+//    retryable: another worker takes the job. This worker then leases
+//    nothing until its scratch has room for that job again
+//    (WaitForScratchRoom): leasing at once took the same job back 3 ms
+//    after each failure and spent all its attempts on the full worker.
 // Thread-safe.
 #ifndef IMPOSTOR_WORKER_SCRATCH_SHORTAGE_H_
 #define IMPOSTOR_WORKER_SCRATCH_SHORTAGE_H_
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string_view>
 
 #include "absl/status/status.h"
@@ -52,6 +57,20 @@ struct ScratchFacts {
 // known), ending with `failure`'s message.
 absl::Status AttributeScratchShortage(const absl::Status& failure, const ScratchFacts& facts,
                                       const std::filesystem::path& dir);
+
+// The bytes the scratch must have available before a worker whose job
+// failed with ShortOnThisWorker leases again: the inputs' need when they
+// did not fit what was free; else more than the job found available when
+// it started (it used all of that and ran out), by a 1 MiB margin.
+int64_t BytesToLeaseAgain(const ScratchFacts& facts);
+
+// Waits until `dir`'s filesystem has `need_bytes` available, re-measuring
+// with backoff (0.2 s doubling to 5 s), for at most `budget`. `pause(d)`
+// waits d and returns false when the worker stops (the wait ends at once).
+// Logs one event line as the wait begins and one as it ends. True when the
+// room is there.
+bool WaitForScratchRoom(const std::filesystem::path& dir, int64_t need_bytes, std::chrono::seconds budget,
+                        const std::function<bool(std::chrono::milliseconds)>& pause);
 
 }  // namespace impostor
 

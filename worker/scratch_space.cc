@@ -10,12 +10,17 @@
 #include <system_error>
 #include <utility>
 
+#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 
 namespace impostor {
 namespace {
 
 namespace fs = std::filesystem;
+
+// The payload that marks ShortOnThisWorker: the code alone cannot say it
+// (UNAVAILABLE is also a server outage, or memory that is taken now).
+constexpr char kShortOnThisWorkerPayload[] = "type.impostor.dev/worker.ScratchShortOnThisWorker";
 
 std::string WhatNeedsIt(const ScratchDemand& demand) {
   return absl::StrCat("(", demand.blob_count, demand.blob_count == 1 ? " distinct blob" : " distinct blobs",
@@ -32,7 +37,7 @@ absl::Status CheckOne(const char* unit, int64_t needed, int64_t capacity, int64_
         " available): the job cannot fit on this worker; send smaller inputs or give the workers a larger --scratch"));
   }
   if (needed > available) {
-    return absl::UnavailableError(absl::StrCat(need, " but the worker's scratch ", dir.string(), " has ", available,
+    return ShortOnThisWorker(absl::StrCat(need, " but the worker's scratch ", dir.string(), " has ", available,
                                                " of its ", capacity, " ", unit,
                                                " available (other files hold the rest): another worker may take it"));
   }
@@ -40,6 +45,16 @@ absl::Status CheckOne(const char* unit, int64_t needed, int64_t capacity, int64_
 }
 
 }  // namespace
+
+absl::Status ShortOnThisWorker(const std::string& message) {
+  absl::Status status = absl::UnavailableError(message);
+  status.SetPayload(kShortOnThisWorkerPayload, absl::Cord());
+  return status;
+}
+
+bool IsShortOnThisWorker(const absl::Status& status) {
+  return status.GetPayload(kShortOnThisWorkerPayload).has_value();
+}
 
 absl::StatusOr<ScratchSpace> MeasureScratch(const fs::path& dir) {
   struct statvfs st {};

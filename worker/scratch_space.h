@@ -20,12 +20,22 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "worker/input_plan.h"
 
 namespace impostor {
+
+// UNAVAILABLE with `message`, marked as this worker's scratch being too full
+// for a job that would fit it empty (the worker's state, not the job's). The
+// worker leases nothing more until the scratch has room again
+// (WaitForScratchRoom, scratch_shortage.h), else it takes the same job back
+// within milliseconds and spends all its attempts itself.
+absl::Status ShortOnThisWorker(const std::string& message);
+// True for a status from ShortOnThisWorker.
+bool IsShortOnThisWorker(const absl::Status& status);
 
 // One look at a filesystem, as an unprivileged writer sees it (root's
 // reserve left out: the worker need not run as root).
@@ -44,7 +54,7 @@ absl::StatusOr<ScratchSpace> MeasureScratch(const std::filesystem::path& dir);
 
 // OK when `demand` fits what is available; else, naming the bytes (or
 // inodes) needed, available and in all, and `dir`: RESOURCE_EXHAUSTED when
-// it exceeds the capacity, UNAVAILABLE when only what is free now.
+// it exceeds the capacity, ShortOnThisWorker when only what is free now.
 absl::Status CheckInputsFit(const ScratchDemand& demand, const ScratchSpace& space,
                             const std::filesystem::path& dir);
 

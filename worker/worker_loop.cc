@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/bake_request.h"
 #include "common/connect_error.h"
+#include "common/error_reason.h"
 #include "common/keepalive.h"
 #include "common/log_escape.h"
 #include "common/server_list.h"
@@ -126,7 +127,29 @@ absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, co
     first = false;
   }
   writer->WritesDone();
-  return FromGrpc(writer->Finish(), "UploadBlob");
+  absl::Status finished = FromGrpc(writer->Finish(), "UploadBlob");
+  // The server's reason for a refusal (a full store) rides as trailing
+  // metadata; kept on the status so the caller can tell it from the
+  // blob's own fault.
+  const auto& trailers = ctx->GetServerTrailingMetadata();
+  if (auto reason = trailers.find(kErrorReasonMetadataKey); !finished.ok() && reason != trailers.end()) {
+    finished = WithErrorReason(std::move(finished), std::string_view(reason->second.data(), reason->second.size()));
+  }
+  return finished;
+}
+
+// An upload the server refused because its blob store has no space: the
+// farm's state, which clears once space is freed, not the result's fault.
+bool IsStoreFull(const absl::Status& s) {
+  return s.code() == absl::StatusCode::kResourceExhausted && ErrorReasonOf(s) == error_reason::kStoreFull;
+}
+
+// A call that timed out or found no server: an outage to ride out within
+// --max-outage-seconds. A deadline passing on a short unary call means the
+// server is up but cannot answer now (its database is away), and moving
+// through every replica does not change that.
+bool IsOutage(grpc::StatusCode code) {
+  return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED;
 }
 
 // A folder under the scratch directory for one job, named by this worker:
@@ -268,8 +291,17 @@ absl::Status WorkerLoop::Run() {
       ReleaseLease(response.job(), "worker draining: leased as the drain began");
       break;
     }
-    ProcessJob(response.job());
+    const int64_t scratch_needed = ProcessJob(response.job());
     if (options_.max_jobs > 0 && ++jobs_done >= options_.max_jobs) break;
+    if (scratch_needed > 0) {
+      // Not a lease until the job just failed would fit again: another
+      // worker takes it meanwhile (scratch_shortage.h).
+      WaitForScratchRoom(options_.scratch_dir, scratch_needed, std::chrono::seconds(options_.max_outage_seconds),
+                         [this](std::chrono::milliseconds pause) {
+                           std::unique_lock lock(job_mu_);
+                           return !job_wake_.wait_for(lock, pause, [this] { return stop_.load(); });
+                         });
+    }
   }
   return absl::OkStatus();
 }
@@ -295,13 +327,24 @@ grpc::Status WorkerLoop::RetryThroughOutage(std::string_view rpc, const ChannelC
     std::lock_guard lock(job_mu_);
     return drain_deadline_ ? std::min(outage_end, *drain_deadline_ + std::chrono::seconds(1)) : outage_end;
   };
+  const auto start = Clock::now();
   auto backoff = std::chrono::milliseconds(200);
   while (true) {
     bool try_next_now = false;
     const grpc::Status s = CallServer(call, &try_next_now);
-    if ((s.error_code() != grpc::StatusCode::UNAVAILABLE && !try_next_now) || Clock::now() >= give_up()) return s;
-    spdlog::warn("event=rpc_retry rpc={} error=\"{}\" retry_ms={}", std::string(rpc), s.error_message(),
-                 try_next_now ? 0 : backoff.count());
+    if (!IsOutage(s.error_code()) && !try_next_now) return s;
+    const double down_s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (Clock::now() >= give_up()) {
+      if (!IsOutage(s.error_code())) return s;
+      // Say that the budget ran out, not only the last call's error.
+      return grpc::Status(s.error_code(), absl::StrCat(s.error_message(), " (", std::string(rpc), " found no server ",
+                                                       "able to answer for ", static_cast<int64_t>(down_s),
+                                                       " s; --max-outage-seconds ", options_.max_outage_seconds,
+                                                       " or the drain deadline ran out)"));
+    }
+    spdlog::warn("event=rpc_retry rpc={} code={} error=\"{}\" down_s={:.1f} max_outage_s={} retry_ms={}",
+                 std::string(rpc), static_cast<int>(s.error_code()), EscapeUntrusted(s.error_message()), down_s,
+                 options_.max_outage_seconds, try_next_now ? 0 : backoff.count());
     if (try_next_now) continue;  // another replica, at once
     channels_->Current().channel->WaitForConnected(std::chrono::system_clock::now() + backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
@@ -326,13 +369,49 @@ absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const f
 absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
   // A finished bake is worth keeping through a server restart: the lease
   // survives it, so the upload and CompleteJob can go through afterwards.
-  absl::Status outcome;
-  RetryThroughOutage("UploadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-    v1::AssetService::Stub assets(channel);
-    outcome = UploadFile(assets, path, digest);
-    return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
-  });
-  return outcome;
+  // A full blob store is waited out the same way (the heartbeats keep the
+  // lease): failing the job for it lost every running and queued bake of
+  // a farm whose disk filled for 25 s.
+  const auto start = Clock::now();
+  const auto give_up = [&] {
+    const auto outage_end = start + std::chrono::seconds(options_.max_outage_seconds);
+    std::lock_guard lock(job_mu_);
+    return drain_deadline_ ? std::min(outage_end, *drain_deadline_) : outage_end;
+  };
+  auto backoff = std::chrono::milliseconds(500);
+  bool waiting = false;
+  while (true) {
+    absl::Status outcome;
+    RetryThroughOutage("UploadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
+      v1::AssetService::Stub assets(channel);
+      outcome = UploadFile(assets, path, digest);
+      return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+    });
+    const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!IsStoreFull(outcome)) {
+      if (waiting) {
+        spdlog::info("event=store_full_end file={} waited_s={:.1f} ok={}", path.filename().string(), waited_s,
+                     outcome.ok());
+      }
+      return outcome;
+    }
+    if (Clock::now() >= give_up()) {
+      // Retryable: the result is not at fault; another attempt may find space.
+      return absl::UnavailableError(absl::StrCat("the server's blob store stayed full for ",
+                                                 static_cast<int64_t>(waited_s), " s (--max-outage-seconds ",
+                                                 options_.max_outage_seconds, " or the drain deadline): ",
+                                                 outcome.message()));
+    }
+    if (!std::exchange(waiting, true)) {
+      spdlog::warn("event=store_full file={} action=wait max_wait_s={} error=\"{}\"", path.filename().string(),
+                   options_.max_outage_seconds, EscapeUntrusted(std::string(outcome.message())));
+    }
+    {
+      std::unique_lock lock(job_mu_);
+      job_wake_.wait_for(lock, backoff, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_) { return DrainDue(); });
+    }
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+  }
 }
 
 void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reason) {
@@ -349,7 +428,7 @@ void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reaso
                s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
 }
 
-void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
+int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   const auto start = Clock::now();
   spdlog::info("event=job_start job={} cache_key={} attempt={}", job.job_id(), job.cache_key(), job.attempt());
   std::atomic<bool> cancelled{false};
@@ -567,11 +646,14 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_job_id(job.job_id());
     r.set_lease_id(job.lease_id());
     *r.mutable_result() = result->manifest;
+    bool complete_timed_out = false;
     auto complete = [&] {
       return RetryThroughOutage("CompleteJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
         v1::CompleteJobResponse resp;
         auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-        return v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
+        const grpc::Status done = v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
+        if (done.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) complete_timed_out = true;
+        return done;
       });
     };
     grpc::Status s = complete();
@@ -583,9 +665,19 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                    EscapeUntrusted(s.error_message()));
       if (absl::Status again = upload_result(); again.ok()) s = complete();
     }
-    spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(), s.ok(),
+    // A retry whose lease is gone after a try that timed out: that try may
+    // well have been recorded (the server answers queued calls once its
+    // database is back), so the log says so rather than a plain failure.
+    const bool maybe_recorded = s.error_code() == grpc::StatusCode::FAILED_PRECONDITION && complete_timed_out &&
+                                s.error_message().find("is not leased under") != std::string::npos;
+    spdlog::info("event=job_done job={} ok={} seconds={:.2f}{}", job.job_id(),
+                 s.ok() ? "true" : (maybe_recorded ? "unknown" : "false"),
                  std::chrono::duration<double>(Clock::now() - start).count(),
-                 s.ok() ? "" : absl::StrCat(" error=\"", EscapeUntrusted(s.error_message()), "\""));
+                 s.ok() ? ""
+                        : absl::StrCat(" error=\"", EscapeUntrusted(s.error_message()), "\"",
+                                       maybe_recorded ? " note=\"an earlier CompleteJob timed out and was probably "
+                                                        "recorded by the server after all\""
+                                                      : ""));
     // A refused result is failed now, with the reason, rather than left to
     // time out and be baked again three times (issue 23); so is one whose
     // blobs the store dropped twice (the job is retried elsewhere at once).
@@ -596,15 +688,16 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                              absl::StrCat("the server refused the result: CompleteJob: ", s.error_message()));
     }
   }
+  int64_t scratch_to_lease_again = 0;
   if (!lease_lost && !outcome.ok() && scratch_at_start.ok()) {
     // A full scratch is named, and ended as the job's fault or the worker's
     // (scratch_shortage.h), instead of an unnamed, retryable INTERNAL.
-    outcome = AttributeScratchShortage(outcome,
-                                       {.at_start = *scratch_at_start,
-                                        .now = MeasureScratch(job_dir).value_or(*scratch_at_start),
-                                        .job = BytesHeldUnder(job_dir),
-                                        .inputs_need = inputs_need},
-                                       options_.scratch_dir);
+    const ScratchFacts facts{.at_start = *scratch_at_start,
+                             .now = MeasureScratch(job_dir).value_or(*scratch_at_start),
+                             .job = BytesHeldUnder(job_dir),
+                             .inputs_need = inputs_need};
+    outcome = AttributeScratchShortage(outcome, facts, options_.scratch_dir);
+    if (IsShortOnThisWorker(outcome)) scratch_to_lease_again = BytesToLeaseAgain(facts);
   }
   if (!lease_lost && !outcome.ok()) {
     v1::FailJobRequest r;
@@ -622,6 +715,7 @@ void WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                  static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(std::string(outcome.message())), s.ok());
   }
   fs::remove_all(job_dir, ec);
+  return scratch_to_lease_again;
 }
 
 }  // namespace impostor

@@ -121,12 +121,17 @@ class WorkerLoop {
   void Drain(std::chrono::seconds budget);
 
  private:
-  void ProcessJob(const v1::LeasedJob& job);
+  // Runs one leased job to its end. Returns the scratch bytes that must be
+  // available before the next lease when the job failed because this
+  // worker's scratch was too full for it (scratch_shortage.h), else 0.
+  int64_t ProcessJob(const v1::LeasedJob& job);
   // Downloads one input blob to `path`, verified, resuming through an
   // outage (within max_outage_seconds). A full scratch ends it at once with
   // a ScratchWriteError (scratch_shortage.h).
   absl::Status DownloadThroughOutage(const v1::Digest& digest, const std::filesystem::path& path);
-  // Uploads one output file, retrying through an outage.
+  // Uploads one output file, retrying through an outage, and through a full
+  // blob store on the server (STORE_FULL) within the same budget; a store
+  // still full at its end is UNAVAILABLE, so the job is retried, not lost.
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
   // Hands a lease back to the server (retrying through an outage).
   void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
@@ -139,8 +144,9 @@ class WorkerLoop {
   // (common/connect_error.h), from gRPC's message for the failed call.
   std::string ExplainUnreachable(const std::string& grpc_message) const;
   // Runs `call` (through CallServer) until it answers something other than
-  // UNAVAILABLE, or a timeout that moved on to another replica, or the
-  // outage budget is spent; returns its last status.
+  // UNAVAILABLE or DEADLINE_EXCEEDED (a server that cannot answer now, e.g.
+  // its database is away), or the outage budget is spent; returns its last
+  // status, saying so when the budget ran out.
   grpc::Status RetryThroughOutage(std::string_view rpc, const ChannelCall& call);
   bool DrainDue() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_);
 

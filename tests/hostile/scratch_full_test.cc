@@ -182,5 +182,41 @@ TEST(ScratchFull, AScratchFilledByOtherFilesSendsTheJobToAnotherWorker) {
   EXPECT_EQ(done.attempts(), 2u);
 }
 
+// The same full scratch, the worker alone: it used to lease the job back
+// 3 ms after each failure and spend all three attempts itself. Now it
+// leases nothing until its scratch could hold the job, so a worker started
+// later bakes it, and the full one serves again once its space is freed.
+TEST(ScratchFull, AWorkerShortOfScratchLeasesNothingUntilItHasRoom) {
+  const fs::path mount_dir = testing::NewTempDir("scratch_wait");
+  MOUNT_SCRATCH_OR_SKIP(mount_dir, "4m", tmpfs);
+  const fs::path filler = mount_dir / "filler";
+  std::ofstream(filler, std::ios::binary) << std::string(3 * kMiB, 'f');
+  ServerProcess server(/*local_workers=*/0);  // default attempts and failure limit
+  auto full = testing::StartWorker(server.address(), {"--name=full", "--scratch=" + (mount_dir / "scratch").string()});
+
+  const std::string pad = RandomBytes(2 * kMiB, 5);
+  v1::MeshInput mesh = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
+  AddInput(server, mesh, pad, {"pad.bin"});
+  const std::string id = Submit(server, mesh, 64);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << requeued.DebugString();
+
+  auto roomy = testing::StartWorker(server.address(), {"--name=roomy"});
+  const v1::Job done = testing::WatchToEnd(server.bake(), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.worker_id().rfind("roomy-", 0), 0u) << done.worker_id();
+  EXPECT_EQ(done.attempts(), 2u);
+  EXPECT_EQ(full->CountInLog("event=scratch_wait "), 1) << "the full worker did not say it stopped leasing";
+  roomy.reset();
+  if (HasFailure()) return;
+
+  // Space back: the full worker leases again and bakes the same inputs.
+  fs::remove(filler);
+  ASSERT_TRUE(full->WaitForLog("outcome=room", 1, std::chrono::seconds(30))) << "the wait did not end";
+  const v1::Job again = testing::WatchToEnd(server.bake(), Submit(server, mesh, 72));
+  EXPECT_EQ(again.state(), v1::JOB_STATE_SUCCEEDED) << again.error().message();
+  EXPECT_EQ(again.worker_id().rfind("full-", 0), 0u) << again.worker_id();
+}
+
 }  // namespace
 }  // namespace impostor

@@ -1,0 +1,115 @@
+// A full blob store on the server while workers upload results, with real
+// server and worker processes and the server's --blob-dir on a small tmpfs
+// that the test mounts (as root; skipped otherwise) and fills with a file.
+//  * the upload's refusal carries the error reason STORE_FULL, and the
+//    worker waits for space instead of failing the job for good (a store
+//    full for 25 s used to fail 15 of 20 bakes with RESOURCE_EXHAUSTED);
+//    once the file is removed the same attempt completes the bake;
+//  * a store still full when the worker's outage budget ends fails the
+//    attempt retryably (UNAVAILABLE): the job is queued again, not lost.
+// Every wait is for a job event (WatchJob) or a worker log line.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/integration/server_process.h"
+#include "tests/integration/tmpfs_mount.h"
+
+namespace impostor {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::ServerProcess;
+
+constexpr char kBox[] = "props_pbr/Box/glTF-Binary/Box.glb";
+
+// Writes `path` until the filesystem refuses another byte.
+void FillDisk(const fs::path& path) {
+  std::ofstream out(path, std::ios::binary);
+  const std::string chunk(4096, 'f');
+  while (out.write(chunk.data(), static_cast<std::streamsize>(chunk.size())) && out.flush()) {
+  }
+}
+
+std::string Submit(ServerProcess& server, uint32_t resolution) {
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
+  request.mutable_parameters()->set_frames(3);
+  request.mutable_parameters()->set_resolution(resolution);
+  v1::SubmitBakeResponse response;
+  auto ctx = testing::ContextWithin();
+  const grpc::Status s = server.bake().SubmitBake(ctx.get(), request, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  return response.job_id();
+}
+
+// Ended, or queued again after a failed attempt.
+bool EndedOrRequeued(const v1::Job& j) {
+  return testing::IsTerminalState(j.state()) || (j.state() == v1::JOB_STATE_QUEUED && j.attempts() >= 1);
+}
+
+#define MOUNT_STORE_OR_SKIP(mount_dir, tmpfs)                                                       \
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a tmpfs for the server's blob store"; \
+  testing::TmpfsMount tmpfs(mount_dir, "8m");                                                       \
+  if (!tmpfs.mounted()) GTEST_SKIP() << "cannot mount a tmpfs on " << mount_dir << ": " << tmpfs.error()
+
+TEST(StoreFull, AResultUploadWaitsForSpaceAndTheSameAttemptCompletes) {
+  const fs::path mount_dir = testing::NewTempDir("store_full_wait");
+  MOUNT_STORE_OR_SKIP(mount_dir, tmpfs);
+  ServerProcess server(/*local_workers=*/0, {"--blob-dir=" + (mount_dir / "blobs").string()});
+  const std::string id = Submit(server, 64);  // its input is in the store
+  const fs::path filler = mount_dir / "filler";
+  FillDisk(filler);
+
+  auto worker = testing::StartWorker(server.address(), {"--name=waiter"});
+  // The refusal's message shows in the worker's log either way: on the line
+  // that starts the wait, or on the one that fails the job.
+  ASSERT_TRUE(worker->WaitForLog("No space left on device")) << "the upload was never refused";
+  ASSERT_EQ(worker->CountInLog("event=job_failed"), 0) << "the job was failed for a full store";
+  ASSERT_EQ(worker->CountInLog("event=store_full "), 1) << "the worker did not say it waits for space";
+  v1::Job waiting;
+  {
+    v1::GetJobRequest request;
+    request.set_job_id(id);
+    auto ctx = testing::ContextWithin();
+    ASSERT_TRUE(server.bake().GetJob(ctx.get(), request, &waiting).ok());
+  }
+  EXPECT_EQ(waiting.state(), v1::JOB_STATE_RUNNING) << waiting.DebugString();
+
+  fs::remove(filler);
+  const v1::Job done = testing::WatchToEnd(server.bake(), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_EQ(done.attempts(), 1u);
+  EXPECT_TRUE(worker->WaitForLog("event=store_full_end ")) << "no line saying the wait ended";
+}
+
+TEST(StoreFull, AStoreFullPastTheOutageBudgetRequeuesTheJob) {
+  const fs::path mount_dir = testing::NewTempDir("store_full_budget");
+  MOUNT_STORE_OR_SKIP(mount_dir, tmpfs);
+  ServerProcess server(/*local_workers=*/0, {"--blob-dir=" + (mount_dir / "blobs").string()});
+  const std::string id = Submit(server, 64);
+  const fs::path filler = mount_dir / "filler";
+  FillDisk(filler);
+
+  auto worker = testing::StartWorker(server.address(), {"--name=brief", "--max-outage-seconds=2"});
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << "failed for good: " << requeued.DebugString();
+  ASSERT_GE(requeued.attempt_history_size(), 1);
+  const v1::JobAttempt& first = requeued.attempt_history(0);
+  EXPECT_EQ(first.outcome(), v1::JobAttempt::OUTCOME_FAILED);
+  EXPECT_NE(first.message().find("blob store stayed full"), std::string::npos) << first.message();
+
+  fs::remove(filler);
+  const v1::Job done = testing::WatchToEnd(server.bake(), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error().message();
+  EXPECT_GE(done.attempts(), 2u);
+}
+
+}  // namespace
+}  // namespace impostor
