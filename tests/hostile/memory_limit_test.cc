@@ -29,20 +29,9 @@ constexpr char kBoxTextured[] = "props_pbr/BoxTextured/glTF-Binary/BoxTextured.g
 const std::vector<std::string> kPauseAfterOneFailure = {"--worker-failure-limit=1", "--worker-pause-seconds=3600"};
 
 std::string Submit(ServerProcess& server, const char* mesh, uint32_t resolution) {
-  v1::SubmitBakeRequest request;
-  *request.mutable_mesh() = testing::UploadGlb(server.assets(), testing::AssetsDir() / mesh);
-  request.mutable_parameters()->set_frames(8);
-  request.mutable_parameters()->set_resolution(resolution);  // supersampling: the default, 2
-  v1::SubmitBakeResponse response;
-  auto ctx = testing::ContextWithin();
-  const grpc::Status s = server.bake().SubmitBake(ctx.get(), request, &response);
-  EXPECT_TRUE(s.ok()) << s.error_message();
-  return response.job_id();
-}
-
-// Ended, or queued again after a failed attempt.
-bool EndedOrRequeued(const v1::Job& j) {
-  return testing::IsTerminalState(j.state()) || (j.state() == v1::JOB_STATE_QUEUED && j.attempts() >= 1);
+  // supersampling: the default, 2
+  return testing::SubmitSmallBake(server.bake(), testing::UploadGlb(server.assets(), testing::AssetsDir() / mesh),
+                                  /*frames=*/8, resolution);
 }
 
 TEST(MemoryLimit, ARequestOverTheWorkersMemoryFailsForGoodBeforeItRenders) {
@@ -52,7 +41,7 @@ TEST(MemoryLimit, ARequestOverTheWorkersMemoryFailsForGoodBeforeItRenders) {
                                       std::string("IMPOSTOR_WORKER_TEST_CRASH_ON=") + "Box.glb"});
   // 1024 px at supersampling 2: about 134 MB on lavapipe, more than the
   // worker's 100 MB.
-  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, kBox, 1024), EndedOrRequeued);
+  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, kBox, 1024), testing::EndedOrRequeued);
   ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED) << "retried: " << failed.DebugString();
   EXPECT_EQ(failed.error().code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << failed.error().message();
   EXPECT_EQ(failed.attempts(), 1u);
@@ -75,7 +64,7 @@ TEST(MemoryLimit, AWorkerShortOfFreeMemorySendsTheJobToAnother) {
   auto tight = testing::StartWorker(server.address(), {"--name=tight"},
                                     {"IMPOSTOR_WORKER_TEST_HOST_MEMORY=64000000000:100000000"});
   const std::string id = Submit(server, kBox, 1024);
-  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, testing::EndedOrRequeued);
   ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << requeued.DebugString();
   ASSERT_GE(requeued.attempt_history_size(), 1);
   const v1::JobAttempt& first = requeued.attempt_history(0);

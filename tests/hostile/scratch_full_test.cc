@@ -61,20 +61,7 @@ void AddInput(ServerProcess& server, v1::MeshInput& mesh, const std::string& byt
 }
 
 std::string Submit(ServerProcess& server, const v1::MeshInput& mesh, uint32_t resolution) {
-  v1::SubmitBakeRequest request;
-  *request.mutable_mesh() = mesh;
-  request.mutable_parameters()->set_frames(3);
-  request.mutable_parameters()->set_resolution(resolution);
-  v1::SubmitBakeResponse response;
-  auto ctx = testing::ContextWithin();
-  const grpc::Status s = server.bake().SubmitBake(ctx.get(), request, &response);
-  EXPECT_TRUE(s.ok()) << s.error_message();
-  return response.job_id();
-}
-
-// Ended, or queued again after a failed attempt.
-bool EndedOrRequeued(const v1::Job& j) {
-  return testing::IsTerminalState(j.state()) || (j.state() == v1::JOB_STATE_QUEUED && j.attempts() >= 1);
+  return testing::SubmitSmallBake(server.bake(), mesh, /*frames=*/3, resolution);
 }
 
 int64_t UsedBytes(const fs::path& mount) {
@@ -138,7 +125,7 @@ TEST(ScratchFull, InputsLargerThanTheScratchFailForGoodAndTheWorkerServesOn) {
   v1::MeshInput mesh = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
   AddInput(server, mesh, RandomBytes(3 * kMiB, 2), {"a.bin", "again/a.bin"});
   AddInput(server, mesh, RandomBytes(3 * kMiB, 3), {"b.bin"});
-  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, mesh, 64), EndedOrRequeued);
+  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, mesh, 64), testing::EndedOrRequeued);
   ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED) << "retried: " << failed.DebugString();
   EXPECT_EQ(failed.error().code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << failed.error().message();
   EXPECT_EQ(failed.attempts(), 1u);
@@ -166,7 +153,7 @@ TEST(ScratchFull, AScratchFilledByOtherFilesSendsTheJobToAnotherWorker) {
   v1::MeshInput mesh = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
   AddInput(server, mesh, RandomBytes(2 * kMiB, 4), {"pad.bin"});
   const std::string id = Submit(server, mesh, 64);
-  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, testing::EndedOrRequeued);
   ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << requeued.DebugString();
   ASSERT_GE(requeued.attempt_history_size(), 1);
   const v1::JobAttempt& first = requeued.attempt_history(0);
@@ -198,7 +185,7 @@ TEST(ScratchFull, AWorkerShortOfScratchLeasesNothingUntilItHasRoom) {
   v1::MeshInput mesh = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
   AddInput(server, mesh, pad, {"pad.bin"});
   const std::string id = Submit(server, mesh, 64);
-  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, testing::EndedOrRequeued);
   ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << requeued.DebugString();
 
   auto roomy = testing::StartWorker(server.address(), {"--name=roomy"});

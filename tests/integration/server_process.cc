@@ -590,6 +590,23 @@ bool IsTerminalState(v1::JobState state) {
   return state == v1::JOB_STATE_SUCCEEDED || state == v1::JOB_STATE_FAILED || state == v1::JOB_STATE_CANCELLED;
 }
 
+bool EndedOrRequeued(const v1::Job& job) {
+  return IsTerminalState(job.state()) || (job.state() == v1::JOB_STATE_QUEUED && job.attempts() >= 1);
+}
+
+std::string SubmitSmallBake(v1::BakeService::Stub& bake, const v1::MeshInput& mesh, uint32_t frames,
+                            uint32_t resolution) {
+  v1::SubmitBakeRequest request;
+  *request.mutable_mesh() = mesh;
+  request.mutable_parameters()->set_frames(frames);
+  request.mutable_parameters()->set_resolution(resolution);
+  v1::SubmitBakeResponse response;
+  auto ctx = ContextWithin();
+  const grpc::Status s = bake.SubmitBake(ctx.get(), request, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  return response.job_id();
+}
+
 v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
                    const std::function<bool(const v1::Job&)>& done, std::chrono::milliseconds timeout) {
   grpc::ClientContext ctx;

@@ -243,6 +243,13 @@ v1::Job WatchToEnd(v1::BakeService::Stub& bake, const std::string& job_id, std::
 v1::Job WatchUntil(v1::BakeService::Stub& bake, const std::string& job_id,
                    const std::function<bool(const v1::Job&)>& done, std::chrono::milliseconds timeout = kWatchTimeout);
 bool IsTerminalState(v1::JobState state);
+// Ended, or queued again after a failed attempt: what a test of a retryable
+// failure waits for.
+bool EndedOrRequeued(const v1::Job& job);
+// SubmitBake of `mesh` at frames x frames and `resolution` px, every other
+// parameter the default; the job id (a refused submit fails the test).
+std::string SubmitSmallBake(v1::BakeService::Stub& bake, const v1::MeshInput& mesh, uint32_t frames,
+                            uint32_t resolution);
 
 // Downloads a blob with ReadBlob (bounded by kWatchTimeout).
 grpc::Status ReadBlob(v1::AssetService::Stub& assets, const v1::Digest& digest, std::string* out,

@@ -38,20 +38,8 @@ void FillDisk(const fs::path& path) {
 }
 
 std::string Submit(ServerProcess& server, uint32_t resolution) {
-  v1::SubmitBakeRequest request;
-  *request.mutable_mesh() = testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox);
-  request.mutable_parameters()->set_frames(3);
-  request.mutable_parameters()->set_resolution(resolution);
-  v1::SubmitBakeResponse response;
-  auto ctx = testing::ContextWithin();
-  const grpc::Status s = server.bake().SubmitBake(ctx.get(), request, &response);
-  EXPECT_TRUE(s.ok()) << s.error_message();
-  return response.job_id();
-}
-
-// Ended, or queued again after a failed attempt.
-bool EndedOrRequeued(const v1::Job& j) {
-  return testing::IsTerminalState(j.state()) || (j.state() == v1::JOB_STATE_QUEUED && j.attempts() >= 1);
+  return testing::SubmitSmallBake(server.bake(), testing::UploadGlb(server.assets(), testing::AssetsDir() / kBox),
+                                  /*frames=*/3, resolution);
 }
 
 #define MOUNT_STORE_OR_SKIP(mount_dir, tmpfs)                                                       \
@@ -98,7 +86,7 @@ TEST(StoreFull, AStoreFullPastTheOutageBudgetRequeuesTheJob) {
   FillDisk(filler);
 
   auto worker = testing::StartWorker(server.address(), {"--name=brief", "--max-outage-seconds=2"});
-  const v1::Job requeued = testing::WatchUntil(server.bake(), id, EndedOrRequeued);
+  const v1::Job requeued = testing::WatchUntil(server.bake(), id, testing::EndedOrRequeued);
   ASSERT_EQ(requeued.state(), v1::JOB_STATE_QUEUED) << "failed for good: " << requeued.DebugString();
   ASSERT_GE(requeued.attempt_history_size(), 1);
   const v1::JobAttempt& first = requeued.attempt_history(0);
