@@ -1,15 +1,12 @@
 #include "client/mesh_upload.h"
 
-#include <cstring>
 #include <algorithm>
-#include <fstream>
 #include <map>
 #include <set>
 #include <string>
 
 #include "absl/strings/str_cat.h"
-#include "client/retry.h"
-#include "client/sdk_log.h"
+#include "client/blob_upload.h"
 #include "common/sha256.h"
 
 namespace impostor::sdk {
@@ -27,37 +24,6 @@ absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
   out.set_hash(digest->hash);
   out.set_size_bytes(digest->size_bytes);
   return out;
-}
-
-// One attempt: streams the file from its first byte.
-absl::Status UploadOnce(Transport& transport, const LocalBlob& blob) {
-  std::ifstream in(blob.path, std::ios::binary);
-  if (!in) {
-    return absl::InternalError(absl::StrCat("cannot open ", blob.path.string(), ": ", std::strerror(errno)));
-  }
-  Transport::ChunkSource next = [&](std::string* data) -> absl::StatusOr<bool> {
-    data->resize(kUploadChunkBytes);
-    in.read(data->data(), static_cast<std::streamsize>(data->size()));
-    if (in.bad()) return absl::InternalError(absl::StrCat("read error on ", blob.path.string()));
-    data->resize(static_cast<size_t>(in.gcount()));
-    return !data->empty();
-  };
-  absl::StatusOr<v1::UploadBlobResponse> response = transport.UploadBlob(blob.digest, next);
-  if (!response.ok()) return response.status();
-  if (response->already_present()) SdkLog().debug("{} was already in the store", blob.path.string());
-  return absl::OkStatus();
-}
-
-// The server keeps only complete blobs, so every retry starts the stream
-// over from the first byte.
-absl::Status UploadWithRetry(Transport& transport, const LocalBlob& blob) {
-  RetryPolicy retry = transport.NewRetryPolicy();
-  while (true) {
-    absl::Status status = UploadOnce(transport, blob);
-    if (status.ok() || !retry.ShouldRetry(status)) return status;
-    SdkLog().debug("upload of {} failed ({} in a row): {}; starting it over", blob.path.string(), retry.failures(),
-                   status.ToString());
-  }
 }
 
 }  // namespace
@@ -78,7 +44,7 @@ absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files) {
   return mesh;
 }
 
-absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files) {
+absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files, const CancelSource* cancel) {
   UploadedMesh out;
   std::vector<LocalBlob> blobs;
   auto add = [&](const std::filesystem::path& path, v1::InputFile* input, const std::string& name)
@@ -99,7 +65,7 @@ absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& f
 
   v1::FindMissingBlobsRequest request;
   for (const LocalBlob& blob : blobs) *request.add_digests() = blob.digest;
-  absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request);
+  absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request, cancel);
   if (!missing.ok()) return missing.status();
 
   std::set<std::string> missing_keys;
@@ -109,7 +75,7 @@ absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& f
   for (const LocalBlob& blob : blobs) {
     const std::string key = absl::StrCat(blob.digest.hash(), "/", blob.digest.size_bytes());
     if (!missing_keys.contains(key) || !done.insert(key).second) continue;
-    if (absl::Status s = UploadWithRetry(transport, blob); !s.ok()) return s;
+    if (absl::Status s = UploadBlobFile(transport, blob.path, blob.digest, cancel); !s.ok()) return s;
     ++out.stats.uploaded;
     out.stats.bytes_uploaded += blob.digest.size_bytes();
   }
@@ -127,7 +93,8 @@ bool IsRefusalOfTheBlob(const absl::Status& s) {
 }  // namespace
 
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
-                                                                      const std::vector<const MeshFiles*>& models) {
+                                                                      const std::vector<const MeshFiles*>& models,
+                                                                      const CancelSource* cancel) {
   std::vector<absl::StatusOr<UploadedMesh>> out;
   out.reserve(models.size());
   // Every distinct blob once, with the first model that has it.
@@ -164,13 +131,13 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
     for (size_t i = begin; i < std::min(blobs.size(), begin + kMaxFindMissingDigests); ++i) {
       *request.add_digests() = blobs[i].digest;
     }
-    absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request);
+    absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request, cancel);
     if (!missing.ok()) return missing.status();
     for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
   }
   for (size_t i = 0; i < blobs.size(); ++i) {
     if (!missing_keys.contains(absl::StrCat(blobs[i].digest.hash(), "/", blobs[i].digest.size_bytes()))) continue;
-    if (absl::Status s = UploadWithRetry(transport, blobs[i]); !s.ok()) {
+    if (absl::Status s = UploadBlobFile(transport, blobs[i].path, blobs[i].digest, cancel); !s.ok()) {
       // The server refused this blob (its disk is full, it is too large):
       // the models that need it fail and the rest go on. A refusal of the
       // caller or the connection ends the whole batch.

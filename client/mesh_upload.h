@@ -1,6 +1,7 @@
 // Puts a model's files into the server's blob store: hashes every file, asks
-// once which blobs the server lacks and uploads only those. Called by
-// Client::SubmitBake on the caller's thread.
+// once which blobs the server lacks and uploads only those (each as
+// UploadBlobFile does: no overall deadline, only a stalled link ends a
+// stream). Called by Client::SubmitBake on the caller's thread.
 #ifndef IMPOSTOR_CLIENT_MESH_UPLOAD_H_
 #define IMPOSTOR_CLIENT_MESH_UPLOAD_H_
 
@@ -8,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "client/mesh_files.h"
+#include "client/retry.h"
 #include "client/transport.h"
 #include "impostor/client.h"
 #include "impostor/v1/types.pb.h"
@@ -19,10 +21,11 @@ struct UploadedMesh {
   UploadStats stats;
 };
 
-// Upload chunk size: well under the server's 4 MiB message limit.
-inline constexpr size_t kUploadChunkBytes = 1 << 20;
-
-absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files);
+// `cancel` (may be null; must outlive the call): Cancel() from any thread
+// ends the upload promptly with cancel->error() (CANCELLED), here and in
+// UploadMeshes.
+absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files,
+                                        const CancelSource* cancel = nullptr);
 
 // The most digests one FindMissingBlobs may carry (AssetService's limit).
 inline constexpr size_t kMaxFindMissingDigests = 10'000;
@@ -34,9 +37,11 @@ inline constexpr size_t kMaxFindMissingDigests = 10'000;
 // refused (RESOURCE_EXHAUSTED: its disk is full; INVALID_ARGUMENT: too
 // large), gets its own error in the result and the others go on; the call
 // fails as a whole only when FindMissingBlobs does or an upload fails for
-// the caller or the link (UNAVAILABLE, UNAUTHENTICATED, PERMISSION_DENIED).
+// the caller or the link (UNAVAILABLE; DEADLINE_EXCEEDED: the link stalled;
+// CANCELLED; UNAUTHENTICATED; PERMISSION_DENIED).
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
-                                                                      const std::vector<const MeshFiles*>& models);
+                                                                      const std::vector<const MeshFiles*>& models,
+                                                                      const CancelSource* cancel = nullptr);
 
 // The MeshInput naming `files` with their digests, hashed locally and
 // uploaded nowhere: what LookupBake needs. NOT_FOUND / INTERNAL naming the

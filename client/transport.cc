@@ -1,5 +1,6 @@
 #include "client/transport.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
@@ -39,8 +40,6 @@ namespace {
 // version) and a manifest with 64 x 64 views is well under 1 MiB; the
 // margin is for future fields.
 constexpr int kMaxReceiveBytes = 64 << 20;
-// An upload's deadline grows by one second per this many bytes.
-constexpr double kStreamBytesPerSecond = 256 * 1024;
 // How often a backoff wait on a channel that is not connected looks at its
 // CancelSource: a channel's state change cannot be waited for together
 // with a condition variable.
@@ -58,6 +57,129 @@ constexpr double kMaxOutageSeconds = 86400;
 std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
   return std::chrono::system_clock::now() +
          std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(seconds));
+}
+
+// The most bytes a link may hold after the client has handed them over:
+// Linux's largest TCP send buffer by default (net.ipv4.tcp_wmem), which a
+// loopback connection reaches at once and a real uplink on a deep queue
+// approaches. An upload's last bytes may sit there, unseen, until they cross.
+constexpr int64_t kMaxBytesTheLinkHolds = int64_t{4} << 20;
+
+// Runs the steps of one streaming call (start, each read or write, writes
+// done, finish) on a completion queue of its own, one step in flight at a
+// time, and gives up on a step that waits too long, or once `cancel` (may
+// be null) is cancelled: a stream's only watchdog, since gRPC has no
+// deadline per message and a deadline on the whole call would cut a slow
+// link that keeps moving. Giving up cancels the call and returns at once:
+// the step may stay pending for a while (see UploadCall), so the call must
+// still be finished and the queue drained (Close) before it is destroyed.
+//
+// Declared before the call's reader or writer, so the queue outlives it.
+// One thread at a time.
+class StallWatch {
+ public:
+  using Duration = std::chrono::duration<double>;
+
+  StallWatch(grpc::ClientContext& context, const CancelSource* cancel) : context_(context), cancel_(cancel) {}
+  StallWatch(const StallWatch&) = delete;
+  StallWatch& operator=(const StallWatch&) = delete;
+
+  grpc::CompletionQueue* queue() { return &queue_; }
+
+  // Waits for the step tagged `tag` until `at_most` has passed and returns
+  // its ok: false when the call broke, or when the watch gave up (then
+  // stalled() or cancelled() says why, and the step may still be pending).
+  // Once it gave up, waits for `tag` without limit: for Finish, which a
+  // cancelled call completes at once.
+  bool Await(void* tag, Duration at_most) {
+    return AwaitUntil(tag, std::chrono::system_clock::now() +
+                               std::chrono::duration_cast<std::chrono::system_clock::duration>(at_most));
+  }
+  bool AwaitUntil(void* tag, std::chrono::system_clock::time_point deadline) {
+    void* got = nullptr;
+    bool ok = false;
+    while (true) {
+      if (gave_up()) {
+        if (!queue_.Next(&got, &ok)) return false;  // not before Close
+        if (got == tag) return ok;
+        continue;
+      }
+      // A CancelSource cannot wake a completion queue: look at it now and
+      // then (its own callback has cancelled the call already).
+      const auto now = std::chrono::system_clock::now();
+      const auto until =
+          cancel_ == nullptr ? deadline
+                             : std::min(deadline, now + std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                                                            kCancelPollInterval));
+      const grpc::CompletionQueue::NextStatus next = queue_.AsyncNext(&got, &ok, until);
+      if (next == grpc::CompletionQueue::GOT_EVENT) {
+        if (got == tag) return ok;
+        continue;
+      }
+      if (next == grpc::CompletionQueue::SHUTDOWN) return false;  // not before Close
+      if (cancel_ != nullptr && cancel_->cancelled()) {
+        cancelled_ = true;
+        context_.TryCancel();
+        return false;
+      }
+      if (std::chrono::system_clock::now() >= deadline) {
+        stalled_ = true;
+        context_.TryCancel();
+        return false;
+      }
+    }
+  }
+
+  // After the Finish step was started: shuts the queue down and waits for
+  // every step still pending.
+  void Close() {
+    queue_.Shutdown();
+    void* got = nullptr;
+    bool ok = false;
+    while (queue_.Next(&got, &ok)) {
+    }
+  }
+
+  // The watch cancelled the call: a step waited too long.
+  bool stalled() const { return stalled_; }
+  // The watch found the CancelSource cancelled.
+  bool cancelled() const { return cancelled_; }
+  bool gave_up() const { return stalled_ || cancelled_; }
+
+ private:
+  grpc::ClientContext& context_;
+  const CancelSource* const cancel_;
+  grpc::CompletionQueue queue_;
+  bool stalled_ = false;
+  bool cancelled_ = false;
+};
+
+// Everything one UploadBlob call's pending steps use, so that it can be
+// finished away from the caller. A write that the link has not taken when
+// the call is cancelled stays pending until the socket takes its bytes or
+// the connection gives up (TCP_USER_TIMEOUT, set from the keepalive: about
+// 10 s on a dead link); gRPC completes no step of a cancelled call before
+// that. The caller is answered at once and the call is finished by
+// FinishAbandoned on a thread of its own.
+struct UploadCall {
+  grpc::ClientContext context;
+  StallWatch watch;
+  v1::UploadBlobResponse response;
+  v1::UploadBlobRequest message;
+  grpc::Status status;
+  std::unique_ptr<grpc::ClientAsyncWriter<v1::UploadBlobRequest>> writer;
+  int tags[4];  // distinct addresses: start, write, writes done, finish
+  bool finish_started = false;
+
+  explicit UploadCall(const CancelSource* cancel) : watch(context, cancel) {}
+};
+
+// Finishes a call the caller has given up on, on a detached thread that
+// waits for its pending steps and frees it. The call holds its channel, so
+// it may outlive the Transport.
+void FinishAbandoned(std::unique_ptr<UploadCall> call) {
+  if (!call->finish_started) call->writer->Finish(&call->status, &call->tags[3]);
+  std::thread([call = std::move(call)] { call->watch.Close(); }).detach();
 }
 
 // The error reason the server sent with a refusal, or "".
@@ -283,6 +405,14 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
 
 ConnectionMonitor& Transport::monitor() { return stubs_->monitor; }
 
+absl::Status Transport::NoteStall(std::string_view rpc, const Route& route, std::string_view why) {
+  // As Note does for DEADLINE_EXCEEDED: nothing for the monitor (no answer
+  // from the server), the failover may move on.
+  stubs_->channels->NoteFailure(route, grpc::StatusCode::DEADLINE_EXCEEDED);
+  return MakeRpcError(absl::StatusCode::kDeadlineExceeded, rpc, stubs_->channels->target(route.index),
+                      "the link stalled: " + std::string(why));
+}
+
 absl::Status Transport::Note(const grpc::Status& received, std::string_view rpc, const Route& route,
                              const grpc::ClientContext& context, bool* try_next_now, bool answered) {
   const std::string& target = stubs_->channels->target(route.index);
@@ -390,10 +520,13 @@ absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call, c
 }
 
 absl::StatusOr<v1::FindMissingBlobsResponse> Transport::FindMissingBlobs(
-    const v1::FindMissingBlobsRequest& request) {
-  return CallUnary<v1::FindMissingBlobsResponse>("FindMissingBlobs", [&](const Route& route, auto* ctx, auto* resp) {
-    return v1::AssetService::Stub(route.channel).FindMissingBlobs(ctx, request, resp);
-  });
+    const v1::FindMissingBlobsRequest& request, const CancelSource* cancel) {
+  return CallUnary<v1::FindMissingBlobsResponse>(
+      "FindMissingBlobs",
+      [&](const Route& route, auto* ctx, auto* resp) {
+        return v1::AssetService::Stub(route.channel).FindMissingBlobs(ctx, request, resp);
+      },
+      cancel);
 }
 
 absl::StatusOr<v1::SubmitBakeResponse> Transport::SubmitBake(const v1::SubmitBakeRequest& request) {
@@ -443,43 +576,98 @@ absl::StatusOr<v1::PurgeWorkerResultsResponse> Transport::PurgeWorkerResults(
 }
 
 absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& digest,
-                                                             const ChunkSource& next_chunk) {
-  grpc::ClientContext context;
-  stubs_->AddToken(context);
-  context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds +
-                                     static_cast<double>(digest.size_bytes()) / kStreamBytesPerSecond));
-  v1::UploadBlobResponse response;
+                                                             const ChunkSource& next_chunk,
+                                                             const CancelSource* cancel) {
+  if (cancel != nullptr && cancel->cancelled()) return cancel->error();
+  auto call = std::make_unique<UploadCall>(cancel);
+  stubs_->AddToken(call->context);
   const Route route = stubs_->channels->Current();
   v1::AssetService::Stub stub(route.channel);
-  std::unique_ptr<grpc::ClientWriter<v1::UploadBlobRequest>> writer = stub.UploadBlob(&context, &response);
-  v1::UploadBlobRequest message;
-  *message.mutable_digest() = digest;
+  // No deadline on the call: the watch bounds each step instead.
+  const StallWatch::Duration stall_limit(options_.rpc_timeout_seconds);
+  StallWatch& watch = call->watch;
+  call->writer = stub.PrepareAsyncUploadBlob(&call->context, &call->response, watch.queue());
+  CancelSource::Registration registration;
+  if (cancel != nullptr) {
+    registration = cancel->OnCancel([context = &call->context] { context->TryCancel(); });
+  }
+  int* const tags = call->tags;
+  call->writer->StartCall(&tags[0]);
+  int64_t sent = 0;             // blob bytes the link has taken
+  int64_t largest_message = 1;  // bytes
+  bool all_sent = false;        // every message was taken; the answer is awaited
   absl::Status local_error;
-  bool first = true;
-  while (true) {
-    std::string* data = message.mutable_data();
-    data->clear();
-    absl::StatusOr<bool> more = next_chunk(data);
-    if (!more.ok()) {
-      local_error = more.status();
-      break;
+  // A message is taken once it is in this host's send buffer (write
+  // through), not when HTTP/2 flow control lets it go: the server's window
+  // is megabytes, which a slow link would "take" at once, leaving nothing
+  // to watch.
+  const grpc::WriteOptions write_through = grpc::WriteOptions().set_write_through();
+  if (watch.Await(&tags[0], stall_limit)) {
+    v1::UploadBlobRequest& message = call->message;
+    *message.mutable_digest() = digest;
+    bool first = true;
+    while (true) {
+      std::string* data = message.mutable_data();
+      data->clear();
+      absl::StatusOr<bool> more = next_chunk(data);
+      if (!more.ok()) {
+        local_error = more.status();
+        call->context.TryCancel();
+        break;
+      }
+      // An empty blob still needs one message carrying the digest.
+      if (!*more && !first) {
+        all_sent = true;
+        break;
+      }
+      call->writer->Write(message, write_through, &tags[1]);
+      if (!watch.Await(&tags[1], stall_limit)) break;  // broke, stalled or cancelled
+      sent += static_cast<int64_t>(message.data().size());
+      largest_message = std::max<int64_t>(largest_message, static_cast<int64_t>(message.data().size()));
+      first = false;
+      message.clear_digest();
     }
-    // An empty blob still needs one message carrying the digest.
-    if (!*more && !first) break;
-    if (!writer->Write(message)) break;  // the stream broke; Finish says why
-    first = false;
-    message.clear_digest();
-    if (!*more) break;
   }
-  if (!local_error.ok()) {
-    context.TryCancel();
-    writer->Finish();
-    return local_error;
+  // What the link still holds crosses unseen (the server answers once it
+  // has every byte): each message it may hold gets the time any message
+  // gets, and the answer once more.
+  const int64_t messages_held = (std::min(sent, kMaxBytesTheLinkHolds) + largest_message - 1) / largest_message;
+  const StallWatch::Duration answer_limit = stall_limit * static_cast<double>(1 + messages_held);
+  const auto answer_deadline = std::chrono::system_clock::now() +
+                               std::chrono::duration_cast<std::chrono::system_clock::duration>(answer_limit);
+  if (all_sent && !watch.gave_up()) {
+    call->writer->WritesDone(&tags[2]);
+    watch.AwaitUntil(&tags[2], answer_deadline);
   }
-  writer->WritesDone();
-  const grpc::Status status = writer->Finish();
-  if (absl::Status error = Note(status, "UploadBlob", route, context); !error.ok()) return error;
-  return response;
+  if (!watch.gave_up()) {
+    call->writer->Finish(&call->status, &tags[3]);
+    call->finish_started = true;
+    watch.AwaitUntil(&tags[3], answer_deadline);
+  }
+  registration.Reset();
+  if (watch.gave_up()) {
+    const bool stalled = watch.stalled();
+    FinishAbandoned(std::move(call));
+    if (!stalled) return cancel->error();
+    return NoteStall(
+        "UploadBlob", route,
+        all_sent ? absl::StrCat("no answer for ", absl::SixDigits(answer_limit.count()), " s (rpc_timeout_seconds, ",
+                                absl::SixDigits(options_.rpc_timeout_seconds), " s, times the ", messages_held,
+                                " message(s) the link may have held, plus one) after all ", sent,
+                                " bytes of the blob were sent")
+                 : absl::StrCat("it took nothing for ", absl::SixDigits(options_.rpc_timeout_seconds),
+                                " s (rpc_timeout_seconds), with ", sent, " of the blob's ", digest.size_bytes(),
+                                " bytes sent"));
+  }
+  watch.Close();
+  if (!local_error.ok()) return local_error;
+  // Cancelled by our side just as the call ended: not the server's answer
+  // (Note takes a CANCELLED for the server's).
+  if (!call->status.ok() && cancel != nullptr && cancel->cancelled()) return cancel->error();
+  // A message taken by the link is no sign of the server (this host's kernel
+  // took it), so an UNAVAILABLE here is an outage as far as anyone can tell.
+  if (absl::Status error = Note(call->status, "UploadBlob", route, call->context); !error.ok()) return error;
+  return call->response;
 }
 
 absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
@@ -493,46 +681,23 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
   request.set_offset(offset);
   const Route route = stubs_->channels->Current();
   v1::AssetService::Stub stub(route.channel);
-  // An async reader on a queue of its own: each step is waited for with the
-  // stall deadline, which a sync reader cannot do. No deadline on the call:
-  // gRPC has none per message.
-  grpc::CompletionQueue queue;
+  // No deadline on the call: the watch bounds each step instead.
+  const StallWatch::Duration stall_limit(options_.rpc_timeout_seconds);
+  StallWatch watch(context, cancel);
   std::unique_ptr<grpc::ClientAsyncReader<v1::ReadBlobResponse>> reader =
-      stub.PrepareAsyncReadBlob(&context, request, &queue);
+      stub.PrepareAsyncReadBlob(&context, request, watch.queue());
   CancelSource::Registration registration;
   if (cancel != nullptr) registration = cancel->OnCancel([&context] { context.TryCancel(); });
-  const auto stall_limit = std::chrono::duration_cast<std::chrono::system_clock::duration>(
-      std::chrono::duration<double>(options_.rpc_timeout_seconds));
-  bool stalled = false;
-  // Waits for the one operation in flight. Once stall_limit passes without
-  // it, cancels the call, which then completes it at once (not ok).
-  const auto await = [&](void* expected) {
-    void* tag = nullptr;
-    bool ok = false;
-    const auto deadline = std::chrono::system_clock::now() + stall_limit;
-    while (true) {
-      const grpc::CompletionQueue::NextStatus next =
-          stalled ? (queue.Next(&tag, &ok) ? grpc::CompletionQueue::GOT_EVENT : grpc::CompletionQueue::SHUTDOWN)
-                  : queue.AsyncNext(&tag, &ok, deadline);
-      if (next == grpc::CompletionQueue::TIMEOUT) {
-        stalled = true;
-        context.TryCancel();
-        continue;
-      }
-      if (next == grpc::CompletionQueue::SHUTDOWN) return false;  // not before Shutdown below
-      if (tag == expected) return ok;
-    }
-  };
   int tags[3];  // distinct addresses: start, read, finish
   reader->StartCall(&tags[0]);
   bool answered = false;  // a message arrived on this call
   int64_t received = 0;
   absl::Status local_error;
-  if (await(&tags[0])) {
+  if (watch.Await(&tags[0], stall_limit)) {
     v1::ReadBlobResponse message;
     while (true) {
       reader->Read(&message, &tags[1]);
-      if (!await(&tags[1])) break;
+      if (!watch.Await(&tags[1], stall_limit)) break;
       answered = true;
       received += static_cast<int64_t>(message.data().size());
       NoteAnswer(route);
@@ -545,34 +710,24 @@ absl::Status Transport::ReadBlob(const v1::Digest& digest, int64_t offset,
   }
   grpc::Status status;
   reader->Finish(&status, &tags[2]);
-  {
-    void* tag = nullptr;
-    bool ok = false;
-    while (queue.Next(&tag, &ok) && tag != &tags[2]) {
-    }
-  }
-  queue.Shutdown();
-  {
-    void* tag = nullptr;
-    bool ok = false;
-    while (queue.Next(&tag, &ok)) {
-    }
-  }
+  watch.Await(&tags[2], stall_limit);
+  // A read of a cancelled call completes at once: no need to leave it to
+  // another thread, as UploadBlob does its writes.
+  watch.Close();
   registration.Reset();
   if (!local_error.ok()) return local_error;
   if (status.ok()) return Note(status, "ReadBlob", route, context);
   // Every cancel of our own side ends here, before Note, which takes a
   // CANCELLED for the server's.
   if (cancel != nullptr && cancel->cancelled()) return cancel->error();
-  if (stalled && (status.error_code() == grpc::StatusCode::CANCELLED ||
-                  status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)) {
+  if (watch.stalled() && (status.error_code() == grpc::StatusCode::CANCELLED ||
+                          status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)) {
     // The watchdog's own cancel: the link (or the server) stalled.
-    const grpc::Status stall(
-        grpc::StatusCode::DEADLINE_EXCEEDED,
-        absl::StrCat("the link stalled: no bytes arrived for ", absl::SixDigits(options_.rpc_timeout_seconds),
-                     " s (rpc_timeout_seconds)",
-                     answered ? absl::StrCat(", after ", received, " bytes of this stream") : std::string()));
-    return Note(stall, "ReadBlob", route, context);
+    return NoteStall("ReadBlob", route,
+                     absl::StrCat("no bytes arrived for ", absl::SixDigits(options_.rpc_timeout_seconds),
+                                  " s (rpc_timeout_seconds)",
+                                  answered ? absl::StrCat(", after ", received, " bytes of this stream")
+                                           : std::string()));
   }
   return Note(status, "ReadBlob", route, context, nullptr, answered);
 }

@@ -55,12 +55,14 @@ class Transport {
 
   // Unary RPCs: deadline rpc_timeout_seconds, retried as RetryPolicy
   // decides (max_attempts, and through outages up to max_outage_seconds).
-  absl::StatusOr<v1::FindMissingBlobsResponse> FindMissingBlobs(const v1::FindMissingBlobsRequest& request);
+  // `cancel` (may be null), here and on GetResult: once cancelled, the call
+  // in flight is cancelled and the backoff wait ends; the answer is then
+  // cancel->error().
+  absl::StatusOr<v1::FindMissingBlobsResponse> FindMissingBlobs(const v1::FindMissingBlobsRequest& request,
+                                                                const CancelSource* cancel = nullptr);
   absl::StatusOr<v1::SubmitBakeResponse> SubmitBake(const v1::SubmitBakeRequest& request);
   absl::StatusOr<v1::Job> GetJob(const std::string& job_id);
   absl::StatusOr<v1::Job> CancelJob(const std::string& job_id);
-  // `cancel` (may be null): once cancelled, the call in flight is cancelled
-  // and the backoff wait ends; the answer is then cancel->error().
   absl::StatusOr<v1::Manifest> GetResult(const std::string& cache_key, const CancelSource* cancel = nullptr);
   absl::StatusOr<v1::LookupBakeResponse> LookupBake(const v1::SubmitBakeRequest& request);
   // AdminService (admin tokens only; `impostor admin purge`).
@@ -89,9 +91,24 @@ class Transport {
   RetryPolicy NewRetryPolicy(const CancelSource* cancel = nullptr);
 
   // One UploadBlob stream, not retried (the caller restarts from byte 0: the
-  // server only keeps complete blobs). Deadline: rpc_timeout_seconds plus one
-  // second per 256 KiB.
-  absl::StatusOr<v1::UploadBlobResponse> UploadBlob(const v1::Digest& digest, const ChunkSource& next_chunk);
+  // server only keeps complete blobs). `next_chunk` gives each message's
+  // bytes (blob_upload.h says how large).
+  //
+  // No deadline on the whole stream: an upload that keeps moving goes on
+  // however slow the link. A stall watchdog cancels it when the link takes
+  // no message for rpc_timeout_seconds (a message is taken once it is in
+  // this host's TCP send buffer), or when, after the last message, no answer
+  // comes within rpc_timeout_seconds for each message the link may still
+  // hold (up to 4 MiB of them, the most a send buffer takes) and one more:
+  // the server says nothing until it has every byte, so those cross unseen.
+  // Either is DEADLINE_EXCEEDED saying that the link stalled, after how many
+  // seconds and how many of the blob's bytes were sent.
+  //
+  // `cancel` (may be null): Cancel() from any thread cancels the stream at
+  // once, wherever it is; the answer is then cancel->error(), and
+  // `next_chunk` is not called again.
+  absl::StatusOr<v1::UploadBlobResponse> UploadBlob(const v1::Digest& digest, const ChunkSource& next_chunk,
+                                                    const CancelSource* cancel = nullptr);
 
   // One ReadBlob stream from `offset` to the end, not retried (the caller
   // resumes from what it got). `on_chunk` sees every message in order; a
@@ -132,6 +149,10 @@ class Transport {
   // server gone: the monitor is not told of an outage.
   absl::Status Note(const grpc::Status& status, std::string_view rpc, const Route& route,
                     const grpc::ClientContext& context, bool* try_next_now = nullptr, bool answered = false);
+  // DEADLINE_EXCEEDED "the link stalled: <why>" for a stream on `route`
+  // that the stall watchdog cancelled, told to the failover as Note would.
+  // Reads nothing from the call, which may still be finishing elsewhere.
+  absl::Status NoteStall(std::string_view rpc, const Route& route, std::string_view why);
   // A stream message arrived on `route`.
   void NoteAnswer(const Route& route);
   template <typename Response, typename Call>

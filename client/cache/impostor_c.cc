@@ -3,6 +3,7 @@
 // the result object. Errors are also kept per thread for impostor_last_error.
 #include "impostor/impostor_c.h"
 
+#include <cstddef>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -34,6 +35,19 @@ static_assert(static_cast<int>(impostor::sdk::LogLevel::kInfo) == IMPOSTOR_LOG_I
 static_assert(static_cast<int>(impostor::sdk::LogLevel::kWarning) == IMPOSTOR_LOG_WARNING);
 static_assert(static_cast<int>(impostor::sdk::LogLevel::kError) == IMPOSTOR_LOG_ERROR);
 static_assert(static_cast<int>(impostor::sdk::LogLevel::kOff) == IMPOSTOR_LOG_OFF);
+
+// impostor_hit_verification is impostor::sdk::HitVerification.
+static_assert(static_cast<int>(impostor::sdk::HitVerification::kMetadata) == IMPOSTOR_HIT_VERIFY_METADATA);
+static_assert(static_cast<int>(impostor::sdk::HitVerification::kDigestOncePerProcess) ==
+              IMPOSTOR_HIT_VERIFY_DIGEST_ONCE_PER_PROCESS);
+static_assert(static_cast<int>(impostor::sdk::HitVerification::kDigestEveryGet) ==
+              IMPOSTOR_HIT_VERIFY_DIGEST_EVERY_GET);
+
+// The size of impostor_cache_options_ext's first version, which ends with
+// partial_max_age_seconds: the least a caller may pass. Fields appended
+// later do not change it.
+constexpr size_t kFirstOptionsExtSize =
+    offsetof(impostor_cache_options_ext, partial_max_age_seconds) + sizeof(double);
 
 thread_local std::string last_error;
 
@@ -73,11 +87,44 @@ void impostor_cache_options_init(impostor_cache_options* options) {
 }
 
 impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out) {
+  return impostor_cache_open_ext(options, nullptr, out);
+}
+
+void impostor_cache_options_ext_init(impostor_cache_options_ext* ext) {
+  if (ext == nullptr) return;
+  static const impostor::sdk::CacheOptions defaults;
+  *ext = impostor_cache_options_ext{};
+  ext->size = sizeof(impostor_cache_options_ext);
+  ext->hit_verification = static_cast<int32_t>(defaults.hit_verification);
+  ext->io_threads = defaults.io_threads;
+  ext->partial_max_age_seconds = defaults.partial_max_age_seconds;
+}
+
+impostor_status impostor_cache_open_ext(const impostor_cache_options* options, const impostor_cache_options_ext* ext,
+                                        impostor_cache** out) {
   if (options == nullptr || out == nullptr) {
     return Report(absl::InvalidArgumentError("impostor_cache_open: options and out are required"));
   }
   *out = nullptr;
+  // Every field of the first version is read; one appended later is read
+  // only when ext->size covers it.
+  if (ext != nullptr && ext->size < kFirstOptionsExtSize) {
+    return Report(absl::InvalidArgumentError(absl::StrCat(
+        "impostor_cache_open_ext: ext->size is ", ext->size, ", at least ", kFirstOptionsExtSize,
+        " expected (call impostor_cache_options_ext_init first)")));
+  }
   impostor::sdk::CacheOptions o;
+  if (ext != nullptr) {
+    if (ext->hit_verification < IMPOSTOR_HIT_VERIFY_METADATA ||
+        ext->hit_verification > IMPOSTOR_HIT_VERIFY_DIGEST_EVERY_GET) {
+      return Report(absl::InvalidArgumentError(
+          absl::StrCat("impostor_cache_options_ext.hit_verification: ", ext->hit_verification,
+                       " is not an impostor_hit_verification (0..2)")));
+    }
+    o.hit_verification = static_cast<impostor::sdk::HitVerification>(ext->hit_verification);
+    o.io_threads = ext->io_threads;
+    o.partial_max_age_seconds = ext->partial_max_age_seconds;
+  }
   if (options->server != nullptr) o.server = options->server;
   if (options->dir != nullptr) o.dir = options->dir;
   o.max_bytes = options->max_bytes;

@@ -77,11 +77,16 @@ struct ClientOptions {
   std::string server = "localhost:50051";
 
   // Deadline of every unary RPC (FindMissingBlobs, SubmitBake, GetJob,
-  // CancelJob, GetResult), in seconds. An upload gets this much plus one
-  // second per 256 KiB of blob; a download has no overall deadline, only
-  // this long at most without a byte arriving (a stalled link: it resumes at
-  // the last byte kept, however slow the link); WatchJob has no deadline (a
-  // bake may take long) but resumes when the stream breaks.
+  // CancelJob, GetResult), in seconds. Uploads and downloads have no overall
+  // deadline, however slow the link, only this long at most without
+  // progress: no byte arriving, or no 64 KiB message taken by the link for
+  // an upload ("the link stalled", DEADLINE_EXCEEDED naming the seconds and
+  // bytes). A download then resumes at the last byte kept; an upload starts
+  // over (the server keeps no part of one). After an upload's last message
+  // the server's answer may take this long for each 64 KiB the link may
+  // still hold (up to 4 MiB), plus once: those bytes cross unseen. WatchJob
+  // has no deadline (a bake may take long) but resumes when the stream
+  // breaks.
   // Default: 30. Range: > 0.
   double rpc_timeout_seconds = 30;
 

@@ -110,8 +110,65 @@ typedef struct impostor_cache_options {
 IMPOSTOR_C_EXPORT void impostor_cache_options_init(impostor_cache_options* options);
 
 /* Opens (creates) the cache directory; does not contact the server. On
- * success *out must be closed with impostor_cache_close. */
+ * success *out must be closed with impostor_cache_close. Every setting not
+ * in impostor_cache_options has its default: impostor_cache_open_ext sets
+ * those too. */
 IMPOSTOR_C_EXPORT impostor_status impostor_cache_open(const impostor_cache_options* options, impostor_cache** out);
+
+/* What a local hit checks before it is trusted (impostor::sdk::
+ * HitVerification, impostor/cache.h). */
+typedef enum impostor_hit_verification {
+  /* Each file's size, inode and modification time as recorded when it was
+   * installed: catches truncation, replacement and (almost always)
+   * rewrites; a few stat() calls. */
+  IMPOSTOR_HIT_VERIFY_METADATA = 0,
+  /* The metadata, plus a SHA-256 of every file the first time a result is
+   * handed out by this cache object (about 50 ms for a 2048^2 three-map
+   * result); later hits check metadata only. The default. */
+  IMPOSTOR_HIT_VERIFY_DIGEST_ONCE_PER_PROCESS = 1,
+  /* A SHA-256 of every file on every get. For tools, not for games. */
+  IMPOSTOR_HIT_VERIFY_DIGEST_EVERY_GET = 2
+} impostor_hit_verification;
+
+/* The CacheOptions settings that impostor_cache_options lacks. They are a
+ * struct of their own because impostor_cache_options carries no size: a
+ * field appended to it would be read past the end of the struct that a
+ * program built against an older header passes. This one carries its size,
+ * as impostor_bake_settings does: initialise it with
+ * impostor_cache_options_ext_init, change what you need and pass it to
+ * impostor_cache_open_ext. A later library may append fields; it reads
+ * only those within `size` and gives the others their defaults.
+ *
+ *   impostor_cache_options_ext ext;
+ *   impostor_cache_options_ext_init(&ext);
+ *   ext.hit_verification = IMPOSTOR_HIT_VERIFY_METADATA;
+ *   status = impostor_cache_open_ext(&o, &ext, &cache);
+ */
+typedef struct impostor_cache_options_ext {
+  size_t size; /* sizeof(impostor_cache_options_ext); set by _init */
+  /* What a local hit checks: an impostor_hit_verification. Default
+   * IMPOSTOR_HIT_VERIFY_DIGEST_ONCE_PER_PROCESS; 0..2. */
+  int32_t hit_verification;
+  /* Threads that answer impostor_cache_get_async from disk (hit checks,
+   * hashing included). Default 2; 1..64. */
+  int32_t io_threads;
+  /* Partial downloads (kept so that a broken download resumes where it
+   * stopped, also after a restart) untouched for longer than this many
+   * seconds are deleted when the cache opens; one a download is using, in
+   * any process, never is. Default 604800 (7 days); >= 0 (0 deletes every
+   * one not in use). */
+  double partial_max_age_seconds;
+} impostor_cache_options_ext;
+
+IMPOSTOR_C_EXPORT void impostor_cache_options_ext_init(impostor_cache_options_ext* ext);
+
+/* impostor_cache_open with the settings of `ext` too; `ext` NULL = their
+ * defaults (impostor_cache_open). IMPOSTOR_INVALID_ARGUMENT naming the
+ * field for a value out of range, and for an ext->size smaller than this
+ * struct's first version (ext not initialised). */
+IMPOSTOR_C_EXPORT impostor_status impostor_cache_open_ext(const impostor_cache_options* options,
+                                                          const impostor_cache_options_ext* ext,
+                                                          impostor_cache** out);
 
 /* Cancels pending downloads (their callbacks get IMPOSTOR_CANCELLED), waits
  * for callbacks running on other threads, and frees the cache. NULL is a
