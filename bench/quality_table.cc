@@ -14,6 +14,7 @@
 // <resolution>" (the quality pass takes any key), so the table is the same
 // on every run on the same device; a farm bake seeds them from its cache key
 // and measures other, equally valid, views.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -70,6 +71,10 @@ struct Row {
   impostor::v1::AtlasQuality quality;
   double seconds = 0;
   double pass_seconds = 0;  // the quality pass's share (its event=quality_pass log line)
+  // --pass-cost N: the medians of N bakes with the pass and N without,
+  // interleaved (the pass overlaps the maps' encoding, so its own seconds
+  // overstate what it adds to the bake's wall time); 0 when not measured.
+  double with_pass_seconds = 0, without_pass_seconds = 0;
   // --pop-references: the pass's pop references (quality_pass.h), else -1.
   double pop_antialiased_mesh = -1, pop_antialiased = -1;
   std::string error;
@@ -86,6 +91,14 @@ double LastEventField(const std::string& log, const std::string& event_name, con
   const size_t at = log.find(key, event);
   if (at == std::string::npos || at > line_end) return missing;
   return std::atof(log.c_str() + at + key.size());
+}
+
+// The middle value (the mean of the two middle ones for an even count); 0 for none.
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t mid = v.size() / 2;
+  return v.size() % 2 == 1 ? v[mid] : (v[mid - 1] + v[mid]) / 2;
 }
 
 // "8,12,16"; false if any item is not a whole number.
@@ -115,6 +128,7 @@ int main(int argc, char** argv) {
   int view_pixels = 0;
   bool on_frames = false;
   bool pop_references = false;
+  int pass_cost_rounds = 0;
   impostor::bench::BenchArgs("quality_table", "Bakes the quality table's assets in process and writes the table.")
       .Text("--out", &out_flag, "the Markdown file to write (default docs/quality.md)")
       .Uint("--resolution", &resolution, "atlas size in pixels (default 1024)")
@@ -125,7 +139,14 @@ int main(int argc, char** argv) {
       .Switch("--on-frames", &on_frames, "put the views on baked frames' own directions (the atlas's ceiling)")
       .Switch("--pop-references", &pop_references,
               "also measure the pop of smoother renderings (the mesh antialiased; both sides antialiased)")
+      .Int("--pass-cost", &pass_cost_rounds,
+           "also bake each row N more times with and N without the pass, interleaved, after one warm-up bake, and "
+           "report the medians' difference (default 0: off)")
       .ParseOrExit(argc, argv);
+  if (pass_cost_rounds < 0 || pass_cost_rounds > 50) {
+    std::fprintf(stderr, "quality_table: --pass-cost %d is out of range 0..50\n", pass_cost_rounds);
+    return 2;
+  }
   std::vector<uint32_t> frame_counts;
   if (!ParseList(frames_flag, &frame_counts)) {
     std::fprintf(stderr, "quality_table: --frames: '%s' is not a comma-separated list of whole numbers\n",
@@ -172,23 +193,32 @@ int main(int argc, char** argv) {
                     "boundaries. Union PSNR: the format-1 figure, over the union of both silhouettes composited over "
                     "black. Normal: mean angle between the normals where both cover. Pop: the largest change of the "
                     "impostor between neighbouring 1 degree steps of an orbit at 20 degrees elevation relative to "
-                    "the mesh's own change (1.0 = as smooth as the mesh). Pass: the quality pass's share of the "
-                    "bake's wall time (both modes and both orbits). Format of every figure: manifest_format.md "
-                    "(`quality`).\n\n",
+                    "the mesh's own change (1.0 = as smooth as the mesh). Pass share: the quality pass's own seconds "
+                    "over the bake's wall time (both modes and both orbits); the pass runs beside the maps' PNG "
+                    "encoders, so this overstates what it adds. ",
+                    pass_cost_rounds > 0
+                        ? absl::StrCat("Pass cost: what the pass adds to the bake's wall time, (median with - median "
+                                       "without) / median with, over ", pass_cost_rounds,
+                                       " bakes each way, interleaved, after a warm-up bake (the process's first bake "
+                                       "also compiles the device's shaders). ")
+                        : std::string(),
+                    "Format of every figure: manifest_format.md (`quality`).\n\n",
                     "| asset | kind | layout | frames | IoU mean | IoU min | PSNR mean (dB) | PSNR min (dB) | SSIM mean "
-                    "| boundary (px) | union PSNR (dB) | normal mean (deg) | pop | bake + pass (s) | pass share |\n",
-                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                    "| boundary (px) | union PSNR (dB) | normal mean (deg) | pop | bake + pass (s) | pass share |",
+                    pass_cost_rounds > 0 ? " bake without pass (s) | pass cost |\n" : "\n",
+                    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+                    pass_cost_rounds > 0 ? "---:|---:|\n" : "\n");
     for (const Row& r : rows) {
       const auto& q = r.quality;
       if (!r.error.empty()) {
         absl::StrAppend(&md, "| ", r.asset, " | ", r.kind, " | ", r.layout, " | ", r.frames, " | failed: ", r.error,
-                        " | | | | | | | | | | |\n");
+                        " | | | | | | | | | | |", pass_cost_rounds > 0 ? " | |\n" : "\n");
         continue;
       }
       const auto& p = q.plain();
       absl::StrAppend(
           &md, absl::StrFormat("| %s | %s | %s | %u | %.3f / %.3f | %.3f / %.3f | %.1f / %.1f | %.1f / %.1f | "
-                               "%.3f / %.3f | %.2f / %.2f | %.1f / %.1f | %.1f / %.1f | %.2f / %.2f | %.1f | %.0f %% |\n",
+                               "%.3f / %.3f | %.2f / %.2f | %.1f / %.1f | %.1f / %.1f | %.2f / %.2f | %.1f | %.0f %% |",
                                r.asset, r.kind, r.layout, r.frames, q.silhouette_iou_mean(), p.silhouette_iou_mean(),
                                q.silhouette_iou_min(), p.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(),
                                p.albedo_psnr_shared_db_mean(), q.albedo_psnr_shared_db_min(),
@@ -196,6 +226,14 @@ int main(int argc, char** argv) {
                                q.boundary_error_px_mean(), p.boundary_error_px_mean(), q.albedo_psnr_union_db_mean(),
                                p.albedo_psnr_union_db_mean(), q.normal_error_deg_mean(), p.normal_error_deg_mean(),
                                q.pop(), p.pop(), r.seconds, r.seconds > 0 ? 100.0 * r.pass_seconds / r.seconds : 0.0));
+      if (pass_cost_rounds > 0) {
+        absl::StrAppend(&md, absl::StrFormat(" %.2f | %.0f %% |", r.without_pass_seconds,
+                                             r.with_pass_seconds > 0
+                                                 ? 100.0 * (r.with_pass_seconds - r.without_pass_seconds) /
+                                                       r.with_pass_seconds
+                                                 : 0.0));
+      }
+      absl::StrAppend(&md, "\n");
     }
     if (pop_references) {
       absl::StrAppend(
@@ -215,7 +253,8 @@ int main(int argc, char** argv) {
     absl::StrAppend(&md, "\nReproduce: `cmake --build build --target quality_table && build/bin/quality_table --resolution ",
                     resolution, "` (writes this file; `--frames 8,12,16`, `--only NAME` and `--layouts a,b` narrow it; "
                     "`--view-pixels N` sets the held-out views' size, `--on-frames` measures on the frames' own "
-                    "directions instead, `--pop-references` adds the pop references).\n");
+                    "directions instead, `--pop-references` adds the pop references, `--pass-cost N` the pass's "
+                    "cost over N bakes each way).\n");
     std::ofstream out(out_path, std::ios::trunc);
     out << md;
     out.close();
@@ -292,13 +331,38 @@ int main(int argc, char** argv) {
         } else {
           row.error = std::string(baked.status().message());
         }
+        if (pass_cost_rounds > 0 && row.error.empty()) {
+          // The bake above was this row's warm-up; now the two kinds in turn.
+          impostor::AtlasBakeRequest without = request;
+          without.parameters.set_quality_views(0);
+          std::vector<double> with_seconds, without_seconds;
+          for (int round = 0; round < pass_cost_rounds && row.error.empty(); ++round) {
+            for (impostor::AtlasBakeRequest* r : {&without, &request}) {
+              fs::remove_all(scratch);
+              fs::create_directories(scratch);
+              const auto t = std::chrono::steady_clock::now();
+              auto again = impostor::BakeAtlas(*r, **renderer, [](std::string_view, double) {}, cancelled);
+              const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+              if (!again.ok()) row.error = std::string(again.status().message());
+              (r == &request ? with_seconds : without_seconds).push_back(seconds);
+            }
+          }
+          log.str("");
+          row.with_pass_seconds = Median(with_seconds);
+          row.without_pass_seconds = Median(without_seconds);
+        }
         const auto& q = row.quality;
         std::fprintf(stderr,
                      "%-20s %-16s %2u frames: depth IoU %.4f PSNR %.2f dB SSIM %.3f pop %.2f | plain IoU %.4f PSNR "
-                     "%.2f dB pop %.2f (%.1f s, pass %.1f s)%s%s\n",
+                     "%.2f dB pop %.2f (%.1f s, pass %.1f s%s)%s%s\n",
                      asset.name, row.layout.c_str(), frames, q.silhouette_iou_mean(), q.albedo_psnr_shared_db_mean(),
                      q.albedo_ssim_shared_mean(), q.pop(), q.plain().silhouette_iou_mean(),
                      q.plain().albedo_psnr_shared_db_mean(), q.plain().pop(), row.seconds, row.pass_seconds,
+                     row.with_pass_seconds > 0
+                         ? absl::StrFormat("; median %.2f s with, %.2f s without", row.with_pass_seconds,
+                                           row.without_pass_seconds)
+                               .c_str()
+                         : "",
                      row.error.empty() ? "" : " error: ", row.error.c_str());
         rows.push_back(std::move(row));
         write_table(rows, false);

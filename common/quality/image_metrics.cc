@@ -27,46 +27,81 @@ double Composited(const ViewPixels& v, size_t p, int c) {
   return Covered(v, p) ? v.albedo_alpha[p * 4 + c] / 255.0 : 0.0;
 }
 
-// Luminance of the image composited over black (Rec. 601 weights).
-std::vector<double> Luminance(const ViewPixels& v) {
-  std::vector<double> y(PixelCount(v));
-  for (size_t p = 0; p < y.size(); ++p) {
-    y[p] = 0.299 * Composited(v, p, 0) + 0.587 * Composited(v, p, 1) + 0.114 * Composited(v, p, 2);
-  }
-  return y;
-}
-
 // Gaussian 11 x 11, sigma 1.5 (Wang et al. 2004), applied separably; each
 // pass divides by the weights that fell inside the image, which for a
 // product kernel equals renormalising the clipped 2-D window.
-std::vector<double> GaussianBlur(const std::vector<double>& in, int w, int h) {
-  constexpr int kRadius = 5;
-  constexpr double kSigma = 1.5;
-  double kernel[2 * kRadius + 1];
-  for (int i = -kRadius; i <= kRadius; ++i) kernel[i + kRadius] = std::exp(-(i * i) / (2 * kSigma * kSigma));
-  std::vector<double> tmp(in.size()), out(in.size());
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      double sum = 0, weight = 0;
-      for (int k = std::max(-kRadius, -x); k <= std::min(kRadius, w - 1 - x); ++k) {
-        sum += kernel[k + kRadius] * in[static_cast<size_t>(y) * w + x + k];
-        weight += kernel[k + kRadius];
+class GaussianWindow {
+ public:
+  static constexpr int kRadius = 5;
+
+  GaussianWindow(int w, int h) : w_(w), h_(h), tmp_(static_cast<size_t>(w) * h) {
+    constexpr double kSigma = 1.5;
+    for (int i = -kRadius; i <= kRadius; ++i) kernel_[i + kRadius] = std::exp(-(i * i) / (2 * kSigma * kSigma));
+    inside_x_ = InsideWeights(w);
+    inside_y_ = InsideWeights(h);
+  }
+
+  // out = blur(in). Each pixel's taps are summed in the same order (k from
+  // -kRadius up) whatever the loop, so the figures do not depend on it; the
+  // interior's taps are unrolled with the sum in a register (the metrics
+  // were the quality pass's largest CPU cost on a GPU host).
+  void Blur(const std::vector<double>& in, std::vector<double>& out) {
+    out.resize(static_cast<size_t>(w_) * h_);
+    for (int y = 0; y < h_; ++y) {
+      const double* __restrict src = in.data() + static_cast<size_t>(y) * w_;
+      double* __restrict dst = tmp_.data() + static_cast<size_t>(y) * w_;
+      for (int x = 0; x < w_; ++x) {
+        double sum = 0;
+        if (x >= kRadius && x < w_ - kRadius) {
+#pragma GCC unroll 11
+          for (int k = -kRadius; k <= kRadius; ++k) sum += kernel_[k + kRadius] * src[x + k];
+        } else {
+          for (int k = std::max(-kRadius, -x); k <= std::min(kRadius, w_ - 1 - x); ++k) {
+            sum += kernel_[k + kRadius] * src[x + k];
+          }
+        }
+        dst[x] = sum / inside_x_[x];
       }
-      tmp[static_cast<size_t>(y) * w + x] = sum / weight;
+    }
+    for (int y = 0; y < h_; ++y) {
+      const int first = std::max(-kRadius, -y), last = std::min(kRadius, h_ - 1 - y);
+      const double* __restrict rows = tmp_.data() + static_cast<ptrdiff_t>(y) * w_;
+      double* __restrict dst = out.data() + static_cast<size_t>(y) * w_;
+      if (first == -kRadius && last == kRadius) {
+        for (int x = 0; x < w_; ++x) {
+          double sum = 0;
+#pragma GCC unroll 11
+          for (int k = -kRadius; k <= kRadius; ++k) sum += kernel_[k + kRadius] * rows[static_cast<ptrdiff_t>(k) * w_ + x];
+          dst[x] = sum / inside_y_[y];
+        }
+      } else {
+        for (int x = 0; x < w_; ++x) {
+          double sum = 0;
+          for (int k = first; k <= last; ++k) sum += kernel_[k + kRadius] * rows[static_cast<ptrdiff_t>(k) * w_ + x];
+          dst[x] = sum / inside_y_[y];
+        }
+      }
     }
   }
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      double sum = 0, weight = 0;
-      for (int k = std::max(-kRadius, -y); k <= std::min(kRadius, h - 1 - y); ++k) {
-        sum += kernel[k + kRadius] * tmp[static_cast<size_t>(y + k) * w + x];
-        weight += kernel[k + kRadius];
-      }
-      out[static_cast<size_t>(y) * w + x] = sum / weight;
+
+ private:
+  // For each position along a side of `size`, the sum of the kernel's
+  // weights whose taps fall inside, added in tap order.
+  std::vector<double> InsideWeights(int size) const {
+    std::vector<double> inside(size);
+    for (int i = 0; i < size; ++i) {
+      double weight = 0;
+      for (int k = std::max(-kRadius, -i); k <= std::min(kRadius, size - 1 - i); ++k) weight += kernel_[k + kRadius];
+      inside[i] = weight;
     }
+    return inside;
   }
-  return out;
-}
+
+  int w_, h_;
+  double kernel_[2 * kRadius + 1];
+  std::vector<double> inside_x_, inside_y_;
+  std::vector<double> tmp_;
+};
 
 struct GeometryErrors {
   double normal_deg_mean = 0, normal_deg_max = 0, depth_mean = 0, depth_max = 0;
@@ -180,6 +215,92 @@ std::vector<bool> Boundary(const ViewPixels& v) {
   return b;
 }
 
+// The buffers of one SSIM (the five windowed moments and their inputs),
+// kept across the two SSIMs of a CompareViews: each is a page-sized
+// allocation that the 16 threads of a quality pass otherwise fault in anew.
+struct SsimScratch {
+  SsimScratch(int w, int h) : window(w, h) {
+    const size_t n = static_cast<size_t>(w) * h;
+    for (std::vector<double>* v : {&m, &x, &y, &xx, &yy, &xy}) v->assign(n, 0.0);
+  }
+  GaussianWindow window;
+  std::vector<double> m, x, y, xx, yy, xy;        // mask and the moments' inputs
+  std::vector<double> wm, mx, my, exx, eyy, exy;  // their windowed sums
+};
+
+double Luma(const ViewPixels& v, size_t p) {
+  return (0.299 * v.albedo_alpha[p * 4] + 0.587 * v.albedo_alpha[p * 4 + 1] + 0.114 * v.albedo_alpha[p * 4 + 2]) /
+         255.0;
+}
+
+double AlbedoSsim(const ViewPixels& a, const ViewPixels& b, SsimScratch& s) {
+  AssertSameSize(a, b);
+  const size_t n = PixelCount(a);
+  for (size_t p = 0; p < n; ++p) {
+    s.x[p] = 0.299 * Composited(a, p, 0) + 0.587 * Composited(a, p, 1) + 0.114 * Composited(a, p, 2);
+    s.y[p] = 0.299 * Composited(b, p, 0) + 0.587 * Composited(b, p, 1) + 0.114 * Composited(b, p, 2);
+    s.xx[p] = s.x[p] * s.x[p];
+    s.yy[p] = s.y[p] * s.y[p];
+    s.xy[p] = s.x[p] * s.y[p];
+  }
+  s.window.Blur(s.x, s.mx);
+  s.window.Blur(s.y, s.my);
+  s.window.Blur(s.xx, s.exx);
+  s.window.Blur(s.yy, s.eyy);
+  s.window.Blur(s.xy, s.exy);
+  constexpr double kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;  // (K L)^2 with L = 1
+  double sum = 0;
+  int64_t either = 0;
+  for (size_t p = 0; p < n; ++p) {
+    if (!Covered(a, p) && !Covered(b, p)) continue;
+    const double mx = s.mx[p], my = s.my[p];
+    const double vx = s.exx[p] - mx * mx, vy = s.eyy[p] - my * my, cxy = s.exy[p] - mx * my;
+    sum += ((2 * mx * my + kC1) * (2 * cxy + kC2)) / ((mx * mx + my * my + kC1) * (vx + vy + kC2));
+    ++either;
+  }
+  return either == 0 ? 1.0 : sum / static_cast<double>(either);
+}
+
+double AlbedoSsimShared(const ViewPixels& a, const ViewPixels& b, SsimScratch& s) {
+  AssertSameSize(a, b);
+  const size_t n = PixelCount(a);
+  int64_t both = 0, either = 0;
+  for (size_t p = 0; p < n; ++p) {
+    const bool ca = Covered(a, p), cb = Covered(b, p);
+    either += ca || cb;
+    if (!(ca && cb)) {
+      s.m[p] = s.x[p] = s.y[p] = s.xx[p] = s.yy[p] = s.xy[p] = 0.0;
+      continue;
+    }
+    ++both;
+    const double lx = Luma(a, p), ly = Luma(b, p);
+    s.m[p] = 1.0;
+    s.x[p] = lx;
+    s.y[p] = ly;
+    s.xx[p] = lx * lx;
+    s.yy[p] = ly * ly;
+    s.xy[p] = lx * ly;
+  }
+  if (both == 0) return either == 0 ? 1.0 : 0.0;
+  // Windows restricted to the shared pixels: blur(mask * v) / blur(mask).
+  s.window.Blur(s.m, s.wm);
+  s.window.Blur(s.x, s.mx);
+  s.window.Blur(s.y, s.my);
+  s.window.Blur(s.xx, s.exx);
+  s.window.Blur(s.yy, s.eyy);
+  s.window.Blur(s.xy, s.exy);
+  constexpr double kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;
+  double sum = 0;
+  for (size_t p = 0; p < n; ++p) {
+    if (s.m[p] == 0.0) continue;
+    const double inv = 1.0 / s.wm[p];
+    const double ux = s.mx[p] * inv, uy = s.my[p] * inv;
+    const double vx = s.exx[p] * inv - ux * ux, vy = s.eyy[p] * inv - uy * uy, cxy = s.exy[p] * inv - ux * uy;
+    sum += ((2 * ux * uy + kC1) * (2 * cxy + kC2)) / ((ux * ux + uy * uy + kC1) * (vx + vy + kC2));
+  }
+  return sum / static_cast<double>(both);
+}
+
 }  // namespace
 
 double AlbedoPsnrSharedDb(const ViewPixels& a, const ViewPixels& b) {
@@ -201,42 +322,8 @@ double AlbedoPsnrSharedDb(const ViewPixels& a, const ViewPixels& b) {
 }
 
 double AlbedoSsimShared(const ViewPixels& a, const ViewPixels& b) {
-  AssertSameSize(a, b);
-  const int w = a.width, h = a.height;
-  const size_t n = PixelCount(a);
-  std::vector<double> m(n), x(n), y(n), xx(n), yy(n), xy(n);
-  int64_t both = 0, either = 0;
-  for (size_t p = 0; p < n; ++p) {
-    const bool ca = Covered(a, p), cb = Covered(b, p);
-    either += ca || cb;
-    if (!(ca && cb)) continue;
-    ++both;
-    const double lx = (0.299 * a.albedo_alpha[p * 4] + 0.587 * a.albedo_alpha[p * 4 + 1] +
-                       0.114 * a.albedo_alpha[p * 4 + 2]) / 255.0;
-    const double ly = (0.299 * b.albedo_alpha[p * 4] + 0.587 * b.albedo_alpha[p * 4 + 1] +
-                       0.114 * b.albedo_alpha[p * 4 + 2]) / 255.0;
-    m[p] = 1.0;
-    x[p] = lx;
-    y[p] = ly;
-    xx[p] = lx * lx;
-    yy[p] = ly * ly;
-    xy[p] = lx * ly;
-  }
-  if (both == 0) return either == 0 ? 1.0 : 0.0;
-  // Windows restricted to the shared pixels: blur(mask * v) / blur(mask).
-  const std::vector<double> wm = GaussianBlur(m, w, h);
-  const std::vector<double> mx = GaussianBlur(x, w, h), my = GaussianBlur(y, w, h);
-  const std::vector<double> exx = GaussianBlur(xx, w, h), eyy = GaussianBlur(yy, w, h), exy = GaussianBlur(xy, w, h);
-  constexpr double kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;
-  double sum = 0;
-  for (size_t p = 0; p < n; ++p) {
-    if (m[p] == 0.0) continue;
-    const double inv = 1.0 / wm[p];
-    const double ux = mx[p] * inv, uy = my[p] * inv;
-    const double vx = exx[p] * inv - ux * ux, vy = eyy[p] * inv - uy * uy, cxy = exy[p] * inv - ux * uy;
-    sum += ((2 * ux * uy + kC1) * (2 * cxy + kC2)) / ((ux * ux + uy * uy + kC1) * (vx + vy + kC2));
-  }
-  return sum / static_cast<double>(both);
+  SsimScratch scratch(a.width, a.height);
+  return AlbedoSsimShared(a, b, scratch);
 }
 
 BoundaryError SilhouetteBoundaryError(const ViewPixels& a, const ViewPixels& b) {
@@ -302,29 +389,8 @@ double AlbedoPsnrDb(const ViewPixels& a, const ViewPixels& b) {
 }
 
 double AlbedoSsim(const ViewPixels& a, const ViewPixels& b) {
-  AssertSameSize(a, b);
-  const int w = a.width, h = a.height;
-  const size_t n = PixelCount(a);
-  const std::vector<double> x = Luminance(a), y = Luminance(b);
-  std::vector<double> xx(n), yy(n), xy(n);
-  for (size_t p = 0; p < n; ++p) {
-    xx[p] = x[p] * x[p];
-    yy[p] = y[p] * y[p];
-    xy[p] = x[p] * y[p];
-  }
-  const std::vector<double> mx = GaussianBlur(x, w, h), my = GaussianBlur(y, w, h);
-  const std::vector<double> exx = GaussianBlur(xx, w, h), eyy = GaussianBlur(yy, w, h), exy = GaussianBlur(xy, w, h);
-  constexpr double kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;  // (K L)^2 with L = 1
-  double sum = 0;
-  int64_t either = 0;
-  for (size_t p = 0; p < n; ++p) {
-    if (!Covered(a, p) && !Covered(b, p)) continue;
-    const double vx = exx[p] - mx[p] * mx[p], vy = eyy[p] - my[p] * my[p], cxy = exy[p] - mx[p] * my[p];
-    sum += ((2 * mx[p] * my[p] + kC1) * (2 * cxy + kC2)) /
-           ((mx[p] * mx[p] + my[p] * my[p] + kC1) * (vx + vy + kC2));
-    ++either;
-  }
-  return either == 0 ? 1.0 : sum / static_cast<double>(either);
+  SsimScratch scratch(a.width, a.height);
+  return AlbedoSsim(a, b, scratch);
 }
 
 double MeanAbsoluteAlbedoChange(const ViewPixels& a, const ViewPixels& b) {
@@ -361,9 +427,10 @@ ViewMetrics CompareViews(const ViewPixels& reference, const ViewPixels& test) {
   }
   m.iou = SilhouetteIou(reference, test);
   m.albedo_psnr_db = AlbedoPsnrDb(reference, test);
-  m.albedo_ssim = AlbedoSsim(reference, test);
+  SsimScratch scratch(reference.width, reference.height);
+  m.albedo_ssim = AlbedoSsim(reference, test, scratch);
   m.albedo_psnr_shared_db = AlbedoPsnrSharedDb(reference, test);
-  m.albedo_ssim_shared = AlbedoSsimShared(reference, test);
+  m.albedo_ssim_shared = AlbedoSsimShared(reference, test, scratch);
   const BoundaryError boundary = SilhouetteBoundaryError(reference, test);
   m.boundary_error_px_mean = boundary.mean_px;
   m.boundary_error_px_max = boundary.max_px;

@@ -4,9 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <future>
 #include <numbers>
-#include <thread>
 #include <utility>
 
 #include <glm/geometric.hpp>
@@ -15,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/frame_camera.h"
 #include "common/layout_parameters.h"
+#include "common/parallel_for.h"
 #include "common/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/output/map_writer.h"
@@ -108,26 +107,12 @@ absl::StatusOr<std::vector<ViewBuffers>> RenderMeshViews(const Scene& scene, con
   return views;
 }
 
-// Runs each(i) for i in [0, count) on up to 16 threads (every view's work
-// is independent: rendering a view, comparing a pair).
-template <typename F>
-void ForEachView(size_t count, F each) {
-  const size_t threads = std::min<size_t>(count, std::clamp<size_t>(std::thread::hardware_concurrency(), 1, 16));
-  std::vector<std::future<void>> jobs;
-  for (size_t worker = 0; worker < threads; ++worker) {
-    jobs.push_back(std::async(std::launch::async, [&, worker] {
-      for (size_t i = worker; i < count; i += threads) each(i);
-    }));
-  }
-  for (auto& j : jobs) j.get();
-}
-
 // The impostor from every direction, rendered on all cores (the reference
 // renderer is pure).
 std::vector<ViewBuffers> RenderImpostorViewsOnCpu(const ImpostorAtlas& atlas, const std::vector<glm::vec3>& directions,
                                                   int pixels, const ReferenceRenderOptions& options) {
   std::vector<ViewBuffers> views(directions.size());
-  ForEachView(directions.size(), [&](size_t i) {
+  ParallelFor(directions.size(), [&](size_t i) {
     FrameCamera camera = ViewCameraFor(directions[i]);
     camera.tile = {0, 0, pixels, pixels};
     ViewImages image = RenderImpostorView(atlas, camera, pixels, options);
@@ -143,7 +128,7 @@ std::vector<ViewBuffers> RenderImpostorViewsOnCpu(const ImpostorAtlas& atlas, co
 // largest cost (H100, 16 views of 256 px: 0.34 s of 1.2 s one pair at a time).
 std::vector<ViewMetrics> CompareAll(const std::vector<ViewBuffers>& mesh, const std::vector<ViewBuffers>& impostor) {
   std::vector<ViewMetrics> out(mesh.size());
-  ForEachView(mesh.size(), [&](size_t i) { out[i] = CompareViews(mesh[i].Pixels(), impostor[i].Pixels()); });
+  ParallelFor(mesh.size(), [&](size_t i) { out[i] = CompareViews(mesh[i].Pixels(), impostor[i].Pixels()); });
   return out;
 }
 

@@ -2,13 +2,12 @@
 
 #include <algorithm>
 #include <fstream>
-#include <future>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "common/parallel_for.h"
 #include "common/runtime/reference_renderer.h"
 #include "worker/output/map_writer.h"
 
@@ -29,21 +28,12 @@ absl::StatusOr<std::vector<QualityViewsFile>> WriteQualityViews(
   // The PNGs on all cores: one after another they were a tenth of the pass
   // once the views were drawn on a GPU (33 files of 256 px: 0.15 s).
   std::vector<absl::Status> written(2 * static_cast<size_t>(count));
-  {
-    const int threads = std::min(2 * count, std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16));
-    std::vector<std::future<void>> jobs;
-    for (int worker = 0; worker < threads; ++worker) {
-      jobs.push_back(std::async(std::launch::async, [&, worker] {
-        for (int k = worker; k < 2 * count; k += threads) {
-          const int i = k / 2;
-          const bool mesh = k % 2 == 0;
-          written[k] = WritePngRgba8(dir / QualityViewFileName(i, count, mesh),
-                                     mesh ? images[i].mesh : images[i].impostor, view_pixels, view_pixels);
-        }
-      }));
-    }
-    for (auto& j : jobs) j.get();
-  }
+  ParallelFor(written.size(), [&](size_t k) {
+    const int i = static_cast<int>(k / 2);
+    const bool mesh = k % 2 == 0;
+    written[k] = WritePngRgba8(dir / QualityViewFileName(i, count, mesh), mesh ? images[i].mesh : images[i].impostor,
+                               view_pixels, view_pixels);
+  });
   for (const absl::Status& s : written) {
     if (!s.ok()) return s;
   }
