@@ -859,7 +859,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
     if (shutdown_) return absl::UnavailableError("LeaseJob: the server is shutting down; lease from the next one");
     absl::StatusOr<std::vector<std::string>> candidates = std::vector<std::string>();
     // A paused worker waits as if the queue were empty.
-    if (!IsPaused(request.worker_id())) candidates = LeaseCandidates();
+    if (!IsPaused(request.worker_id())) candidates = LeaseCandidates(request.worker_id());
     if (!candidates.ok()) return candidates.status();
     std::optional<JobRecord> claimed;
     // A caller that gave up while this call waited (for the lock behind a
@@ -924,12 +924,42 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   }
 }
 
-absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates() {
-  auto heads = jobs_->QueueHeadsPerClient();
-  if (!heads.ok()) return heads.status();
+absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const std::string& worker_id) {
+  // A queue head this worker failed lately is held back, and the queue read
+  // again without it for what lies behind (its client's next job, a lower
+  // priority): the worker bakes other work while the job waits for another
+  // worker.
+  const int64_t now = SharedNowMs();
+  std::vector<JobRecord> heads;
+  std::vector<JobRecord> held_back;
+  std::vector<std::string> skipped;
+  for (int round = 0; round < kLeaseCandidateRounds && heads.empty(); ++round) {
+    auto got = jobs_->QueueHeadsPerClient(skipped);
+    if (!got.ok()) return got.status();
+    if (got->empty()) break;
+    for (JobRecord& r : *got) {
+      if (FailedLatelyBy(r, worker_id, now)) {
+        skipped.push_back(r.job.job_id());
+        held_back.push_back(std::move(r));
+      } else {
+        heads.push_back(std::move(r));
+      }
+    }
+  }
+  // Nothing else for it: it gets its own failures back unless another
+  // worker could take them, so no job waits longer than the bound.
+  if (heads.empty()) {
+    for (JobRecord& r : held_back) {
+      if (!AnotherWorkerMayTake(r, worker_id)) heads.push_back(std::move(r));
+    }
+    if (heads.empty() && !held_back.empty()) {
+      spdlog::debug("event=lease_held_back worker=\"{}\" jobs={} reason=\"failed here lately; left to other workers\"",
+                    EscapeUntrusted(worker_id), held_back.size());
+    }
+  }
   std::vector<std::string> ids;
-  if (heads->size() <= 1) {
-    for (const JobRecord& r : *heads) ids.push_back(r.job.job_id());
+  if (heads.size() <= 1) {
+    for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
     return ids;
   }
   auto running = jobs_->RunningPerClient();
@@ -939,13 +969,37 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates() {
   auto rank = [&](const JobRecord& r) {
     const auto busy = running->find(r.client_id);
     const auto served = last_served->find(r.client_id);
-    return std::make_tuple(busy == running->end() ? int64_t{0} : busy->second,
+    // Heads share one priority, except jobs handed back to their worker
+    // above (read in different rounds).
+    return std::make_tuple(-int64_t{r.lease_priority}, busy == running->end() ? int64_t{0} : busy->second,
                            served == last_served->end() ? int64_t{0} : served->second, r.job.created_ms(),
                            r.job.job_id());
   };
-  std::sort(heads->begin(), heads->end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
-  for (const JobRecord& r : *heads) ids.push_back(r.job.job_id());
+  std::sort(heads.begin(), heads.end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
+  for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
   return ids;
+}
+
+bool BakeScheduler::FailedLatelyBy(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms) const {
+  if (options_.retry_elsewhere_ms <= 0) return false;
+  for (const v1::JobAttempt& a : r.job.attempt_history()) {
+    if (a.outcome() == v1::JobAttempt::OUTCOME_FAILED && a.worker_id() == worker_id &&
+        shared_now_ms - a.ended_ms() < options_.retry_elsewhere_ms) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool BakeScheduler::AnotherWorkerMayTake(const JobRecord& r, const std::string& worker_id) {
+  const int64_t now = options_.now_ms();
+  const int64_t shared_now = SharedNowMs();
+  for (const auto& [id, seen] : workers_) {
+    if (id == worker_id || IsPaused(id)) continue;
+    const bool about = seen.polling > 0 || now - seen.last_seen_ms < options_.lease_timeout_ms;
+    if (about && !FailedLatelyBy(r, id, shared_now)) return true;
+  }
+  return false;
 }
 
 absl::StatusOr<JobRecord> BakeScheduler::HeldLease(const std::string& job_id, const std::string& lease_id) {
@@ -1057,11 +1111,16 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
                                                          " attempts; last error: ", request.error().message()));
       }
     }
-    spdlog::info("event=fail job={} worker=\"{}\" retry={} code={} error=\"{}\"", r->job.job_id(),
-                 EscapeUntrusted(r->worker_id), retry, request.error().code(),
+    // Bad input is the job's fault; anything retryable may be the worker's,
+    // except this server's own full storage, which the worker relays
+    // (reason STORE_FULL) when its result upload met it for longer than its
+    // outage budget: the farm's state, not the worker's (one full disk would
+    // otherwise pause every worker).
+    const bool worker_fault = request.retryable() && received.error().reason() != error_reason::kStoreFull;
+    spdlog::info("event=fail job={} worker=\"{}\" retry={} worker_fault={} code={} error=\"{}\"", r->job.job_id(),
+                 EscapeUntrusted(r->worker_id), retry, worker_fault, request.error().code(),
                  EscapeUntrusted(request.error().message()));
-    // Bad input is the job's fault; anything retryable may be the worker's.
-    if (request.retryable()) NoteWorkerFailure(r->worker_id, r->job.job_id());
+    if (worker_fault) NoteWorkerFailure(r->worker_id, r->job.job_id());
     NoteWorkerSeen(r->worker_id);
     observer_.load()->OnFail(r->worker_id, r->parameters.product(), retry);
   }

@@ -70,6 +70,17 @@ struct SchedulerOptions {
   // count. Defaults 3 and 5 minutes; 0 = never pause.
   int worker_failure_limit = 3;
   int64_t worker_pause_ms = 5 * 60'000;
+  // A job a worker failed retryably (FailJob with retryable: memory not
+  // free right now, a full scratch, a device error) is left to other
+  // workers for this long: that worker's LeaseJob skips it while another
+  // job is queued for it, or while another worker that could take it is
+  // about (heard from within the lease timeout, not paused, and not one
+  // that failed the job within this time too). Alone, or once this has
+  // passed, the worker gets the job back, so no job starves. Read from the
+  // job's attempt_history, so every server on the database agrees; which
+  // workers are about is each server's own knowledge. Default 60 s; range
+  // 0 (off) .. 1 h.
+  int64_t retry_elsewhere_ms = 60'000;
   // Finished (SUCCEEDED, FAILED, CANCELLED) job records created longer ago
   // than this are deleted by SweepFinishedJobs, so the database stays
   // bounded. Default 7 days; 0 = keep for ever.
@@ -352,9 +363,21 @@ class BakeScheduler {
   // Sets a queued or running leader's lease priority to the highest
   // priority among its live requesters and saves it when that changed.
   absl::Status RefreshLeasePriority(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // The queued leaders Lease should hand out, best first (see Lease): one
-  // per client at the highest queued priority.
-  absl::StatusOr<std::vector<std::string>> LeaseCandidates() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The queued leaders Lease should hand `worker_id`, best first (see
+  // Lease): one per client at the highest queued priority, after leaving out
+  // the jobs it should leave to others (options_.retry_elsewhere_ms).
+  absl::StatusOr<std::vector<std::string>> LeaseCandidates(const std::string& worker_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Whether `worker_id` failed `r` within options_.retry_elsewhere_ms of
+  // `shared_now_ms` (an attempt of its history that ended FAILED).
+  bool FailedLatelyBy(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms) const;
+  // Whether a worker other than `worker_id` that could take `r` is about:
+  // heard from within the lease timeout (or polling now), not paused, and
+  // not one that failed `r` lately too.
+  bool AnotherWorkerMayTake(const JobRecord& r, const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Queue reads LeaseCandidates makes at most, each one skipping the jobs
+  // the previous ones found the worker had failed lately.
+  static constexpr int kLeaseCandidateRounds = 4;
   // Cancels the leader's bake when neither its requester nor any follower
   // wants it any more.
   absl::Status CancelBakeIfUnwanted(JobRecord& leader) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

@@ -124,10 +124,12 @@ class JobStore {
   virtual absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id) = 0;
   // The oldest QUEUED leader.
   virtual absl::StatusOr<std::optional<JobRecord>> OldestQueued() = 0;
-  // For the highest lease priority among QUEUED leaders: the oldest QUEUED
-  // leader of each client at that priority (one per client, any order).
-  // Empty when nothing is queued.
-  virtual absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient() = 0;
+  // For the highest lease priority among QUEUED leaders not listed in
+  // `skip_job_ids`: the oldest such leader of each client at that priority
+  // (one per client, any order). Empty when nothing else is queued. The
+  // scheduler skips the jobs a worker should leave to others (see
+  // SchedulerOptions::retry_elsewhere_ms); ids of no queued job are ignored.
+  virtual absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient(const std::vector<std::string>& skip_job_ids) = 0;
   // RUNNING leaders per client_id (clients with none are absent).
   virtual absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() = 0;
   // A QUEUED or RUNNING leader with this cache key.

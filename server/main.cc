@@ -94,6 +94,10 @@ ABSL_FLAG(int, shutdown_grace_seconds, 10,
 ABSL_FLAG(int, worker_failure_limit, 3,
           "Pause a worker after this many different jobs in a row failed or lost on it (0 = never, 0..1000)");
 ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
+ABSL_FLAG(int, retry_elsewhere_seconds, 60,
+          "A job a worker failed retryably (memory not free, scratch full, device error) is left to other workers "
+          "for this many seconds; that worker gets it back sooner only when it has no other job to take and no "
+          "other worker could take it (0 = off, 0..3600)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 // Store cap (issue 24): how long an upload no job or result refers to yet is
@@ -203,6 +207,10 @@ int main(int argc, char** argv) {
   if (worker_failure_limit < 0 || worker_failure_limit > 1000) return Fail("--worker-failure-limit: " + std::to_string(worker_failure_limit) + " is out of range 0..1000");
   const int worker_pause_s = absl::GetFlag(FLAGS_worker_pause_seconds);
   if (worker_pause_s < 1 || worker_pause_s > 86400) return Fail("--worker-pause-seconds: " + std::to_string(worker_pause_s) + " is out of range 1..86400");
+  const int retry_elsewhere_s = absl::GetFlag(FLAGS_retry_elsewhere_seconds);
+  if (retry_elsewhere_s < 0 || retry_elsewhere_s > 3600) {
+    return Fail("--retry-elsewhere-seconds: " + std::to_string(retry_elsewhere_s) + " is out of range 0..3600");
+  }
 
   const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
   const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);
@@ -298,6 +306,7 @@ int main(int argc, char** argv) {
        .eviction_grace_ms = eviction_grace_s * 1000,
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000,
+       .retry_elsewhere_ms = int64_t{retry_elsewhere_s} * 1000,
        .job_retention_ms = int64_t{job_retention_days} * 24 * 3600 * 1000});
 
   // Identity (issue 14): with --auth token every call passes the

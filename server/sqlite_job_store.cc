@@ -344,14 +344,25 @@ absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::OldestQueued() {
                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
 }
 
-absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::QueueHeadsPerClient() {
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::QueueHeadsPerClient(
+    const std::vector<std::string>& skip_job_ids) {
+  // Queued leaders not skipped: "job_id NOT IN (?2, ?3, ...)", one parameter
+  // per skipped id (the scheduler skips a few at most).
+  std::string queued = "state = ?1 AND leader_job_id = ''";
+  if (!skip_job_ids.empty()) {
+    queued += " AND job_id NOT IN (";
+    for (size_t i = 0; i < skip_job_ids.size(); ++i) absl::StrAppend(&queued, i == 0 ? "?" : ", ?", i + 2);
+    queued += ")";
+  }
   return QueryMany(db_,
                    absl::StrCat("SELECT ", kJobColumns, " FROM (SELECT ", kJobColumns,
                                 ", ROW_NUMBER() OVER (PARTITION BY client_id ORDER BY created_ms, rowid) AS n "
-                                "FROM jobs WHERE state = ?1 AND leader_job_id = '' AND priority = "
-                                "(SELECT MAX(priority) FROM jobs WHERE state = ?1 AND leader_job_id = '')) "
-                                "WHERE n = 1"),
-                   [&](Statement& st) { st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED)); });
+                                "FROM jobs WHERE ", queued, " AND priority = (SELECT MAX(priority) FROM jobs WHERE ",
+                                queued, ")) WHERE n = 1"),
+                   [&](Statement& st) {
+                     st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+                     for (size_t i = 0; i < skip_job_ids.size(); ++i) st.Bind(static_cast<int>(i + 2), skip_job_ids[i]);
+                   });
 }
 
 absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::RunningPerClient() {

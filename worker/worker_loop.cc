@@ -397,10 +397,14 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
     }
     if (Clock::now() >= give_up()) {
       // Retryable: the result is not at fault; another attempt may find space.
-      return absl::UnavailableError(absl::StrCat("the server's blob store stayed full for ",
-                                                 static_cast<int64_t>(waited_s), " s (--max-outage-seconds ",
-                                                 options_.max_outage_seconds, " or the drain deadline): ",
-                                                 outcome.message()));
+      // STORE_FULL goes with it to FailJob, so the server does not count the
+      // store's state against this worker.
+      return WithErrorReason(absl::UnavailableError(absl::StrCat("the server's blob store stayed full for ",
+                                                                 static_cast<int64_t>(waited_s),
+                                                                 " s (--max-outage-seconds ",
+                                                                 options_.max_outage_seconds,
+                                                                 " or the drain deadline): ", outcome.message())),
+                             error_reason::kStoreFull);
     }
     if (!std::exchange(waiting, true)) {
       spdlog::warn("event=store_full file={} action=wait max_wait_s={} error=\"{}\"", path.filename().string(),
@@ -705,14 +709,17 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_lease_id(job.lease_id());
     r.mutable_error()->set_code(static_cast<int>(outcome.code()));
     r.mutable_error()->set_message(std::string(outcome.message()));
+    r.mutable_error()->set_reason(ErrorReasonOf(outcome));
     r.set_retryable(IsRetryable(outcome.code()));
     const grpc::Status s = RetryThroughOutage("FailJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
       v1::FailJobResponse resp;
       auto ctx = ContextWithDeadline(std::chrono::seconds(30));
       return v1::WorkerService::Stub(channel).FailJob(ctx.get(), r, &resp);
     });
-    spdlog::info("event=job_failed job={} code={} retryable={} error=\"{}\" reported={}", job.job_id(),
-                 static_cast<int>(outcome.code()), r.retryable(), EscapeUntrusted(std::string(outcome.message())), s.ok());
+    spdlog::info("event=job_failed job={} code={} retryable={}{} error=\"{}\" reported={}", job.job_id(),
+                 static_cast<int>(outcome.code()), r.retryable(),
+                 r.error().reason().empty() ? "" : absl::StrCat(" reason=", r.error().reason()),
+                 EscapeUntrusted(std::string(outcome.message())), s.ok());
   }
   fs::remove_all(job_dir, ec);
   return scratch_to_lease_again;

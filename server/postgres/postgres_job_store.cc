@@ -299,12 +299,16 @@ absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::OldestQueued() {
                   PgParams());
 }
 
-absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::QueueHeadsPerClient() {
+absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::QueueHeadsPerClient(
+    const std::vector<std::string>& skip_job_ids) {
+  // ANY of an empty array is false: nothing skipped.
+  const std::string queued =
+      absl::StrCat("state = ", kQueued, " AND leader_job_id = '' AND NOT (job_id = ANY($1::text[]))");
   return QueryMany("queue heads",
-                   absl::StrCat("SELECT DISTINCT ON (client_id) ", kJobColumns, " FROM jobs WHERE state = ", kQueued,
-                                " AND leader_job_id = '' AND priority = (SELECT MAX(priority) FROM jobs WHERE state = ",
-                                kQueued, " AND leader_job_id = '') ORDER BY client_id, created_ms, seq"),
-                   PgParams());
+                   absl::StrCat("SELECT DISTINCT ON (client_id) ", kJobColumns, " FROM jobs WHERE ", queued,
+                                " AND priority = (SELECT MAX(priority) FROM jobs WHERE ", queued,
+                                ") ORDER BY client_id, created_ms, seq"),
+                   PgParams().TextArray(skip_job_ids));
 }
 
 absl::StatusOr<std::map<std::string, int64_t>> PostgresJobStore::RunningPerClient() {

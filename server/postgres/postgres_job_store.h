@@ -74,7 +74,7 @@ class PostgresJobStore : public JobStore {
                                                        const LeaseGrant& grant) override;
   absl::StatusOr<std::optional<JobRecord>> Get(const std::string& job_id) override;
   absl::StatusOr<std::optional<JobRecord>> OldestQueued() override;
-  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient() override;
+  absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient(const std::vector<std::string>& skip_job_ids) override;
   absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() override;
   absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) override;
   absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id) override;

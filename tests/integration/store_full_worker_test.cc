@@ -92,6 +92,10 @@ TEST(StoreFull, AStoreFullPastTheOutageBudgetRequeuesTheJob) {
   const v1::JobAttempt& first = requeued.attempt_history(0);
   EXPECT_EQ(first.outcome(), v1::JobAttempt::OUTCOME_FAILED);
   EXPECT_NE(first.message().find("blob store stayed full"), std::string::npos) << first.message();
+  // Said as the store's state, so the server does not count it against the
+  // worker (LeaseLossTest.WhatDoesNotPauseAWorker).
+  EXPECT_EQ(worker->CountInLog("event=job_failed "), worker->CountInLog("reason=STORE_FULL"));
+  EXPECT_GE(worker->CountInLog("reason=STORE_FULL"), 1);
 
   fs::remove(filler);
   const v1::Job done = testing::WatchToEnd(server.bake(), id);

@@ -242,7 +242,7 @@ TYPED_TEST(JobStoreContract, QueueHeadsAreTheOldestPerClientAtTheTopPriority) {
     r.lease_priority = 5;
     ASSERT_TRUE(this->store_->Insert(r).ok());
   }
-  auto heads = this->store_->QueueHeadsPerClient();
+  auto heads = this->store_->QueueHeadsPerClient({});
   ASSERT_TRUE(heads.ok()) << heads.status();
   std::set<std::string> ids;
   for (const auto& r : *heads) ids.insert(r.job.job_id());
@@ -250,6 +250,36 @@ TYPED_TEST(JobStoreContract, QueueHeadsAreTheOldestPerClientAtTheTopPriority) {
   auto oldest = this->store_->OldestQueued();
   ASSERT_TRUE(oldest.ok() && oldest->has_value());
   EXPECT_EQ((*oldest)->job.job_id(), "job-low");
+}
+
+// What the scheduler asks when a worker should skip jobs it failed itself
+// (SchedulerOptions::retry_elsewhere_ms): the heads of the rest of the queue.
+TYPED_TEST(JobStoreContract, QueueHeadsLeaveOutTheSkippedJobs) {
+  for (auto [id, client, t, priority] : {std::tuple{"job-x1", "x", 2, 5}, {"job-x2", "x", 3, 5}, {"job-y1", "y", 4, 5},
+                                         {"job-z1", "z", 5, 1}}) {
+    JobRecord r = this->Job(id, std::string("k-") + id, v1::JOB_STATE_QUEUED, t, client);
+    r.lease_priority = priority;
+    ASSERT_TRUE(this->store_->Insert(r).ok());
+  }
+  struct Case {
+    const char* name;
+    std::vector<std::string> skip;
+    std::set<std::string> heads;
+  };
+  const Case cases[] = {
+      {"nothing skipped", {}, {"job-x1", "job-y1"}},
+      {"a client's head skipped: its next job", {"job-x1"}, {"job-x2", "job-y1"}},
+      {"every job at the top priority skipped: the next priority", {"job-x1", "job-x2", "job-y1"}, {"job-z1"}},
+      {"unknown ids are no error", {"job-none", "job-x1"}, {"job-x2", "job-y1"}},
+      {"everything skipped", {"job-x1", "job-x2", "job-y1", "job-z1"}, {}},
+  };
+  for (const Case& c : cases) {
+    auto heads = this->store_->QueueHeadsPerClient(c.skip);
+    ASSERT_TRUE(heads.ok()) << c.name << ": " << heads.status();
+    std::set<std::string> ids;
+    for (const auto& r : *heads) ids.insert(r.job.job_id());
+    EXPECT_EQ(ids, c.heads) << c.name;
+  }
 }
 
 TYPED_TEST(JobStoreContract, RunningJobsAreFoundByWorkerHolderAndDeadline) {

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/error_reason.h"
+#include "server/disk_full.h"
 #include "tests/server/scheduler_fixture.h"
 
 namespace impostor {
@@ -21,13 +23,15 @@ class LeaseLossTest : public testing_support::SchedulerFixture {
     r.set_reason(reason);
     return r;
   }
-  v1::FailJobRequest RetryableFailure(const v1::LeasedJob& job) {
+  v1::FailJobRequest RetryableFailure(const v1::LeasedJob& job, int code = 13,
+                                      const std::string& message = "device lost", const std::string& reason = "") {
     v1::FailJobRequest f;
     f.set_job_id(job.job_id());
     f.set_lease_id(job.lease_id());
     f.set_retryable(true);
-    f.mutable_error()->set_code(13);
-    f.mutable_error()->set_message("device lost");
+    f.mutable_error()->set_code(code);
+    f.mutable_error()->set_message(message);
+    f.mutable_error()->set_reason(reason);
     return f;
   }
   void ReportStage(const v1::LeasedJob& job, const std::string& stage) {
@@ -225,6 +229,28 @@ TEST_F(LeaseLossTest, WhatDoesNotPauseAWorker) {
       {"bad input (not retryable)",
        [&](const std::string& w) {
          for (int i = 0; i < 3; ++i) FailNewJob(w, w + std::to_string(i), /*retryable=*/false);
+       }},
+      {"the server's blob store full past the worker's outage budget",
+       [&](const std::string& w) {
+         // What a worker sends when its result upload met STORE_FULL for
+         // longer than its --max-outage-seconds (worker/worker_loop.cc): the
+         // server's own refusal, relayed with its reason word. The store's
+         // fault, not the worker's.
+         const std::string refusal(
+             DiskFullError("write", dir_ / "blobs" / "tmp" / "upload-1", "No space left on device").message());
+         for (int i = 0; i < 3; ++i) {
+           const std::string id = Submit(Request(w + std::to_string(i)), "c").job_id();
+           const v1::LeasedJob job = Lease(w);
+           ASSERT_EQ(job.job_id(), id);
+           ASSERT_TRUE(scheduler_
+                           ->Fail(RetryableFailure(job, 14,
+                                                   "the server's blob store stayed full for 300 s "
+                                                   "(--max-outage-seconds 300 or the drain deadline): " +
+                                                       refusal,
+                                                   error_reason::kStoreFull))
+                           .ok());
+           ASSERT_TRUE(scheduler_->CancelJob(id).ok());
+         }
        }},
       {"releases",
        [&](const std::string& w) {
