@@ -14,7 +14,7 @@ build=$(cd "${1:-$here/../../build}" && pwd)
 out=${2:-/tmp/gpu_check}
 assets=$(sed -n 's/^IMPOSTOR_ASSETS_DIR:PATH=//p' "$build/CMakeCache.txt")
 assets=$(cd "$assets" && pwd)
-binaries="bake_bench bake_stages png_bench quality_table impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
+binaries="bake_bench bake_stages png_bench metrics_bench quality_table impostor impostor-server impostor-worker gpu_tests quality_gpu_tests
   atlas_outputs_gpu_tests cards_gpu_tests lod_gpu_tests surfels_gpu_tests runtime_gpu_tests runtime_bake_tests"
 rm -rf "$out" && mkdir -p "$out/glvnd"
 out=$(cd "$out" && pwd)  # the asset step below runs from another folder
@@ -26,7 +26,8 @@ done
 # The assets the suites and benches name (tests/ and bench/ sources).
 (cd "$assets" && tar cf "$out/assets.tar" --exclude=edge_cases/khronos/AnisotropyBarnLamp \
   MANIFEST.md props_pbr vegetation/AlphaBlendModeTest vegetation/StylizedTree_ChrisCLP \
-  vegetation/Quaternius_CommonTree_1 vegetation/TreeLowPoly_RicardoSanchez highpoly/TransmissionTest \
+  vegetation/Quaternius_CommonTree_1 vegetation/TreeLowPoly_RicardoSanchez vegetation/GlassVaseFlowers \
+  highpoly/TransmissionTest \
   edge_cases/khronos edge_cases/missing_textures/BoxTextured_png_removed)
 printf 'BUILD_BIN=%q\nASSETS_DIR=%q\n' "$build/bin" "$assets" > "$out/paths.env"
 cp "$here/run.sh" "$out/"
