@@ -54,15 +54,7 @@ class JobStoreContract : public ::testing::Test {
   int64_t clock_ = 1000;
 };
 
-using Engines = ::testing::Types<SqliteEngine, PostgresEngine>;
-class EngineNames {
- public:
-  template <class T>
-  static std::string GetName(int) {
-    return T::kName;
-  }
-};
-TYPED_TEST_SUITE(JobStoreContract, Engines, EngineNames);
+TYPED_TEST_SUITE(JobStoreContract, JobStoreEngines, EngineNames);
 
 TYPED_TEST(JobStoreContract, InsertedJobReadsBackFieldForField) {
   JobRecord r = this->Job("job-1", "k1");

@@ -73,6 +73,16 @@ struct PostgresEngine {
   }
 };
 
+// Both engines, for TYPED_TEST_SUITE(Suite, JobStoreEngines, EngineNames):
+// test names end in /sqlite and /postgresql.
+using JobStoreEngines = ::testing::Types<SqliteEngine, PostgresEngine>;
+struct EngineNames {
+  template <typename T>
+  static std::string GetName(int) {
+    return T::kName;
+  }
+};
+
 }  // namespace impostor::testing
 
 #endif  // IMPOSTOR_TESTS_SERVER_JOB_STORE_TEST_ENGINES_H_

@@ -116,15 +116,7 @@ class RetryElsewhere : public ::testing::Test {
   std::unique_ptr<BakeScheduler> scheduler_;
 };
 
-using Engines = ::testing::Types<SqliteEngine, PostgresEngine>;
-class EngineNames {
- public:
-  template <class T>
-  static std::string GetName(int) {
-    return T::kName;
-  }
-};
-TYPED_TEST_SUITE(RetryElsewhere, Engines, EngineNames);
+TYPED_TEST_SUITE(RetryElsewhere, JobStoreEngines, EngineNames);
 
 TYPED_TEST(RetryElsewhere, TheFailingWorkersNextLeaseSkipsTheJobAndAnotherWorkerGetsIt) {
   EXPECT_TRUE(this->Lease("b").job_id().empty());  // b is about: polling, nothing queued yet

@@ -59,12 +59,6 @@ class TokenStoreContract : public ::testing::Test {
   TokenStorage storage_;
 };
 
-struct EngineNames {
-  template <typename T>
-  static std::string GetName(int) {
-    return T::kName;
-  }
-};
 using Engines = ::testing::Types<SqliteTokens, PostgresTokens>;
 TYPED_TEST_SUITE(TokenStoreContract, Engines, EngineNames);
 
