@@ -34,6 +34,15 @@ inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
 // again by themselves once space is freed, so a worker waits and retries
 // its result upload as through an outage (worker/worker_loop.cc).
 inline constexpr char kStoreFull[] = "STORE_FULL";
+// RESOURCE_EXHAUSTED from any call that writes the server's database (jobs,
+// tokens, quota ledger: SubmitBake, LeaseJob, ReportProgress, CompleteJob,
+// FailJob, ReleaseJob, ...): the disk (or quota) under it has no space,
+// SQLite's files in --data or PostgreSQL's disk (SQLSTATE 53100). The
+// farm's state, not the request's: nothing was written, and the same call
+// succeeds once space is freed, so a worker keeps its lease and retries
+// CompleteJob, FailJob and ReleaseJob as through an outage
+// (worker/worker_loop.cc); a client may wait and call again.
+inline constexpr char kDatabaseFull[] = "DATABASE_FULL";
 // FAILED_PRECONDITION from SubmitBake: one of the mesh's blobs is not in the
 // store (never uploaded, or evicted since the upload): upload it, submit again.
 inline constexpr char kInputBlobMissing[] = "INPUT_BLOB_MISSING";

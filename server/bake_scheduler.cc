@@ -1097,8 +1097,9 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   request.mutable_error()->set_message(std::string(Utf8Prefix(request.error().message(), kMaxJobErrorBytes)));
   r->lease_id.clear();
   CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), SharedNowMs());
-  if (r->job.state() == v1::JOB_STATE_RUNNING) {
-    const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
+  const bool was_running = r->job.state() == v1::JOB_STATE_RUNNING;
+  const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
+  if (was_running) {
     if (retry) {
       r->job.set_state(v1::JOB_STATE_QUEUED);
       r->job.set_stage("queued");
@@ -1111,12 +1112,20 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
                                                          " attempts; last error: ", request.error().message()));
       }
     }
+  }
+  // Logged and counted once recorded: a FailJob refused (a full database)
+  // is tried again by the worker.
+  if (auto s = Save(*r); !s.ok()) return s;
+  if (was_running) {
     // Bad input is the job's fault; anything retryable may be the worker's,
     // except this server's own full storage, which the worker relays
-    // (reason STORE_FULL) when its result upload met it for longer than its
-    // outage budget: the farm's state, not the worker's (one full disk would
-    // otherwise pause every worker).
-    const bool worker_fault = request.retryable() && received.error().reason() != error_reason::kStoreFull;
+    // (reason STORE_FULL or DATABASE_FULL) when its result upload or
+    // CompleteJob met it for longer than its outage budget: the farm's
+    // state, not the worker's (one full disk would otherwise pause every
+    // worker).
+    const std::string& reason = received.error().reason();
+    const bool worker_fault =
+        request.retryable() && reason != error_reason::kStoreFull && reason != error_reason::kDatabaseFull;
     spdlog::info("event=fail job={} worker=\"{}\" retry={} worker_fault={} code={} error=\"{}\"", r->job.job_id(),
                  EscapeUntrusted(r->worker_id), retry, worker_fault, request.error().code(),
                  EscapeUntrusted(request.error().message()));
@@ -1124,7 +1133,6 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
     NoteWorkerSeen(r->worker_id);
     observer_.load()->OnFail(r->worker_id, r->parameters.product(), retry);
   }
-  if (auto s = Save(*r); !s.ok()) return s;
   return SettleFollowers(*r);
 }
 

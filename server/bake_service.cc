@@ -126,10 +126,10 @@ grpc::Status BakeServiceImpl::GetJob(grpc::ServerContext*, const v1::GetJobReque
   return grpc::Status::OK;
 }
 
-grpc::Status BakeServiceImpl::CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request,
+grpc::Status BakeServiceImpl::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                         v1::Job* response) {
   auto r = scheduler_->CancelJob(request->job_id());
-  if (!r.ok()) return ToGrpc(r.status());
+  if (!r.ok()) return ToGrpc(r.status(), context);  // DATABASE_FULL, if so
   *response = std::move(*r);
   return grpc::Status::OK;
 }

@@ -674,29 +674,35 @@ absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::ClaimQueued(const std::
   // One process owns the file, so a transaction is enough to make the
   // check-and-set atomic.
   if (sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) != SQLITE_OK) {
-    return absl::InternalError(absl::StrCat("sqlite claim: ", sqlite3_errmsg(db_)));
+    return SqliteError(db_, "sqlite", "claim");
   }
-  auto finish = [&](bool commit) {
-    sqlite3_exec(db_, commit ? "COMMIT" : "ROLLBACK", nullptr, nullptr, nullptr);
+  // In WAL mode the claim's pages reach the disk at COMMIT: a full disk
+  // fails the COMMIT (SQLite then rolls the transaction back), and the job
+  // is no lease to hand out.
+  auto commit = [&]() -> absl::Status {
+    if (sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) == SQLITE_OK) return absl::OkStatus();
+    absl::Status failed = SqliteError(db_, "sqlite", "claim commit");
+    if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    return failed;
   };
   for (const std::string& id : job_ids) {
     auto r = Get(id);
     if (!r.ok()) {
-      finish(false);
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
       return r.status();
     }
     if (!r->has_value() || (*r)->job.state() != v1::JOB_STATE_QUEUED || !(*r)->leader_job_id.empty()) continue;
     JobRecord& claimed = **r;
     ApplyLeaseGrant(claimed, grant);
     if (auto s = Update(claimed); !s.ok()) {
-      finish(false);
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
       return s;
     }
+    if (auto s = commit(); !s.ok()) return s;
     ++claimed.row_version;
-    finish(true);
     return std::move(*r);
   }
-  finish(true);
+  if (auto s = commit(); !s.ok()) return s;
   return std::optional<JobRecord>();
 }
 
@@ -725,7 +731,7 @@ absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::LastServed() {
 absl::Status SqliteJobStore::TouchResults(const std::map<std::string, int64_t>& last_used_ms) {
   if (last_used_ms.empty()) return absl::OkStatus();
   if (sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) != SQLITE_OK) {
-    return absl::InternalError(absl::StrCat("sqlite begin: ", sqlite3_errmsg(db_)));
+    return SqliteError(db_, "sqlite", "begin");
   }
   absl::Status status;
   for (auto it = last_used_ms.begin(); status.ok() && it != last_used_ms.end(); ++it) {
@@ -737,8 +743,8 @@ absl::Status SqliteJobStore::TouchResults(const std::map<std::string, int64_t>& 
     if (st.Step() != SQLITE_DONE) status = st.Error("touch results");
   }
   if (status.ok() && sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) == SQLITE_OK) return status;
-  if (status.ok()) status = absl::InternalError(absl::StrCat("sqlite commit: ", sqlite3_errmsg(db_)));
-  sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  if (status.ok()) status = SqliteError(db_, "sqlite", "commit");
+  if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
   return status;
 }
 

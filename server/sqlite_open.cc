@@ -1,6 +1,7 @@
 #include "server/sqlite_open.h"
 
 #include "absl/strings/str_cat.h"
+#include "common/error_reason.h"
 #include "server/disk_full.h"
 
 namespace impostor {
@@ -38,13 +39,14 @@ std::string SqliteStatement::Blob(int col) const {
   return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, col))) : std::string();
 }
 
-absl::Status SqliteStatement::Error(std::string_view what) const {
-  if (sqlite3_errcode(db_) == SQLITE_FULL) {
-    const char* file = sqlite3_db_filename(db_, "main");
-    return DiskFullError(absl::StrCat(store_, " ", std::string(what), ":"), file ? file : "database",
-                         sqlite3_errmsg(db_));
+absl::Status SqliteError(sqlite3* db, std::string_view store, std::string_view what) {
+  if (sqlite3_errcode(db) == SQLITE_FULL) {
+    const char* file = sqlite3_db_filename(db, "main");
+    return WithErrorReason(DiskFullError(absl::StrCat(std::string(store), " ", std::string(what), ":"),
+                                         file != nullptr && file[0] != '\0' ? file : "database", sqlite3_errmsg(db)),
+                           error_reason::kDatabaseFull);
   }
-  return absl::InternalError(absl::StrCat(store_, " ", std::string(what), ": ", sqlite3_errmsg(db_)));
+  return absl::InternalError(absl::StrCat(std::string(store), " ", std::string(what), ": ", sqlite3_errmsg(db)));
 }
 
 }  // namespace impostor

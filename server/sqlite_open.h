@@ -26,6 +26,14 @@ namespace impostor {
 // message.
 absl::StatusOr<sqlite3*> OpenSqliteDatabase(const std::filesystem::path& file, const char* schema);
 
+// The error of the last call on `db` that failed: RESOURCE_EXHAUSTED with
+// the error reason DATABASE_FULL (common/error_reason.h), naming the
+// database file and its filesystem's free space (DiskFullError), when
+// SQLite found the disk or quota full (SQLITE_FULL; SQLite rolled the
+// statement, or the transaction a failed COMMIT ended, back: nothing is
+// half-written); else INTERNAL "<store> <what>: <SQLite's message>".
+absl::Status SqliteError(sqlite3* db, std::string_view store, std::string_view what);
+
 // RAII prepared statement for the stores' queries. Errors name the store
 // (`store`, e.g. "token store") and SQLite's message.
 class SqliteStatement {
@@ -56,10 +64,10 @@ class SqliteStatement {
   std::string Text(int col) const;
   std::string Blob(int col) const;
   int64_t Int(int col) const { return sqlite3_column_int64(stmt_, col); }
-  // INTERNAL "<store> <what>: <SQLite's message>"; RESOURCE_EXHAUSTED
-  // naming the database file and the free space when the disk is full
-  // (SQLite rolled the statement back: nothing is half-written).
-  absl::Status Error(std::string_view what) const;
+  // SqliteError for this statement's connection: INTERNAL "<store> <what>:
+  // <SQLite's message>", or RESOURCE_EXHAUSTED DATABASE_FULL naming the
+  // database file and the free space when the disk is full.
+  absl::Status Error(std::string_view what) const { return SqliteError(db_, store_, what); }
 
  private:
   sqlite3* db_;

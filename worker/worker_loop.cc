@@ -109,6 +109,14 @@ absl::Status FinishInput(const v1::Digest& digest, InputSink& sink) {
   return absl::OkStatus();
 }
 
+// The error reason (common/error_reason.h) the server sent with the
+// finished call of `ctx`, as trailing metadata; "" when none.
+std::string ServerErrorReason(const grpc::ClientContext& ctx) {
+  const auto& trailers = ctx.GetServerTrailingMetadata();
+  const auto reason = trailers.find(kErrorReasonMetadataKey);
+  return reason == trailers.end() ? std::string() : std::string(reason->second.data(), reason->second.size());
+}
+
 absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, const v1::Digest& digest) {
   auto ctx = ContextWithDeadline(std::chrono::seconds(600));
   v1::UploadBlobResponse response;
@@ -131,9 +139,8 @@ absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, co
   // The server's reason for a refusal (a full store) rides as trailing
   // metadata; kept on the status so the caller can tell it from the
   // blob's own fault.
-  const auto& trailers = ctx->GetServerTrailingMetadata();
-  if (auto reason = trailers.find(kErrorReasonMetadataKey); !finished.ok() && reason != trailers.end()) {
-    finished = WithErrorReason(std::move(finished), std::string_view(reason->second.data(), reason->second.size()));
+  if (const std::string reason = ServerErrorReason(*ctx); !finished.ok() && !reason.empty()) {
+    finished = WithErrorReason(std::move(finished), reason);
   }
   return finished;
 }
@@ -142,6 +149,20 @@ absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, co
 // farm's state, which clears once space is freed, not the result's fault.
 bool IsStoreFull(const absl::Status& s) {
   return s.code() == absl::StatusCode::kResourceExhausted && ErrorReasonOf(s) == error_reason::kStoreFull;
+}
+
+// A call the server refused because a disk of its own is full: under its
+// database (DATABASE_FULL), or under its blob store (STORE_FULL: CompleteJob
+// writes the stamped manifest.json). Nothing was recorded, and the same call
+// succeeds once space is freed.
+bool IsServerFull(const grpc::Status& s, std::string_view reason) {
+  return s.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED &&
+         (reason == error_reason::kDatabaseFull || reason == error_reason::kStoreFull);
+}
+
+// "database_full" or "store_full", the log event of a wait for that reason.
+std::string FullEvent(std::string_view reason) {
+  return reason == error_reason::kStoreFull ? "store_full" : "database_full";
 }
 
 // A call that timed out or found no server: an outage to ride out within
@@ -241,12 +262,26 @@ absl::Status WorkerLoop::Run() {
     request.set_wait_seconds(5);  // short polls so Stop() is honoured quickly
     v1::LeaseJobResponse response;
     bool try_next_now = false;
+    std::string refusal;  // the error reason the server sent
     const grpc::Status s = CallServer(
         [&](const std::shared_ptr<grpc::Channel>& channel) {
           auto ctx = ContextWithDeadline(std::chrono::seconds(15));
-          return v1::WorkerService::Stub(channel).LeaseJob(ctx.get(), request, &response);
+          const grpc::Status leased = v1::WorkerService::Stub(channel).LeaseJob(ctx.get(), request, &response);
+          refusal = ServerErrorReason(*ctx);
+          return leased;
         },
         &try_next_now);
+    // A server whose database disk is full answers, and takes leases again
+    // once space is freed: waited for without end, no outage to give up on.
+    if (IsServerFull(s, refusal)) {
+      spdlog::warn("event=lease_failed server={} code={} reason={} error=\"{}\" retry_ms={}", options_.server,
+                   static_cast<int>(s.error_code()), EscapeUntrusted(refusal), EscapeUntrusted(s.error_message()),
+                   backoff.count());
+      std::unique_lock lock(job_mu_);
+      job_wake_.wait_for(lock, backoff, [this] { return stop_.load(); });
+      backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+      continue;
+    }
     // A refused token is no outage: waiting will not make it valid.
     if (s.error_code() == grpc::StatusCode::UNAUTHENTICATED || s.error_code() == grpc::StatusCode::PERMISSION_DENIED) {
       return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
@@ -418,16 +453,72 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
   }
 }
 
+grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std::string& job_id,
+                                                const ReasonedCall& call, std::string* stayed_full) {
+  // A finished bake (or the word that it failed) is worth waiting for as
+  // through a server restart: the server recorded nothing, and takes the
+  // same call once space is freed. Failing the job for it threw good bakes
+  // away, or baked them again after their lease ran out.
+  if (stayed_full != nullptr) stayed_full->clear();
+  const auto start = Clock::now();
+  const auto give_up = [&] {
+    const auto outage_end = start + std::chrono::seconds(options_.max_outage_seconds);
+    std::lock_guard lock(job_mu_);
+    return drain_deadline_ ? std::min(outage_end, *drain_deadline_) : outage_end;
+  };
+  auto backoff = std::chrono::milliseconds(500);
+  std::string waiting_for;  // the reason waited out; "" when not waiting
+  while (true) {
+    std::string reason;
+    const grpc::Status s = RetryThroughOutage(rpc, [&](const std::shared_ptr<grpc::Channel>& channel) {
+      reason.clear();
+      return call(channel, &reason);
+    });
+    const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!IsServerFull(s, reason)) {
+      if (!waiting_for.empty()) {
+        spdlog::info("event={}_end rpc={} job={} waited_s={:.1f} ok={}", FullEvent(waiting_for), std::string(rpc),
+                     job_id, waited_s, s.ok());
+      }
+      return s;
+    }
+    if (Clock::now() >= give_up()) {
+      spdlog::warn("event={}_end rpc={} job={} waited_s={:.1f} ok=false action=give_up", FullEvent(reason),
+                   std::string(rpc), job_id, waited_s);
+      if (stayed_full != nullptr) *stayed_full = reason;
+      return grpc::Status(
+          grpc::StatusCode::UNAVAILABLE,
+          absl::StrCat("the server's ", reason == error_reason::kStoreFull ? "blob store" : "job database",
+                       " stayed full for ", static_cast<int64_t>(waited_s), " s (--max-outage-seconds ",
+                       options_.max_outage_seconds, " or the drain deadline): ", std::string(rpc), ": ",
+                       s.error_message()));
+    }
+    if (waiting_for.empty()) {
+      spdlog::warn("event={} rpc={} job={} action=wait max_wait_s={} error=\"{}\"", FullEvent(reason),
+                   std::string(rpc), job_id, options_.max_outage_seconds, EscapeUntrusted(s.error_message()));
+    }
+    waiting_for = reason;
+    {
+      std::unique_lock lock(job_mu_);
+      job_wake_.wait_for(lock, backoff, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_) { return DrainDue(); });
+    }
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
+  }
+}
+
 void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reason) {
   v1::ReleaseJobRequest r;
   r.set_job_id(job.job_id());
   r.set_lease_id(job.lease_id());
   r.set_reason(reason);
-  const grpc::Status s = RetryThroughOutage("ReleaseJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-    v1::ReleaseJobResponse resp;
-    auto ctx = ContextWithDeadline(std::chrono::seconds(10));
-    return v1::WorkerService::Stub(channel).ReleaseJob(ctx.get(), r, &resp);
-  });
+  const grpc::Status s = RetryThroughFullServer(
+      "ReleaseJob", job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+        v1::ReleaseJobResponse resp;
+        auto ctx = ContextWithDeadline(std::chrono::seconds(10));
+        const grpc::Status released = v1::WorkerService::Stub(channel).ReleaseJob(ctx.get(), r, &resp);
+        *refusal = ServerErrorReason(*ctx);
+        return released;
+      });
   spdlog::info("event=job_released job={} reason=\"{}\" ok={}{}", job.job_id(), reason, s.ok(),
                s.ok() ? "" : absl::StrCat(" error=\"", s.error_message(), "\""));
 }
@@ -651,14 +742,21 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.set_lease_id(job.lease_id());
     *r.mutable_result() = result->manifest;
     bool complete_timed_out = false;
+    // A full disk on the server is waited out (the result is kept); past
+    // the budget the attempt fails retryably, below, with the reason.
+    std::string stayed_full;
     auto complete = [&] {
-      return RetryThroughOutage("CompleteJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-        v1::CompleteJobResponse resp;
-        auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-        const grpc::Status done = v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
-        if (done.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) complete_timed_out = true;
-        return done;
-      });
+      return RetryThroughFullServer(
+          "CompleteJob", job.job_id(),
+          [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+            v1::CompleteJobResponse resp;
+            auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+            const grpc::Status done = v1::WorkerService::Stub(channel).CompleteJob(ctx.get(), r, &resp);
+            if (done.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) complete_timed_out = true;
+            *refusal = ServerErrorReason(*ctx);
+            return done;
+          },
+          &stayed_full);
     };
     grpc::Status s = complete();
     if (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION &&
@@ -685,9 +783,14 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     // A refused result is failed now, with the reason, rather than left to
     // time out and be baked again three times (issue 23); so is one whose
     // blobs the store dropped twice (the job is retried elsewhere at once).
-    if (ResultRefusedForGood(s.error_code()) ||
-        (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION &&
-         s.error_message().find("is not in the store") != std::string::npos)) {
+    if (!stayed_full.empty()) {
+      // Retryable: the result is not at fault; another attempt may find
+      // space. The reason goes with it to FailJob, so the server does not
+      // count its own state against this worker.
+      outcome = WithErrorReason(absl::UnavailableError(s.error_message()), stayed_full);
+    } else if (ResultRefusedForGood(s.error_code()) ||
+               (s.error_code() == grpc::StatusCode::FAILED_PRECONDITION &&
+                s.error_message().find("is not in the store") != std::string::npos)) {
       outcome = absl::Status(static_cast<absl::StatusCode>(s.error_code()),
                              absl::StrCat("the server refused the result: CompleteJob: ", s.error_message()));
     }
@@ -711,11 +814,14 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.mutable_error()->set_message(std::string(outcome.message()));
     r.mutable_error()->set_reason(ErrorReasonOf(outcome));
     r.set_retryable(IsRetryable(outcome.code()));
-    const grpc::Status s = RetryThroughOutage("FailJob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-      v1::FailJobResponse resp;
-      auto ctx = ContextWithDeadline(std::chrono::seconds(30));
-      return v1::WorkerService::Stub(channel).FailJob(ctx.get(), r, &resp);
-    });
+    const grpc::Status s = RetryThroughFullServer(
+        "FailJob", job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+          v1::FailJobResponse resp;
+          auto ctx = ContextWithDeadline(std::chrono::seconds(30));
+          const grpc::Status failed = v1::WorkerService::Stub(channel).FailJob(ctx.get(), r, &resp);
+          *refusal = ServerErrorReason(*ctx);
+          return failed;
+        });
     spdlog::info("event=job_failed job={} code={} retryable={}{} error=\"{}\" reported={}", job.job_id(),
                  static_cast<int>(outcome.code()), r.retryable(),
                  r.error().reason().empty() ? "" : absl::StrCat(" reason=", r.error().reason()),

@@ -133,7 +133,8 @@ class WorkerLoop {
   // blob store on the server (STORE_FULL) within the same budget; a store
   // still full at its end is UNAVAILABLE, so the job is retried, not lost.
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
-  // Hands a lease back to the server (retrying through an outage).
+  // Hands a lease back to the server (retrying through an outage and a full
+  // database).
   void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
   using ChannelCall = std::function<grpc::Status(const std::shared_ptr<grpc::Channel>&)>;
   // Runs `call` on the current replica's channel and tells the failover how
@@ -148,6 +149,18 @@ class WorkerLoop {
   // its database is away), or the outage budget is spent; returns its last
   // status, saying so when the budget ran out.
   grpc::Status RetryThroughOutage(std::string_view rpc, const ChannelCall& call);
+  // A call that also says which error reason (common/error_reason.h) the
+  // server sent with its refusal, in *reason ("" when none).
+  using ReasonedCall = std::function<grpc::Status(const std::shared_ptr<grpc::Channel>&, std::string* reason)>;
+  // Runs `call` for job `job_id` through outages (RetryThroughOutage) and
+  // through a full disk on the server (RESOURCE_EXHAUSTED with the reason
+  // DATABASE_FULL or STORE_FULL: nothing was recorded), which it waits out
+  // with backoff, lease kept, within max_outage_seconds (or the drain
+  // deadline) from its start. Returns the call's last status; a server
+  // still full at the end is UNAVAILABLE saying so, with *stayed_full
+  // (optional; else "") set to the reason.
+  grpc::Status RetryThroughFullServer(std::string_view rpc, const std::string& job_id, const ReasonedCall& call,
+                                      std::string* stayed_full = nullptr);
   bool DrainDue() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_);
 
   const WorkerOptions options_;

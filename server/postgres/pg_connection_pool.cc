@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
+#include "common/error_reason.h"
 #include "server/postgres/libpq_args.h"
 #include "server/postgres/pg_url.h"
 
@@ -71,13 +72,23 @@ absl::StatusOr<PgRows> PgSession::Exec(const std::string& what, const std::strin
   const std::string text = absl::StrCat("postgresql ", what, " (", *url_, "): ", LibpqMessageLine(message));
   if (PQstatus(conn_) == CONNECTION_BAD) return absl::UnavailableError(text);
   const char* state = r ? PQresultErrorField(r, PG_DIAG_SQLSTATE) : nullptr;
-  const std::string code = state ? state : "";
+  return PgStatementError(state ? state : "", text);
+}
+
+absl::Status PgStatementError(std::string_view code, const std::string& text) {
   if (code == "23505") return absl::AlreadyExistsError(text);
   if (code == "57014") return absl::DeadlineExceededError(text);
   if (code == "40001" || code == "40P01") return absl::AbortedError(text);
   // The server is shutting down or restarting (admin_shutdown, crash
   // shutdown, cannot_connect_now): the connection is going away.
   if (code.rfind("57P", 0) == 0 || code.rfind("08", 0) == 0) return absl::UnavailableError(text);
+  // disk_full: the database server's disk, which this server cannot
+  // measure; PostgreSQL's message names the file it could not extend.
+  if (code == "53100") {
+    return WithErrorReason(absl::ResourceExhaustedError(absl::StrCat(
+                               text, "; free space on the database server's disk: the server recovers by itself")),
+                           error_reason::kDatabaseFull);
+  }
   return absl::InternalError(text);
 }
 

@@ -18,6 +18,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -85,14 +86,23 @@ absl::StatusOr<std::vector<T>> ReadEachRow(const absl::StatusOr<PgRows>& rows, R
   return out;
 }
 
+// A failed statement's status from its SQLSTATE (`sqlstate`, "" when none
+// came) and `text` (what failed, the URL, PostgreSQL's message):
+// ALREADY_EXISTS (23505 unique violation), DEADLINE_EXCEEDED (57014
+// statement timeout), ABORTED (40001 serialisation failure, 40P01
+// deadlock), UNAVAILABLE (57P.. shutting down, 08... connection),
+// RESOURCE_EXHAUSTED with the error reason DATABASE_FULL (53100 disk_full:
+// "could not extend file ...: No space left on device"; nothing was
+// written and the same statement succeeds once space is freed), INTERNAL
+// (anything else).
+absl::Status PgStatementError(std::string_view sqlstate, const std::string& text);
+
 // One borrowed connection, for statements that must share a session (a
 // transaction).
 class PgSession {
  public:
-  // Runs `sql` with `params`. Errors: ALREADY_EXISTS (unique violation),
-  // DEADLINE_EXCEEDED (statement timeout), ABORTED (serialisation failure
-  // or deadlock), UNAVAILABLE (connection lost), INTERNAL (anything else),
-  // each naming `what` and the redacted URL.
+  // Runs `sql` with `params`. Errors: UNAVAILABLE (connection lost), else
+  // PgStatementError's, each naming `what` and the redacted URL.
   absl::StatusOr<PgRows> Exec(const std::string& what, const std::string& sql, const PgParams& params = {});
   pg_conn* raw() const { return conn_; }
 
