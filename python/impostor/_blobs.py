@@ -19,7 +19,12 @@ from .results import UploadStats
 from .v1 import asset_service_pb2 as asset_pb
 from .v1 import types_pb2 as pb
 
-UPLOAD_CHUNK_BYTES = 1 << 20  # the server takes chunks of at most 4 MiB
+# Bytes per UploadBlob message (the server takes at most 4 MiB). The stall
+# watchdog sees progress only when the link has taken a whole message, so a
+# message must cross the slowest link well within rpc_timeout_seconds: a
+# 1 MiB one needs 87 s at 12 KB/s, a 64 KiB one 5 s (as the C++ SDK's
+# kUploadChunkBytes, client/blob_upload.h).
+UPLOAD_CHUNK_BYTES = 64 << 10
 MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
 
 _Key = Tuple[str, int]

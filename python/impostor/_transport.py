@@ -26,8 +26,11 @@ from .v1 import asset_service_pb2_grpc, bake_service_pb2_grpc
 
 # ReadBlob sends at most 1 MiB per message; the margin is for manifests.
 _MAX_RECEIVE_BYTES = 64 << 20
-# A stream's deadline grows by one second per this many bytes.
-_STREAM_BYTES_PER_SECOND = 256 * 1024
+# Linux's largest TCP send buffer by default (net.ipv4.tcp_wmem), which a
+# loopback connection reaches at once and a real uplink on a deep queue
+# approaches: an upload's last bytes may sit there, unseen, until they cross
+# (client/transport.cc's kMaxBytesTheLinkHolds).
+_MAX_BYTES_THE_LINK_HOLDS = 4 << 20
 _MAX_OUTAGE_SECONDS = 86400.0
 # gRPC's default reconnect backoff grows to 120 s, so a server back after a
 # restart would go unnoticed for minutes; try every second at most. A private
@@ -117,6 +120,116 @@ def _health_check(channel: grpc.Channel) -> Any:
         request_serializer=lambda _: b"",  # an empty HealthCheckRequest: the whole server
         response_deserializer=lambda raw: raw,
     )
+
+
+class _StallWatch:
+    """The watchdog of one blob stream (the Python twin of client/transport.cc's
+    StallWatch): says when a stream has made no progress for a step's time
+    limit, rpc_timeout_seconds unless the step says otherwise. gRPC has no
+    deadline per message, and a deadline on the whole call would cut a slow
+    link that keeps moving.
+
+    Progress is the stream's to report (progress()); time the caller spends
+    on a message it holds is not the link's (pause()). done() ends the watch.
+    Thread-safe: the stream's thread reports, another waits (wait()).
+    """
+
+    def __init__(self, limit_seconds: float) -> None:
+        self._changed = threading.Condition()
+        self._limit = limit_seconds
+        # When the current step stalls; None while paused. Guarded by _changed.
+        self._deadline: Optional[float] = time.monotonic() + limit_seconds
+        self._done = False  # guarded by _changed
+        self._stalled = False  # guarded by _changed
+
+    @property
+    def stalled(self) -> bool:
+        """Whether wait() gave up on the stream."""
+        with self._changed:
+            return self._stalled
+
+    def progress(self, limit_seconds: Optional[float] = None) -> None:
+        """The stream moved: the next step may take `limit_seconds` (default:
+        the watch's limit)."""
+        with self._changed:
+            self._deadline = time.monotonic() + (self._limit if limit_seconds is None else limit_seconds)
+            self._changed.notify_all()
+
+    def pause(self) -> None:
+        """The caller holds the stream (reads a file, writes a message out):
+        no limit until the next progress()."""
+        with self._changed:
+            self._deadline = None
+
+    def done(self) -> None:
+        """The call ended (any way): wait() returns False."""
+        with self._changed:
+            self._done = True
+            self._changed.notify_all()
+
+    def wait(self) -> bool:
+        """Blocks until done() (False) or until a step outlasts its limit
+        (True: the stream stalled)."""
+        with self._changed:
+            while not self._done:
+                if self._deadline is None:
+                    self._changed.wait()
+                    continue
+                left = self._deadline - time.monotonic()
+                if left <= 0:
+                    self._stalled = True
+                    return True
+                self._changed.wait(left)
+            return False
+
+
+class _UploadMessages:
+    """The request iterator of one UploadBlob stream, which tells its
+    _StallWatch of each message the link took. gRPC's sending thread asks
+    for a message only once the transport has taken the one before (it is
+    in gRPC's outgoing buffer or the kernel's; gRPC's Python API has no
+    per-byte progress), and for the one after the last when that was taken.
+    Called by that thread; the stream's thread reads the counts once the
+    watch gave up or the call ended (their writes happen before)."""
+
+    def __init__(self, messages: Iterator[Any], watch: _StallWatch, rpc_timeout_seconds: float) -> None:
+        self._messages = messages
+        self._watch = watch
+        self._rpc_timeout_seconds = rpc_timeout_seconds
+        self._handed_over: Optional[int] = None  # blob bytes of the message gRPC holds, not yet taken
+        self.sent = 0  # blob bytes the link has taken
+        self.largest_message = 1  # bytes
+        self.all_sent = False  # every message was taken; the answer is awaited
+        self.messages_held = 0  # when all_sent: the messages the link may still hold
+        self.answer_limit = 0.0  # when all_sent: seconds the answer may take
+
+    def __iter__(self) -> "_UploadMessages":
+        return self
+
+    def __next__(self) -> Any:
+        if self._handed_over is not None:
+            self.sent += self._handed_over
+            self.largest_message = max(self.largest_message, self._handed_over)
+            self._handed_over = None
+        self._watch.pause()  # reading the file is not the link's time
+        try:
+            message = next(self._messages)
+        except StopIteration:
+            # What the link still holds crosses unseen (the server answers
+            # once it has every byte): each message it may hold gets the
+            # time any message gets, and the answer once more.
+            held = (min(self.sent, _MAX_BYTES_THE_LINK_HOLDS) + self.largest_message - 1) // self.largest_message
+            self.messages_held = held
+            self.answer_limit = self._rpc_timeout_seconds * (1 + held)
+            self.all_sent = True
+            self._watch.progress(self.answer_limit)
+            raise
+        except BaseException:
+            self._watch.progress()
+            raise
+        self._handed_over = len(message.data)
+        self._watch.progress()
+        return message
 
 
 class _Route:
@@ -437,21 +550,103 @@ class Transport:
         except grpc.RpcError as e:
             raise self.note(e, "WatchJob") from None
 
+    def _note_stall(self, rpc: str, why: str) -> ImpostorError:
+        """DEADLINE_EXCEEDED "the link stalled: <why>" for the calling
+        thread's last call, which the stall watchdog cancelled; told to the
+        failover as note() tells a DEADLINE_EXCEEDED (nothing for the
+        connection monitor: no answer came)."""
+        index = getattr(self._call_route, "index", self._current)
+        target = self._routes[index].target
+        details = f"the link stalled: {why}"
+        error = ImpostorError(
+            grpc.StatusCode.DEADLINE_EXCEEDED, f"{rpc} to {target}: {details}",
+            server_message=details, rpc=rpc, server=target,
+        )
+        if len(self._routes) > 1:
+            error.failover_now = self._fail_over()
+        return error
+
     def read_blob(self, request: Any, remaining_bytes: int) -> Iterator[Any]:
-        """One ReadBlob stream; its deadline grows with the bytes it carries."""
-        timeout = self.rpc_timeout_seconds + remaining_bytes / _STREAM_BYTES_PER_SECOND
+        """One ReadBlob stream, not retried (the caller resumes at its offset).
+
+        No deadline on the whole stream: it goes on however slow the link,
+        and is cancelled only when no message arrives for
+        rpc_timeout_seconds (DEADLINE_EXCEEDED "the link stalled", naming
+        the seconds and the bytes this stream brought). The time the caller
+        holds a message is not counted. Another thread (one per stream)
+        watches; closing the generator or the Client ends the call."""
+        route = self._route_for_call()
+        watch = _StallWatch(self.rpc_timeout_seconds)
+        call = route.assets.ReadBlob(request, metadata=self._metadata)
+        call.add_done_callback(lambda _: watch.done())
+
+        def watchdog() -> None:
+            if watch.wait():
+                call.cancel()
+
+        watcher = threading.Thread(target=watchdog, name="impostor-readblob-watch", daemon=True)
+        watcher.start()
+        received = 0
         try:
-            for chunk in self.assets.ReadBlob(request, timeout=timeout, metadata=self._metadata):
+            for chunk in call:
+                watch.pause()
+                received += len(chunk.data)
                 self.note_answer()
                 yield chunk
+                watch.progress()
         except grpc.RpcError as e:
+            code = e.code() if isinstance(e, grpc.Call) else None
+            if watch.stalled and code in (grpc.StatusCode.CANCELLED, grpc.StatusCode.DEADLINE_EXCEEDED):
+                after = f", after {received} bytes of this stream" if received else ""
+                raise self._note_stall(
+                    "ReadBlob",
+                    f"no bytes arrived for {self.rpc_timeout_seconds:g} s (rpc_timeout_seconds){after}",
+                ) from None
             raise self.note(e, "ReadBlob") from None
+        finally:
+            call.cancel()  # a no-op once the call ended; else the caller stopped early
+            watch.done()
+            watcher.join()
 
     def upload_blob(self, requests: Iterator[Any], size_bytes: int) -> Any:
-        """One UploadBlob stream (the caller restarts it from the first byte)."""
-        timeout = self.rpc_timeout_seconds + size_bytes / _STREAM_BYTES_PER_SECOND
+        """One UploadBlob stream of `requests` (the blob's messages, the
+        first with its digest), not retried (the caller starts over from the
+        first byte: the server keeps no part of an upload).
+
+        No deadline on the whole stream: it goes on however slow the link.
+        It is cancelled when the link takes no message for
+        rpc_timeout_seconds, or when, after the last message, the server's
+        answer does not come within rpc_timeout_seconds per message the link
+        may still hold (up to 4 MiB of them), plus once: DEADLINE_EXCEEDED
+        "the link stalled", naming the seconds and the bytes sent, as the
+        C++ SDK's Transport::UploadBlob. Closing the Client (or an exception
+        such as KeyboardInterrupt in the waiting thread) ends the call at
+        once: CANCELLED."""
+        route = self._route_for_call()
+        watch = _StallWatch(self.rpc_timeout_seconds)
+        messages = _UploadMessages(requests, watch, self.rpc_timeout_seconds)
+        call = route.assets.UploadBlob.future(messages, metadata=self._metadata)
+        call.add_done_callback(lambda _: watch.done())
         try:
-            response = self.assets.UploadBlob(requests, timeout=timeout, metadata=self._metadata)
+            stalled = watch.wait()
+        except BaseException:
+            call.cancel()
+            raise
+        if stalled and call.cancel():
+            if messages.all_sent:
+                why = (
+                    f"no answer for {messages.answer_limit:g} s (rpc_timeout_seconds, "
+                    f"{self.rpc_timeout_seconds:g} s, times the {messages.messages_held} message(s) the link "
+                    f"may have held, plus one) after all {messages.sent} bytes of the blob were sent"
+                )
+            else:
+                why = (
+                    f"it took nothing for {self.rpc_timeout_seconds:g} s (rpc_timeout_seconds), with "
+                    f"{messages.sent} of the blob's {size_bytes} bytes sent"
+                )
+            raise self._note_stall("UploadBlob", why)
+        try:
+            response = call.result()
         except grpc.RpcError as e:
             raise self.note(e, "UploadBlob") from None
         self.note_answer()

@@ -122,8 +122,16 @@ class Client:
         tls_ca: PEM file of the CA that signed the server's certificate; the
             connection then uses TLS. Default: plaintext.
         tls_cert, tls_key: client certificate and key (PEM) for mutual TLS.
-        rpc_timeout_seconds: deadline of every unary RPC; streams get this plus
-            one second per 256 KiB; WatchJob has none. Default 30, > 0.
+        rpc_timeout_seconds: deadline of every unary RPC. Uploads and
+            downloads have no overall deadline, however slow the link, only
+            this long at most without progress: no 64 KiB message taken by
+            the link (an upload) or none arriving (a download); then
+            DEADLINE_EXCEEDED "the link stalled", naming the seconds and the
+            bytes. After an upload's last message the server's answer may
+            take this long per 64 KiB the link may still hold (up to 4 MiB),
+            plus once. A download then resumes at its byte offset, an upload
+            starts over (as max_attempts allows). WatchJob has no deadline.
+            Default 30, > 0.
         max_attempts: tries in all of a call failing with UNAVAILABLE or
             DEADLINE_EXCEEDED, outside an outage, with backoff 100 ms, 200 ms,
             ... capped at 1 s, minus up to 20% jitter. Default 5, >= 1.
