@@ -14,7 +14,6 @@
 //  * a database still full when the worker's outage budget ends fails the
 //    attempt retryably once space is back: the job is queued again, not lost.
 // Every wait is for a job event (WatchJob) or a worker log line.
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -33,19 +32,6 @@ namespace fs = std::filesystem;
 using testing::ServerProcess;
 
 constexpr char kBox[] = "props_pbr/Box/glTF-Binary/Box.glb";
-
-// Writes `path` until the filesystem refuses another byte.
-void FillDisk(const fs::path& path) {
-  std::ofstream out(path, std::ios::binary);
-  const std::string chunk(4096, 'f');
-  while (out.write(chunk.data(), static_cast<std::streamsize>(chunk.size())) && out.flush()) {
-  }
-}
-
-#define MOUNT_DATA_OR_SKIP(mount_dir, tmpfs)                                                         \
-  if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a tmpfs for the server's job database"; \
-  testing::TmpfsMount tmpfs(mount_dir, "8m");                                                         \
-  if (!tmpfs.mounted()) GTEST_SKIP() << "cannot mount a tmpfs on " << mount_dir << ": " << tmpfs.error()
 
 // A server whose job database is on `mount_dir` and whose blob store is not.
 std::unique_ptr<ServerProcess> StartServer(const fs::path& mount_dir, const std::string& name) {
@@ -68,7 +54,7 @@ std::string SubmitAndWaitForUpload(ServerProcess& server) {
 
 TEST(DatabaseFull, ACompleteJobWaitsForSpaceAndTheSameAttemptCompletes) {
   const fs::path mount_dir = testing::NewTempDir("database_full_wait");
-  MOUNT_DATA_OR_SKIP(mount_dir, tmpfs);
+  IMPOSTOR_MOUNT_TMPFS_OR_SKIP(mount_dir, tmpfs, "the server's job database");
   auto server = StartServer(mount_dir, "database_full_wait");
   const fs::path pause = testing::NewTempDir("database_full_wait_pause") / "pause";
   std::ofstream(pause) << "complete";
@@ -78,7 +64,7 @@ TEST(DatabaseFull, ACompleteJobWaitsForSpaceAndTheSameAttemptCompletes) {
   ASSERT_FALSE(HasFailure());
 
   const fs::path filler = mount_dir / "filler";
-  FillDisk(filler);
+  testing::FillDisk(filler);
   fs::remove(pause);
   // SQLite's words for SQLITE_FULL, on the line that starts the wait or on
   // the one that gives the result up.
@@ -106,7 +92,7 @@ TEST(DatabaseFull, ACompleteJobWaitsForSpaceAndTheSameAttemptCompletes) {
 
 TEST(DatabaseFull, ADatabaseFullPastTheOutageBudgetRequeuesTheJob) {
   const fs::path mount_dir = testing::NewTempDir("database_full_budget");
-  MOUNT_DATA_OR_SKIP(mount_dir, tmpfs);
+  IMPOSTOR_MOUNT_TMPFS_OR_SKIP(mount_dir, tmpfs, "the server's job database");
   auto server = StartServer(mount_dir, "database_full_budget");
   const fs::path pause = testing::NewTempDir("database_full_budget_pause") / "pause";
   std::ofstream(pause) << "complete";
@@ -116,7 +102,7 @@ TEST(DatabaseFull, ADatabaseFullPastTheOutageBudgetRequeuesTheJob) {
   ASSERT_FALSE(HasFailure());
 
   const fs::path filler = mount_dir / "filler";
-  FillDisk(filler);
+  testing::FillDisk(filler);
   fs::remove(pause);
   // CompleteJob given up (after the budget, still full): space comes back
   // while the worker's FailJob waits for it.

@@ -6,9 +6,12 @@
 
 #include <sys/mount.h>
 
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace impostor::testing {
@@ -35,6 +38,21 @@ class TmpfsMount {
   std::string error_;
 };
 
+// Writes `path` until the filesystem refuses another byte.
+inline void FillDisk(const std::filesystem::path& path) {
+  std::ofstream out(path, std::ios::binary);
+  const std::string chunk(4096, 'f');
+  while (out.write(chunk.data(), static_cast<std::streamsize>(chunk.size())) && out.flush()) {
+  }
+}
+
 }  // namespace impostor::testing
+
+// Declares `tmpfs`, an 8 MiB tmpfs on `mount_dir`, or skips the test (not
+// root, or the mount failed); `what` names what the test puts there.
+#define IMPOSTOR_MOUNT_TMPFS_OR_SKIP(mount_dir, tmpfs, what)                                          \
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a tmpfs for " << (what);              \
+  ::impostor::testing::TmpfsMount tmpfs(mount_dir, "8m");                                           \
+  if (!tmpfs.mounted()) GTEST_SKIP() << "cannot mount a tmpfs on " << (mount_dir) << ": " << tmpfs.error()
 
 #endif  // IMPOSTOR_TESTS_INTEGRATION_TMPFS_MOUNT_H_
