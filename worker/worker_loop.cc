@@ -145,12 +145,6 @@ absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, co
   return finished;
 }
 
-// An upload the server refused because its blob store has no space: the
-// farm's state, which clears once space is freed, not the result's fault.
-bool IsStoreFull(const absl::Status& s) {
-  return s.code() == absl::StatusCode::kResourceExhausted && ErrorReasonOf(s) == error_reason::kStoreFull;
-}
-
 // A call the server refused because a disk of its own is full: under its
 // database (DATABASE_FULL), or under its blob store (STORE_FULL: CompleteJob
 // writes the stamped manifest.json). Nothing was recorded, and the same call
@@ -401,59 +395,32 @@ absl::Status WorkerLoop::DownloadThroughOutage(const v1::Digest& digest, const f
   return FinishInput(digest, sink);
 }
 
-absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest) {
+absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Digest& digest,
+                                             const std::string& subject) {
   // A finished bake is worth keeping through a server restart: the lease
   // survives it, so the upload and CompleteJob can go through afterwards.
   // A full blob store is waited out the same way (the heartbeats keep the
   // lease): failing the job for it lost every running and queued bake of
   // a farm whose disk filled for 25 s.
-  const auto start = Clock::now();
-  const auto give_up = [&] {
-    const auto outage_end = start + std::chrono::seconds(options_.max_outage_seconds);
-    std::lock_guard lock(job_mu_);
-    return drain_deadline_ ? std::min(outage_end, *drain_deadline_) : outage_end;
-  };
-  auto backoff = std::chrono::milliseconds(500);
-  bool waiting = false;
-  while (true) {
-    absl::Status outcome;
-    RetryThroughOutage("UploadBlob", [&](const std::shared_ptr<grpc::Channel>& channel) {
-      v1::AssetService::Stub assets(channel);
-      outcome = UploadFile(assets, path, digest);
-      return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
-    });
-    const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
-    if (!IsStoreFull(outcome)) {
-      if (waiting) {
-        spdlog::info("event=store_full_end file={} waited_s={:.1f} ok={}", path.filename().string(), waited_s,
-                     outcome.ok());
-      }
-      return outcome;
-    }
-    if (Clock::now() >= give_up()) {
-      // Retryable: the result is not at fault; another attempt may find space.
-      // STORE_FULL goes with it to FailJob, so the server does not count the
-      // store's state against this worker.
-      return WithErrorReason(absl::UnavailableError(absl::StrCat("the server's blob store stayed full for ",
-                                                                 static_cast<int64_t>(waited_s),
-                                                                 " s (--max-outage-seconds ",
-                                                                 options_.max_outage_seconds,
-                                                                 " or the drain deadline): ", outcome.message())),
-                             error_reason::kStoreFull);
-    }
-    if (!std::exchange(waiting, true)) {
-      spdlog::warn("event=store_full file={} action=wait max_wait_s={} error=\"{}\"", path.filename().string(),
-                   options_.max_outage_seconds, EscapeUntrusted(std::string(outcome.message())));
-    }
-    {
-      std::unique_lock lock(job_mu_);
-      job_wake_.wait_for(lock, backoff, [&]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_) { return DrainDue(); });
-    }
-    backoff = std::min(backoff * 2, std::chrono::milliseconds(5000));
-  }
+  absl::Status outcome;
+  std::string stayed_full;
+  const grpc::Status s = RetryThroughFullServer(
+      "UploadBlob", absl::StrCat(subject, " file=", path.filename().string()),
+      [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+        v1::AssetService::Stub assets(channel);
+        outcome = UploadFile(assets, path, digest);
+        *refusal = ErrorReasonOf(outcome);
+        return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+      },
+      &stayed_full);
+  // Retryable: the result is not at fault; another attempt may find space.
+  // The reason goes with it to FailJob, so the server does not count the
+  // store's state against this worker.
+  if (!stayed_full.empty()) return WithErrorReason(absl::UnavailableError(s.error_message()), stayed_full);
+  return outcome;
 }
 
-grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std::string& job_id,
+grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std::string& subject,
                                                 const ReasonedCall& call, std::string* stayed_full) {
   // A finished bake (or the word that it failed) is worth waiting for as
   // through a server restart: the server recorded nothing, and takes the
@@ -477,25 +444,25 @@ grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std:
     const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
     if (!IsServerFull(s, reason)) {
       if (!waiting_for.empty()) {
-        spdlog::info("event={}_end rpc={} job={} waited_s={:.1f} ok={}", FullEvent(waiting_for), std::string(rpc),
-                     job_id, waited_s, s.ok());
+        spdlog::info("event={}_end rpc={} {} waited_s={:.1f} ok={}", FullEvent(waiting_for), std::string(rpc),
+                     subject, waited_s, s.ok());
       }
       return s;
     }
     if (Clock::now() >= give_up()) {
-      spdlog::warn("event={}_end rpc={} job={} waited_s={:.1f} ok=false action=give_up", FullEvent(reason),
-                   std::string(rpc), job_id, waited_s);
+      spdlog::warn("event={}_end rpc={} {} waited_s={:.1f} ok=false action=give_up", FullEvent(reason),
+                   std::string(rpc), subject, waited_s);
       if (stayed_full != nullptr) *stayed_full = reason;
       return grpc::Status(
           grpc::StatusCode::UNAVAILABLE,
           absl::StrCat("the server's ", reason == error_reason::kStoreFull ? "blob store" : "job database",
                        " stayed full for ", static_cast<int64_t>(waited_s), " s (--max-outage-seconds ",
-                       options_.max_outage_seconds, " or the drain deadline): ", std::string(rpc), ": ",
-                       s.error_message()));
+                       options_.max_outage_seconds, " or the drain deadline): ",
+                       s.error_message().rfind(rpc, 0) == 0 ? "" : absl::StrCat(std::string(rpc), ": "), s.error_message()));
     }
     if (waiting_for.empty()) {
-      spdlog::warn("event={} rpc={} job={} action=wait max_wait_s={} error=\"{}\"", FullEvent(reason),
-                   std::string(rpc), job_id, options_.max_outage_seconds, EscapeUntrusted(s.error_message()));
+      spdlog::warn("event={} rpc={} {} action=wait max_wait_s={} error=\"{}\"", FullEvent(reason),
+                   std::string(rpc), subject, options_.max_outage_seconds, EscapeUntrusted(s.error_message()));
     }
     waiting_for = reason;
     {
@@ -512,7 +479,7 @@ void WorkerLoop::ReleaseLease(const v1::LeasedJob& job, const std::string& reaso
   r.set_lease_id(job.lease_id());
   r.set_reason(reason);
   const grpc::Status s = RetryThroughFullServer(
-      "ReleaseJob", job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+      "ReleaseJob", "job=" + job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
         v1::ReleaseJobResponse resp;
         auto ctx = ContextWithDeadline(std::chrono::seconds(10));
         const grpc::Status released = v1::WorkerService::Stub(channel).ReleaseJob(ctx.get(), r, &resp);
@@ -695,9 +662,12 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   auto upload_result = [&] {
     absl::Status uploaded;
     for (const auto& map : result->manifest.maps()) {
-      if (uploaded = UploadThroughOutage(output_dir / map.file(), map.digest()); !uploaded.ok()) return uploaded;
+      if (uploaded = UploadThroughOutage(output_dir / map.file(), map.digest(), "job=" + job.job_id());
+          !uploaded.ok()) {
+        return uploaded;
+      }
     }
-    return UploadThroughOutage(result->manifest_path, result->manifest.manifest_json());
+    return UploadThroughOutage(result->manifest_path, result->manifest.manifest_json(), "job=" + job.job_id());
   };
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
@@ -747,7 +717,7 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     std::string stayed_full;
     auto complete = [&] {
       return RetryThroughFullServer(
-          "CompleteJob", job.job_id(),
+          "CompleteJob", "job=" + job.job_id(),
           [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
             v1::CompleteJobResponse resp;
             auto ctx = ContextWithDeadline(std::chrono::seconds(30));
@@ -815,7 +785,7 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     r.mutable_error()->set_reason(ErrorReasonOf(outcome));
     r.set_retryable(IsRetryable(outcome.code()));
     const grpc::Status s = RetryThroughFullServer(
-        "FailJob", job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
+        "FailJob", "job=" + job.job_id(), [&](const std::shared_ptr<grpc::Channel>& channel, std::string* refusal) {
           v1::FailJobResponse resp;
           auto ctx = ContextWithDeadline(std::chrono::seconds(30));
           const grpc::Status failed = v1::WorkerService::Stub(channel).FailJob(ctx.get(), r, &resp);

@@ -130,9 +130,12 @@ class WorkerLoop {
   // a ScratchWriteError (scratch_shortage.h).
   absl::Status DownloadThroughOutage(const v1::Digest& digest, const std::filesystem::path& path);
   // Uploads one output file, retrying through an outage, and through a full
-  // blob store on the server (STORE_FULL) within the same budget; a store
-  // still full at its end is UNAVAILABLE, so the job is retried, not lost.
-  absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest);
+  // blob store on the server (STORE_FULL) within the same budget
+  // (RetryThroughFullServer; `subject` goes in its log lines, e.g.
+  // "job=ID"); a store still full at its end is UNAVAILABLE with the reason
+  // STORE_FULL, so the job is retried, not lost.
+  absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest,
+                                   const std::string& subject);
   // Hands a lease back to the server (retrying through an outage and a full
   // database).
   void ReleaseLease(const v1::LeasedJob& job, const std::string& reason);
@@ -152,14 +155,15 @@ class WorkerLoop {
   // A call that also says which error reason (common/error_reason.h) the
   // server sent with its refusal, in *reason ("" when none).
   using ReasonedCall = std::function<grpc::Status(const std::shared_ptr<grpc::Channel>&, std::string* reason)>;
-  // Runs `call` for job `job_id` through outages (RetryThroughOutage) and
+  // Runs `call` through outages (RetryThroughOutage) and
   // through a full disk on the server (RESOURCE_EXHAUSTED with the reason
   // DATABASE_FULL or STORE_FULL: nothing was recorded), which it waits out
   // with backoff, lease kept, within max_outage_seconds (or the drain
   // deadline) from its start. Returns the call's last status; a server
   // still full at the end is UNAVAILABLE saying so, with *stayed_full
-  // (optional; else "") set to the reason.
-  grpc::Status RetryThroughFullServer(std::string_view rpc, const std::string& job_id, const ReasonedCall& call,
+  // (optional; else "") set to the reason. `subject` names what the call is
+  // for in the wait's log lines ("job=ID", "job=ID file=NAME").
+  grpc::Status RetryThroughFullServer(std::string_view rpc, const std::string& subject, const ReasonedCall& call,
                                       std::string* stayed_full = nullptr);
   bool DrainDue() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(job_mu_);
 
