@@ -116,6 +116,10 @@ class FarmServer:
         connections (the kernel does that), but nothing answers."""
         assert self._process is not None
         self._process.send_signal(signal.SIGSTOP if frozen else signal.SIGCONT)
+        # A signal takes effect asynchronously: without waiting, a call made
+        # at once could still be answered (the failover test saw it 1 in 8).
+        # waitpid reports the stop (or the continue) without reaping.
+        os.waitpid(self._process.pid, os.WUNTRACED if frozen else os.WCONTINUED)
 
     def restart(self) -> None:
         """Starts the server again on the same address and data folder."""
