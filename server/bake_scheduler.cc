@@ -20,6 +20,7 @@
 #include "common/sha256.h"
 #include "common/utf8.h"
 #include "server/attempt_history.h"
+#include "server/database_full.h"
 
 namespace impostor {
 namespace {
@@ -135,6 +136,7 @@ BakeScheduler::BakeScheduler(JobStore* jobs, BlobStore* blobs, SchedulerOptions 
       }()),
       hot_results_(jobs->SharedWithOtherServers() ? 0 : options.hot_result_entries),
       outages_seen_(jobs->OutagesRecovered()),
+      database_full_seen_(DatabaseFullRefusals().load()),
       observer_(NoObserver()) {
   // Jobs other servers change on a shared database wake our waiters too.
   jobs_->SetChangeCallback([this] {
@@ -1098,6 +1100,16 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   r->lease_id.clear();
   CloseAttempt(r->job, v1::JobAttempt::OUTCOME_FAILED, request.error().message(), SharedNowMs());
   const bool was_running = r->job.state() == v1::JOB_STATE_RUNNING;
+  // This server's own full storage, which the worker relays (reason
+  // STORE_FULL or DATABASE_FULL) when its result upload or CompleteJob met
+  // it for longer than its outage budget: the farm's state, neither the
+  // job's nor the worker's. Such an attempt does not count (as a release),
+  // so a full disk never fails a bake for good (three such attempts did),
+  // and not against the worker (one full disk would pause every worker).
+  const std::string& reason = received.error().reason();
+  const bool servers_storage =
+      request.retryable() && (reason == error_reason::kStoreFull || reason == error_reason::kDatabaseFull);
+  if (was_running && servers_storage) r->job.set_attempts(r->job.attempts() > 0 ? r->job.attempts() - 1 : 0);
   const bool retry = request.retryable() && r->job.attempts() < options_.max_attempts;
   if (was_running) {
     if (retry) {
@@ -1118,14 +1130,8 @@ absl::Status BakeScheduler::Fail(const v1::FailJobRequest& received) {
   if (auto s = Save(*r); !s.ok()) return s;
   if (was_running) {
     // Bad input is the job's fault; anything retryable may be the worker's,
-    // except this server's own full storage, which the worker relays
-    // (reason STORE_FULL or DATABASE_FULL) when its result upload or
-    // CompleteJob met it for longer than its outage budget: the farm's
-    // state, not the worker's (one full disk would otherwise pause every
-    // worker).
-    const std::string& reason = received.error().reason();
-    const bool worker_fault =
-        request.retryable() && reason != error_reason::kStoreFull && reason != error_reason::kDatabaseFull;
+    // except the server's own storage (above).
+    const bool worker_fault = request.retryable() && !servers_storage;
     spdlog::info("event=fail job={} worker=\"{}\" retry={} worker_fault={} code={} error=\"{}\"", r->job.job_id(),
                  EscapeUntrusted(r->worker_id), retry, worker_fault, request.error().code(),
                  EscapeUntrusted(request.error().message()));
@@ -1268,6 +1274,18 @@ bool BakeScheduler::LeaseExpiryDeferred() {
     expiry_resumes_ms_ = now + options_.lease_timeout_ms;
     spdlog::info("event=lease_expiry_deferred reason=database_outage_ended resume_in_ms={}",
                  options_.lease_timeout_ms);
+  }
+  // The same while the database refuses writes for a full disk: heartbeats
+  // and finished results wait in the workers (DATABASE_FULL) until one
+  // lease timeout after the last refusal this server saw. Expiring them
+  // meanwhile baked finished results again, or failed them for good.
+  const uint64_t full = DatabaseFullRefusals().load(std::memory_order_relaxed);
+  if (full != database_full_seen_) {
+    database_full_seen_ = full;
+    if (now >= expiry_resumes_ms_) {
+      spdlog::warn("event=lease_expiry_deferred reason=database_full resume_in_ms={}", options_.lease_timeout_ms);
+    }
+    expiry_resumes_ms_ = std::max(expiry_resumes_ms_, now + options_.lease_timeout_ms);
   }
   return now < expiry_resumes_ms_;
 }

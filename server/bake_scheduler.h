@@ -451,6 +451,9 @@ class BakeScheduler {
   // when (options_.now_ms) it expires no lease because of the latest.
   uint64_t outages_seen_ ABSL_GUARDED_BY(mu_) = 0;
   int64_t expiry_resumes_ms_ ABSL_GUARDED_BY(mu_) = 0;
+  // DatabaseFullRefusals() as the lease sweep last saw it: a change defers
+  // lease expiry for one lease timeout (LeaseExpiryDeferred).
+  uint64_t database_full_seen_ ABSL_GUARDED_BY(mu_) = 0;
   // Never null: a do-nothing observer until SetObserver. Atomic: hits
   // answered without mu_ count through it too.
   std::atomic<SchedulerObserver*> observer_;

@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/error_reason.h"
+#include "server/database_full.h"
 #include "server/disk_full.h"
 
 namespace impostor {
@@ -41,6 +42,7 @@ std::string SqliteStatement::Blob(int col) const {
 
 absl::Status SqliteError(sqlite3* db, std::string_view store, std::string_view what) {
   if (sqlite3_errcode(db) == SQLITE_FULL) {
+    DatabaseFullRefusals().fetch_add(1, std::memory_order_relaxed);
     const char* file = sqlite3_db_filename(db, "main");
     return WithErrorReason(DiskFullError(absl::StrCat(std::string(store), " ", std::string(what), ":"),
                                          file != nullptr && file[0] != '\0' ? file : "database", sqlite3_errmsg(db)),

@@ -12,6 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/error_reason.h"
+#include "server/database_full.h"
 #include "server/postgres/libpq_args.h"
 #include "server/postgres/pg_url.h"
 
@@ -85,6 +86,7 @@ absl::Status PgStatementError(std::string_view code, const std::string& text) {
   // disk_full: the database server's disk, which this server cannot
   // measure; PostgreSQL's message names the file it could not extend.
   if (code == "53100") {
+    DatabaseFullRefusals().fetch_add(1, std::memory_order_relaxed);
     return WithErrorReason(absl::ResourceExhaustedError(absl::StrCat(
                                text, "; free space on the database server's disk: the server recovers by itself")),
                            error_reason::kDatabaseFull);

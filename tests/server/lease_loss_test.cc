@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "common/error_reason.h"
+#include "server/database_full.h"
 #include "server/disk_full.h"
 #include "tests/server/scheduler_fixture.h"
 
@@ -205,6 +206,50 @@ TEST_F(LeaseLossTest, LeaseExpiriesCountTowardsThePause) {
     ASSERT_TRUE(scheduler_->CancelJob(id).ok());
   }
   EXPECT_TRUE(scheduler_->WorkerPaused("hangs"));
+}
+
+TEST_F(LeaseLossTest, NoLeaseExpiresUntilOneLeaseTimeoutAfterTheDatabaseLastRefusedAWriteForSpace) {
+  const std::string id = Submit(Request("waits"), "c").job_id();
+  ASSERT_EQ(Lease("w").job_id(), id);
+  // The database refuses writes for a full disk (SqliteError and
+  // PgStatementError count each refusal): the worker's heartbeats and its
+  // finished result cannot be recorded, so its deadline passing says nothing.
+  const int64_t timeout = scheduler_->options().lease_timeout_ms;
+  for (int sweep = 0; sweep < 4; ++sweep) {
+    DatabaseFullRefusals().fetch_add(1);
+    now_ms_ += timeout / 2;
+    ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+    ASSERT_EQ(Job(id).state(), v1::JOB_STATE_RUNNING) << "expired at sweep " << sweep << " while the disk was full";
+  }
+  // Space is back (no more refusals): one lease timeout for the worker to
+  // get through, then the dead worker's lease goes as always.
+  now_ms_ += timeout - 1;
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  EXPECT_EQ(Job(id).state(), v1::JOB_STATE_RUNNING);
+  now_ms_ += 2;
+  ASSERT_TRUE(scheduler_->ExpireLeases().ok());
+  EXPECT_EQ(Job(id).state(), v1::JOB_STATE_QUEUED);
+}
+
+TEST_F(LeaseLossTest, AFailureRelayingTheServersFullStorageCostsNoAttempt) {
+  const std::string id = Submit(Request("patient"), "c").job_id();
+  // More relayed refusals than max_attempts: the job is never failed for them.
+  for (int round = 0; round < 5; ++round) {
+    const v1::LeasedJob job = Lease("w");
+    ASSERT_EQ(job.job_id(), id) << "round " << round;
+    ASSERT_TRUE(scheduler_
+                    ->Fail(RetryableFailure(job, 14, "the server's blob store stayed full for 300 s",
+                                            round % 2 == 0 ? error_reason::kStoreFull : error_reason::kDatabaseFull))
+                    .ok());
+    const v1::Job after = Job(id);
+    ASSERT_EQ(after.state(), v1::JOB_STATE_QUEUED) << "round " << round << ": " << after.DebugString();
+    EXPECT_EQ(after.attempts(), 0u);
+  }
+  EXPECT_FALSE(scheduler_->WorkerPaused("w"));
+  // Another retryable failure still counts.
+  ASSERT_TRUE(scheduler_->Fail(RetryableFailure(Lease("w"))).ok());
+  EXPECT_EQ(Job(id).attempts(), 1u);
+  EXPECT_EQ(Job(id).attempt_history_size(), 6);
 }
 
 TEST_F(LeaseLossTest, WhatDoesNotPauseAWorker) {
