@@ -1,0 +1,174 @@
+// Type declarations of impostor-three (written by hand; the JavaScript in
+// this folder is the implementation).
+import {
+  BufferGeometry, Color, InstancedMesh, Loader, LoadingManager, Mesh, ShaderMaterial, ShaderMaterialParameters, Sphere,
+  Texture, Vector3, WebGLRenderer,
+} from 'three';
+import { KTX2Loader } from 'three/examples/jsm/loaders/KTX2Loader.js';
+import { CacheStorageLike, ProgressLike, ReleaseClient } from './release/index.js';
+
+export * from './release/index.js';
+
+export type LayoutName = 'octahedral' | 'hemi-octahedral' | 'azimuth-elevation' | 'ring-top' | 'billboard';
+export type Reconstruction = 'depth' | 'parallax' | 'plain';
+export type BlendMode = 'triangle3' | 'bilinear4';
+export type ImpostorOutput = 'lit' | 'albedo' | 'coverage' | 'normal' | 'orm' | 'frame-index' | 'blend-weights';
+
+/** IMPOSTOR_LAYOUT_* of shaders/impostor_runtime.glsl, by layout name. */
+export const LAYOUT_KINDS: Readonly<Record<LayoutName, number>>;
+
+export interface AtlasLayout {
+  kind: number;
+  name: LayoutName;
+  /** The manifest's `frames`: frames per axis, or the grid side (ring-top, billboard). */
+  frames: number;
+  /** ring-top: K; billboard: 8; others 0. */
+  ringViews: number;
+  tileSize: number;
+  viewCount: number;
+  /** Tiles per atlas side. */
+  side: number;
+}
+
+/** "hemi-octahedral" for "hemi-octahedral" or "LAYOUT_HEMI_OCTAHEDRAL". */
+export function layoutName(layout: string | undefined | null): string;
+/** "lod-chain" for "lod-chain" or "PRODUCT_LOD_CHAIN"; "atlas" when absent. */
+export function productName(product: string | undefined | null): string;
+/** The layout of a manifest; throws a TypeError naming what does not fit. */
+export function atlasLayout(manifest: any): AtlasLayout;
+/** Whether the result's maps are texture-array layer strips. */
+export function isTextureArray(manifest: any): boolean;
+/** shaders/impostor_runtime.glsl, the reference runtime. */
+export const impostorRuntimeGlsl: string;
+
+export interface ImpostorFileReport {
+  name: string;
+  semantic: string;
+  sha256: string;
+  sizeBytes: number;
+  /** true when the bytes were checked against their SHA-256 (always, from a release). */
+  verified: boolean;
+  /** 'cache': Cache Storage; 'network': a mirror; 'given': parseAsync's caller. */
+  source: 'cache' | 'network' | 'given';
+  url: string;
+}
+
+/** One baked impostor ready to draw. Owns its textures. */
+export class ImpostorAsset {
+  readonly isImpostorAsset: true;
+  /** The asset name in the catalog (or the cache key). */
+  name: string;
+  /** The result's cache key. */
+  key: string;
+  manifest: any;
+  product: string;
+  layout: AtlasLayout;
+  layoutName: string;
+  /** Object space (the manifest's, +Y up). */
+  boundingSphere: Sphere;
+  textures: { albedo: Texture; normalDepth: Texture; orm: Texture | null };
+  files: ImpostorFileReport[];
+  catalog: { channel: string; catalogSha256: string } | null;
+  /** The quality pass's blend: the material's default. */
+  blend: BlendMode;
+  reconstruction: Reconstruction;
+  dispose(): void;
+}
+
+/** The maps the material reads: albedo_alpha, normal_depth, orm. */
+export const DRAWN_SEMANTICS: readonly string[];
+
+/** A three.js Loader of impostors from a published release. */
+export class ImpostorLoader extends Loader<ImpostorAsset, string> {
+  constructor(manager?: LoadingManager);
+  mirrors: string[];
+  channel: string | null;
+  /** The base URL of a release tree (the directory that holds v1/). */
+  setMirror(url: string): this;
+  /** Mirrors tried in order for every file. */
+  setMirrors(urls: string[]): this;
+  setChannel(name: string): this;
+  /** Refuse catalogs not signed by this Ed25519 key (raw 32 bytes, base64 or PEM). */
+  setPublicKey(key: Uint8Array | ArrayBuffer | string | null): this;
+  /** Default 'impostor-blobs-v1'. */
+  setCacheName(name: string): this;
+  /** Default: the global `caches`; null keeps nothing. */
+  setCacheStorage(cacheStorage: CacheStorageLike | null): this;
+  setKTX2Loader(loader: KTX2Loader): this;
+  /** Where three's examples/jsm/libs/basis/ is served; default: from the import map. */
+  setTranscoderPath(path: string): this;
+  /** KTX2 maps transcode to a GPU format the renderer supports (else to RGBA8). */
+  detectSupport(renderer: WebGLRenderer): this;
+  readonly client: ReleaseClient;
+  load(name: string, onLoad?: (asset: ImpostorAsset) => void, onProgress?: (event: ProgressLike) => void,
+    onError?: (error: unknown) => void): void;
+  loadAsync(name: string, onProgress?: (event: ProgressEvent | ProgressLike) => void): Promise<ImpostorAsset>;
+  /** An asset from a manifest and its maps' bytes (by file name), without verification. */
+  parseAsync(manifest: any, files: Map<string, ArrayBuffer | Uint8Array> | Record<string, ArrayBuffer | Uint8Array>,
+    name?: string): Promise<ImpostorAsset>;
+  dispose(): void;
+}
+
+/** Toward (1, 2, 1.5), normalised. */
+export const DEFAULT_LIGHT_DIRECTION: Readonly<Vector3>;
+
+export interface ImpostorMaterialParameters extends ShaderMaterialParameters {
+  /** Default 'depth' (what the quality pass measures). */
+  reconstruction?: Reconstruction;
+  /** Default: the asset's quality pass blend, else 'triangle3'. */
+  blend?: BlendMode;
+  /** Default 'lit'. The last five write raw values for debugging. */
+  output?: ImpostorOutput;
+  /** Write the surface point's depth (gl_FragDepth). Default true. */
+  depthOffset?: boolean;
+  /** World space, toward the light. Default DEFAULT_LIGHT_DIRECTION. */
+  lightDirection?: Vector3;
+  /** Default white. */
+  lightColor?: Color;
+  /** Ambient x occlusion. Default 0.25. */
+  ambient?: number;
+}
+
+/** The reference impostor material (shaders/impostor_material.glsl). */
+export class ImpostorMaterial extends ShaderMaterial {
+  constructor(asset: ImpostorAsset, parameters?: ImpostorMaterialParameters);
+  readonly isImpostorMaterial: true;
+  asset: ImpostorAsset;
+  reconstruction: Reconstruction;
+  blend: BlendMode;
+  output: ImpostorOutput;
+  depthOffset: boolean;
+  lightDirection: Vector3;
+  lightColor: Color;
+  ambient: number;
+  /** The shadow / depth variant (the meshes' customDepthMaterial). */
+  readonly depthMaterial: ImpostorDepthMaterial;
+  clone(): this;
+}
+
+/** The shadow / depth variant: alpha-tested, depth offset applied, RGBA-packed depth. */
+export class ImpostorDepthMaterial extends ShaderMaterial {
+  constructor(material: ImpostorMaterial);
+  readonly isImpostorDepthMaterial: true;
+  /** false: the whole card casts. Default true. */
+  coverageTest: boolean;
+}
+
+/** The card geometry; its bounds are the asset's bounding sphere. */
+export class ImpostorCardGeometry extends BufferGeometry {
+  constructor(asset: ImpostorAsset);
+}
+
+/** One impostor. */
+export class ImpostorMesh extends Mesh<ImpostorCardGeometry, ImpostorMaterial> {
+  constructor(asset: ImpostorAsset, material?: ImpostorMaterial | ImpostorMaterialParameters);
+  readonly isImpostorMesh: true;
+  asset: ImpostorAsset;
+}
+
+/** Any number of impostors in one draw call; frames chosen per instance in the vertex shader. */
+export class InstancedImpostorMesh extends InstancedMesh<ImpostorCardGeometry, ImpostorMaterial> {
+  constructor(asset: ImpostorAsset, count: number, material?: ImpostorMaterial | ImpostorMaterialParameters);
+  readonly isInstancedImpostorMesh: true;
+  asset: ImpostorAsset;
+}
