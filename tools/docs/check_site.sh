@@ -46,7 +46,7 @@ while IFS= read -r target; do
       fail "README.md links to $target, which does not exist"
     fi
   fi
-done < <(grep -o '\](\([^)]*\))' README.md | sed 's/^](\(.*\))$/\1/')
+done < <(grep -o '\](\([^)]*\))' README.md | sed 's/^](\(.*\))$/\1/' | sort -u)
 
 # 2. The site
 if ! command -v mkdocs >/dev/null 2>&1; then
