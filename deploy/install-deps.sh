@@ -29,6 +29,7 @@ packages=(
   libcpp-httplib-dev chromium
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  mkdocs mkdocs-material  # the documentation site (mkdocs.yml; CTest docs_site)
   # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
   clang-14 libclang-rt-14-dev
   # Python client (python/) and its tests; Blender 3.4 for the add-on's
