@@ -15,6 +15,10 @@ What the pages need that MkDocs 1.4 does not do:
   `mkdocs build --strict` fails on it like on any broken link: a renamed test
   breaks the build of the page that names it.
 
+* A list that follows a paragraph line directly starts a list, as on GitHub
+  (CommonMark); Python-Markdown would run it into the paragraph. The pages
+  were written to read well in the repository too.
+
 * Anchors are checked: a link to page.md#heading whose heading is gone is a
   warning, so --strict fails on it too.
 
@@ -119,6 +123,31 @@ def _rewrite_links(markdown, written_in, page_dir, root, docs_dir, repo_url):
     return "".join(out)
 
 
+def _lists_after_paragraphs(markdown):
+    """Puts a blank line between a paragraph and a top-level list item that
+    follows it on the next line (outside code fences)."""
+    out, fence, in_list, prev = [], None, False, ""
+    for line in markdown.split("\n"):
+        m = FENCE.match(line)
+        if m and fence is None:
+            fence = m.group(2)[0] * 3
+        elif fence is not None and line.strip().startswith(fence):
+            fence = None
+            out.append(line)
+            prev = line
+            continue
+        if fence is None:
+            if re.match(r"^([-*+]|\d+\.)\s+\S", line):
+                if prev.strip() and not in_list and not prev.lstrip().startswith(("|", "#", "<")):
+                    out.append("")
+                in_list = True
+            elif line.strip() and not line[0].isspace() and not prev.strip():
+                in_list = False
+        out.append(line)
+        prev = line
+    return "\n".join(out)
+
+
 def _missing_optional(config):
     docs_dir = os.path.abspath(config["docs_dir"])
     optional = (config.get("extra") or {}).get("optional_pages") or []
@@ -171,6 +200,7 @@ def on_page_markdown(markdown, page, config, files):
 
     markdown = INCLUDE.sub(include, markdown)
     markdown = _rewrite_links(markdown, page_dir, page_dir, root, docs_dir, repo_url)
+    markdown = _lists_after_paragraphs(markdown)
     missing = _missing_optional(config)
     if missing:
         def unlink(m):
