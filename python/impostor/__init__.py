@@ -7,6 +7,7 @@ SDK (client/include/impostor/client.h). Start with Client.
 from ._retry import ConnectionEvent
 from .client import Client
 from .errors import ImpostorError
+from .release import FetchedAsset, ReleaseClient, ReleaseError
 from .results import (
     BakeResult,
     BatchSubmission,
@@ -25,9 +26,12 @@ __all__ = [
     "Client",
     "ConnectionEvent",
     "FetchResult",
+    "FetchedAsset",
     "ImpostorError",
     "JobUpdate",
     "LookupResult",
+    "ReleaseClient",
+    "ReleaseError",
     "SubmitResult",
     "UploadStats",
 ]
