@@ -27,6 +27,10 @@ packages=(
   # HTTP side of the server (--http-listen: metrics, JSON API, dashboard);
   # chromium runs the dashboard's headless browser tests
   libcpp-httplib-dev chromium
+  # Delivery to game clients (issue 40): the SDK fetches releases from HTTP
+  # mirrors with libcurl; the delivery tests put a published release behind
+  # a real origin and a caching edge (nginx)
+  libcurl4-openssl-dev nginx-light
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   mkdocs mkdocs-material  # the documentation site (mkdocs.yml; CTest docs_site)

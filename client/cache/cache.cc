@@ -16,6 +16,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "client/cache/cache_layout.h"
 #include "client/cache/cache_testing.h"
@@ -28,6 +29,12 @@
 #include "client/cache/partial_download.h"
 #include "client/cache/result_install.h"
 #include "client/cache/work_queue.h"
+#include "client/delivery/catalog.h"
+#include "client/delivery/catalog_signature.h"
+#include "client/delivery/channel_catalog.h"
+#include "client/delivery/mirror_blob.h"
+#include "client/delivery/release_paths.h"
+#include "client/blob_download.h"
 #include "client/job_convert.h"
 #include "client/mesh_files.h"
 #include "client/mesh_upload.h"
@@ -59,7 +66,33 @@ absl::Status ValidateOptions(const CacheOptions& o) {
     return absl::InvalidArgumentError(absl::StrCat("CacheOptions.", std::string(field), ": must be ",
                                                    std::string(range), ", got ", value));
   };
-  if (auto targets = ParseServerList(o.server, "CacheOptions.server"); !targets.ok()) return targets.status();
+  if (o.server.empty()) {
+    if (o.mirrors.empty()) return absl::InvalidArgumentError("CacheOptions.server: required unless mirrors are given");
+  } else if (auto targets = ParseServerList(o.server, "CacheOptions.server"); !targets.ok()) {
+    return targets.status();
+  }
+  for (size_t i = 0; i < o.mirrors.size(); ++i) {
+    const std::string& m = o.mirrors[i];
+    if ((!absl::StartsWith(m, "http://") && !absl::StartsWith(m, "https://")) || m.size() > 2048) {
+      return absl::InvalidArgumentError(absl::StrCat("CacheOptions.mirrors[", i, "]: \"", m.substr(0, 80),
+                                                     "\" is not an http:// or https:// base URL"));
+    }
+  }
+  if (!o.mirrors.empty() && o.channel.empty()) {
+    return absl::InvalidArgumentError("CacheOptions.channel: required with mirrors (the release channel to read)");
+  }
+  if (!o.channel.empty()) {
+    if (o.mirrors.empty()) return absl::InvalidArgumentError("CacheOptions.channel: needs CacheOptions.mirrors");
+    if (auto s = delivery::ValidateChannelName(o.channel, "CacheOptions.channel"); !s.ok()) return s;
+  }
+  if (!(o.catalog_refresh_seconds >= 0 && o.catalog_refresh_seconds <= 86400)) {
+    return bad("catalog_refresh_seconds", o.catalog_refresh_seconds, "in 0..86400");
+  }
+  if (!o.catalog_public_key_file.empty()) {
+    if (auto key = delivery::LoadCatalogPublicKey(o.catalog_public_key_file); !key.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("CacheOptions.catalog_public_key_file: ", key.status().message()));
+    }
+  }
   if (o.dir.empty()) return absl::InvalidArgumentError("CacheOptions.dir: required");
   if (o.max_bytes < 0) return bad("max_bytes", o.max_bytes, ">= 0");
   if (o.max_parallel_downloads < 1 || o.max_parallel_downloads > 64) {
@@ -116,7 +149,8 @@ ClientOptions TransportOptions(const CacheOptions& o) {
 
 absl::Status InvalidKey(const std::string& key) {
   return absl::InvalidArgumentError(
-      absl::StrCat("cache key \"", key.substr(0, 80), "\": expected 64 lowercase hex characters"));
+      absl::StrCat("cache key \"", key.substr(0, 80), "\": expected 64 lowercase hex characters",
+                   " (asset names need CacheOptions.mirrors and channel)"));
 }
 
 absl::StatusOr<std::string> ReadText(const fs::path& path) {
@@ -148,17 +182,38 @@ class Cache::Impl {
     LoadNewEntries();
     RemoveStaleFiles(options_.partial_max_age_seconds, nullptr);
     Trim(options_.max_bytes, nullptr);
-    downloads_ = std::make_unique<DownloadCoordinator>(options_.max_parallel_downloads,
-                                                       options_.max_parallel_prefetches,
-                                                       [this](const std::string& key) { return Download(key); });
+    if (!options_.channel.empty()) {
+      delivery::ChannelCatalogOptions c;
+      c.mirrors = options_.mirrors;
+      c.channel = options_.channel;
+      c.state_dir = layout_.root() / "releases";
+      if (!options_.catalog_public_key_file.empty()) {
+        absl::StatusOr<delivery::CatalogPublicKey> key = delivery::LoadCatalogPublicKey(options_.catalog_public_key_file);
+        if (!key.ok()) return key.status();
+        c.public_key = *key;
+      }
+      c.refresh_seconds = options_.catalog_refresh_seconds;
+      c.stall_seconds = options_.rpc_timeout_seconds;
+      c.max_attempts = options_.max_attempts;
+      c.ca_file = options_.mirror_ca_file;
+      c.cancel = &cancel_;
+      absl::StatusOr<std::unique_ptr<delivery::ChannelCatalog>> catalog = delivery::ChannelCatalog::Open(std::move(c));
+      if (!catalog.ok()) return catalog.status();
+      catalog_ = std::move(*catalog);
+    }
+    downloads_ = std::make_unique<DownloadCoordinator>(
+        options_.max_parallel_downloads, options_.max_parallel_prefetches,
+        [this](const std::string& key, CancelSource& cancel) { return Download(key, cancel); });
     io_ = std::make_unique<WorkQueue>(options_.io_threads);
     return absl::OkStatus();
   }
 
   const CacheOptions& options() const { return options_; }
 
-  absl::StatusOr<CachedResult> Get(const std::string& key) {
-    if (!IsCacheKey(key)) return InvalidKey(key);
+  absl::StatusOr<CachedResult> Get(const std::string& name) {
+    absl::StatusOr<std::string> resolved = Resolve(name);
+    if (!resolved.ok()) return resolved.status();
+    const std::string& key = *resolved;
     absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
     if (!local.ok()) return local.status();
     if (local->has_value()) {
@@ -172,12 +227,16 @@ class Cache::Impl {
     return future.get();
   }
 
-  void GetAsync(const std::string& key, GetCallback done) {
-    if (!IsCacheKey(key)) {
-      io_->Post([done = std::move(done), status = InvalidKey(key)] { done(status); });
+  void GetAsync(const std::string& name, GetCallback done) {
+    if (!IsCacheKey(name) && catalog_ == nullptr) {
+      io_->Post([done = std::move(done), status = InvalidKey(name)] { done(status); });
       return;
     }
-    io_->Post([this, key, done = std::move(done)]() mutable {
+    io_->Post([this, name, done = std::move(done)]() mutable {
+      // Resolved on an I/O thread: a name may need the channel's catalog.
+      absl::StatusOr<std::string> resolved = Resolve(name);
+      if (!resolved.ok()) return done(resolved.status());
+      const std::string key = *resolved;
       absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
       if (!local.ok()) return done(local.status());
       if (local->has_value()) {
@@ -188,6 +247,57 @@ class Cache::Impl {
       downloads_->Join(key, /*urgent=*/true,
                        [done = std::move(done)](DownloadCoordinator::Result r) { done(std::move(r)); });
     });
+  }
+
+  // Prefetch of names (or keys) with a priority: names are resolved on an
+  // I/O thread, then joined as background flights.
+  void PrefetchNames(const std::vector<std::string>& names, int priority, const PrefetchCallback& done) {
+    for (const std::string& name : names) {
+      io_->Post([this, name, priority, done] {
+        absl::StatusOr<std::string> key = Resolve(name);
+        if (!key.ok()) {
+          if (done) done(name, key.status());
+          return;
+        }
+        {
+          std::lock_guard lock(mu_);
+          if (nodes_.contains(*key)) {
+            if (done) done(name, absl::OkStatus());
+            return;
+          }
+          prefetch_keys_[name] = *key;
+        }
+        downloads_->Join(*key, /*urgent=*/false, [this, done, name](DownloadCoordinator::Result r) {
+          {
+            std::lock_guard lock(mu_);
+            prefetch_keys_.erase(name);
+          }
+          if (done) done(name, r.status());
+        }, priority);
+      });
+    }
+  }
+
+  int CancelPrefetch(const std::vector<std::string>& names) {
+    int cancelled = 0;
+    for (const std::string& name : names) {
+      std::string key = name;
+      {
+        std::lock_guard lock(mu_);
+        if (auto it = prefetch_keys_.find(name); it != prefetch_keys_.end()) key = it->second;
+      }
+      if (downloads_->Cancel(key)) ++cancelled;
+    }
+    return cancelled;
+  }
+
+  absl::StatusOr<std::string> CatalogJson(bool force_refresh) {
+    if (catalog_ == nullptr) {
+      return absl::FailedPreconditionError("no release channel: set CacheOptions.mirrors and channel");
+    }
+    absl::StatusOr<delivery::ResolvedCatalog> current = catalog_->Current(force_refresh);
+    if (!current.ok()) return current.status();
+    return delivery::CatalogToJson(*current->catalog);
   }
 
   void Prefetch(const std::vector<std::string>& keys, const PrefetchCallback& done) {
@@ -212,6 +322,9 @@ class Cache::Impl {
   }
 
   absl::StatusOr<LookupResult> Lookup(const fs::path& model, const BakeSettings& settings) {
+    if (options_.server.empty()) {
+      return absl::FailedPreconditionError("Lookup needs a farm: CacheOptions.server is empty");
+    }
     absl::StatusOr<v1::BakeParameters> parameters = ToBakeParameters(settings);
     if (!parameters.ok()) return parameters.status();
     absl::StatusOr<MeshFiles> files = CollectMeshFiles(model, {.follow_symlinks = settings.follow_symlinks});
@@ -481,17 +594,21 @@ class Cache::Impl {
   }
 
   // A flight's work: local copy if one appeared, else download and install.
-  DownloadCoordinator::Result Download(const std::string& key) {
+  DownloadCoordinator::Result Download(const std::string& key, CancelSource& flight_cancel) {
     if (cancel_.cancelled()) return cancel_.error();
+    if (flight_cancel.cancelled()) return flight_cancel.error();
+    // The flight ends when the cache shuts down, too.
+    CancelSource::Registration shutdown = cancel_.OnCancel([&flight_cancel] { flight_cancel.Cancel(); });
     absl::StatusOr<std::optional<CachedResult>> local = TryLocal(key);
     if (!local.ok()) return local.status();
     if (local->has_value()) return **local;
     if (absl::Status s = EnsureLayout(); !s.ok()) return s;
-    absl::StatusOr<Transport*> transport = transport_.Get();
-    if (!transport.ok()) return transport.status();
-    absl::StatusOr<InstallOutcome> installed =
-        DownloadAndInstall(**transport, layout_, key, hooks_.download, &cancel_);
-    if (!installed.ok()) return installed.status();
+    absl::StatusOr<InstallOutcome> installed = InstallFromBestSources(key, &flight_cancel);
+    if (!installed.ok()) {
+      // A cache shutting down answers with its own reason.
+      if (absl::IsCancelled(installed.status()) && cancel_.cancelled()) return cancel_.error();
+      return installed.status();
+    }
     // This process downloaded the result when it moved some of its bytes
     // over the network; a Get that found them all on disk (another process's
     // download, finished or installed while we waited) did not.
@@ -527,6 +644,74 @@ class Cache::Impl {
     }
     Trim(options_.max_bytes, nullptr);  // the new entry is pinned by `result`
     return **result;
+  }
+
+  // The cache key of `name`: a key as is, or an asset name of the channel's
+  // catalog.
+  absl::StatusOr<std::string> Resolve(const std::string& name) {
+    if (IsCacheKey(name)) return name;
+    if (catalog_ == nullptr) return InvalidKey(name);
+    if (absl::Status s = delivery::ValidateAssetName(name); !s.ok()) return s;
+    absl::StatusOr<delivery::ResolvedCatalog> current = catalog_->Current();
+    if (!current.ok()) return current.status();
+    auto it = current->catalog->assets.find(name);
+    if (it == current->catalog->assets.end()) {
+      return absl::NotFoundError(absl::StrCat("asset \"", name, "\" is not in channel ", options_.channel,
+                                              " (catalog ", current->catalog_sha256.substr(0, 12), ", ",
+                                              current->catalog->assets.size(), " assets)"));
+    }
+    return it->second.cache_key;
+  }
+
+  // The catalog entry listing `key`, when the channel's catalog has one.
+  std::optional<delivery::CatalogAsset> AssetForKey(const std::string& key) {
+    if (catalog_ == nullptr) return std::nullopt;
+    absl::StatusOr<delivery::ResolvedCatalog> current = catalog_->Current();
+    if (!current.ok()) return std::nullopt;
+    for (const auto& [name, asset] : current->catalog->assets) {
+      if (asset.cache_key == key) return asset;
+    }
+    return std::nullopt;
+  }
+
+  // Mirrors first (for a result the channel's catalog lists), the farm last
+  // (when configured); the farm alone for anything else.
+  absl::StatusOr<InstallOutcome> InstallFromBestSources(const std::string& key, const CancelSource* cancel) {
+    auto farm_reader = [this](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                              const std::function<absl::Status(std::string_view)>& sink,
+                              const CancelSource* c) -> absl::Status {
+      absl::StatusOr<Transport*> transport = transport_.Get();
+      if (!transport.ok()) return transport.status();
+      return ResumeBlobDownload(**transport, digest, offset, hash, sink, c);
+    };
+    std::optional<delivery::CatalogAsset> asset = AssetForKey(key);
+    if (!asset.has_value()) {
+      if (options_.server.empty()) {
+        return absl::NotFoundError(absl::StrCat(key, ": not in channel ", options_.channel,
+                                                "'s catalog, and no farm is configured (CacheOptions.server)"));
+      }
+      absl::StatusOr<Transport*> transport = transport_.Get();
+      if (!transport.ok()) return transport.status();
+      return DownloadAndInstall(**transport, layout_, key, hooks_.download, cancel);
+    }
+    InstallPlan plan;
+    plan.listing = delivery::ManifestFromAsset(*asset);
+    plan.listing_source = absl::StrCat("channel ", options_.channel, "'s catalog");
+    for (const std::string& mirror : options_.mirrors) {
+      delivery::MirrorReadOptions read{options_.rpc_timeout_seconds, options_.max_attempts, nullptr,
+                                       options_.mirror_ca_file};
+      plan.sources.push_back(
+          {absl::StrCat("mirror ", mirror),
+           [mirror, read](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                          const std::function<absl::Status(std::string_view)>& sink,
+                          const CancelSource* c) mutable -> absl::Status {
+             read.cancel = c;
+             return delivery::ReadVerified(delivery::JoinUrl(mirror, delivery::BlobPath(digest.hash())),
+                                           digest.hash(), digest.size_bytes(), offset, hash, sink, read);
+           }});
+    }
+    if (!options_.server.empty()) plan.sources.push_back({absl::StrCat("server ", options_.server), farm_reader});
+    return InstallFromSources(plan, layout_, key, hooks_.download, cancel);
   }
 
   // Evicts least recently used entries that no one uses until the total is
@@ -617,6 +802,8 @@ class Cache::Impl {
   const CacheLayout layout_;
   const CacheTestHooks hooks_;
   LazyTransport transport_;
+  // The release channel (CacheOptions::channel); null without one.
+  std::unique_ptr<delivery::ChannelCatalog> catalog_;
   // Cancel() ends every download at once: backoff waits, a partial held by
   // another download, and the ReadBlob or GetResult in flight (TryCancel).
   CancelSource cancel_{"the cache is shutting down"};
@@ -626,6 +813,8 @@ class Cache::Impl {
   std::unordered_map<std::string, Node> nodes_ ABSL_GUARDED_BY(mu_);
   LruIndex lru_ ABSL_GUARDED_BY(mu_);
   CacheStats stats_ ABSL_GUARDED_BY(mu_);
+  // Prefetches by the name they were asked under, for CancelPrefetch.
+  std::unordered_map<std::string, std::string> prefetch_keys_ ABSL_GUARDED_BY(mu_);
 
   // Destroyed first (see ~Impl): their threads call into the members above.
   std::unique_ptr<DownloadCoordinator> downloads_;
@@ -664,6 +853,14 @@ absl::StatusOr<LookupResult> Cache::Lookup(const std::filesystem::path& model, c
 void Cache::Prefetch(const std::vector<std::string>& cache_keys, PrefetchCallback done) {
   impl_->Prefetch(cache_keys, done);
 }
+
+void Cache::Prefetch(const std::vector<std::string>& names, int priority, PrefetchCallback done) {
+  impl_->PrefetchNames(names, priority, done);
+}
+
+int Cache::CancelPrefetch(const std::vector<std::string>& names) { return impl_->CancelPrefetch(names); }
+
+absl::StatusOr<std::string> Cache::CatalogJson(bool force_refresh) { return impl_->CatalogJson(force_refresh); }
 
 std::vector<CacheEntryInfo> Cache::List() { return impl_->List(); }
 

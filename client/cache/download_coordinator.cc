@@ -11,7 +11,7 @@ DownloadCoordinator::DownloadCoordinator(int threads, int max_background, Work w
 
 DownloadCoordinator::~DownloadCoordinator() { Shutdown(); }
 
-void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done) {
+void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done, int priority) {
   State& s = *state_;
   std::unique_lock lock(s.mu);
   if (s.shutdown) {
@@ -20,8 +20,10 @@ void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done) {
     return;
   }
   auto it = s.flights.find(key);
-  if (it != s.flights.end()) {
+  // A running flight that was cancelled is ending: a new one takes its key.
+  if (it != s.flights.end() && !(it->second->running && it->second->cancel->cancelled())) {
     it->second->waiters.push_back(std::move(done));
+    if (!it->second->running) it->second->priority = priority;
     if (urgent && !it->second->urgent) {
       it->second->urgent = true;
       s.changed.notify_all();
@@ -31,6 +33,8 @@ void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done) {
   auto flight = std::make_shared<Flight>();
   flight->key = key;
   flight->urgent = urgent;
+  flight->priority = priority;
+  flight->order = s.next_order++;
   flight->waiters.push_back(std::move(done));
   s.flights[key] = flight;
   s.queue.push_back(flight);
@@ -44,11 +48,16 @@ std::shared_ptr<DownloadCoordinator::Flight> DownloadCoordinator::State::PopRunn
       pick = it;
       break;
     }
-    if (pick == queue.end() && running_background < max_background) pick = it;
+    if (running_background >= max_background) continue;
+    if (pick == queue.end() || (*it)->priority > (*pick)->priority ||
+        ((*it)->priority == (*pick)->priority && (*it)->order < (*pick)->order)) {
+      pick = it;
+    }
   }
   if (pick == queue.end()) return nullptr;
   std::shared_ptr<Flight> flight = *pick;
   queue.erase(pick);
+  flight->running = true;
   if (!flight->urgent) {
     flight->counts_as_background = true;
     ++running_background;
@@ -66,11 +75,11 @@ void DownloadCoordinator::RunThread(const std::shared_ptr<State>& state) {
     s.changed.wait(lock, [&] { return s.shutdown || (flight = s.PopRunnable()) != nullptr; });
     if (flight == nullptr) return;  // shutdown
     lock.unlock();
-    Result result = s.work(flight->key);
+    Result result = s.work(flight->key, *flight->cancel);
     lock.lock();
     // Under the lock, so a Join either made it into `waiters` or starts a
     // new flight.
-    s.flights.erase(flight->key);
+    if (auto f = s.flights.find(flight->key); f != s.flights.end() && f->second == flight) s.flights.erase(f);
     if (flight->counts_as_background) --s.running_background;
     std::vector<Done> waiters = std::move(flight->waiters);
     s.changed.notify_all();
@@ -80,6 +89,31 @@ void DownloadCoordinator::RunThread(const std::shared_ptr<State>& state) {
     waiters.clear();  // the callbacks' captures go before the next flight
     lock.lock();
   }
+}
+
+bool DownloadCoordinator::Cancel(const std::string& key) {
+  State& s = *state_;
+  std::shared_ptr<Flight> flight;
+  std::vector<Done> dropped;
+  bool running;
+  {
+    std::lock_guard lock(s.mu);
+    auto it = s.flights.find(key);
+    if (it == s.flights.end() || it->second->urgent) return false;
+    flight = it->second;
+    running = flight->running;
+    if (!running) {
+      s.queue.remove(flight);
+      s.flights.erase(it);
+      dropped = std::move(flight->waiters);
+    }
+  }
+  if (!running) {
+    for (Done& done : dropped) done(flight->cancel->error());
+    return true;
+  }
+  flight->cancel->Cancel();
+  return true;
 }
 
 void DownloadCoordinator::Shutdown() {

@@ -3,7 +3,11 @@
 // every waiter); flights for different keys run in parallel on a fixed pool
 // of threads. Urgent flights (a Get someone waits for) run before background
 // ones (Prefetch), and background ones never occupy more than their share of
-// the pool; a background flight that a Get joins becomes urgent.
+// the pool; a background flight that a Get joins becomes urgent. Background
+// flights start in order of priority (higher first; equal ones in the order
+// asked), which a later Join may change while the flight waits, and a
+// background flight no Get waits for can be cancelled, queued or running
+// (its work sees its CancelSource cancelled).
 //
 // Thread-safety: every method may be called from any thread. Waiter
 // callbacks run on a pool thread (or on the caller's thread, with
@@ -26,6 +30,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "client/retry.h"
 #include "impostor/cache.h"
 
 namespace impostor::sdk {
@@ -34,7 +39,9 @@ class DownloadCoordinator {
  public:
   using Result = absl::StatusOr<CachedResult>;
   // Produces the result of a key: runs once per flight, on a pool thread.
-  using Work = std::function<Result(const std::string& key)>;
+  // `cancel` is the flight's: cancelled by Cancel(key) (a prefetch no longer
+  // wanted); the work should end promptly with its error.
+  using Work = std::function<Result(const std::string& key, CancelSource& cancel)>;
   // Called with its own copy; the last waiter gets the flight's result
   // itself, so once every waiter has it the coordinator holds no pin on it
   // (a caller's Stats or CollectGarbage right after Get sees only its own).
@@ -49,7 +56,15 @@ class DownloadCoordinator {
   DownloadCoordinator& operator=(const DownloadCoordinator&) = delete;
 
   // Adds `done` to the flight of `key`, starting one when there is none.
-  void Join(const std::string& key, bool urgent, Done done);
+  // `priority` orders background flights; joining a flight that has not
+  // started sets its priority to this one (a re-prioritised prefetch).
+  void Join(const std::string& key, bool urgent, Done done, int priority = 0);
+
+  // Cancels the flight of `key` unless a Get (urgent) waits for it: a
+  // queued one is dropped and its waiters answered CANCELLED at once; a
+  // running one has its CancelSource cancelled (the work keeps what it
+  // downloaded for a later resume). True when a flight was cancelled.
+  bool Cancel(const std::string& key);
 
   // Fails queued flights with CANCELLED, waits for running ones (the Work
   // must notice cancellation itself) and stops the threads. Later Joins are
@@ -66,6 +81,10 @@ class DownloadCoordinator {
     std::string key;
     bool urgent = false;
     bool counts_as_background = false;  // took a background slot when it started
+    bool running = false;
+    int priority = 0;
+    uint64_t order = 0;  // when it was queued, for FIFO among equals
+    std::shared_ptr<CancelSource> cancel = std::make_shared<CancelSource>("the prefetch was cancelled");
     std::vector<Done> waiters;
   };
 
@@ -81,6 +100,7 @@ class DownloadCoordinator {
     std::list<std::shared_ptr<Flight>> queue ABSL_GUARDED_BY(mu);                // not started, FIFO
     int running_background ABSL_GUARDED_BY(mu) = 0;
     int64_t started ABSL_GUARDED_BY(mu) = 0;
+    uint64_t next_order ABSL_GUARDED_BY(mu) = 0;
     bool shutdown ABSL_GUARDED_BY(mu) = false;
 
     // The next flight allowed to start, removed from the queue; nullptr if none.

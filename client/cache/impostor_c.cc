@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "impostor/cache.h"
 #include "impostor/log.h"
 
@@ -98,6 +99,7 @@ void impostor_cache_options_ext_init(impostor_cache_options_ext* ext) {
   ext->hit_verification = static_cast<int32_t>(defaults.hit_verification);
   ext->io_threads = defaults.io_threads;
   ext->partial_max_age_seconds = defaults.partial_max_age_seconds;
+  ext->catalog_refresh_seconds = defaults.catalog_refresh_seconds;
 }
 
 impostor_status impostor_cache_open_ext(const impostor_cache_options* options, const impostor_cache_options_ext* ext,
@@ -124,8 +126,23 @@ impostor_status impostor_cache_open_ext(const impostor_cache_options* options, c
     o.hit_verification = static_cast<impostor::sdk::HitVerification>(ext->hit_verification);
     o.io_threads = ext->io_threads;
     o.partial_max_age_seconds = ext->partial_max_age_seconds;
+    if (ext->size >= offsetof(impostor_cache_options_ext, mirror_ca_file) + sizeof(const char*)) {
+      if (ext->mirrors != nullptr) {
+        for (absl::string_view m : absl::StrSplit(ext->mirrors, ',', absl::SkipEmpty())) {
+          o.mirrors.emplace_back(m);
+        }
+      }
+      if (ext->channel != nullptr) o.channel = ext->channel;
+      o.catalog_refresh_seconds = ext->catalog_refresh_seconds;
+      if (ext->catalog_public_key_file != nullptr) o.catalog_public_key_file = ext->catalog_public_key_file;
+      if (ext->mirror_ca_file != nullptr) o.mirror_ca_file = ext->mirror_ca_file;
+    }
   }
-  if (options->server != nullptr) o.server = options->server;
+  if (options->server != nullptr) {
+    o.server = options->server;
+  } else if (!o.mirrors.empty()) {
+    o.server.clear();  // a game reading releases only
+  }
   if (options->dir != nullptr) o.dir = options->dir;
   o.max_bytes = options->max_bytes;
   o.max_parallel_downloads = options->max_parallel_downloads;
@@ -185,6 +202,27 @@ void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, siz
     if (keys[i] != nullptr) list.emplace_back(keys[i]);
   }
   cache->cache->Prefetch(list);
+}
+
+namespace {
+std::vector<std::string> Names(const char* const* names, size_t count) {
+  std::vector<std::string> list;
+  for (size_t i = 0; names != nullptr && i < count; ++i) {
+    if (names[i] != nullptr) list.emplace_back(names[i]);
+  }
+  return list;
+}
+}  // namespace
+
+void impostor_cache_prefetch_priority(impostor_cache* cache, const char* const* names, size_t count,
+                                      int32_t priority) {
+  if (cache == nullptr) return;
+  cache->cache->Prefetch(Names(names, count), priority);
+}
+
+int32_t impostor_cache_cancel_prefetch(impostor_cache* cache, const char* const* names, size_t count) {
+  if (cache == nullptr) return 0;
+  return cache->cache->CancelPrefetch(Names(names, count));
 }
 
 impostor_status impostor_cache_lookup(impostor_cache* cache, const char* model_path, const char* layout,

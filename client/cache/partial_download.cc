@@ -133,11 +133,11 @@ absl::StatusOr<Locked> LockPartial(int fd, const fs::path& path, const std::stri
 
 // Fetches the blob from byte `have` on into `fd` (positioned there), hashing
 // into `hash` (which has seen bytes [0, have)).
-absl::Status Transfer(Transport& transport, const v1::Digest& digest, int fd, const fs::path& path, int64_t have,
+absl::Status Transfer(const BlobReader& reader, const v1::Digest& digest, int fd, const fs::path& path, int64_t have,
                       Sha256& hash, const DownloadHooks& hooks, const CancelSource* cancel,
                       int64_t* downloaded) {
   int64_t received = have;
-  return ResumeBlobDownload(transport, digest, have, hash, [&](std::string_view data) -> absl::Status {
+  return reader(digest, have, hash, [&](std::string_view data) -> absl::Status {
     if (IsCancelled(cancel)) return Cancelled();
     if (absl::Status s = WriteAll(fd, data, path); !s.ok()) return s;
     received += static_cast<int64_t>(data.size());
@@ -160,7 +160,7 @@ absl::Status LinkAll(const fs::path& from, const std::vector<fs::path>& links, s
 // directory, which is removed with everything in it if the install fails),
 // then linked under the other names. For a partial file held up by a
 // download that makes no progress.
-absl::StatusOr<BlobOutcome> FetchPrivately(Transport& transport, const v1::Digest& digest,
+absl::StatusOr<BlobOutcome> FetchPrivately(const BlobReader& reader, const v1::Digest& digest,
                                            const std::vector<fs::path>& links, const DownloadHooks& hooks,
                                            const CancelSource* cancel) {
   const fs::path& target = links.front();
@@ -170,7 +170,7 @@ absl::StatusOr<BlobOutcome> FetchPrivately(Transport& transport, const v1::Diges
   outcome.shared = false;
   if (hooks.on_blob_start) hooks.on_blob_start(digest.hash(), 0);
   Sha256 hash;
-  absl::Status status = Transfer(transport, digest, file.get(), target, 0, hash, hooks, cancel, &outcome.bytes_downloaded);
+  absl::Status status = Transfer(reader, digest, file.get(), target, 0, hash, hooks, cancel, &outcome.bytes_downloaded);
   if (status.ok() && ::fdatasync(file.get()) != 0) status = LocalIoError("cannot sync", target, errno);
   if (!status.ok()) {
     ::unlink(target.c_str());
@@ -182,7 +182,14 @@ absl::StatusOr<BlobOutcome> FetchPrivately(Transport& transport, const v1::Diges
 
 }  // namespace
 
-absl::StatusOr<BlobOutcome> FetchBlob(Transport& transport, const v1::Digest& digest, const fs::path& partial,
+BlobReader FarmBlobReader(Transport& transport) {
+  return [&transport](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                      const std::function<absl::Status(std::string_view)>& sink, const CancelSource* cancel) {
+    return ResumeBlobDownload(transport, digest, offset, hash, sink, cancel);
+  };
+}
+
+absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest& digest, const fs::path& partial,
                                       const std::vector<fs::path>& links, const DownloadHooks& hooks,
                                       const CancelSource* cancel) {
   if (links.empty()) return absl::InternalError(absl::StrCat(partial.string(), ": nothing to link it to"));
@@ -195,7 +202,7 @@ absl::StatusOr<BlobOutcome> FetchBlob(Transport& transport, const v1::Digest& di
     SdkLog().warn("cache: {} is held by a download that has written nothing for {} s (a stopped process?); "
                   "fetching the blob on its own",
                   partial.string(), hooks.partial_stall_seconds > 0 ? hooks.partial_stall_seconds : kPartialStallSeconds);
-    return FetchPrivately(transport, digest, links, hooks, cancel);
+    return FetchPrivately(reader, digest, links, hooks, cancel);
   }
   BlobOutcome outcome;
   // A holder that finished an install (or hit a full disk), or garbage
@@ -229,7 +236,7 @@ absl::StatusOr<BlobOutcome> FetchBlob(Transport& transport, const v1::Digest& di
                    ? absl::OkStatus()
                    : absl::DataLossError(absl::StrCat(partial.string(), ": partial file does not match its digest"));
     } else {
-      status = Transfer(transport, digest, fd, partial, have, hash, hooks, cancel, &outcome.bytes_downloaded);
+      status = Transfer(reader, digest, fd, partial, have, hash, hooks, cancel, &outcome.bytes_downloaded);
     }
     if (status.ok()) {
       if (::fdatasync(fd) != 0) {

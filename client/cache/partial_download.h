@@ -28,6 +28,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "client/transport.h"
+#include "common/sha256.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor::sdk {
@@ -76,6 +77,17 @@ struct BlobOutcome {
   FileIdentity identity;
 };
 
+// Where a blob's bytes come from: feeds bytes [offset, size) of `digest`
+// to `sink` and `hash` (which has seen bytes [0, offset)) and checks the
+// whole blob's SHA-256 at the end (DATA_LOSS, the sink having seen bad
+// bytes). The farm's is ResumeBlobDownload (FarmBlobReader); a release
+// mirror's is delivery::ReadVerified.
+using BlobReader = std::function<absl::Status(const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                              const std::function<absl::Status(std::string_view)>& sink,
+                                              const CancelSource* cancel)>;
+// ResumeBlobDownload through `transport` (which must outlive the reader).
+BlobReader FarmBlobReader(Transport& transport);
+
 // Makes each path of `links` (new names inside a staging directory the
 // caller owns; at least one) a hard link to the verified, synced blob
 // `digest`, fetched through its partial file `partial`: bytes already there
@@ -86,8 +98,8 @@ struct BlobOutcome {
 // between chunks: CANCELLED once it is true. Errors: ABORTED when `partial`
 // was deleted while this call waited for it (the install that used it may
 // be complete: the caller looks, then calls again), those of
-// ResumeBlobDownload, INTERNAL or RESOURCE_EXHAUSTED for local I/O.
-absl::StatusOr<BlobOutcome> FetchBlob(Transport& transport, const v1::Digest& digest,
+// `reader`, INTERNAL or RESOURCE_EXHAUSTED for local I/O.
+absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest& digest,
                                       const std::filesystem::path& partial,
                                       const std::vector<std::filesystem::path>& links, const DownloadHooks& hooks,
                                       const CancelSource* cancel);

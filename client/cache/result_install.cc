@@ -17,8 +17,10 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "client/local_io_error.h"
 #include "client/result_fetch.h"
+#include "client/rpc_error.h"
 #include "client/sdk_log.h"
 #include "common/manifest_json.h"
 
@@ -160,21 +162,35 @@ EntryRecord RecordOf(const std::string& key, const v1::Manifest& manifest) {
   return record;
 }
 
-// DownloadAndInstall; `used` gets the shared partial files linked from, for
-// the caller to give back their space when the disk is full.
-absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& layout, const std::string& key,
-                                       const DownloadHooks& hooks, const CancelSource* cancel,
-                                       std::vector<UsedPartial>& used) {
+// The farm's listing of `key`, checked.
+absl::StatusOr<v1::Manifest> FarmListing(Transport& transport, const std::string& key, const CancelSource* cancel) {
   absl::StatusOr<v1::Manifest> manifest = transport.GetResult(key, cancel);
   if (!manifest.ok()) return manifest.status();
-  if (absl::Status s = CheckManifestFiles(*manifest); !s.ok()) {
-    return absl::InternalError(
-        absl::StrCat("server ", transport.server(), " sent a bad result for ", key, ": ", s.message()));
-  }
   if (!manifest->cache_key().empty() && manifest->cache_key() != key) {
     return absl::DataLossError(absl::StrCat("server ", transport.server(), " answered ", key,
                                             " with the result of ", manifest->cache_key().substr(0, 64)));
   }
+  return manifest;
+}
+
+// Whether a failure of one source should stop the install rather than move
+// on to the next source: cancellation and local disk trouble are the same
+// whichever source is asked.
+bool StopsInstall(const absl::Status& status) {
+  return absl::IsCancelled(status) || IsLocalDiskFull(status) ||
+         (absl::IsInternal(status) && !GetRpcErrorInfo(status).has_value());
+}
+
+// InstallFromSources; `used` gets the shared partial files linked from, for
+// the caller to give back their space when the disk is full.
+absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayout& layout, const std::string& key,
+                                       const DownloadHooks& hooks, const CancelSource* cancel,
+                                       std::vector<UsedPartial>& used) {
+  const v1::Manifest* manifest = &plan.listing;
+  if (absl::Status s = CheckManifestFiles(*manifest); !s.ok()) {
+    return absl::InternalError(absl::StrCat(plan.listing_source, " sent a bad result for ", key, ": ", s.message()));
+  }
+  if (plan.sources.empty()) return absl::InternalError(absl::StrCat("no source to install ", key, " from"));
 
   InstallOutcome outcome;
   outcome.record = RecordOf(key, *manifest);
@@ -216,12 +232,30 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
   }
   for (const Blob& blob : blobs) {
     absl::StatusOr<BlobOutcome> got = absl::UnknownError("not fetched");
-    for (int attempt = 0;; ++attempt) {
-      if (absl::StatusOr<Pinned> theirs = PinInstalled(layout, key); theirs.ok()) return use_theirs(std::move(*theirs));
-      got = FetchBlob(transport, blob.digest, blob.partial, blob.links, hooks, cancel);
-      if (got.status().code() != absl::StatusCode::kAborted || attempt == kMaxRetries) break;
+    std::vector<std::string> failures;
+    for (const ResultSource& source : plan.sources) {
+      for (int attempt = 0;; ++attempt) {
+        if (absl::StatusOr<Pinned> theirs = PinInstalled(layout, key); theirs.ok()) {
+          return use_theirs(std::move(*theirs));
+        }
+        got = FetchBlob(source.reader, blob.digest, blob.partial, blob.links, hooks, cancel);
+        if (got.status().code() != absl::StatusCode::kAborted || attempt == kMaxRetries) break;
+      }
+      if (got.ok() || StopsInstall(got.status())) break;
+      if (plan.sources.size() > 1) {
+        SdkLog().warn("event=blob_source_failed key={} file={} blob={} source=\"{}\" reason=\"{}\"", key,
+                      blob.links.front().filename().string(), blob.digest.hash(), source.name,
+                      std::string(got.status().message()));
+        failures.push_back(absl::StrCat(source.name, ": ", got.status().message()));
+      }
     }
-    if (!got.ok()) return got.status();
+    if (!got.ok()) {
+      if (failures.size() <= 1) return got.status();
+      return absl::Status(got.status().code(),
+                          absl::StrCat("file ", blob.links.front().filename().string(), " (blob ", blob.digest.hash(),
+                                       ", ", blob.digest.size_bytes(), " bytes) of ", key,
+                                       ": no source gave it intact: ", absl::StrJoin(failures, "; ")));
+    }
     outcome.bytes_downloaded += got->bytes_downloaded;
     outcome.bytes_resumed += got->bytes_resumed;
     if (got->shared) used.push_back({blob.partial, got->identity});
@@ -268,8 +302,20 @@ absl::StatusOr<InstallOutcome> Install(Transport& transport, const CacheLayout& 
 absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
                                                   const CancelSource* cancel) {
+  absl::StatusOr<v1::Manifest> listing = FarmListing(transport, key, cancel);
+  if (!listing.ok()) return listing.status();
+  InstallPlan plan;
+  plan.listing = std::move(*listing);
+  plan.listing_source = absl::StrCat("server ", transport.server());
+  plan.sources.push_back({plan.listing_source, FarmBlobReader(transport)});
+  return InstallFromSources(plan, layout, key, hooks, cancel);
+}
+
+absl::StatusOr<InstallOutcome> InstallFromSources(const InstallPlan& plan, const CacheLayout& layout,
+                                                  const std::string& key, const DownloadHooks& hooks,
+                                                  const CancelSource* cancel) {
   std::vector<UsedPartial> used;
-  absl::StatusOr<InstallOutcome> outcome = Install(transport, layout, key, hooks, cancel, used);
+  absl::StatusOr<InstallOutcome> outcome = Install(plan, layout, key, hooks, cancel, used);
   if (!outcome.ok() && IsLocalDiskFull(outcome.status())) {
     // Complete partial files would hold the very space that is missing,
     // and a result is useless without all its files: nothing stays behind

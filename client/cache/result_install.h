@@ -41,6 +41,34 @@ struct InstallOutcome {
   bool raced = false;
 };
 
+// One place a result's blobs can come from.
+struct ResultSource {
+  std::string name;  // for messages and logs: "server HOST:PORT", "mirror URL"
+  BlobReader reader;
+};
+
+// What to install and from where.
+struct InstallPlan {
+  // The result's listing: `maps` and `manifest_json` digests, cache key,
+  // layout, frames, resolution (the farm's GetResult, or a release
+  // catalog's entry: delivery::ManifestFromAsset).
+  v1::Manifest listing;
+  std::string listing_source;  // who gave the listing, for messages
+  // Tried in order for each blob: a source that fails (unreachable,
+  // stalled, missing the blob, or serving bytes that do not verify) moves
+  // the blob on to the next, resuming from the verified bytes on disk (a
+  // source's bad bytes are dropped first). Never empty.
+  std::vector<ResultSource> sources;
+};
+
+// Downloads the plan's blobs, verifies and installs them. Errors as
+// DownloadAndInstall; when every source failed for a blob, the message
+// names the file, its digest and each source's failure, with the last
+// source's code.
+absl::StatusOr<InstallOutcome> InstallFromSources(const InstallPlan& plan, const CacheLayout& layout,
+                                                  const std::string& key, const DownloadHooks& hooks,
+                                                  const CancelSource* cancel);
+
 // GetResult, download, verify, install. Errors: NOT_FOUND (nothing baked
 // under the key), DATA_LOSS (bytes or manifest that do not match), INTERNAL
 // (a malformed manifest, local disk), RESOURCE_EXHAUSTED (the cache's disk

@@ -53,6 +53,8 @@ absl::StatusOr<std::unique_ptr<sdk::Cache>> OpenCache(const CliArgs& args) {
 
 }  // namespace
 
+std::filesystem::path CacheDirFor(const CliArgs& args) { return CacheDir(args); }
+
 int RunCacheGet(const CliArgs& args) {
   nlohmann::json report = {{"cache_key", args.target}, {"dir", nullptr},         {"manifest", nullptr},
                            {"files", nlohmann::json::array()}, {"downloaded", false}, {"size_bytes", 0},

@@ -31,7 +31,9 @@ const std::map<std::string, CommandSpec>& Commands() {
       {"bake-batch",
        {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going", "--follow-symlinks"},
         true, "SPEC"}},
-      {"fetch", {Command::kFetch, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet"}, true, "KEY"}},
+      {"fetch", {Command::kFetch, {"--max-outage-seconds", "--out", "--server", "--mirror", "--channel", "--cache-dir", "--catalog-key"}, {"--json", "--quiet"}, true, "KEY"}},
+      {"publish", {Command::kPublish, {"--max-outage-seconds", "--out", "--server", "--channel", "--from-report", "--sign-key"}, {"--json", "--quiet", "--include-quality-views"}, true, "KEY or NAME=KEY"}},
+      {"catalog ls", {Command::kCatalogLs, {"--mirror", "--channel", "--cache-dir", "--catalog-key"}, {"--json"}, false, nullptr}},
       // --out is optional: quality_command.cc picks ./quality-KEY12.
       {"quality", {Command::kQuality, {"--max-outage-seconds", "--out", "--server"}, {"--json", "--quiet", "--all-views"}, false, "KEY"}},
       {"status", {Command::kStatus, {"--max-outage-seconds", "--server"}, {"--json"}, false, "JOB_ID"}},
@@ -65,7 +67,10 @@ absl::StatusOr<uint32_t> ParseNumber(const std::string& flag, const std::string&
 
 absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const char* env_server) {
   CliArgs out;
-  if (env_server != nullptr && env_server[0] != '\0') out.server = env_server;
+  if (env_server != nullptr && env_server[0] != '\0') {
+    out.server = env_server;
+    out.server_given = true;
+  }
   for (const std::string& a : args) {
     if (a == "--") break;
     if (a == "--help" || a == "-h") return out;  // kHelp
@@ -84,6 +89,11 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   if (name == "cache") {
     if (args.size() < 2 || args[1].rfind("-", 0) == 0) return Usage("'cache' needs a subcommand: get, ls or gc");
     command_name = "cache " + args[1];
+    first_arg = 2;
+  }
+  if (name == "catalog") {
+    if (args.size() < 2 || args[1].rfind("-", 0) == 0) return Usage("'catalog' needs a subcommand: ls");
+    command_name = "catalog " + args[1];
     first_arg = 2;
   }
   if (name == "admin") {
@@ -130,6 +140,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       if (flag == "--array") out.texture_array = true;
       if (flag == "--follow-symlinks") out.follow_symlinks = true;
       if (flag == "--all-views") out.all_views = true;
+      if (flag == "--include-quality-views") out.include_quality_views = true;
       continue;
     }
     // Transport security: every command that takes --server takes these.
@@ -211,6 +222,28 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       out.worker = *value;
       continue;
     }
+    if (flag == "--mirror") {
+      size_t start = 0;
+      while (start <= value->size()) {
+        const size_t end = std::min(value->find(',', start), value->size());
+        const std::string url = value->substr(start, end - start);
+        if (url.rfind("http://", 0) != 0 && url.rfind("https://", 0) != 0) {
+          return Usage(absl::StrCat("--mirror: \"", url.substr(0, 80),
+                                    "\" is not an http:// or https:// base URL (the folder that holds v1/)"));
+        }
+        out.mirrors.push_back(url);
+        start = end + 1;
+      }
+      continue;
+    }
+    if (flag == "--channel" || flag == "--catalog-key" || flag == "--from-report" || flag == "--sign-key") {
+      if (value->empty()) return Usage(absl::StrCat(flag, ": missing value"));
+      (flag == "--channel"       ? out.channel
+       : flag == "--catalog-key" ? out.catalog_key
+       : flag == "--from-report" ? out.from_report
+                                 : out.sign_key) = *value;
+      continue;
+    }
     if (flag == "--cache-dir") {
       if (value->empty()) return Usage("--cache-dir: missing value");
       out.cache_dir = *value;
@@ -231,6 +264,7 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       // One address or a comma list of replicas (issue 15).
       if (auto targets = ParseServerList(*value, "--server"); !targets.ok()) return targets.status();
       out.server = *value;
+      out.server_given = true;
     } else if (flag == "--layout") {
       if (*value != "octahedral" && *value != "hemi-octahedral" && *value != "azimuth-elevation" &&
           *value != "ring-top" && *value != "billboard") {
@@ -344,6 +378,24 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   }
   // A LOD chain's impostor defaults to the hemisphere (the server's choice).
   if (out.product == "lod-chain" && !layout_given) out.layout.clear();
+  if ((out.command == Command::kCatalogLs || out.command == Command::kPublish) && out.channel.empty()) {
+    return Usage("--channel: required (the release channel, e.g. nightly)");
+  }
+  if (out.command == Command::kCatalogLs && out.mirrors.empty()) {
+    return Usage("--mirror: required (the base URL of a published release)");
+  }
+  if (out.command == Command::kFetch && out.mirrors.empty() != out.channel.empty()) {
+    return Usage(out.mirrors.empty() ? "--channel: needs --mirror" : "--mirror: needs --channel (the release channel)");
+  }
+  if (out.command == Command::kPublish) {
+    if (positional.empty() && out.from_report.empty()) {
+      return Usage("'publish' needs cache keys, NAME=KEY pairs or --from-report FILE");
+    }
+    if (!out_given) return Usage("'publish' needs --out DIR (the release root)");
+    out.targets = positional;
+    if (!positional.empty()) out.target = positional[0];
+    return out;
+  }
   if (spec.target_name == nullptr) {
     if (!positional.empty()) {
       return Usage(absl::StrCat("unexpected argument \"", positional[0], "\" for '", command_name, "'"));
@@ -362,7 +414,8 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
   out.target = positional[0];
   if (out.target.empty()) return Usage(absl::StrCat("'", name, "': ", spec.target_name, " is empty"));
   // A KEY that cannot be one is a usage error here, not a server's answer.
-  if ((spec.command == Command::kFetch || spec.command == Command::kQuality) && !IsSha256Hex(out.target)) {
+  if ((spec.command == Command::kFetch || spec.command == Command::kQuality) && !IsSha256Hex(out.target) &&
+      !(spec.command == Command::kFetch && !out.mirrors.empty())) {
     return Usage(absl::StrCat("cache key \"", out.target.substr(0, 80),
                               "\": expected 64 lowercase hex characters (as `impostor bake --json` prints it)"));
   }
@@ -496,6 +549,53 @@ Usage:
       Downloads the result baked under cache key KEY into DIR. Files already
       in DIR with the right content are kept; a download cut off by a server
       restart resumes where it stopped (default outage budget 30 s).
+  impostor fetch NAME_OR_KEY --mirror URL[,URL...] --channel NAME --out DIR
+                [--server HOST:PORT] [--cache-dir DIR] [--catalog-key FILE] [--json]
+      Fetches from published releases (as a shipped game does): resolves the
+      asset NAME (or a cache KEY) through the channel's catalog and downloads
+      each file from the first mirror that gives it intact, verifying its
+      SHA-256 as it streams (a wrong byte, an error page, a truncated body or
+      a stall moves on to the next mirror), then from the farm only when
+      --server (or $IMPOSTOR_SERVER) is given. Files go through the local
+      cache (--cache-dir), which keeps the catalog for offline use, and are
+      copied into DIR.
+        --mirror URL  base URL of a release tree (the folder holding v1/):
+                      a CDN edge, a static host, or a farm's
+                      http://HOST:PORT/releases; comma-separated or repeated,
+                      tried in order
+        --channel NAME the release channel (nightly, release-1.4, ...)
+        --catalog-key FILE accept only catalogs signed with this Ed25519
+                      key (PEM public key; see publish --sign-key)
+  impostor publish KEY|NAME=KEY... [--from-report FILE] --channel NAME --out DIR
+                [--include-quality-views] [--sign-key FILE] [--server HOST:PORT] [--json]
+      Writes the results as a release any web server or CDN serves as plain
+      files: DIR/v1/blobs/sha256/<2 hex>/<64 hex> (every file a game draws,
+      by its SHA-256), DIR/v1/catalogs/sha256/... (the catalog: each asset
+      name's cache key, product, layout and files) and
+      DIR/v1/channels/NAME.json (the only file that changes). Blobs first,
+      then the catalog, then the channel by atomic rename: an interrupted
+      publish leaves the previous channel intact. Blobs already in DIR are
+      not written again; the same inputs give the same catalog digest.
+        KEY           publish the result under KEY as the asset named KEY
+        NAME=KEY      ... as the asset NAME (letters, digits, . _ - /; at
+                      most 200 characters; no . or .. segments)
+        --from-report FILE  the assets of `impostor bake-batch --json`
+                      output (- = stdin): each asset's name and cache_key;
+                      an asset that did not succeed stops the publish
+        --channel NAME the channel to point at the new catalog
+        --include-quality-views  also the quality pass's view images,
+                      views.json, the worst view and the contact sheet
+        --sign-key FILE sign the catalog with this Ed25519 private key (PEM,
+                      `openssl genpkey -algorithm ed25519`); clients given
+                      the public key refuse anything else
+        --json        {channel, catalog_sha256, catalog_path, channel_path,
+                      assets, blobs_written, blobs_present, bytes_written,
+                      catalog_reused, channel_changed, out_dir, wall_seconds,
+                      error}
+  impostor catalog ls --mirror URL[,URL...] --channel NAME [--cache-dir DIR]
+                [--catalog-key FILE] [--json]
+      Lists the assets of the channel's current catalog: name, cache key,
+      product, layout, files and bytes (--json: the catalog itself).
   impostor quality KEY [--out DIR] [--server HOST:PORT] [--json] [--quiet]
                 [--all-views] [--max-outage-seconds N]
       Downloads the result KEY into DIR (default ./quality-<first 12 hex of
@@ -600,6 +700,7 @@ Every failure prints exactly one line "impostor: <reason>" on stderr.
 
 Environment:
   IMPOSTOR_SERVER     default for --server
+  SOURCE_DATE_EPOCH   publish: the new catalog's created_at (reproducible releases)
   IMPOSTOR_CACHE_DIR  default for --cache-dir
   IMPOSTOR_TOKEN      the bearer token when --token-file is not given
   IMPOSTOR_LOG        spdlog level for diagnostics on stderr (e.g. debug; default off)

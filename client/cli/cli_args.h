@@ -21,7 +21,7 @@ enum ExitCode : int {
   kExitLocalIo = 4,      // local input/output: model missing or unusable, cannot write DIR
 };
 
-enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc, kQuality, kAdminPurge };
+enum class Command { kHelp, kVersion, kBake, kBakeBatch, kFetch, kStatus, kCancel, kCacheGet, kCacheLs, kCacheGc, kQuality, kAdminPurge, kPublish, kCatalogLs };
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
 
@@ -39,11 +39,12 @@ inline constexpr float kLodPixelErrorMax = 16.0f;
 
 struct CliArgs {
   Command command = Command::kHelp;
-  // The positional argument: MODEL (bake), SPEC (bake-batch), KEY (fetch) or
-  // JOB_ID.
+  // The positional argument: MODEL (bake), SPEC (bake-batch), KEY (fetch;
+  // also an asset NAME with --mirror), JOB_ID, or the first of publish's
+  // KEY / NAME=KEY inputs.
   std::string target;
   // bake: every MODEL given (targets[0] == target); more than one makes a
-  // batch (batch_command.cc).
+  // batch (batch_command.cc). publish: every input.
   std::vector<std::string> targets;
   // --priority (bake, bake-batch): -100..100, checked here; unset = 0 (for
   // bake-batch: the spec's own default).
@@ -66,6 +67,21 @@ struct CliArgs {
   std::string out;
   // --server, else $IMPOSTOR_SERVER, else kDefaultServer.
   std::string server = kDefaultServer;
+  // --server or $IMPOSTOR_SERVER was given: fetch with --mirror uses the
+  // farm only then (mirrors first, the farm last, only what is given).
+  bool server_given = false;
+  // Releases (issue 40). --mirror URL[,URL...] (fetch, catalog ls; may be
+  // repeated): base URLs of published release trees, in the order tried;
+  // --channel NAME (publish, fetch, catalog ls); --catalog-key FILE (fetch,
+  // catalog ls): an Ed25519 public key that catalogs must be signed with.
+  std::vector<std::string> mirrors;
+  std::string channel;
+  std::string catalog_key;
+  // publish: --from-report FILE (a bake-batch --json report; - = stdin),
+  // --sign-key FILE (Ed25519 private key, PEM), --include-quality-views.
+  std::string from_report;
+  std::string sign_key;
+  bool include_quality_views = false;
   std::string layout = "octahedral";
   // 0 = not given (the server's default). Other values go to the server
   // unchecked: it owns the ranges.

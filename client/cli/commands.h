@@ -3,6 +3,8 @@
 #ifndef IMPOSTOR_CLIENT_CLI_COMMANDS_H_
 #define IMPOSTOR_CLIENT_CLI_COMMANDS_H_
 
+#include <filesystem>
+
 #include "client/cli/cli_args.h"
 
 namespace impostor::cli {
@@ -22,6 +24,15 @@ int RunCacheLs(const CliArgs& args);
 int RunCacheGc(const CliArgs& args);
 // impostor admin purge (admin_command.cc).
 int RunAdminPurge(const CliArgs& args);
+// impostor publish, impostor catalog ls, and impostor fetch with --mirror
+// (release_commands.cc; releases for game clients, issue 40).
+int RunPublish(const CliArgs& args);
+int RunCatalogLs(const CliArgs& args);
+int RunFetchFromMirrors(const CliArgs& args);
+
+// --cache-dir, else $IMPOSTOR_CACHE_DIR, else $XDG_CACHE_HOME/impostor, else
+// ~/.cache/impostor (cache_commands.cc).
+std::filesystem::path CacheDirFor(const CliArgs& args);
 
 }  // namespace impostor::cli
 

@@ -12,6 +12,7 @@
 namespace impostor::cli {
 
 int RunFetch(const CliArgs& args) {
+  if (!args.mirrors.empty()) return RunFetchFromMirrors(args);
   const auto start = std::chrono::steady_clock::now();
   nlohmann::json report = {{"cache_key", args.target},      {"out_dir", args.out},     {"manifest", nullptr},
                            {"files", nlohmann::json::array()}, {"downloaded_bytes", 0}, {"reused_bytes", 0},

@@ -112,6 +112,8 @@ int main(int argc, char** argv) {
     case Command::kCacheLs: return RunCacheLs(*parsed);
     case Command::kCacheGc: return RunCacheGc(*parsed);
     case Command::kAdminPurge: return RunAdminPurge(*parsed);
+    case Command::kPublish: return RunPublish(*parsed);
+    case Command::kCatalogLs: return RunCatalogLs(*parsed);
   }
   return kExitUsage;
 }

@@ -527,7 +527,7 @@ TEST(CacheOpen, BadOptionsAreNamed) {
       {"no server", [](auto& o) { o.server.clear(); }, "server"},
       {"negative cap", [](auto& o) { o.max_bytes = -1; }, "max_bytes"},
       {"no download threads", [](auto& o) { o.max_parallel_downloads = 0; }, "max_parallel_downloads"},
-      {"more prefetches than downloads", [](auto& o) { o.max_parallel_prefetches = 5; }, "max_parallel_prefetches"},
+      {"more prefetches than downloads", [](auto& o) { o.max_parallel_prefetches = 30; }, "max_parallel_prefetches"},
       {"no io threads", [](auto& o) { o.io_threads = 0; }, "io_threads"},
       {"zero timeout", [](auto& o) { o.rpc_timeout_seconds = 0; }, "rpc_timeout_seconds"},
       {"no attempts", [](auto& o) { o.max_attempts = 0; }, "max_attempts"},

@@ -122,7 +122,7 @@ TEST(ManifestSummary, MissingOrMistypedFieldsKeepTheDefaults) {
 TEST(DownloadCoordinator, JoinersOfOneKeyShareOneRunAndDifferentKeysRunInParallel) {
   std::atomic<int> runs{0};
   std::latch both_running(2);  // proves two keys run at the same time
-  DownloadCoordinator coordinator(2, 1, [&](const std::string& key) -> DownloadCoordinator::Result {
+  DownloadCoordinator coordinator(2, 1, [&](const std::string& key, CancelSource&) -> DownloadCoordinator::Result {
     ++runs;
     both_running.arrive_and_wait();
     return absl::NotFoundError(key);
@@ -156,7 +156,7 @@ TEST(DownloadCoordinator, JoinersOfOneKeyShareOneRunAndDifferentKeysRunInParalle
 TEST(DownloadCoordinator, TheLastWaiterHoldsTheOnlyCopyOfTheResult) {
   auto pin = std::make_shared<EntryPin>();
   std::weak_ptr<EntryPin> watch = pin;
-  DownloadCoordinator coordinator(1, 1, [&](const std::string&) -> DownloadCoordinator::Result {
+  DownloadCoordinator coordinator(1, 1, [&](const std::string&, CancelSource&) -> DownloadCoordinator::Result {
     auto rep = std::make_shared<CachedResult::Rep>();
     rep->pin = std::move(pin);
     return CachedResult(std::move(rep));
@@ -180,7 +180,7 @@ TEST(DownloadCoordinator, TheLastWaiterHoldsTheOnlyCopyOfTheResult) {
 TEST(DownloadCoordinator, AWaiterCallbackMayDestroyTheCoordinator) {
   std::latch both_joined(1);  // one flight with two waiters
   auto coordinator =
-      std::make_unique<DownloadCoordinator>(2, 1, [&](const std::string& key) -> DownloadCoordinator::Result {
+      std::make_unique<DownloadCoordinator>(2, 1, [&](const std::string& key, CancelSource&) -> DownloadCoordinator::Result {
         both_joined.wait();
         return absl::NotFoundError(key);
       });

@@ -18,6 +18,14 @@
 //   (*cache)->GetAsync(key, [](absl::StatusOr<impostor::sdk::CachedResult> r) { ... });
 //   // Keep `result` alive while its files are in use: eviction skips it.
 //
+// A shipped game fetches from a published release through a CDN instead of
+// the farm (release_format.md, installed in share/doc/impostor):
+//
+//   options.server = "";  // no farm: mirrors only
+//   options.mirrors = {"https://cdn.example.com/impostors", "https://origin.example.com/impostors"};
+//   options.channel = "release-1.4";
+//   auto oak = (*cache)->Get("trees/oak");  // an asset name, resolved through the channel's catalog
+//
 // A plain C API over the same cache is in impostor_c.h.
 #ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CACHE_H_
 #define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_CACHE_H_
@@ -60,8 +68,44 @@ struct CacheOptions {
   // ("bake1:50051,bake2:50051"; see ClientOptions::server for failover).
   // Nothing connects to it until a Get misses or Lookup is called, so a
   // cache opens (and serves local hits) with the server down.
-  // Default: "localhost:50051". Must not be empty.
+  // Empty: no farm (a shipped game that reads only `mirrors`; Lookup then
+  // fails FAILED_PRECONDITION). Default: "localhost:50051". Must not be
+  // empty unless `mirrors` are given.
   std::string server = "localhost:50051";
+
+  // Base URLs of published release trees (`impostor publish`;
+  // release_format.md), http:// or https://, tried in this order: a CDN
+  // edge first, then the origin, e.g. {"https://cdn.example.com/impostors",
+  // "http://farm:8080/releases"}. With `channel`, Get, GetAsync and
+  // Prefetch also take asset names ("trees/oak"), resolved through the
+  // channel's catalog; each file of a result the catalog lists comes from
+  // the first mirror that gives it intact (verified as it streams; a cut
+  // transfer resumes with a Range request), then from the farm when
+  // `server` is set. A wrong byte, an error page, a truncated body, a
+  // missing file or a stall (no byte for rpc_timeout_seconds) moves on to
+  // the next source; nothing unverified is installed. Results the catalog
+  // does not list come from the farm only. Default: none. Needs `channel`.
+  std::vector<std::string> mirrors;
+
+  // The release channel ("nightly", "release-1.4"): its catalog is fetched
+  // from the mirrors on first need, refreshed (by ETag) when older than
+  // catalog_refresh_seconds, and kept in `dir`, so that with every mirror
+  // and the farm gone a game still resolves names it resolved before and
+  // is served what it cached. Default: empty. Needs `mirrors`.
+  std::string channel;
+
+  // How long a fetched catalog is used before the channel is asked again,
+  // seconds. Default: 60. Range: 0..86400.
+  double catalog_refresh_seconds = 60;
+
+  // An Ed25519 public key (PEM, `openssl pkey -pubout`): only catalogs
+  // signed by its private key (`impostor publish --sign-key`) are accepted,
+  // so a tampered mirror cannot swap content. Default: empty (unsigned
+  // catalogs accepted; every file is still verified against the catalog).
+  std::string catalog_public_key_file;
+
+  // CA bundle (PEM) for https:// mirrors. Default: empty = the system's.
+  std::string mirror_ca_file;
 
   // Directory of the cache; created if missing, and created again if it is
   // deleted while the cache runs (the next miss or CollectGarbage rebuilds
@@ -86,13 +130,13 @@ struct CacheOptions {
   int64_t max_bytes = int64_t{2} << 30;
 
   // Results downloaded at once. Concurrent Gets of the same key always share
-  // one download. Default: 4. Range: 1..64.
-  int max_parallel_downloads = 4;
+  // one download. Default: 20. Range: 1..64.
+  int max_parallel_downloads = 20;
 
   // Of those, how many Prefetch may occupy, so that a long prefetch list
   // never delays a Get the game is waiting for (Gets also jump the queue).
-  // Default: 2. Range: 1..max_parallel_downloads.
-  int max_parallel_prefetches = 2;
+  // Default: 16. Range: 1..max_parallel_downloads.
+  int max_parallel_prefetches = 16;
 
   // Threads that answer GetAsync from disk (hit checks, including hashing
   // under kDigestOncePerProcess). Default: 2. Range: 1..64.
@@ -326,8 +370,13 @@ class Cache {
   // that has written nothing for 5 seconds, e.g. its process is stopped in
   // a debugger, is not waited for any longer: this Get then downloads the
   // file itself).
-  // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars), NOT_FOUND
-  // (nothing baked under that key), UNAVAILABLE (not cached and the server
+  // `cache_key` may also be an asset name of the configured channel
+  // ("trees/oak"; see CacheOptions::mirrors): it is resolved through the
+  // channel's catalog first.
+  // Errors: INVALID_ARGUMENT (not 64 lowercase hex chars, nor a valid asset
+  // name with a channel configured), NOT_FOUND (nothing baked under that
+  // key; an asset name the channel's catalog does not list),
+  // PERMISSION_DENIED (the catalog's signature fails), UNAVAILABLE (not cached and the server
   // cannot be reached: fast when it was never reached, see
   // connect_timeout_seconds; after max_outage_seconds when it went away
   // during the download), DATA_LOSS (the
@@ -360,8 +409,27 @@ class Cache {
   using PrefetchCallback = std::function<void(const std::string& cache_key, const absl::Status& status)>;
   void Prefetch(const std::vector<std::string>& cache_keys, PrefetchCallback done = {});
 
+  // Prefetch for a game's streaming: keys or asset names (as Get takes
+  // them), started in order of `priority` (higher first; equal ones in the
+  // order asked), at most max_parallel_prefetches at once. Prefetching a
+  // name again with another priority re-prioritises it while it waits.
+  // `done` gets the name as given.
+  void Prefetch(const std::vector<std::string>& names, int priority, PrefetchCallback done = {});
+
+  // Drops prefetches no longer wanted (e.g. the camera turned away): a
+  // queued one is removed and its callback answered CANCELLED; a running
+  // one is cancelled, keeping the bytes it downloaded for a later resume. A
+  // prefetch a Get is waiting for is left alone. Returns how many were
+  // cancelled.
+  int CancelPrefetch(const std::vector<std::string>& names);
+
   // Installed results, most recently used first.
   std::vector<CacheEntryInfo> List();
+
+  // The channel's catalog as JSON (release_format.md), fetched or refreshed
+  // as Get would. FAILED_PRECONDITION without mirrors and channel; else as
+  // Get's resolution of a name.
+  absl::StatusOr<std::string> CatalogJson(bool force_refresh = false);
 
   // Trims to `max_bytes` (< 0: options.max_bytes) by evicting least
   // recently used results not in use, removes stale partial downloads (see

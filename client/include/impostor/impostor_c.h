@@ -72,8 +72,8 @@ typedef struct impostor_cache_options {
   const char* server;             /* default "localhost:50051"; replicas: "a:50051,b:50051" */
   const char* dir;                /* required */
   int64_t max_bytes;              /* default 2 GiB; >= 0 */
-  int32_t max_parallel_downloads; /* default 4; 1..64 */
-  int32_t max_parallel_prefetches;/* default 2; 1..max_parallel_downloads */
+  int32_t max_parallel_downloads; /* default 20; 1..64 */
+  int32_t max_parallel_prefetches;/* default 16; 1..max_parallel_downloads */
   double connect_timeout_seconds; /* default 5; > 0 */
   double rpc_timeout_seconds;     /* default 30; > 0 */
   int32_t max_attempts;           /* default 3; >= 1 */
@@ -158,6 +158,20 @@ typedef struct impostor_cache_options_ext {
    * any process, never is. Default 604800 (7 days); >= 0 (0 deletes every
    * one not in use). */
   double partial_max_age_seconds;
+  /* Releases (CacheOptions::mirrors, channel, catalog_refresh_seconds,
+   * catalog_public_key_file, mirror_ca_file; impostor/cache.h). `mirrors`:
+   * base URLs of published release trees, comma-separated, tried in order
+   * ("https://cdn.example.com/impostors,https://origin.example.com/impostors");
+   * with `channel`, impostor_cache_get and the prefetches also take asset
+   * names ("trees/oak"). With mirrors, options->server may be NULL or ""
+   * (no farm). NULL = not given; catalog_refresh_seconds default 60,
+   * 0..86400. Added after partial_max_age_seconds: read only when `size`
+   * covers them. */
+  const char* mirrors;
+  const char* channel;
+  double catalog_refresh_seconds;
+  const char* catalog_public_key_file;
+  const char* mirror_ca_file;
 } impostor_cache_options_ext;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_ext_init(impostor_cache_options_ext* ext);
@@ -178,8 +192,8 @@ IMPOSTOR_C_EXPORT impostor_status impostor_cache_open_ext(const impostor_cache_o
  * cache's thread it runs on ends once it returns. */
 IMPOSTOR_C_EXPORT void impostor_cache_close(impostor_cache* cache);
 
-/* Blocking Get: the result under the 64-hex-character key, from disk or
- * downloaded. On success *out must be released with impostor_result_release. */
+/* Blocking Get: the result under the 64-hex-character key (or, with a
+ * release channel configured, an asset name), from disk or downloaded. On success *out must be released with impostor_result_release. */
 IMPOSTOR_C_EXPORT impostor_status impostor_cache_get(impostor_cache* cache, const char* key, impostor_result** out);
 
 /* Non-blocking Get: `done` is called once, on a cache thread, with the
@@ -191,6 +205,16 @@ IMPOSTOR_C_EXPORT void impostor_cache_get_async(impostor_cache* cache, const cha
 
 /* Background download of `count` keys; keys already cached are skipped. */
 IMPOSTOR_C_EXPORT void impostor_cache_prefetch(impostor_cache* cache, const char* const* keys, size_t count);
+
+/* Prefetch for streaming (Cache::Prefetch(names, priority)): keys or asset
+ * names, higher `priority` first; prefetching a name again re-prioritises
+ * it. impostor_cache_cancel_prefetch drops those no longer wanted (queued
+ * ones at once, running ones keep their bytes for a resume) and returns how
+ * many it cancelled. */
+IMPOSTOR_C_EXPORT void impostor_cache_prefetch_priority(impostor_cache* cache, const char* const* names, size_t count,
+                                                        int32_t priority);
+IMPOSTOR_C_EXPORT int32_t impostor_cache_cancel_prefetch(impostor_cache* cache, const char* const* names,
+                                                         size_t count);
 
 /* The key of an already-baked result for a model and settings, without
  * baking: `layout` "octahedral", "hemi-octahedral", "azimuth-elevation",

@@ -1,0 +1,50 @@
+// Reads one content-addressed file (a blob or a catalog) from one mirror,
+// verifying it against its digest as it streams: the transfer behind the
+// SDK's mirror downloads. A cut transfer is resumed on the same mirror with
+// a Range request while bytes keep arriving; anything that proves the mirror
+// wrong (a byte too many, an error page, a body that hashes wrong) is
+// DATA_LOSS, which makes the caller move on to its next source. Runs on the
+// caller's thread.
+#ifndef IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
+#define IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+
+#include "absl/strings/string_view.h"
+#include "absl/status/status.h"
+#include "client/retry.h"
+#include "common/sha256.h"
+
+namespace impostor::delivery {
+
+struct MirrorReadOptions {
+  // No byte for this long: the link stalled (DEADLINE_EXCEEDED).
+  double stall_seconds = 30;
+  // Transfers in a row that bring no byte before giving up on this mirror.
+  int max_attempts = 3;
+  const sdk::CancelSource* cancel = nullptr;  // may be null
+  std::string ca_file;                        // HTTPS trust; empty = system
+};
+
+// Feeds bytes [offset, size_bytes) of the file at `url` to `sink` and
+// `hash` (which has seen bytes [0, offset)), then checks that everything
+// hashed equals `sha256`. Errors: NOT_FOUND (404), UNAVAILABLE (cannot
+// connect; an HTTP error status; a transfer cut max_attempts times without
+// progress), DEADLINE_EXCEEDED (stalled), DATA_LOSS (more bytes than
+// size_bytes, a Content-Range at another offset, a wrong digest: the sink
+// has then seen bad bytes and the caller must discard them), CANCELLED, or
+// the sink's error. Messages name the URL and the digest.
+absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int64_t size_bytes, int64_t offset,
+                          Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
+                          const MirrorReadOptions& options);
+
+// ReadVerified of a small file into memory.
+absl::StatusOr<std::string> ReadVerifiedToString(const std::string& url, absl::string_view sha256,
+                                                 int64_t size_bytes, const MirrorReadOptions& options);
+
+}  // namespace impostor::delivery
+
+#endif  // IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
