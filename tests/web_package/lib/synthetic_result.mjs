@@ -14,14 +14,10 @@ import { createHash } from 'node:crypto';
 import { mkdirSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { BOX, FACE_COLOURS } from './box_model.mjs';
 import { encodePng } from './png.mjs';
 
-export const BOX = Object.freeze({ center: [0, 1, 0], half: [0.6, 1.0, 0.4] });
-// sRGB 8-bit albedo by face: +X, -X, +Y, -Y, +Z, -Z.
-export const FACE_COLOURS = Object.freeze({
-  '+x': [220, 60, 50], '-x': [50, 200, 210], '+y': [70, 200, 60], '-y': [200, 60, 200], '+z': [60, 90, 230],
-  '-z': [230, 200, 50],
-});
+export { BOX, FACE_COLOURS };
 
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];

@@ -77,6 +77,9 @@ void main() {
 // The fragment's blend, rebuilt from the flat varyings (a frame's tile is
 // impostorFrameTile of its index for every layout), and its surface.
 const FRAGMENT_COMMON = `
+// three declares no output for GLSL3 shader materials; its chunks write gl_FragColor.
+layout(location = 0) out highp vec4 pc_fragColor;
+#define gl_FragColor pc_fragColor
 uniform mat4 projectionMatrix;  // three declares it for the vertex stage only
 uniform sampler2D impostorAlbedo;
 uniform sampler2D impostorNormalDepth;
