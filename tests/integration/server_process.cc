@@ -78,9 +78,48 @@ std::string Seconds(std::chrono::milliseconds d) {
   return text;
 }
 
+// Everything a test binary that links this harness writes to disk goes
+// under one folder, <TMPDIR or /tmp>/impostor_it_<pid>/: NewTempDir's
+// folders, the process logs, and through TMPDIR (set for this process and
+// so inherited by every server, worker and tool it starts) their scratch
+// files. It is removed when the binary exits with every test passed (also
+// after --gtest_list_tests, which CTest's discovery runs at build time) and
+// kept, and named, when a test failed, for inspection. A binary killed
+// (a ctest timeout, a crash) leaves it too.
+void RemoveScratchIfPassed();
+
+const fs::path& ScratchRoot() {
+  // Never destroyed: the exit handler below runs after static destructors.
+  static const fs::path* const root = [] {
+    const char* base = std::getenv("TMPDIR");
+    const fs::path parent = base != nullptr && base[0] != '\0' ? fs::path(base) : fs::path("/tmp");
+    auto* r = new fs::path(parent / ("impostor_it_" + std::to_string(::getpid())));
+    fs::create_directories(*r);
+    // Like /tmp: servers started as another user (PostgreSQL's) use it too.
+    fs::permissions(*r, fs::perms::all | fs::perms::sticky_bit);
+    ::setenv("TMPDIR", r->c_str(), 1);
+    std::atexit(RemoveScratchIfPassed);
+    return r;
+  }();
+  return *root;
+}
+
+void RemoveScratchIfPassed() {
+  if (::testing::UnitTest::GetInstance()->Passed()) {
+    std::error_code ec;
+    fs::remove_all(ScratchRoot(), ec);
+  } else {
+    std::printf("[ harness  ] a test failed: its servers' logs and data are kept in %s\n", ScratchRoot().c_str());
+  }
+}
+
+// Made at start-up, before any test or child: every temporary path the
+// binary asks for afterwards is inside it.
+[[maybe_unused]] const bool kScratchReady = !ScratchRoot().empty();
+
 fs::path LogDir() {
   static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("impostor_it_" + std::to_string(::getpid()) + "_logs");
+    fs::path d = ScratchRoot() / "logs";
     fs::create_directories(d);
     return d;
   }();
@@ -375,7 +414,8 @@ fs::path BinaryDir() { return IMPOSTOR_TEST_BINARY_DIR; }
 fs::path AssetsDir() { return IMPOSTOR_TEST_ASSETS_DIR; }
 
 fs::path NewTempDir(const std::string& name) {
-  auto dir = fs::temp_directory_path() / ("impostor_it_" + std::to_string(::getpid()) + "_" + name);
+  // Inside ScratchRoot(); short, for PostgreSQL's socket paths (108 bytes).
+  auto dir = ScratchRoot() / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
