@@ -1,9 +1,11 @@
-// Asks shaders/impostor_runtime.glsl itself which frames it blends for a view
-// direction: impostorBlendFramesLayout runs in a 4 x 1 fragment pass into an
-// integer render target (pixel i = entry i: frame index, weight bits, tile
-// column and row) read back with readPixels. No second copy of the math in
-// JavaScript, so the atlas panel marks exactly the frames the impostor draws
-// (and tests compare them with the C++ BlendFrames).
+// Asks shaders/impostor_runtime.glsl itself (as the impostor-three package
+// embeds it, the runtime the viewer draws with) which frames it blends for a
+// view direction: impostorBlendFramesLayout runs in a 4 x 1 fragment pass
+// into an integer render target (pixel i = entry i: frame index, weight
+// bits, tile column and row) read back with readPixels. No second copy of
+// the math in JavaScript, so the atlas panel marks exactly the frames the
+// impostor draws (and tests compare them with the C++ BlendFrames).
+import { impostorRuntimeGlsl } from 'impostor-three';
 
 const PRELUDE = '#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp sampler2D;\n';
 const VERTEX = `${PRELUDE}
@@ -34,7 +36,7 @@ function compile(gl, type, source) {
   return shader;
 }
 
-// layout = {kind, frames, ringViews} as impostor_gl.js passes to the shader.
+// layout = {kind, frames, ringViews} as the viewer's material passes to the shader (impostor_view.js).
 // Returns probe(viewDir: [x, y, z], blendMode: 0 | 1) -> [{index, weight, tile: [col, row]}] in the shader's order.
 export async function createBlendProbe(layout) {
   const canvas = document.createElement('canvas');
@@ -42,7 +44,7 @@ export async function createBlendProbe(layout) {
   canvas.height = 1;
   const gl = canvas.getContext('webgl2');
   if (!gl) throw new Error('WebGL2 is not available');
-  const runtime = await (await fetch('/runtime/impostor_runtime.glsl')).text();
+  const runtime = impostorRuntimeGlsl;
   const program = gl.createProgram();
   gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX));
   gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, PRELUDE + runtime + FRAGMENT));

@@ -22,6 +22,15 @@ export async function getJson(path) {
   return body;
 }
 
+// A layout as users write it (--layout hemi-octahedral, manifest.json) from
+// the JSON API's enum name (LAYOUT_HEMI_OCTAHEDRAL); the same as
+// impostor-three's layoutName, kept here so the overview and job pages need
+// no import map.
+export function layoutName(layout) {
+  if (!layout || layout === 'LAYOUT_UNSPECIFIED') return 'octahedral';
+  return String(layout).replace(/^LAYOUT_/, '').toLowerCase().replace(/_/g, '-');
+}
+
 // gRPC status codes by number (a job's error.code), as the CLI names them.
 const GRPC_CODES = ['OK', 'CANCELLED', 'UNKNOWN', 'INVALID_ARGUMENT', 'DEADLINE_EXCEEDED', 'NOT_FOUND',
   'ALREADY_EXISTS', 'PERMISSION_DENIED', 'RESOURCE_EXHAUSTED', 'FAILED_PRECONDITION', 'ABORTED', 'OUT_OF_RANGE',

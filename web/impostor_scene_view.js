@@ -1,8 +1,10 @@
 // ?scene=AZ,EL,DIST&size=N on the result page: the mesh or its impostor
-// (impostor_material_three.js: lit, pixel depth offset, shadow caster) in
-// one three.js scene with a ground plane 0.3 radii below the centre that
-// receives their shadow from one directional light, camera AZ/EL degrees at
-// DIST radii. Toggles: object, lit, depth offset, ground, shadows.
+// (the impostor-three package's ImpostorMesh: the reference material, lit,
+// pixel depth offset, its own shadow caster) in one three.js scene with a
+// ground plane 0.3 radii below the centre that receives their shadow from
+// one directional light, camera AZ/EL degrees at DIST radii. Toggles:
+// object, lit, depth offset, ground, shadows. &reconstruction=depth (the
+// default) | parallax | plain.
 // Test hook: window.impostorScene.render({object: 'mesh'|'impostor'|'none',
 // ground, depthOffset, lit, shadows, shadowAlphaTest, mask}) -> PNG data URL
 // (mask 1: objects white, rest black; 2: the impostor's world normal * 0.5 +
@@ -10,7 +12,12 @@
 // object drawing nothing but its shadow). .light: the light's uniforms.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { createImpostorMaterialMesh, DEFAULT_LIGHT } from './impostor_material_three.js';
+import { DEFAULT_LIGHT_DIRECTION, ImpostorMesh } from 'impostor-three';
+import { loadResultAsset } from './impostor_view.js';
+
+// The reference light (impostor_material_light.glsl's, as the example
+// scene's): the sun's direction, white, ambient 0.25.
+const DEFAULT_LIGHT = { towardLight: DEFAULT_LIGHT_DIRECTION.clone(), colour: [1, 1, 1], ambient: 0.25 };
 
 export async function showScene(result, fileUrl, meshUrl, spec, size) {
   const m = result.manifest;
@@ -76,10 +83,14 @@ export async function showScene(result, fileUrl, meshUrl, spec, size) {
   sun.shadow.camera.updateProjectionMatrix();
   sun.shadow.bias = -0.0005;
   scene.add(sun, sun.target, new THREE.AmbientLight(0xffffff, DEFAULT_LIGHT.ambient));
-  const card = await createImpostorMaterialMesh(m, fileUrl);
+  const reconstruction = new URLSearchParams(location.search).get('reconstruction') || 'depth';
+  const card = new ImpostorMesh(await loadResultAsset(m, fileUrl), {
+    reconstruction, lightDirection: DEFAULT_LIGHT.towardLight, lightColor: new THREE.Color(...DEFAULT_LIGHT.colour),
+    ambient: DEFAULT_LIGHT.ambient,
+  });
   card.castShadow = true;
   scene.add(card);
-  const options = card.userData.options;
+  const material = card.material;
 
   const state = { object: 'impostor', ground: true, depthOffset: true, lit: true, shadows: true,
     shadowAlphaTest: true, mask: 0 };
@@ -90,11 +101,11 @@ export async function showScene(result, fileUrl, meshUrl, spec, size) {
     ground.visible = state.ground;
     ground.material = state.mask === 0 || state.mask === 4 ? groundLit : groundMask;
     sun.castShadow = state.shadows;
-    options.lit = state.lit;
-    options.depthOffset = state.depthOffset;
-    options.shadowAlphaTest = state.shadowAlphaTest;
-    options.mask = state.mask === 4 ? 0 : state.mask;
-    card.material.colorWrite = card.material.depthWrite = state.mask !== 4;
+    const mask = state.mask === 4 ? 0 : state.mask;
+    material.output = mask === 1 ? 'coverage' : mask === 2 ? 'normal' : mask === 3 ? 'orm' : state.lit ? 'lit' : 'albedo';
+    material.depthOffset = state.depthOffset;
+    material.depthMaterial.coverageTest = state.shadowAlphaTest;
+    material.colorWrite = material.depthWrite = state.mask !== 4;
     mesh.traverse((o) => {
       if (o.isMesh) o.material = state.mask === 1 ? white : state.mask === 4 ? hidden : meshMaterials.get(o);
     });

@@ -1,6 +1,6 @@
 // One job: parameters, progress, stage timings, warnings, errors, attempts
 // and its worker, quality figures. Polls until the job ends.
-import { getJson, grpcCodeName, el, link, progressBar, replace, reportError, table } from './common.js';
+import { getJson, grpcCodeName, el, link, progressBar, replace, reportError, table, layoutName } from './common.js';
 
 const POLL_MS = 2000;
 const jobId = decodeURIComponent(location.pathname.split('/').pop());
@@ -40,7 +40,7 @@ async function refresh() {
     ['mesh', `${j.mesh.entry.path} (${j.mesh.files.length} more files)`]]));
   replace('attempts', attemptsTable(j));
   replace('params', kv(Object.entries(j.parameters).filter(([, v]) => v !== '' && v !== 0 && v !== false && !(Array.isArray(v) && !v.length))
-    .map(([k, v]) => [k, typeof v === 'object' ? JSON.stringify(v) : v])));
+    .map(([k, v]) => [k, k === 'layout' ? layoutName(v) : typeof v === 'object' ? JSON.stringify(v) : v])));
   const r = j.result;
   replace('timings', r ? kv(Object.entries(r.timings).map(([k, v]) => [k.replace('_seconds', ''), `${v.toFixed(3)} s`])) : el('span', { class: 'muted' }, 'no result yet'));
   replace('quality', r && r.quality && r.quality.views ? kv(Object.entries(r.quality).filter(([, v]) => !Array.isArray(v) || v.length)

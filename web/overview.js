@@ -1,6 +1,6 @@
 // The queue overview: polls the JSON API every POLL_MS (the page is at most
 // that far behind the farm).
-import { getJson, el, link, shortId, bytes, age, progressBar, stateCell, table, replace, reportError } from './common.js';
+import { getJson, el, link, shortId, bytes, age, progressBar, stateCell, table, replace, reportError, layoutName } from './common.js';
 
 const POLL_MS = 2000;
 const samples = [];  // [now_ms, jobs_completed] over the last minute, for throughput
@@ -50,7 +50,7 @@ async function refresh() {
       el('td', {}, ...w.job_ids.map((id) => link(`/jobs/${id}`, shortId(id) + ' '))),
       String(w.jobs_completed), String(w.jobs_failed), w.last_seen_ms ? age(w.last_seen_ms, now) + ' ago' : '—']), 'workers-table'));
   replace('results', table(['result', 'product', 'layout', 'frames', 'resolution', 'IoU', 'PSNR', 'size', 'baked'],
-    results.results.map((r) => [el('td', {}, link(`/results/${r.cache_key}`, shortId(r.cache_key))), r.product, r.layout,
+    results.results.map((r) => [el('td', {}, link(`/results/${r.cache_key}`, shortId(r.cache_key))), r.product, layoutName(r.layout),
       String(r.frames), String(r.resolution), r.silhouette_iou_mean?.toFixed(3) ?? '—', r.albedo_psnr_shared_db_mean?.toFixed(1) ?? '—',
       bytes(r.bytes), age(r.created_ms, now) + ' ago']), 'results-table'));
   document.getElementById('updated').textContent = `updated ${new Date(now).toLocaleTimeString()}`;

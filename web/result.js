@@ -1,15 +1,20 @@
 // One result: the 3D viewer (the original mesh with three.js beside the
 // impostor drawn by the runtime shader, one orbit camera for both), the
 // quality block with the worst view, every map and the manifest.
+// The impostor is drawn by the impostor-three package (impostor_view.js),
+// in the depth-aware reconstruction by default (what the quality pass
+// measures).
 // ?camera=AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_IN_RADII fixes the camera (tests);
 // ?mask=1 draws the mesh as a white silhouette (tests); ?blend=0|1 picks the
-// blend mode; ?compare=ab&split=F opens the A/B split (viewer_debug.js, with
-// the atlas panel of the active frames).
+// blend mode; ?reconstruction=depth|parallax|plain the reconstruction;
+// ?compare=ab&split=F opens the A/B split (viewer_debug.js, with the atlas
+// panel of the active frames).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { getJson, el, replace, reportError, bytes } from './common.js';
-import { createImpostorRenderer } from './impostor_gl.js';
+import { layoutName, productName } from 'impostor-three';
+import { createImpostorView } from './impostor_view.js';
 import { attachDebugViews } from './viewer_debug.js';
 import { showScene } from './impostor_scene_view.js';
 import { isTextureArray } from './texture_array.js';
@@ -72,7 +77,7 @@ function showStatic(result) {
       el('figcaption', {}, digest ? `${what} (${bytes(digest.size_bytes)})` : what)));
   }
   replace('maps', maps);
-  replace('manifest', kv([['product', m.product], ['layout', m.layout], ['frames', m.frames], ['resolution', m.resolution],
+  replace('manifest', kv([['product', productName(m.product)], ['layout', layoutName(m.layout)], ['frames', m.frames], ['resolution', m.resolution],
     ['tile size', m.tile_size], ['device', m.device], ['baker', m.baker_version], ['triangles', m.mesh.triangles],
     ['bake seconds', m.timings.total_seconds.toFixed(2)], ['pinned', result.pinned],
     ['source job', result.job_id ? el('a', { href: `/jobs/${result.job_id}` }, result.job_id) : '—'],
@@ -116,8 +121,8 @@ async function showViewer(result) {
     scene.overrideMaterial = new THREE.MeshBasicMaterial({ color: 0xffffff, side: THREE.DoubleSide });
   }
   document.body.dataset.viewerStage = 'impostor';
-  const impostor = await createImpostorRenderer(impostorCanvas, m, fileUrl);
-  document.getElementById('frames').textContent = `${m.layout}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`
+  const impostor = await createImpostorView(impostorCanvas, m, fileUrl);
+  document.getElementById('frames').textContent = `${layoutName(m.layout)}, ${m.frames}×${m.frames} frames, tile ${m.tile_size} px`
     + (isTextureArray(m) ? `; texture array of ${m.views.length} layers, layer i = frame i` : '')
     + (lodChainLevelNote(m) ? `. ${lodChainLevelNote(m)}` : '');
   if (isTextureArray(m)) {
@@ -126,13 +131,12 @@ async function showViewer(result) {
 
   const blendParam = new URLSearchParams(location.search).get('blend');
   if (blendParam !== null) impostor.options.blend = Number(blendParam);
-  const viewProjection = new THREE.Matrix4();
+  impostor.options.reconstruction = new URLSearchParams(location.search).get('reconstruction') || 'depth';
   let debug = null;
   const draw = () => {
     camera.updateMatrixWorld();
     renderer.render(scene, camera);
-    viewProjection.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
-    impostor.draw(new Float32Array(viewProjection.elements), camera.position.toArray());
+    impostor.render(camera);
     if (debug) debug.afterDraw();
   };
   debug = await attachDebugViews({ manifest: m, fileUrl, impostor, camera, centre, radius, meshCanvas, impostorCanvas, redraw: draw });
@@ -147,30 +151,32 @@ async function showViewer(result) {
     c.addEventListener('change', draw);
   }
   for (const [id, apply] of [['blend', (v) => { impostor.options.blend = Number(v); }],
+    ['reconstruction', (v) => { impostor.options.reconstruction = v; }],
     ['debug', (v) => { impostor.options.debug = Number(v); }]]) {
     const select = document.getElementById(id);
     if (id === 'blend') select.value = String(impostor.options.blend);
+    if (id === 'reconstruction') select.value = impostor.options.reconstruction;
     select.addEventListener('change', () => { apply(select.value); draw(); });
   }
-  document.getElementById('parallax').addEventListener('change', (ev) => { impostor.options.parallax = ev.target.checked; draw(); });
-  document.getElementById('depth').addEventListener('change', (ev) => { impostor.options.depth = ev.target.checked; draw(); });
   draw();
   document.body.dataset.viewerReady = '1';
 }
 
 // ?ortho=AZ,EL&size=N: only the impostor, orthographic along that direction
 // into an N x N canvas, exposed as window.impostorPng (tests compare it with
-// the CPU reference renderer).
+// the CPU reference renderer). Here the reconstruction is plain unless
+// &reconstruction= says otherwise: the tests' figures for this view were
+// measured so.
 async function showOrthographic(result, spec, size) {
   const [az, elev] = spec.split(',').map((v) => THREE.MathUtils.degToRad(Number(v)));
   const canvas = document.getElementById('impostor');
   canvas.width = canvas.height = size;
   canvas.style.width = canvas.style.height = `${size}px`;
-  const impostor = await createImpostorRenderer(canvas, result.manifest, fileUrl);
+  const impostor = await createImpostorView(canvas, result.manifest, fileUrl);
   const blend = new URLSearchParams(location.search).get('blend');
   if (blend !== null) impostor.options.blend = Number(blend);
-  impostor.options.depth = new URLSearchParams(location.search).get('reconstruction') === 'depth';
-  impostor.drawOrthographic([Math.sin(az) * Math.cos(elev), Math.sin(elev), Math.cos(az) * Math.cos(elev)]);
+  impostor.options.reconstruction = new URLSearchParams(location.search).get('reconstruction') || 'plain';
+  impostor.renderOrthographic([Math.sin(az) * Math.cos(elev), Math.sin(elev), Math.cos(az) * Math.cos(elev)]);
   window.impostorPng = canvas.toDataURL('image/png');
   document.body.dataset.viewerReady = '1';
 }

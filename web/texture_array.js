@@ -1,77 +1,23 @@
 // Texture-array results (`texture_array`, `impostor bake --array`): each map
 // is a strip one tile wide, layer i (= view i) at rows [i × tile, (i + 1) ×
-// tile) (common/manifest_format.md). The runtime shader
-// (shaders/impostor_runtime.glsl) samples a frame at its atlas tile, so the
-// viewer, the three.js material and the atlas panel read a strip through
-// this one mapping: layer i goes to frame i's tile (index % frames, index /
-// frames), and every consumer gets the same RGBA8 picture as the atlas bake
-// of the same mesh, with the runtime's math unchanged.
+// tile) (common/manifest_format.md). The viewer's material (impostor-three)
+// lays a strip out as the atlas before drawing; the atlas panel shows it the
+// same way through the package's own mapping, so the panel's tiles are the
+// ones the viewer samples.
+import { atlasLayout, isTextureArray, repackLayerStrip } from 'impostor-three';
 
-// What the C++ SDK checks (client/cache/manifest_summary.cc): the manifest
-// has no flag of its own, the albedo map is one tile wide and a tile per view high.
-export function isTextureArray(manifest) {
-  const views = manifest.views ? manifest.views.length : 0;
-  const albedo = (manifest.maps || []).find((m) => m.semantic === 'albedo_alpha');
-  const tile = manifest.tile_size;
-  return views > 1 && !!albedo && albedo.width === tile && albedo.height === tile * views;
-}
-
-// Where each layer goes: [{layer: [x, y, w, h] in the strip (the view's
-// `tile`, its layer's rectangle), tile: [col, row] in the atlas}] and the
-// atlas side in pixels.
-export function layerPlacements(manifest) {
-  const tile = manifest.tile_size;
-  const placements = manifest.views.map((view, i) => {
-    const t = view.tile || {};
-    return {
-      layer: [t.x ?? 0, t.y ?? i * tile, t.width || tile, t.height || tile],
-      tile: [(view.index ?? i) % manifest.frames, Math.floor((view.index ?? i) / manifest.frames)],
-    };
-  });
-  return { placements, side: manifest.frames * tile };
-}
+export { isTextureArray };
 
 // {width, height, data: Uint8Array RGBA8, rows top first} of the atlas that
-// the strip at `url` holds, like decodeKtx2Rgba; tiles no view uses stay
-// transparent. The strip's bytes are copied untouched (no premultiplying, no
-// colour conversion): each layer is uploaded from the decoded image as a
-// sub-rectangle (UNPACK_SKIP_ROWS) into a WebGL2 texture the atlas's size
-// and read back, so the strip itself never has to fit a texture (a 16 × 16
-// bake at 128 px is 32768 px high, beyond MAX_TEXTURE_SIZE).
+// the strip at `url` holds (tiles no view uses stay transparent), like
+// decodeKtx2Rgba.
 export async function decodeLayerStrip(url, manifest) {
   const response = await fetch(url);
   if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
   const image = await createImageBitmap(await response.blob(), { premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
-  const { placements, side } = layerPlacements(manifest);
-  const gl = document.createElement('canvas').getContext('webgl2');
-  if (!gl) throw new Error('WebGL2 is not available');
   try {
-    const tex = gl.createTexture();
-    gl.bindTexture(gl.TEXTURE_2D, tex);
-    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA8, side, side);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, side, side, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(side * side * 4));
-    gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
-    gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
-    gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
-    for (const { layer: [x, y, w, h], tile: [col, row] } of placements) {
-      if (y + h > image.height || x + w > image.width) throw new Error(`${url}: layer at row ${y} lies outside the ${image.width}×${image.height} strip`);
-      gl.pixelStorei(gl.UNPACK_SKIP_PIXELS, x);
-      gl.pixelStorei(gl.UNPACK_SKIP_ROWS, y);
-      gl.texSubImage2D(gl.TEXTURE_2D, 0, col * manifest.tile_size, row * manifest.tile_size, w, h, gl.RGBA,
-        gl.UNSIGNED_BYTE, image);
-    }
-    const fbo = gl.createFramebuffer();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
-    const data = new Uint8Array(side * side * 4);
-    // Texture row 0 (the image's top row, no FLIP_Y) is framebuffer row 0.
-    gl.readPixels(0, 0, side, side, gl.RGBA, gl.UNSIGNED_BYTE, data);
-    const error = gl.getError();
-    if (error !== gl.NO_ERROR) throw new Error(`${url}: repacking the texture-array layers failed (GL error ${error})`);
-    return { width: side, height: side, data };
+    return repackLayerStrip(image, manifest, atlasLayout(manifest).side, url);
   } finally {
     image.close();
-    const lose = gl.getExtension('WEBGL_lose_context');
-    if (lose) lose.loseContext();  // a page may hold only so many contexts
   }
 }

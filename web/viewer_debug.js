@@ -31,7 +31,7 @@ export async function attachDebugViews(viewer) {
   compare.addEventListener('change', () => showCompare(compare.value));
 
   const afterDraw = () => {
-    // The direction impostor_gl.js gives the shader: eye - centre in radii.
+    // The direction the viewer's material computes: eye - centre in radii.
     const eye = camera.position;
     const dir = [(eye.x - centre.x) / radius, (eye.y - centre.y) / radius, (eye.z - centre.z) / radius];
     panel.update(probe(dir, impostor.options.blend));

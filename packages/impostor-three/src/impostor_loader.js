@@ -17,7 +17,7 @@
 import { Loader } from 'three';
 import { ImpostorAsset } from './impostor_asset.js';
 import { atlasLayout, productName } from './layout.js';
-import { DEFAULT_CACHE_NAME, ReleaseClient } from './release/release_client.js';
+import { DEFAULT_CACHE_NAME, ImpostorIntegrityError, ReleaseClient, sha256Hex } from './release/release_client.js';
 import { createRgbaKtx2Loader, decodeMap, defaultTranscoderPath, isKtx2File } from './textures.js';
 
 // The maps the material reads, by semantic.
@@ -156,19 +156,30 @@ export class ImpostorLoader extends Loader {
 
   // An ImpostorAsset from a manifest (manifest.json, or the farm JSON API's
   // form of it) and the bytes of its maps: `files` maps a file name to an
-  // ArrayBuffer or Uint8Array. Nothing is verified here: the caller vouches
-  // for the bytes (report source 'given').
+  // ArrayBuffer or Uint8Array. Each map whose manifest entry carries a
+  // digest is checked against it where WebCrypto is available (a page over
+  // https or from localhost): a mismatch rejects with an
+  // ImpostorIntegrityError; the report says `verified` per file.
   async parseAsync(manifest, files, name = manifest.cache_key || 'impostor') {
     const get = files instanceof Map ? (n) => files.get(n) : (n) => files[n];
+    const subtle = globalThis.crypto && globalThis.crypto.subtle;
     const byName = new Map();
     const report = [];
     for (const map of manifest.maps || []) {
       if (!DRAWN_SEMANTICS.includes(map.semantic)) continue;
-      const bytes = get(map.file);
-      if (bytes === undefined) continue;
-      byName.set(map.file, bytes instanceof Uint8Array ? bytes : new Uint8Array(bytes));
-      report.push({ name: map.file, semantic: map.semantic, sha256: (map.digest && map.digest.hash) || '',
-        sizeBytes: byName.get(map.file).length, verified: false, source: 'given', url: '' });
+      const given = get(map.file);
+      if (given === undefined) continue;
+      const bytes = given instanceof Uint8Array ? given : new Uint8Array(given);
+      const expected = (map.digest && map.digest.hash) || '';
+      let verified = false;
+      if (expected && subtle) {
+        const actual = await sha256Hex(subtle, bytes);
+        if (actual !== expected) throw new ImpostorIntegrityError({ file: `${name}/${map.file}`, url: '(given bytes)', expected, actual });
+        verified = true;
+      }
+      byName.set(map.file, bytes);
+      report.push({ name: map.file, semantic: map.semantic, sha256: expected, sizeBytes: bytes.length, verified,
+        source: 'given', url: '' });
     }
     return this._assetFrom(name, manifest, byName, report, null);
   }

@@ -38,6 +38,13 @@ export function productName(product: string | undefined | null): string;
 export function atlasLayout(manifest: any): AtlasLayout;
 /** Whether the result's maps are texture-array layer strips. */
 export function isTextureArray(manifest: any): boolean;
+/** Where each layer of a texture-array strip goes in the atlas; `side`: the grid side (AtlasLayout.side). */
+export function layerPlacements(manifest: any, side?: number): {
+  placements: Array<{ layer: [number, number, number, number]; tile: [number, number] }>; side: number;
+};
+/** The atlas (RGBA8, rows top first) a texture-array strip holds, laid out as the viewer samples it. */
+export function repackLayerStrip(image: ImageBitmap, manifest: any, side: number, what: string):
+  { width: number; height: number; data: Uint8Array };
 /** shaders/impostor_runtime.glsl, the reference runtime. */
 export const impostorRuntimeGlsl: string;
 
@@ -103,7 +110,10 @@ export class ImpostorLoader extends Loader<ImpostorAsset, string> {
   load(name: string, onLoad?: (asset: ImpostorAsset) => void, onProgress?: (event: ProgressLike) => void,
     onError?: (error: unknown) => void): void;
   loadAsync(name: string, onProgress?: (event: ProgressEvent | ProgressLike) => void): Promise<ImpostorAsset>;
-  /** An asset from a manifest and its maps' bytes (by file name), without verification. */
+  /**
+   * An asset from a manifest and its maps' bytes (by file name), e.g. a farm result's. Maps whose manifest
+   * entry has a digest are checked against it where WebCrypto is available (ImpostorIntegrityError on a mismatch).
+   */
   parseAsync(manifest: any, files: Map<string, ArrayBuffer | Uint8Array> | Record<string, ArrayBuffer | Uint8Array>,
     name?: string): Promise<ImpostorAsset>;
   dispose(): void;

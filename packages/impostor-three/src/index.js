@@ -5,6 +5,6 @@ export { ImpostorAsset } from './impostor_asset.js';
 export { ImpostorMaterial, ImpostorDepthMaterial, DEFAULT_LIGHT_DIRECTION } from './impostor_material.js';
 export { ImpostorMesh, InstancedImpostorMesh, ImpostorCardGeometry } from './impostor_mesh.js';
 export { LAYOUT_KINDS, atlasLayout, layoutName, productName } from './layout.js';
-export { isTextureArray } from './texture_array.js';
+export { isTextureArray, layerPlacements, repackLayerStrip } from './texture_array.js';
 export { impostorRuntimeGlsl } from './shaders/impostor_runtime.glsl.js';
 export * from './release/index.js';
