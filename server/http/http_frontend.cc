@@ -17,6 +17,7 @@
 #include "server/loopback_host.h"
 #include "server/http/login_page.h"
 #include "server/http/json_api.h"
+#include "server/http/release_response.h"
 #include "server/metrics/rpc_metrics_interceptor.h"
 
 #ifndef IMPOSTOR_WEB_DIR
@@ -29,6 +30,13 @@ ABSL_FLAG(std::string, http_listen, "",
 ABSL_FLAG(std::string, http_static_dir, "",
           "Directory of the dashboard's files (default: share/impostor/web of the installation the binary is in, "
           "else web/ of the source tree it was built from)");
+// Issue 40: the farm as an origin for game clients (release_response.h).
+ABSL_FLAG(std::string, http_releases, "",
+          "DIR of a release tree (written by `impostor publish`: the directory that holds v1/) to serve as plain "
+          "files under /releases/, so http://HOST:PORT/releases is a mirror base URL; needs --http-listen");
+ABSL_FLAG(bool, http_releases_require_token, false,
+          "With --http-releases and --auth token: /releases/ needs a reader, submitter or admin token, as the API "
+          "does (off: open to all, as its files are named by their 256-bit digests)");
 
 namespace impostor {
 namespace {
@@ -113,7 +121,20 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeS
                                                                            BlobStore* blobs,
                                                                            Authenticator* authenticator) {
   const std::string listen = absl::GetFlag(FLAGS_http_listen);
-  if (listen.empty()) return std::unique_ptr<HttpFrontend>();
+  const std::string releases = absl::GetFlag(FLAGS_http_releases);
+  const bool releases_require_token = absl::GetFlag(FLAGS_http_releases_require_token);
+  if (releases_require_token && releases.empty()) {
+    return absl::InvalidArgumentError("--http-releases-require-token: needs --http-releases (the release tree it "
+                                      "guards)");
+  }
+  if (listen.empty()) {
+    if (!releases.empty()) {
+      return absl::InvalidArgumentError(
+          "--http-releases: needs --http-listen (the release tree is served by the HTTP front end, e.g. "
+          "--http-listen=0.0.0.0:8080 serves it at http://HOST:8080/releases)");
+    }
+    return std::unique_ptr<HttpFrontend>();
+  }
   auto address = ParseListenAddress(listen, "--http-listen");
   if (!address.ok()) return address.status();
   const std::filesystem::path static_dir = StaticDirFromFlag();
@@ -129,7 +150,12 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeS
                  "/metrics serve; give --http-static-dir\"",
                  static_dir.string());
   }
-  return Start(scheduler, blobs, {.listen = *address, .static_dir = static_dir, .authenticator = authenticator});
+  return Start(scheduler, blobs,
+               {.listen = *address,
+                .static_dir = static_dir,
+                .authenticator = authenticator,
+                .releases_dir = releases,
+                .releases_require_token = releases_require_token});
 }
 
 HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options options)
@@ -142,6 +168,11 @@ HttpFrontend::HttpFrontend(BakeScheduler* scheduler, BlobStore* blobs, Options o
 absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::Start(BakeScheduler* scheduler, BlobStore* blobs,
                                                                   Options options) {
   std::unique_ptr<HttpFrontend> http(new HttpFrontend(scheduler, blobs, std::move(options)));
+  if (const std::filesystem::path& dir = http->options_.releases_dir; !dir.empty()) {
+    auto tree = ReleaseTree::Open(dir);
+    if (!tree.ok()) return absl::InvalidArgumentError(absl::StrCat("--http-releases: ", tree.status().message()));
+    http->releases_ = std::move(*tree);
+  }
   http->Route();
   const ListenAddress& a = http->options_.listen;
   if (a.port == 0) {
@@ -158,6 +189,15 @@ absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::Start(BakeScheduler*
   http->thread_ = std::thread([server = http->server_.get()] { server->listen_after_bind(); });
   spdlog::info("event=http_listening address={}:{} static_dir={}", a.host, http->port_,
                http->options_.static_dir.string());
+  if (http->releases_) {
+    spdlog::info("event=http_releases dir={} url=http://{}:{}/releases require_token={}",
+                 http->releases_->root().string(), a.host, http->port_,
+                 http->options_.releases_require_token ? "true" : "false");
+    if (http->options_.releases_require_token && http->options_.authenticator == nullptr) {
+      spdlog::warn("event=http_releases_open note=\"--http-releases-require-token asks nothing with --auth none: "
+                   "/releases/ is open, as the whole HTTP side is\"");
+    }
+  }
   // As the gRPC port warns (tls_credentials.cc): this one has no TLS at all,
   // and its bearer tokens and login cookie would cross the network in clear.
   if (!IsLoopbackHost(a.host)) {
@@ -185,6 +225,13 @@ void HttpFrontend::AnnounceAddress() const {
   std::fflush(stdout);
 }
 
+bool HttpFrontend::IsOpenRelease(const httplib::Request& req) const {
+  // Both the path as sent and as decoded are under the prefix, so the
+  // request is routed to ServeReleaseFile and nowhere else.
+  return releases_ != nullptr && !options_.releases_require_token && (req.method == "GET" || req.method == "HEAD") &&
+         req.target.starts_with(kReleasesUrlPrefix) && req.path.starts_with(kReleasesUrlPrefix);
+}
+
 JobViewer HttpFrontend::Viewer(const httplib::Request& req) const {
   return ViewerOf({.method = req.method,
                    .path = req.path,
@@ -206,6 +253,7 @@ void HttpFrontend::Route() {
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (IsOpenRelease(req)) return httplib::Server::HandlerResponse::Unhandled;
     const HttpAuthorization auth = AuthorizeRequest({.method = req.method,
                                                      .path = req.path,
                                                      .authorization = req.get_header_value("Authorization"),
@@ -271,6 +319,15 @@ void HttpFrontend::Route() {
     res.status = ready.ok() ? 200 : 503;
     res.set_content(ready.ok() ? "ready\n" : absl::StrCat("not ready: ", ready.message(), "\n"), "text/plain");
   });
+  // The release tree (GET and HEAD; HEAD is served by the GET handler).
+  // Every path below the prefix is routed here ([\s\S]: a decoded %0A
+  // too) and parsed strictly there.
+  if (releases_) {
+    const std::string pattern = std::string(kReleasesUrlPrefix) + R"([\s\S]*)";
+    s.Get(pattern, [this](const httplib::Request& req, httplib::Response& res) {
+      ServeReleaseFile(*releases_, req, res);
+    });
+  }
 
   // Every API handler: check the query, then answer or map the status.
   auto api = [this, &s](const std::string& pattern, std::set<std::string> known,
