@@ -144,6 +144,11 @@ void ServeReleaseFile(ReleaseTree& tree, const httplib::Request& const_req, http
   res.set_header("ETag", etag);
   res.set_header("Accept-Ranges", "bytes");
   res.set_header("X-Content-Type-Options", "nosniff");
+  // A game's page is served from its own origin, not the farm's or the
+  // CDN's: releases are public content (or token-guarded, which a browser
+  // on another origin cannot present anyway), readable from any page.
+  res.set_header("Access-Control-Allow-Origin", "*");
+  res.set_header("Access-Control-Expose-Headers", "ETag, Content-Range, Content-Length");
 
   // Evaluated before Range (RFC 9110 section 13.2.2). The library adds
   // "Content-Length: 0" to a response without a body; a 304 should carry no

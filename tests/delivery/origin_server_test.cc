@@ -157,6 +157,8 @@ TEST_F(OriginTest, ServesBlobsAndCatalogsAsImmutableFilesNamedByTheirDigest) {
     EXPECT_EQ(res->get_header_value("Cache-Control"), kImmutable);
     EXPECT_EQ(res->get_header_value("ETag"), Quoted(c.hex));
     EXPECT_EQ(res->get_header_value("Accept-Ranges"), "bytes");
+    // A game's page on another origin (impostor-three) may read it.
+    EXPECT_EQ(res->get_header_value("Access-Control-Allow-Origin"), "*");
     EXPECT_EQ(res->get_header_value("Content-Type"), c.content_type);
     EXPECT_EQ(res->get_header_value("Content-Length"), std::to_string(c.bytes.size()));
     EXPECT_EQ(res->get_header_value("Content-Encoding"), "");
