@@ -708,9 +708,12 @@ class Cache::Impl {
              read.cancel = c;
              return delivery::ReadVerified(delivery::JoinUrl(mirror, delivery::BlobPath(digest.hash())),
                                            digest.hash(), digest.size_bytes(), offset, hash, sink, read);
-           }});
+           },
+           /*mirror=*/true});
     }
-    if (!options_.server.empty()) plan.sources.push_back({absl::StrCat("server ", options_.server), farm_reader});
+    if (!options_.server.empty()) {
+      plan.sources.push_back({absl::StrCat("server ", options_.server), farm_reader, /*mirror=*/false});
+    }
     return InstallFromSources(plan, layout_, key, hooks_.download, cancel);
   }
 

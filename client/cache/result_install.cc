@@ -250,11 +250,22 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
       }
     }
     if (!got.ok()) {
-      if (failures.size() <= 1) return got.status();
-      return absl::Status(got.status().code(),
+      // The farm alone: its error as it is (as before mirrors existed); a
+      // cancellation or a full local disk too. Otherwise the message names
+      // the file (mirror messages name only URLs) and every source's
+      // failure; the last one's code and details (payloads) are kept.
+      if (StopsInstall(got.status()) || (plan.sources.size() == 1 && !plan.sources.front().mirror)) {
+        return got.status();
+      }
+      if (failures.empty()) failures.push_back(absl::StrCat(plan.sources.front().name, ": ", got.status().message()));
+      absl::Status named(got.status().code(),
                           absl::StrCat("file ", blob.links.front().filename().string(), " (blob ", blob.digest.hash(),
                                        ", ", blob.digest.size_bytes(), " bytes) of ", key,
                                        ": no source gave it intact: ", absl::StrJoin(failures, "; ")));
+      got.status().ForEachPayload([&](absl::string_view type, const absl::Cord& payload) {
+        named.SetPayload(type, payload);
+      });
+      return named;
     }
     outcome.bytes_downloaded += got->bytes_downloaded;
     outcome.bytes_resumed += got->bytes_resumed;
@@ -307,7 +318,7 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   InstallPlan plan;
   plan.listing = std::move(*listing);
   plan.listing_source = absl::StrCat("server ", transport.server());
-  plan.sources.push_back({plan.listing_source, FarmBlobReader(transport)});
+  plan.sources.push_back({plan.listing_source, FarmBlobReader(transport), /*mirror=*/false});
   return InstallFromSources(plan, layout, key, hooks, cancel);
 }
 

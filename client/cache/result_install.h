@@ -45,6 +45,9 @@ struct InstallOutcome {
 struct ResultSource {
   std::string name;  // for messages and logs: "server HOST:PORT", "mirror URL"
   BlobReader reader;
+  // A release mirror, whose errors name URLs, not files: the install's
+  // error then names the file and the digest.
+  bool mirror = false;
 };
 
 // What to install and from where.

@@ -1,6 +1,7 @@
 #include "client/delivery/mirror_blob.h"
 
 #include "absl/strings/string_view.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "client/delivery/http_get.h"
 
@@ -48,6 +49,13 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
       }
       if (got->status != 200 && got->status != 206) {
         return absl::UnavailableError(absl::StrCat(url, ": HTTP ", got->status));
+      }
+      // Our files are never served as HTML: a 200 text/html is a CDN's or
+      // proxy's error page (its bytes were fed on; the caller drops them).
+      if (absl::StartsWithIgnoreCase(got->content_type, "text/html")) {
+        return absl::DataLossError(absl::StrCat(url, ": HTTP ", got->status, " with an HTML page (",
+                                                got->content_type, ", ", received, " bytes), not blob ", sha256,
+                                                ": an error page served as success"));
       }
       if (got->status == 206 && got->range_start != have - received) {
         return absl::DataLossError(absl::StrCat(url, ": asked for bytes from ", have - received,
