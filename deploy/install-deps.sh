@@ -34,6 +34,7 @@ packages=(
   # Tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   mkdocs mkdocs-material  # the documentation site (mkdocs.yml; CTest docs_site)
+  godot3  # the Godot 3.2 add-on's headless test (engines/godot, tests/godot; Xvfb and numpy below)
   # Fuzzing (fuzz/run.sh): clang with libFuzzer, ASan and UBSan runtimes
   clang-14 libclang-rt-14-dev
   # Python client (python/) and its tests; Blender 3.4 for the add-on's
