@@ -47,7 +47,10 @@ bool IsCancelled(const CancelSource* cancel) { return cancel != nullptr && cance
 
 // Feeds the first `size` bytes of `fd` to `hash`.
 absl::Status HashPrefix(int fd, int64_t size, Sha256& hash, const fs::path& path) {
-  std::vector<char> buffer(1 << 20);
+  if (size <= 0) return absl::OkStatus();  // the usual case: a fresh partial, nothing to read
+  // No larger than what there is to read: a 1 MiB buffer zeroed per blob
+  // was 4 % of a fleet of small fetches.
+  std::vector<char> buffer(static_cast<size_t>(std::min<int64_t>(size, 1 << 20)));
   int64_t done = 0;
   while (done < size) {
     const ssize_t n = ::pread(fd, buffer.data(), std::min<int64_t>(buffer.size(), size - done), done);
