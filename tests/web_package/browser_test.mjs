@@ -1,7 +1,7 @@
 // impostor-three in a real browser: headless Chromium (Debian's, on
 // SwiftShader) opens tests/web_package/page/ which loads an asset of a
 // published release from mirrors served by Node.js on port 0, and draws it
-// from four cameras between the baked frames, as an ImpostorMesh beside the
+// from eight cameras between the baked frames, as an ImpostorMesh beside the
 // reference object, then a forest as one InstancedImpostorMesh. Asserted:
 //  1. first visit (mirrors: one serving a blob with a flipped byte, then a
 //     good one): every file verified, the tampered one taken from the good
@@ -117,7 +117,18 @@ function pageUrl(mirrors, extra = '') {
 async function visit(url) {
   const before = browser.requests.length;
   await browser.open(url);
-  const out = await browser.evaluate('window.impostorTest', 240000);
+  let out;
+  try {
+    out = await browser.evaluate('window.impostorTest', 240000);
+  } catch (e) {
+    const stage = await browser.evaluate('window.impostorTestStage', 10000).catch(() => '?');
+    throw new Error(`${e.message} (page stage: ${stage}; console: ${browser.consoleErrors.join(' | ').slice(0, 2000)})`);
+  }
+  // The images, one reply each.
+  for (const v of [...(out.views || []), ...(out.forest ? [out.forest] : [])]) {
+    v.mesh = await browser.evaluate(`window.impostorImages[${JSON.stringify(v.mesh)}]`);
+    v.impostor = await browser.evaluate(`window.impostorImages[${JSON.stringify(v.impostor)}]`);
+  }
   return { out, requests: browser.requests.slice(before).map((r) => r.url) };
 }
 
@@ -241,16 +252,17 @@ test('first visit: verified from a published release, the tampered blob taken fr
     assert.ok(m.iou >= MIN_VIEW_IOU, `${name}: silhouette IoU ${m.iou} < ${MIN_VIEW_IOU}; images in ${ARTIFACTS}`);
     assert.ok(m.outside <= MAX_OUTSIDE_FRACTION, `${name}: ${m.outside} of the impostor lies beyond 2 px of the reference`);
     assert.ok(m.holes <= MAX_HOLE_FRACTION, `${name}: ${m.holes} of the reference's inside is not covered`);
-    assert.ok(m.flat > 0.5, `${name}: only ${m.flat} of the reference is flat colour (a textured reference? see FLAT_MARGIN_PX)`);
-    assert.ok(m.offColour <= MAX_OFF_COLOUR_FRACTION, `${name}: ${m.offColour} of flat pixels off by > 24 levels`);
+    // The synthetic box is flat colour; a textured reference is checked where it has flat areas.
+    if (!reference) assert.ok(m.flat > 0.5, `${name}: only ${m.flat} of the box is flat colour`);
+    if (m.flat >= 0.1) assert.ok(m.offColour <= MAX_OFF_COLOUR_FRACTION, `${name}: ${m.offColour} of flat pixels off by > 24 levels`);
   }
   const f = compare('forest', out.forest.mesh, out.forest.impostor);
   report.push(`forest of 16: IoU ${f.iou.toFixed(4)}, off-colour ${(100 * f.offColour).toFixed(2)}% of ${(100 * f.flat).toFixed(0)}% flat, ${out.forest.calls} draw call(s); 10,000 instances: `
-    + `${out.bigForest.calls} draw call(s), ${out.bigForest.ms.toFixed(1)} ms a frame on SwiftShader; load ${out.loadMs.toFixed(0)} ms`);
+    + `${out.bigForest.calls} draw call(s), ${out.bigForest.ms.toFixed(1)} ms a 64 x 64 frame on SwiftShader; load ${out.loadMs.toFixed(0)} ms`);
   console.log(report.join('\n'));
   assert.ok(f.iou >= MIN_FOREST_IOU, `forest: silhouette IoU ${f.iou} < ${MIN_FOREST_IOU}; images in ${ARTIFACTS}`);
   // Each instance turned its own way shows its own faces.
-  assert.ok(f.offColour <= MAX_OFF_COLOUR_FRACTION, `forest: ${f.offColour} of flat pixels off by > 24 levels`);
+  if (f.flat >= 0.05) assert.ok(f.offColour <= MAX_OFF_COLOUR_FRACTION, `forest: ${f.offColour} of flat pixels off by > 24 levels`);
   assert.equal(out.forest.calls, 1, 'the forest of 16 is one draw call');
   assert.ok(out.bigForest.calls <= 2, `10,000 instances took ${out.bigForest.calls} draw calls`);
   assert.deepEqual(browser.consoleErrors, []);

@@ -5,9 +5,12 @@
 // references and as one InstancedImpostorMesh, then 10,000 instances for the
 // draw-call count. window.impostorTest resolves to the outcome:
 //   {ok, error, key, layout, files: [{name, sha256, verified, source, url}],
-//    views: [{camera, mesh, impostor}] (RGBA8 base64, rows bottom first),
-//    forest: {mesh, impostor, calls}, bigForest: {count, calls, ms},
-//    loadMs, blankAfterError}
+//    views: [{camera, mesh, impostor}], forest: {mesh, impostor, calls},
+//    bigForest: {count, calls, ms}, loadMs, blankAfterError}
+// where mesh / impostor name an image in window.impostorImages (RGBA8
+// base64, rows bottom first), fetched one by one (one reply of them all
+// would be megabytes).
+// A glTF reference is drawn unlit (its base colour), as the atlas holds it.
 // Query: mirrors=URL,URL channel= name= count= size= cameras=AZ,EL;AZ,EL
 //        cache=NAME (the Cache Storage cache) reference=box|URL
 import * as THREE from 'three';
@@ -19,12 +22,21 @@ const q = new URLSearchParams(location.search);
 const SIZE = Number(q.get('size') || 256);
 const COUNT = Number(q.get('count') || 16);
 const BIG_COUNT = 10000;
-const CAMERAS = (q.get('cameras') || '35,20;125,40;210,-15;300,65').split(';').map((s) => s.split(',').map(Number));
+// Eight cameras between the baked frames, around and above and below (above
+// only, mirrored, for an upper-hemisphere layout).
+const CAMERAS = (q.get('cameras') || '35,20;80,-25;125,40;170,5;210,-15;255,30;300,65;345,-50').split(';')
+  .map((s) => s.split(',').map(Number));
 
 function base64(bytes) {
   let s = '';
   for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
   return btoa(s);
+}
+
+window.impostorImages = {};
+function keep(name, rgba) {
+  window.impostorImages[name] = base64(rgba);
+  return name;
 }
 
 function readPixels(renderer) {
@@ -34,9 +46,24 @@ function readPixels(renderer) {
   return out;
 }
 
+// The baked albedo, unlit, with the baker's coverage rules (OPAQUE covered,
+// MASK at its cutoff, BLEND at 0.5: common/manifest_format.md).
+function unlit(m) {
+  return new THREE.MeshBasicMaterial({
+    map: m.map || null, color: m.color ? m.color.clone() : new THREE.Color(1, 1, 1), vertexColors: m.vertexColors,
+    alphaTest: m.alphaTest > 0 ? m.alphaTest : m.transparent ? 0.5 : 0, side: m.side,
+  });
+}
+
 async function referenceObject() {
   const ref = q.get('reference') || 'box';
-  if (ref !== 'box') return (await new GLTFLoader().loadAsync(ref)).scene;
+  if (ref !== 'box') {
+    const scene = (await new GLTFLoader().loadAsync(ref)).scene;
+    scene.traverse((o) => {
+      if (o.isMesh) o.material = Array.isArray(o.material) ? o.material.map(unlit) : unlit(o.material);
+    });
+    return scene;
+  }
   const geometry = new THREE.BoxGeometry(2 * BOX.half[0], 2 * BOX.half[1], 2 * BOX.half[2]);
   geometry.translate(...BOX.center);
   const materials = ['+x', '-x', '+y', '-y', '+z', '-z'].map((f) => new THREE.MeshBasicMaterial({
@@ -64,7 +91,11 @@ function forestMatrix(i, count, spacing) {
     new THREE.Vector3(s, s, s));
 }
 
+// What the page is doing, for a driver whose wait ran out.
+const stage = (name) => { window.impostorTestStage = name; };
+
 async function run() {
+  stage('start');
   const out = { ok: false, error: '', files: [], views: [], blankAfterError: null };
   const canvas = document.getElementById('view');
   canvas.width = canvas.height = SIZE;
@@ -77,6 +108,7 @@ async function run() {
   try {
     const loader = new ImpostorLoader().setMirrors(q.get('mirrors').split(',')).setChannel(q.get('channel'));
     if (q.get('cache')) loader.setCacheName(q.get('cache'));
+    stage('load');
     asset = await loader.loadAsync(q.get('name'));
   } catch (e) {
     out.error = String(e && e.message ? e.message : e);
@@ -102,11 +134,15 @@ async function run() {
     renderer.render(scene, camera);
     return readPixels(renderer);
   };
-  for (const [az, el] of CAMERAS) {
+  stage('views');
+  for (const [az, el0] of CAMERAS) {
+    const el = asset.layoutName === 'hemi-octahedral' ? Math.abs(el0) : el0;
     place(camera, centre, az, el, 4 * radius);
-    out.views.push({ camera: [az, el], mesh: base64(draw(meshScene)), impostor: base64(draw(impostorScene)) });
+    const name = `view_${az}_${el}`;
+    out.views.push({ camera: [az, el], mesh: keep(`${name}_mesh`, draw(meshScene)), impostor: keep(`${name}_impostor`, draw(impostorScene)) });
   }
 
+  stage('forest');
   // The forest: references one by one, impostors as one instanced draw.
   const spacing = 2.5 * radius;
   const forestMeshes = new THREE.Scene();
@@ -124,11 +160,15 @@ async function run() {
   const extent = Math.ceil(Math.sqrt(COUNT)) * spacing;
   place(camera, centre, 20, 35, 1.6 * extent + 4 * radius);
   const forestImpostors = draw(forestScene);
-  out.forest = { mesh: base64(draw(forestMeshes)), impostor: base64(forestImpostors) };
+  out.forest = { mesh: keep('forest_mesh', draw(forestMeshes)), impostor: keep('forest_impostor', forestImpostors) };
   renderer.render(forestScene, camera);
   out.forest.calls = renderer.info.render.calls;
 
-  // 10,000 instances: the draw calls one frame takes, and its time.
+  stage('10,000 instances');
+  // 10,000 instances: the draw calls one frame takes, and its time, in a
+  // 64 x 64 corner (the call count does not depend on the size; SwiftShader's
+  // fragment work does).
+  renderer.setViewport(0, 0, 64, 64);
   const big = new InstancedImpostorMesh(asset, BIG_COUNT, { output: 'albedo' });
   for (let i = 0; i < BIG_COUNT; ++i) big.setMatrixAt(i, forestMatrix(i, BIG_COUNT, spacing));
   big.computeBoundingSphere();
@@ -145,9 +185,11 @@ async function run() {
     readPixels(renderer);  // waits for the frame
     times.push(performance.now() - s);
   }
+  renderer.setViewport(0, 0, SIZE, SIZE);
   times.sort((a, b) => a - b);
-  out.bigForest = { count: BIG_COUNT, calls, ms: times[1] };
+  out.bigForest = { count: BIG_COUNT, calls, ms: times[1], pixels: 64 * 64 };
   out.ok = true;
+  stage('done');
   return out;
 }
 
