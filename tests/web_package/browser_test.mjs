@@ -14,7 +14,11 @@
 //     network (Network domain and the mirrors' logs), every file from Cache
 //     Storage, the same pixels;
 //  3. the tampered mirror alone, a fresh cache: the load is refused with an
-//     error naming the file and both digests, and nothing is drawn.
+//     error naming the file and both digests, and nothing is drawn;
+//  4. with --ktx2-asset NAME (the same mesh baked with --texture-format
+//     ktx2 in the same release): its maps go through three's KTX2Loader and
+//     the Basis transcoder of the `three` package, and it draws as the
+//     reference within the same silhouette bounds.
 // Images (reference, impostor, difference) go to --artifacts DIR.
 //
 // The release: --release DIR (or IMPOSTOR_RELEASE_DIR) with --asset NAME,
@@ -63,7 +67,7 @@ const FLAT_MARGIN_PX = 4;
 
 const sha256 = (bytes) => createHash('sha256').update(bytes).digest('hex');
 
-let tmp, release, channel, assetName, reference, servers = {}, browser;
+let tmp, release, channel, assetName, ktx2Asset, reference, servers = {}, browser;
 
 before(async () => {
   assert.ok(existsSync(CHROMIUM), `${CHROMIUM} is not installed (deploy/install-deps.sh installs chromium)`);
@@ -73,6 +77,7 @@ before(async () => {
   channel = arg('channel', 'nightly');
   assetName = arg('asset', 'props/box');
   reference = arg('reference-glb', '');
+  ktx2Asset = arg('ktx2-asset', '');
   if (!release) {
     const result = join(tmp, 'box');
     writeSyntheticResult(result, { layout: 'octahedral', frames: 8, resolution: 512 });
@@ -108,10 +113,10 @@ function catalogOf(root, name) {
   return JSON.parse(readFileSync(join(root, 'v1', 'catalogs', 'sha256', hex.slice(0, 2), hex), 'utf8'));
 }
 
-function pageUrl(mirrors, extra = '') {
+function pageUrl(mirrors, extra = '', name = assetName) {
   const ref = reference ? `&reference=${encodeURIComponent(`/reference/${reference.split('/').pop()}`)}` : '';
   return `${servers.page.url}/page/index.html?mirrors=${mirrors.map(encodeURIComponent).join(',')}`
-    + `&channel=${encodeURIComponent(channel)}&name=${encodeURIComponent(assetName)}&count=16&size=${SIZE}${ref}${extra}`;
+    + `&channel=${encodeURIComponent(channel)}&name=${encodeURIComponent(name)}&count=16&size=${SIZE}${ref}${extra}`;
 }
 
 async function visit(url) {
@@ -297,4 +302,23 @@ test('the tampered mirror alone: refused, naming the file and both digests, noth
   assert.ok(out.error.includes(albedo.sha256), out.error);
   assert.ok(out.error.includes(sha256(bytes)), out.error);
   assert.equal(out.blankAfterError, true, 'something was drawn');
+});
+
+test('KTX2 maps: transcoded by three\'s KTX2Loader, drawn as the reference', { skip: !arg('ktx2-asset', '') && 'no --ktx2-asset' }, async () => {
+  const { out } = await visit(pageUrl([servers.good.url], '&cache=impostor-test-ktx2', ktx2Asset));
+  assert.equal(out.error, '', out.error);
+  const maps = out.files.filter((f) => f.name.endsWith('.ktx2'));
+  assert.ok(maps.length >= 2, `no KTX2 maps in ${JSON.stringify(out.files.map((f) => f.name))}`);
+  assert.ok(out.files.every((f) => f.verified), 'every file verified');
+  const report = [];
+  for (const v of out.views) {
+    const name = `ktx2_view_${v.camera.join('_')}`;
+    const m = compare(name, v.mesh, v.impostor);
+    report.push(`${name}: IoU ${m.iou.toFixed(4)}, outside ${(100 * m.outside).toFixed(2)}%, holes ${(100 * m.holes).toFixed(2)}%, PSNR ${m.psnr.toFixed(1)} dB`);
+    assert.ok(m.iou >= MIN_VIEW_IOU, `${name}: silhouette IoU ${m.iou} < ${MIN_VIEW_IOU}; images in ${ARTIFACTS}`);
+    assert.ok(m.outside <= MAX_OUTSIDE_FRACTION, `${name}: ${m.outside} of the impostor lies beyond 2 px of the reference`);
+    assert.ok(m.holes <= MAX_HOLE_FRACTION, `${name}: ${m.holes} of the reference's inside is not covered`);
+  }
+  console.log(report.join('\n'));
+  assert.deepEqual(browser.consoleErrors, []);
 });

@@ -1,8 +1,9 @@
 // The browser test on a release the farm's own publisher wrote: starts
 // impostor-server with one local worker (port 0, a temporary data
-// directory), bakes MODEL with `impostor bake`, publishes the result with
-// `impostor publish NAME=KEY --channel nightly --out DIR`, stops the server,
-// then runs browser_test.mjs on DIR with MODEL as the reference. Exits with
+// directory), bakes MODEL with `impostor bake` (PNG maps, and again as
+// KTX2), publishes both with `impostor publish NAME=KEY NAME-ktx2=KEY2
+// --channel nightly --out DIR`, stops the server, then runs browser_test.mjs
+// on DIR with MODEL as the reference. Exits with
 // the browser test's status (1 when a step before it fails, naming it).
 // Usage: node --experimental-websocket published_release.mjs --bin BUILD/bin
 //          --model MODEL.glb [--artifacts DIR] [--name props/box] [--frames 8]
@@ -78,15 +79,21 @@ try {
     if (r.status !== 0) throw new Error(`${step}: exit ${r.status}\n${r.stderr}\n${r.stdout}`);
     return r.stdout;
   };
-  run('impostor bake', ['bake', model, '--out', join(tmp, 'result'), '--server', server.address, '--layout',
-    arg('layout', 'octahedral'), '--frames', arg('frames', '8'), '--resolution', arg('resolution', '512'), '--quiet']);
-  const key = JSON.parse(readFileSync(join(tmp, 'result', 'manifest.json'), 'utf8')).cache_key;
-  console.log(run('impostor publish', ['publish', `${name}=${key}`, '--channel', channel, '--out', join(tmp, 'release'),
-    '--server', server.address]).trim());
+  // The mesh baked twice: PNG maps, and KTX2 (UASTC with the baker's mips).
+  const bake = (dir, extra) => {
+    run('impostor bake', ['bake', model, '--out', join(tmp, dir), '--server', server.address, '--layout',
+      arg('layout', 'octahedral'), '--frames', arg('frames', '8'), '--resolution', arg('resolution', '512'), '--quiet', ...extra]);
+    return JSON.parse(readFileSync(join(tmp, dir, 'manifest.json'), 'utf8')).cache_key;
+  };
+  const key = bake('result', []);
+  const ktx2Key = bake('result_ktx2', ['--texture-format', 'ktx2', '--quality-views', '0']);
+  console.log(run('impostor publish', ['publish', `${name}=${key}`, `${name}-ktx2=${ktx2Key}`, '--channel', channel,
+    '--out', join(tmp, 'release'), '--server', server.address]).trim());
   await stopServer(server);
   server = null;
   const browser = spawnSync(process.execPath, ['--experimental-websocket', join(here, 'browser_test.mjs'),
-    '--release', join(tmp, 'release'), '--asset', name, '--channel', channel, '--reference-glb', model,
+    '--release', join(tmp, 'release'), '--asset', name, '--ktx2-asset', `${name}-ktx2`, '--channel', channel,
+    '--reference-glb', model,
     ...(arg('artifacts') ? ['--artifacts', arg('artifacts')] : [])], { stdio: 'inherit', timeout: 480000 });
   process.exitCode = browser.status ?? 1;
 } catch (e) {

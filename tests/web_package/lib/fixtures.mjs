@@ -2,12 +2,17 @@
 // published as a release tree in a temporary directory (or the release the
 // real `impostor publish` made, from IMPOSTOR_RELEASE_DIR), mirrors serving
 // it, an in-memory Cache Storage and a fetch that records what it was asked.
+import { webcrypto } from 'node:crypto';
 import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { publishRelease } from './publish_release.mjs';
 import { startStaticServer } from './static_server.mjs';
 import { writeSyntheticResult } from './synthetic_result.mjs';
+
+// Node 18 (Debian 12's) has WebCrypto only as node:crypto's webcrypto, as a
+// page has it as globalThis.crypto.
+if (!globalThis.crypto) globalThis.crypto = webcrypto;
 
 export const ASSET = 'props/box';
 export const CHANNEL = 'nightly';
