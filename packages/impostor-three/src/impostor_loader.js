@@ -147,7 +147,10 @@ export class ImpostorLoader extends Loader {
     if (entry && !DRAWN_PRODUCTS.has(entry.product)) {
       throw new Error(`asset "${name}" is a ${entry.product} product; ImpostorLoader draws atlases (and a LOD chain's impostor level)`);
     }
-    const loaded = await client.loadAsset(name, { semantics: DRAWN_SEMANTICS, onProgress: onProgress || (() => {}) });
+    // three's loaders report ProgressEvents (plain objects where there is no ProgressEvent, as in Node.js).
+    const progress = !onProgress ? () => {}
+      : typeof ProgressEvent === 'function' ? (p) => onProgress(new ProgressEvent('progress', p)) : onProgress;
+    const loaded = await client.loadAsset(name, { semantics: DRAWN_SEMANTICS, onProgress: progress });
     const files = new Map(loaded.files.map((f) => [f.name, f.bytes]));
     const report = loaded.files.map(({ bytes, ...f }) => f);  // eslint-disable-line no-unused-vars
     return this._assetFrom(name, loaded.manifest, files, report,

@@ -5,7 +5,7 @@ import {
   Texture, Vector3, WebGLRenderer,
 } from 'three';
 import { KTX2Loader } from 'three/examples/jsm/loaders/KTX2Loader.js';
-import { CacheStorageLike, ProgressLike, ReleaseClient } from './release/index.js';
+import { CacheStorageLike, ReleaseClient } from './release/index.js';
 
 export * from './release/index.js';
 
@@ -107,9 +107,10 @@ export class ImpostorLoader extends Loader<ImpostorAsset, string> {
   /** KTX2 maps transcode to a GPU format the renderer supports (else to RGBA8). */
   detectSupport(renderer: WebGLRenderer): this;
   readonly client: ReleaseClient;
-  load(name: string, onLoad?: (asset: ImpostorAsset) => void, onProgress?: (event: ProgressLike) => void,
+  /** onProgress gets a ProgressEvent of the bytes taken from the network against the files' total. */
+  load(name: string, onLoad?: (asset: ImpostorAsset) => void, onProgress?: (event: ProgressEvent) => void,
     onError?: (error: unknown) => void): void;
-  loadAsync(name: string, onProgress?: (event: ProgressEvent | ProgressLike) => void): Promise<ImpostorAsset>;
+  loadAsync(name: string, onProgress?: (event: ProgressEvent) => void): Promise<ImpostorAsset>;
   /**
    * An asset from a manifest and its maps' bytes (by file name), e.g. a farm result's. Maps whose manifest
    * entry has a digest are checked against it where WebCrypto is available (ImpostorIntegrityError on a mismatch).
