@@ -1,7 +1,6 @@
 // KTX2 maps (`--texture-format ktx2`: Basis Universal UASTC with the bake's
-// own mip chain) decoded to plain RGBA8 for the viewer and the three.js
-// material, which read texels with texelFetch at level 0 and filter by hand
-// (the runtime's math), exactly as they read the PNG maps. three.js's
+// own mip chain) decoded to plain RGBA8 for the atlas panel's picture, as
+// the viewer's material (impostor-three) decodes them by default. three.js's
 // KTX2Loader runs the Basis transcoder that three's npm package ships
 // (examples/jsm/libs/basis, served under /static with the rest of three).
 // Every transcode target is switched off so the transcoder writes RGBA32:
