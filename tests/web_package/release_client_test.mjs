@@ -104,6 +104,7 @@ describe('ReleaseClient', () => {
     // Only the channel file is broken: the blobs still come from the first mirror.
     { name: 'an HTML error page as the channel file', options: { fail: (p) => (p.includes('/channels/') ? 200 : 0) }, asked: true, goodChannelOnly: true },
     { name: 'a blob body that stalls', options: { stall: (p) => p.includes('/v1/blobs/') }, asked: true, stallTimeoutMs: 300 },
+    { name: 'a channel file that stalls', options: { stall: (p) => p.includes('/channels/') }, asked: true, stallTimeoutMs: 300, goodChannelOnly: true },
     { name: 'a refused connection', closed: true, asked: false },
   ];
   for (const c of failures) {

@@ -26,6 +26,7 @@ export const DEFAULT_CACHE_NAME = 'impostor-blobs-v1';
 // Cache Storage keys must be http(s) URLs; .invalid is never resolved.
 export const CACHE_KEY_ORIGIN = 'https://impostor-release.invalid/';
 const DEFAULT_STALL_TIMEOUT_MS = 15000;
+const MAX_CHANNEL_BYTES = 64 * 1024;  // a channel file is a few hundred bytes
 
 // Bytes whose SHA-256 is not the one their name promised.
 export class ImpostorIntegrityError extends Error {
@@ -117,7 +118,7 @@ export class ReleaseClient {
     this.stallTimeoutMs = options.stallTimeoutMs ?? DEFAULT_STALL_TIMEOUT_MS;
     this.requestInit = options.requestInit || {};
     this.resolveUrl = options.resolveUrl || ((url) => url);
-    this._inflight = new Map();  // sha256 -> Promise of a download
+    this._inflight = new Map();  // release path -> Promise of a verified download
     this._resolved = null;       // Promise of the channel's catalog
     if (!this.subtle) throw new Error('WebCrypto (crypto.subtle) is not available: serve the page over https or from localhost');
   }
@@ -168,9 +169,7 @@ export class ReleaseClient {
     for (const mirror of this.mirrors) {
       const url = this.resolveUrl(joinUrl(mirror, path));
       try {
-        const response = await this.fetch(url, { ...this.requestInit, cache: 'no-cache' });
-        if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
-        text = await response.text();
+        text = new TextDecoder().decode(await this._download(url, MAX_CHANNEL_BYTES, () => {}, 'no-cache'));
         pointer = parseChannel(text, url);
         if (pointer.channel !== channel) throw new Error(`${url}: names channel "${pointer.channel}", not "${channel}"`);
         channelUrl = url;
@@ -298,7 +297,7 @@ export class ReleaseClient {
         received += value.length;
         if (received > sizeBytes) {
           reader.cancel().catch(() => {});
-          throw new Error(`${url}: more than the catalog's ${sizeBytes} bytes`);
+          throw new Error(`${url}: more than the ${sizeBytes} bytes expected`);
         }
         chunks.push(value);
         onBytes(value.length);
