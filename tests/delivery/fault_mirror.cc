@@ -64,6 +64,9 @@ FaultMirror::FaultMirror(std::filesystem::path root) : root_(std::move(root)), s
     res.set_content(bytes, path.find("channels/") != std::string::npos ? "application/json"
                                                                         : "application/octet-stream");
   });
+  // Stop() waits for idle keep-alive connections to time out, and an SDK
+  // thread keeps its connection open: 1 s instead of the library's 5.
+  server_->set_keep_alive_timeout(1);
   port_ = server_->bind_to_any_port("127.0.0.1");
   thread_ = std::thread([this] { server_->listen_after_bind(); });
   // bind_to_any_port listens already: connections queue until the loop

@@ -18,6 +18,7 @@
 #include "client/delivery/release_paths.h"
 #include "common/sha256.h"
 #include "impostor/cache.h"
+#include "impostor/impostor_c.h"
 #include "tests/cache/published_result.h"
 #include "tests/delivery/fault_mirror.h"
 #include "tests/integration/server_process.h"
@@ -423,6 +424,48 @@ TEST_F(ReleaseTest, PrefetchByNameWithPrioritiesAndTheCli) {
   EXPECT_NE(missing.err.find("rocks/basalt"), std::string::npos) << missing.err;
   ToolRun usage = Impostor({"fetch", "rocks/granite", "--mirror", mirror.url(), "--out", out.string()});
   EXPECT_EQ(usage.exit_code, 2) << usage.err;
+}
+
+// The C API reads releases too: the sized options' mirrors and channel, a
+// Get by name, prioritised prefetch and its cancellation.
+TEST_F(ReleaseTest, TheCApiFetchesByNameFromMirrors) {
+  ASSERT_EQ(Publish(DefaultInputs()).exit_code, 0);
+  FaultMirror edge(tree_);
+  FaultMirror origin(tree_);
+  edge.SetFault(BlobPaths("trees/oak").at("orm.png"), Fault::kFlipByte);
+  const std::string mirrors = edge.url() + "," + origin.url();
+  const std::string dir = (dir_ / "c-game").string();
+  impostor_cache_options o;
+  impostor_cache_options_init(&o);
+  o.server = nullptr;  // mirrors only
+  o.dir = dir.c_str();
+  o.rpc_timeout_seconds = 1;
+  impostor_cache_options_ext ext;
+  impostor_cache_options_ext_init(&ext);
+  ext.mirrors = mirrors.c_str();
+  ext.channel = "nightly";
+  impostor_cache* cache = nullptr;
+  ASSERT_EQ(impostor_cache_open_ext(&o, &ext, &cache), IMPOSTOR_OK) << impostor_last_error();
+  impostor_result* oak = nullptr;
+  ASSERT_EQ(impostor_cache_get(cache, "trees/oak", &oak), IMPOSTOR_OK) << impostor_last_error();
+  EXPECT_EQ(std::string(impostor_result_key(oak)), oak_.key);
+  EXPECT_EQ(ReadFileBytes(impostor_result_map_path(oak, "orm")), oak_.files.at("orm.png"));
+  impostor_result_release(oak);
+  impostor_result* ghost = nullptr;
+  EXPECT_EQ(impostor_cache_get(cache, "trees/ghost", &ghost), IMPOSTOR_NOT_FOUND);
+  EXPECT_NE(std::string(impostor_last_error()).find("trees/ghost"), std::string::npos) << impostor_last_error();
+  const char* names[] = {"rocks/granite"};
+  impostor_cache_prefetch_priority(cache, names, 1, 7);
+  impostor_result* rock = nullptr;
+  ASSERT_EQ(impostor_cache_get(cache, "rocks/granite", &rock), IMPOSTOR_OK) << impostor_last_error();
+  impostor_result_release(rock);
+  EXPECT_EQ(impostor_cache_cancel_prefetch(cache, names, 1), 0) << "it is installed: nothing left to cancel";
+  impostor_cache_close(cache);
+
+  // Bad release options are refused at open, naming the field.
+  ext.channel = "../x";
+  EXPECT_EQ(impostor_cache_open_ext(&o, &ext, &cache), IMPOSTOR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(impostor_last_error()).find("channel"), std::string::npos) << impostor_last_error();
 }
 
 }  // namespace
