@@ -8,6 +8,13 @@ With --ui it runs test_addon_ui.py instead, in Blender's real UI under
 Xvfb (xvfb-run), with the worker pause switch the UI test needs; exit 77
 when xvfb-run is missing too.
 
+Everything it makes goes into one temporary folder (impostor-blender-*
+under $TMPDIR): the farm's data and log, the test's work files, Blender's
+own temp files (its TMPDIR: quit.blend) and, when IMPOSTOR_ARTEFACT_DIR is
+not set, the artefacts (screenshots). It is removed when the test passes and
+kept, its path printed, when it fails; set IMPOSTOR_ARTEFACT_DIR to keep the
+artefacts of a passing run.
+
 Usage: run_blender_test.py BLENDER [--ui]
 """
 from __future__ import annotations
@@ -41,17 +48,23 @@ def main() -> int:
         print("SKIP: xvfb-run is not installed (apt-get install xvfb xauth, or deploy/install-deps.sh); "
               "the add-on's UI test needs it")
         return SKIP
-    artefacts = Path(os.environ.get("IMPOSTOR_ARTEFACT_DIR", tempfile.mkdtemp(prefix="impostor-blender-")))
+    root = Path(tempfile.mkdtemp(prefix="impostor-blender-"))
+    artefacts = Path(os.environ.get("IMPOSTOR_ARTEFACT_DIR") or root / "artefacts")
     artefacts.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix="impostor-blender-farm-") as tmp:
-        pause = Path(tmp) / "pause"
-        server = FarmServer(Path(tmp) / "data", env={"IMPOSTOR_WORKER_TEST_PAUSE_FILE": str(pause)})
+    blender_tmp = root / "tmp"
+    blender_tmp.mkdir()
+    failed = True
+    try:
+        pause = root / "pause"
+        server = FarmServer(root / "data", env={"IMPOSTOR_WORKER_TEST_PAUSE_FILE": str(pause)})
         try:
+            # Blender reads TMP before TMPDIR for its temp folder.
             env = dict(os.environ, IMPOSTOR_TEST_SERVER=server.address, IMPOSTOR_ARTEFACT_DIR=str(artefacts),
-                       IMPOSTOR_TEST_WORK=str(Path(tmp) / "work"), IMPOSTOR_TEST_PAUSE_FILE=str(pause))
+                       IMPOSTOR_TEST_WORK=str(root / "work"), IMPOSTOR_TEST_PAUSE_FILE=str(pause),
+                       TMPDIR=str(blender_tmp), TMP=str(blender_tmp), TEMP=str(blender_tmp))
             if ui:
                 # A .blend on the command line: no splash screen over the UI.
-                start_file = Path(tmp) / "start.blend"
+                start_file = root / "start.blend"
                 subprocess.run([blender, "-b", "--factory-startup", "--python-expr",
                                 f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={str(start_file)!r})"],
                                env=env, stdin=subprocess.DEVNULL, check=True, timeout=BLENDER_DEADLINE_S,
@@ -73,6 +86,11 @@ def main() -> int:
             return 1 if failed else 0
         finally:
             server.stop()
+    finally:
+        if failed:
+            print(f"the farm's data and log, the work files and Blender's temp files are kept in {root}")
+        else:
+            shutil.rmtree(root, ignore_errors=True)
 
 
 if __name__ == "__main__":

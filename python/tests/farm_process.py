@@ -6,6 +6,12 @@ listening on HOST:PORT" on stdout once its port is bound (the same moment it
 writes --port-file), and a reader thread hands that line over. Each server
 runs in its own session, so teardown also ends local workers a SIGKILLed
 server left behind.
+
+A server and its workers get a TMPDIR of their own next to the data folder
+(DATA.tmp), unless the caller's env names one: a local worker's scratch
+folder ($TMPDIR/impostor-worker-<pid>) is removed by the worker, and
+stop() SIGKILLs it first, so it would otherwise stay in /tmp. Under CTest
+all of it lies in the test's temporary root (tests/run_in_temp_root.py).
 """
 from __future__ import annotations
 
@@ -50,7 +56,10 @@ class FarmServer:
         self.data_dir = data_dir
         self.local_workers = local_workers
         self.extra_args = list(extra_args)
-        self.env = dict(os.environ, **(env or {}))
+        self.tmp_dir = data_dir.parent / f"{data_dir.name}.tmp"
+        self.env = dict(os.environ, TMPDIR=str(self.tmp_dir))
+        self.env.update(env or {})
+        self.tmp_dir.mkdir(parents=True, exist_ok=True)
         self.listen = "127.0.0.1:0"
         self.address = ""
         self.log_path = data_dir.parent / f"{data_dir.name}.server.log"
