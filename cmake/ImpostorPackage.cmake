@@ -41,6 +41,11 @@ if(TARGET impostor-server)
       COMPONENT server)
     install(FILES ${_web}/node_modules/three/LICENSE DESTINATION ${_web_dest}/node_modules/three COMPONENT server)
   endif()
+  # The viewer draws with the impostor-three package (web/package.json links
+  # it from packages/): installed from the sources, as npm would lay it out.
+  set(_three_pkg ${CMAKE_SOURCE_DIR}/packages/impostor-three)
+  install(FILES ${_three_pkg}/package.json DESTINATION ${_web_dest}/node_modules/impostor-three COMPONENT server)
+  install(DIRECTORY ${_three_pkg}/src DESTINATION ${_web_dest}/node_modules/impostor-three COMPONENT server)
 endif()
 if(TARGET impostor-worker)
   install(FILES ${_deploy}/systemd/impostor-worker@.service DESTINATION /lib/systemd/system COMPONENT worker EXCLUDE_FROM_ALL)

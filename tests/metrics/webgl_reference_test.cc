@@ -1,4 +1,4 @@
-// The dashboard's WebGL2 impostor (web/impostor_gl.js running
+// The dashboard's WebGL2 impostor (the impostor-three package's ImpostorMesh running
 // shaders/impostor_runtime.glsl in headless Chromium on SwiftShader) against
 // the CPU reference renderer (common/runtime/reference_renderer.h) for the
 // same orthographic camera, for every layout: silhouette IoU >= 0.98 and
