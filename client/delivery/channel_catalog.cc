@@ -172,7 +172,7 @@ absl::StatusOr<ResolvedCatalog> ChannelCatalog::Current(bool force_refresh) {
   const auto now = std::chrono::steady_clock::now();
   if (!force_refresh && current_ != nullptr && checked_at_.has_value() &&
       now - *checked_at_ < std::chrono::duration<double>(options_.refresh_seconds)) {
-    return ResolvedCatalog{current_, current_sha256_, false};
+    return ResolvedCatalog{current_, current_sha256_, offline_};
   }
   std::vector<std::string> failures;
   absl::Status denied;
@@ -188,6 +188,7 @@ absl::StatusOr<ResolvedCatalog> ChannelCatalog::Current(bool force_refresh) {
     }
     checked_at_ = now;
     warned_offline_ = false;
+    offline_ = false;
     if (!fetched->has_value()) return ResolvedCatalog{current_, current_sha256_, false};  // 304
     Fetched& f = **fetched;
     etags_[mirror] = f.etag;
@@ -203,6 +204,10 @@ absl::StatusOr<ResolvedCatalog> ChannelCatalog::Current(bool force_refresh) {
   const std::string why = options_.mirrors.empty() ? std::string("no mirror is configured")
                                                    : absl::StrJoin(failures, "; ");
   if (current_ != nullptr) {
+    // Asked again only after refresh_seconds: with a mirror that stalls,
+    // every Get would otherwise wait out its stall first.
+    checked_at_ = now;
+    offline_ = true;
     if (!warned_offline_) {
       SdkLog().warn("event=release_offline channel={} catalog={} reason=\"{}\"", options_.channel,
                          current_sha256_, why);

@@ -62,7 +62,8 @@ class ChannelCatalog {
   // The channel's catalog: the one in memory while younger than
   // refresh_seconds, else asked of the mirrors in order (If-None-Match; a
   // 304 keeps the current one). When no mirror answers, the last good one
-  // (offline = true). Errors: UNAVAILABLE naming every mirror's failure when
+  // (offline = true), and the mirrors are asked again only after
+  // refresh_seconds. Errors: UNAVAILABLE naming every mirror's failure when
   // there is none to fall back to; PERMISSION_DENIED for a catalog whose
   // signature fails (the previous one stays in use only if the refresh
   // fails that way on every mirror); NOT_FOUND when every mirror answers
@@ -95,6 +96,7 @@ class ChannelCatalog {
   std::optional<std::chrono::steady_clock::time_point> checked_at_ ABSL_GUARDED_BY(mu_);
   std::map<std::string, std::string> etags_ ABSL_GUARDED_BY(mu_);  // by mirror
   bool warned_offline_ ABSL_GUARDED_BY(mu_) = false;
+  bool offline_ ABSL_GUARDED_BY(mu_) = false;  // the last refresh found no mirror
 };
 
 }  // namespace impostor::delivery
