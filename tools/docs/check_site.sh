@@ -8,7 +8,9 @@
 #   3. the generated reference is what the code says today: the gRPC page is
 #      rendered again from the protos and the CLI pages from the binaries'
 #      --help, into a temporary folder, and compared with docs/reference/
-#      (without built binaries that part is skipped, saying so).
+#      (without built binaries that part is skipped, saying so);
+#   4. the tutorials' runner markers (<!-- tutorial: ... -->) are well formed
+#      (tools/docs/run_tutorials.py --list; CTest docs_tutorials runs them).
 #
 #   bash tools/docs/check_site.sh [BIN_DIR]      (default build/bin)
 set -uo pipefail
@@ -90,6 +92,14 @@ if [ -x "$bin_dir/impostor" ] && [ -x "$bin_dir/impostor-server" ] && [ -x "$bin
   fi
 else
   echo "docs_site: SKIPPED the CLI reference check: impostor, impostor-server and impostor-worker are not all built in $bin_dir"
+fi
+
+# 4. The tutorials' markers (running them is CTest docs_tutorials)
+if python3 tools/docs/run_tutorials.py --list >"$tmp/tutorials.log" 2>&1; then
+  echo "docs_site: tutorial markers: ok ($(grep -c ' runs\| instead:' "$tmp/tutorials.log") blocks run, $(grep -c SKIPPED "$tmp/tutorials.log") skipped)"
+else
+  cat "$tmp/tutorials.log" >&2
+  fail "a <!-- tutorial: ... --> marker in docs/tutorials/ is wrong (above)"
 fi
 
 exit "$failed"
