@@ -19,7 +19,7 @@ would. What runs and what does not is written in the page itself:
       <!-- tutorial: expect REGEX -->      the block's output (stdout and
                                             stderr) must match REGEX (Python
                                             re, MULTILINE); may repeat
-      <!-- tutorial: timeout SECONDS -->   the block's time limit (default 300)
+      <!-- tutorial: timeout SECONDS -->   the block's time limit (default 180)
 
   An unknown or misplaced marker is an error, so a typo cannot skip a block.
 * Blocks run under `set -euo pipefail`: every command of a block must exit 0
@@ -56,12 +56,12 @@ import sys
 import tempfile
 import time
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 RUN_LANGS = {"sh", "bash", "shell"}
 FENCE = re.compile(r"^(\s*)(```+|~~~+)\s*([^\s`]*)")
 MARKER = re.compile(r"^\s*<!--\s*tutorial:\s*(\w+)\s*(.*?)\s*-->\s*$")
 MARKER_START = re.compile(r"^\s*<!--\s*tutorial\b")
-DEFAULT_TIMEOUT = 300
+DEFAULT_TIMEOUT = 180
 BINARIES = ("impostor", "impostor-server", "impostor-worker")
 ENV_TAG = "IMPOSTOR_TUTORIAL_ROOT"
 
@@ -277,6 +277,8 @@ def busy_ports(blocks):
             continue
         for port in sorted({int(p) for p in LISTEN.findall(b.instead or b.text)} - {0}):
             with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+                # as the server binds: a port whose last connections are in TIME_WAIT is free
+                s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
                 try:
                     s.bind(("127.0.0.1", port))
                 except OSError:
@@ -402,7 +404,7 @@ def main():
     ap.add_argument("--keep", action="store_true", help="keep the temporary root even when every page passed")
     ap.add_argument("pages", nargs="*")
     args = ap.parse_args()
-    args.bin_dir = os.path.abspath(args.bin_dir)
+    args.bin_dir = os.path.realpath(args.bin_dir)
     args.build_dir = os.path.dirname(args.bin_dir)
     args.assets = os.path.abspath(args.assets)
 
