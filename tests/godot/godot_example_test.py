@@ -256,6 +256,79 @@ def check_ious(masks, cameras, label):
     return ious
 
 
+def bake_and_publish(server_bin, cli, model, tmp, procs, release, name, bake_args):
+    """Starts a farm (impostor-server with one local worker on port 0, its
+    data under `tmp`), bakes `model` with `bake_args`, publishes it as
+    `name` on CHANNEL into the release tree `release` and stops the farm.
+    Returns the cache key; Failure naming the step that failed."""
+    farm = Process([server_bin, "--listen", "127.0.0.1:0", "--data", os.path.join(tmp, "farm"),
+                    "--local-workers", "1"], "impostor-server")
+    procs.append(farm)
+    addr = farm.wait_for("listening on", 60).split("listening on", 1)[1].strip()
+    baked = json.loads(run([cli, "bake", model, "--out", os.path.join(tmp, "baked"), "--server", addr,
+                            *bake_args, "--json", "--quiet"], "impostor bake", 300))
+    key = baked["cache_key"]
+    run([cli, "publish", f"{name}={key}", "--channel", CHANNEL, "--out", release, "--server", addr, "--json"],
+        "impostor publish", 120)
+    farm.stop()
+    return key
+
+
+def example_env(tmp):
+    """The environment of the example's runs: Godot's user:// and Mesa's
+    shader cache (shared by the runs) under `tmp`, not the user's home."""
+    env = dict(os.environ)
+    for var in ("XDG_DATA_HOME", "XDG_CONFIG_HOME", "XDG_CACHE_HOME"):
+        env[var] = os.path.join(tmp, "xdg", var.lower())
+        os.makedirs(env[var])
+    env["LC_ALL"] = env["LANG"] = "en_US.UTF-8"  # Godot 3.2 logs an error for locale "C"
+    # (Godot 3.2.3 logs a failed make_dir_recursive when it creates this.)
+    os.makedirs(os.path.join(env["XDG_DATA_HOME"], "godot", "app_userdata", "Impostor example"))
+    return env
+
+
+def run_example(xvfb, godot, project, env, tmp, label, artifacts, example_args):
+    """Runs the example project under xvfb-run with `example_args` (and
+    --out=tmp/out_LABEL); copies its log, result.json and PNGs to
+    artifacts/LABEL. Returns (exit code, result, log text, out dir, artifact
+    dir); Failure when it wrote no result.json."""
+    out = os.path.join(tmp, f"out_{label}")
+    # The X authority file in our directory (-f): xvfb-run then makes no
+    # temporary directory of its own, whose removal can fail and leave
+    # Xvfb running (exit 5, the command's status lost). Godot's status
+    # goes to a file all the same.
+    status_file = os.path.join(tmp, f"status_{label}")
+    auth_file = os.path.join(tmp, f"xauth_{label}")
+    argv = [xvfb, "-a", "-f", auth_file, "-s", "-screen 0 1024x768x24",
+            "sh", "-c", '"$@"; echo $? > "$0"', status_file,
+            godot, "--audio-driver", "Dummy", "--path", project, "--", *example_args, f"--out={out}"]
+    t = time.monotonic()
+    p = subprocess.run(argv, capture_output=True, text=True, timeout=240, env=env)
+    log_text = p.stdout + p.stderr
+    returncode = p.returncode
+    if os.path.exists(status_file):
+        with open(status_file) as f:
+            returncode = int(f.read().strip())
+    stop_strays(auth_file)
+    art = os.path.join(artifacts, label)
+    shutil.rmtree(art, ignore_errors=True)
+    os.makedirs(art)
+    with open(os.path.join(art, "godot.log"), "w") as f:
+        f.write(log_text)
+    result = {}
+    if os.path.exists(os.path.join(out, "result.json")):
+        with open(os.path.join(out, "result.json")) as f:
+            result = json.load(f)
+        for name in ("result.json", "views.png", "scene.png"):
+            if os.path.exists(os.path.join(out, name)):
+                shutil.copy(os.path.join(out, name), art)
+    log(f"{label}: godot exited {returncode} in {time.monotonic() - t:.1f} s, "
+        f"timings {result.get('timings_ms')}")
+    if not result:
+        raise Failure(f"{label}: no result.json (exit {returncode}); log in {art}:\n{log_text[-3000:]}")
+    return returncode, result, log_text, out, art
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin-dir", default=os.path.join(REPO, "build", "bin"))
@@ -296,17 +369,8 @@ def main():
 def run_test(args, tmp, procs, server_bin, cli, model, xvfb):
     t0 = time.monotonic()
     # A farm, a small bake, a published release.
-    farm = Process([server_bin, "--listen", "127.0.0.1:0", "--data", os.path.join(tmp, "farm"),
-                    "--local-workers", "1"], "impostor-server")
-    procs.append(farm)
-    addr = farm.wait_for("listening on", 60).split("listening on", 1)[1].strip()
-    baked = json.loads(run([cli, "bake", model, "--out", os.path.join(tmp, "baked"), "--server", addr,
-                            "--frames", "8", "--resolution", "512", "--json", "--quiet"], "impostor bake", 300))
-    key = baked["cache_key"]
     good = os.path.join(tmp, "mirrors", "good")
-    run([cli, "publish", f"{ASSET}={key}", "--channel", CHANNEL, "--out", good, "--server", addr, "--json"],
-        "impostor publish", 120)
-    farm.stop()
+    key = bake_and_publish(server_bin, cli, model, tmp, procs, good, ASSET, ["--frames", "8", "--resolution", "512"])
     log(f"baked and published {ASSET} = {key} in {time.monotonic() - t0:.1f} s")
 
     # The tampered copy: one byte of albedo_alpha.png's blob flipped.
@@ -335,54 +399,12 @@ def run_test(args, tmp, procs, server_bin, cli, model, xvfb):
     # The example project, its add-on copied in (the symlink resolved).
     project = os.path.join(tmp, "project")
     shutil.copytree(args.example, project, symlinks=False)
-    env = dict(os.environ)
-    # Godot's user:// and Mesa's shader cache (shared by the three runs) in
-    # the temporary directory, not the user's home.
-    for var in ("XDG_DATA_HOME", "XDG_CONFIG_HOME", "XDG_CACHE_HOME"):
-        env[var] = os.path.join(tmp, "xdg", var.lower())
-        os.makedirs(env[var])
-    env["LC_ALL"] = env["LANG"] = "en_US.UTF-8"  # Godot 3.2 logs an error for locale "C"
-    # (Godot 3.2.3 logs a failed make_dir_recursive when it creates this.)
-    os.makedirs(os.path.join(env["XDG_DATA_HOME"], "godot", "app_userdata", "Impostor example"))
+    env = example_env(tmp)
 
     def godot(label, mirrors, cache_args, extra=()):
-        out = os.path.join(tmp, f"out_{label}")
-        # The X authority file in our directory (-f): xvfb-run then makes no
-        # temporary directory of its own, whose removal can fail and leave
-        # Xvfb running (exit 5, the command's status lost). Godot's status
-        # goes to a file all the same.
-        status_file = os.path.join(tmp, f"status_{label}")
-        auth_file = os.path.join(tmp, f"xauth_{label}")
-        argv = [xvfb, "-a", "-f", auth_file, "-s", "-screen 0 1024x768x24",
-                "sh", "-c", '"$@"; echo $? > "$0"', status_file,
-                args.godot, "--audio-driver", "Dummy",
-                "--path", project, "--", f"--mirrors={','.join(mirrors)}", f"--channel={CHANNEL}",
-                f"--name={ASSET}", f"--mesh={model}", f"--out={out}", *cache_args, *extra]
-        t = time.monotonic()
-        p = subprocess.run(argv, capture_output=True, text=True, timeout=240, env=env)
-        log_text = p.stdout + p.stderr
-        returncode = p.returncode
-        if os.path.exists(status_file):
-            with open(status_file) as f:
-                returncode = int(f.read().strip())
-        stop_strays(auth_file)
-        art = os.path.join(args.artifacts, label)
-        shutil.rmtree(art, ignore_errors=True)
-        os.makedirs(art)
-        with open(os.path.join(art, "godot.log"), "w") as f:
-            f.write(log_text)
-        result = {}
-        if os.path.exists(os.path.join(out, "result.json")):
-            with open(os.path.join(out, "result.json")) as f:
-                result = json.load(f)
-            for name in ("result.json", "views.png", "scene.png"):
-                if os.path.exists(os.path.join(out, name)):
-                    shutil.copy(os.path.join(out, name), art)
-        log(f"{label}: godot exited {returncode} in {time.monotonic() - t:.1f} s, "
-            f"timings {result.get('timings_ms')}")
-        if not result:
-            raise Failure(f"{label}: no result.json (exit {returncode}); log in {art}:\n{log_text[-3000:]}")
-        return returncode, result, log_text, out, art
+        return run_example(xvfb, args.godot, project, env, tmp, label, args.artifacts,
+                           [f"--mirrors={','.join(mirrors)}", f"--channel={CHANNEL}", f"--name={ASSET}",
+                            f"--mesh={model}", *cache_args, *extra])
 
     # 1. The tampered mirror first, then the good one; a fresh cache in the
     # add-on's default place, user:// (under XDG_DATA_HOME here).
