@@ -11,6 +11,8 @@
 //   mesh=URL                 the glTF the asset was baked from (without it only impostors are drawn)
 //   forestMesh=instanced|objects|none (instanced)  the mesh forest: one InstancedMesh per
 //                            primitive (what a game would do), one object per tree, or none
+//   reconstruction=depth|parallax|plain, depthOffset=0|1   the impostor material's
+//                            (defaults: what the asset's quality pass measured, and on)
 //   size=PX (512)            canvas side; cameras=AZ,EL;AZ,EL (degrees, 4 radii away);
 //   views=0                  skip the fixed cameras; frames=N (5) timed frames per forest
 //   cache=NAME               the Cache Storage cache (impostor-three's default otherwise)
@@ -46,6 +48,9 @@ const KEEP_IMAGES = q.get('images') === '1';
 const CAMERAS = q.get('views') === '0' ? []
   : (q.get('cameras') || '35,20;80,-25;125,40;170,5;210,-15;255,30;300,65;345,-50').split(';')
     .map((s) => s.split(',').map(Number));
+// The impostor material: unlit albedo, to compare with the unlit mesh.
+const MATERIAL = { output: 'albedo', ...(q.get('reconstruction') ? { reconstruction: q.get('reconstruction') } : {}),
+  ...(q.get('depthOffset') ? { depthOffset: q.get('depthOffset') !== '0' } : {}) };
 const MIRRORS = [...q.getAll('mirror'), ...(q.get('mirrors') || '').split(',')].map((s) => s.trim()).filter(Boolean);
 
 const stage = (name) => { window.impostorExampleStage = name; };
@@ -193,7 +198,7 @@ async function run() {
   const meshScene = new THREE.Scene();
   if (mesh) meshScene.add(mesh);
   const impostorScene = new THREE.Scene();
-  impostorScene.add(new ImpostorMesh(asset, { output: 'albedo' }));
+  impostorScene.add(new ImpostorMesh(asset, MATERIAL));
   const draw = (scene, name) => {
     renderer.clear();
     renderer.render(scene, camera);
@@ -210,7 +215,7 @@ async function run() {
 
   stage('forest');
   const spacing = 2.5 * radius;
-  const forest = new InstancedImpostorMesh(asset, COUNT, { output: 'albedo' });
+  const forest = new InstancedImpostorMesh(asset, COUNT, MATERIAL);
   for (let i = 0; i < COUNT; ++i) forest.setMatrixAt(i, forestMatrix(i, COUNT, spacing));
   forest.computeBoundingSphere();
   const forestScene = new THREE.Scene();

@@ -92,8 +92,18 @@ export class ImpostorMaterial extends ShaderMaterial {
     this._output = v;
   }
 
+  // Off, the program does not write gl_FragDepth at all (another program:
+  // IMPOSTOR_DEPTH_OFFSET undefined), so the GPU may test depth before
+  // shading: for distant forests, where no impostor meets other geometry.
   get depthOffset() { return this.uniforms.impostorDepthOffset.value; }
-  set depthOffset(v) { this.uniforms.impostorDepthOffset.value = Boolean(v); }
+  set depthOffset(v) {
+    const on = Boolean(v);
+    this.uniforms.impostorDepthOffset.value = on;
+    if (on === 'IMPOSTOR_DEPTH_OFFSET' in this.defines) return;
+    if (on) this.defines.IMPOSTOR_DEPTH_OFFSET = 1;
+    else delete this.defines.IMPOSTOR_DEPTH_OFFSET;
+    this.needsUpdate = true;
+  }
 
   // Light uniforms follow the properties at every draw.
   onBeforeRender() {

@@ -130,7 +130,7 @@ export interface ImpostorMaterialParameters extends ShaderMaterialParameters {
   blend?: BlendMode;
   /** Default 'lit'. The last five write raw values for debugging. */
   output?: ImpostorOutput;
-  /** Write the surface point's depth (gl_FragDepth). Default true. */
+  /** Write the surface point's depth (gl_FragDepth). Default true; false compiles the write out, so the GPU may test depth before shading (distant forests). */
   depthOffset?: boolean;
   /** World space, toward the light. Default DEFAULT_LIGHT_DIRECTION. */
   lightDirection?: Vector3;

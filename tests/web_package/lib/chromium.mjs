@@ -16,10 +16,11 @@ export const CHROMIUM_FLAGS = [
   '--no-default-browser-check', '--disable-extensions', '--mute-audio', '--window-size=800,800',
 ];
 
-// Starts Chromium; resolves to a Browser. `deadlineMs` bounds the start.
-export async function launchChromium(executable = '/usr/bin/chromium', deadlineMs = 60000) {
+// Starts Chromium; resolves to a Browser. `deadlineMs` bounds the start;
+// `extraFlags` follow CHROMIUM_FLAGS.
+export async function launchChromium(executable = '/usr/bin/chromium', deadlineMs = 60000, extraFlags = []) {
   const profile = mkdtempSync(join(tmpdir(), 'impostor-three-chromium-'));
-  const child = spawn(executable, [...CHROMIUM_FLAGS, `--user-data-dir=${profile}`, '--remote-debugging-port=0', 'about:blank'],
+  const child = spawn(executable, [...CHROMIUM_FLAGS, ...extraFlags, `--user-data-dir=${profile}`, '--remote-debugging-port=0', 'about:blank'],
     // Its own process group, so close() can end the renderer and GPU processes too.
     { stdio: ['ignore', 'ignore', 'pipe'], detached: true });
   let stderr = '';

@@ -146,7 +146,9 @@ void main() {
   // the rotation part, renormalised.
   vec3 normalWorld = normalize(mat3(vImpostorObjectToWorld) * (s.normal + vec3(0.0, 0.0, 1e-12)));
   vec3 world = (vImpostorObjectToWorld * vec4(impostorSphere.xyz + impostorSphere.w * s.position, 1.0)).xyz;
+#ifdef IMPOSTOR_DEPTH_OFFSET
   gl_FragDepth = impostorDepthOffset ? impostorWindowDepth(world) : gl_FragCoord.z;
+#endif
   int outputMode = impostorMode.w;
   if (outputMode >= ${OUTPUTS.coverage}) {
     // Debug views: the values themselves, no colour management.
