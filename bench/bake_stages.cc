@@ -21,8 +21,8 @@
 
 #include "bench/bench_args.h"
 #include "absl/strings/str_cat.h"
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
 
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 
 Every view of the manifest (direction and up in glTF scene space, the
 bounding sphere's centre and radius) becomes one orthographic camera framing
-the sphere, as the bake's cameras do (common/frame_camera.h), rendered
+the sphere, as the bake's cameras do (common/atlas/frame_camera.h), rendered
 PIXELS x PIXELS with Cycles on the CPU at SAMPLES samples and written as
 PNG into OUT_DIR, one file per view (the bake writes its maps too).
 LIMIT > 0 renders only that many views, spread evenly over the manifest's

@@ -35,8 +35,8 @@
 #include "bench/bench_args.h"
 #include "client/cache/cache_testing.h"
 #include "impostor/cache.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;

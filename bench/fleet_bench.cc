@@ -52,7 +52,7 @@
 #include "bench/bench_args.h"
 #include "tests/delivery/cdn_fleet.h"
 #include "tests/delivery/nginx_process.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;

@@ -36,8 +36,8 @@
 #include <google/protobuf/empty.pb.h>
 
 #include "bench/bench_args.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;

@@ -33,8 +33,8 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_split.h"
 #include "bench/bench_args.h"
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
 
 namespace {

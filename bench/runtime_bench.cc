@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "bench/bench_args.h"
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 #include "common/runtime/reference_renderer.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/bake/bake_outputs.h"

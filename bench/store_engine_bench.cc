@@ -20,10 +20,10 @@
 #include "absl/strings/numbers.h"
 #include "bench/bench_args.h"
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
-#include "server/bake_scheduler.h"
-#include "server/postgres/postgres_job_store.h"
-#include "server/sqlite_job_store.h"
+#include "common/util/sha256.h"
+#include "server/scheduler/bake_scheduler.h"
+#include "server/store/postgres/postgres_job_store.h"
+#include "server/store/sqlite/sqlite_job_store.h"
 #include "tests/support/postgres_instance.h"
 
 namespace {

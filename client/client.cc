@@ -6,15 +6,15 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "client/blob_download.h"
-#include "client/job_convert.h"
-#include "client/mesh_files.h"
-#include "client/mesh_upload.h"
-#include "client/result_fetch.h"
-#include "client/retry.h"
-#include "client/rpc_error.h"
-#include "client/sdk_log.h"
-#include "client/transport.h"
+#include "client/transfer/blob_download.h"
+#include "client/transport/job_convert.h"
+#include "client/transfer/mesh_files.h"
+#include "client/transfer/mesh_upload.h"
+#include "client/transfer/result_fetch.h"
+#include "client/transport/retry.h"
+#include "client/transport/rpc_error.h"
+#include "client/base/sdk_log.h"
+#include "client/transport/transport.h"
 #include "common/error_reason.h"
 
 namespace impostor::sdk {

@@ -73,7 +73,7 @@ if(TARGET impostor_runtime AND TARGET impostor_lod_sdk)
   # libimpostor_runtime.so: the SDK's runtime adapters over common/runtime,
   # and the LOD chain's loading and level selection (impostor/lod.h, also
   # free of network code; whole-archive, as nothing here calls it).
-  add_library(impostor_runtime_shared SHARED ${CMAKE_SOURCE_DIR}/client/runtime.cc)
+  add_library(impostor_runtime_shared SHARED ${CMAKE_SOURCE_DIR}/client/runtime/runtime.cc)
   target_link_libraries(impostor_runtime_shared PRIVATE impostor_runtime
     -Wl,--whole-archive impostor_lod_sdk -Wl,--no-whole-archive)
   target_include_directories(impostor_runtime_shared PUBLIC ${_impostor_includes})
@@ -146,7 +146,7 @@ if(_impostor_export_targets)
     DESTINATION ${CMAKE_INSTALL_DATADIR}/impostor/shaders COMPONENT sdk)
   # The documents the public headers name (share/doc/impostor).
   install(FILES
-      ${CMAKE_SOURCE_DIR}/common/manifest_format.md
+      ${CMAKE_SOURCE_DIR}/common/manifest/manifest_format.md
       ${CMAKE_SOURCE_DIR}/client/cache/cache_layout.md
       ${CMAKE_SOURCE_DIR}/docs/runtime.md
       ${CMAKE_SOURCE_DIR}/docs/ktx2.md

@@ -1,6 +1,6 @@
 # Makes a man page from a binary's own --help and --version, so the page and
 # the help can never disagree (the help is generated from the flag
-# registry, common/flag_help.h). A small help2man that needs nothing but
+# registry, common/flags/flag_help.h). A small help2man that needs nothing but
 # CMake:
 #
 #   cmake -DBINARY=bin/impostor-server -DNAME=impostor-server

@@ -1,7 +1,7 @@
 // Why the server refused a call, as a stable word a program can act on
 // without parsing the message, which is for people and may be reworded.
 // Inside the server the word rides on the absl::Status as a payload; at the
-// service edge ToGrpc (server/grpc_status.h) sends it as the trailing
+// service edge ToGrpc (server/rpc/grpc_status.h) sends it as the trailing
 // metadata `impostor-error-reason`, where every gRPC client can read it
 // (grpcurl prints it too). The C++ SDK puts it in RpcErrorInfo::reason, the
 // Python client in ImpostorError.reason. The words are listed here, in the
@@ -32,7 +32,7 @@ inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
 // RESOURCE_EXHAUSTED from UploadBlob: the server's blob store has no space
 // (disk or quota full). The farm's state, not the blob's: writes succeed
 // again by themselves once space is freed, so a worker waits and retries
-// its result upload as through an outage (worker/worker_loop.cc).
+// its result upload as through an outage (worker/worker_calls.cc).
 inline constexpr char kStoreFull[] = "STORE_FULL";
 // RESOURCE_EXHAUSTED from any call that writes the server's database (jobs,
 // tokens, quota ledger: SubmitBake, LeaseJob, ReportProgress, CompleteJob,
@@ -41,7 +41,7 @@ inline constexpr char kStoreFull[] = "STORE_FULL";
 // farm's state, not the request's: nothing was written, and the same call
 // succeeds once space is freed, so a worker keeps its lease and retries
 // CompleteJob, FailJob and ReleaseJob as through an outage
-// (worker/worker_loop.cc); a client may wait and call again.
+// (worker/worker_calls.cc); a client may wait and call again.
 inline constexpr char kDatabaseFull[] = "DATABASE_FULL";
 // FAILED_PRECONDITION from SubmitBake: one of the mesh's blobs is not in the
 // store (never uploaded, or evicted since the upload): upload it, submit again.

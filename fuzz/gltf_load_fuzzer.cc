@@ -23,7 +23,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/gpu/render_validation.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"

@@ -24,36 +24,36 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
-#include "common/bake_request.h"
-#include "common/flag_help.h"
-#include "common/flag_names.h"
-#include "common/flag_precheck.h"
-#include "common/log_level.h"
+#include "common/request/bake_request.h"
+#include "common/flags/flag_help.h"
+#include "common/flags/flag_names.h"
+#include "common/flags/flag_precheck.h"
+#include "common/util/log_level.h"
 #include "server/http/listen_address.h"
-#include "common/grpc_log.h"
-#include "server/bake_scheduler.h"
-#include "server/blob_store.h"
+#include "common/net/grpc_log.h"
+#include "server/scheduler/bake_scheduler.h"
+#include "server/blobs/blob_store.h"
 #include "server/http/http_frontend.h"
-#include "server/job_store.h"
-#include "server/job_store_factory.h"
+#include "server/store/job_store.h"
+#include "server/store/job_store_factory.h"
 #include "server/server_help.h"
-#include "server/services.h"
-#include "server/serving_tuning.h"
-#include "server/tls_credentials.h"
-#include "server/tls_file_monitor.h"
+#include "server/rpc/services.h"
+#include "server/rpc/serving_tuning.h"
+#include "server/auth/tls_credentials.h"
+#include "server/auth/tls_file_monitor.h"
 #include "server/worker_supervisor.h"
 // Identity and roles (issue 14).
-#include "server/auth_mode.h"
-#include "server/authenticator.h"
-#include "server/authorized_services.h"
-#include "server/call_principals.h"
-#include "server/admin_service.h"
-#include "server/purge_command.h"
-#include "common/keepalive.h"
-#include "server/token_command.h"
-#include "server/token_quotas.h"
-#include "server/token_store.h"
-#include "server/token_store_factory.h"
+#include "server/auth/auth_mode.h"
+#include "server/auth/authenticator.h"
+#include "server/rpc/authorized_services.h"
+#include "server/auth/call_principals.h"
+#include "server/rpc/admin_service.h"
+#include "server/commands/purge_command.h"
+#include "common/net/keepalive.h"
+#include "server/commands/token_command.h"
+#include "server/store/token_quotas.h"
+#include "server/store/token_store.h"
+#include "server/store/token_store_factory.h"
 
 // Defined with the HTTP front end (server/http/http_frontend.cc); its
 // address decides --auth's default too.
@@ -105,7 +105,7 @@ ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 ABSL_FLAG(int64_t, store_eviction_grace_seconds, 600,
           "With --store-max-bytes: uploads younger than this many seconds that no job or result uses yet are "
           "never evicted (0..86400)");
-// Transport security (README "Securing a farm: TLS"; server/tls_credentials.h).
+// Transport security (README "Securing a farm: TLS"; server/auth/tls_credentials.h).
 ABSL_FLAG(std::string, tls_cert, "", "Serve TLS with this certificate chain (PEM, leaf first; needs --tls-key)");
 ABSL_FLAG(std::string, tls_key, "", "Private key of --tls-cert (PEM, unencrypted)");
 ABSL_FLAG(std::string, tls_client_ca, "",
@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
   }
   absl::SetProgramUsageMessage("impostor-server --listen HOST:PORT --data DIR [--local-workers N]");
   impostor::ShowAllFlagsInHelp();
-  // --help and --version are generated from the flag registry (common/flag_help.h).
+  // --help and --version are generated from the flag registry (common/flags/flag_help.h).
   if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::ServerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
   if (auto s = impostor::PrecheckFlags(argc, argv); !s.ok()) return Fail(std::string(s.message()));

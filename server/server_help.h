@@ -1,11 +1,11 @@
 // The --help text of impostor-server: its usage and how its flags are
 // grouped. A flag is listed under the first group with a matching name
-// prefix; one matching none is listed under "Other" (common/flag_help.h), so
+// prefix; one matching none is listed under "Other" (common/flags/flag_help.h), so
 // a new flag always shows up, and belongs here only to get a better heading.
 #ifndef IMPOSTOR_SERVER_SERVER_HELP_H_
 #define IMPOSTOR_SERVER_SERVER_HELP_H_
 
-#include "common/flag_help.h"
+#include "common/flags/flag_help.h"
 
 namespace impostor {
 

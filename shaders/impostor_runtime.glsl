@@ -4,13 +4,13 @@
 // virtual_plane, reference_renderer) and the SDK header
 // client/include/impostor/runtime.h, with the same conventions and the same
 // tie-breaking; tests/runtime checks this file against the C++ on the GPU.
-// Conventions (common/manifest_format.md): object space, +Y up; a view
+// Conventions (common/manifest/manifest_format.md): object space, +Y up; a view
 // direction points from the bounding sphere's centre TOWARD the camera;
 // frame (col, row) is the grid vertex uv = (col, row) / (frames - 1) of the
 // (hemi-)octahedral square; its tile starts at (col, row) * tile_size pixels
 // from the atlas's top-left corner; positions below are relative to the
 // sphere centre in units of its radius ((p - centre) / radius).
-// The other layouts (common/atlas_layout.h): azimuth-elevation (N x N,
+// The other layouts (common/atlas/atlas_layout.h): azimuth-elevation (N x N,
 // column c at azimuth c * 2 pi / N, row r at elevation 90 - (r + 0.5) * 180
 // / N degrees), ring-top (K ring views at elevation 0, then one from above)
 // and billboard (ring-top with K = 8); frame i's tile is (i % side, i /
@@ -66,7 +66,7 @@ const float IMPOSTOR_EXTRUSION_DEPTH = 2.0 * IMPOSTOR_DEPTH_AGREEMENT;  // kExtr
 const float IMPOSTOR_EXTRUSION_CONFIRM = 0.75;                         // kExtrusionConfirm
 const float IMPOSTOR_EXTRUSION_CONFIRM_RAMP = 0.25;                    // kExtrusionConfirmRamp
 
-// ---- direction <-> layout square (common/atlas_layout.cc) ----
+// ---- direction <-> layout square (common/atlas/atlas_layout.cc) ----
 
 float impostorSignNotZero(float v) { return v < 0.0 ? -1.0 : 1.0; }
 
@@ -218,7 +218,7 @@ ImpostorBlend impostorBlendFramesGrid(int layout_kind, int frames, vec3 view_dir
   return b;
 }
 
-// ---- every layout by frame index (common/atlas_layout.cc) ----
+// ---- every layout by frame index (common/atlas/atlas_layout.cc) ----
 
 struct ImpostorLayout {
   int kind;        // IMPOSTOR_LAYOUT_*
@@ -409,7 +409,7 @@ ImpostorBlend impostorBlendFrames(int layout_kind, int frames, vec3 view_dir, in
   return impostorBlendFramesLayout(impostorLayoutFor(layout_kind, frames), view_dir, mode);
 }
 
-// ---- bake cameras (common/frame_camera.cc) ----
+// ---- bake cameras (common/atlas/frame_camera.cc) ----
 
 vec3 impostorCameraUp(vec3 d) {
   const vec3 world_up = vec3(0.0, 1.0, 0.0);

@@ -1,6 +1,6 @@
 // What the result page says about a product besides its atlas: the quality
 // figures the cards and surfels bakes measure for themselves (manifest
-// cards.quality, surfels.quality; common/manifest_format.md), the note shown
+// cards.quality, surfels.quality; common/manifest/manifest_format.md), the note shown
 // where the viewer has nothing to draw, and which level of a LOD chain the
 // viewer draws. Kept apart from result.js so each product's wording is in
 // one place.

@@ -1,6 +1,6 @@
 // Texture-array results (`texture_array`, `impostor bake --array`): each map
 // is a strip one tile wide, layer i (= view i) at rows [i × tile, (i + 1) ×
-// tile) (common/manifest_format.md). The viewer's material (impostor-three)
+// tile) (common/manifest/manifest_format.md). The viewer's material (impostor-three)
 // lays a strip out as the atlas before drawing; the atlas panel shows it the
 // same way through the package's own mapping, so the panel's tiles are the
 // ones the viewer samples.

@@ -9,7 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 #include "worker/scratch_file.h"
 #include "worker/scratch_shortage.h"
 

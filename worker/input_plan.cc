@@ -6,7 +6,7 @@
 #include <string>
 #include <utility>
 
-#include "common/input_paths.h"
+#include "common/request/input_paths.h"
 
 namespace impostor {
 namespace {

@@ -17,15 +17,15 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
-#include "common/flag_help.h"
-#include "common/flag_names.h"
-#include "common/flag_precheck.h"
-#include "common/log_level.h"
-#include "common/grpc_log.h"
-#include "common/keepalive.h"
-#include "common/server_list.h"
-#include "common/tls_channel.h"
-#include "common/token_source.h"
+#include "common/flags/flag_help.h"
+#include "common/flags/flag_names.h"
+#include "common/flags/flag_precheck.h"
+#include "common/util/log_level.h"
+#include "common/net/grpc_log.h"
+#include "common/net/keepalive.h"
+#include "common/net/server_list.h"
+#include "common/net/tls_channel.h"
+#include "common/net/token_source.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 #include "common/worker_exit_codes.h"
@@ -81,7 +81,7 @@ std::string EnvOrEmpty(const char* name) {
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("impostor-worker --server HOST:PORT");
   impostor::ShowAllFlagsInHelp();
-  // --help and --version are generated from the flag registry (common/flag_help.h).
+  // --help and --version are generated from the flag registry (common/flags/flag_help.h).
   if (auto status = impostor::HandleHelpAndVersion(argc, argv, impostor::WorkerHelp())) return *status;
   impostor::UnderscoreFlagNames(argc, argv);
   if (auto s = impostor::PrecheckFlags(argc, argv); !s.ok()) {

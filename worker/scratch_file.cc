@@ -7,7 +7,7 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
-#include "common/disk_space.h"
+#include "common/util/disk_space.h"
 #include "worker/scratch_shortage.h"
 
 namespace impostor {

@@ -7,7 +7,7 @@
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
-#include "common/disk_space.h"
+#include "common/util/disk_space.h"
 
 namespace impostor {
 namespace {

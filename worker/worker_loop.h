@@ -27,7 +27,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
-#include "common/failover_channel.h"
+#include "common/net/failover_channel.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/worker_service.grpc.pb.h"
 #include "worker/gpu/atlas_renderer.h"
@@ -38,9 +38,9 @@ namespace impostor {
 
 struct WorkerOptions {
   // HOST:PORT of impostor-server, or the comma list of several replicas
-  // of one farm (common/server_list.h; checked by main): leases, heartbeats
+  // of one farm (common/net/server_list.h; checked by main): leases, heartbeats
   // and transfers go to one replica and move on to the next when a call
-  // fails with UNAVAILABLE or times out (common/failover_channel.h).
+  // fails with UNAVAILABLE or times out (common/net/failover_channel.h).
   std::string server = "localhost:50051";
   std::string worker_id;                   // unique per process
   // Per-job folders go here. A job's inputs are measured against this
@@ -70,7 +70,7 @@ struct WorkerOptions {
   // How long the server may stay unreachable before Run gives up
   // (UNAVAILABLE, the process exits non-zero). Default 300; range 1..86400.
   int max_outage_seconds = 300;
-  // HTTP/2 keepalive of calls in flight (common/keepalive.h; issue 15):
+  // HTTP/2 keepalive of calls in flight (common/net/keepalive.h; issue 15):
   // an input download or result upload over a link that died without a
   // reset fails after about keepalive + min(keepalive, 10) s and is retried
   // on the next replica, instead of waiting out its 10-minute deadline.
@@ -92,14 +92,14 @@ struct WorkerOptions {
   // known point of a bake. Empty = off. Set from
   // $IMPOSTOR_WORKER_TEST_PAUSE_FILE.
   std::filesystem::path test_pause_file;
-  // Transport security of the channel to `server` (common/tls_channel.h,
+  // Transport security of the channel to `server` (common/net/tls_channel.h,
   // from --tls-ca/--tls-cert/--tls-key). Null = plaintext.
   std::shared_ptr<grpc::ChannelCredentials> channel_credentials;
   // --tls-server-name: the name the server's certificate must carry when it
   // differs from the host in `server`. Empty = that host.
   std::string tls_server_name;
   // --tls-ca's path ('' = plaintext), for explaining a failed handshake
-  // (common/tls_peer_check.h); the credentials above hold its contents.
+  // (common/net/tls_peer_check.h); the credentials above hold its contents.
   std::string tls_ca_file;
   // Bearer token sent on every call (issue 14); empty = none (a server with
   // --auth none).
@@ -145,7 +145,7 @@ class WorkerLoop {
   // tried since the last answer is now current.
   grpc::Status CallServer(const ChannelCall& call, bool* try_next_now = nullptr);
   // Why the current server cannot be reached, as a sentence naming the fix
-  // (common/connect_error.h), from gRPC's message for the failed call.
+  // (common/net/connect_error.h), from gRPC's message for the failed call.
   std::string ExplainUnreachable(const std::string& grpc_message) const;
   // Runs `call` (through CallServer) until it answers something other than
   // UNAVAILABLE or DEADLINE_EXCEEDED (a server that cannot answer now, e.g.

@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
-#include "client/local_io_error.h"
-#include "common/sha256.h"
+#include "client/base/local_io_error.h"
+#include "common/util/sha256.h"
 
 namespace impostor::sdk {
 namespace {

@@ -8,9 +8,9 @@
 #include "absl/strings/str_cat.h"
 #include "client/delivery/catalog_signature.h"
 #include "client/delivery/release_paths.h"
-#include "common/keepalive.h"
-#include "common/server_list.h"
-#include "common/tls_files.h"
+#include "common/net/keepalive.h"
+#include "common/net/server_list.h"
+#include "common/net/tls_files.h"
 
 namespace impostor::sdk {
 

@@ -8,7 +8,7 @@
 
 #include "absl/status/statusor.h"
 #include "client/cache/partial_download.h"
-#include "client/transport.h"
+#include "client/transport/transport.h"
 #include "impostor/cache.h"
 
 namespace impostor::sdk {

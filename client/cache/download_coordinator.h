@@ -30,7 +30,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "client/retry.h"
+#include "client/transport/retry.h"
 #include "impostor/cache.h"
 
 namespace impostor::sdk {

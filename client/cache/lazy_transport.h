@@ -15,7 +15,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "client/transport.h"
+#include "client/transport/transport.h"
 
 namespace impostor::sdk {
 

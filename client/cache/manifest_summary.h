@@ -16,7 +16,7 @@ struct ManifestSummary {
   std::string product = "atlas";  // absent in manifests older than products: an atlas
   uint32_t view_count = 0;        // length of `views` (0 for cards and surfels)
   // The maps are texture arrays (BakeParameters.texture_array): layer strips
-  // one tile wide, one tile per view, not atlases (common/manifest_format.md).
+  // one tile wide, one tile per view, not atlases (common/manifest/manifest_format.md).
   bool texture_array = false;
 };
 

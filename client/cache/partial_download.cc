@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "client/blob_download.h"
-#include "client/local_io_error.h"
-#include "client/sdk_log.h"
-#include "common/disk_space.h"
-#include "common/sha256.h"
+#include "client/transfer/blob_download.h"
+#include "client/base/local_io_error.h"
+#include "client/base/sdk_log.h"
+#include "common/util/disk_space.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
 
 namespace impostor::sdk {

@@ -27,8 +27,8 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "client/transport.h"
-#include "common/sha256.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor::sdk {

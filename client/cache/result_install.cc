@@ -18,11 +18,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "client/local_io_error.h"
-#include "client/result_fetch.h"
-#include "client/rpc_error.h"
-#include "client/sdk_log.h"
-#include "common/manifest_json.h"
+#include "client/base/local_io_error.h"
+#include "client/transfer/result_fetch.h"
+#include "client/transport/rpc_error.h"
+#include "client/base/sdk_log.h"
+#include "common/manifest/manifest_json.h"
 
 namespace impostor::sdk {
 namespace {

@@ -21,7 +21,7 @@
 #include "client/cache/cache_layout.h"
 #include "client/cache/entry_lock.h"
 #include "client/cache/partial_download.h"
-#include "client/transport.h"
+#include "client/transport/transport.h"
 
 namespace impostor::sdk {
 

@@ -7,8 +7,8 @@
 #include "client/cli/commands.h"
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
-#include "client/transport.h"
-#include "common/log_escape.h"
+#include "client/transport/transport.h"
+#include "common/util/log_escape.h"
 
 namespace impostor::cli {
 

@@ -46,8 +46,8 @@
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "client/cli/quota_refusal.h"
-#include "client/job_convert.h"
-#include "common/bake_request.h"
+#include "client/transport/job_convert.h"
+#include "common/request/bake_request.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {

@@ -8,9 +8,9 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
-#include "common/keepalive.h"
-#include "common/server_list.h"
+#include "common/util/sha256.h"
+#include "common/net/keepalive.h"
+#include "common/net/server_list.h"
 
 namespace impostor::cli {
 namespace {

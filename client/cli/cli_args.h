@@ -32,7 +32,7 @@ inline constexpr double kBakeOutageSeconds = 300;
 inline constexpr double kInteractiveOutageSeconds = 30;
 
 // --lod-pixel-error's range: the server's (kMinLodPixelError and
-// kMaxLodPixelError in common/lod_parameters.h, which this library cannot
+// kMaxLodPixelError in common/request/lod_parameters.h, which this library cannot
 // include; tests/batch/lod_pixel_error_request_test.cc keeps them equal).
 inline constexpr float kLodPixelErrorMin = 0.1f;
 inline constexpr float kLodPixelErrorMax = 16.0f;

@@ -7,7 +7,7 @@
 #include "client/cli/connection_options.h"
 #include "client/cli/output.h"
 #include "client/cli/progress_printer.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 #include "impostor/client.h"
 
 namespace impostor::cli {

@@ -14,9 +14,9 @@
 #include "client/cli/cli_args.h"
 #include "client/cli/commands.h"
 #include "client/cli/output.h"
-#include "common/grpc_log.h"
-#include "common/tls_files.h"
-#include "common/token_source.h"
+#include "common/net/grpc_log.h"
+#include "common/net/tls_files.h"
+#include "common/net/token_source.h"
 #include "impostor/log.h"
 
 namespace {

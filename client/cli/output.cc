@@ -10,7 +10,7 @@
 #include "client/cli/batch_report.h"
 #include "client/cli/cli_args.h"
 #include "client/cli/flag_terms.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 
 namespace impostor::cli {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_format.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 
 namespace impostor::cli {
 

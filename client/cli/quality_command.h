@@ -1,6 +1,6 @@
 // The quality report of a baked atlas, as the `impostor` tool prints it:
 // read from the manifest.json a fetch wrote (its "quality" block, see
-// common/manifest_format.md). Used by `impostor quality KEY` and after
+// common/manifest/manifest_format.md). Used by `impostor quality KEY` and after
 // `impostor bake`. Thread-compatible; writes only to stdout/stderr.
 #ifndef IMPOSTOR_CLIENT_CLI_QUALITY_COMMAND_H_
 #define IMPOSTOR_CLIENT_CLI_QUALITY_COMMAND_H_

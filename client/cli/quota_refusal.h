@@ -5,7 +5,7 @@
 //
 // The server names the quota in its error reason (common/error_reason.h);
 // servers before the reasons said it only in their message
-// (server/token_quotas.cc, server/bake_scheduler.cc), so without a reason
+// (server/store/token_quotas.cc, server/scheduler/bake_scheduler_submit.cc), so without a reason
 // these prefixes of that wording decide:
 //   "pending jobs of token 'ci': 20 queued or running, the limit per token
 //    is 20; retry once some finish"          -> kOwnJobs

@@ -16,10 +16,10 @@
 #include "client/delivery/catalog.h"
 #include "client/delivery/publisher.h"
 #include "client/delivery/release_paths.h"
-#include "client/local_io_error.h"
-#include "client/rpc_error.h"
-#include "client/transport.h"
-#include "common/sha256.h"
+#include "client/base/local_io_error.h"
+#include "client/transport/rpc_error.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
 #include "impostor/cache.h"
 
 namespace impostor::cli {

@@ -7,8 +7,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/delivery/release_paths.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "nlohmann/json.hpp"
 
 namespace impostor::delivery {

@@ -9,7 +9,7 @@
 #include "absl/strings/string_view.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor::delivery {
 namespace {

@@ -7,12 +7,12 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "client/atomic_file.h"
+#include "client/base/atomic_file.h"
 #include "client/delivery/http_get.h"
 #include "client/delivery/mirror_blob.h"
 #include "client/delivery/release_paths.h"
-#include "client/sdk_log.h"
-#include "common/sha256.h"
+#include "client/base/sdk_log.h"
+#include "common/util/sha256.h"
 
 namespace impostor::delivery {
 namespace {

@@ -27,7 +27,7 @@
 #include "absl/status/statusor.h"
 #include "client/delivery/catalog.h"
 #include "client/delivery/catalog_signature.h"
-#include "client/retry.h"
+#include "client/transport/retry.h"
 
 namespace impostor::delivery {
 

@@ -15,7 +15,7 @@
 #include <string_view>
 
 #include "absl/status/statusor.h"
-#include "client/retry.h"
+#include "client/transport/retry.h"
 
 namespace impostor::delivery {
 

@@ -15,8 +15,8 @@
 
 #include "absl/strings/string_view.h"
 #include "absl/status/status.h"
-#include "client/retry.h"
-#include "common/sha256.h"
+#include "client/transport/retry.h"
+#include "common/util/sha256.h"
 
 namespace impostor::delivery {
 

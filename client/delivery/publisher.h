@@ -21,7 +21,7 @@
 
 #include "absl/strings/string_view.h"
 #include "absl/status/statusor.h"
-#include "client/transport.h"
+#include "client/transport/transport.h"
 
 namespace impostor::delivery {
 

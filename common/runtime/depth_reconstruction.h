@@ -66,7 +66,7 @@
 #include <glm/vec3.hpp>
 
 #include "absl/status/statusor.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "common/runtime/virtual_plane.h"
 
 namespace impostor {

@@ -4,7 +4,7 @@
 // reference shader shaders/impostor_runtime.glsl.
 //
 // The view direction is in object space: the unit vector from the bounding
-// sphere's centre toward the camera (as in common/atlas_layout.h). Its grid
+// sphere's centre toward the camera (as in common/atlas/atlas_layout.h). Its grid
 // position g = DirectionToGrid(layout, frames, direction) lies in the grid
 // quad with corners
 //   c0 = (x0, y0), c1 = (x0+1, y0), c2 = (x0, y0+1), c3 = (x0+1, y0+1),
@@ -29,7 +29,7 @@
 // frame 0 with weight 1.
 //
 // The other layouts (BlendFrames(const ViewLayout&, ...)) use their own grids
-// (common/atlas_layout.h). Azimuth and elevation are computed as
+// (common/atlas/atlas_layout.h). Azimuth and elevation are computed as
 //   az = atan2(d.x, d.z) wrapped into [0, 2 pi),  el = atan2(d.y, |d.xz|)
 // (the same angles as DirectionToAzimuthElevation, but well conditioned near
 // the poles; az = 0 on the Y axis itself).
@@ -77,7 +77,7 @@
 #include <glm/vec3.hpp>
 
 #include "absl/status/statusor.h"
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 
 namespace impostor {
 

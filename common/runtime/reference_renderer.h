@@ -58,8 +58,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "common/atlas_layout.h"
-#include "common/frame_camera.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/atlas/frame_camera.h"
 #include "common/runtime/depth_reconstruction.h"
 #include "common/runtime/frame_blend.h"
 

@@ -52,7 +52,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
-#include "common/manifest_json.h"
+#include "common/manifest/manifest_json.h"
 #include "worker/output/map_writer.h"
 
 namespace impostor::example {

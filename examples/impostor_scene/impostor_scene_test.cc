@@ -22,8 +22,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/atlas_layout.h"
-#include "common/bake_request.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/request/bake_request.h"
 #include "examples/impostor_scene/baked_impostor.h"
 #include "examples/impostor_scene/scene_renderer.h"
 #include "worker/bake/atlas_bake.h"

@@ -1,7 +1,7 @@
 """Blob transfer: uploading what the store lacks of some models (as
-client/mesh_upload.cc) and downloading a blob to a file, resumed at the byte
+client/transfer/mesh_upload.cc) and downloading a blob to a file, resumed at the byte
 offset after a break and verified against its digest (as
-client/blob_download.cc)."""
+client/transfer/blob_download.cc)."""
 from __future__ import annotations
 
 import hashlib
@@ -23,7 +23,7 @@ from .v1 import types_pb2 as pb
 # watchdog sees progress only when the link has taken a whole message, so a
 # message must cross the slowest link well within rpc_timeout_seconds: a
 # 1 MiB one needs 87 s at 12 KB/s, a 64 KiB one 5 s (as the C++ SDK's
-# kUploadChunkBytes, client/blob_upload.h).
+# kUploadChunkBytes, client/transfer/blob_upload.h).
 UPLOAD_CHUNK_BYTES = 64 << 10
 MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
 
@@ -106,7 +106,7 @@ def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> "List[Un
     FindMissingBlobs per 10,000 blobs). Returns each model's UploadStats (an
     upload counts for the first model that has the blob), or the error of a
     blob of it that the server refused (RESOURCE_EXHAUSTED on a full disk,
-    ...): the other models go on, as in the C++ SDK (client/mesh_upload.h).
+    ...): the other models go on, as in the C++ SDK (client/transfer/mesh_upload.h).
     Raises ImpostorError when FindMissingBlobs fails or an upload fails for
     the caller or the connection."""
     blobs: List[MeshFile] = []

@@ -1,6 +1,6 @@
 """Why a channel could not reach an impostor server, as a sentence that names
 the fix, from gRPC's message for the failed call: the Python twin of
-common/connect_error.cc (keep the two in step)."""
+common/net/connect_error.cc (keep the two in step)."""
 from __future__ import annotations
 
 from typing import Callable, Optional, Tuple

@@ -1,5 +1,5 @@
 """The files of a glTF model: the entry file and every buffer and image it
-refers to by relative URI (the Python twin of client/mesh_files.cc), and
+refers to by relative URI (the Python twin of client/transfer/mesh_files.cc), and
 their digests."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Retries and outage handling, the same policy as the C++ SDK (client/retry.cc,
-client/connection_monitor.h).
+"""Retries and outage handling, the same policy as the C++ SDK (client/transport/retry.cc,
+client/transport/connection_monitor.h).
 
 A call that failed with UNAVAILABLE on one of several addresses is tried at
 once on the next one while some address has not failed since the last answer

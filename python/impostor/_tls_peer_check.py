@@ -1,5 +1,5 @@
 """Why a TLS server's certificate fails verification, in words: the Python
-twin of common/tls_peer_check.cc (keep the sentences in step). gRPC reports
+twin of common/net/tls_peer_check.cc (keep the sentences in step). gRPC reports
 every verification failure as "certificate verify failed", whether the
 certificate expired, is not valid yet, comes from another CA or does not
 carry the name dialled; the fixes differ (renew it on the server, fix a
@@ -236,5 +236,5 @@ def _peer_facts_stdlib(der: bytes) -> _PeerFacts:
 
 
 def _format_utc(unix_seconds: int) -> str:
-    """common/tls_files.h's FormatUtc."""
+    """common/net/tls_files.h's FormatUtc."""
     return time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(unix_seconds))

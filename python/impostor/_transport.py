@@ -1,9 +1,9 @@
 """The gRPC side of the Client: the channels, their credentials and metadata,
 and every RPC with the retry policy applied (the Python twin of
-client/transport.cc). The rest of the package never sees a grpc.RpcError.
+client/transport/transport.cc). The rest of the package never sees a grpc.RpcError.
 
 Several addresses ("host1:port,host2:port", the C++ SDK's --server lists,
-common/server_list.h) give one channel each, as common/failover_channel.h
+common/net/server_list.h) give one channel each, as common/net/failover_channel.h
 does: calls stick to the current address while it answers; a call that
 fails with UNAVAILABLE (or, with several addresses, DEADLINE_EXCEEDED) moves
 every later call on to the next address, and is tried there at once (without backoff) while some address has not failed
@@ -29,7 +29,7 @@ _MAX_RECEIVE_BYTES = 64 << 20
 # Linux's largest TCP send buffer by default (net.ipv4.tcp_wmem), which a
 # loopback connection reaches at once and a real uplink on a deep queue
 # approaches: an upload's last bytes may sit there, unseen, until they cross
-# (client/transport.cc's kMaxBytesTheLinkHolds).
+# (client/transport/transport.cc's kMaxBytesTheLinkHolds).
 _MAX_BYTES_THE_LINK_HOLDS = 4 << 20
 _MAX_OUTAGE_SECONDS = 86400.0
 # gRPC's default reconnect backoff grows to 120 s, so a server back after a
@@ -62,7 +62,7 @@ def _reached_server(error: grpc.RpcError) -> bool:
 
 
 def keepalive_options(keepalive_seconds: int) -> List[Tuple[str, Any]]:
-    """The C++ SDK's keepalive policy (common/keepalive.h): while a call is in
+    """The C++ SDK's keepalive policy (common/net/keepalive.h): while a call is in
     flight, ping after `keepalive_seconds` of quiet and give the connection up
     when no answer comes within min(keepalive_seconds, 10) s, so a watch over
     a link that died without a reset fails over in seconds. No pings on an
@@ -123,7 +123,7 @@ def _health_check(channel: grpc.Channel) -> Any:
 
 
 class _StallWatch:
-    """The watchdog of one blob stream (the Python twin of client/transport.cc's
+    """The watchdog of one blob stream (the Python twin of client/transport/transport.cc's
     StallWatch): says when a stream has made no progress for a step's time
     limit, rpc_timeout_seconds unless the step says otherwise. gRPC has no
     deadline per message, and a deadline on the whole call would cut a slow
@@ -460,7 +460,7 @@ class Transport:
             # A replica that accepts connections but never answers (hung,
             # stopped, its host overloaded) says nothing else; with several
             # addresses the next one gets the retry (the C++ SDK does the
-            # same, common/failover_channel.h). Not an outage: the server
+            # same, common/net/failover_channel.h). Not an outage: the server
             # may be fine and the call merely slow.
             converted.failover_now = self._fail_over()
         elif converted.code not in (grpc.StatusCode.DEADLINE_EXCEEDED, grpc.StatusCode.CANCELLED):

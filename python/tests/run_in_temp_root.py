@@ -1,7 +1,7 @@
 """CTest wrapper of the Python and Blender tests (python/CMakeLists.txt): runs
 one command with a temporary root of its own, so a passing test leaves
 nothing in /tmp (the Python twin of ScratchRoot() in
-tests/integration/server_process.cc).
+tests/support/server_process.cc).
 
 The root is a new folder under $TMPDIR (else /tmp), made like /tmp itself
 (mode 1777: the throwaway PostgreSQL server runs as the `postgres` user and

@@ -108,7 +108,7 @@ def refused_certs(pki: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 # gRPC says "certificate verify failed" (or, for the name, "Peer name ... is
 # not in peer certificate") for each; the client says which and what to fix,
-# in common/tls_peer_check.cc's words.
+# in common/net/tls_peer_check.cc's words.
 REFUSED = [
     ("expired", "localhost",
      "the server's certificate expired on 2020-01-02 00:00:00 UTC; it must be renewed on the server "

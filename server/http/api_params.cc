@@ -5,8 +5,8 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
-#include "common/utf8.h"
+#include "common/util/sha256.h"
+#include "common/util/utf8.h"
 
 namespace impostor {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
-#include "server/job_store.h"
+#include "server/store/job_store.h"
 
 namespace impostor {
 

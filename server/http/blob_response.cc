@@ -5,7 +5,7 @@
 #include <string_view>
 
 #include "absl/strings/str_cat.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 #include "server/http/byte_range.h"
 
 namespace impostor {

@@ -34,7 +34,7 @@
 #include <httplib.h>
 
 #include "absl/status/status.h"
-#include "server/blob_store.h"
+#include "server/blobs/blob_store.h"
 
 namespace impostor {
 

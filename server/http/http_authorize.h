@@ -13,8 +13,8 @@
 
 #include <string>
 
-#include "server/authenticator.h"
-#include "server/bake_scheduler.h"
+#include "server/auth/authenticator.h"
+#include "server/scheduler/bake_scheduler.h"
 
 namespace impostor {
 

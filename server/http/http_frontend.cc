@@ -8,13 +8,13 @@
 
 #include "absl/flags/flag.h"
 #include "absl/strings/str_cat.h"
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 #include "server/http/api_params.h"
 #include "server/http/blob_response.h"
 #include "server/http/bounded_http_server.h"
 #include "server/http/impostor_runtime_glsl.h"  // generated
 #include "server/http/http_authorize.h"
-#include "server/loopback_host.h"
+#include "server/auth/loopback_host.h"
 #include "server/http/login_page.h"
 #include "server/http/json_api.h"
 #include "server/http/release_response.h"

@@ -33,9 +33,9 @@
 #include <grpcpp/support/server_interceptor.h>
 
 #include "absl/status/statusor.h"
-#include "server/authenticator.h"
-#include "server/bake_scheduler.h"
-#include "server/blob_store.h"
+#include "server/auth/authenticator.h"
+#include "server/scheduler/bake_scheduler.h"
+#include "server/blobs/blob_store.h"
 #include "server/http/http_authorize.h"
 #include "server/http/listen_address.h"
 #include "server/http/release_files.h"

@@ -6,7 +6,7 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 
-#include "server/attempt_history.h"
+#include "server/store/attempt_history.h"
 #include "server/http/api_params.h"
 
 namespace impostor {

@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/bake_scheduler.h"
+#include "server/scheduler/bake_scheduler.h"
 #include "server/http/http_authorize.h"
 #include "server/metrics/farm_metrics.h"
 

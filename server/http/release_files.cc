@@ -14,8 +14,8 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
-#include "common/log_escape.h"
-#include "common/sha256.h"
+#include "common/util/log_escape.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

@@ -8,8 +8,8 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "common/log_escape.h"
-#include "common/sha256.h"
+#include "common/util/log_escape.h"
+#include "common/util/sha256.h"
 #include "server/http/byte_range.h"
 #include "server/http/json_api.h"
 

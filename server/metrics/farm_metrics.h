@@ -19,10 +19,10 @@
 #include <string>
 
 #include "absl/base/thread_annotations.h"
-#include "server/bake_scheduler.h"
-#include "server/blob_store.h"
+#include "server/scheduler/bake_scheduler.h"
+#include "server/blobs/blob_store.h"
 #include "server/metrics/prometheus_text.h"
-#include "server/scheduler_observer.h"
+#include "server/scheduler/scheduler_observer.h"
 
 namespace impostor {
 

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/gpu/shared_renderer_test.h"
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/output/map_writer.h"

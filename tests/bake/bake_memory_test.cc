@@ -28,7 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 #include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/bake_memory_estimate.h"

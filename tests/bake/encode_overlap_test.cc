@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 #include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/atlas_bake.h"
 

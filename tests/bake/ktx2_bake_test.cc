@@ -17,8 +17,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
 #include "tests/gpu/shared_renderer_test.h"
 #include "tests/output/ktx2_test_util.h"
 #include "worker/bake/atlas_bake.h"

@@ -18,7 +18,7 @@
 #include "absl/strings/str_split.h"
 #include <nlohmann/json.hpp>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 namespace {

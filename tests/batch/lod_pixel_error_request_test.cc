@@ -15,9 +15,9 @@
 #include "client/cli/bake_settings.h"
 #include "client/cli/batch_spec.h"
 #include "client/cli/cli_args.h"
-#include "client/job_convert.h"
-#include "common/bake_request.h"
-#include "common/lod_parameters.h"
+#include "client/transport/job_convert.h"
+#include "common/request/bake_request.h"
+#include "common/request/lod_parameters.h"
 
 namespace impostor {
 namespace {

@@ -1,6 +1,6 @@
 // Which SubmitBake refusals bake-batch and bake wait out, and for what: the
 // server's error reason (common/error_reason.h) and, from servers without
-// reasons, its wording (server/token_quotas.cc, server/bake_scheduler.cc).
+// reasons, its wording (server/store/token_quotas.cc, server/scheduler/bake_scheduler_submit.cc).
 #include "client/cli/quota_refusal.h"
 
 #include <string>

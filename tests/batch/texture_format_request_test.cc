@@ -12,9 +12,9 @@
 
 #include "client/cli/batch_spec.h"
 #include "client/cli/cli_args.h"
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
-#include "common/ktx2_encoder_version.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
+#include "common/request/ktx2_encoder_version.h"
 
 namespace impostor {
 namespace {

@@ -16,8 +16,8 @@
 #include "client/cache/cache_testing.h"
 #include "impostor/cache.h"
 #include "impostor/impostor_c.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 namespace {

@@ -22,8 +22,8 @@
 #include "impostor/cache.h"
 #include "impostor/client.h"
 #include "impostor/log.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

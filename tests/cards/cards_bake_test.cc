@@ -12,8 +12,8 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
 #include "tests/cards/card_geometry.h"
 #include "tests/cards/validator.h"
 #include "tests/scene/test_assets.h"

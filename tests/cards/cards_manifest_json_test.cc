@@ -4,7 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "common/manifest_json.h"
+#include "common/manifest/manifest_json.h"
 
 namespace impostor {
 namespace {

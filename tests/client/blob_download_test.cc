@@ -18,11 +18,11 @@
 #include <gtest/gtest.h>
 
 #include "absl/status/status.h"
-#include "client/blob_download.h"
-#include "client/retry.h"
-#include "client/rpc_error.h"
-#include "client/transport.h"
-#include "common/sha256.h"
+#include "client/transfer/blob_download.h"
+#include "client/transport/retry.h"
+#include "client/transport/rpc_error.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 

@@ -273,7 +273,7 @@ TEST(InFlagTerms, TheServersApiNamesReadAsTheFlagsTyped) {
 }
 
 // Every refusal of a field a bake flag sets, as the server words it
-// (common/quality_gate.cc, quality_parameters.cc, texture_format_parameters.cc,
+// (common/request/quality_gate.cc, quality_parameters.cc, texture_format_parameters.cc,
 // layout_parameters.cc), names the flag typed.
 TEST(InFlagTerms, EveryFieldABakeFlagSetsNamesItsFlag) {
   const struct {

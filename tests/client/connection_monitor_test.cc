@@ -1,7 +1,7 @@
 // ConnectionMonitor and the backoff: one event per transition however many
 // threads notice, outages begin only on UNAVAILABLE, and the delays stay
 // within their documented bounds.
-#include "client/connection_monitor.h"
+#include "client/transport/connection_monitor.h"
 
 #include <atomic>
 #include <mutex>
@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "client/retry.h"
+#include "client/transport/retry.h"
 
 namespace impostor::sdk {
 namespace {

@@ -1,4 +1,4 @@
-// The SDK's download against the real AssetService (server/asset_service.cc
+// The SDK's download against the real AssetService (server/rpc/asset_service.cc
 // over a BlobStore) through a TCP proxy that cuts the link mid-stream: what a
 // cut costs is set by the server's ReadBlob message size, since the client
 // keeps whole messages only. The tester's proxy cut links every ~17 s at
@@ -15,13 +15,13 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include "client/blob_download.h"
-#include "client/transport.h"
-#include "common/sha256.h"
+#include "client/transfer/blob_download.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
-#include "server/blob_store.h"
-#include "server/services.h"
-#include "tests/integration/tcp_proxy.h"
+#include "server/blobs/blob_store.h"
+#include "server/rpc/services.h"
+#include "tests/support/tcp_proxy.h"
 
 namespace impostor::sdk {
 namespace {

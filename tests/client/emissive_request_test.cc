@@ -6,7 +6,7 @@
 #include <string>
 
 #include "client/cli/cli_args.h"
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 
 namespace impostor {
 namespace {

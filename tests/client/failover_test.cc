@@ -1,5 +1,5 @@
 // Several head-node replicas behind one client (issue 15): the server list
-// parser (common/server_list.h), and the SDK's failover between in-process
+// parser (common/net/server_list.h), and the SDK's failover between in-process
 // fake replicas: a dead first address, a replica shut down under a
 // connected client, an UNAVAILABLE answer, a watch broken midway; and
 // malformed lists refused by every front door (SDK, cache, C API, CLI).
@@ -18,7 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "client/cli/cli_args.h"
-#include "common/server_list.h"
+#include "common/net/server_list.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
 #include "impostor/impostor_c.h"

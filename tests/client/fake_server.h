@@ -22,7 +22,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"

@@ -16,7 +16,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include "client/transport.h"
+#include "client/transport/transport.h"
 #include "tests/client/fake_server.h"
 
 namespace impostor::sdk {

@@ -1,7 +1,7 @@
 // The client's wording of local I/O errors: a full disk or quota is
 // RESOURCE_EXHAUSTED naming the path and the free space, anything else
 // INTERNAL (the full disk itself: tests/integration/client_disk_full_test.cc).
-#include "client/local_io_error.h"
+#include "client/base/local_io_error.h"
 
 #include <cerrno>
 #include <filesystem>

@@ -1,4 +1,4 @@
-#include "client/mesh_files.h"
+#include "client/transfer/mesh_files.h"
 
 #include <unistd.h>
 

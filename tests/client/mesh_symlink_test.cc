@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "client/cli/cli_args.h"
-#include "client/mesh_files.h"
+#include "client/transfer/mesh_files.h"
 
 namespace impostor::sdk {
 namespace {

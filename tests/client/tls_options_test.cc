@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "client/cli/cli_args.h"
-#include "common/tls_channel.h"
+#include "common/net/tls_channel.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
 #include "impostor/impostor_c.h"

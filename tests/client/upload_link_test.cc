@@ -1,5 +1,5 @@
-// The SDK's upload (client/blob_upload.h) against the real AssetService
-// (server/asset_service.cc over a BlobStore) through links that are slow,
+// The SDK's upload (client/transfer/blob_upload.h) against the real AssetService
+// (server/rpc/asset_service.cc over a BlobStore) through links that are slow,
 // that stop, or that the caller gives up on. Uploads used to have a deadline
 // on the whole stream, rpc_timeout_seconds plus a second per 256 KiB, so a
 // slow uplink failed a large upload that was moving, as DEADLINE_EXCEEDED
@@ -21,16 +21,16 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include "client/blob_upload.h"
-#include "client/mesh_upload.h"
-#include "client/retry.h"
-#include "client/transport.h"
-#include "common/sha256.h"
+#include "client/transfer/blob_upload.h"
+#include "client/transfer/mesh_upload.h"
+#include "client/transport/retry.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
-#include "server/blob_store.h"
-#include "server/services.h"
+#include "server/blobs/blob_store.h"
+#include "server/rpc/services.h"
 #include "tests/client/throttled_link.h"
-#include "tests/integration/tcp_proxy.h"
+#include "tests/support/tcp_proxy.h"
 
 namespace impostor::sdk {
 namespace {

@@ -14,7 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/cache/cache_testing.h"
-#include "tests/cache/published_result.h"
+#include "tests/support/published_result.h"
 
 namespace impostor::testing {
 namespace {

@@ -1,7 +1,7 @@
 // A published release behind nginx, and a fleet of game clients fetching
 // from it: what tests/delivery/nginx_cdn_test.cc and bench/fleet_bench.cc
 // share (issue 40). The release is real: results are put into a real
-// impostor-server without a GPU (tests/cache/published_result.h) and
+// impostor-server without a GPU (tests/support/published_result.h) and
 // published with the real `impostor publish`; the fleet is real SDK Cache
 // objects, one per player, each with its own cache directory.
 //
@@ -21,7 +21,7 @@
 
 #include "absl/status/statusor.h"
 #include "impostor/cache.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 

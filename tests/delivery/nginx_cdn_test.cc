@@ -33,11 +33,11 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 #include "impostor/cache.h"
 #include "tests/delivery/cdn_fleet.h"
 #include "tests/delivery/nginx_process.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

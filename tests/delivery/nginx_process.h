@@ -3,7 +3,7 @@
 // misbehaving edge. Each instance has a directory of its own holding its
 // nginx.conf, pid file, temp and cache directories, error.log and
 // access.log; it runs in the foreground (`daemon off`) in its own process
-// group (tests/integration/server_process.h's ChildProcess: killed with the
+// group (tests/support/server_process.h's ChildProcess: killed with the
 // test, its stderr in a log that is dumped when the test fails), never as a
 // system service, on a 127.0.0.1 port the kernel picked.
 //
@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 

@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 #include "server/http/release_files.h"
 #include "tests/delivery/origin_tree_writer.h"
 

@@ -18,9 +18,9 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 #include "tests/delivery/origin_tree_writer.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/http_test_client.h"
 
 namespace impostor {

@@ -15,7 +15,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor::testing {
 

@@ -1,5 +1,5 @@
 // Releases end to end, without a GPU: results put into a real
-// impostor-server (tests/cache/published_result.h), published with the
+// impostor-server (tests/support/published_result.h), published with the
 // `impostor publish` CLI into a release tree, served by in-process HTTP
 // mirrors that can misbehave (fault_mirror.h), and fetched by asset name
 // through the SDK's cache and the CLI. What each test holds is in its name.
@@ -16,12 +16,12 @@
 
 #include "client/delivery/catalog.h"
 #include "client/delivery/release_paths.h"
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 #include "impostor/cache.h"
 #include "impostor/impostor_c.h"
-#include "tests/cache/published_result.h"
+#include "tests/support/published_result.h"
 #include "tests/delivery/fault_mirror.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 namespace {

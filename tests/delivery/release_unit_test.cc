@@ -18,7 +18,7 @@
 #include "client/delivery/catalog_signature.h"
 #include "client/delivery/publisher.h"
 #include "client/delivery/release_paths.h"
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor::delivery {
 namespace {

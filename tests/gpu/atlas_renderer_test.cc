@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "common/atlas_layout.h"
-#include "common/frame_camera.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/scene/scene.h"
 
 namespace impostor {

@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/output/supersample.h"
 #include "worker/scene/bounding_sphere.h"

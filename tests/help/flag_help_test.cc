@@ -1,7 +1,7 @@
-// The --help generator itself (common/flag_help.h) over flags defined here:
+// The --help generator itself (common/flags/flag_help.h) over flags defined here:
 // grouping by prefix with the "Other" fallback, defaults, wrapping, and
 // which arguments HandleHelpAndVersion answers.
-#include "common/flag_help.h"
+#include "common/flags/flag_help.h"
 
 #include <sstream>
 #include <string>

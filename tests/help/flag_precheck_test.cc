@@ -1,8 +1,8 @@
 // The daemons' command-line check before Abseil parses it
-// (common/flag_precheck.h), over flags defined here, and as the real
+// (common/flags/flag_precheck.h), over flags defined here, and as the real
 // binaries see it: what Abseil would refuse with exit 1 is a usage error,
 // exit 2, naming the flag; what Abseil accepts passes.
-#include "common/flag_precheck.h"
+#include "common/flags/flag_precheck.h"
 
 #include <string>
 #include <vector>
@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/flags/flag.h"
-#include "common/flag_names.h"
-#include "tests/integration/server_process.h"
+#include "common/flags/flag_names.h"
+#include "tests/support/server_process.h"
 
 ABSL_FLAG(int, yy_workers, 1, "How many");
 ABSL_FLAG(bool, yy_isolate, true, "A switch");

@@ -18,7 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "client/cli/cli_args.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 namespace {

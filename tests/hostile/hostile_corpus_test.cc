@@ -21,9 +21,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "client/mesh_files.h"
-#include "common/bake_request.h"
-#include "tests/integration/server_process.h"
+#include "client/transfer/mesh_files.h"
+#include "common/request/bake_request.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

@@ -19,7 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/hostile/hostile_cases.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/hostile/peak_rss.h"
 
 namespace impostor {

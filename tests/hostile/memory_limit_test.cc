@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

@@ -25,7 +25,7 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/integration/tmpfs_mount.h"
 
 namespace impostor {

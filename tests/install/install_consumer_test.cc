@@ -17,8 +17,8 @@
 #include <gtest/gtest.h>
 
 #include "impostor/runtime.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 namespace {

@@ -8,9 +8,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/frame_camera.h"
-#include "common/manifest_json.h"
-#include "tests/integration/server_process.h"
+#include "common/atlas/frame_camera.h"
+#include "common/manifest/manifest_json.h"
+#include "tests/support/server_process.h"
 #include "tests/integration/silhouette.h"
 #include "worker/scene/gltf_loader.h"
 

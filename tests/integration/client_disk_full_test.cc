@@ -16,12 +16,12 @@
 
 #include <gtest/gtest.h>
 
-#include "common/disk_space.h"
-#include "common/sha256.h"
+#include "common/util/disk_space.h"
+#include "common/util/sha256.h"
 #include "impostor/cache.h"
 #include "impostor/impostor_c.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
 #include "tests/integration/tmpfs_mount.h"
 
 namespace impostor {

@@ -16,8 +16,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
-#include "tests/integration/server_process.h"
+#include "common/util/sha256.h"
+#include "tests/support/server_process.h"
 #include "tests/integration/tmpfs_mount.h"
 
 namespace impostor {

@@ -418,13 +418,13 @@ TEST_F(NetnsMultiHost, AQuietWatchOverACutLinkMovesToTheOtherReplica) {
 // about --database-dead-link-seconds (20 s by default), which frees the
 // advisory lock, and the other replica takes maintenance over; the cut
 // replica gives up its own end of the lock rather than hang. Before the
-// dead-link settings (server/postgres/pg_dead_link.h) PostgreSQL kept the
+// dead-link settings (server/store/postgres/pg_dead_link.h) PostgreSQL kept the
 // dead session for the kernel's 2 h of keepalive silence, so nobody swept
 // expired leases that long (checked by running this test without them: the
 // deadline below fails). At the default, like a real deployment.
 TEST_F(NetnsMultiHost, AReplicaCutOffFromTheDatabaseHandsOverMaintenance) {
   // The bigint key of the maintenance lock (PostgresMaintenanceLockKey(),
-  // server/postgres/postgres_job_store.cc): pg_locks shows it as classid
+  // server/store/postgres/postgres_job_store.cc): pg_locks shows it as classid
   // (high 32 bits) and objid (low 32 bits).
   constexpr char kHolder[] =
       "SELECT coalesce(string_agg(host(a.client_addr), ','), 'none') FROM pg_locks l JOIN pg_stat_activity a "

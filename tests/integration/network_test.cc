@@ -28,9 +28,9 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/integration/farm_processes.h"
-#include "tests/integration/result_digest.h"
-#include "tests/integration/server_process.h"
-#include "tests/integration/tcp_proxy.h"
+#include "tests/support/result_digest.h"
+#include "tests/support/server_process.h"
+#include "tests/support/tcp_proxy.h"
 
 namespace impostor {
 namespace {

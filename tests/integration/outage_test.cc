@@ -41,10 +41,10 @@
 #include "client/cache/cache_testing.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
-#include "tests/cache/published_result.h"
-#include "tests/integration/result_digest.h"
-#include "tests/integration/server_process.h"
-#include "tests/integration/tcp_proxy.h"
+#include "tests/support/published_result.h"
+#include "tests/support/result_digest.h"
+#include "tests/support/server_process.h"
+#include "tests/support/tcp_proxy.h"
 
 namespace impostor {
 namespace {

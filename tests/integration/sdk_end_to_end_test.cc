@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
 #include "tests/integration/sdk_watch.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "impostor/client.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor::testing {
 

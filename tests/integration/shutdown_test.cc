@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/integration/farm_processes.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

@@ -16,7 +16,7 @@
 
 #include "impostor/cache.h"
 #include "impostor/client.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/tls/test_certs.h"
 
 namespace impostor {

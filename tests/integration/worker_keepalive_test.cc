@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/integration/farm_processes.h"
-#include "tests/integration/server_process.h"
-#include "tests/integration/tcp_proxy.h"
+#include "tests/support/server_process.h"
+#include "tests/support/tcp_proxy.h"
 
 namespace impostor {
 namespace {

@@ -17,9 +17,9 @@
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "tests/scene/test_assets.h"
 #include "worker/lod/lod_thresholds.h"
 #ifdef IMPOSTOR_HAVE_LOD_SDK

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/manifest_json.h"
+#include "common/manifest/manifest_json.h"
 #ifdef IMPOSTOR_HAVE_LOD_SDK
 #include "impostor/lod.h"
 #endif

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/atlas_layout.h"
-#include "tests/integration/server_process.h"
+#include "common/atlas/atlas_layout.h"
+#include "tests/support/server_process.h"
 
 // After the protobuf headers (OIIO's byteswap macros clash with them).
 #include <OpenImageIO/imageio.h>

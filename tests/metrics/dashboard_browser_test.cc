@@ -12,7 +12,7 @@
 
 #include "absl/strings/str_replace.h"
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 
 namespace impostor {
 namespace {

@@ -5,7 +5,7 @@
 // a job's uploaded mesh is readable only by its submitter or an admin.
 #include <gtest/gtest.h>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/http_test_client.h"
 
 namespace impostor {

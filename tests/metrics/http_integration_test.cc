@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/sha256.h"
-#include "tests/integration/server_process.h"
+#include "common/util/sha256.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/exposition_parser.h"
 #include "tests/metrics/http_test_client.h"
 

@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/http_test_client.h"
 
 namespace impostor {

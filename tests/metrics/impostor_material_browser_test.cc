@@ -22,9 +22,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 #include "tests/support/boundary_mismatch.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
 namespace impostor {

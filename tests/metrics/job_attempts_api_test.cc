@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "server/attempt_history.h"
+#include "server/store/attempt_history.h"
 #include "server/http/http_frontend.h"
 #include "tests/server/scheduler_fixture.h"
 

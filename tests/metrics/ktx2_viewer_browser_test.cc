@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
 namespace impostor {

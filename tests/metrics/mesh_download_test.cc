@@ -24,10 +24,10 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
-#include "server/authenticator.h"
+#include "common/util/sha256.h"
+#include "server/auth/authenticator.h"
 #include "server/http/http_frontend.h"
-#include "server/token_store.h"
+#include "server/store/token_store.h"
 #include "tests/server/scheduler_fixture.h"
 
 namespace impostor {

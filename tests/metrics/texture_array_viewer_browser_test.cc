@@ -1,6 +1,6 @@
 // Texture-array results in the dashboard's viewer: `texture_array`
 // (`impostor bake --array`) writes each map as a strip one tile wide with
-// layer i = frame i (common/manifest_format.md). The same bake as an atlas
+// layer i = frame i (common/manifest/manifest_format.md). The same bake as an atlas
 // and as a texture array must look the same on the result page: the
 // orthographic impostor (?ortho) pixel for pixel within one level, the full
 // page's impostor canvas covered, and its atlas panel (the layers at their
@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
 namespace impostor {

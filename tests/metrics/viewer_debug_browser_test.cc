@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/runtime/frame_blend.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
 namespace impostor {

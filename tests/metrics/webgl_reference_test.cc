@@ -15,9 +15,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "common/runtime/reference_renderer.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/metrics/browser_capture.h"
 
 #include <httplib.h>

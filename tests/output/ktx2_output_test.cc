@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "tests/output/ktx2_test_util.h"
 #include "worker/output/atlas_dilation.h"
 #include "worker/output/ktx2_encoder.h"

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/output/atlas_dilation.h"
 
 namespace impostor {

@@ -1,13 +1,13 @@
-// The frames_auto ladder of every layout (common/auto_frames_ladder.h): the
+// The frames_auto ladder of every layout (common/request/auto_frames_ladder.h): the
 // counts each tries, the grid each count bakes, and which fit a resolution.
-#include "common/auto_frames_ladder.h"
+#include "common/request/auto_frames_ladder.h"
 
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "common/atlas_layout.h"
-#include "common/bake_request.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/request/bake_request.h"
 
 namespace impostor {
 namespace {

@@ -14,9 +14,9 @@
 #include <gtest/gtest.h>
 
 #include "tests/gpu/shared_renderer_test.h"
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
-#include "common/layout_parameters.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
+#include "common/request/layout_parameters.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/quality_pass.h"
 

@@ -1,14 +1,14 @@
 // Request validation of the quality-pass fields, their cache-key line and the
 // manifest's quality block in manifest.json.
-#include "common/quality_parameters.h"
+#include "common/request/quality_parameters.h"
 
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
 
 namespace impostor {
 namespace {

@@ -15,10 +15,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/auto_frames.h"
 #include "worker/bake/quality_views.h"

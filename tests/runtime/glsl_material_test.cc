@@ -16,7 +16,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "common/runtime/reference_renderer.h"
 #include "common/runtime/virtual_plane.h"
 #include "shaders/impostor_material_view_comp.h"

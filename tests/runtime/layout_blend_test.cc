@@ -14,7 +14,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 #include "common/runtime/frame_blend.h"
 
 namespace impostor {

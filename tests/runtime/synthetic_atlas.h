@@ -1,6 +1,6 @@
 // An analytic test object (two spheres inside a bounding sphere, coloured by
 // position so every frame looks different) ray-cast on the CPU with the bake
-// camera conventions of common/frame_camera.h, so runtime tests need no GPU:
+// camera conventions of common/atlas/frame_camera.h, so runtime tests need no GPU:
 // the same code bakes the atlas tiles and renders the "mesh" ground truth for
 // any view.
 #ifndef IMPOSTOR_TESTS_RUNTIME_SYNTHETIC_ATLAS_H_

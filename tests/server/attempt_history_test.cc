@@ -1,6 +1,6 @@
 // Job.attempt_history (issue 16): one entry per lease with the worker, its
 // device, the lease's start and end and how it ended, kept bounded.
-#include "server/attempt_history.h"
+#include "server/store/attempt_history.h"
 
 #include <gtest/gtest.h>
 

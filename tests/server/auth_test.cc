@@ -14,14 +14,14 @@
 #include <gtest/gtest.h>
 
 #include "common/error_reason.h"
-#include "common/token_source.h"
-#include "server/access_policy.h"
-#include "server/auth_mode.h"
-#include "server/authenticator.h"
-#include "server/job_store.h"
-#include "server/token_command.h"
-#include "server/token_quotas.h"
-#include "server/token_store.h"
+#include "common/net/token_source.h"
+#include "server/auth/access_policy.h"
+#include "server/auth/auth_mode.h"
+#include "server/auth/authenticator.h"
+#include "server/store/job_store.h"
+#include "server/commands/token_command.h"
+#include "server/store/token_quotas.h"
+#include "server/store/token_store.h"
 
 namespace impostor {
 namespace {

@@ -1,11 +1,11 @@
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 
 #include <cmath>
 #include <optional>
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

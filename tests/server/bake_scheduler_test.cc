@@ -1,4 +1,4 @@
-#include "server/bake_scheduler.h"
+#include "server/scheduler/bake_scheduler.h"
 
 #include <atomic>
 #include <filesystem>
@@ -9,9 +9,9 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 #include "common/error_reason.h"
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

@@ -13,10 +13,10 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
-#include "server/bake_scheduler.h"
+#include "common/util/sha256.h"
+#include "server/scheduler/bake_scheduler.h"
 #include "server/metrics/farm_metrics.h"
-#include "server/postgres/pg_connection_pool.h"
+#include "server/store/postgres/pg_connection_pool.h"
 #include "tests/server/job_store_test_engines.h"
 
 namespace impostor::testing {

@@ -1,7 +1,7 @@
 // The wording of a full-disk error and the free-space probe behind it, and
 // how each database engine's "disk full" becomes one (the full disk itself:
 // tests/integration/disk_full_test.cc, database_full_worker_test.cc).
-#include "server/disk_full.h"
+#include "server/blobs/disk_full.h"
 
 #include <sqlite3.h>
 #include <unistd.h>
@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "common/error_reason.h"
-#include "server/postgres/pg_connection_pool.h"
-#include "server/sqlite_open.h"
+#include "server/store/postgres/pg_connection_pool.h"
+#include "server/store/sqlite/sqlite_open.h"
 
 namespace impostor {
 namespace {

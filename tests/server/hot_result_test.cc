@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/result_cache.h"
+#include "server/scheduler/result_cache.h"
 #include "tests/server/scheduler_fixture.h"
 
 namespace impostor {

@@ -1,17 +1,17 @@
-// Input path collisions (common/input_paths.h), refused by ValidateMeshInput
+// Input path collisions (common/request/input_paths.h), refused by ValidateMeshInput
 // and therefore by SubmitBake before a job exists. Before this check
 // ["a", "a/b.png"] passed, and the worker's create_directories threw while
 // its heartbeat thread ran: the process terminated, on every retry, on every
 // worker that leased the job (issue 23).
-#include "common/input_paths.h"
+#include "common/request/input_paths.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
-#include "common/bake_request.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

@@ -14,8 +14,8 @@
 
 #include <gtest/gtest.h>
 
-#include "server/job_store.h"
-#include "server/postgres/postgres_job_store.h"
+#include "server/store/job_store.h"
+#include "server/store/postgres/postgres_job_store.h"
 #include "tests/support/postgres_instance.h"
 
 namespace impostor::testing {

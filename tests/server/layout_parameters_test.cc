@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/layout_parameters.h"
+#include "common/request/bake_request.h"
+#include "common/request/layout_parameters.h"
 
 namespace impostor {
 namespace {

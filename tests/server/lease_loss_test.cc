@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "common/error_reason.h"
-#include "server/database_full.h"
-#include "server/disk_full.h"
+#include "server/store/database_full.h"
+#include "server/blobs/disk_full.h"
 #include "tests/server/scheduler_fixture.h"
 
 namespace impostor {

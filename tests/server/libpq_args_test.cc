@@ -1,5 +1,5 @@
 // libpq's argument arrays and messages as this server passes and logs them
-// (server/postgres/libpq_args.h), including a real refused connection's
+// (server/store/postgres/libpq_args.h), including a real refused connection's
 // message, so the shape of what libpq actually prints is what is tested.
 #include <libpq-fe.h>
 
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/postgres/libpq_args.h"
+#include "server/store/postgres/libpq_args.h"
 
 namespace impostor::testing {
 namespace {

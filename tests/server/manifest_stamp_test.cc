@@ -1,9 +1,9 @@
-// StampBakedBy (server/manifest_stamp.h) on what a hostile worker token can
+// StampBakedBy (server/scheduler/manifest_stamp.h) on what a hostile worker token can
 // upload as manifest.json: deep nesting is refused before anything deep is
 // built (120 KB of brackets crashed the server on the stack), and the stored
 // text never grows far past what was uploaded (indentation inflated 60 KB to
 // 1.8 GB).
-#include "server/manifest_stamp.h"
+#include "server/scheduler/manifest_stamp.h"
 
 #include <unistd.h>
 
@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "common/sha256.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/sha256.h"
-#include "server/bake_scheduler.h"
+#include "common/util/sha256.h"
+#include "server/scheduler/bake_scheduler.h"
 #include "tests/server/job_store_test_engines.h"
 
 namespace impostor::testing {

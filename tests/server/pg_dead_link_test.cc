@@ -14,8 +14,8 @@
 
 #include <gtest/gtest.h>
 
-#include "server/postgres/pg_connection_pool.h"
-#include "server/postgres/pg_dead_link.h"
+#include "server/store/postgres/pg_connection_pool.h"
+#include "server/store/postgres/pg_dead_link.h"
 #include "tests/support/postgres_instance.h"
 
 namespace impostor::testing {

@@ -11,10 +11,10 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "server/job_store_factory.h"
-#include "server/postgres/pg_connection_pool.h"
-#include "server/postgres/pg_url.h"
-#include "server/sqlite_job_store.h"
+#include "server/store/job_store_factory.h"
+#include "server/store/postgres/pg_connection_pool.h"
+#include "server/store/postgres/pg_url.h"
+#include "server/store/sqlite/sqlite_job_store.h"
 #include "tests/server/job_store_test_engines.h"
 
 namespace impostor::testing {

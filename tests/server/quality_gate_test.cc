@@ -1,7 +1,7 @@
 // The quality gate: the pure check (common/quality_gate) and how the
 // scheduler applies it to each requester, on fresh bakes, shared bakes and
 // cache hits.
-#include "common/quality_gate.h"
+#include "common/request/quality_gate.h"
 
 #include <cmath>
 #include <string>

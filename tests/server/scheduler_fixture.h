@@ -12,8 +12,8 @@
 
 #include <gtest/gtest.h>
 
-#include "common/sha256.h"
-#include "server/bake_scheduler.h"
+#include "common/util/sha256.h"
+#include "server/scheduler/bake_scheduler.h"
 
 namespace impostor::testing_support {
 

@@ -1,8 +1,8 @@
-// The server's TLS flags (server/tls_credentials.h): every combination that
+// The server's TLS flags (server/auth/tls_credentials.h): every combination that
 // cannot work is refused before the server starts, naming the flag at fault;
 // the ones that can work produce credentials.
-#include "server/tls_credentials.h"
-#include "server/loopback_host.h"
+#include "server/auth/tls_credentials.h"
+#include "server/auth/loopback_host.h"
 
 #include <unistd.h>
 

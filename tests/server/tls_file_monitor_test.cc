@@ -1,9 +1,9 @@
-// TlsFileMonitor (server/tls_file_monitor.h): every change to the TLS files
+// TlsFileMonitor (server/auth/tls_file_monitor.h): every change to the TLS files
 // that gRPC's reload would refuse, or serve although clients will refuse it,
 // is one error line naming the flag and the file; a good renewal is one
 // info line with the new expiry; a certificate that expires while served is
 // reported once.
-#include "server/tls_file_monitor.h"
+#include "server/auth/tls_file_monitor.h"
 
 #include <unistd.h>
 

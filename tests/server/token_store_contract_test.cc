@@ -13,12 +13,12 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "server/authenticator.h"
-#include "server/postgres/postgres_token_store.h"
-#include "server/token_command.h"
-#include "server/token_quotas.h"
-#include "server/token_store.h"
-#include "server/token_store_factory.h"
+#include "server/auth/authenticator.h"
+#include "server/store/postgres/postgres_token_store.h"
+#include "server/commands/token_command.h"
+#include "server/store/token_quotas.h"
+#include "server/store/token_store.h"
+#include "server/store/token_store_factory.h"
 #include "tests/server/job_store_test_engines.h"
 
 namespace impostor::testing {

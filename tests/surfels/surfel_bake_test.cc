@@ -12,9 +12,9 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "tests/surfels/mesh_distance.h"
 #include "worker/scene/gltf_loader.h"
 #include "worker/surfels/atlas_samples.h"

@@ -2,9 +2,9 @@
 // the cache key, and the manifest's surfels block on disk.
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
 namespace {

@@ -9,11 +9,11 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "impostor/client.h"
 #include "tests/integration/sdk_watch.h"
-#include "tests/integration/server_process.h"
+#include "tests/support/server_process.h"
 #include "tests/surfels/mesh_distance.h"
 #include "worker/scene/gltf_loader.h"
 

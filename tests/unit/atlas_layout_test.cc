@@ -1,4 +1,4 @@
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 
 #include <cmath>
 #include <string>
@@ -6,7 +6,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 namespace {

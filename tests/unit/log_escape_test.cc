@@ -1,7 +1,7 @@
-// EscapeUntrusted / EscapeForTerminal (common/log_escape.h): strings from
+// EscapeUntrusted / EscapeForTerminal (common/util/log_escape.h): strings from
 // the network reach logs and terminals without control sequences, forged
 // lines or unbounded length (issue 23).
-#include "common/log_escape.h"
+#include "common/util/log_escape.h"
 
 #include <gtest/gtest.h>
 

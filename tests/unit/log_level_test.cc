@@ -1,5 +1,5 @@
-// --log-level values (common/log_level.h).
-#include "common/log_level.h"
+// --log-level values (common/util/log_level.h).
+#include "common/util/log_level.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "common/percent_decode.h"
+#include "common/util/percent_decode.h"
 
 #include <gtest/gtest.h>
 

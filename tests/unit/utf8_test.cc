@@ -1,6 +1,6 @@
-// common/utf8.h: cuts never split a character, and anything that is not
+// common/util/utf8.h: cuts never split a character, and anything that is not
 // UTF-8 becomes U+FFFD, so it can go into a proto string or JSON.
-#include "common/utf8.h"
+#include "common/util/utf8.h"
 
 #include <string>
 

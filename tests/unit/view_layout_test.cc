@@ -1,4 +1,4 @@
-// The five view layouts through the one mapping (common/atlas_layout.h):
+// The five view layouts through the one mapping (common/atlas/atlas_layout.h):
 // every frame decodes and encodes to itself, the frame picked for a
 // direction is the nearest baked one, and boundary directions land on the
 // documented side.
@@ -10,8 +10,8 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "common/atlas_layout.h"
-#include "common/frame_camera.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 namespace {

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/match.h"
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 
 namespace impostor {
 namespace {

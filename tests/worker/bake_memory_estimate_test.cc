@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "common/bake_request.h"
+#include "common/request/bake_request.h"
 
 namespace impostor {
 namespace {

@@ -8,12 +8,12 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/atlas_layout.h"
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
-#include "common/layout_parameters.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
+#include "common/request/layout_parameters.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "worker/bake/auto_frames.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/bake/ktx2_maps.h"

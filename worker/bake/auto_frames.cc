@@ -9,10 +9,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "common/auto_frames_ladder.h"
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
-#include "common/quality_gate.h"
+#include "common/request/auto_frames_ladder.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
+#include "common/request/quality_gate.h"
 #include "worker/bake/bake_outputs.h"
 
 namespace impostor {

@@ -1,7 +1,7 @@
 // BakeParameters.frames_auto: pick the frame count by measured quality.
 //
 // The atlas is baked at each count of the layout's fixed ladder
-// (common/auto_frames_ladder.h: frames per axis for the grid layouts,
+// (common/request/auto_frames_ladder.h: frames per axis for the grid layouts,
 // ring_views for ring-top, the fixed 3x3 for billboard; only counts whose
 // tiles get at least kMinTilePixels at the requested resolution), smallest
 // first, each followed by the quality pass; the first

@@ -3,8 +3,8 @@
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
-#include "common/atlas_layout.h"
-#include "common/layout_parameters.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/request/layout_parameters.h"
 
 namespace impostor {
 namespace {

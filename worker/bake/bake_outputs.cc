@@ -4,9 +4,9 @@
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
-#include "common/layout_parameters.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/layout_parameters.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "worker/scene/bounding_sphere.h"
 
 namespace impostor {

@@ -7,8 +7,8 @@
 #include <string_view>
 
 #include "absl/status/statusor.h"
-#include "common/atlas_layout.h"
-#include "common/frame_camera.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/scene/scene.h"
 #include "impostor/v1/types.pb.h"

@@ -9,9 +9,9 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/bake_request.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/request/bake_request.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/cards/card_capture.h"
 #include "worker/cards/card_packing.h"

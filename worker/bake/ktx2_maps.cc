@@ -3,7 +3,7 @@
 #include <future>
 
 #include "absl/strings/str_cat.h"
-#include "common/texture_format_parameters.h"
+#include "common/request/texture_format_parameters.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/output/ktx2_encoder.h"
 #include "worker/output/tile_mip_chain.h"

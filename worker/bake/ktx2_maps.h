@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor {

@@ -8,7 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "common/manifest_json.h"
+#include "common/manifest/manifest_json.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/lod/lod_glb_writer.h"
 #include "worker/lod/lod_levels.h"

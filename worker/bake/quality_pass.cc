@@ -11,10 +11,10 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/frame_camera.h"
-#include "common/layout_parameters.h"
-#include "common/parallel_for.h"
-#include "common/sha256.h"
+#include "common/atlas/frame_camera.h"
+#include "common/request/layout_parameters.h"
+#include "common/util/parallel_for.h"
+#include "common/util/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/output/map_writer.h"
 #include "worker/output/supersample.h"

@@ -1,7 +1,7 @@
 // The bake's quality pass: how faithful an atlas impostor is to its mesh.
 //
 // The mesh is rendered by the bake's own renderer (unlit albedo, the same
-// orthographic camera convention as the bake, common/frame_camera.h) from K
+// orthographic camera convention as the bake, common/atlas/frame_camera.h) from K
 // held-out view directions that are not baked frames, and the impostor is
 // reconstructed for the very same cameras by the shipped runtime shader on a
 // GPU, or the CPU reference renderer (common/runtime/reference_renderer.h)
@@ -59,7 +59,7 @@
 #include <glm/vec3.hpp>
 
 #include "absl/status/statusor.h"
-#include "common/atlas_layout.h"
+#include "common/atlas/atlas_layout.h"
 #include "common/quality/image_metrics.h"
 #include "common/runtime/reference_renderer.h"
 #include "impostor/v1/types.pb.h"

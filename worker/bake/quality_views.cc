@@ -7,7 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "common/parallel_for.h"
+#include "common/util/parallel_for.h"
 #include "common/runtime/reference_renderer.h"
 #include "worker/output/map_writer.h"
 

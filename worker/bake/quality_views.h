@@ -4,7 +4,7 @@
 // view's supersamples, 0 or 255 for the impostor; covered iff >= 128) and views.json
 // with each view's camera (direction, up, right; orthographic, framed by the
 // bounding sphere: centre and radius in scene units, as every bake camera,
-// common/frame_camera.h) and the figures measured on it
+// common/atlas/frame_camera.h) and the figures measured on it
 // (common/quality/image_metrics.h). normal/depth figures come from the
 // 16-bit maps, which are not written; every other figure is reproduced
 // from the PNGs by CompareViews.
@@ -20,7 +20,7 @@
 #include <glm/vec3.hpp>
 
 #include "absl/status/statusor.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "common/quality/image_metrics.h"
 
 namespace impostor {

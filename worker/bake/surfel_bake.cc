@@ -10,11 +10,11 @@
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
-#include "common/atlas_layout.h"
-#include "common/bake_request.h"
-#include "common/frame_camera.h"
-#include "common/manifest_json.h"
-#include "common/sha256.h"
+#include "common/atlas/atlas_layout.h"
+#include "common/request/bake_request.h"
+#include "common/atlas/frame_camera.h"
+#include "common/manifest/manifest_json.h"
+#include "common/util/sha256.h"
 #include "worker/bake/bake_outputs.h"
 #include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/gpu/atlas_renderer.h"
 
 namespace impostor {

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "common/runtime/reference_renderer.h"
 #include "worker/scene/scene.h"
 
@@ -35,7 +35,7 @@ struct AtlasImages {
   // R,G,B = scene-space unit normal (normal map applied) * 0.5 + 0.5,
   // A = depth along the view direction normalised to the bounding sphere:
   // 0 = nearest point of the sphere to the camera, 1 = farthest
-  // (see common/frame_camera.h). Empty texels: normal 0.5,0.5,0.5, depth 1.
+  // (see common/atlas/frame_camera.h). Empty texels: normal 0.5,0.5,0.5, depth 1.
   std::vector<uint16_t> normal_depth;
   // R = occlusion, G = roughness, B = metalness, A = coverage (as albedo).
   std::vector<uint8_t> orm;

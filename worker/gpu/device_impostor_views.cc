@@ -6,8 +6,8 @@
 #include <glm/vec4.hpp>
 
 #include "absl/strings/str_cat.h"
-#include "common/frame_camera.h"
-#include "common/parallel_for.h"
+#include "common/atlas/frame_camera.h"
+#include "common/util/parallel_for.h"
 #include "shaders/impostor_runtime_view_comp.h"
 #include "worker/gpu/barriers.h"
 #include "worker/gpu/sampled_image_upload.h"

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/scene/scene.h"
 
 namespace impostor::gpu {

@@ -7,7 +7,7 @@
 // files ("texture_<image>.<ext>", the input's encoded bytes) by relative
 // URI, so a result directory and the blob store hold each texture once,
 // whatever the number of levels. Flat names because result files are plain
-// names in one directory (client/result_fetch.cc refuses '/').
+// names in one directory (client/transfer/result_fetch.cc refuses '/').
 //
 // Attributes are written as FLOAT (TEXCOORD/COLOR included), indices as
 // UNSIGNED_SHORT or UNSIGNED_INT; KHR_mesh_quantization, skins, morph

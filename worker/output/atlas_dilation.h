@@ -21,7 +21,7 @@
 #include <span>
 
 #include "absl/status/status.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 

@@ -24,7 +24,7 @@
 #include <glm/vec2.hpp>
 
 #include "absl/status/statusor.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 

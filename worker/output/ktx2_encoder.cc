@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "common/ktx2_encoder_version.h"
+#include "common/request/ktx2_encoder_version.h"
 #include "worker/output/ktx2_file.h"
 #include "worker/output/map_writer.h"
 #include "worker/output/run_tool.h"

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 
 namespace impostor {
 

@@ -12,7 +12,7 @@
 #include <glm/vec3.hpp>
 #include <span>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/scene/scene.h"
 
 namespace impostor {

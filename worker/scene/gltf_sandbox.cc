@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "common/percent_decode.h"
+#include "common/util/percent_decode.h"
 
 namespace impostor::gltf_internal {
 namespace {

@@ -5,7 +5,7 @@
 // impostors (Meep engine, VoxelImpostorBaker: "reads the atlas back to CPU
 // and bins every opaque pixel").
 //
-// Unprojection inverts common/frame_camera.h: texel centre (x + 0.5, y + 0.5)
+// Unprojection inverts common/atlas/frame_camera.h: texel centre (x + 0.5, y + 0.5)
 // of a tile gives s, t in [-1, 1], the 16-bit depth gives the distance
 // along the view direction, so
 //   p = c + r * (s * right + t * up + (1 - 2 * depth) * direction).
@@ -18,7 +18,7 @@
 
 #include <vector>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/surfels/surfel.h"
 

@@ -2,7 +2,7 @@
 // bake. Points are drawn as the runtime draws them (Meep engine,
 // VoxelImpostorShaderV0): camera-facing squares of side point_diameter,
 // unlit albedo, nearest splat wins; here through a frame camera of
-// common/frame_camera.h (orthographic, view square = the bounding sphere's
+// common/atlas/frame_camera.h (orthographic, view square = the bounding sphere's
 // diameter). A splat smaller than a pixel still covers the pixel its centre
 // falls in, as a GPU point of at least one pixel does.
 //
@@ -15,7 +15,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "common/frame_camera.h"
+#include "common/atlas/frame_camera.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/surfels/surfel.h"
 

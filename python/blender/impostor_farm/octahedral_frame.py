@@ -1,6 +1,6 @@
 """The atlas frame an octahedral or hemi-octahedral impostor shows for a view
 direction: the baked frame whose direction is nearest (largest dot product),
-the one the runtime's NearestFrame picks (common/atlas_layout.cc).
+the one the runtime's NearestFrame picks (common/atlas/atlas_layout.cc).
 
 Rounding the direction's grid position to the nearest vertex (the baker's
 EncodeFrame) is not that: the octahedral map stretches the sphere unevenly,
@@ -13,7 +13,7 @@ four are decoded back to directions with the baker's math and compared.
 
 Written against node_math's interface, so the same lines build the
 material's nodes (NodeMath) and compute the frame in Python (FloatMath).
-Conventions as in common/atlas_layout.h: glTF axes (Y up), the direction
+Conventions as in common/atlas/atlas_layout.h: glTF axes (Y up), the direction
 from the bounding sphere's centre toward the camera, frame (col, row) at grid
 vertex (col, row) / (frames - 1) of the square.
 """

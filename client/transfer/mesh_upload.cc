@@ -1,0 +1,158 @@
+#include "client/transfer/mesh_upload.h"
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "client/transfer/blob_upload.h"
+#include "common/util/sha256.h"
+
+namespace impostor::sdk {
+namespace {
+
+struct LocalBlob {
+  std::filesystem::path path;
+  v1::Digest digest;
+};
+
+absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
+  absl::StatusOr<BlobDigest> digest = DigestFile(path);
+  if (!digest.ok()) return digest.status();
+  v1::Digest out;
+  out.set_hash(digest->hash);
+  out.set_size_bytes(digest->size_bytes);
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files) {
+  v1::MeshInput mesh;
+  auto add = [](const std::filesystem::path& path, v1::InputFile* input, const std::string& name) -> absl::Status {
+    absl::StatusOr<v1::Digest> digest = HashFile(path);
+    if (!digest.ok()) return digest.status();
+    input->set_path(name);
+    *input->mutable_digest() = *digest;
+    return absl::OkStatus();
+  };
+  if (absl::Status s = add(files.entry, mesh.mutable_entry(), files.entry_name); !s.ok()) return s;
+  for (const MeshFile& file : files.files) {
+    if (absl::Status s = add(file.local_path, mesh.add_files(), file.relative_path); !s.ok()) return s;
+  }
+  return mesh;
+}
+
+absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files, const CancelSource* cancel) {
+  UploadedMesh out;
+  std::vector<LocalBlob> blobs;
+  auto add = [&](const std::filesystem::path& path, v1::InputFile* input, const std::string& name)
+      -> absl::Status {
+    absl::StatusOr<v1::Digest> digest = HashFile(path);
+    if (!digest.ok()) return digest.status();
+    input->set_path(name);
+    *input->mutable_digest() = *digest;
+    blobs.push_back(LocalBlob{path, *digest});
+    ++out.stats.files;
+    out.stats.bytes_total += digest->size_bytes();
+    return absl::OkStatus();
+  };
+  if (absl::Status s = add(files.entry, out.mesh.mutable_entry(), files.entry_name); !s.ok()) return s;
+  for (const MeshFile& file : files.files) {
+    if (absl::Status s = add(file.local_path, out.mesh.add_files(), file.relative_path); !s.ok()) return s;
+  }
+
+  v1::FindMissingBlobsRequest request;
+  for (const LocalBlob& blob : blobs) *request.add_digests() = blob.digest;
+  absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request, cancel);
+  if (!missing.ok()) return missing.status();
+
+  std::set<std::string> missing_keys;
+  for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
+  // Two files with the same content are one blob: upload it once.
+  std::set<std::string> done;
+  for (const LocalBlob& blob : blobs) {
+    const std::string key = absl::StrCat(blob.digest.hash(), "/", blob.digest.size_bytes());
+    if (!missing_keys.contains(key) || !done.insert(key).second) continue;
+    if (absl::Status s = UploadBlobFile(transport, blob.path, blob.digest, cancel); !s.ok()) return s;
+    ++out.stats.uploaded;
+    out.stats.bytes_uploaded += blob.digest.size_bytes();
+  }
+  return out;
+}
+
+namespace {
+
+// An upload error that is about the blob, not about the caller or the link.
+bool IsRefusalOfTheBlob(const absl::Status& s) {
+  return absl::IsResourceExhausted(s) || absl::IsInvalidArgument(s) || absl::IsFailedPrecondition(s) ||
+         absl::IsDataLoss(s) || absl::IsNotFound(s);
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
+                                                                      const std::vector<const MeshFiles*>& models,
+                                                                      const CancelSource* cancel) {
+  std::vector<absl::StatusOr<UploadedMesh>> out;
+  out.reserve(models.size());
+  // Every distinct blob once, with the first model that has it.
+  std::vector<LocalBlob> blobs;
+  std::vector<std::vector<size_t>> users;  // per blob: the models that have it, first first
+  std::map<std::string, size_t> blob_of;    // "hash/size" -> index in blobs
+  for (size_t m = 0; m < models.size(); ++m) {
+    absl::StatusOr<v1::MeshInput> mesh = HashMesh(*models[m]);
+    if (!mesh.ok()) {
+      out.push_back(mesh.status());
+      continue;
+    }
+    UploadedMesh uploaded;
+    uploaded.mesh = std::move(*mesh);
+    auto add = [&](const v1::InputFile& input, const std::filesystem::path& local) {
+      ++uploaded.stats.files;
+      uploaded.stats.bytes_total += input.digest().size_bytes();
+      const std::string key = absl::StrCat(input.digest().hash(), "/", input.digest().size_bytes());
+      auto [it, added] = blob_of.emplace(key, blobs.size());
+      if (added) {
+        blobs.push_back(LocalBlob{local, input.digest()});
+        users.emplace_back();
+      }
+      if (users[it->second].empty() || users[it->second].back() != m) users[it->second].push_back(m);
+    };
+    add(uploaded.mesh.entry(), models[m]->entry);
+    for (int i = 0; i < uploaded.mesh.files_size(); ++i) add(uploaded.mesh.files(i), models[m]->files[i].local_path);
+    out.push_back(std::move(uploaded));
+  }
+
+  std::set<std::string> missing_keys;
+  for (size_t begin = 0; begin < blobs.size(); begin += kMaxFindMissingDigests) {
+    v1::FindMissingBlobsRequest request;
+    for (size_t i = begin; i < std::min(blobs.size(), begin + kMaxFindMissingDigests); ++i) {
+      *request.add_digests() = blobs[i].digest;
+    }
+    absl::StatusOr<v1::FindMissingBlobsResponse> missing = transport.FindMissingBlobs(request, cancel);
+    if (!missing.ok()) return missing.status();
+    for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
+  }
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    if (!missing_keys.contains(absl::StrCat(blobs[i].digest.hash(), "/", blobs[i].digest.size_bytes()))) continue;
+    if (absl::Status s = UploadBlobFile(transport, blobs[i].path, blobs[i].digest, cancel); !s.ok()) {
+      // The server refused this blob (its disk is full, it is too large):
+      // the models that need it fail and the rest go on. A refusal of the
+      // caller or the connection ends the whole batch.
+      if (!IsRefusalOfTheBlob(s)) return s;
+      for (size_t m : users[i]) {
+        if (out[m].ok()) out[m] = absl::Status(s.code(), absl::StrCat("uploading ", blobs[i].path.string(), ": ", s.message()));
+      }
+      continue;
+    }
+    if (!out[users[i].front()].ok()) continue;
+    UploadStats& stats = out[users[i].front()]->stats;
+    ++stats.uploaded;
+    stats.bytes_uploaded += blobs[i].digest.size_bytes();
+  }
+  return out;
+}
+
+}  // namespace impostor::sdk

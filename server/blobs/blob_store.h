@@ -1,0 +1,131 @@
+// Content-addressed blob store on a local directory.
+//
+// Layout under `root`:
+//   cas/ab/abcdef...   one file per blob, named by its SHA-256 hex, in a
+//                      folder named by the hash's first two characters
+//   tmp/               uploads in progress; emptied when the store opens
+// A blob becomes visible only after all its bytes were written to a
+// temporary file, hashed and size-checked against the digest, fsynced, and
+// renamed into cas/ (then the folder is fsynced too), so a reader never sees
+// a partial or wrong blob, even across a crash.
+//
+// Thread-safety: all methods may be called from any thread. Concurrent
+// uploads of the same blob each write their own temporary file; the first
+// rename wins and the others find the blob present.
+#ifndef IMPOSTOR_SERVER_BLOBS_BLOB_STORE_H_
+#define IMPOSTOR_SERVER_BLOBS_BLOB_STORE_H_
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "common/util/sha256.h"
+
+namespace impostor {
+
+class BlobStore {
+ public:
+  // Largest blob accepted, bytes.
+  static constexpr int64_t kDefaultMaxBlobBytes = int64_t{2} << 30;
+
+  // Creates the folders if needed and removes leftover temporary files.
+  // INTERNAL naming the path when the directory cannot be used.
+  static absl::StatusOr<std::unique_ptr<BlobStore>> Open(const std::filesystem::path& root,
+                                                         int64_t max_blob_bytes = kDefaultMaxBlobBytes);
+
+  // Streams one upload into a temporary file. Destroying an uncommitted
+  // writer removes its temporary file. One thread at a time.
+  class Writer {
+   public:
+    virtual ~Writer() = default;
+    // INVALID_ARGUMENT when more bytes arrive than the digest's size.
+    virtual absl::Status Append(std::string_view data) = 0;
+    // Verifies hash and size, syncs and publishes the blob. Returns true when
+    // the blob was already present (the upload is discarded).
+    // INVALID_ARGUMENT on a hash or size mismatch (saying both values).
+    virtual absl::StatusOr<bool> Commit() = 0;
+  };
+
+  // INVALID_ARGUMENT for a malformed digest or one over the size limit.
+  absl::StatusOr<std::unique_ptr<Writer>> NewWriter(const BlobDigest& digest);
+
+  // Writes a whole blob; same outcomes as NewWriter + Append + Commit.
+  absl::StatusOr<bool> Put(const BlobDigest& digest, std::string_view bytes);
+
+  // True when the blob is present with the right size (a stat; no hashing).
+  bool Contains(const BlobDigest& digest) const;
+
+  // Re-hashes the blob unless it was verified since its file last changed.
+  // A blob whose bytes no longer match its digest is moved to quarantine/
+  // (never served again) and DATA_LOSS is returned; NOT_FOUND when absent.
+  absl::Status Verify(const BlobDigest& digest) const;
+
+  // Calls `sink` with consecutive chunks (at most `chunk_bytes` each) of the
+  // blob from `offset`, at most `limit` bytes (0 = to the end); stops early
+  // when `sink` returns false. The blob is verified first (see Verify), so no
+  // corrupt byte is ever passed on. NOT_FOUND when absent; INVALID_ARGUMENT
+  // for an offset past the end or a negative offset/limit; DATA_LOSS when the
+  // stored bytes no longer match the digest.
+  absl::Status Read(const BlobDigest& digest, int64_t offset, int64_t limit, size_t chunk_bytes,
+                    const std::function<bool(std::string_view chunk, int64_t offset)>& sink) const;
+
+  // The whole blob, its hash verified. Same errors as Read; DATA_LOSS when
+  // the bytes no longer hash to the digest. A whole Read (offset 0, to the
+  // end) hashes what it sends, and quarantines a blob whose bytes changed
+  // since it was last verified (bit rot keeps the file's mtime).
+  absl::StatusOr<std::string> ReadAll(const BlobDigest& digest) const;
+
+  // A blob file as found on disk.
+  struct StoredBlob {
+    std::string hash;
+    int64_t size_bytes = 0;
+    int64_t mtime_ns = 0;  // when it was published
+  };
+  // Every blob in the store (a directory scan).
+  std::vector<StoredBlob> List() const;
+  // Deletes a blob; OK if it is already gone.
+  absl::Status Remove(const std::string& hash);
+  // Bytes of all published blobs, kept current by the store itself.
+  int64_t total_bytes() const { return total_bytes_.load(); }
+  // Sets total_bytes() to the sum of `scan` (a List() answer) and returns
+  // it. Servers sharing this directory (issue 15) publish and remove blobs
+  // that this process's own count never sees; the one that evicts recounts
+  // before it decides.
+  int64_t Recount(const std::vector<StoredBlob>& scan);
+
+  std::filesystem::path PathFor(const BlobDigest& digest) const;
+  const std::filesystem::path& root() const { return root_; }
+
+ private:
+  BlobStore(std::filesystem::path root, int64_t max_blob_bytes);
+  void AddPublished(int64_t bytes) { total_bytes_ += bytes; }
+  // Moves the blob of `digest`, found to hold `found`, to quarantine/ and
+  // forgets that it was verified; returns the DATA_LOSS that says so.
+  absl::Status Quarantine(const BlobDigest& digest, const BlobDigest& found) const;
+
+  const std::filesystem::path root_;
+  const std::filesystem::path cas_dir_;
+  const std::filesystem::path tmp_dir_;
+  const std::filesystem::path quarantine_dir_;
+  const int64_t max_blob_bytes_;
+  mutable std::atomic<int64_t> total_bytes_{0};  // quarantine in const Verify updates it
+
+  // hash -> modification time (ns) of the file when its content last hashed
+  // to the digest. Lets reads skip re-hashing an unchanged blob.
+  mutable std::mutex verified_mu_;
+  mutable std::map<std::string, int64_t> verified_ ABSL_GUARDED_BY(verified_mu_);
+};
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_SERVER_BLOBS_BLOB_STORE_H_
