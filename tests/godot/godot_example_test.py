@@ -261,8 +261,12 @@ def bake_and_publish(server_bin, cli, model, tmp, procs, release, name, bake_arg
     data under `tmp`), bakes `model` with `bake_args`, publishes it as
     `name` on CHANNEL into the release tree `release` and stops the farm.
     Returns the cache key; Failure naming the step that failed."""
+    # Its TMPDIR (and its local workers' scratch) under `tmp`: even a killed
+    # worker leaves nothing in /tmp.
+    scratch = os.path.join(tmp, "farm.tmp")
+    os.makedirs(scratch, exist_ok=True)
     farm = Process([server_bin, "--listen", "127.0.0.1:0", "--data", os.path.join(tmp, "farm"),
-                    "--local-workers", "1"], "impostor-server")
+                    "--local-workers", "1"], "impostor-server", env=dict(os.environ, TMPDIR=scratch))
     procs.append(farm)
     addr = farm.wait_for("listening on", 60).split("listening on", 1)[1].strip()
     baked = json.loads(run([cli, "bake", model, "--out", os.path.join(tmp, "baked"), "--server", addr,

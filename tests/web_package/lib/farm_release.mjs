@@ -4,14 +4,16 @@
 // publishes them with `impostor publish NAME=KEY ... --channel C --out DIR`
 // and stops the server. Nothing is left behind but what is under `dir`.
 import { spawn } from 'node:child_process';
-import { readFileSync } from 'node:fs';
+import { mkdirSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
 
 // Starts the server; resolves to {child, address, log()} once it prints its
-// address (60 s at most).
+// address (60 s at most). Its TMPDIR (and its local workers' scratch) is
+// DATA.tmp, so even a killed worker leaves nothing in /tmp.
 export function startFarm(bin, data) {
+  mkdirSync(`${data}.tmp`, { recursive: true });
   const child = spawn(join(bin, 'impostor-server'), ['--listen', '127.0.0.1:0', '--data', data, '--local-workers', '1',
-    '--log-level', 'info'], { stdio: ['ignore', 'pipe', 'pipe'], detached: true });
+    '--log-level', 'info'], { stdio: ['ignore', 'pipe', 'pipe'], detached: true, env: { ...process.env, TMPDIR: `${data}.tmp` } });
   let log = '';
   return new Promise((resolve, reject) => {
     const timer = setTimeout(() => reject(new Error(`no "listening on" line in 60 s:\n${log.slice(-3000)}`)), 60000);
