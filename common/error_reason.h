@@ -46,6 +46,11 @@ inline constexpr char kDatabaseFull[] = "DATABASE_FULL";
 // FAILED_PRECONDITION from SubmitBake: one of the mesh's blobs is not in the
 // store (never uploaded, or evicted since the upload): upload it, submit again.
 inline constexpr char kInputBlobMissing[] = "INPUT_BLOB_MISSING";
+// RESOURCE_EXHAUSTED as a job's error: no worker the server heard from could
+// bake it (too little memory, no KTX2 encoder) for --unplaceable-timeout-
+// seconds; the message names what it needs and the most any worker had.
+// Add a worker that can, or ask for less (e.g. a lower --resolution).
+inline constexpr char kUnplaceable[] = "UNPLACEABLE";
 }  // namespace error_reason
 
 namespace internal {

@@ -94,6 +94,10 @@ ABSL_FLAG(int, shutdown_grace_seconds, 10,
 ABSL_FLAG(int, worker_failure_limit, 3,
           "Pause a worker after this many different jobs in a row failed or lost on it (0 = never, 0..1000)");
 ABSL_FLAG(int, worker_pause_seconds, 300, "How long a paused worker gets no lease (1..86400)");
+ABSL_FLAG(int, unplaceable_timeout_seconds, 3600,
+          "A queued job no worker can bake (its memory estimate over every worker's totals, or KTX2 maps and no "
+          "encoder) waits with the reason as its stage, and fails with it after this many seconds (1..2592000; "
+          "never with --database, where other servers' workers may take it)");
 ABSL_FLAG(int, retry_elsewhere_seconds, 60,
           "A job a worker failed retryably (memory not free, scratch full, device error) is left to other workers "
           "for this many seconds; that worker gets it back sooner only when it has no other job to take and no "
@@ -207,6 +211,11 @@ int main(int argc, char** argv) {
   if (worker_failure_limit < 0 || worker_failure_limit > 1000) return Fail("--worker-failure-limit: " + std::to_string(worker_failure_limit) + " is out of range 0..1000");
   const int worker_pause_s = absl::GetFlag(FLAGS_worker_pause_seconds);
   if (worker_pause_s < 1 || worker_pause_s > 86400) return Fail("--worker-pause-seconds: " + std::to_string(worker_pause_s) + " is out of range 1..86400");
+  const int unplaceable_timeout_s = absl::GetFlag(FLAGS_unplaceable_timeout_seconds);
+  if (unplaceable_timeout_s < 1 || unplaceable_timeout_s > 2592000) {
+    return Fail("--unplaceable-timeout-seconds: " + std::to_string(unplaceable_timeout_s) +
+                " is out of range 1..2592000");
+  }
   const int retry_elsewhere_s = absl::GetFlag(FLAGS_retry_elsewhere_seconds);
   if (retry_elsewhere_s < 0 || retry_elsewhere_s > 3600) {
     return Fail("--retry-elsewhere-seconds: " + std::to_string(retry_elsewhere_s) + " is out of range 0..3600");
@@ -307,6 +316,7 @@ int main(int argc, char** argv) {
        .worker_failure_limit = worker_failure_limit,
        .worker_pause_ms = int64_t{worker_pause_s} * 1000,
        .retry_elsewhere_ms = int64_t{retry_elsewhere_s} * 1000,
+       .unplaceable_timeout_ms = int64_t{unplaceable_timeout_s} * 1000,
        .job_retention_ms = int64_t{job_retention_days} * 24 * 3600 * 1000});
 
   // Identity (issue 14): with --auth token every call passes the

@@ -45,8 +45,8 @@ async function refresh() {
     finished.map((x) => [...jobRow(x, now, false),
       el('td', {}, x.state === 'succeeded' ? link(`/results/${x.cache_key}`, x.cached ? 'cached' : 'view') : (x.error ? x.error.message : ''))]),
     'finished-jobs'));
-  replace('workers', table(['worker', 'state', 'device', 'holds', 'done', 'failed', 'last seen'],
-    workers.workers.map((w) => [w.worker_id, stateCell(w.state), w.device || '—',
+  replace('workers', table(['worker', 'state', 'device', 'can bake', 'holds', 'done', 'failed', 'last seen'],
+    workers.workers.map((w) => [w.worker_id, stateCell(w.state), w.device || '—', capabilities(w.capabilities),
       el('td', {}, ...w.job_ids.map((id) => link(`/jobs/${id}`, shortId(id) + ' '))),
       String(w.jobs_completed), String(w.jobs_failed), w.last_seen_ms ? age(w.last_seen_ms, now) + ' ago' : '—']), 'workers-table'));
   replace('results', table(['result', 'product', 'layout', 'frames', 'resolution', 'IoU', 'PSNR', 'size', 'baked'],
@@ -62,3 +62,15 @@ async function loop() {
   setTimeout(loop, POLL_MS);
 }
 loop();
+
+// What a worker reported it can do (issue 44): device kind, its memory
+// totals, the KTX2 encoder, its tags; '—' for a worker that reports nothing.
+function capabilities(c) {
+  if (!c) return '—';
+  const parts = [c.device_kind || 'device'];
+  if (c.host_memory_bytes) parts.push(`${bytes(c.host_memory_bytes)} host`);
+  if (c.device_memory_bytes && c.device_kind !== 'cpu') parts.push(`${bytes(c.device_memory_bytes)} device`);
+  parts.push(c.ktx2_encoder ? 'KTX2' : 'no KTX2');
+  if (c.tags && c.tags.length) parts.push(c.tags.join(','));
+  return parts.join(' · ');
+}

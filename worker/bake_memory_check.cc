@@ -1,7 +1,5 @@
 #include "worker/bake_memory_check.h"
 
-#include <cstdio>
-
 #include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
@@ -10,36 +8,8 @@
 namespace impostor {
 namespace {
 
-// "17.2 GB", "46 MB", "3.1 MB", "512 bytes": decimal units, as people read them.
-std::string Amount(int64_t bytes) {
-  char text[32];
-  if (bytes >= 1'000'000'000) {
-    std::snprintf(text, sizeof(text), "%.1f GB", static_cast<double>(bytes) / 1e9);
-  } else if (bytes >= 10'000'000) {
-    std::snprintf(text, sizeof(text), "%.0f MB", static_cast<double>(bytes) / 1e6);
-  } else if (bytes >= 1'000'000) {
-    std::snprintf(text, sizeof(text), "%.1f MB", static_cast<double>(bytes) / 1e6);
-  } else {
-    std::snprintf(text, sizeof(text), "%lld bytes", static_cast<long long>(bytes));
-  }
-  return text;
-}
-
 bool Supersampled(const v1::BakeParameters& p) {
   return (p.product() == v1::PRODUCT_ATLAS || p.product() == v1::PRODUCT_LOD_CHAIN) && p.has_supersampling();
-}
-
-// What is baked, with the parameters that drive its memory:
-// "an atlas of 16384 px at supersampling 2 (frames 64)".
-std::string Describe(const v1::BakeParameters& p) {
-  const std::string frames = p.frames() > 0 ? absl::StrCat("frames ", p.frames()) : "frames auto";
-  const std::string texture = p.texture_format() == v1::TEXTURE_FORMAT_KTX2 ? ", KTX2 maps" : "";
-  const std::string sampling = Supersampled(p) ? absl::StrCat(" at supersampling ", p.supersampling()) : "";
-  const std::string what = p.product() == v1::PRODUCT_SURFELS     ? "a surfel capture"
-                           : p.product() == v1::PRODUCT_CARDS     ? "a card atlas"
-                           : p.product() == v1::PRODUCT_LOD_CHAIN ? "a LOD chain's impostor atlas"
-                                                                  : "an atlas";
-  return absl::StrCat(what, " of ", p.resolution(), " px", sampling, " (", frames, texture, ")");
 }
 
 // The changes to the request that would make it fit, per `fits`.
@@ -69,7 +39,7 @@ absl::Status CheckDevice(const v1::BakeParameters& p, const WorkerMemory& have) 
     const auto fits = [&](const v1::BakeParameters& q) {
       return EstimateBakeMemory(q, have.device_kind).largest_allocation_bytes <= device.max_allocation_bytes;
     };
-    return absl::ResourceExhaustedError(absl::StrCat(Describe(p), ": its ", s.message(), ": ", Advice(p, fits)));
+    return absl::ResourceExhaustedError(absl::StrCat(DescribeBake(p), ": its ", s.message(), ": ", Advice(p, fits)));
   }
   // A CPU device's heap is nominal (host memory bounds it, checked below).
   if (have.device_kind == BakeDevice::kCpu || device.device_local_heap_bytes <= 0) return absl::OkStatus();
@@ -78,8 +48,8 @@ absl::Status CheckDevice(const v1::BakeParameters& p, const WorkerMemory& have) 
       return EstimateBakeMemory(q, have.device_kind).device_bytes <= device.device_local_heap_bytes;
     };
     return absl::ResourceExhaustedError(absl::StrCat(
-        Describe(p), " needs about ", Amount(need.device_bytes), " of device memory; this worker's ",
-        have.device_name, " has ", Amount(device.device_local_heap_bytes), " (its largest device-local heap): ",
+        DescribeBake(p), " needs about ", MemoryAmount(need.device_bytes), " of device memory; this worker's ",
+        have.device_name, " has ", MemoryAmount(device.device_local_heap_bytes), " (its largest device-local heap): ",
         Advice(p, fits)));
   }
   return absl::OkStatus();
@@ -92,14 +62,14 @@ absl::Status CheckHost(const v1::BakeParameters& p, const WorkerMemory& have) {
     const auto fits = [&](const v1::BakeParameters& q) {
       return EstimateBakeMemory(q, have.device_kind).host_bytes <= host.total_bytes;
     };
-    return absl::ResourceExhaustedError(absl::StrCat(Describe(p), " needs about ", Amount(need),
-                                                     " of host memory; this worker has ", Amount(host.total_bytes),
+    return absl::ResourceExhaustedError(absl::StrCat(DescribeBake(p), " needs about ", MemoryAmount(need),
+                                                     " of host memory; this worker has ", MemoryAmount(host.total_bytes),
                                                      " (", host.total_bound, "): ", Advice(p, fits)));
   }
   if (need > host.available_bytes) {
     return absl::UnavailableError(absl::StrCat(
-        Describe(p), " needs about ", Amount(need), " of host memory; this worker has ", Amount(host.total_bytes),
-        " (", host.total_bound, ") but ", Amount(host.available_bytes), " available now (", host.available_bound,
+        DescribeBake(p), " needs about ", MemoryAmount(need), " of host memory; this worker has ", MemoryAmount(host.total_bytes),
+        " (", host.total_bound, ") but ", MemoryAmount(host.available_bytes), " available now (", host.available_bound,
         "): another worker may take it"));
   }
   return absl::OkStatus();

@@ -31,7 +31,7 @@
 
 #include "absl/status/status.h"
 #include "impostor/v1/types.pb.h"
-#include "worker/bake/bake_memory_estimate.h"
+#include "common/request/bake_memory_estimate.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/gpu/device_memory_limits.h"
 #include "worker/host_memory.h"

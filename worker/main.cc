@@ -8,7 +8,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -29,6 +31,7 @@
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/worker_loop.h"
 #include "common/worker_exit_codes.h"
+#include "worker/capabilities.h"
 #include "worker/worker_help.h"
 
 ABSL_FLAG(std::string, server, "",
@@ -57,6 +60,9 @@ ABSL_FLAG(bool, isolate_load, true, "Load each input in a child process under rl
 ABSL_FLAG(uint64_t, load_memory_mb, 8192, "Address space the isolated load may add, MiB (>= 64)");
 ABSL_FLAG(int, load_cpu_s, 300, "CPU seconds the isolated load may use (1..86400)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
+ABSL_FLAG(std::vector<std::string>, tags, {},
+          "Comma list of tags this worker reports to the server (e.g. gpu,team-forest): at most 16, each 1..64 of "
+          "[a-z0-9._-]");
 // Transport security (README "Securing a farm: TLS"): TLS when --tls-ca is
 // given; --tls-cert/--tls-key add a client certificate for mutual TLS.
 ABSL_FLAG(std::string, tls_ca, "", "Connect with TLS, trusting only this CA bundle (PEM) for the server's certificate");
@@ -184,6 +190,13 @@ int main(int argc, char** argv) {
     return 3;
   }
 
+  // What the server places jobs by (issue 44), measured once.
+  auto capabilities = impostor::MeasureCapabilities((*renderer)->device(), absl::GetFlag(FLAGS_tags));
+  if (!capabilities.ok()) {
+    std::fprintf(stderr, "impostor-worker: %s\n", std::string(capabilities.status().message()).c_str());
+    return 2;
+  }
+
   std::filesystem::path scratch = absl::GetFlag(FLAGS_scratch);
   if (scratch.empty()) scratch = std::filesystem::temp_directory_path() / absl::StrCat("impostor-worker-", ::getpid());
   std::error_code ec;
@@ -211,7 +224,8 @@ int main(int argc, char** argv) {
                              .channel_credentials = *credentials,
                              .tls_server_name = tls.server_name,
                              .tls_ca_file = tls.files.ca,
-                             .token = *token},
+                             .token = *token,
+                             .capabilities = *std::move(capabilities)},
                             std::move(*renderer));
 
   // SIGTERM: drain (no new job; the current one finishes within

@@ -17,7 +17,7 @@ inline ProgramHelp WorkerHelp() {
                  "lavapipe on the CPU when there is none) and uploads the results. Logs go to stderr; at start it "
                  "logs every Vulkan device it found and why it was or was not chosen. SIGTERM finishes or hands "
                  "back the current job and stops.",
-      .groups = {{"Server connection", {"server", "tls_", "token_", "max_outage_seconds", "keepalive_", "name"}},
+      .groups = {{"Server connection", {"server", "tls_", "token_", "max_outage_seconds", "keepalive_", "name", "tags"}},
                  {"Rendering", {"device", "scratch"}},
                  {"Jobs", {"max_jobs", "heartbeat_s", "stall_s", "drain_seconds"}},
                  {"Input limits", {"max_triangles", "max_texture_dimension", "max_draws", "max_load_bytes",

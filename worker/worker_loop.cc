@@ -120,6 +120,7 @@ absl::Status WorkerLoop::Run() {
     v1::LeaseJobRequest request;
     request.set_worker_id(options_.worker_id);
     request.set_device(renderer_->device().name);
+    if (options_.capabilities.ByteSizeLong() > 0) *request.mutable_capabilities() = options_.capabilities;
     request.set_wait_seconds(5);  // short polls so Stop() is honoured quickly
     v1::LeaseJobResponse response;
     bool try_next_now = false;

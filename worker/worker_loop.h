@@ -104,6 +104,9 @@ struct WorkerOptions {
   // Bearer token sent on every call (issue 14); empty = none (a server with
   // --auth none).
   std::string token;
+  // Sent with every LeaseJob (worker/capabilities.h): the server leases
+  // only jobs that fit them. Empty = report nothing (leased anything).
+  v1::WorkerCapabilities capabilities;
 };
 
 class WorkerLoop {

@@ -13,7 +13,10 @@ std::string ProgressPrinter::Format(const sdk::JobUpdate& update) {
   // read 42%, hence the epsilon; floor so that 99.6% never shows as done.
   const int percent = static_cast<int>(std::floor(std::clamp(update.progress, 0.0, 1.0) * 100 + 1e-4));
   std::string line = absl::StrFormat("[%-7s %3d%%]", std::string(sdk::JobStateName(update.state)), percent);
-  if (!update.stage.empty()) line += " " + EscapeForTerminal(update.stage, 64);
+  // Stages are short words, except a queued job's reason for waiting
+  // ("waiting for a worker with at least 17.2 GB of host memory ...", issue
+  // 44), which is the line's point: room for it, still capped.
+  if (!update.stage.empty()) line += " " + EscapeForTerminal(update.stage, 256);
   return line;
 }
 

@@ -94,6 +94,18 @@ nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, 
   return j;
 }
 
+// What a worker reported it can do (issue 44); null when it reported nothing.
+nlohmann::json CapabilitiesJson(const std::optional<v1::WorkerCapabilities>& caps) {
+  if (!caps) return nullptr;
+  return {{"device_kind", caps->device_kind()},
+          {"device_memory_bytes", caps->device_memory_bytes()},
+          {"max_allocation_bytes", caps->max_allocation_bytes()},
+          {"host_memory_bytes", caps->host_memory_bytes()},
+          {"ktx2_encoder", caps->ktx2_encoder()},
+          {"baker_version", caps->baker_version()},
+          {"tags", std::vector<std::string>(caps->tags().begin(), caps->tags().end())}};
+}
+
 nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers, const FarmMetrics& metrics) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& w : workers) {
@@ -105,7 +117,8 @@ nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers
                     {"job_ids", w.job_ids},
                     {"paused_until_ms", w.paused_until_ms},
                     {"jobs_completed", Count(done)},
-                    {"jobs_failed", Count(failed)}});
+                    {"jobs_failed", Count(failed)},
+                    {"capabilities", CapabilitiesJson(w.capabilities)}});
   }
   return {{"workers", list}};
 }

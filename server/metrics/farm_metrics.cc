@@ -82,6 +82,11 @@ FarmMetrics::FarmMetrics(BakeScheduler* scheduler, const BlobStore* blobs)
                                         {"product"})),
       workers_(registry_.AddGauge("impostor_workers", "Known workers by state (busy, paused, idle, offline)",
                                   {"state"})),
+      workers_by_kind_(registry_.AddGauge(
+          "impostor_workers_by_device_kind",
+          "Workers heard from (not offline) by the device kind they report: discrete, integrated, virtual, cpu, "
+          "other, or unreported (issue 44)",
+          {"device_kind"})),
       worker_done_(registry_.AddCounter("impostor_worker_jobs_completed_total", "Bakes delivered, per worker",
                                         {"worker"})),
       worker_failed_(registry_.AddCounter("impostor_worker_jobs_failed_total",
@@ -198,6 +203,16 @@ std::string FarmMetrics::Scrape() {
     for (int i = 0; i < 4; ++i) by_state[std::string(BakeScheduler::WorkerStateName(i))] = 0;
     for (const auto& w : *workers) by_state[w.state] += 1;
     for (const auto& [state, n] : by_state) workers_.Set({state}, n);
+    // A fixed label set, whatever workers send.
+    std::map<std::string, double> by_kind = {{"discrete", 0}, {"integrated", 0}, {"virtual", 0},
+                                             {"cpu", 0},      {"other", 0},      {"unreported", 0}};
+    for (const auto& w : *workers) {
+      if (w.state == "offline") continue;
+      std::string kind = w.capabilities ? w.capabilities->device_kind() : "unreported";
+      if (!by_kind.count(kind)) kind = "other";
+      by_kind[kind] += 1;
+    }
+    for (const auto& [kind, n] : by_kind) workers_by_kind_.Set({kind}, n);
   }
   return registry_.Render();
 }

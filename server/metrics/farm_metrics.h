@@ -87,6 +87,7 @@ class FarmMetrics final : public SchedulerObserver {
   metrics::ValueFamily& failed_;
   metrics::ValueFamily& leases_lost_;
   metrics::ValueFamily& workers_;
+  metrics::ValueFamily& workers_by_kind_;
   metrics::ValueFamily& worker_done_;
   metrics::ValueFamily& worker_failed_;
   metrics::ValueFamily& store_bytes_;

@@ -75,6 +75,14 @@ struct SchedulerOptions {
   // workers are about is each server's own knowledge. Default 60 s; range
   // 0 (off) .. 1 h.
   int64_t retry_elsewhere_ms = 60'000;
+  // A queued job that no worker heard from can bake (its memory estimate
+  // over every worker's totals, or KTX2 maps and no encoder: issue 44)
+  // waits with the reason as its stage, and fails with it (reason
+  // UNPLACEABLE) once it has waited this long. Judged by the workers this
+  // server hears from, so never failed by a server sharing its store with
+  // others (the workers that could take it may poll another). Default 1 h;
+  // range 1 s .. 30 days.
+  int64_t unplaceable_timeout_ms = 3600'000;
   // Finished (SUCCEEDED, FAILED, CANCELLED) job records created longer ago
   // than this are deleted by SweepFinishedJobs, so the database stays
   // bounded. Default 7 days; 0 = keep for ever.
@@ -258,6 +266,9 @@ class BakeScheduler {
     int64_t last_seen_ms = 0;     // Unix ms; 0 = not since this server started
     std::vector<std::string> job_ids;  // running jobs it holds
     int64_t paused_until_ms = 0;
+    // What it reported with its last LeaseJob; none from a worker that
+    // reports nothing (it is leased anything).
+    std::optional<v1::WorkerCapabilities> capabilities;
   };
   // Every known worker, by id. At most kMaxTrackedWorkers heard-from workers
   // are remembered (the least recently seen idle one is forgotten first).
@@ -426,7 +437,20 @@ class BakeScheduler {
     std::string token;
     int64_t last_seen_ms = 0;
     int polling = 0;  // LeaseJob calls waiting now
+    std::optional<v1::WorkerCapabilities> capabilities;  // as last reported
   };
+  // Placement (issue 44): whether `r` fits what `worker_id` reported (a
+  // worker that reported nothing fits everything).
+  bool FitsWorker(const JobRecord& r, const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // For a queued job that did not fit the asking worker: when no worker
+  // about (heard from within the lease timeout) can bake it, its stage says
+  // why, and after unplaceable_timeout_ms it fails with that reason; when
+  // one can, a stage saying otherwise is put back to "queued".
+  absl::Status JudgePlacement(JobRecord& r) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Since when each job has had no worker that can bake it (Unix ms, this
+  // server's clock). In memory only; bounded by the queue.
+  std::map<std::string, int64_t> unplaceable_since_ ABSL_GUARDED_BY(mu_);
+  static constexpr size_t kMaxUnplaceableTracked = 4096;
   void NoteWorkerSeen(const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Takes mu_ for a read-only view within kViewLockWaitMs; UNAVAILABLE
   // (the outage, or "busy") otherwise.

@@ -22,6 +22,8 @@
 #include "common/request/quality_gate.h"
 #include "common/util/sha256.h"
 #include "common/util/utf8.h"
+#include "common/request/worker_fit.h"
+#include "absl/strings/match.h"
 #include "server/store/attempt_history.h"
 #include "server/store/database_full.h"
 #include "server/scheduler/scheduler_internal.h"
@@ -43,6 +45,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   if (request.wait_seconds() > 60) {
     return absl::InvalidArgumentError(absl::StrCat("wait_seconds: ", request.wait_seconds(), " is over the limit of 60"));
   }
+  if (auto s = ValidateCapabilities(request.capabilities()); !s.ok()) return s;
   std::unique_lock lock(mu_);
   if (auto seen = workers_.find(request.worker_id());
       bind_worker_id && !lease_holder.empty() && seen != workers_.end() && !seen->second.token.empty() &&
@@ -59,6 +62,7 @@ absl::StatusOr<std::optional<v1::LeasedJob>> BakeScheduler::Lease(const v1::Leas
   NoteWorkerSeen(request.worker_id());
   if (bind_worker_id && !lease_holder.empty()) workers_[request.worker_id()].token = lease_holder;
   workers_[request.worker_id()].device = std::string(Utf8Prefix(request.device(), 256));
+  if (request.has_capabilities()) workers_[request.worker_id()].capabilities = request.capabilities();
   // Counted as polling while it waits here (destroyed before `lock`).
   ++workers_[request.worker_id()].polling;
   struct PollEnd {
@@ -152,6 +156,14 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
     if (!got.ok()) return got.status();
     if (got->empty()) break;
     for (JobRecord& r : *got) {
+      // Placement: a job this worker cannot hold is never offered to it,
+      // and the queue is read again without it (issue 44).
+      if (!FitsWorker(r, worker_id)) {
+        skipped.push_back(r.job.job_id());
+        if (auto s = JudgePlacement(r); !s.ok()) return s;
+        continue;
+      }
+      if (!unplaceable_since_.empty()) unplaceable_since_.erase(r.job.job_id());
       if (FailedLatelyBy(r, worker_id, now)) {
         skipped.push_back(r.job.job_id());
         held_back.push_back(std::move(r));
@@ -192,6 +204,53 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
   std::sort(heads.begin(), heads.end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
   for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
   return ids;
+}
+
+bool BakeScheduler::FitsWorker(const JobRecord& r, const std::string& worker_id) {
+  const auto w = workers_.find(worker_id);
+  if (w == workers_.end() || !w->second.capabilities) return true;
+  return !WorkerShortfall(r.parameters, *w->second.capabilities).has_value();
+}
+
+absl::Status BakeScheduler::JudgePlacement(JobRecord& r) {
+  const int64_t now = options_.now_ms();
+  std::vector<v1::WorkerCapabilities> about;
+  for (const auto& [id, w] : workers_) {
+    if (w.polling == 0 && now - w.last_seen_ms >= options_.lease_timeout_ms) continue;
+    if (!w.capabilities) return absl::OkStatus();  // reports nothing: may take it
+    about.push_back(*w.capabilities);
+  }
+  const std::string reason = UnplaceableReason(r.parameters, about);
+  const bool waiting_stage = absl::StartsWith(r.job.stage(), "waiting for a worker");
+  if (reason.empty()) {
+    unplaceable_since_.erase(r.job.job_id());
+    if (!waiting_stage) return absl::OkStatus();
+    r.job.set_stage("queued");
+    return Save(r);
+  }
+  if (unplaceable_since_.size() >= kMaxUnplaceableTracked) {
+    // Jobs cancelled or baked elsewhere while unplaceable leave entries
+    // behind: drop those older than any timeout could still need.
+    std::erase_if(unplaceable_since_, [&](const auto& e) { return now - e.second > 2 * options_.unplaceable_timeout_ms; });
+  }
+  const int64_t since = unplaceable_since_.emplace(r.job.job_id(), now).first->second;
+  const bool timed_out = !jobs_->SharedWithOtherServers() && now - since >= options_.unplaceable_timeout_ms;
+  if (!timed_out) {
+    if (r.job.stage() == reason) return absl::OkStatus();
+    spdlog::info("event=unplaceable job={} reason=\"{}\"", r.job.job_id(), reason);
+    r.job.set_stage(reason);
+    return Save(r);
+  }
+  unplaceable_since_.erase(r.job.job_id());
+  r.job.set_state(v1::JOB_STATE_FAILED);
+  r.job.set_stage("failed");
+  r.job.mutable_error()->set_code(static_cast<int32_t>(absl::StatusCode::kResourceExhausted));
+  r.job.mutable_error()->set_message(absl::StrCat("no worker could bake it for ", options_.unplaceable_timeout_ms / 1000,
+                                                  " s (--unplaceable-timeout-seconds): ", reason));
+  r.job.mutable_error()->set_reason(error_reason::kUnplaceable);
+  if (auto s = Save(r); !s.ok()) return s;
+  spdlog::info("event=fail job={} reason=unplaceable error=\"{}\"", r.job.job_id(), r.job.error().message());
+  return SettleFollowers(r);
 }
 
 bool BakeScheduler::FailedLatelyBy(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms) const {

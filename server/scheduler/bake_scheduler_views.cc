@@ -149,6 +149,7 @@ absl::StatusOr<std::vector<BakeScheduler::WorkerInfo>> BakeScheduler::Workers() 
     w.worker_id = id;
     w.device = seen.device;
     w.last_seen_ms = seen.last_seen_ms;
+    w.capabilities = seen.capabilities;
   }
   for (const JobRecord& r : *pending) {
     if (r.job.state() != v1::JOB_STATE_RUNNING || !r.leader_job_id.empty() || r.worker_id.empty()) continue;

@@ -1,4 +1,4 @@
-// The bake memory estimate (worker/bake/bake_memory_estimate.h) against
+// The bake memory estimate (common/request/bake_memory_estimate.h) against
 // the peak resident memory of real bakes on this machine's device
 // (lavapipe in CI, where device memory is host memory too).
 //
@@ -31,7 +31,7 @@
 #include "common/request/bake_request.h"
 #include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/atlas_bake.h"
-#include "worker/bake/bake_memory_estimate.h"
+#include "common/request/bake_memory_estimate.h"
 
 namespace impostor {
 namespace {

@@ -1,11 +1,13 @@
 // A request too large for a worker's memory, through a real impostor-server
 // and real impostor-worker processes whose host memory is made small with
 // IMPOSTOR_WORKER_TEST_HOST_MEMORY (worker/test_faults.h):
-//  * over the worker's total: the job fails for good on its first attempt,
-//    RESOURCE_EXHAUSTED naming the estimate and the limit, without rendering
-//    (the worker would crash at its render stage: IMPOSTOR_WORKER_TEST_CRASH_ON),
-//    and the worker bakes the next job (it used to die in std::bad_alloc,
-//    three attempts, each one a worker down);
+//  * over the total of every worker: the server never leases it (the
+//    worker reports its memory with each LeaseJob, issue 44); the job waits
+//    with the reason as its stage and fails with it (UNPLACEABLE) after
+//    --unplaceable-timeout-seconds, without an attempt and without
+//    rendering (the worker would crash at its render stage:
+//    IMPOSTOR_WORKER_TEST_CRASH_ON), and the worker bakes the next job (it
+//    used to die in std::bad_alloc, three attempts, each one a worker down);
 //  * within the total but over what is available now: UNAVAILABLE, and the
 //    job is baked by another worker.
 // Every wait is for a job event (WatchJob).
@@ -34,28 +36,39 @@ std::string Submit(ServerProcess& server, const char* mesh, uint32_t resolution)
                                   /*frames=*/8, resolution);
 }
 
-TEST(MemoryLimit, ARequestOverTheWorkersMemoryFailsForGoodBeforeItRenders) {
-  ServerProcess server(/*local_workers=*/0, kPauseAfterOneFailure);
+TEST(MemoryLimit, ARequestOverEveryWorkersMemoryWaitsThenFailsWithTheReasonNeverAnAttempt) {
+  std::vector<std::string> flags = kPauseAfterOneFailure;
+  flags.push_back("--unplaceable-timeout-seconds=2");
+  ServerProcess server(/*local_workers=*/0, flags);
   auto worker = testing::StartWorker(server.address(), {"--name=small"},
                                      {"IMPOSTOR_WORKER_TEST_HOST_MEMORY=100000000",
                                       std::string("IMPOSTOR_WORKER_TEST_CRASH_ON=") + "Box.glb"});
   // 1024 px at supersampling 2: about 134 MB on lavapipe, more than the
   // worker's 100 MB.
-  const v1::Job failed = testing::WatchUntil(server.bake(), Submit(server, kBox, 1024), testing::EndedOrRequeued);
-  ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED) << "retried: " << failed.DebugString();
+  const std::string id = Submit(server, kBox, 1024);
+  const v1::Job waiting = testing::WatchUntil(server.bake(), id, [](const v1::Job& j) {
+    return j.stage().rfind("waiting for a worker", 0) == 0 || j.state() != v1::JOB_STATE_QUEUED;
+  });
+  EXPECT_EQ(waiting.state(), v1::JOB_STATE_QUEUED) << waiting.DebugString();
+  const v1::Job failed = testing::WatchToEnd(server.bake(), id);
+  ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED) << failed.DebugString();
   EXPECT_EQ(failed.error().code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << failed.error().message();
-  EXPECT_EQ(failed.attempts(), 1u);
+  EXPECT_EQ(failed.error().reason(), "UNPLACEABLE");
+  EXPECT_EQ(failed.attempts(), 0u);
   const std::string& message = failed.error().message();
-  EXPECT_EQ(message.rfind("an atlas of 1024 px at supersampling 2 (frames 8) needs about ", 0), 0u) << message;
-  EXPECT_NE(message.find(" of host memory; this worker has 100 MB (IMPOSTOR_WORKER_TEST_HOST_MEMORY): lower "
-                         "--supersampling or --resolution"),
+  EXPECT_EQ(message.rfind("no worker could bake it for 2 s (--unplaceable-timeout-seconds): waiting for a worker "
+                          "with at least ",
+                          0),
+            0u)
+      << message;
+  EXPECT_NE(message.find(" of host memory (the most any worker has: 100 MB) for an atlas of 1024 px at "
+                         "supersampling 2 (frames 8)"),
             std::string::npos)
       << message;
-
   // Not held against the worker: it bakes the next job, one that fits.
   const v1::Job next = testing::WatchToEnd(server.bake(), Submit(server, kBoxTextured, 64));
   EXPECT_EQ(next.state(), v1::JOB_STATE_SUCCEEDED) << next.error().message();
-  EXPECT_EQ(next.worker_id(), failed.worker_id());
+  EXPECT_EQ(next.worker_id().rfind("small-", 0), 0u) << next.worker_id();
   EXPECT_TRUE(worker->Running()) << "the worker died";
 }
 

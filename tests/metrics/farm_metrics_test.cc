@@ -37,6 +37,42 @@ class FarmMetricsTest : public testing_support::SchedulerFixture {
   std::unique_ptr<FarmMetrics> metrics_;
 };
 
+TEST_F(FarmMetricsTest, WorkersAreCountedByTheDeviceKindTheyReportUnderAFixedLabelSet) {
+  auto lease = [&](const std::string& worker, const char* kind) {
+    v1::LeaseJobRequest r;
+    r.set_worker_id(worker);
+    if (kind != nullptr) r.mutable_capabilities()->set_device_kind(kind);
+    ASSERT_TRUE(scheduler_->Lease(r, std::chrono::steady_clock::now(), nullptr).ok());
+  };
+  lease("gpu-1", "discrete");
+  lease("gpu-2", "discrete");
+  lease("laptop", "cpu");
+  lease("odd", "quantum");  // not a kind we label: counted as other
+  lease("old", nullptr);    // reports nothing
+  Exposition e = Scrape();
+  EXPECT_EQ(e.Value("impostor_workers_by_device_kind", {{"device_kind", "discrete"}}), 2);
+  EXPECT_EQ(e.Value("impostor_workers_by_device_kind", {{"device_kind", "cpu"}}), 1);
+  EXPECT_EQ(e.Value("impostor_workers_by_device_kind", {{"device_kind", "other"}}), 1);
+  EXPECT_EQ(e.Value("impostor_workers_by_device_kind", {{"device_kind", "unreported"}}), 1);
+  EXPECT_EQ(e.Value("impostor_workers_by_device_kind", {{"device_kind", "integrated"}}), 0);
+  EXPECT_EQ(e.Sum("impostor_workers_by_device_kind"), 5);
+  // And the JSON API shows what each reported.
+  auto workers = scheduler_->Workers();
+  ASSERT_TRUE(workers.ok());
+  const nlohmann::json json = WorkersJson(*workers, *metrics_);
+  int reported = 0;
+  for (const auto& w : json["workers"]) {
+    if (w["worker_id"] == "old") {
+      EXPECT_TRUE(w["capabilities"].is_null());
+    } else {
+      EXPECT_TRUE(w["capabilities"].is_object()) << w.dump();
+      ++reported;
+    }
+    if (w["worker_id"] == "laptop") EXPECT_EQ(w["capabilities"]["device_kind"], "cpu");
+  }
+  EXPECT_EQ(reported, 4);
+}
+
 TEST_F(FarmMetricsTest, BakeThenCacheHitMoveCountersByExactlyWhatHappened) {
   const auto request = Request("mesh one");
   Submit(request, "alice");

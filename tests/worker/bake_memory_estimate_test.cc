@@ -1,6 +1,6 @@
-// The arithmetic of worker/bake/bake_memory_estimate.h, case by case. How
+// The arithmetic of common/request/bake_memory_estimate.h, case by case. How
 // well it matches real bakes is tests/bake/bake_memory_test.cc's (gpu).
-#include "worker/bake/bake_memory_estimate.h"
+#include "common/request/bake_memory_estimate.h"
 
 #include <cstdint>
 #include <string>

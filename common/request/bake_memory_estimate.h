@@ -1,6 +1,7 @@
 // How much memory a bake holds at its peak, from its normalised parameters
-// alone, so that a worker can refuse a job it could never finish before it
-// downloads or renders anything (worker/bake_memory_check.h decides).
+// alone, so that the server leases a job only to a worker that can hold it
+// (common/request/worker_fit.h) and a worker refuses one it could never
+// finish before it downloads or renders anything (worker/bake_memory_check.h).
 //
 // Counted: what atlas_bake.cc and the code it calls allocate in proportion
 // to the atlas: the render targets at resolution x supersampling
@@ -22,8 +23,8 @@
 // quality pass (surfels: plus their samples). Those three are not measured.
 //
 // Pure functions; thread-safe.
-#ifndef IMPOSTOR_WORKER_BAKE_BAKE_MEMORY_ESTIMATE_H_
-#define IMPOSTOR_WORKER_BAKE_BAKE_MEMORY_ESTIMATE_H_
+#ifndef IMPOSTOR_COMMON_REQUEST_BAKE_MEMORY_ESTIMATE_H_
+#define IMPOSTOR_COMMON_REQUEST_BAKE_MEMORY_ESTIMATE_H_
 
 #include <cstdint>
 #include <string>
@@ -62,6 +63,13 @@ struct BakeMemoryEstimate {
 // supersampling counts as 1, as BakeAtlas renders it) on `device`.
 BakeMemoryEstimate EstimateBakeMemory(const v1::BakeParameters& normalised, BakeDevice device);
 
+// What is baked, with the parameters that drive its memory, for messages:
+// "an atlas of 16384 px at supersampling 2 (frames 64)".
+std::string DescribeBake(const v1::BakeParameters& normalised);
+
+// "17.2 GB", "46 MB", "3.1 MB", "512 bytes": decimal units, as people read them.
+std::string MemoryAmount(int64_t bytes);
+
 }  // namespace impostor
 
-#endif  // IMPOSTOR_WORKER_BAKE_BAKE_MEMORY_ESTIMATE_H_
+#endif  // IMPOSTOR_COMMON_REQUEST_BAKE_MEMORY_ESTIMATE_H_

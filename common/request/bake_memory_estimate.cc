@@ -1,6 +1,7 @@
-#include "worker/bake/bake_memory_estimate.h"
+#include "common/request/bake_memory_estimate.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "absl/strings/str_cat.h"
 #include "common/atlas/atlas_layout.h"
@@ -115,6 +116,42 @@ BakeMemoryEstimate EstimateBakeMemory(const v1::BakeParameters& normalised, Bake
   out.largest_allocation = "normal_depth render target";
   out.largest_allocation_shape = absl::StrCat(s.render, " px square, ", kNormalDepthTexel, " bytes a texel");
   return out;
+}
+
+namespace {
+
+bool Supersampled(const v1::BakeParameters& p) {
+  return (p.product() == v1::PRODUCT_ATLAS || p.product() == v1::PRODUCT_LOD_CHAIN) && p.has_supersampling();
+}
+
+}  // namespace
+
+// "17.2 GB", "46 MB", "3.1 MB", "512 bytes": decimal units, as people read them.
+std::string MemoryAmount(int64_t bytes) {
+  char text[32];
+  if (bytes >= 1'000'000'000) {
+    std::snprintf(text, sizeof(text), "%.1f GB", static_cast<double>(bytes) / 1e9);
+  } else if (bytes >= 10'000'000) {
+    std::snprintf(text, sizeof(text), "%.0f MB", static_cast<double>(bytes) / 1e6);
+  } else if (bytes >= 1'000'000) {
+    std::snprintf(text, sizeof(text), "%.1f MB", static_cast<double>(bytes) / 1e6);
+  } else {
+    std::snprintf(text, sizeof(text), "%lld bytes", static_cast<long long>(bytes));
+  }
+  return text;
+}
+
+// What is baked, with the parameters that drive its memory:
+// "an atlas of 16384 px at supersampling 2 (frames 64)".
+std::string DescribeBake(const v1::BakeParameters& p) {
+  const std::string frames = p.frames() > 0 ? absl::StrCat("frames ", p.frames()) : "frames auto";
+  const std::string texture = p.texture_format() == v1::TEXTURE_FORMAT_KTX2 ? ", KTX2 maps" : "";
+  const std::string sampling = Supersampled(p) ? absl::StrCat(" at supersampling ", p.supersampling()) : "";
+  const std::string what = p.product() == v1::PRODUCT_SURFELS     ? "a surfel capture"
+                           : p.product() == v1::PRODUCT_CARDS     ? "a card atlas"
+                           : p.product() == v1::PRODUCT_LOD_CHAIN ? "a LOD chain's impostor atlas"
+                                                                  : "an atlas";
+  return absl::StrCat(what, " of ", p.resolution(), " px", sampling, " (", frames, texture, ")");
 }
 
 }  // namespace impostor
