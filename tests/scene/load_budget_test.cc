@@ -226,5 +226,37 @@ TEST(ImageBudgetTest, AJpegHuffmanTableOfMoreThan256CodesIsRefused) {
   EXPECT_EQ(std::string(other.status().message()).find("Huffman table (DHT)"), std::string::npos) << other.status();
 }
 
+// stb_image grows its buffer to an IDAT chunk's declared length before it
+// reads the chunk, so a 60-byte PNG claiming a 1 GiB chunk allocated 1 GiB
+// (fuzz/run.sh found it); such a chunk is refused before stb sees the file,
+// and a PNG whose chunks all fit is not.
+TEST(ImageBudgetTest, APngChunkLongerThanTheFileIsRefused) {
+  auto chunk = [](std::vector<uint8_t>* b, const char* type, uint32_t length,
+                  std::vector<uint8_t> data) {
+    b->insert(b->end(), {uint8_t(length >> 24), uint8_t(length >> 16), uint8_t(length >> 8),
+                         uint8_t(length)});
+    b->insert(b->end(), type, type + 4);
+    b->insert(b->end(), data.begin(), data.end());
+    b->insert(b->end(), {0, 0, 0, 0});  // CRC (stb does not check it)
+  };
+  auto png = [&](uint32_t idat_length) {
+    std::vector<uint8_t> b = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+    chunk(&b, "IHDR", 13, {0, 0, 0, 1, 0, 0, 0, 1, 8, 6, 0, 0, 0});  // 1x1 RGBA8
+    chunk(&b, "IDAT", idat_length, {0x78, 0x01, 0x01, 0x05, 0x00, 0xFA, 0xFF, 0, 1, 2, 3, 4});
+    chunk(&b, "IEND", 0, {});
+    return b;
+  };
+  const auto refused = DecodeImageRgba8(png(0x3FFFFFFF), 1024, 1 << 20, "image[2]");
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument) << refused.status();
+  EXPECT_NE(std::string(refused.status().message())
+                .find("image[2]: corrupt PNG: the chunk at byte 33 declares more data than the 69-byte image holds"),
+            std::string::npos)
+      << refused.status();
+  // The same file with the chunk's true length is not refused by this check
+  // (the stored block holds 5 bytes for a 1x1 RGBA row of 4 plus its filter).
+  const auto fits = DecodeImageRgba8(png(12), 1024, 1 << 20, "image[2]");
+  EXPECT_EQ(std::string(fits.status().message()).find("corrupt PNG"), std::string::npos) << fits.status();
+}
+
 }  // namespace
 }  // namespace impostor

@@ -62,6 +62,29 @@ bool HasOversizedHuffmanTable(std::span<const uint8_t> b) {
   return false;
 }
 
+// stb_image grows its buffer of compressed data to each IDAT chunk's declared
+// length before it reads the chunk, doubling as it goes, so one chunk header
+// claiming a gigabyte allocates a gigabyte even in a 200-byte file (found by
+// fuzz/run.sh). Decoding from memory, a chunk can never be longer than the
+// bytes left, so this walks the chunks up to IEND the way stb does and names
+// the first that runs past the end: stricter than stb, never looser.
+// Returns the byte offset of that chunk, or -1 when every chunk fits.
+long FirstPngChunkPastEnd(std::span<const uint8_t> b) {
+  size_t pos = 8;  // after the signature
+  while (pos + 8 <= b.size()) {
+    const uint32_t length = uint32_t(b[pos]) << 24 | uint32_t(b[pos + 1]) << 16 |
+                            uint32_t(b[pos + 2]) << 8 | uint32_t(b[pos + 3]);
+    const bool iend = std::memcmp(b.data() + pos + 4, "IEND", 4) == 0;
+    // length + type + data + CRC must fit; IEND's CRC may be missing, as stb
+    // never reads it.
+    const uint64_t need = uint64_t(8) + length + (iend ? 0 : 4);
+    if (need > b.size() - pos) return static_cast<long>(pos);
+    if (iend) return -1;
+    pos += static_cast<size_t>(need);
+  }
+  return -1;  // truncated before a chunk header: stb reports it itself
+}
+
 const char* OtherFormat(std::span<const uint8_t> b) {
   if (StartsWith(b, "\xABKTX 20\xBB\r\n\x1A\n", 12)) return "KTX2";
   if (StartsWith(b, "\xABKTX 11\xBB\r\n\x1A\n", 12)) return "KTX";
@@ -89,6 +112,11 @@ absl::StatusOr<ImageHeader> ProbeImage(std::span<const uint8_t> bytes, std::stri
   ImageHeader header;
   if (StartsWith(bytes, kPngMagic, 8)) {
     header.format = ImageHeader::Format::kPng;
+    if (const long at = FirstPngChunkPastEnd(bytes); at >= 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          std::string(what), ": corrupt PNG: the chunk at byte ", at,
+          " declares more data than the ", bytes.size(), "-byte image holds"));
+    }
   } else if (StartsWith(bytes, "\xFF\xD8\xFF", 3)) {
     header.format = ImageHeader::Format::kJpeg;
     if (HasOversizedHuffmanTable(bytes)) {
