@@ -150,6 +150,11 @@ absl::Status Transfer(const BlobReader& reader, const v1::Digest& digest, int fd
   }, cancel);
 }
 
+// Starts writing the blob's bytes to disk without waiting: by the time the
+// install syncs its files (SyncStagedFiles) most are written, and their
+// syncs share one journal commit. A failure here shows again at that sync.
+void StartWriteback(int fd) { (void)::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE); }
+
 absl::Status LinkAll(const fs::path& from, const std::vector<fs::path>& links, size_t first) {
   for (size_t i = first; i < links.size(); ++i) {
     if (::link(from.c_str(), links[i].c_str()) != 0) {
@@ -174,7 +179,7 @@ absl::StatusOr<BlobOutcome> FetchPrivately(const BlobReader& reader, const v1::D
   if (hooks.on_blob_start) hooks.on_blob_start(digest.hash(), 0);
   Sha256 hash;
   absl::Status status = Transfer(reader, digest, file.get(), target, 0, hash, hooks, cancel, &outcome.bytes_downloaded);
-  if (status.ok() && ::fdatasync(file.get()) != 0) status = LocalIoError("cannot sync", target, errno);
+  if (status.ok()) StartWriteback(file.get());
   if (!status.ok()) {
     ::unlink(target.c_str());
     return status;
@@ -242,14 +247,7 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
       status = Transfer(reader, digest, fd, partial, have, hash, hooks, cancel, &outcome.bytes_downloaded);
     }
     if (status.ok()) {
-      if (::fdatasync(fd) != 0) {
-        const int err = errno;
-        if (IsDiskFull(err)) {
-          ::ftruncate(fd, 0);
-          ::unlink(partial.c_str());
-        }
-        return LocalIoError("cannot sync", partial, err);
-      }
+      StartWriteback(fd);
       // Linked while locked: once we let go, the bytes are the staging
       // directory's as well, whatever becomes of the partial's name.
       if (absl::Status s = LinkAll(partial, links, 0); !s.ok()) return s;

@@ -89,9 +89,12 @@ using BlobReader = std::function<absl::Status(const v1::Digest& digest, int64_t 
 BlobReader FarmBlobReader(Transport& transport);
 
 // Makes each path of `links` (new names inside a staging directory the
-// caller owns; at least one) a hard link to the verified, synced blob
+// caller owns; at least one) a hard link to the verified blob
 // `digest`, fetched through its partial file `partial`: bytes already there
-// are hashed and kept, only the rest is requested. A partial file whose
+// are hashed and kept, only the rest is requested. The blob's writeback is
+// started, not waited for: the install makes all of a result's files
+// durable together (SyncStagedFiles), one journal commit per result rather
+// than one per file. A partial file whose
 // bytes turn out wrong is truncated and the blob fetched once more from
 // zero. On failure the bytes received so far stay in `partial` for the next
 // try. `cancel` (may be null) is polled while waiting for the partial and
