@@ -484,11 +484,12 @@ TEST_F(MaterialAssetsTest, AlphaBlendModeTestCutoffsGiveTheirCoverage) {
     // RGB = the sRGB code of alpha, so that sampling (which decodes RGB to
     // linear before filtering, while alpha is filtered as stored) filters
     // the same values the shader's alpha sees.
+    // (The copy shares the quad's texels: mutable_data makes them its own.)
+    uint8_t* texels = t.rgba8.mutable_data();
     for (size_t i = 0; i < t.rgba8.size(); i += 4) {
-      const double a = t.rgba8[i + 3] / 255.0;
+      const double a = texels[i + 3] / 255.0;
       const double code = a <= 0.0031308 ? a * 12.92 : 1.055 * std::pow(a, 1.0 / 2.4) - 0.055;
-      t.rgba8[i] = t.rgba8[i + 1] = t.rgba8[i + 2] =
-          static_cast<uint8_t>(std::lround(code * 255.0));
+      texels[i] = texels[i + 1] = texels[i + 2] = static_cast<uint8_t>(std::lround(code * 255.0));
     }
     const AtlasImages ref = Render(alpha_as_colour, toward, 256, &sphere);
     int quad_texels = 0, expected = 0;

@@ -268,7 +268,7 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, bool srgb, int materi
     }
     texture_bytes_ += bytes;
     out.has_alpha_channel = same.has_alpha_channel;
-    out.rgba8 = same.rgba8;  // same image, other sampler or colour space
+    out.rgba8 = same.rgba8;  // same image, other sampler or colour space: shared bytes
   } else {
     if (image.image.empty()) {
       if (!image.uri.empty() && image.uri.rfind("data:", 0) != 0) {

@@ -16,10 +16,12 @@
 #include <cstring>
 #include <fstream>
 #include <new>
+#include <optional>
 #include <string>
 
 #include "absl/strings/str_cat.h"
 #include "worker/scene/scene_wire.h"
+#include "worker/scene/texel_arena.h"
 
 namespace impostor {
 namespace {
@@ -49,9 +51,27 @@ bool WriteAll(int fd, std::string_view bytes) {
   return true;
 }
 
-// The child: limits, load, the scene into `scene_fd` (when >= 0), report
+// The child's report: its length as 4 native-order bytes, then
+// "<code> <message>". The length lets the worker act on the report as soon
+// as it is complete, while the child's exit still tears down its address
+// space (tens of milliseconds for a textured scene), instead of at EOF.
+void WriteReport(int report_fd, const std::string& report) {
+  const uint32_t size = static_cast<uint32_t>(std::min(report.size(), kMaxReportBytes));
+  WriteAll(report_fd, std::string_view(reinterpret_cast<const char*>(&size), sizeof(size)));
+  WriteAll(report_fd, std::string_view(report.data(), size));
+}
+
+// Where the child puts the scene it loaded: its bytes (scene_wire.h) into
+// `scene_fd` and its textures' texels into `texel_fd` (texel_arena.h), two
+// memfds; -1 when only the status is wanted.
+struct HandOver {
+  int scene_fd = -1;
+  int texel_fd = -1;
+};
+
+// The child: limits, load, the scene into `hand_over`, report
 // "<code> <message>", leave.
-[[noreturn]] void RunChild(int report_fd, int scene_fd, const std::filesystem::path& entry_file,
+[[noreturn]] void RunChild(int report_fd, HandOver hand_over, const std::filesystem::path& entry_file,
                            const GltfLoadLimits& limits, uint64_t address_space, int cpu_seconds) {
   // No locks: another thread of the parent may have held the logger's.
   if (spdlog::logger* logger = spdlog::default_logger_raw()) logger->set_level(spdlog::level::off);
@@ -59,31 +79,38 @@ bool WriteAll(int fd, std::string_view bytes) {
   const rlimit cpu{static_cast<rlim_t>(cpu_seconds), static_cast<rlim_t>(cpu_seconds) + 1};
   if (::setrlimit(RLIMIT_AS, &as) != 0 || ::setrlimit(RLIMIT_CPU, &cpu) != 0) {
     // Said, not just exited: "status 3 without a report" told nobody why.
-    WriteAll(report_fd, absl::StrCat(static_cast<int>(absl::StatusCode::kInternal),
-                                     " cannot set the loader's limits: ", std::strerror(errno)));
+    WriteReport(report_fd, absl::StrCat(static_cast<int>(absl::StatusCode::kInternal),
+                                        " cannot set the loader's limits: ", std::strerror(errno)));
     ::_exit(3);
   }
   // No core files for a bomb.
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
-  std::string report;
   try {
+    // Textures are decoded straight into shared memory, which the worker
+    // maps rather than copies.
+    std::optional<TexelArena> arena;
+    std::optional<ScopedTexelArena> use_arena;
+    if (hand_over.texel_fd >= 0) use_arena.emplace(&arena.emplace(hand_over.texel_fd));
     const absl::StatusOr<Scene> scene = LoadGltfScene(entry_file, limits);
-    report = absl::StrCat(static_cast<int>(scene.status().code()), " ", scene.status().message());
-    if (scene.ok() && scene_fd >= 0) {
+    std::string report = absl::StrCat(static_cast<int>(scene.status().code()), " ", scene.status().message());
+    if (scene.ok() && hand_over.scene_fd >= 0) {
       bool written = true;
-      EncodeScene(*scene, [&](std::string_view bytes) { written = written && WriteAll(scene_fd, bytes); });
+      EncodeScene(
+          *scene, [&](std::string_view bytes) { written = written && WriteAll(hand_over.scene_fd, bytes); },
+          arena ? &*arena : nullptr);
       if (!written) {
         report = absl::StrCat(static_cast<int>(absl::StatusCode::kInternal),
                               " could not hand the loaded scene to the worker: ", std::strerror(errno));
       }
     }
+    WriteReport(report_fd, report);
+    ::_exit(0);  // the scene is not freed: the exit tears the whole space down at once
   } catch (const std::bad_alloc&) {
-    report = absl::StrCat(static_cast<int>(absl::StatusCode::kResourceExhausted), " out of memory");
+    WriteReport(report_fd, absl::StrCat(static_cast<int>(absl::StatusCode::kResourceExhausted), " out of memory"));
   } catch (...) {
-    report = absl::StrCat(static_cast<int>(absl::StatusCode::kInvalidArgument), " the loader threw");
+    WriteReport(report_fd, absl::StrCat(static_cast<int>(absl::StatusCode::kInvalidArgument), " the loader threw"));
   }
-  WriteAll(report_fd, report);
   ::_exit(0);
 }
 
@@ -92,10 +119,27 @@ std::string SignalName(int sig) {
   return name ? absl::StrCat("SIG", name) : absl::StrCat("signal ", sig);
 }
 
-// Forks the child and returns how it ended; the child writes the scene into
-// `scene_fd` when that is >= 0.
+// The scene the child handed over, checked (scene_wire.h); its textures
+// are views of the mapped texel memfd.
+absl::StatusOr<Scene> ReadScene(HandOver hand_over) {
+  absl::StatusOr<MappedTexels> texels = MapTexelArena(hand_over.texel_fd);
+  if (!texels.ok()) return texels.status();
+  const int scene_fd = hand_over.scene_fd;
+  struct stat st {};
+  if (::fstat(scene_fd, &st) != 0) return absl::InternalError(absl::StrCat("fstat: ", std::strerror(errno)));
+  if (st.st_size <= 0) return absl::DataLossError("the isolated loader handed over no scene");
+  const size_t size = static_cast<size_t>(st.st_size);
+  void* mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, scene_fd, 0);
+  if (mapped == MAP_FAILED) return absl::InternalError(absl::StrCat("mmap: ", std::strerror(errno)));
+  absl::StatusOr<Scene> scene = DecodeScene(std::span(static_cast<const uint8_t*>(mapped), size), &*texels);
+  ::munmap(mapped, size);
+  return scene;
+}
+
+// Forks the child and returns how it ended; the child hands its scene over
+// through `hand_over` (when its fds are >= 0).
 absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
-                         const LoadIsolation& isolation, const std::atomic<bool>* cancelled, int scene_fd) {
+                         const LoadIsolation& isolation, const std::atomic<bool>* cancelled, HandOver hand_over) {
   if (isolation.address_space_bytes < (uint64_t{64} << 20) || isolation.cpu_seconds < 1 ||
       isolation.cpu_seconds > 86400 || isolation.wall_seconds < 1 || isolation.wall_seconds > 86400) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -125,15 +169,22 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
   }
   if (pid == 0) {
     ::close(fds[0]);
-    RunChild(fds[1], scene_fd, entry_file, limits, address_space, isolation.cpu_seconds);
+    RunChild(fds[1], hand_over, entry_file, limits, address_space, isolation.cpu_seconds);
   }
   ::close(fds[1]);
 
-  // Read the report until EOF, watching for cancellation and the wall limit.
+  // Read the report until it is complete (or EOF), watching for
+  // cancellation and the wall limit.
   std::string report;
+  uint32_t report_size = 0;
+  auto complete = [&] {
+    if (report.size() < sizeof(report_size)) return false;
+    std::memcpy(&report_size, report.data(), sizeof(report_size));
+    return report_size <= kMaxReportBytes && report.size() >= sizeof(report_size) + report_size;
+  };
   const auto deadline = start + std::chrono::seconds(isolation.wall_seconds);
   absl::Status stopped;
-  for (;;) {
+  while (!complete()) {
     if (cancelled && *cancelled) {
       stopped = absl::CancelledError("cancelled while loading");
       break;
@@ -148,24 +199,37 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
     char buf[1024];
     const ssize_t n = ::read(fds[0], buf, sizeof(buf));
     if (n > 0) {
-      if (report.size() < kMaxReportBytes) report.append(buf, static_cast<size_t>(n));
+      if (report.size() < kMaxReportBytes + sizeof(report_size)) report.append(buf, static_cast<size_t>(n));
       continue;
     }
     if (n < 0 && errno == EINTR) continue;
-    break;  // EOF: the child has exited or is exiting
+    break;  // EOF: the child has exited without a whole report
   }
   ::close(fds[0]);
-  if (!stopped.ok()) ::kill(pid, SIGKILL);
+  const bool reported = stopped.ok() && complete();
+  int code = -1;
+  std::string message;
+  if (reported) {
+    const std::string text = report.substr(sizeof(report_size), report_size);
+    const size_t space = text.find(' ');
+    code = std::atoi(text.substr(0, space).c_str());
+    message = space == std::string::npos ? "" : text.substr(space + 1);
+  }
+  // Nothing the child does after its report (or a stop) is of use: a
+  // compromised child must not keep the worker waiting in waitpid, nor
+  // touch the memfds once the worker reads them (it is gone by then).
+  if (reported || !stopped.ok()) ::kill(pid, SIGKILL);
   int wstatus = 0;
   while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   spdlog::debug("event=isolated_load file={} seconds={:.3f} status={}", entry_file.filename().string(),
-                seconds, WIFEXITED(wstatus) ? absl::StrCat("exit ", WEXITSTATUS(wstatus))
-                                            : SignalName(WTERMSIG(wstatus)));
+                seconds, reported ? absl::StrCat("reported ", code)
+                         : WIFEXITED(wstatus) ? absl::StrCat("exit ", WEXITSTATUS(wstatus))
+                                              : SignalName(WTERMSIG(wstatus)));
   if (!stopped.ok()) return stopped;
 
-  if (WIFSIGNALED(wstatus)) {
+  if (!reported && WIFSIGNALED(wstatus)) {
     const int sig = WTERMSIG(wstatus);
     if (sig == SIGXCPU || sig == SIGKILL) {
       return absl::ResourceExhaustedError(absl::StrCat(
@@ -176,14 +240,11 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
         "the glTF loader crashed on this file (", SignalName(sig),
         ") in its isolated process; the worker is unaffected"));
   }
-  if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0 || report.empty()) {
+  if (!reported) {
     return absl::InternalError(absl::StrCat("the isolated loader exited with status ",
                                             WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1,
                                             " without a report"));
   }
-  const size_t space = report.find(' ');
-  const int code = std::atoi(report.substr(0, space).c_str());
-  const std::string message = space == std::string::npos ? "" : report.substr(space + 1);
   if (code == 0) return absl::OkStatus();
   if (code == static_cast<int>(absl::StatusCode::kResourceExhausted) && message == "out of memory") {
     if (capped) {
@@ -203,37 +264,32 @@ absl::Status RunIsolated(const std::filesystem::path& entry_file, const GltfLoad
   return absl::Status(static_cast<absl::StatusCode>(code), message);
 }
 
-// The scene the child wrote into `scene_fd`, checked (scene_wire.h).
-absl::StatusOr<Scene> ReadScene(int scene_fd) {
-  struct stat st {};
-  if (::fstat(scene_fd, &st) != 0) return absl::InternalError(absl::StrCat("fstat: ", std::strerror(errno)));
-  if (st.st_size <= 0) return absl::DataLossError("the isolated loader handed over no scene");
-  const size_t size = static_cast<size_t>(st.st_size);
-  void* mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, scene_fd, 0);
-  if (mapped == MAP_FAILED) return absl::InternalError(absl::StrCat("mmap: ", std::strerror(errno)));
-  absl::StatusOr<Scene> scene = DecodeScene(std::span(static_cast<const uint8_t*>(mapped), size));
-  ::munmap(mapped, size);
-  return scene;
-}
-
 }  // namespace
 
 absl::Status CheckLoadInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
                               const LoadIsolation& isolation, const std::atomic<bool>* cancelled) {
   if (!isolation.enabled) return absl::OkStatus();
-  return RunIsolated(entry_file, limits, isolation, cancelled, -1);
+  return RunIsolated(entry_file, limits, isolation, cancelled, HandOver{});
 }
 
 absl::StatusOr<Scene> LoadSceneInChild(const std::filesystem::path& entry_file, const GltfLoadLimits& limits,
                                        const LoadIsolation& isolation, const std::atomic<bool>* cancelled) {
   if (!isolation.enabled) return LoadGltfScene(entry_file, limits);
   // Anonymous shared memory the child fills; closed on exec, freed with the
-  // last reference.
-  const int scene_fd = ::memfd_create("impostor-scene", MFD_CLOEXEC);
-  if (scene_fd < 0) return absl::InternalError(absl::StrCat("memfd_create: ", std::strerror(errno)));
-  absl::Status loaded = RunIsolated(entry_file, limits, isolation, cancelled, scene_fd);
-  absl::StatusOr<Scene> scene = loaded.ok() ? ReadScene(scene_fd) : absl::StatusOr<Scene>(loaded);
-  ::close(scene_fd);
+  // last reference (the texels' with the scene's last texture).
+  HandOver hand_over;
+  hand_over.scene_fd = ::memfd_create("impostor-scene", MFD_CLOEXEC);
+  hand_over.texel_fd = ::memfd_create("impostor-texels", MFD_CLOEXEC);
+  absl::StatusOr<Scene> scene = absl::InternalError("the isolated loader handed over no scene");
+  if (hand_over.scene_fd < 0 || hand_over.texel_fd < 0) {
+    scene = absl::InternalError(absl::StrCat("memfd_create: ", std::strerror(errno)));
+  } else if (absl::Status loaded = RunIsolated(entry_file, limits, isolation, cancelled, hand_over); !loaded.ok()) {
+    scene = loaded;
+  } else {
+    scene = ReadScene(hand_over);
+  }
+  if (hand_over.scene_fd >= 0) ::close(hand_over.scene_fd);
+  if (hand_over.texel_fd >= 0) ::close(hand_over.texel_fd);
   return scene;
 }
 

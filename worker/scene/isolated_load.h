@@ -10,7 +10,9 @@
 // deterministic, so a file that loads in the child under the limits loads
 // the same way in the worker afterwards. LoadSceneInChild also hands the
 // child's scene back through shared memory (scene_wire.h checks every byte
-// of it), so the worker does not decode the file a second time;
+// of it), so the worker does not decode the file a second time: the child
+// decodes textures straight into a memfd that the worker maps
+// (texel_arena.h), so the texels are never copied;
 // CheckLoadInChild only reports, for a caller that loads the file its own
 // way (see README's "Hostile input" for the measured overhead).
 //

@@ -15,6 +15,8 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "worker/scene/texel_buffer.h"
+
 namespace impostor {
 
 // Vertex in scene space (node transforms applied). 72 bytes, tightly packed;
@@ -35,7 +37,7 @@ enum class AlphaMode : uint32_t { kOpaque = 0, kMask = 1, kBlend = 2 };
 struct SceneTexture {
   int width = 0;
   int height = 0;
-  std::vector<uint8_t> rgba8;  // width * height * 4
+  TexelBuffer rgba8;  // width * height * 4
   bool srgb = false;           // true for base colour (and emissive) images
   bool has_alpha_channel = true;  // the file has alpha (grey+alpha or RGBA)
   // Sampler, as glTF wrap modes (10497 REPEAT, 33071 CLAMP_TO_EDGE,

@@ -62,9 +62,14 @@ class Reader {
   absl::Status GetArray(std::vector<T>* values, absl::string_view what) {
     uint64_t count = 0;
     if (auto s = GetCount(&count, sizeof(T), what); !s.ok()) return s;
-    values->resize(count);
-    if (count == 0) return absl::OkStatus();  // an empty vector's data() may be null
-    std::memcpy(values->data(), bytes_.data() + at_, count * sizeof(T));
+    if constexpr (std::is_same_v<T, uint8_t>) {
+      // Texels, most of a scene's bytes: copied once, not zero-filled first.
+      values->assign(bytes_.data() + at_, bytes_.data() + at_ + count);
+    } else {
+      values->resize(count);
+      if (count == 0) return absl::OkStatus();  // an empty vector's data() may be null
+      std::memcpy(values->data(), bytes_.data() + at_, count * sizeof(T));
+    }
     at_ += count * sizeof(T);
     return absl::OkStatus();
   }
@@ -153,6 +158,10 @@ struct BatchFields {
   uint32_t flipped_winding;
 };
 
+// How a texture's bytes travel: inline, or as their place in the arena.
+constexpr uint32_t kTexelsInline = 0;
+constexpr uint32_t kTexelsInArena = 1;
+
 absl::Status Invalid(absl::string_view what) { return absl::DataLossError(absl::StrCat("scene bytes: ", what)); }
 
 }  // namespace
@@ -161,7 +170,7 @@ void EncodeScene(const Scene& scene, std::string* out) {
   EncodeScene(scene, [out](std::string_view bytes) { out->append(bytes); });
 }
 
-void EncodeScene(const Scene& scene, const SceneByteSink& out) {
+void EncodeScene(const Scene& scene, const SceneByteSink& out, const TexelArena* arena) {
   out(std::string_view(kMagic, sizeof(kMagic)));
   PutArray(out, scene.vertices);
   PutArray(out, scene.indices);
@@ -179,7 +188,15 @@ void EncodeScene(const Scene& scene, const SceneByteSink& out) {
     Put(out, TextureFields{t.width, t.height, t.srgb ? 1u : 0u, t.has_alpha_channel ? 1u : 0u, t.wrap_s,
                            t.wrap_t});
     PutString(out, t.name);
-    PutArray(out, t.rgba8);
+    if (arena != nullptr && !t.rgba8.empty() && t.rgba8.arena() == arena) {
+      Put(out, kTexelsInArena);
+      Put<uint64_t>(out, t.rgba8.arena_offset());
+      Put<uint64_t>(out, t.rgba8.size());
+    } else {
+      Put(out, kTexelsInline);
+      Put<uint64_t>(out, t.rgba8.size());
+      out(std::string_view(reinterpret_cast<const char*>(t.rgba8.data()), t.rgba8.size()));
+    }
   }
   Put(out, scene.bounds_min);
   Put(out, scene.bounds_max);
@@ -187,7 +204,7 @@ void EncodeScene(const Scene& scene, const SceneByteSink& out) {
   for (const std::string& w : scene.warnings) PutString(out, w);
 }
 
-absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes) {
+absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes, const MappedTexels* texels) {
   if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
     return Invalid("not a scene (magic)");
   }
@@ -227,7 +244,25 @@ absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes) {
     t.wrap_s = f.wrap_s;
     t.wrap_t = f.wrap_t;
     if (auto s = in.GetString(&t.name, "texture name"); !s.ok()) return s;
-    if (auto s = in.GetArray(&t.rgba8, "texels"); !s.ok()) return s;
+    uint32_t where = 0;
+    if (auto s = in.Get(&where, "texels"); !s.ok()) return s;
+    if (where == kTexelsInline) {
+      std::vector<uint8_t> bytes;
+      if (auto s = in.GetArray(&bytes, "texels"); !s.ok()) return s;
+      t.rgba8 = TexelBuffer(std::move(bytes));
+    } else if (where == kTexelsInArena) {
+      uint64_t offset = 0, size = 0;
+      if (auto s = in.Get(&offset, "texels"); !s.ok()) return s;
+      if (auto s = in.Get(&size, "texels"); !s.ok()) return s;
+      if (texels == nullptr) return Invalid("texels in an arena, but no arena was handed over");
+      if (offset > texels->bytes.size() || size > texels->bytes.size() - offset) {
+        return Invalid(absl::StrCat("texels at ", offset, " + ", size, " bytes past the arena's ",
+                                    texels->bytes.size()));
+      }
+      t.rgba8 = TexelBuffer(texels->owner, texels->bytes.subspan(offset, size));
+    } else {
+      return Invalid(absl::StrCat("texels stored as ", where));
+    }
   }
 
   if (auto s = in.Get(&scene.bounds_min, "bounds"); !s.ok()) return s;

@@ -24,6 +24,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/texel_arena.h"
 
 namespace impostor {
 
@@ -31,16 +32,19 @@ namespace impostor {
 using SceneByteSink = std::function<void(std::string_view bytes)>;
 
 // Writes `scene` to `out` (large arrays in one piece each, so a file
-// descriptor sink costs a few writes, not a copy). The bytes total about
-// the scene's memory.
-void EncodeScene(const Scene& scene, const SceneByteSink& out);
+// descriptor sink costs a few writes, not a copy). A texture whose bytes are
+// in `arena` (when not null) is written as its place there, the others as
+// their bytes.
+void EncodeScene(const Scene& scene, const SceneByteSink& out, const TexelArena* arena = nullptr);
 // The same, appended to a string.
 void EncodeScene(const Scene& scene, std::string* out);
 
 // The scene in `bytes`, checked as above; DATA_LOSS naming the first
 // check that failed (truncated, a count past the end, an index out of
-// range...).
-absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes);
+// range...). Textures written by their place in an arena are views of
+// `texels` (that arena's memfd, mapped), checked to lie inside it; without
+// `texels` such a texture is refused.
+absl::StatusOr<Scene> DecodeScene(std::span<const uint8_t> bytes, const MappedTexels* texels = nullptr);
 
 }  // namespace impostor
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include "absl/strings/str_cat.h"
@@ -177,12 +178,13 @@ absl::StatusOr<DecodedImage> DecodeImageRgba8(std::span<const uint8_t> bytes, in
     return absl::InvalidArgumentError(
         absl::StrCat(std::string(what), ": cannot decode image: ", stbi_failure_reason()));
   }
+  const std::unique_ptr<stbi_uc, void (*)(void*)> owned(pixels, stbi_image_free);
   DecodedImage image;
   image.width = w;
   image.height = h;
   image.source_channels = channels;
-  image.rgba8.assign(pixels, pixels + static_cast<size_t>(w) * h * 4);
-  stbi_image_free(pixels);
+  // Into the isolated loader's shared memory when loading there.
+  image.rgba8 = TexelBuffer::CopyOf(std::span<const uint8_t>(pixels, static_cast<size_t>(w) * h * 4));
   if (w != width || h != height) {  // header and data disagree: distrust both
     return absl::InvalidArgumentError(
         absl::StrCat(std::string(what), ": image size changed while decoding"));

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "worker/scene/texel_buffer.h"
 
 namespace impostor::gltf_internal {
 
@@ -47,7 +48,7 @@ uint64_t PeakDecodeBytes(const ImageHeader& header);
 struct DecodedImage {
   int width = 0;
   int height = 0;
-  std::vector<uint8_t> rgba8;  // width * height * 4, rows top to bottom
+  TexelBuffer rgba8;  // width * height * 4, rows top to bottom
   int source_channels = 4;     // channels in the file: 2 and 4 carry alpha
 };
 

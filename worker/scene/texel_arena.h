@@ -1,0 +1,66 @@
+// Shared memory for decoded textures: the isolated loader's child
+// (isolated_load.h) decodes every texture straight into a memfd, and the
+// worker maps that memfd instead of receiving the texels through the scene
+// bytes and copying them (a textured scene is 100 MB of texels; the copy on
+// each side cost more than the isolation itself).
+//
+// The child installs its arena for the load (ScopedTexelArena); each
+// TexelBuffer::CopyOf then grows the memfd and maps just the new region
+// (page-aligned), so the child's RLIMIT_AS counts the texels as it counted
+// their heap copy, and the worker later maps the whole file read-only.
+//
+// Thread-safety: an arena is used by one thread (the loader is
+// single-threaded); the installed arena is per thread.
+#ifndef IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
+#define IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "absl/status/statusor.h"
+#include "worker/scene/texel_buffer.h"
+
+namespace impostor {
+
+class TexelArena {
+ public:
+  // Allocates in `fd` (a memfd the caller owns and keeps open), from its
+  // current size on.
+  explicit TexelArena(int fd) : fd_(fd) {}
+
+  // `bytes` copied into the arena; std::bad_alloc when the memfd cannot
+  // grow or the region cannot be mapped (the address-space limit).
+  TexelBuffer Copy(std::span<const uint8_t> bytes);
+
+ private:
+  int fd_;
+  uint64_t end_ = 0;  // page-aligned end of what is allocated
+};
+
+// Installs `arena` for TexelBuffer::CopyOf on this thread while in scope.
+class ScopedTexelArena {
+ public:
+  explicit ScopedTexelArena(TexelArena* arena);
+  ~ScopedTexelArena();
+  ScopedTexelArena(const ScopedTexelArena&) = delete;
+  ScopedTexelArena& operator=(const ScopedTexelArena&) = delete;
+
+ private:
+  TexelArena* previous_;
+};
+
+// The arena installed on this thread, or null.
+TexelArena* CurrentTexelArena();
+
+// The texels a child left in the arena memfd `fd`, mapped read-only and
+// whole: the spans of TexelBuffers made from it keep the mapping alive.
+struct MappedTexels {
+  std::shared_ptr<const void> owner;
+  std::span<const uint8_t> bytes;
+};
+absl::StatusOr<MappedTexels> MapTexelArena(int fd);
+
+}  // namespace impostor
+
+#endif  // IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
