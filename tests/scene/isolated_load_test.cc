@@ -1,7 +1,8 @@
 // CheckLoadInChild (worker/scene/isolated_load.h): the load in a child
 // process under rlimits reports what the in-process load would, a bomb that
 // slips past the load budget ends the child and not this process, and a
-// cancelled load ends at once.
+// cancelled load ends at once. The child (load_sandbox.h) is reused for the
+// next file only after a load that succeeded.
 #include "worker/scene/isolated_load.h"
 
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@
 #include "tests/hostile/hostile_cases.h"
 #include "tests/scene/test_assets.h"
 #include "tests/hostile/peak_rss.h"
+#include "worker/scene/load_sandbox.h"
 #include "worker/scene/scene_wire.h"
 
 namespace impostor {
@@ -144,6 +146,65 @@ TEST(IsolatedLoadTest, LoadSceneInChildReportsWhatTheCheckReports) {
   const absl::StatusOr<Scene> bomb =
       LoadSceneInChild(testing::HostileCorpusDir() / "instancing_60m_no_bufferview.gltf", lax, isolation);
   EXPECT_EQ(bomb.status().code(), absl::StatusCode::kResourceExhausted) << bomb.status();
+}
+
+// A loader process serves the next file after a success (one process for
+// two loads), never after a refusal (the next load starts a fresh one).
+// Each test uses its own address-space setting, so it never meets a
+// process another test left in the pool.
+TEST(IsolatedLoadTest, TheLoaderProcessIsReusedOnlyAfterASuccess) {
+  const fs::path box = testing::Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  if (!fs::exists(box)) GTEST_SKIP() << "no assets";
+  LoadIsolation isolation;
+  isolation.address_space_bytes += 4096 * 11;
+  const int before = LoadSandbox::Started();
+  ASSERT_TRUE(LoadSceneInChild(box, {}, isolation).ok());
+  ASSERT_TRUE(CheckLoadInChild(box, {}, isolation).ok());
+  const absl::StatusOr<Scene> again = LoadSceneInChild(box, {}, isolation);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(LoadSandbox::Started(), before + 1) << "three loads, one process";
+  EXPECT_GT(again->textures.size(), 0u);
+  // Texel memory is recycled only once a scene is gone: two scenes alive at
+  // once, each loaded into memory the one before had used, both intact.
+  const absl::StatusOr<Scene> here = LoadGltfScene(box, {});
+  ASSERT_TRUE(here.ok()) << here.status();
+  std::string expected;
+  EncodeScene(*here, &expected);
+  const absl::StatusOr<Scene> third = LoadSceneInChild(box, {}, isolation);
+  ASSERT_TRUE(third.ok()) << third.status();
+  for (const Scene* scene : {&*again, &*third}) {
+    std::string got;
+    EncodeScene(*scene, &got);
+    EXPECT_TRUE(got == expected);
+  }
+  EXPECT_NE(again->textures[0].rgba8.data(), third->textures[0].rgba8.data());
+
+  const absl::Status refused = CheckLoadInChild("/nonexistent.gltf", {}, isolation);
+  EXPECT_EQ(refused.code(), absl::StatusCode::kNotFound) << refused;
+  EXPECT_EQ(LoadSandbox::Started(), before + 1) << "the refusal came from the reused process";
+  ASSERT_TRUE(CheckLoadInChild(box, {}, isolation).ok());
+  EXPECT_EQ(LoadSandbox::Started(), before + 2) << "a process that refused a file is not used again";
+}
+
+// A process that ran out of memory after loading other files may be
+// carrying what they left behind: the file is tried once more in a fresh
+// process, and only its refusal there is the file's.
+TEST(IsolatedLoadTest, AProcessFailureAfterEarlierLoadsIsRetriedInAFreshProcess) {
+  const fs::path box = testing::Asset("props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb");
+  if (!fs::exists(box)) GTEST_SKIP() << "no assets";
+  LoadIsolation isolation;
+  isolation.address_space_bytes = (uint64_t{256} << 20) + 4096 * 13;
+  GltfLoadLimits lax;
+  lax.max_triangles = 700'000'000;
+  lax.max_draws = uint64_t{1} << 31;
+  lax.max_load_bytes = std::numeric_limits<uint64_t>::max();
+  const int before = LoadSandbox::Started();
+  ASSERT_TRUE(CheckLoadInChild(box, {}, isolation).ok());
+  const absl::Status bomb =
+      CheckLoadInChild(testing::HostileCorpusDir() / "instancing_60m_no_bufferview.gltf", lax, isolation);
+  EXPECT_EQ(bomb.code(), absl::StatusCode::kResourceExhausted) << bomb;
+  EXPECT_NE(bomb.message().find("LoadIsolation::address_space_bytes"), std::string::npos) << bomb;
+  EXPECT_EQ(LoadSandbox::Started(), before + 2) << "the reused process failed, a fresh one confirmed it";
 }
 
 }  // namespace

@@ -14,6 +14,8 @@
 #ifndef IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
 #define IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
 
+#include <sys/types.h>
+
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -36,6 +38,7 @@ class TexelArena {
  private:
   int fd_;
   uint64_t end_ = 0;  // page-aligned end of what is allocated
+  off_t size_ = -1;   // the memfd's size, once looked at
 };
 
 // Installs `arena` for TexelBuffer::CopyOf on this thread while in scope.
@@ -53,8 +56,15 @@ class ScopedTexelArena {
 // The arena installed on this thread, or null.
 TexelArena* CurrentTexelArena();
 
+// A memfd for a load's texels: one whose scene is gone (its pages kept, so
+// the next load overwrites them instead of allocating), or a new one.
+int TakeTexelFd();
+
 // The texels a child left in the arena memfd `fd`, mapped read-only and
 // whole: the spans of TexelBuffers made from it keep the mapping alive.
+// Takes `fd`: when the mapping goes, the memfd is kept for TakeTexelFd (or
+// closed). Bytes past what the load wrote are an earlier load's, never
+// referenced.
 struct MappedTexels {
   std::shared_ptr<const void> owner;
   std::span<const uint8_t> bytes;
