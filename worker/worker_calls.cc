@@ -4,6 +4,8 @@
 // itself is run by WorkerLoop::ProcessJob (worker_loop.cc).
 #include "worker/worker_loop.h"
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
@@ -240,6 +242,37 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
   // store's state against this worker.
   if (!stayed_full.empty()) return WithErrorReason(absl::UnavailableError(s.error_message()), stayed_full);
   return outcome;
+}
+
+absl::Status WorkerLoop::UploadAll(const std::vector<std::pair<fs::path, v1::Digest>>& files,
+                                   const std::string& subject) {
+  // Every file once, kParallelUploads at a time, until one is refused;
+  // then whatever did not go through, one at a time through
+  // UploadThroughOutage's waits for a server or for space (one wait, one
+  // log line, as when every upload went that way).
+  std::vector<char> uploaded(files.size(), 0);
+  std::atomic<size_t> next{0};
+  std::atomic<bool> refused{false};
+  auto upload = [&] {
+    for (size_t i; !refused && (i = next.fetch_add(1)) < files.size();) {
+      const grpc::Status s = CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
+        v1::AssetService::Stub assets(channel);
+        const absl::Status outcome = UploadFile(assets, files[i].first, files[i].second);
+        return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+      });
+      uploaded[i] = s.ok();
+      if (!s.ok()) refused = true;
+    }
+  };
+  std::vector<std::thread> threads;
+  for (size_t t = 1; t < std::min<size_t>(kParallelUploads, files.size()); ++t) threads.emplace_back(upload);
+  upload();
+  for (std::thread& t : threads) t.join();
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (uploaded[i]) continue;
+    if (absl::Status s = UploadThroughOutage(files[i].first, files[i].second, subject); !s.ok()) return s;
+  }
+  return absl::OkStatus();
 }
 
 grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std::string& subject,

@@ -386,14 +386,10 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   // CompleteJob that found one gone: the store may evict between the
   // upload and the completion, with --store-eviction-grace-seconds 0).
   auto upload_result = [&] {
-    absl::Status uploaded;
-    for (const auto& map : result->manifest.maps()) {
-      if (uploaded = UploadThroughOutage(output_dir / map.file(), map.digest(), "job=" + job.job_id());
-          !uploaded.ok()) {
-        return uploaded;
-      }
-    }
-    return UploadThroughOutage(result->manifest_path, result->manifest.manifest_json(), "job=" + job.job_id());
+    std::vector<std::pair<fs::path, v1::Digest>> files;
+    for (const auto& map : result->manifest.maps()) files.emplace_back(output_dir / map.file(), map.digest());
+    files.emplace_back(result->manifest_path, result->manifest.manifest_json());
+    return UploadAll(files, "job=" + job.job_id());
   };
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
