@@ -50,8 +50,30 @@ absl::Status AtomicFileWriter::Append(std::string_view data) {
   return absl::OkStatus();
 }
 
-absl::Status AtomicFileWriter::Commit() {
+void AtomicFileWriter::StartWriteback() {
+  if (fd_ >= 0) (void)::sync_file_range(fd_, 0, 0, SYNC_FILE_RANGE_WRITE);
+}
+
+absl::Status AtomicFileWriter::Sync() {
   if (::fsync(fd_) != 0) return LocalIoError("cannot sync", destination_, errno);
+  synced_ = true;
+  return absl::OkStatus();
+}
+
+absl::Status CommitAll(const std::vector<std::unique_ptr<AtomicFileWriter>>& writers) {
+  for (const auto& writer : writers) {
+    if (absl::Status s = writer->Sync(); !s.ok()) return s;
+  }
+  for (const auto& writer : writers) {
+    if (absl::Status s = writer->Commit(); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status AtomicFileWriter::Commit() {
+  if (!synced_) {
+    if (absl::Status s = Sync(); !s.ok()) return s;
+  }
   const int fd = fd_;
   fd_ = -1;
   if (::close(fd) != 0) return LocalIoError("cannot close", temp_path_, errno);

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <string_view>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -26,7 +27,13 @@ class AtomicFileWriter {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
 
   absl::Status Append(std::string_view data);
-  // fsync, then rename onto the destination. The writer is spent afterwards.
+  // Starts writing the bytes so far to disk without waiting, so that a later
+  // Sync finds them written: several files synced together then share one
+  // journal commit (CommitAll).
+  void StartWriteback();
+  // Waits until the bytes are on disk. Commit does it when not done.
+  absl::Status Sync();
+  // Sync, then rename onto the destination. The writer is spent afterwards.
   absl::Status Commit();
   // Removes the temporary file now.
   void Abort();
@@ -39,8 +46,15 @@ class AtomicFileWriter {
   std::filesystem::path destination_;
   std::filesystem::path temp_path_;
   int fd_ = -1;
+  bool synced_ = false;
   bool done_ = false;
 };
+
+// Syncs every writer, then commits them in order: the files appear in that
+// order, each complete, and their syncs wait once for the disk rather than
+// once per file. Stops at the first failure (the writers not committed
+// remove their temporary files when dropped).
+absl::Status CommitAll(const std::vector<std::unique_ptr<AtomicFileWriter>>& writers);
 
 }  // namespace impostor::sdk
 

@@ -69,6 +69,14 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
 }
 
 absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, const std::filesystem::path& path) {
+  absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = DownloadBlobToStagedFile(transport, digest, path);
+  if (!writer.ok()) return writer.status();
+  return (*writer)->Commit();
+}
+
+absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadBlobToStagedFile(Transport& transport,
+                                                                          const v1::Digest& digest,
+                                                                          const std::filesystem::path& path) {
   absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
   if (!writer.ok()) return writer.status();
   absl::Status status =
@@ -82,7 +90,8 @@ absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, 
     }
     return status;
   }
-  return (*writer)->Commit();
+  (*writer)->StartWriteback();
+  return writer;
 }
 
 absl::StatusOr<std::string> DownloadBlobToString(Transport& transport, const v1::Digest& digest) {

@@ -12,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/base/atomic_file.h"
 #include "client/transport/retry.h"
 #include "client/transport/transport.h"
 #include "common/util/sha256.h"
@@ -51,6 +52,13 @@ absl::Status ResumeBlobDownload(Transport& transport, const v1::Digest& digest, 
 // DownloadBlob into `path` through an AtomicFileWriter: on any error the
 // temporary file is removed and `path` is left untouched.
 absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, const std::filesystem::path& path);
+
+// DownloadBlob into a temporary file beside `path`, not yet committed: its
+// writeback started, for the caller to commit with others (CommitAll). On
+// any error the temporary file is removed.
+absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadBlobToStagedFile(Transport& transport,
+                                                                          const v1::Digest& digest,
+                                                                          const std::filesystem::path& path);
 
 // DownloadBlob into memory.
 absl::StatusOr<std::string> DownloadBlobToString(Transport& transport, const v1::Digest& digest);

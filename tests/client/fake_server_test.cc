@@ -260,8 +260,13 @@ TEST_F(FakeServerTest, AFailedFetchIntoAnotherResultsFolderLeavesNoManifestThatL
   }
   absl::StatusOr<FetchResult> r = client_->Fetch(key, dir_);
   ASSERT_EQ(r.status().code(), absl::StatusCode::kDataLoss) << r.status();
-  EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), contents_["albedo_alpha.png"]) << "replaced before the failure";
-  EXPECT_FALSE(fs::exists(dir_ / "manifest.json")) << "the old manifest no longer describes the maps";
+  // Files are renamed in only once every one arrived: the failure leaves the
+  // folder's maps as they were, and no temporary file behind.
+  EXPECT_EQ(ReadAll(dir_ / "albedo_alpha.png"), "the older result's albedo");
+  EXPECT_FALSE(fs::exists(dir_ / "manifest.json")) << "the old manifest no longer describes the folder";
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    EXPECT_EQ(entry.path().filename().string().find(".part-"), std::string::npos) << entry.path();
+  }
 }
 
 TEST_F(FakeServerTest, BrokenDownloadResumesFromOffset) {
