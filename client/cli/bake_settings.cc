@@ -15,6 +15,7 @@ sdk::BakeSettings BakeSettingsFromArgs(const CliArgs& args) {
   s.max_planes = args.max_planes;
   s.tolerance = args.tolerance;
   s.priority = args.priority.value_or(0);
+  s.required_tags = args.required_tags;
   s.lod_ratios = args.lod_ratios;
   s.lod_pixel_error = args.lod_pixel_error;
   s.min_iou = args.min_iou;

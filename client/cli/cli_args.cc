@@ -26,7 +26,7 @@ struct CommandSpec {
 const std::map<std::string, CommandSpec>& Commands() {
   static const auto* commands = new std::map<std::string, CommandSpec>{
       {"bake",
-       {Command::kBake, {"--max-outage-seconds", "--priority", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--lod-pixel-error", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views", "--texture-format", "--albedo-codec"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
+       {Command::kBake, {"--max-outage-seconds", "--priority", "--require-tag", "--client-id", "--layout", "--ring", "--supersampling", "--frames", "--resolution", "--out", "--server", "--product", "--preset", "--point-budget", "--lod-ratios", "--lod-pixel-error", "--max-planes", "--tolerance", "--min-iou", "--min-psnr", "--quality-views", "--texture-format", "--albedo-codec"}, {"--json", "--quiet", "--keep-going", "--emissive", "--array", "--follow-symlinks"}, true,
         "MODEL"}},
       {"bake-batch",
        {Command::kBakeBatch, {"--max-outage-seconds", "--out", "--server", "--priority", "--client-id"}, {"--json", "--quiet", "--keep-going", "--follow-symlinks"},
@@ -190,6 +190,10 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
         return Usage(absl::StrCat(flag, ": missing value"));
       }
       value = args[++i];
+    }
+    if (flag == "--require-tag") {
+      out.required_tags.push_back(*value);
+      continue;
     }
     if (flag == "--priority") {
       int32_t n = 0;
@@ -507,6 +511,8 @@ Usage:
         --quiet       no progress output
         --priority N  scheduling priority, -100..100 (default 0; 50 for a
                       person waiting, -50 for nightly batches)
+        --require-tag TAG  only a worker started with this tag (impostor-worker
+                      --tags) may bake it; repeat for several (e.g. gpu)
         --client-id NAME  names this client to the server (fairness, limits)
         --max-outage-seconds N  keep retrying for up to N seconds while the
                       server is away (restart, reboot; default 300, 0 = give

@@ -49,6 +49,9 @@ struct CliArgs {
   // --priority (bake, bake-batch): -100..100, checked here; unset = 0 (for
   // bake-batch: the spec's own default).
   std::optional<int32_t> priority;
+  // --require-tag (bake; repeatable): worker tags the bake needs, checked by
+  // the server.
+  std::vector<std::string> required_tags;
   // --keep-going (batches): bake everything possible after a failure.
   bool keep_going = false;
   // --client-id: names this client to the server for fairness and limits.

@@ -48,6 +48,7 @@ std::string InFlagTerms(std::string_view message) {
       // The quality gate (SubmitBakeRequest.gate).
       {"gate.min_iou", "--min-iou"},
       {"gate.min_psnr_db", "--min-psnr"},
+      {"required_tags", "--require-tag"},
   };
   // Enum values and bare field names, as the flag and value typed.
   static const std::pair<std::string_view, std::string_view> kValues[] = {

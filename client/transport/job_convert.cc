@@ -121,6 +121,7 @@ absl::StatusOr<v1::BakeParameters> ToBakeParameters(const BakeSettings& settings
 
 void ApplySchedulingSettings(const BakeSettings& settings, v1::SubmitBakeRequest* request) {
   request->set_priority(settings.priority);
+  for (const std::string& tag : settings.required_tags) request->add_required_tags(tag);
   if (settings.min_iou.has_value()) request->mutable_gate()->set_min_iou(*settings.min_iou);
   if (settings.min_psnr_db.has_value()) request->mutable_gate()->set_min_psnr_db(*settings.min_psnr_db);
 }

@@ -1,8 +1,12 @@
 #include "common/request/normalized_bake_request.h"
 
+#include <algorithm>
+
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "common/request/bake_request.h"
 #include "common/request/quality_gate.h"
+#include "common/request/worker_fit.h"
 
 namespace impostor {
 
@@ -21,6 +25,25 @@ absl::Status ValidateRequestId(std::string_view request_id) {
     }
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<std::string>> NormalizeRequiredTags(
+    const google::protobuf::RepeatedPtrField<std::string>& tags) {
+  if (tags.size() > kMaxWorkerTags) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("required_tags: ", tags.size(), " tags is over the limit of ", kMaxWorkerTags));
+  }
+  std::vector<std::string> out;
+  for (int i = 0; i < tags.size(); ++i) {
+    if (!IsValidWorkerTag(tags[i])) {
+      return absl::InvalidArgumentError(absl::StrCat("required_tags[", i, "]: \"", absl::CHexEscape(tags[i].substr(0, 80)),
+                                                     "\" is not 1..", kMaxWorkerTagBytes, " bytes of [a-z0-9._-]"));
+    }
+    out.push_back(tags[i]);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
 }
 
 absl::StatusOr<NormalizedBakeRequest> NormalizeLookup(const v1::SubmitBakeRequest& request) {
@@ -47,7 +70,10 @@ absl::StatusOr<NormalizedBakeRequest> NormalizeSubmit(const v1::SubmitBakeReques
   if (auto s = ValidateQualityGate(request.gate(), "gate"); !s.ok()) return s;
   if (auto s = CheckQualityGateApplies(request.gate(), *params, "gate"); !s.ok()) return s;
   if (auto s = ValidateRequestId(request.request_id()); !s.ok()) return s;
+  absl::StatusOr<std::vector<std::string>> tags = NormalizeRequiredTags(request.required_tags());
+  if (!tags.ok()) return tags.status();
   NormalizedBakeRequest out;
+  out.required_tags = *std::move(tags);
   out.mesh = request.mesh();
   out.parameters = *std::move(params);
   out.has_gate = HasQualityGate(request.gate());

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -35,12 +36,19 @@ struct NormalizedBakeRequest {
   bool has_gate = false;
   int32_t priority = 0;            // kMinPriority..kMaxPriority
   std::string request_id;          // ValidateRequestId passed
+  std::vector<std::string> required_tags;  // valid worker tags, sorted, no repeats
   std::string cache_key;           // ComputeCacheKey(mesh, parameters)
 };
 
 // SubmitBake: every field checked; the first problem is INVALID_ARGUMENT
 // naming the field and the limit.
 absl::StatusOr<NormalizedBakeRequest> NormalizeSubmit(const v1::SubmitBakeRequest& request);
+
+// SubmitBakeRequest.required_tags: each a valid worker tag (worker_fit.h),
+// at most kMaxWorkerTags; sorted, repeats dropped. INVALID_ARGUMENT naming
+// the first bad one ("required_tags[1]: ...").
+absl::StatusOr<std::vector<std::string>> NormalizeRequiredTags(
+    const google::protobuf::RepeatedPtrField<std::string>& tags);
 
 // LookupBake: only what the key depends on (mesh and parameters); the
 // gate, priority and request id of a lookup are ignored, as they always were.

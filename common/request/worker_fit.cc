@@ -4,6 +4,7 @@
 #include <map>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "common/request/bake_memory_estimate.h"
 
 namespace impostor {
@@ -74,9 +75,26 @@ std::optional<Shortfall> WorkerShortfall(const v1::BakeParameters& normalised, c
   return std::nullopt;
 }
 
-std::string UnplaceableReason(const v1::BakeParameters& normalised,
-                              const std::vector<v1::WorkerCapabilities>& workers) {
-  if (workers.empty()) return "";
+bool HasRequiredTags(const v1::WorkerCapabilities* caps, const std::vector<std::string>& required) {
+  if (required.empty()) return true;
+  if (caps == nullptr) return false;
+  return std::all_of(required.begin(), required.end(), [&](const std::string& tag) {
+    return std::find(caps->tags().begin(), caps->tags().end(), tag) != caps->tags().end();
+  });
+}
+
+std::string UnplaceableReason(const v1::BakeParameters& normalised, const std::vector<v1::WorkerCapabilities>& all,
+                              const std::vector<std::string>& required_tags) {
+  if (all.empty()) return "";
+  std::vector<v1::WorkerCapabilities> workers;
+  for (const v1::WorkerCapabilities& caps : all) {
+    if (HasRequiredTags(&caps, required_tags)) workers.push_back(caps);
+  }
+  if (workers.empty()) {
+    return absl::StrCat("waiting for a worker tagged ", absl::StrJoin(required_tags, ", "), " (none of the ", all.size(),
+                        " workers seen has ", required_tags.size() == 1 ? "it" : "them all", ") for ",
+                        DescribeBake(normalised));
+  }
   std::optional<Shortfall> first;
   // The most any worker has of each resource a shortfall may name.
   std::map<std::string, int64_t> most;

@@ -49,8 +49,16 @@ std::optional<Shortfall> WorkerShortfall(const v1::BakeParameters& normalised, c
 // least 134 MB of host memory (the most any worker has: 100 MB) for an
 // atlas of 1024 px at supersampling 2 (frames 8)". "" when one of them can,
 // or when `workers` is empty (no worker: nothing to judge by).
+// With `required_tags` (SubmitBakeRequest.required_tags), only the workers
+// that have them all count, and when none has: "waiting for a worker tagged
+// gpu (none of the 3 workers seen has it) for ...".
 std::string UnplaceableReason(const v1::BakeParameters& normalised,
-                              const std::vector<v1::WorkerCapabilities>& workers);
+                              const std::vector<v1::WorkerCapabilities>& workers,
+                              const std::vector<std::string>& required_tags = {});
+
+// Whether a worker that reported `caps` (null: nothing) has every tag of
+// `required`: always with none required, never without capabilities.
+bool HasRequiredTags(const v1::WorkerCapabilities* caps, const std::vector<std::string>& required);
 
 }  // namespace impostor
 

@@ -208,8 +208,10 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
 
 bool BakeScheduler::FitsWorker(const JobRecord& r, const std::string& worker_id) {
   const auto w = workers_.find(worker_id);
-  if (w == workers_.end() || !w->second.capabilities) return true;
-  return !WorkerShortfall(r.parameters, *w->second.capabilities).has_value();
+  const v1::WorkerCapabilities* caps =
+      w == workers_.end() || !w->second.capabilities ? nullptr : &*w->second.capabilities;
+  if (!HasRequiredTags(caps, r.required_tags)) return false;
+  return caps == nullptr || !WorkerShortfall(r.parameters, *caps).has_value();
 }
 
 absl::Status BakeScheduler::JudgePlacement(JobRecord& r) {
@@ -217,10 +219,14 @@ absl::Status BakeScheduler::JudgePlacement(JobRecord& r) {
   std::vector<v1::WorkerCapabilities> about;
   for (const auto& [id, w] : workers_) {
     if (w.polling == 0 && now - w.last_seen_ms >= options_.lease_timeout_ms) continue;
-    if (!w.capabilities) return absl::OkStatus();  // reports nothing: may take it
+    if (!w.capabilities) {
+      if (r.required_tags.empty()) return absl::OkStatus();  // reports nothing: may take it
+      about.emplace_back();  // reports no tags
+      continue;
+    }
     about.push_back(*w.capabilities);
   }
-  const std::string reason = UnplaceableReason(r.parameters, about);
+  const std::string reason = UnplaceableReason(r.parameters, about, r.required_tags);
   const bool waiting_stage = absl::StartsWith(r.job.stage(), "waiting for a worker");
   if (reason.empty()) {
     unplaceable_since_.erase(r.job.job_id());

@@ -104,6 +104,7 @@ JobRecord BakeScheduler::NewRecord(const NormalizedBakeRequest& request, const s
   record.job.set_priority(request.priority);
   record.lease_priority = request.priority;
   if (request.has_gate) record.gate = request.gate;
+  record.required_tags = request.required_tags;
   return record;
 }
 

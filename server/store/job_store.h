@@ -52,6 +52,10 @@ struct JobRecord {
   int32_t lease_priority = 0;
   // This requester's quality gate (SubmitBakeRequest.gate); empty = none.
   v1::QualityGate gate;
+  // Tags a worker must have to be leased this job
+  // (SubmitBakeRequest.required_tags, normalised); stored in the request
+  // column with the gate.
+  std::vector<std::string> required_tags;
   // SubmitBakeRequest.request_id ('' = none): a second submit with the same
   // (client_id, request_id) returns this job. Column `request_id`.
   std::string request_id;

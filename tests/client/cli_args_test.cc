@@ -270,6 +270,17 @@ TEST(InFlagTerms, TheServersApiNamesReadAsTheFlagsTyped) {
   EXPECT_EQ(InFlagTerms("parameters.frames_auto: needs a gate"), "parameters.frames_auto: needs a gate");
   EXPECT_EQ(InFlagTerms("PRODUCT_CARDSX"), "PRODUCT_CARDSX");
   EXPECT_EQ(InFlagTerms(""), "");
+  EXPECT_EQ(InFlagTerms("required_tags[1]: \"GPU\" is not 1..64 bytes of [a-z0-9._-]"),
+            "--require-tag (required_tags)[1]: \"GPU\" is not 1..64 bytes of [a-z0-9._-]");
+}
+
+// --require-tag repeats, in the order typed (the server sorts them).
+TEST(ParseCliArgs, RequireTagRepeats) {
+  absl::StatusOr<CliArgs> a =
+      ParseCliArgs({"bake", "m.glb", "--out", "o", "--require-tag", "gpu", "--require-tag=team-forest"}, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
+  EXPECT_FALSE(ParseCliArgs({"bake", "m.glb", "--out", "o", "--require-tag"}, nullptr).ok());
 }
 
 // Every refusal of a field a bake flag sets, as the server words it

@@ -63,6 +63,7 @@ TYPED_TEST(JobStoreContract, InsertedJobReadsBackFieldForField) {
   r.request_id = "req-1";
   r.owner = "alice";
   r.gate.set_min_iou(0.5f);
+  r.required_tags = {"gpu", "team-forest"};
   r.job.set_progress(0.25f);
   ASSERT_TRUE(this->store_->Insert(r).ok());
   const JobRecord got = this->MustGet("job-1");
@@ -75,6 +76,7 @@ TYPED_TEST(JobStoreContract, InsertedJobReadsBackFieldForField) {
   EXPECT_EQ(got.owner, "alice");
   EXPECT_EQ(got.client_id, "c");
   EXPECT_FLOAT_EQ(got.gate.min_iou(), 0.5f);
+  EXPECT_EQ(got.required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
   EXPECT_EQ(got.mesh.entry().digest().hash(), "in-job-1");
   EXPECT_EQ(got.parameters.frames(), 8u);
   EXPECT_EQ(got.row_version, 0);

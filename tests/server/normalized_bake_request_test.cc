@@ -6,6 +6,7 @@
 #include "common/request/normalized_bake_request.h"
 
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -109,6 +110,32 @@ TEST(NormalizeLookup, IgnoresWhatDoesNotChangeTheKey) {
   EXPECT_EQ(n->cache_key, s->cache_key);
   r.mutable_mesh()->mutable_entry()->set_path("");
   EXPECT_FALSE(NormalizeLookup(r).ok());
+}
+
+// required_tags: worker tags as impostor-worker --tags takes them, sorted
+// and without repeats; a bad one or too many is named with the limit.
+TEST(NormalizeSubmit, RequiredTagsAreCheckedSortedAndNotPartOfTheKey) {
+  v1::SubmitBakeRequest r = Good();
+  r.add_required_tags("team-forest");
+  r.add_required_tags("gpu");
+  r.add_required_tags("gpu");
+  auto n = NormalizeSubmit(r);
+  ASSERT_TRUE(n.ok()) << n.status();
+  EXPECT_EQ(n->required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
+  auto untagged = NormalizeSubmit(Good());
+  ASSERT_TRUE(untagged.ok());
+  EXPECT_EQ(n->cache_key, untagged->cache_key);
+
+  v1::SubmitBakeRequest bad = Good();
+  bad.add_required_tags("gpu");
+  bad.add_required_tags("GPU");
+  ExpectRefused(NormalizeSubmit(bad), "required_tags[1]: \"GPU\" is not 1..64 bytes of [a-z0-9._-]");
+  v1::SubmitBakeRequest empty = Good();
+  empty.add_required_tags("");
+  ExpectRefused(NormalizeSubmit(empty), "required_tags[0]: \"\" is not 1..64 bytes");
+  v1::SubmitBakeRequest many = Good();
+  for (int i = 0; i < 17; ++i) many.add_required_tags("t" + std::to_string(i));
+  ExpectRefused(NormalizeSubmit(many), "required_tags: 17 tags is over the limit of 16");
 }
 
 }  // namespace

@@ -203,5 +203,42 @@ TEST(WorkerFit, NamesTheFirstShortfallAndChecksOnlyWhatWasReported) {
       << reason;
 }
 
+// A request's required tags (issue 44): only a worker with every one of
+// them is leased the job; until one asks, the job waits with the tags as
+// its stage, never as a failed attempt.
+TEST_F(Placement, ARequestWithRequiredTagsGoesOnlyToAWorkerWithThemAll) {
+  v1::SubmitBakeRequest request = Request("hero");
+  request.add_required_tags("gpu");
+  request.add_required_tags("team-forest");
+  const std::string id = Submit(request, "ci").job_id();
+
+  v1::WorkerCapabilities gpu_only = Caps(64 * kGB);
+  gpu_only.add_tags("gpu");
+  EXPECT_TRUE(LeaseAs("laptop", Caps(64 * kGB)).job_id().empty());
+  EXPECT_TRUE(LeaseAs("render-1", gpu_only).job_id().empty());
+  auto silent = TryLease("old-worker", nullptr);  // reports nothing: no tags
+  ASSERT_TRUE(silent.ok()) << silent.status();
+  EXPECT_FALSE(silent->has_value());
+  const v1::Job waiting = Job(id);
+  EXPECT_EQ(waiting.state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(waiting.attempts(), 0u);
+  EXPECT_EQ(waiting.stage().rfind("waiting for a worker tagged gpu, team-forest (none of the 3 workers seen has them "
+                                  "all) for an atlas of ",
+                                  0),
+            0u)
+      << waiting.stage();
+
+  v1::WorkerCapabilities forest = gpu_only;
+  forest.add_tags("team-forest");
+  ASSERT_EQ(LeaseAs("render-2", forest).job_id(), id);
+  EXPECT_EQ(Job(id).attempts(), 1u);
+
+  // An untagged request may still go anywhere, a silent worker included.
+  const std::string any = Submit(Request("rock"), "ci").job_id();
+  auto taken = TryLease("old-worker", nullptr);
+  ASSERT_TRUE(taken.ok() && taken->has_value());
+  EXPECT_EQ((*taken)->job_id(), any);
+}
+
 }  // namespace
 }  // namespace impostor::testing_support

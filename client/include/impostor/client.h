@@ -258,6 +258,12 @@ struct BakeSettings {
   // key. Default: 0. Range checked by the server: -100..100.
   int32_t priority = 0;
 
+  // Tags a worker must have (impostor-worker --tags) to bake this: e.g.
+  // "gpu", or a team's tag for its reserved nodes. Not part of the cache
+  // key. Checked by the server: at most 16, each 1..64 bytes of
+  // [a-z0-9._-]. A bake no worker can take waits, its stage saying why.
+  std::vector<std::string> required_tags;
+
   // Quality gate on the measured fidelity of an atlas (the manifest's
   // "quality" block): the job FAILS (error code 9, FAILED_PRECONDITION, with
   // the result still downloadable) when the mean silhouette IoU over the

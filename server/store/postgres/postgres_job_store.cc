@@ -90,6 +90,7 @@ absl::StatusOr<JobRecord> ReadJob(const PgRows& rows, int i) {
   r.mesh = request.mesh();
   r.parameters = request.parameters();
   r.gate = request.gate();
+  r.required_tags.assign(request.required_tags().begin(), request.required_tags().end());
   r.lease_id = rows.Text(i, 4);
   r.lease_deadline_ms = rows.Int(i, 5);
   r.worker_id = rows.Text(i, 6);
@@ -113,6 +114,7 @@ PgParams JobParams(const JobRecord& r) {
   *request.mutable_mesh() = r.mesh;
   *request.mutable_parameters() = r.parameters;
   if (r.gate.has_min_iou() || r.gate.has_min_psnr_db()) *request.mutable_gate() = r.gate;
+  for (const std::string& tag : r.required_tags) request.add_required_tags(tag);
   PgParams p;
   p.Text(r.job.job_id())
       .Text(r.job.cache_key())

@@ -110,6 +110,7 @@ absl::StatusOr<JobRecord> ReadJob(const SqliteStatement& st) {
   r.client_id = st.Text(11);
   r.lease_priority = static_cast<int32_t>(st.Int(12));
   r.gate = request.gate();
+  r.required_tags.assign(request.required_tags().begin(), request.required_tags().end());
   r.request_id = st.Text(13);
   r.lease_expiries = static_cast<int32_t>(st.Int(14));
   r.owner = st.Text(15);
@@ -277,6 +278,7 @@ void BindJob(Statement& st, const JobRecord& r) {
   *request.mutable_mesh() = r.mesh;
   *request.mutable_parameters() = r.parameters;
   if (r.gate.has_min_iou() || r.gate.has_min_psnr_db()) *request.mutable_gate() = r.gate;
+  for (const std::string& tag : r.required_tags) request.add_required_tags(tag);
   st.Bind(1, r.job.job_id());
   st.Bind(2, r.job.cache_key());
   st.Bind(3, static_cast<int64_t>(r.job.state()));
