@@ -57,6 +57,8 @@ class BakeSettings:
     lod_pixel_error, max_planes, tolerance, quality_views, emissive,
     texture_array, frames_auto: as BakeSettings in the C++ SDK.
     priority: -100..100, higher runs first; not part of the cache key.
+    required_tags: worker tags (impostor-worker --tags) a worker must have
+        to bake this, e.g. ["gpu"]; not part of the cache key.
     min_iou, min_psnr_db: quality gate (the job fails with
         FAILED_PRECONDITION below them); not part of the cache key.
     follow_symlinks: upload files reached through a symbolic link that leads
@@ -83,6 +85,7 @@ class BakeSettings:
     texture_array: bool = False
     frames_auto: bool = False
     priority: int = 0
+    required_tags: List[str] = dataclasses.field(default_factory=list)
     min_iou: Optional[float] = None
     min_psnr_db: Optional[float] = None
     follow_symlinks: bool = False
@@ -153,6 +156,8 @@ class BakeSettings:
         """Sets the SubmitBakeRequest's priority and quality gate;
         INVALID_ARGUMENT naming the setting for a value of the wrong type."""
         _set_field(request, "priority", self.priority)
+        if self.required_tags:
+            _set_field(request, "required_tags", self.required_tags)
         if self.min_iou is not None:
             _set_field(request.gate, "min_iou", self.min_iou)
         if self.min_psnr_db is not None:

@@ -192,9 +192,10 @@ def test_batch_stops_when_the_callback_says_so(client, assets) -> None:
         (dict(frames=4, resolution=128, supersampling=9), "supersampling"),
         (dict(product="cards", frames=4), "frames"),
         (dict(priority=101), "priority"),
+        (dict(required_tags=["gpu", "GPU"]), "required_tags[1]"),
     ],
     ids=["frames-too-few", "frames-too-many", "resolution-too-small", "supersampling", "cards-with-frames",
-         "priority"],
+         "priority", "required-tag"],
 )
 def test_bad_settings_carry_the_servers_status(client, assets, settings, field) -> None:
     with pytest.raises(impostor.ImpostorError) as caught:
@@ -226,10 +227,12 @@ def test_bad_settings_carry_the_servers_status(client, assets, settings, field) 
         (BOX, {"min_iou": "0.9"}, grpc.StatusCode.INVALID_ARGUMENT, "min_iou: '0.9'"),
         (BOX, {"lod_ratios": 0.5}, grpc.StatusCode.INVALID_ARGUMENT, "lod_ratios: 0.5 is not valid here (expected a list)"),
         (BOX, {"frames": True}, grpc.StatusCode.INVALID_ARGUMENT, "frames: True"),
+        (BOX, {"required_tags": "gpu"}, grpc.StatusCode.INVALID_ARGUMENT,
+         "required_tags: 'gpu' is not valid here (expected a list)"),
     ],
     ids=["missing", "directory", "not-gltf", "bad-glb-magic", "bad-json", "missing-buffer", "missing-texture",
          "layout", "product", "unknown-setting", "negative-frames", "priority-text", "gate-text", "ratios-scalar",
-         "frames-bool"],
+         "frames-bool", "tags-scalar"],
 )
 def test_bad_local_input_is_refused_before_any_rpc(client, assets, model, settings, code, words) -> None:
     with pytest.raises(impostor.ImpostorError) as caught:
