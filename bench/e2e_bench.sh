@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# End to end against in process, in one run (issue 45): what a user waits for
+# when the CLI bakes through a real farm, beside what the same bake costs in
+# process, and where the difference goes.
+#
+#   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N]
+#
+# 1. Starts build/bin/impostor-server with one local worker on free loopback
+#    ports and a temporary data directory (as deploy/quickstart.sh does, plus
+#    an HTTP port for /metrics), then times `impostor bake DamagedHelmet.glb
+#    --layout hemi-octahedral --frames 12 --resolution 2048`: the first
+#    (cold) bake right after the server listens, then N (default 3) warm
+#    bakes of the same request on the same farm. Before each warm bake the
+#    result is purged (`impostor admin purge`, blobs included), so every warm
+#    bake really bakes and uploads its maps; why purge rather than change the
+#    cache key: Bench.purge in bench/e2e_bench.py.
+# 2. Interleaved with the warm bakes, N in-process bakes of the same request
+#    (build/bin/bake_stages, the second bake of each process) and the ratio
+#    end to end / in process (issue target <= 1.15).
+# 3. build/bin/isolated_load_bench on the same asset (target <= 1.15).
+# 4. `impostor fetch KEY --out DIR` of the result just baked against nginx +
+#    curl serving exactly the same files on one connection, alternating
+#    pairs (default 7), medians and the ratio (target <= 1.25). Installs
+#    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
+# 5. The farm's own /metrics stage sums over the warm bakes beside
+#    bake_stages' stages.
+# Ends with a markdown table of every figure. A bench, not a test: nothing is
+# asserted, but a step that fails stops it with a message and exit status 1.
+# Everything lives under one mktemp -d, removed (and the server, its worker
+# and nginx stopped) by the trap on exit; the binaries are copied there first,
+# so a rebuild in BUILD_DIR during the run cannot mix two versions.
+# MODEL=path.glb bakes another asset.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+
+die() { echo "e2e_bench: $*" >&2; exit 1; }
+usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N]" >&2; exit 2; }
+
+build=$root/build
+warm=3
+pairs=7
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --warm) [[ $# -ge 2 ]] || usage; warm=$2; shift 2 ;;
+    --warm=*) warm=${1#*=}; shift ;;
+    --fetch-pairs) [[ $# -ge 2 ]] || usage; pairs=$2; shift 2 ;;
+    --fetch-pairs=*) pairs=${1#*=}; shift ;;
+    -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
+    -*) echo "e2e_bench: unknown flag $1" >&2; usage ;;
+    *) build=$1; shift ;;
+  esac
+done
+[[ "$warm" =~ ^[1-9][0-9]*$ ]] || die "--warm: '$warm' is not a positive number"
+[[ "$pairs" =~ ^[1-9][0-9]*$ ]] || die "--fetch-pairs: '$pairs' is not a positive number"
+[[ -d "$build" ]] || die "no build directory $build"
+build=$(cd "$build" && pwd)
+
+model=${MODEL:-$root/../shared/assets/props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb}
+[[ -f "$model" ]] || die "the asset $model is missing (the shared assets belong in ../shared/assets)"
+for b in impostor-server impostor-worker impostor bake_stages isolated_load_bench; do
+  [[ -x "$build/bin/$b" ]] || die "$build/bin/$b is missing: build it (cmake --build $build --target $b)"
+done
+command -v python3 >/dev/null || die "python3 is needed"
+command -v curl >/dev/null || die "curl is needed"
+nginx="$(command -v nginx || true)"
+[[ -z "$nginx" && -x /usr/sbin/nginx ]] && nginx=/usr/sbin/nginx
+if [[ -z "$nginx" ]]; then
+  echo "installing nginx-light (bench only)" >&2
+  DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends nginx-light >/dev/null ||
+    die "nginx is missing and apt-get could not install nginx-light"
+  nginx=/usr/sbin/nginx
+fi
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/e2e_bench.XXXXXX")
+# Stops what the bench started (WORK/pids/NAME holds each pid: the bench
+# itself, then the server, so it drains its worker, then whatever is left),
+# then removes WORK.
+# shellcheck disable=SC2317  # alive and cleanup run from the trap
+# Running: the pid exists and is not a zombie (an orphan waits for init).
+alive() { local st; st=$(sed 's/^.*) //' "/proc/$1/stat" 2>/dev/null) && [[ ${st:0:1} != Z ]]; }
+# shellcheck disable=SC2317
+cleanup() {
+  local rc=$? f pid
+  for f in python server worker nginx; do
+    [[ -f "$work/pids/$f" ]] || continue
+    pid=$(cat "$work/pids/$f")
+    [[ "$pid" =~ ^[0-9]+$ ]] || continue
+    if [[ $f == nginx ]]; then kill -QUIT "$pid" 2>/dev/null || true; else kill -TERM "$pid" 2>/dev/null || true; fi
+    for _ in $(seq 1 100); do alive "$pid" || break; sleep 0.1; done
+    if alive "$pid"; then kill -KILL "$pid" 2>/dev/null || true; fi
+  done
+  rm -rf "$work"
+  exit "$rc"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+# The run uses copies of the binaries, so a rebuild in $build/bin while it
+# runs (a shared build directory) cannot mix two versions in one table.
+mkdir "$work/bin" "$work/pids"
+for b in impostor-server impostor-worker impostor bake_stages isolated_load_bench; do
+  cp -p "$build/bin/$b" "$work/bin/$b"
+done
+newest=$(stat -c '%y' "$work"/bin/* | cut -c1-19 | sort | tail -n 1)
+echo "e2e_bench: binaries copied from $build/bin (the newest built $newest)"
+
+# In the background so that a signal reaches the trap at once (bash runs
+# traps only between commands, and `wait` is one it interrupts).
+python3 "$root/bench/e2e_bench.py" --build "$work" --work "$work" --model "$model" --nginx "$nginx" \
+  --warm "$warm" --fetch-pairs "$pairs" &
+echo $! > "$work/pids/python"
+status=0
+wait $! || status=$?
+rm -f "$work/pids/python"  # reaped: its pid is no longer ours to signal
+exit "$status"
