@@ -1,5 +1,6 @@
-// Loads an untrusted glTF once in a child process, under an address-space
-// and a CPU-time limit (setrlimit), before the worker loads it itself.
+// Loads an untrusted glTF in a child process, under an address-space and a
+// CPU-time limit (setrlimit), instead of in the worker. The child is kept
+// between loads and replaced after any refusal (load_sandbox.h).
 //
 // The load budget (load_budget.h) refuses what the file declares; this is
 // the second line, for whatever slips past it (a decoder or parser bug, a
@@ -14,7 +15,7 @@
 // decodes textures straight into a memfd that the worker maps
 // (texel_arena.h), so the texels are never copied;
 // CheckLoadInChild only reports, for a caller that loads the file its own
-// way (see README's "Hostile input" for the measured overhead).
+// way (bench/isolated_load_bench and bench/e2e_bench.sh measure the cost).
 //
 // Thread-safety: reentrant. Safe to call from a multithreaded process: the
 // child only runs the loader (no gRPC, logging switched off) and leaves
