@@ -37,6 +37,16 @@
 // s >= threshold[i] * (1 + hysteresis), i.e. the object must come closer
 // than d_i / (1 + hysteresis). An object sitting between the two does not
 // toggle.
+//
+// CROSS-FADE. Instead of popping from level i to i + 1 in one frame, both
+// can be drawn over a band of screen scales above the switch, each
+// discarding a complementary, instance-seeded dither of pixels
+// (CrossFadeDrawsImpostor / CrossFadeDrawsMesh; the same function as
+// shaders/impostor_crossfade.glsl). The fade factor t goes from 0 at
+// s = threshold[i] * (1 + band) (only level i) to 1 at s = threshold[i]
+// (only level i + 1), linearly in s, i.e. in on-screen size; it is a
+// function of s alone, so the picture is the same coming and going and the
+// hysteresis above only decides which level SelectLod reports.
 #ifndef IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_LOD_H_
 #define IMPOSTOR_CLIENT_INCLUDE_IMPOSTOR_LOD_H_
 
@@ -86,6 +96,23 @@ struct LodSelectOptions {
   float hysteresis = 0.1f;
 };
 
+struct LodCrossFadeOptions {
+  // Width of the cross-fade band above each switch, as a fraction of the
+  // switch's screen scale (threshold): the fade starts at threshold *
+  // (1 + band) and ends at the switch. Default 0.1 (the object's on-screen
+  // size shrinks by a tenth while it fades); range 0..1 (clamped); 0 is a
+  // hard switch.
+  float band = 0.1f;
+};
+
+// What to draw at one screen scale during a cross-fade.
+struct LodCrossFade {
+  int level = 0;  // the finer level: drawn alone when t == 0
+  // 0: `level` only; 1: `level` + 1 only; between: both, `level` where
+  // CrossFadeDrawsMesh(t, ...) and `level` + 1 where CrossFadeDrawsImpostor.
+  float t = 0;
+};
+
 // Reads `manifest_json` (a lod-chain result's manifest.json). NOT_FOUND when
 // the file is missing; INVALID_ARGUMENT naming the key when it is not a
 // lod-chain manifest, lacks the lods list, has levels out of order, a last
@@ -118,6 +145,33 @@ absl::Status SelectLods(const LodChain& chain, std::span<const float> distances,
 // Distance at which `level` gives way to the next one for this camera
 // (+infinity for the last level).
 float SwitchDistance(const LodChain& chain, int level, float fov_y_radians, float viewport_height_px);
+
+// Fade factor at screen scale `pixels_per_unit` for a switch at
+// `switch_scale` (the finer level's threshold): 0 at or above switch_scale
+// * (1 + band), 1 at or below switch_scale, linear between. A band of 0 (or
+// a switch_scale <= 0) gives the hard switch: 0 above, 1 at or below.
+float CrossFadeFactor(float pixels_per_unit, float switch_scale, const LodCrossFadeOptions& options = {});
+
+// The level and fade factor at screen scale `pixels_per_unit`: `level` is
+// SelectLodForScale's without history, t the CrossFadeFactor of its switch
+// (0 for the last level). An empty chain gives {0, 0}.
+LodCrossFade SelectLodCrossFade(const LodChain& chain, float pixels_per_unit, const LodCrossFadeOptions& options = {});
+
+// The dither that splits pixels between the two levels (pixel (x, y) in
+// the render target's pixel grid, e.g. floor(gl_FragCoord.xy); `seed` per
+// instance, e.g. its index): a 4 x 4 ordered (Bayer) threshold whose levels
+// are rotated by the top 4 bits of seed * 2654435769 (Fibonacci hashing), so
+// neighbouring instances fading together use different pixels. Threshold:
+// (level + 0.5) / 16, one of 16 values in (0, 1).
+float CrossFadeThreshold(uint32_t seed, int x, int y);
+
+// The coarser level (the impostor) draws pixel (x, y) iff threshold < t;
+// the finer (the mesh) iff not. Complementary at every t: each pixel is
+// drawn by exactly one; over any aligned 4 x 4 block the coarser level's
+// share is within 1/32 of t (exactly t for t = k / 16). t <= 0: the mesh
+// everywhere; t >= 1: the impostor everywhere.
+bool CrossFadeDrawsImpostor(float t, uint32_t seed, int x, int y);
+bool CrossFadeDrawsMesh(float t, uint32_t seed, int x, int y);
 
 }  // namespace impostor::sdk
 
