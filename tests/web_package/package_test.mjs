@@ -143,6 +143,29 @@ const hits = ray.intersectObject(forest);
 assert.equal(hits.length, 1);
 assert.equal(hits[0].instanceId, 1);
 assert.ok(Math.abs(hits[0].distance - 45) < 1e-6, String(hits[0].distance));
+
+// Cross-fade: off by default (compiled out of both variants); on, both get
+// the define; per instance (t, seed) on the card, t 1 and seed = index
+// until set.
+assert.equal(m.crossFade, false);
+assert.equal('IMPOSTOR_CROSS_FADE' in m.defines || 'IMPOSTOR_CROSS_FADE' in m.depthMaterial.defines, false);
+m.crossFade = true;
+assert.equal(m.defines.IMPOSTOR_CROSS_FADE, 1);
+assert.equal(m.depthMaterial.defines.IMPOSTOR_CROSS_FADE, 1, 'the shadow pass fades with the colour');
+assert.equal(m.depthMaterial.uniforms.impostorCrossFade, m.uniforms.impostorCrossFade);
+m.fade = 0.25;
+m.fadeSeed = 9;
+assert.deepEqual(m.uniforms.impostorCrossFade.value.toArray(), [0.25, 9]);
+assert.equal(m.clone().crossFade, true);
+m.crossFade = false;
+assert.equal('IMPOSTOR_CROSS_FADE' in m.depthMaterial.defines, false);
+const fading = new InstancedImpostorMesh(asset, 4, { crossFade: true });
+assert.deepEqual(fading.getFadeAt(3), [1, 3]);
+fading.setFadeAt(2, 0.5);
+assert.deepEqual(fading.getFadeAt(2), [0.5, 2]);
+fading.setFadeAt(2, 0.75, 40);
+assert.deepEqual(fading.getFadeAt(2), [0.75, 40]);
+assert.equal(fading.geometry.getAttribute('impostorFade').isInstancedBufferAttribute, true);
 console.log('three side ok');
 `;
 

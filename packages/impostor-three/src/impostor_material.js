@@ -6,9 +6,12 @@
 // offset, and the reference light (one directional light + ambient x
 // occlusion, impostor_material_light.glsl). Its `depthMaterial` (an
 // ImpostorDepthMaterial sharing its uniforms) is the shadow / depth variant
-// the meshes set as customDepthMaterial. The asset (and its textures) is
+// the meshes set as customDepthMaterial. With `crossFade` both discard the
+// pixels a cross-fade at the LOD switch gives to the mesh
+// (shaders/impostor_crossfade.glsl): per instance from an
+// InstancedImpostorMesh's setFadeAt, else from `fade` / `fadeSeed`. The asset (and its textures) is
 // shared, not owned: dispose() frees the programs, asset.dispose() the maps.
-import { Color, DoubleSide, GLSL3, ShaderMaterial, Vector3, Vector4 } from 'three';
+import { Color, DoubleSide, GLSL3, ShaderMaterial, Vector2, Vector3, Vector4 } from 'three';
 import {
   BLENDS, OUTPUTS, RECONSTRUCTIONS, impostorDepthFragmentShader, impostorFragmentShader, impostorVertexShader,
 } from './shaders/impostor_shaders.js';
@@ -33,6 +36,8 @@ function sharedUniforms(asset) {
     impostorLayout: { value: [layout.kind, layout.frames, layout.ringViews, layout.tileSize] },
     // blend, reconstruction, has_orm, output
     impostorMode: { value: [BLENDS[asset.blend], RECONSTRUCTIONS.depth, textures.orm ? 1 : 0, OUTPUTS.lit] },
+    // Cross-fade of a non-instanced mesh: t, seed.
+    impostorCrossFade: { value: new Vector2(1, 0) },
   };
 }
 
@@ -42,12 +47,14 @@ export class ImpostorMaterial extends ShaderMaterial {
   // quality pass used), output: 'lit' | 'albedo' | 'coverage' | 'normal' |
   // 'orm' | 'frame-index' | 'blend-weights' (default 'lit'; the last five
   // write raw values for debugging), depthOffset (default true),
-  // lightDirection (world, toward the light), lightColor, ambient (0.25)}
-  // and any ShaderMaterial parameter.
+  // lightDirection (world, toward the light), lightColor, ambient (0.25),
+  // crossFade (default false: compiled out), fade (t, default 1: all
+  // impostor) and fadeSeed (default 0)} and any ShaderMaterial parameter.
   constructor(asset, parameters = {}) {
     const {
       reconstruction = asset.reconstruction, blend = asset.blend, output = 'lit', depthOffset = true,
-      lightDirection = DEFAULT_LIGHT_DIRECTION, lightColor = new Color(1, 1, 1), ambient = 0.25, ...rest
+      lightDirection = DEFAULT_LIGHT_DIRECTION, lightColor = new Color(1, 1, 1), ambient = 0.25, crossFade = false,
+      fade = 1, fadeSeed = 0, ...rest
     } = parameters;
     const uniforms = {
       ...sharedUniforms(asset),
@@ -72,7 +79,33 @@ export class ImpostorMaterial extends ShaderMaterial {
     this.output = output;
     this.depthOffset = depthOffset;
     this.depthMaterial = new ImpostorDepthMaterial(this);
+    this.crossFade = crossFade;
+    this.fade = fade;
+    this.fadeSeed = fadeSeed;
   }
+
+  // The cross-fade at the LOD switch, in both variants (another program:
+  // IMPOSTOR_CROSS_FADE). Draw the mesh's side with the complementary test
+  // (impostorCrossFadeGlsl's impostorCrossFadeDrawsMesh, same t and seed).
+  get crossFade() { return 'IMPOSTOR_CROSS_FADE' in this.defines; }
+  set crossFade(v) {
+    const on = Boolean(v);
+    if (on === this.crossFade) return;
+    for (const m of [this, this.depthMaterial]) {
+      if (on) m.defines.IMPOSTOR_CROSS_FADE = 1;
+      else delete m.defines.IMPOSTOR_CROSS_FADE;
+      m.needsUpdate = true;
+    }
+  }
+
+  // A non-instanced mesh's fade factor t (0: only the mesh draws, 1: only
+  // the impostor; crossFadeFactor gives it from the on-screen size) and
+  // seed (an integer, 0 .. 2^24 - 1). An InstancedImpostorMesh reads its
+  // instances' own (setFadeAt).
+  get fade() { return this.uniforms.impostorCrossFade.value.x; }
+  set fade(t) { this.uniforms.impostorCrossFade.value.x = t; }
+  get fadeSeed() { return this.uniforms.impostorCrossFade.value.y; }
+  set fadeSeed(seed) { this.uniforms.impostorCrossFade.value.y = seed; }
 
   get reconstruction() { return this._reconstruction; }
   set reconstruction(v) {
@@ -116,6 +149,7 @@ export class ImpostorMaterial extends ShaderMaterial {
     return new ImpostorMaterial(this.asset, {
       reconstruction: this.reconstruction, blend: this.blend, output: this.output, depthOffset: this.depthOffset,
       lightDirection: this.lightDirection, lightColor: this.lightColor, ambient: this.ambient,
+      crossFade: this.crossFade, fade: this.fade, fadeSeed: this.fadeSeed,
     });
   }
 
@@ -129,8 +163,9 @@ export class ImpostorMaterial extends ShaderMaterial {
 // the surface seen from the camera it is drawn with (the light's, in a
 // shadow pass), discarded below half coverage, its depth offset applied,
 // packed as three's RGBA depth. Shares the material's textures, layout,
-// blend and reconstruction. Directional and spot lights; a point light's
-// shadow (customDistanceMaterial) is not drawn by it.
+// blend, reconstruction and cross-fade (the shadow map's pixels split
+// between mesh and impostor as the screen's do). Directional and spot
+// lights; a point light's shadow (customDistanceMaterial) is not drawn by it.
 export class ImpostorDepthMaterial extends ShaderMaterial {
   constructor(material) {
     const u = material.uniforms;
@@ -139,7 +174,7 @@ export class ImpostorDepthMaterial extends ShaderMaterial {
       uniforms: {
         impostorAlbedo: u.impostorAlbedo, impostorNormalDepth: u.impostorNormalDepth, impostorOrm: u.impostorOrm,
         impostorSphere: u.impostorSphere, impostorLayout: u.impostorLayout, impostorMode: u.impostorMode,
-        impostorCoverageTest: { value: true },
+        impostorCrossFade: u.impostorCrossFade, impostorCoverageTest: { value: true },
       },
       side: DoubleSide,
     });

@@ -5,7 +5,9 @@
 // be rotated and scaled freely). The card's four corners are placed by the
 // shader; the geometry's bounds are the asset's bounding sphere, so frustum
 // culling and raycasting see the object, not the card.
-import { Box3, BufferGeometry, Float32BufferAttribute, InstancedMesh, Matrix4, Mesh, Sphere, Vector3 } from 'three';
+import {
+  Box3, BufferGeometry, Float32BufferAttribute, InstancedBufferAttribute, InstancedMesh, Matrix4, Mesh, Sphere, Vector3,
+} from 'three';
 import { ImpostorMaterial } from './impostor_material.js';
 
 // Four corners (x, y in -1..1: the card's right and up), two triangles.
@@ -73,6 +75,29 @@ export class InstancedImpostorMesh extends InstancedMesh {
     this.type = 'InstancedImpostorMesh';
     this.asset = asset;
     this.customDepthMaterial = m.depthMaterial;
+    // Per instance (t, seed) for a material with crossFade: t 1 (the whole
+    // impostor) until setFadeAt, seed the instance's index.
+    const fade = new Float32Array(count * 2);
+    for (let i = 0; i < count; ++i) fade.set([1, i], i * 2);
+    this.geometry.setAttribute('impostorFade', new InstancedBufferAttribute(fade, 2));
+  }
+
+  // Instance `index`'s cross-fade at the LOD switch (material.crossFade):
+  // t 0 draws none of it (its mesh draws every pixel), 1 all of it, between
+  // the share the dither gives the impostor (crossFadeFactor gives t from
+  // the on-screen size); seed (an integer, 0 .. 2^24 - 1; default the
+  // index) must be the one the instance's mesh is drawn with.
+  setFadeAt(index, t, seed = index) {
+    const a = this.geometry.getAttribute('impostorFade');
+    a.setXY(index, t, seed);
+    a.needsUpdate = true;
+    return this;
+  }
+
+  // [t, seed] of instance `index`.
+  getFadeAt(index) {
+    const a = this.geometry.getAttribute('impostorFade');
+    return [a.getX(index), a.getY(index)];
   }
 
   // Hits each instance's bounding sphere (instanceId set).

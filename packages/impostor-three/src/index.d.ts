@@ -47,6 +47,18 @@ export function repackLayerStrip(image: ImageBitmap, manifest: any, side: number
   { width: number; height: number; data: Uint8Array };
 /** shaders/impostor_runtime.glsl, the reference runtime. */
 export const impostorRuntimeGlsl: string;
+/** shaders/impostor_crossfade.glsl: impostorCrossFadeDrawsImpostor / impostorCrossFadeDrawsMesh (t, uint seed, ivec2 pixel), for the mesh's side of a cross-fade. */
+export const impostorCrossFadeGlsl: string;
+/** The cross-fade band's default: 0.1 of the switch's screen scale. */
+export const DEFAULT_CROSS_FADE_BAND: number;
+/** Fade factor t: 0 at or above switchScale * (1 + band), 1 at or below switchScale, linear between (any on-screen size unit). */
+export function crossFadeFactor(pixelsPerUnit: number, switchScale: number, band?: number): number;
+/** The dither threshold of pixel (x, y) for an instance's seed: one of (level + 0.5) / 16. */
+export function crossFadeThreshold(seed: number, x: number, y: number): number;
+/** Whether the impostor draws pixel (x, y) at fade t (threshold < t). */
+export function crossFadeDrawsImpostor(t: number, seed: number, x: number, y: number): boolean;
+/** Whether the mesh draws pixel (x, y) at fade t: exactly the pixels the impostor does not. */
+export function crossFadeDrawsMesh(t: number, seed: number, x: number, y: number): boolean;
 
 export interface ImpostorFileReport {
   name: string;
@@ -138,6 +150,12 @@ export interface ImpostorMaterialParameters extends ShaderMaterialParameters {
   lightColor?: Color;
   /** Ambient x occlusion. Default 0.25. */
   ambient?: number;
+  /** Cross-fade at the LOD switch in both variants (IMPOSTOR_CROSS_FADE). Default false (compiled out). */
+  crossFade?: boolean;
+  /** A non-instanced mesh's fade t (0: none of the impostor, 1: all). Default 1. */
+  fade?: number;
+  /** A non-instanced mesh's dither seed, an integer below 2^24. Default 0. */
+  fadeSeed?: number;
 }
 
 /** The reference impostor material (shaders/impostor_material.glsl). */
@@ -152,6 +170,9 @@ export class ImpostorMaterial extends ShaderMaterial {
   lightDirection: Vector3;
   lightColor: Color;
   ambient: number;
+  crossFade: boolean;
+  fade: number;
+  fadeSeed: number;
   /** The shadow / depth variant (the meshes' customDepthMaterial). */
   readonly depthMaterial: ImpostorDepthMaterial;
   clone(): this;
@@ -182,4 +203,7 @@ export class InstancedImpostorMesh extends InstancedMesh<ImpostorCardGeometry, I
   constructor(asset: ImpostorAsset, count: number, material?: ImpostorMaterial | ImpostorMaterialParameters);
   readonly isInstancedImpostorMesh: true;
   asset: ImpostorAsset;
+  /** Instance `index`'s cross-fade t and seed (default: the index); needs material.crossFade. */
+  setFadeAt(index: number, t: number, seed?: number): this;
+  getFadeAt(index: number): [number, number];
 }

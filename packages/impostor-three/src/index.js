@@ -7,4 +7,8 @@ export { ImpostorMesh, InstancedImpostorMesh, ImpostorCardGeometry } from './imp
 export { LAYOUT_KINDS, atlasLayout, layoutName, productName } from './layout.js';
 export { isTextureArray, layerPlacements, repackLayerStrip } from './texture_array.js';
 export { impostorRuntimeGlsl } from './shaders/impostor_runtime.glsl.js';
+export { impostorCrossFadeGlsl } from './shaders/impostor_crossfade.glsl.js';
+export {
+  DEFAULT_CROSS_FADE_BAND, crossFadeDrawsImpostor, crossFadeDrawsMesh, crossFadeFactor, crossFadeThreshold,
+} from './cross_fade.js';
 export * from './release/index.js';

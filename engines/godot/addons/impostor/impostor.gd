@@ -23,6 +23,13 @@ export(String, "", "triangle3", "bilinear4") var blend = "" setget set_blend
 export(bool) var depth_offset = true setget set_depth_offset
 # ALBEDO only, no lighting (for comparisons and debugging).
 export(bool) var unshaded = false setget set_unshaded
+# Cross-fade at the LOD switch (shaders/impostor_crossfade.glsl): this node
+# draws only its share of pixels for `fade` (0: none, the mesh draws every
+# pixel; 1: all), in the shadow pass too; its mesh must discard the others
+# with the same fade and seed. On, the node has its own material copy.
+export(bool) var cross_fade = false setget set_cross_fade
+export(float, 0, 1) var fade = 1.0 setget set_fade
+export(int) var fade_seed = 0 setget set_fade_seed
 
 var asset = null setget set_asset
 
@@ -52,10 +59,30 @@ func set_unshaded(value):
 	_refresh()
 
 
+func set_cross_fade(value):
+	cross_fade = value
+	_refresh()
+
+
+func set_fade(value):
+	fade = value
+	if cross_fade and material_override != null:
+		material_override.set_shader_param("impostor_fade", fade)
+
+
+func set_fade_seed(value):
+	fade_seed = value
+	_refresh()
+
+
 func _refresh():
 	if asset == null:
 		mesh = null
 		material_override = null
 		return
 	mesh = asset.card_mesh()
-	material_override = asset.material(reconstruction, blend, depth_offset, unshaded)
+	material_override = asset.material(reconstruction, blend, depth_offset, unshaded, 1 if cross_fade else 0)
+	if cross_fade:
+		material_override = material_override.duplicate()
+		material_override.set_shader_param("impostor_fade", fade)
+		material_override.set_shader_param("impostor_fade_offset", float(asset.cross_fade_offset(fade_seed)))

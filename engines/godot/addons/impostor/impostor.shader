@@ -46,6 +46,14 @@ uniform vec4 impostor_sphere = vec4(0.0, 0.0, 0.0, 1.0);  // object space: centr
 uniform ivec4 impostor_layout;  // kind, frames, ring_views, tile_size
 uniform ivec4 impostor_mode;    // blend, reconstruction, has_orm, unused
 uniform bool impostor_depth_offset = true;  // DEPTH = the reconstructed surface point's
+// Cross-fade at the LOD switch (shaders/impostor_crossfade.glsl): 0 off (the
+// default), 1 from impostor_fade / impostor_fade_offset (one node), 2 per
+// MultiMesh instance from INSTANCE_CUSTOM.r (t) and .g (offset). The offset
+// is the seed's, 0..15, worked out by impostor_forest.gd's
+// cross_fade_offset(seed) (Godot 3's shading language has no uint).
+uniform int impostor_cross_fade = 0;
+uniform float impostor_fade = 1.0;     // t: 0 the mesh only, 1 the impostor only
+uniform float impostor_fade_offset = 0.0;
 
 varying vec3 v_ray_origin;  // sphere space
 varying vec3 v_ray_dir;
@@ -54,6 +62,7 @@ varying flat vec4 v_weights;  // their weights (0 past the count)
 varying flat float v_count;
 varying flat mat4 v_object_to_view;
 varying vec3 v_card_view;  // the card's view-space point as this stage left it
+varying flat vec2 v_fade;  // cross-fade t, offset
 
 const int IMPOSTOR_LAYOUT_OCTAHEDRAL = 0;
 const int IMPOSTOR_LAYOUT_HEMI_OCTAHEDRAL = 1;
@@ -821,6 +830,22 @@ void impostorReconstructLayout(bool has_orm, ivec3 atlas, int tile_size, int cou
 // camera too) the rays run parallel along the view. The blend depends only
 // on the direction from the centre to the camera: picked here, per
 // instance, and handed on flat.
+// impostorCrossFadeThreshold of impostor_crossfade.glsl in floats (every
+// value is a small integer or a sixteenth, exact): the 4 x 4 Bayer level of
+// the pixel, 8 (x0 ^ y0) + 4 y0 + 2 (x1 ^ y1) + y1 from the coordinates'
+// low bits, rotated by the seed's offset.
+float impostorCrossFadeThreshold(float offset, vec2 frag_coord) {
+  vec2 p = floor(frag_coord);
+  vec2 b0 = mod(p, 2.0);
+  vec2 b1 = mod(floor(p * 0.5), 2.0);
+  float level = 8.0 * abs(b0.x - b0.y) + 4.0 * b0.y + 2.0 * abs(b1.x - b1.y) + b1.y;
+  return (mod(level + offset, 16.0) + 0.5) / 16.0;
+}
+
+bool impostorCrossFadeDrawsImpostor(float t, float offset, vec2 frag_coord) {
+  return impostorCrossFadeThreshold(offset, frag_coord) < t;
+}
+
 void vertex() {
   mat4 object_to_view = MODELVIEW_MATRIX;
   mat4 view_to_object = inverse(object_to_view);
@@ -847,6 +872,7 @@ void vertex() {
   v_frames = vec4(index);
   v_weights = weight;
   v_object_to_view = object_to_view;
+  v_fade = impostor_cross_fade == 2 ? INSTANCE_CUSTOM.rg : vec2(impostor_fade, impostor_fade_offset);
   VERTEX = (object_to_view * vec4(impostor_sphere.xyz + p * impostor_sphere.w, 1.0)).xyz;
   v_card_view = VERTEX;
   NORMAL = normalize(mat3(object_to_view) * view_dir);
@@ -857,8 +883,10 @@ void vertex() {
 // offset), the normal through the object's rotation; ORM into Godot's PBR
 // (occlusion 1, roughness 1, metalness 0 without an ORM map). The same code
 // is the shadow caster: in Godot's depth pass only the discard and DEPTH
-// count.
+// count, so in the shadow pass the cross-fade splits the shadow map's
+// pixels as it splits the screen's.
 void fragment() {
+  if (impostor_cross_fade != 0 && !impostorCrossFadeDrawsImpostor(v_fade.x, v_fade.y, FRAGCOORD.xy)) discard;
   bool has_orm = impostor_mode.z != 0;
   int count = int(v_count + 0.5);
   ivec4 index = ivec4(v_frames + vec4(0.5));

@@ -113,11 +113,24 @@ func build_from_manifest(m, bytes):
 	return ""
 
 
+# The dither's rotation for an instance seed (an unsigned 32-bit integer):
+# the top 4 bits of seed * 2654435769 mod 2^32, as impostor_crossfade.glsl
+# and the C++ SDK (impostor/lod.h) work it out. Multiplied in 16-bit halves
+# so no product leaves GDScript's 64-bit int.
+static func cross_fade_offset(instance_seed):
+	var k = 2654435769
+	var lo = (instance_seed & 0xffff) * k
+	var hi = (((instance_seed >> 16) & 0xffff) * k) & 0xffff
+	return ((lo + (hi << 16)) & 0xffffffff) >> 28
+
+
 # The shared material for these options: reconstruction ("plain",
 # "parallax", "depth"; "" = the asset's), blend ("triangle3", "bilinear4";
 # "" = the asset's), depth_offset (DEPTH = the reconstructed surface's),
-# unshaded (ALBEDO only, no lighting).
-func material(reconstruction_name = "", blend_name = "", depth_offset = true, unshaded = false):
+# unshaded (ALBEDO only, no lighting), cross_fade (the shader's
+# impostor_cross_fade: 0 off, 1 one node's own fade uniforms (duplicate
+# the material per node), 2 per MultiMesh instance, INSTANCE_CUSTOM).
+func material(reconstruction_name = "", blend_name = "", depth_offset = true, unshaded = false, cross_fade = 0):
 	var r = reconstruction_name if reconstruction_name != "" else reconstruction
 	var b = blend_name if blend_name != "" else blend
 	if not RECONSTRUCTIONS.has(r):
@@ -126,7 +139,7 @@ func material(reconstruction_name = "", blend_name = "", depth_offset = true, un
 	if not BLENDS.has(b):
 		push_error("impostor: blend \"%s\": want one of %s" % [b, str(BLENDS.keys())])
 		b = blend
-	var key = "%s/%s/%s/%s" % [r, b, depth_offset, unshaded]
+	var key = "%s/%s/%s/%s/%d" % [r, b, depth_offset, unshaded, cross_fade]
 	if _materials.has(key):
 		return _materials[key]
 	var mat = ShaderMaterial.new()
@@ -138,6 +151,7 @@ func material(reconstruction_name = "", blend_name = "", depth_offset = true, un
 	mat.set_shader_param("impostor_layout", PoolIntArray([layout_kind, frames, ring_views, tile_size]))
 	mat.set_shader_param("impostor_mode", PoolIntArray([BLENDS[b], RECONSTRUCTIONS[r], 1 if orm_texture != null else 0, 0]))
 	mat.set_shader_param("impostor_depth_offset", depth_offset)
+	mat.set_shader_param("impostor_cross_fade", cross_fade)
 	_materials[key] = mat
 	return mat
 

@@ -11,7 +11,12 @@
 //     centre + radius * position and its depth (the pixel depth offset);
 //   - impostorLambert() of shaders/impostor_material_light.glsl: albedo x
 //     (colour x N.L + ambient x occlusion), shadow term 1;
-//   - impostorShadowCaster(): the depth variant, alpha-tested, depth offset.
+//   - impostorShadowCaster(): the depth variant, alpha-tested, depth offset;
+//   - the cross-fade at the LOD switch (shaders/impostor_crossfade.glsl,
+//     embedded in impostor_crossfade.glsl.js; compiled in with
+//     IMPOSTOR_CROSS_FADE): both variants discard the pixels the instance's
+//     (t, seed) gives to the mesh, the depth variant with the shadow map's
+//     own pixels, so the shadow fades with the colour.
 // Per instance, the vertex stage picks the frames and weights
 // (impostorBlendFramesLayout: they depend only on the direction from the
 // instance's centre to the camera) and hands them to the fragment stage as
@@ -21,6 +26,7 @@
 // scale, translation). Depth: WebGL's window depth is 0.5 * ndc.z + 0.5
 // where Vulkan's is clip.z / clip.w (three's reversed depth buffer uses the
 // latter; the logarithmic one its own formula).
+import { impostorCrossFadeGlsl } from './impostor_crossfade.glsl.js';
 import { impostorRuntimeGlsl } from './impostor_runtime.glsl.js';
 
 // ImpostorMaterial.output, in the uniform's numbering.
@@ -40,6 +46,14 @@ flat out ivec4 vImpostorFrames;   // blend entries' frame indices
 flat out vec4 vImpostorWeights;   // their weights (0 past the count)
 flat out int vImpostorCount;
 flat out mat4 vImpostorObjectToWorld;
+#ifdef IMPOSTOR_CROSS_FADE
+#ifdef USE_INSTANCING
+in vec2 impostorFade;           // per instance: t, seed (InstancedImpostorMesh.setFadeAt)
+#else
+uniform vec2 impostorCrossFade;  // t, seed (ImpostorMaterial.fade, .fadeSeed)
+#endif
+flat out vec2 vImpostorFade;
+#endif
 #include <logdepthbuf_pars_vertex>
 
 void main() {
@@ -70,6 +84,13 @@ void main() {
   vImpostorFrames = ivec4(blend.index[0], blend.index[1], blend.index[2], blend.index[3]);
   vImpostorWeights = vec4(blend.weight[0], blend.weight[1], blend.weight[2], blend.weight[3]);
   vImpostorObjectToWorld = objectToWorld;
+#ifdef IMPOSTOR_CROSS_FADE
+#ifdef USE_INSTANCING
+  vImpostorFade = impostorFade;
+#else
+  vImpostorFade = impostorCrossFade;
+#endif
+#endif
   gl_Position = projectionMatrix * viewMatrix * objectToWorld * vec4(impostorSphere.xyz + p * impostorSphere.w, 1.0);
 #include <logdepthbuf_vertex>
 }`;
@@ -93,7 +114,20 @@ flat in ivec4 vImpostorFrames;
 flat in vec4 vImpostorWeights;
 flat in int vImpostorCount;
 flat in mat4 vImpostorObjectToWorld;
+#ifdef IMPOSTOR_CROSS_FADE
+flat in vec2 vImpostorFade;  // t, seed (an integer below 2^24)
+#endif
 #include <logdepthbuf_pars_fragment>
+
+// Whether the cross-fade gives this pixel to the mesh (never without
+// IMPOSTOR_CROSS_FADE). Tested first: a faded-out pixel costs no reconstruction.
+bool impostorFadedOut() {
+#ifdef IMPOSTOR_CROSS_FADE
+  return !impostorCrossFadeDrawsImpostor(vImpostorFade.x, uint(vImpostorFade.y), ivec2(gl_FragCoord.xy));
+#else
+  return false;
+#endif
+}
 
 ImpostorBlend impostorVaryingBlend(ImpostorLayout atlas) {
   ImpostorBlend b = impostorEmptyBlend();
@@ -137,6 +171,7 @@ vec3 impostorIndexColour(int i) {
 }
 
 void main() {
+  if (impostorFadedOut()) discard;
   bool hasOrm = impostorMode.z != 0;
   ImpostorBlend blend;
   ImpostorSurface s = impostorFragmentSurface(blend, hasOrm);
@@ -178,6 +213,7 @@ const DEPTH_MAIN = `
 #include <packing>
 uniform bool impostorCoverageTest;  // false: the whole card casts (to show what the test does)
 void main() {
+  if (impostorFadedOut()) discard;
   ImpostorBlend blend;
   ImpostorSurface s = impostorFragmentSurface(blend, false);
   if (impostorCoverageTest && s.alpha < 0.5) discard;
@@ -188,5 +224,7 @@ void main() {
 }`;
 
 export const impostorVertexShader = `${impostorRuntimeGlsl}\n${VERTEX_MAIN}`;
-export const impostorFragmentShader = `${impostorRuntimeGlsl}\n${FRAGMENT_COMMON}\n${FRAGMENT_MAIN}`;
-export const impostorDepthFragmentShader = `${impostorRuntimeGlsl}\n${FRAGMENT_COMMON}\n${DEPTH_MAIN}`;
+export const impostorFragmentShader =
+  `${impostorRuntimeGlsl}\n${impostorCrossFadeGlsl}\n${FRAGMENT_COMMON}\n${FRAGMENT_MAIN}`;
+export const impostorDepthFragmentShader =
+  `${impostorRuntimeGlsl}\n${impostorCrossFadeGlsl}\n${FRAGMENT_COMMON}\n${DEPTH_MAIN}`;
