@@ -16,6 +16,8 @@
 //   size=PX (512)            canvas side; cameras=AZ,EL;AZ,EL (degrees, 4 radii away);
 //   views=0                  skip the fixed cameras; frames=N (5) timed frames per forest
 //   cache=NAME               the Cache Storage cache (impostor-three's default otherwise)
+//   fade=T                   also draw the first camera's impostor mid cross-fade: one
+//                            InstancedImpostorMesh instance with crossFade, fade T, seed 5
 //   images=1                 keep every frame read back in window.impostorExampleImages
 //                            (RGBA8 base64, rows bottom first) for a test to fetch one by one
 //
@@ -27,6 +29,7 @@
 //   {ok, error, name, channel, key, layout, loadMs,
 //    files: [{name, semantic, sha256, verified, source ('network' | 'cache'), url}],
 //    views: [{camera: [az, el], mesh, impostor}],        (image names, with images=1)
+//    fade: {t, seed, image, whole} | null,   (the faded view and the whole one it is part of)
 //    forest: {count, size, impostor: {calls, ms, frameMs: [...], image},
 //             mesh: {mode, calls, ms, frameMs, image} | null, speedup},
 //    blankAfterError}
@@ -164,7 +167,7 @@ function timeFrames(renderer, scene, camera) {
 async function run() {
   stage('start');
   const out = { ok: false, error: '', name: q.get('name'), channel: q.get('channel') || 'nightly', files: [], views: [],
-    forest: null, blankAfterError: null };
+    fade: null, forest: null, blankAfterError: null };
   const canvas = document.getElementById('view');
   canvas.width = canvas.height = SIZE;
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, premultipliedAlpha: false,
@@ -211,6 +214,20 @@ async function run() {
     const name = `view_${az}_${el}`;
     out.views.push({ camera: [az, el], mesh: mesh ? draw(meshScene, `${name}_mesh`) : null,
       impostor: draw(impostorScene, `${name}_impostor`) });
+  }
+
+  if (q.get('fade') && CAMERAS.length) {
+    // The cross-fade at the LOD switch: the impostor's share of the first view.
+    stage('fade');
+    const [az, el0] = CAMERAS[0];
+    place(camera, centre, az, asset.layoutName === 'hemi-octahedral' ? Math.abs(el0) : el0, 4 * radius);
+    const fading = new InstancedImpostorMesh(asset, 1, { ...MATERIAL, crossFade: true });
+    fading.setMatrixAt(0, new THREE.Matrix4());
+    const t = Number(q.get('fade'));
+    fading.setFadeAt(0, t, 5);
+    const fadeScene = new THREE.Scene();
+    fadeScene.add(fading);
+    out.fade = { t, seed: 5, image: draw(fadeScene, 'fade_impostor'), whole: out.views[0].impostor };
   }
 
   stage('forest');

@@ -9,7 +9,9 @@
 //     mirror; per camera the impostor's silhouette against the reference's
 //     (IoU >= 0.95), covered where the reference is and background more than
 //     2 px outside it, colours where both cover within the tolerance below;
-//     the forest of 16 the same way (IoU >= 0.9) in one draw call;
+//     the forest of 16 the same way (IoU >= 0.9) in one draw call; the first
+//     view mid cross-fade (t 0.5, one InstancedImpostorMesh instance) keeps
+//     the pixels crossFadeDrawsImpostor gives it, about half;
 //  2. second visit, same profile, a forest of 10,000: no blob and no catalog
 //     requested over the network (Network domain and the mirrors' logs),
 //     every file from Cache Storage, the same pixels, the 10,000 instances in
@@ -41,6 +43,7 @@ import { encodePng } from './lib/png.mjs';
 import { publishRelease } from './lib/publish_release.mjs';
 import { startStaticServer } from './lib/static_server.mjs';
 import { writeSyntheticResult } from './lib/synthetic_result.mjs';
+import { crossFadeDrawsImpostor } from '../../packages/impostor-three/src/cross_fade.js';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const repo = resolve(here, '..', '..');
@@ -140,6 +143,7 @@ async function visit(url) {
     v.mesh = await image(v.mesh);
     v.impostor = await image(v.impostor);
   }
+  if (out.fade) out.fade.images = { faded: await image(out.fade.image), whole: await image(out.fade.whole) };
   if (out.forest && out.forest.mesh && out.forest.count <= 100) {
     out.forest.images = { mesh: await image(out.forest.mesh.image), impostor: await image(out.forest.impostor.image) };
   }
@@ -241,7 +245,7 @@ const isRelease = (url) => url.includes('/v1/blobs/') || url.includes('/v1/catal
 let first = null;
 
 test('first visit: verified from a published release, the tampered blob taken from the next mirror, drawn as the reference', async () => {
-  const { out } = await visit(pageUrl([servers.tampered.url, servers.good.url]));
+  const { out } = await visit(pageUrl([servers.tampered.url, servers.good.url], '&fade=0.5'));
   assert.equal(out.error, '', out.error);
   assert.ok(out.ok);
   first = out;
@@ -278,6 +282,25 @@ test('first visit: verified from a published release, the tampered blob taken fr
   // Each instance turned its own way shows its own faces.
   if (f.flat >= 0.05) assert.ok(f.offColour <= MAX_OFF_COLOUR_FRACTION, `forest: ${f.offColour} of flat pixels off by > 24 levels`);
   assert.equal(out.forest.impostor.calls, 1, 'the forest of 16 is one draw call');
+
+  // Mid cross-fade: readPixels rows are gl_FragCoord's, so pixel (x, y) of
+  // the image is the shader's pixel. The instanced draw may differ from the
+  // ImpostorMesh's at a few silhouette pixels (float rounding).
+  const faded = decode(out.fade.images.faded), whole = decode(out.fade.images.whole);
+  let kept = 0, object = 0, wrong = 0;
+  for (let y = 0; y < SIZE; ++y) {
+    for (let x = 0; x < SIZE; ++x) {
+      const i = y * SIZE + x;
+      const want = covered(whole, i) && crossFadeDrawsImpostor(out.fade.t, out.fade.seed, x, y);
+      wrong += covered(faded, i) !== want ? 1 : 0;
+      kept += covered(faded, i) ? 1 : 0;
+      object += covered(whole, i) ? 1 : 0;
+    }
+  }
+  console.log(`cross-fade t ${out.fade.t}: ${kept} of ${object} pixels kept (${(kept / object).toFixed(3)}), ${wrong} not the dither's`);
+  writeFileSync(join(ARTIFACTS, 'fade_impostor.png'), encodePng(SIZE, SIZE, flipRows(faded)));
+  assert.ok(Math.abs(kept / object - out.fade.t) <= 0.05, `cross-fade: ${kept} of ${object} pixels kept at t ${out.fade.t}`);
+  assert.ok(wrong <= 0.01 * object, `cross-fade: ${wrong} pixels not as the dither gives them`);
   assert.deepEqual(browser.consoleErrors, []);
 });
 
