@@ -6,7 +6,10 @@
 //
 //   bake_stages [--layout NAME] [--frames N] [--resolution R] [--supersampling S]
 //               [--quality-views K] [--view-pixels P] [--repeat N] [--keep DIR]
-//               [--impostor-views auto|cpu|device] [ASSET.glb]
+//               [--impostor-views auto|cpu|device] [--texture-format png|ktx2] [ASSET.glb]
+//
+// A KTX2 bake also prints each coverage map's coverage_by_level (the
+// alpha-tested area per mip level against level 0, docs/ktx2.md).
 //
 // Meant to run under `perf record -g`. Not a test: prints figures.
 #include <sys/resource.h>
@@ -65,6 +68,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> assets;
   bool on_frames = false;
   std::string impostor_views = "auto";
+  std::string texture_format = "png";
   impostor::bench::BenchArgs("bake_stages", "One atlas bake in process with each stage's wall and CPU time.")
       .Text("--layout", &layout_name, "layout by manifest name, e.g. hemi-octahedral (default octahedral)")
       .Uint("--frames", &frames, "frames per side (default 12)")
@@ -79,6 +83,8 @@ int main(int argc, char** argv) {
               "its view_NN files)")
       .Text("--impostor-views", &impostor_views,
             "who draws the quality pass's impostor views: auto, cpu or device (quality_pass.h; default auto)")
+      .Text("--texture-format", &texture_format,
+            "png or ktx2 (default png; ktx2 rounds the resolution down to block-aligned tiles)")
       .Positional("ASSET.glb", &assets, "the asset (default DamagedHelmet)")
       .ParseOrExit(argc, argv);
   impostor::ImpostorViewsOn views_on = impostor::ImpostorViewsOn::kAuto;
@@ -110,6 +116,12 @@ int main(int argc, char** argv) {
   in.set_resolution(resolution);
   if (supersampling >= 0) in.set_supersampling(static_cast<uint32_t>(supersampling));
   if (quality_views >= 0) in.set_quality_views(static_cast<uint32_t>(quality_views));
+  if (texture_format == "ktx2") {
+    in.set_texture_format(impostor::v1::TEXTURE_FORMAT_KTX2);
+  } else if (texture_format != "png") {
+    std::fprintf(stderr, "bake_stages: --texture-format: '%s' is not png or ktx2\n", texture_format.c_str());
+    return 2;
+  }
   auto p = impostor::NormalizeParameters(in);
   if (!p.ok()) {
     std::fprintf(stderr, "bake_stages: %s\n", std::string(p.status().message()).c_str());
@@ -124,7 +136,7 @@ int main(int argc, char** argv) {
                                         : keep;
   const std::atomic<bool> cancelled{false};
   std::printf("bake_stages: %s, %s %u x %u frames, %u px, supersampling %u, %u quality views, on %s\n",
-              asset.filename().c_str(), layout_name.c_str(), frames, frames, resolution, p->supersampling(),
+              asset.filename().c_str(), layout_name.c_str(), frames, frames, p->resolution(), p->supersampling(),
               p->has_quality_views() ? p->quality_views() : 16u, (*renderer)->device().name.c_str());
   for (int r = 0; r < repeat; ++r) {
     fs::remove_all(scratch);
@@ -155,6 +167,12 @@ int main(int argc, char** argv) {
       const auto& m = clock.marks[i];
       const auto& n = clock.marks[i + 1];
       std::printf("  from %-8s wall %6.2f s  cpu %6.2f s\n", m.stage.c_str(), n.wall - m.wall, n.cpu - m.cpu);
+    }
+    for (const auto& map : baked->manifest.maps()) {
+      if (map.coverage_by_level_size() == 0) continue;
+      std::string ratios;
+      for (double r : map.coverage_by_level()) absl::StrAppend(&ratios, ratios.empty() ? "" : ", ", r);
+      std::printf("  %s coverage_by_level: [%s]\n", map.semantic().c_str(), ratios.c_str());
     }
   }
   if (keep.empty()) fs::remove_all(scratch);

@@ -180,6 +180,11 @@ std::string ManifestToJson(const v1::Manifest& m) {
       maps.back()["codec"] = map.codec();
       maps.back()["levels"] = map.levels();
       maps.back()["precision"] = map.precision();
+      // Maps whose A is coverage only (albedo_alpha, orm, emissive).
+      if (map.coverage_by_level_size() > 0) {
+        maps.back()["coverage_by_level"] =
+            std::vector<double>(map.coverage_by_level().begin(), map.coverage_by_level().end());
+      }
     }
   }
   j["maps"] = maps;
@@ -260,6 +265,11 @@ absl::StatusOr<v1::Manifest> ManifestFromJson(std::string_view text) {
       map->set_codec(r.Get<std::string>(maps[i], "codec", path));
       map->set_levels(r.Get<uint32_t>(maps[i], "levels", path));
       map->set_precision(r.Get<std::string>(maps[i], "precision", path));
+      // Absent from maps whose A is not coverage, and from KTX2 results
+      // baked before it was measured.
+      if (maps[i].contains("coverage_by_level")) {
+        for (double v : r.Get<std::vector<double>>(maps[i], "coverage_by_level", path)) map->add_coverage_by_level(v);
+      }
     }
   }
   const json& views = r.Obj(j, "views", "");

@@ -2,7 +2,8 @@
 // manifest lists KTX2 maps with codec, levels and precision, the files hold
 // the full chain down to the 16 px tile, and decoded through the encoder's
 // own transcoder they match the PNG bake of the same request within the
-// stated error. The depth error that remains is measured and printed.
+// stated error. The depth error that remains is measured and printed, and
+// so is the alpha-tested coverage per mip level (coverage_by_level).
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -24,6 +26,7 @@
 #include "worker/bake/atlas_bake.h"
 #include "worker/output/ktx2_file.h"
 #include "worker/output/map_writer.h"
+#include "worker/output/tile_mip_chain.h"
 
 namespace impostor {
 namespace {
@@ -164,6 +167,37 @@ TEST_F(Ktx2BakeTest, MapsDecodeBackToThePngBakeWithinTheStatedError) {
   RecordProperty("normal_mean_deg", std::to_string(angle_mean));
   EXPECT_LE(depth_rms, kDepthRms) << "the manifest states the bound";
   EXPECT_LE(angle_mean, kNormalMeanDegrees);
+  // coverage_by_level: on the maps whose A is coverage, one figure per
+  // level, the same for all of them; it is what the chain built from the
+  // PNG bake's level 0 (the same texels) keeps, and the decoded files agree
+  // within what compression moves across the cutoff.
+  std::vector<TileRect> tiles;
+  for (const v1::View& v : ktx2->manifest.views()) {
+    tiles.push_back({static_cast<int>(v.tile().x()), static_cast<int>(v.tile().y()),
+                     static_cast<int>(v.tile().width()), static_cast<int>(v.tile().height())});
+  }
+  const v1::MapFile* albedo_map = FindMap(ktx2->manifest, "albedo_alpha");
+  ASSERT_EQ(albedo_map->coverage_by_level_size(), levels);
+  EXPECT_EQ(albedo_map->coverage_by_level(0), 1.0);
+  auto figures = [](const v1::MapFile* m) {
+    return std::vector<double>(m->coverage_by_level().begin(), m->coverage_by_level().end());
+  };
+  EXPECT_EQ(figures(FindMap(ktx2->manifest, "orm")), figures(albedo_map));
+  EXPECT_EQ(FindMap(ktx2->manifest, "normal_depth")->coverage_by_level_size(), 0);
+  EXPECT_EQ(FindMap(ktx2->manifest, "depth")->coverage_by_level_size(), 0);
+  auto kept = BuildCoverageMipChain(albedo_png->pixels8, 512, 512, tiles, levels);
+  auto box = BuildCoverageMipChain(albedo_png->pixels8, 512, 512, tiles, levels, MipCoverage::kBoxFilter);
+  ASSERT_TRUE(kept.ok() && box.ok());
+  auto kept_ratios = CoverageByLevel(*kept, tiles);
+  auto box_ratios = CoverageByLevel(*box, tiles);
+  auto decoded_ratios = CoverageByLevel(decoded[0], tiles);
+  ASSERT_TRUE(kept_ratios.ok() && box_ratios.ok() && decoded_ratios.ok());
+  for (int l = 0; l < levels; ++l) {
+    std::printf("ktx2 coverage level %d against level 0: manifest %.4f, decoded %.4f, plain box filter %.4f\n", l,
+                albedo_map->coverage_by_level(l), (*decoded_ratios)[l], (*box_ratios)[l]);
+    EXPECT_NEAR(albedo_map->coverage_by_level(l), (*kept_ratios)[l], 0.5e-4 + 1e-9) << "level " << l;
+    EXPECT_NEAR((*decoded_ratios)[l], albedo_map->coverage_by_level(l), 0.03) << "level " << l;
+  }
   // Levels below 0 are our chain: each a quarter of the one above.
   for (const auto& chain : decoded) {
     for (int l = 1; l < levels; ++l) EXPECT_EQ(chain[l].width, 512 >> l);

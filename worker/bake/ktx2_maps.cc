@@ -1,5 +1,6 @@
 #include "worker/bake/ktx2_maps.h"
 
+#include <cmath>
 #include <future>
 
 #include "absl/strings/str_cat.h"
@@ -54,6 +55,18 @@ absl::StatusOr<v1::MapFile> EncodeOne(const std::filesystem::path& dir, const st
   return map;
 }
 
+// The manifest's coverage_by_level for a map whose A is coverage, rounded
+// to 4 decimals so the manifest reads as figures, not float noise.
+absl::StatusOr<v1::MapFile> WithCoverageByLevel(absl::StatusOr<v1::MapFile> map,
+                                                std::span<const MipLevel<uint8_t>> chain,
+                                                std::span<const TileRect> tiles) {
+  if (!map.ok()) return map;
+  auto ratios = CoverageByLevel(chain, tiles);
+  if (!ratios.ok()) return ratios.status();
+  for (double r : *ratios) map->add_coverage_by_level(std::round(r * 1e4) / 1e4);
+  return map;
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::path& dir, const Ktx2MapsInput& in) {
@@ -64,7 +77,9 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
   // basisu uses every core for one image; the maps still overlap their
   // file writes and chain building.
   auto albedo_file = std::async(std::launch::async, [&] {
-    return EncodeOne(dir, "albedo_alpha", *albedo, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled);
+    return WithCoverageByLevel(
+        EncodeOne(dir, "albedo_alpha", *albedo, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled), *albedo,
+        in.tiles);
   });
   std::vector<v1::MapFile> normal_files;  // the depth map, written by normal_file's task
   auto normal_file = std::async(std::launch::async, [&]() -> absl::StatusOr<v1::MapFile> {
@@ -101,7 +116,9 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
   auto orm_file = std::async(std::launch::async, [&]() -> absl::StatusOr<v1::MapFile> {
     auto chain = BuildCoverageMipChain(in.orm, in.width, in.height, in.tiles, in.levels);
     if (!chain.ok()) return chain.status();
-    return EncodeOne(dir, "orm", *chain, /*srgb=*/false, /*rdo=*/false, kKtx2OrmPrecision, in.cancelled);
+    return WithCoverageByLevel(
+        EncodeOne(dir, "orm", *chain, /*srgb=*/false, /*rdo=*/false, kKtx2OrmPrecision, in.cancelled), *chain,
+        in.tiles);
   });
   std::vector<v1::MapFile> maps;
   absl::Status first = absl::OkStatus();
@@ -116,7 +133,9 @@ absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::pa
     if (!chain.ok()) {
       first = chain.status();
     } else {
-      auto m = EncodeOne(dir, "emissive", *chain, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled);
+      auto m = WithCoverageByLevel(
+          EncodeOne(dir, "emissive", *chain, /*srgb=*/true, rdo, kKtx2AlbedoPrecision, in.cancelled), *chain,
+          in.tiles);
       if (m.ok()) maps.push_back(std::move(*m));
       else first = m.status();
     }

@@ -42,7 +42,11 @@ extern const char* const kKtx2DepthPrecision;
 // Writes dir/albedo_alpha.ktx2, normal_depth.ktx2, depth.ktx2 (depth alone,
 // for the pixel depth offset), orm.ktx2 (and emissive.ktx2) and returns
 // their MapFile entries (semantic, file, digest, size, format "ktx2_uastc",
-// codec, levels, precision; channels are the caller's but for "depth"). Errors of the mip chain and encoder (ktx2_encoder.h).
+// codec, levels, precision, and coverage_by_level for the maps whose A is
+// coverage; channels are the caller's but for "depth"). The coverage maps'
+// levels keep level 0's alpha-tested area per tile (MipCoverage::
+// kPreserveAlphaTest), the same alpha in all three. Errors of the mip chain
+// and encoder (ktx2_encoder.h).
 absl::StatusOr<std::vector<v1::MapFile>> WriteKtx2Maps(const std::filesystem::path& dir,
                                                        const Ktx2MapsInput& maps);
 

@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "worker/output/atlas_dilation.h"
+#include "worker/output/coverage_scale.h"
 
 namespace impostor {
 namespace {
@@ -33,17 +34,28 @@ std::vector<TileRect> TilesAtLevel(std::span<const TileRect> tiles, int level) {
 
 absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(std::span<const uint8_t> rgba, int width,
                                                                    int height, std::span<const TileRect> tiles,
-                                                                   int levels) {
+                                                                   int levels, MipCoverage coverage) {
   if (levels < 1) return absl::InvalidArgumentError(absl::StrCat("mip levels: ", levels, " (at least 1)"));
   if (width < 1 || height < 1 || rgba.size() != static_cast<size_t>(width) * height * 4) {
     return absl::InvalidArgumentError(
         absl::StrCat("mip chain: ", rgba.size(), " values for a ", width, "x", height, " RGBA image"));
   }
   if (auto s = CheckTiles(tiles, levels); !s.ok()) return s;
+  // Level 0's covered texels per tile: what every level's tile should keep.
+  std::vector<int64_t> covered0;
+  for (const TileRect& t : tiles) {
+    auto covered = CoveredTexels(rgba, width, height, t);
+    if (!covered.ok()) return covered.status();
+    covered0.push_back(*covered);
+  }
   std::vector<MipLevel<uint8_t>> chain;
+  chain.reserve(levels);  // `up` below may refer to chain[0]
   chain.push_back({width, height, std::vector<uint8_t>(rgba.begin(), rgba.end())});
+  // The level above as the box filter made it, before its alpha was scaled:
+  // level 0 itself (never scaled), then `box`.
+  MipLevel<uint8_t> box;
   for (int level = 1; level < levels; ++level) {
-    const MipLevel<uint8_t>& up = chain.back();
+    const MipLevel<uint8_t>& up = level == 1 ? chain[0] : box;
     MipLevel<uint8_t> next{std::max(1, up.width / 2), std::max(1, up.height / 2), {}};
     next.rgba.resize(static_cast<size_t>(next.width) * next.height * 4);
     for (int y = 0; y < next.height; ++y) {
@@ -60,9 +72,39 @@ absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(std::span<c
     // level's nearest covered colour of their own frame.
     const std::vector<TileRect> level_tiles = TilesAtLevel(tiles, level);
     if (auto s = DilateRgba8(next.rgba, next.width, next.height, level_tiles); !s.ok()) return s;
-    chain.push_back(std::move(next));
+    MipLevel<uint8_t> shipped = next;
+    if (coverage == MipCoverage::kPreserveAlphaTest) {
+      for (size_t i = 0; i < level_tiles.size(); ++i) {
+        const int64_t area0 = static_cast<int64_t>(tiles[i].width) * tiles[i].height;
+        auto scaled =
+            ScaleAlphaToCoverage(shipped.rgba, shipped.width, shipped.height, level_tiles[i], covered0[i], area0);
+        if (!scaled.ok()) return scaled.status();
+      }
+    }
+    box = std::move(next);
+    chain.push_back(std::move(shipped));
   }
   return chain;
+}
+
+absl::StatusOr<std::vector<double>> CoverageByLevel(std::span<const MipLevel<uint8_t>> chain,
+                                                    std::span<const TileRect> tiles) {
+  std::vector<double> ratios;
+  int64_t covered0 = 0;
+  for (size_t level = 0; level < chain.size(); ++level) {
+    const MipLevel<uint8_t>& l = chain[level];
+    int64_t covered = 0;
+    for (const TileRect& t : TilesAtLevel(tiles, static_cast<int>(level))) {
+      auto n = CoveredTexels(l.rgba, l.width, l.height, t);
+      if (!n.ok()) return n.status();
+      covered += *n;
+    }
+    if (level == 0) covered0 = covered;
+    // A level-L texel stands for 4^L texels of level 0.
+    const double as_level0 = static_cast<double>(covered) * static_cast<double>(int64_t{1} << (2 * level));
+    ratios.push_back(covered0 == 0 ? 1.0 : as_level0 / static_cast<double>(covered0));
+  }
+  return ratios;
 }
 
 absl::StatusOr<std::vector<MipLevel<uint16_t>>> BuildNormalDepthMipChain(

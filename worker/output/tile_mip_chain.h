@@ -5,7 +5,10 @@
 // TileSize / BlockAlignedTileSize lay them out), every 2x2 footprint of
 // levels 1..L lies inside one tile, so no level mixes two frames.
 //
-// Coverage (albedo alpha, ORM alpha) is box filtered like colour. Depth
+// Coverage (albedo alpha, ORM alpha) is box filtered like colour and then,
+// by default, scaled per tile so that as many texels pass the runtime's
+// alpha test as at level 0 (coverage_scale.h): thin features such as leaf
+// tips do not fade out of the distant levels. Depth
 // (normal_depth alpha) is the mean of the covered parents only, so the
 // silhouette's depth is not pulled toward "far"; normals are the mean of the
 // parents, renormalised.
@@ -30,14 +33,35 @@ struct MipLevel {
   std::vector<T> rgba;  // width * height * 4, rows top to bottom
 };
 
+// What a level's coverage is.
+enum class MipCoverage {
+  // The box filter's alpha scaled per tile so that the tile's alpha-tested
+  // area matches level 0's (ScaleAlphaToCoverage). What bakes ship.
+  kPreserveAlphaTest,
+  // The box filter's alpha as it is (the mean coverage; what a generic mip
+  // generator gives). For comparisons.
+  kBoxFilter,
+};
+
 // Levels 0..levels-1 of an RGBA8 map whose alpha is coverage (albedo, ORM,
 // emissive); level 0 is `rgba` as given (already dilated). `tiles` are
-// level 0's tiles. INVALID_ARGUMENT if the buffer size is wrong, levels < 1,
-// or a tile does not start and end on multiples of 2^(levels-1) (its texels
-// would mix with a neighbour's).
-absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(std::span<const uint8_t> rgba, int width,
-                                                                   int height, std::span<const TileRect> tiles,
-                                                                   int levels);
+// level 0's tiles. Each level is built from the box-filtered level above
+// before its alpha was scaled, so scaling never compounds; colour does not
+// depend on `coverage`, and maps with the same level-0 alpha get the same
+// alpha at every level. INVALID_ARGUMENT if the buffer size is wrong,
+// levels < 1, a tile lies outside the image or does not start and end on
+// multiples of 2^(levels-1) (its texels would mix with a neighbour's).
+absl::StatusOr<std::vector<MipLevel<uint8_t>>> BuildCoverageMipChain(
+    std::span<const uint8_t> rgba, int width, int height, std::span<const TileRect> tiles, int levels,
+    MipCoverage coverage = MipCoverage::kPreserveAlphaTest);
+
+// For each level of `chain` (an RGBA8 chain from BuildCoverageMipChain over
+// `tiles`, level 0's), the fraction of the tiles' texels with A >=
+// kCoverageCutoff divided by level 0's fraction: 1.0 = the alpha-tested area
+// kept, 0.5 = half of it lost. 1.0 at every level when level 0 covers
+// nothing. INVALID_ARGUMENT if a tile lies outside its level.
+absl::StatusOr<std::vector<double>> CoverageByLevel(std::span<const MipLevel<uint8_t>> chain,
+                                                    std::span<const TileRect> tiles);
 
 // The same for the RGBA16 normal_depth map, whose coverage comes from the
 // albedo chain built by BuildCoverageMipChain (same sizes and level count).
