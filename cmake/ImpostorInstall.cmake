@@ -141,6 +141,7 @@ if(_impostor_export_targets)
   # beside the headers whose math it repeats: share/impostor/shaders.
   install(FILES
       ${CMAKE_SOURCE_DIR}/shaders/impostor_runtime.glsl
+      ${CMAKE_SOURCE_DIR}/shaders/impostor_crossfade.glsl
       ${CMAKE_SOURCE_DIR}/shaders/impostor_material.glsl
       ${CMAKE_SOURCE_DIR}/shaders/impostor_material_light.glsl
     DESTINATION ${CMAKE_INSTALL_DATADIR}/impostor/shaders COMPONENT sdk)

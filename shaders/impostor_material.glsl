@@ -27,9 +27,15 @@
 // = -toward_light and view_dir = toward_light, in object space, parallax as
 // for the colour pass; discard below 0.5 coverage and write px.frag_depth
 // (impostorShadowCaster).
+// Cross-fade at the LOD switch (impostor_crossfade.glsl, off unless asked
+// for): both passes also discard where
+// !impostorCrossFadeDrawsImpostor(t, seed, ivec2(gl_FragCoord.xy)), with the
+// instance's t and seed, so its shadow fades with it
+// (impostor_material_lit.frag and impostor_shadow_caster.frag: kCrossFade).
 #ifndef IMPOSTOR_MATERIAL_GLSL
 #define IMPOSTOR_MATERIAL_GLSL
 
+#include "impostor_crossfade.glsl"
 #include "impostor_runtime.glsl"
 
 struct ImpostorPixel {

@@ -9,9 +9,9 @@
 
 layout(push_constant) uniform ImpostorPush {
   mat4 view_projection;  // object space -> clip (the card's vertex stage)
-  vec4 eye_object;       // xyz: eye in radius units from the centre
+  vec4 eye_object;       // xyz: eye in radius units from the centre; w: cross-fade t (kCrossFade)
   ivec4 params;          // layout, frames, tile_size, blend mode
-  ivec4 flags;           // x: unused, y: has_orm, z: ring_views, w: 1 = no depth offset (a flat card)
+  ivec4 flags;           // x: cross-fade seed (kCrossFade), y: has_orm, z: ring_views, w: 1 = no depth offset (a flat card)
   vec4 sphere;           // xyz centre, w radius (object space)
 } push;
 
@@ -31,6 +31,11 @@ layout(set = 0, binding = 5) uniform Instance {
 layout(constant_id = 0) const bool kParallax = false;
 layout(constant_id = 1) const int kLayout = IMPOSTOR_LAYOUT_OCTAHEDRAL;
 layout(constant_id = 2) const int kBlendMode = IMPOSTOR_BLEND_TRIANGLE3;
+// Cross-fade at the LOD switch (impostor_crossfade.glsl): on, the instance
+// keeps only its share of pixels for t = eye_object.w and seed = flags.x;
+// its mesh draws the rest (impostorCrossFadeDrawsMesh). Off (the default),
+// neither is read and the output is unchanged.
+layout(constant_id = 3) const bool kCrossFade = false;
 
 layout(location = 0) in vec3 in_ray_origin;
 layout(location = 1) in vec3 in_ray_dir;
@@ -44,6 +49,9 @@ void main() {
                                       instance.object_to_world, instance.world_to_clip, in_ray_origin, in_ray_dir,
                                       view_dir);
   if (px.coverage < 0.5) discard;
+  if (kCrossFade && !impostorCrossFadeDrawsImpostor(push.eye_object.w, uint(push.flags.x), ivec2(gl_FragCoord.xy))) {
+    discard;
+  }
   // The pixel depth offset. flags.w keeps the card's own depth: only for
   // showing (and testing) what the offset fixes.
   gl_FragDepth = push.flags.w != 0 ? gl_FragCoord.z : px.frag_depth;

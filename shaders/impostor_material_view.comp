@@ -3,7 +3,8 @@
 // (impostorMaterial, or impostorShadowCaster from the light), pixel for
 // pixel as impostor_runtime_view.comp lays its pixels out, so tests can
 // check the pixel depth offset and the shadow caster against the ray-cast
-// object (tests/runtime/glsl_material_test.cc).
+// object (tests/runtime/glsl_material_test.cc), and that both passes keep
+// the same cross-fade share of pixels (tests/runtime/glsl_crossfade_test.cc).
 #extension GL_GOOGLE_include_directive : require
 #include "impostor_material.glsl"
 
@@ -23,6 +24,11 @@ layout(set = 0, binding = 2) uniform sampler2D orm_tex;
 // Per pixel, 2 x vec4: (linear albedo, coverage), (world normal, frag depth);
 // the caster writes (0, 0, 0, covered ? 1 : 0), (0, 0, 0, frag depth).
 layout(std430, set = 0, binding = 3) writeonly buffer Pixels { vec4 pixels[]; };
+// Cross-fade (impostor_crossfade.glsl): x = 1 on, y = t (float bits), z =
+// seed; the pixel (x, y) stands for gl_FragCoord. A pixel the fade gives to
+// the mesh is written as uncovered (coverage 0 / caster 0), the rest as
+// without the fade.
+layout(std430, set = 0, binding = 4) readonly buffer CrossFade { uvec4 cross_fade; };
 
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -35,18 +41,19 @@ void main() {
   vec3 origin = st.x * cam.right + st.y * cam.up + v;
   ImpostorLayout atlas = ImpostorLayout(push.params.x, push.params.y, push.flags.z);
   uint o = uint(p.y * n + p.x) * 2u;
+  bool faded_out = cross_fade.x != 0u && !impostorCrossFadeDrawsImpostor(uintBitsToFloat(cross_fade.y), cross_fade.z, p);
   if (push.flags.x != 0) {
     float depth;
     bool covered = impostorShadowCaster(albedo_alpha_tex, normal_depth_tex, atlas, push.params.z, push.params.w,
                                         push.flags.w != 0, push.sphere, mat4(1.0), push.world_to_clip, origin, v,
                                         depth);
-    pixels[o + 0u] = vec4(0.0, 0.0, 0.0, covered ? 1.0 : 0.0);
+    pixels[o + 0u] = vec4(0.0, 0.0, 0.0, covered && !faded_out ? 1.0 : 0.0);
     pixels[o + 1u] = vec4(0.0, 0.0, 0.0, depth);
     return;
   }
   ImpostorPixel px = impostorMaterial(albedo_alpha_tex, normal_depth_tex, orm_tex, true, atlas, push.params.z,
                                       push.params.w, push.flags.w != 0, push.sphere, mat4(1.0), push.world_to_clip, origin, -v,
                                       v);
-  pixels[o + 0u] = vec4(px.albedo, px.coverage);
+  pixels[o + 0u] = vec4(px.albedo, faded_out ? 0.0 : px.coverage);
   pixels[o + 1u] = vec4(px.normal_world, px.frag_depth);
 }

@@ -93,7 +93,8 @@ TEST_F(InstallTest, InstalledTreeHoldsThePackageAndHidesTheInternals) {
     EXPECT_TRUE(fs::exists(prefix_ / file)) << file;
   }
   // The reference GLSL runtime, as in the source tree (docs/runtime.md).
-  for (const char* shader : {"impostor_runtime.glsl", "impostor_material.glsl", "impostor_material_light.glsl"}) {
+  for (const char* shader : {"impostor_runtime.glsl", "impostor_crossfade.glsl", "impostor_material.glsl",
+                             "impostor_material_light.glsl"}) {
     EXPECT_EQ(ReadFile(prefix_ / "share/impostor/shaders" / shader),
               ReadFile(fs::path(IMPOSTOR_SOURCE_DIR) / "shaders" / shader))
         << shader;

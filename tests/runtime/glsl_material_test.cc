@@ -7,10 +7,13 @@
 //    within 2 px at 512 px; a flat card without the offset does not;
 //  - shadow caster: the shadow it casts on the ground covers the object's
 //    shadow (IoU >= 0.9);
-//  - lit (Lambert) impostor against the lit object: PSNR reported.
+//  - lit (Lambert) impostor against the lit object: PSNR reported;
+//  - cross-fade: the colour pass and the shadow caster keep exactly the
+//    pixels CrossFadeDrawsImpostor (the C++ SDK) gives the impostor.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -68,8 +71,11 @@ class GlslMaterialTest : public ::testing::Test {
     if (ctx_ && sampler_ != VK_NULL_HANDLE) vkDestroySampler(ctx_->device(), sampler_, nullptr);
   }
 
-  // One view (or, with `caster`, the light's depth-only view) through the material.
-  MaterialView Render(const ImpostorAtlas& atlas, glm::vec3 direction, bool caster, bool parallax) {
+  // One view (or, with `caster`, the light's depth-only view) through the
+  // material; `cross_fade` as impostor_material_view.comp's buffer (x = 0:
+  // no fade).
+  MaterialView Render(const ImpostorAtlas& atlas, glm::vec3 direction, bool caster, bool parallax,
+                      glm::uvec4 cross_fade = glm::uvec4(0)) {
     const int size = atlas.resolution;
     auto albedo = UploadImage(*ctx_, VK_FORMAT_R8G8B8A8_SRGB, size, size, atlas.albedo_alpha.data(),
                               atlas.albedo_alpha.size());
@@ -81,6 +87,11 @@ class GlslMaterialTest : public ::testing::Test {
     auto out = GpuBuffer::Create(*ctx_, count * 2 * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT, "pixels");
     EXPECT_TRUE(out.ok());
+    auto fade = GpuBuffer::Create(*ctx_, sizeof(glm::uvec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT, "cross fade");
+    EXPECT_TRUE(fade.ok());
+    std::memcpy(fade->mapped(), &cross_fade, sizeof(cross_fade));
+    EXPECT_TRUE(fade->FlushHostWrites().ok());
     const FrameCamera cam = CameraForDirection(direction);
     const ViewLayout layout = AtlasViewLayout(atlas);
     MaterialPush push{FrameViewProjection(cam, atlas.sphere),
@@ -94,7 +105,8 @@ class GlslMaterialTest : public ::testing::Test {
         {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, albedo->view(), sampler_},
          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, nd->view(), sampler_},
          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, VK_NULL_HANDLE, orm->view(), sampler_},
-         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, out->buffer()}},
+         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, out->buffer()},
+         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, fade->buffer()}},
         &push, sizeof(push), groups, groups);
     EXPECT_TRUE(s.ok()) << s;
     EXPECT_TRUE(out->InvalidateForHostRead().ok());
