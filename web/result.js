@@ -52,7 +52,12 @@ function showStatic(result) {
     ['albedo PSNR dB over the union, over black (mean)', (q.albedo_psnr_union_db_mean ?? q.albedo_psnr_db_mean ?? 0).toFixed(2)],
     ['normal error deg (mean / max)', `${q.normal_error_deg_mean.toFixed(2)} / ${q.normal_error_deg_max.toFixed(2)}`],
     ['depth error (mean / max)', `${q.depth_error_mean.toFixed(4)} / ${q.depth_error_max.toFixed(4)}`],
-    ['pop', q.pop.toFixed(3)], ['worst view', q.worst_view]] : productQuality(m) || [['quality pass', 'not run for this bake']];
+    ['pop (one sample a pixel)', q.pop.toFixed(3)],
+    ...(q.pop_antialiased ? [['pop antialiased (3 x 3, the figure targets use)', q.pop_antialiased.toFixed(3)]] : []),
+    ...(q.sizes && q.sizes.length ? [['good for', q.good_up_to_pixels
+      ? `up to ${q.good_up_to_pixels} px on screen (switch to the impostor below it)`
+      : `no measured size (${q.sizes[0].pixels}..${q.sizes[q.sizes.length - 1].pixels} px)`]] : []),
+    ['worst view', q.worst_view]] : productQuality(m) || [['quality pass', 'not run for this bake']];
   replace('quality', kv(quality));
   const maps = el('div', { class: 'maps' });
   for (const map of m.maps) {

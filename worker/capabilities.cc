@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "common/request/bake_request.h"
 #include "common/request/worker_fit.h"
 #include "worker/host_memory.h"
 #include "worker/output/ktx2_encoder.h"
@@ -45,7 +46,7 @@ absl::StatusOr<v1::WorkerCapabilities> MeasureCapabilities(const DeviceInfo& dev
   if (!encoder.ok()) {
     spdlog::info("event=ktx2_encoder_missing error=\"{}\" action=no_ktx2_jobs", std::string(encoder.message()));
   }
-  caps.set_baker_version(IMPOSTOR_BAKER_VERSION);
+  caps.set_baker_version(std::string(BakerVersion()));
   spdlog::info("event=capabilities device_kind={} device_memory={} max_allocation={} host_memory={} ktx2={} tags=\"{}\"",
                caps.device_kind(), caps.device_memory_bytes(), caps.max_allocation_bytes(), caps.host_memory_bytes(),
                caps.ktx2_encoder(), absl::StrJoin(caps.tags(), ","));

@@ -37,6 +37,17 @@ std::string FramesTried(const nlohmann::json& q) {
   return s;
 }
 
+// "; good up to 140 px on screen" (issue 43), "; good at no measured size
+// (32..256 px)", or "" for manifests without sizes.
+std::string GoodForPhrase(const nlohmann::json& q) {
+  auto sizes = q.find("sizes");
+  if (sizes == q.end() || !sizes->is_array() || sizes->empty()) return "";
+  const int good = static_cast<int>(Num(q, "good_up_to_pixels"));
+  if (good > 0) return absl::StrFormat("; good up to %d px on screen", good);
+  return absl::StrFormat("; good at no measured size (%d..%d px)", static_cast<int>(Num(sizes->front(), "pixels")),
+                         static_cast<int>(Num(sizes->back(), "pixels")));
+}
+
 }  // namespace
 
 nlohmann::json ReadQualityBlock(const fs::path& manifest_path) {
@@ -55,7 +66,9 @@ std::string QualitySummaryLine(const nlohmann::json& q) {
       Num(q, "albedo_psnr_shared_db_min"), Num(q, "albedo_ssim_shared_mean"), Num(q, "normal_error_deg_mean"),
       Num(q, "depth_error_mean"), Num(q, "pop"), static_cast<int>(Num(q, "views")),
       static_cast<int>(Num(q, "view_pixels")));
+  if (q.contains("pop_antialiased")) absl::StrAppend(&line, absl::StrFormat(" (antialiased %.2f)", Num(q, "pop_antialiased")));
   if (const std::string tried = FramesTried(q); !tried.empty()) absl::StrAppend(&line, "; frames tried ", tried);
+  absl::StrAppend(&line, GoodForPhrase(q));
   return line;
 }
 
@@ -157,7 +170,25 @@ int RunQuality(const CliArgs& args) {
   std::printf("  normal error     mean %.2f deg  max %.2f deg\n", Num(q, "normal_error_deg_mean"),
               Num(q, "normal_error_deg_max"));
   std::printf("  depth error      mean %.4f r  max %.4f r\n", Num(q, "depth_error_mean"), Num(q, "depth_error_max"));
-  std::printf("  pop              %.3f (1.0 = as smooth as the mesh over a 1 degree orbit step)\n", Num(q, "pop"));
+  std::printf("  pop              %.3f (1.0 = as smooth as the mesh over a 1 degree orbit step; one sample a pixel)\n",
+              Num(q, "pop"));
+  if (q.contains("pop_antialiased")) {
+    std::printf("  pop antialiased  %.3f (both orbits 3 x 3 samples, as a game with MSAA or TAA shows them)\n",
+                Num(q, "pop_antialiased"));
+  }
+  if (auto sizes = q.find("sizes"); sizes != q.end() && sizes->is_array() && !sizes->empty()) {
+    const int good = static_cast<int>(Num(q, "good_up_to_pixels"));
+    if (good > 0) {
+      std::printf("  good for         up to %d px on screen: switch to the impostor below it\n", good);
+    } else {
+      std::printf("  good for         no measured size: keep the mesh (or more frames, a larger atlas)\n");
+    }
+    for (const nlohmann::json& s : *sizes) {
+      std::printf("    %4d px         IoU %.4f, PSNR %.2f dB where both cover%s\n", static_cast<int>(Num(s, "pixels")),
+                  Num(s, "silhouette_iou_mean"), Num(s, "albedo_psnr_shared_db_mean"),
+                  s.value("meets", false) ? "" : "  (misses the targets)");
+    }
+  }
   if (q.contains("plain") && q["plain"].is_object()) {
     const nlohmann::json& p = q["plain"];
     std::printf("  plain mode       IoU %.4f (min %.4f), PSNR %.2f dB, SSIM %.4f where both cover, boundary %.2f px, "

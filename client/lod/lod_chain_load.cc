@@ -71,6 +71,16 @@ absl::StatusOr<LodChain> LoadLodChain(const std::filesystem::path& manifest_json
   } catch (const nlohmann::json::exception&) {
     return absl::InvalidArgumentError(absl::StrCat(name, ": ", key, ": missing field or wrong type"));
   }
+  // Optional (issue 43; absent before baker 0.2.0-bake6 and without a
+  // quality pass).
+  if (auto q = j.find("quality"); q != j.end() && q->is_object()) {
+    if (auto g = q->find("good_up_to_pixels"); g != q->end()) {
+      if (!g->is_number_unsigned()) {
+        return absl::InvalidArgumentError(name + ": quality.good_up_to_pixels: not a whole number");
+      }
+      chain.good_up_to_pixels = g->get<uint32_t>();
+    }
+  }
   if (chain.levels.back().kind != LodLevelInfo::Kind::kImpostor) {
     return absl::InvalidArgumentError(name + ": lods: the last level is not the impostor");
   }

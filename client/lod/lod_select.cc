@@ -5,6 +5,8 @@
 
 #include "impostor/lod.h"
 
+#include "absl/strings/str_cat.h"
+
 namespace impostor::sdk {
 
 float ScreenScale(float distance, float fov_y_radians, float viewport_height_px) {
@@ -50,6 +52,25 @@ absl::Status SelectLods(const LodChain& chain, std::span<const float> distances,
   for (size_t i = 0; i < distances.size(); ++i) {
     const float s = distances[i] > 0.0f ? k / distances[i] : std::numeric_limits<float>::infinity();
     levels[i] = SelectLodForScale(chain, s, previous_levels[i], options);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SetImpostorSwitchPixels(LodChain& chain, float diameter_pixels) {
+  if (!std::isfinite(diameter_pixels) || diameter_pixels <= 0.0f) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SetImpostorSwitchPixels: diameter_pixels ", diameter_pixels, " must be finite and > 0"));
+  }
+  if (chain.levels.size() < 2 || !(chain.radius > 0.0f)) {
+    return absl::InvalidArgumentError("SetImpostorSwitchPixels: the chain has no mesh level or no radius");
+  }
+  const float threshold = diameter_pixels / (2.0f * chain.radius);
+  const size_t last_mesh = chain.levels.size() - 2;
+  chain.levels[last_mesh].threshold = threshold;
+  // Non-increasing again, from the end: a finer level below the new switch
+  // is never drawn.
+  for (size_t i = last_mesh; i-- > 0;) {
+    chain.levels[i].threshold = std::max(chain.levels[i].threshold, chain.levels[i + 1].threshold);
   }
   return absl::OkStatus();
 }

@@ -49,6 +49,46 @@ void ReadReconstructionQuality(const json& o, v1::ReconstructionQuality* r) {
   r->set_albedo_psnr_union_db_mean(num("albedo_psnr_union_db_mean"));
 }
 
+// The issue-43 figures, optional: pop_antialiased, sizes, good_up_to_pixels.
+absl::Status ReadSizesJson(const json& q, v1::AtlasQuality* out) {
+  if (auto f = q.find("pop_antialiased"); f != q.end()) {
+    if (!f->is_number()) return absl::InvalidArgumentError("manifest.json: quality.pop_antialiased: not a number");
+    out->set_pop_antialiased(f->get<float>());
+  }
+  auto it = q.find("sizes");
+  if (it == q.end()) return absl::OkStatus();
+  if (!it->is_array()) return absl::InvalidArgumentError("manifest.json: quality.sizes: not a list");
+  for (size_t i = 0; i < it->size(); ++i) {
+    const json& s = (*it)[i];
+    const auto field = [&](const char* key) { return absl::StrCat("manifest.json: quality.sizes[", i, "].", key); };
+    if (!s.is_object())
+      return absl::InvalidArgumentError(absl::StrCat("manifest.json: quality.sizes[", i, "]: not an object"));
+    v1::SizeQuality* out_size = out->add_sizes();
+    for (const char* key : {"pixels", "silhouette_iou_mean", "albedo_psnr_shared_db_mean"}) {
+      auto f = s.find(key);
+      if (f == s.end() || !f->is_number()) return absl::InvalidArgumentError(field(key) + ": missing or not a number");
+    }
+    const json& pixels = s["pixels"];
+    if (!pixels.is_number_unsigned() || pixels.get<uint64_t>() > 16384) {
+      return absl::InvalidArgumentError(field("pixels") + ": not a whole number 0..16384");
+    }
+    out_size->set_pixels(pixels.get<uint32_t>());
+    out_size->set_silhouette_iou_mean(s["silhouette_iou_mean"].get<float>());
+    out_size->set_albedo_psnr_shared_db_mean(s["albedo_psnr_shared_db_mean"].get<float>());
+    auto meets = s.find("meets");
+    if (meets == s.end() || !meets->is_boolean())
+      return absl::InvalidArgumentError(field("meets") + ": missing or not true/false");
+    out_size->set_meets(meets->get<bool>());
+  }
+  auto good = q.find("good_up_to_pixels");
+  if (good == q.end() || !good->is_number_unsigned() || good->get<uint64_t>() > 16384) {
+    return absl::InvalidArgumentError(
+        "manifest.json: quality.good_up_to_pixels: missing or not a whole number 0..16384");
+  }
+  out->set_good_up_to_pixels(good->get<uint32_t>());
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 void AddQualityJson(const v1::Manifest& m, json* j) {
@@ -80,6 +120,19 @@ void AddQualityJson(const v1::Manifest& m, json* j) {
         {"frames_met", std::vector<bool>(q.frames_met().begin(), q.frames_met().end())},
         {"worst_view", q.worst_view()},
     };
+    // Issue 43; absent from older manifests (read back as 0 and no sizes).
+    if (q.pop_antialiased() > 0) (*j)["quality"]["pop_antialiased"] = q.pop_antialiased();
+    if (q.sizes_size() > 0) {
+      json sizes = json::array();
+      for (const v1::SizeQuality& s : q.sizes()) {
+        sizes.push_back({{"pixels", s.pixels()},
+                         {"silhouette_iou_mean", s.silhouette_iou_mean()},
+                         {"albedo_psnr_shared_db_mean", s.albedo_psnr_shared_db_mean()},
+                         {"meets", s.meets()}});
+      }
+      (*j)["quality"]["sizes"] = std::move(sizes);
+      (*j)["quality"]["good_up_to_pixels"] = q.good_up_to_pixels();
+    }
     if (q.has_plain()) (*j)["quality"]["plain"] = ReconstructionQualityJson(q.plain());
   }
   if (m.warnings_size() > 0) (*j)["warnings"] = std::vector<std::string>(m.warnings().begin(), m.warnings().end());
@@ -182,7 +235,7 @@ absl::Status ReadQualityJson(const json& manifest, v1::Manifest* m) {
   for (uint32_t f : tried) out->add_frames_tried(f);
   for (bool b : met) out->add_frames_met(b);
   out->set_worst_view(worst_view);
-  return absl::OkStatus();
+  return ReadSizesJson(q, out);
 }
 
 }  // namespace impostor

@@ -41,12 +41,13 @@ std::string ReadAll(const fs::path& path) {
 class LodBakeTest : public testing::SharedRendererTest {
  protected:
 
-  static absl::StatusOr<AtlasBakeOutput> Bake(const fs::path& entry, const fs::path& out) {
+  static absl::StatusOr<AtlasBakeOutput> Bake(const fs::path& entry, const fs::path& out, int quality_views = 0,
+                                              int resolution = 128, int frames = 4) {
     v1::BakeParameters in;
     in.set_product(v1::PRODUCT_LOD_CHAIN);
-    in.set_frames(4);
-    in.set_resolution(128);
-    in.set_quality_views(0);
+    in.set_frames(frames);
+    in.set_resolution(resolution);
+    in.set_quality_views(quality_views);
     auto p = NormalizeParameters(in);
     EXPECT_TRUE(p.ok()) << p.status();
     fs::create_directories(out);
@@ -192,6 +193,37 @@ TEST_F(LodBakeTest, HelmetThresholdsShrinkAsErrorGrows) {
   int textures = 0;
   for (const v1::MapFile& f : m.maps()) textures += f.semantic() == "lod_texture";
   EXPECT_EQ(textures, 5);
+  fs::remove_all(dir);
+}
+
+// Issue 43: with its quality pass, the impostor takes over below the size
+// the pass found it good for (the bounding sphere's diameter on screen),
+// not the fixed 16 px; a chain whose impostor is good at no measured size
+// keeps the fixed rule and says so.
+TEST_F(LodBakeTest, TheImpostorTakesOverBelowItsGoodForSize) {
+  const fs::path dir = testing::MakeScratchDir("lod_bake_good_for");
+  auto out = Bake(testing::Asset("props_pbr/Duck/glTF-Binary/Duck.glb"), dir, /*quality_views=*/4,
+                  /*resolution=*/512, /*frames=*/8);
+  ASSERT_TRUE(out.ok()) << out.status();
+  const v1::Manifest& m = out->manifest;
+  ASSERT_GE(m.lods_size(), 2);
+  const v1::AtlasQuality& q = m.quality();
+  ASSERT_GT(q.sizes_size(), 0) << "the impostor's quality pass measures its sizes";
+  const float radius = m.bounding_sphere().radius();
+  const v1::LodLevel& last_mesh = m.lods(m.lods_size() - 2);
+  std::cout << "figures good_up_to_pixels=" << q.good_up_to_pixels() << " last_mesh_threshold=" << last_mesh.threshold()
+            << "\n";
+  bool warned = false;
+  for (const std::string& w : m.warnings()) warned = warned || w.find("good-for targets at no measured size") != std::string::npos;
+  if (q.good_up_to_pixels() > 0) {
+    EXPECT_FLOAT_EQ(last_mesh.threshold(), static_cast<float>(q.good_up_to_pixels()) / (2.0f * radius));
+    EXPECT_FALSE(warned);
+  } else {
+    EXPECT_FLOAT_EQ(last_mesh.threshold(), kImpostorDiameterPixels / (2.0f * radius));
+    EXPECT_TRUE(warned);
+  }
+  // A duck at 8 x 8 frames of 64 px is good well beyond 16 px.
+  EXPECT_GT(q.good_up_to_pixels(), static_cast<uint32_t>(kImpostorDiameterPixels));
   fs::remove_all(dir);
 }
 

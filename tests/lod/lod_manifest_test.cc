@@ -100,6 +100,24 @@ TEST(LodManifestJsonTest, SdkLoadsTheChain) {
   EXPECT_TRUE(chain->levels[2].sloppy);
   EXPECT_FLOAT_EQ(chain->radius, 2.0f);
   EXPECT_EQ(chain->LevelPath(1), dir / "lod1.glb");
+  EXPECT_EQ(chain->good_up_to_pixels, 0u) << "no quality pass, no good-for size";
+
+  // Issue 43: the impostor's good-for size reaches the SDK.
+  std::ofstream(dir / "measured.json") << ManifestToJson([] {
+    v1::Manifest m = ChainManifest();
+    v1::AtlasQuality* q = m.mutable_quality();
+    q->set_blend("triangle3");
+    q->set_views(16);
+    q->set_view_pixels(128);
+    v1::SizeQuality* s = q->add_sizes();
+    s->set_pixels(140);
+    s->set_meets(true);
+    q->set_good_up_to_pixels(140);
+    return m;
+  }());
+  auto measured = sdk::LoadLodChain(dir / "measured.json");
+  ASSERT_TRUE(measured.ok()) << measured.status();
+  EXPECT_EQ(measured->good_up_to_pixels, 140u);
 
   std::ofstream(dir / "atlas.json") << ManifestToJson([] {
     v1::Manifest m = ChainManifest();

@@ -3,6 +3,7 @@
 #include "impostor/lod.h"
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -25,6 +26,34 @@ LodChain Chain() {
   }
   c.radius = 1.0f;
   return c;
+}
+
+// Issue 43: a caller moves the impostor's switch (the baker put it at the
+// size the impostor is good for); finer levels below the new switch are
+// skipped, and bad sizes are refused.
+TEST(SelectLodTest, TheCallerMovesTheImpostorSwitch) {
+  LodChain c = Chain();  // radius 1: threshold = diameter_pixels / 2
+  ASSERT_TRUE(SetImpostorSwitchPixels(c, 20.0f).ok());
+  EXPECT_FLOAT_EQ(c.levels[2].threshold, 10.0f);
+  EXPECT_FLOAT_EQ(c.levels[1].threshold, 40.0f);
+  EXPECT_EQ(SelectLodForScale(c, 9.0f, -1), 3);
+  EXPECT_EQ(SelectLodForScale(c, 11.0f, -1), 2);
+  // Past lod1's own switch (40): lod1 hands over straight to the impostor,
+  // lod2 is never drawn.
+  ASSERT_TRUE(SetImpostorSwitchPixels(c, 100.0f).ok());
+  EXPECT_FLOAT_EQ(c.levels[2].threshold, 50.0f);
+  EXPECT_FLOAT_EQ(c.levels[1].threshold, 50.0f);
+  EXPECT_FLOAT_EQ(c.levels[0].threshold, 400.0f);
+  EXPECT_EQ(SelectLodForScale(c, 500.0f, -1), 0);
+  EXPECT_EQ(SelectLodForScale(c, 60.0f, -1), 1);
+  EXPECT_EQ(SelectLodForScale(c, 49.0f, -1), 3);
+  for (float bad : {0.0f, -5.0f, std::nanf(""), std::numeric_limits<float>::infinity()}) {
+    EXPECT_EQ(SetImpostorSwitchPixels(c, bad).code(), absl::StatusCode::kInvalidArgument) << bad;
+  }
+  LodChain only_impostor;
+  only_impostor.levels.resize(1);
+  only_impostor.radius = 1.0f;
+  EXPECT_EQ(SetImpostorSwitchPixels(only_impostor, 16.0f).code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(SelectLodTest, SwitchDistanceFollowsTheDocumentedRule) {

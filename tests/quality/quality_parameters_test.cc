@@ -3,6 +3,7 @@
 #include "common/request/quality_parameters.h"
 
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -210,6 +211,61 @@ TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
   ASSERT_FALSE(broken.ok());
   EXPECT_NE(std::string(broken.status().message()).find("quality.views: missing"), std::string::npos)
       << broken.status();
+}
+
+// Issue 43's figures: written when measured, read back exactly, absent from
+// older manifests (0, no sizes), and a damaged list refused naming the entry.
+TEST(QualityManifestJsonTest, GoodForSizesAndAntialiasedPopRoundTripAndBadOnesAreRefused) {
+  v1::Manifest m;
+  m.set_format_version(kManifestFormatVersion);
+  m.set_product(v1::PRODUCT_ATLAS);
+  m.set_layout(v1::LAYOUT_OCTAHEDRAL);
+  for (int i = 0; i < 3; ++i) m.mutable_bounding_sphere()->add_center(0.0f);
+  m.mutable_bounding_sphere()->set_radius(1.0f);
+  v1::AtlasQuality* q = m.mutable_quality();
+  q->set_blend("triangle3");
+  q->set_views(16);
+  q->set_view_pixels(128);
+  q->set_pop(4.0f);
+  const std::string without = ManifestToJson(m);
+  EXPECT_EQ(without.find("good_up_to_pixels"), std::string::npos);
+  EXPECT_EQ(without.find("pop_antialiased"), std::string::npos);
+  auto old = ManifestFromJson(without);
+  ASSERT_TRUE(old.ok()) << old.status();
+  EXPECT_EQ(old->quality().pop_antialiased(), 0.0f);
+  EXPECT_EQ(old->quality().sizes_size(), 0);
+
+  q->set_pop_antialiased(1.25f);
+  for (auto [pixels, iou, psnr, meets] : {std::tuple{32u, 0.99f, 33.5f, true}, std::tuple{140u, 0.97f, 28.25f, true},
+                                          std::tuple{256u, 0.93f, 24.0f, false}}) {
+    v1::SizeQuality* s = q->add_sizes();
+    s->set_pixels(pixels);
+    s->set_silhouette_iou_mean(iou);
+    s->set_albedo_psnr_shared_db_mean(psnr);
+    s->set_meets(meets);
+  }
+  q->set_good_up_to_pixels(140);
+  const std::string text = ManifestToJson(m);
+  auto back = ManifestFromJson(text);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->quality().SerializeAsString(), q->SerializeAsString());
+
+  for (auto [from, to, want] : {
+           std::tuple{"\"meets\": false", "\"meets\": 0", "quality.sizes[2].meets: missing or not true/false"},
+           std::tuple{"\"pixels\": 256", "\"pixels\": -256", "quality.sizes[2].pixels: not a whole number"},
+           std::tuple{"\"pixels\": 140", "\"pixels\": \"140\"", "quality.sizes[1].pixels: missing or not a number"},
+           std::tuple{"\"good_up_to_pixels\": 140", "\"good_up_to_pixels\": 1e9", "quality.good_up_to_pixels"},
+           std::tuple{"\"pop_antialiased\": 1.25", "\"pop_antialiased\": null", "quality.pop_antialiased"},
+       }) {
+    std::string bad = text;
+    const size_t at = bad.find(from);
+    ASSERT_NE(at, std::string::npos) << from << " in " << text;
+    bad.replace(at, std::string(from).size(), to);
+    auto refused = ManifestFromJson(bad);
+    ASSERT_FALSE(refused.ok()) << to;
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(std::string(refused.status().message()).find(want), std::string::npos) << refused.status();
+  }
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "common/util/sha256.h"
 #include "worker/bake/atlas_bake.h"
 #include "worker/bake/auto_frames.h"
+#include "worker/bake/good_for_size.h"
 #include "worker/bake/quality_views.h"
 #include "worker/output/map_writer.h"
 #include "worker/scene/bounding_sphere.h"
@@ -115,6 +116,14 @@ TEST_F(QualityPassTest, HelmetBakeFillsTheQualityBlock) {
   EXPECT_TRUE(std::isfinite(q.pop()));
   EXPECT_LT(q.worst_view(), 16u);
   EXPECT_EQ(q.frames_tried_size(), 0);
+  // Issue 43: the antialiased pop and the good-for sizes, up to twice the
+  // pass's 64 px views.
+  EXPECT_GT(q.pop_antialiased(), 0.0f);
+  EXPECT_TRUE(std::isfinite(q.pop_antialiased()));
+  ASSERT_GT(q.sizes_size(), 0);
+  EXPECT_EQ(q.sizes(0).pixels(), 32u);
+  EXPECT_EQ(q.sizes(q.sizes_size() - 1).pixels(), 128u);
+  EXPECT_EQ(q.good_up_to_pixels(), GoodUpToPixels({q.sizes().begin(), q.sizes().end()}));
 
   // The worst view's side-by-side image is a listed, fetched map.
   const v1::Manifest& m = out->manifest;
@@ -272,8 +281,9 @@ TEST_F(QualityPassTest, OnFrameDirectionsMeasureTheFramesThemselves) {
   EXPECT_GT(q.silhouette_iou_mean(), held_out->quality.silhouette_iou_mean());
 }
 
-// The pop references are a measuring tool's: a bake's pass leaves them out,
-// and asking for them changes none of the pass's own figures.
+// The antialiased pop is measured unless turned off; the antialiased mesh's
+// pop reference is a measuring tool's: a bake's pass leaves it out, and
+// neither changes any of the pass's other figures.
 TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
   auto scene = LoadGltfScene(kHelmet);
   ASSERT_TRUE(scene.ok()) << scene.status();
@@ -285,10 +295,20 @@ TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
   o.orbit_pairs = 6;
   o.orbit_pixels = 32;
 
+  o.pop_antialiased = false;
   auto plain_pass = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
   ASSERT_TRUE(plain_pass.ok()) << plain_pass.status();
   EXPECT_EQ(plain_pass->pop_antialiased_mesh, -1.0);
   EXPECT_EQ(plain_pass->pop_antialiased, -1.0);
+  EXPECT_EQ(plain_pass->quality.pop_antialiased(), 0.0f);
+
+  o.pop_antialiased = true;
+  auto bake_pass = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
+  ASSERT_TRUE(bake_pass.ok()) << bake_pass.status();
+  EXPECT_EQ(bake_pass->pop_antialiased_mesh, -1.0);
+  EXPECT_GT(bake_pass->quality.pop_antialiased(), 0.0f);
+  EXPECT_EQ(bake_pass->quality.pop_antialiased(), static_cast<float>(bake_pass->pop_antialiased));
+  EXPECT_EQ(bake_pass->quality.pop(), plain_pass->quality.pop());
 
   o.pop_references = true;
   auto with_references = MeasureAtlasQuality(*scene, *atlas, "key", o, *renderer_);
@@ -299,6 +319,7 @@ TEST_F(QualityPassTest, PopReferencesOnlyWhenAskedAndTheyChangeNothingElse) {
   EXPECT_TRUE(std::isfinite(mesh) && mesh > 0.0) << mesh;
   EXPECT_TRUE(std::isfinite(both) && both > 0.0) << both;
   EXPECT_EQ(with_references->quality.pop(), plain_pass->quality.pop());
+  EXPECT_EQ(with_references->quality.pop_antialiased(), bake_pass->quality.pop_antialiased());
   EXPECT_EQ(with_references->quality.plain().pop(), plain_pass->quality.plain().pop());
   EXPECT_EQ(with_references->quality.silhouette_iou_mean(), plain_pass->quality.silhouette_iou_mean());
 

@@ -143,9 +143,23 @@ absl::StatusOr<AtlasBakeOutput> BakeLodChain(const AtlasBakeRequest& request, At
   AddFile("impostor_manifest", kLodImpostorManifestFile, impostor_digest, "json",
           "the impostor level's atlas manifest (manifest.json format, product atlas)", &chain);
 
-  // Thresholds from the measured errors, in the SDK's unit.
+  // Thresholds from the measured errors, in the SDK's unit. The impostor
+  // takes over below the on-screen size its quality pass found it good for
+  // (issue 43: good_up_to_pixels, the bounding sphere's diameter on screen);
+  // without a pass (quality_views 0), or when it met its targets at no size,
+  // below the fixed kImpostorDiameterPixels.
   const float radius = atlas->manifest.bounding_sphere().radius();
-  const std::vector<float> thresholds = LodThresholds(errors, radius, p.lod_pixel_error());
+  const v1::AtlasQuality& quality = atlas->manifest.quality();
+  const float impostor_pixels =
+      quality.good_up_to_pixels() > 0 ? static_cast<float>(quality.good_up_to_pixels()) : kImpostorDiameterPixels;
+  if (quality.sizes_size() > 0 && quality.good_up_to_pixels() == 0) {
+    chain.add_warnings(absl::StrCat("impostor: meets its good-for targets at no measured size (",
+                                    quality.sizes(0).pixels(), "..", quality.sizes(quality.sizes_size() - 1).pixels(),
+                                    " px); it takes over below ", kImpostorDiameterPixels,
+                                    " px, the fixed rule: more frames or a larger atlas would let it take over "
+                                    "sooner"));
+  }
+  const std::vector<float> thresholds = LodThresholds(errors, radius, p.lod_pixel_error(), impostor_pixels);
   for (size_t i = 0; i < errors.size(); ++i) chain.mutable_lods(static_cast<int>(i))->set_threshold(thresholds[i]);
   // A level whose threshold equals the one before it is never drawn (the
   // SDK's rule): its error would show before the next switch. Files an

@@ -16,6 +16,7 @@
 #include "common/util/parallel_for.h"
 #include "common/util/sha256.h"
 #include "worker/bake/bake_outputs.h"
+#include "worker/bake/good_for_size.h"
 #include "worker/output/map_writer.h"
 #include "worker/output/supersample.h"
 
@@ -229,13 +230,14 @@ struct PopFigures {
 
 // Pop of each of `modes` (the mesh's orbit is rendered once) and, with
 // o.pop_references, the references of the first mode (quality_pass.h).
-absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas,
-                                      const ImpostorViewSource& source, const QualityPassOptions& o,
-                                      const std::vector<Reconstruction>& modes, AtlasRenderer& renderer) {
+absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& atlas, const ImpostorViewSource& source,
+                                      const QualityPassOptions& o, const std::vector<Reconstruction>& modes,
+                                      AtlasRenderer& renderer) {
   const float elevation = o.orbit_elevation_deg * std::numbers::pi_v<float> / 180.0f;
   const float step = 2.0f * std::numbers::pi_v<float> / static_cast<float>(o.orbit_steps);
   auto at = [&](float azimuth) {
-    return glm::vec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation), std::cos(elevation) * std::cos(azimuth));
+    return glm::vec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
+                     std::cos(elevation) * std::cos(azimuth));
   };
   // Every step (orbit_pairs 0 or >= orbit_steps): n views, step i compares
   // views i and i + 1. Sampled: pair k compares the views at azimuth
@@ -250,7 +252,8 @@ absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& a
     }
   } else {
     for (int k = 0; k < o.orbit_pairs; ++k) {
-      const float azimuth = 2.0f * std::numbers::pi_v<float> * static_cast<float>(k) / static_cast<float>(o.orbit_pairs);
+      const float azimuth =
+          2.0f * std::numbers::pi_v<float> * static_cast<float>(k) / static_cast<float>(o.orbit_pairs);
       orbit.push_back(at(azimuth));
       orbit.push_back(at(azimuth + step));
       steps.emplace_back(2 * k, 2 * k + 1);
@@ -265,17 +268,88 @@ absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& a
     if (!impostor.ok()) return impostor.status();
     out.pops.push_back(PopRatio(StepChanges(*impostor, steps), mesh_changes));
   }
-  if (o.pop_references && !modes.empty()) {
+  if ((o.pop_antialiased || o.pop_references) && !modes.empty()) {
     auto smooth_mesh = RenderMeshViews(scene, atlas.sphere, orbit, o.orbit_pixels, kReferenceSupersampling, renderer);
     if (!smooth_mesh.ok()) return smooth_mesh.status();
     const std::vector<double> smooth_mesh_changes = StepChanges(*smooth_mesh, steps);
-    out.antialiased_mesh = PopRatio(smooth_mesh_changes, mesh_changes);
+    if (o.pop_references) out.antialiased_mesh = PopRatio(smooth_mesh_changes, mesh_changes);
     auto smooth = RenderImpostorViewsSupersampled(source, orbit, o.orbit_pixels, kReferenceSupersampling, o.blend,
                                                   modes.front());
     if (!smooth.ok()) return smooth.status();
     out.antialiased = PopRatio(StepChanges(*smooth, steps), smooth_mesh_changes);
   }
   return out;
+}
+
+// The good-for sizes (good_for_size.h): every half octave of
+// GoodForLadder(o.good_for_top_pixels), then a bisection on the fine ladder
+// between the last good size and the first bad one. Each size is measured
+// as the pass measures its own: the mesh drawn at that size with
+// kReferenceSupersampling, the impostor with one sample a pixel; the pass's
+// own views are reused at its own size. Silhouette IoU and shared PSNR,
+// means over the views.
+absl::Status MeasureSizes(const Scene& scene, const ImpostorAtlas& atlas, const ImpostorViewSource& source,
+                          const QualityPassOptions& o, const std::vector<glm::vec3>& directions,
+                          const std::vector<ViewBuffers>& own_mesh, const std::vector<ViewBuffers>& own_impostor,
+                          AtlasRenderer& renderer, v1::AtlasQuality* q) {
+  std::vector<v1::SizeQuality> sizes;
+  auto measure = [&](int s) -> absl::StatusOr<bool> {
+    std::vector<ViewBuffers> mesh, impostor;
+    if (s != o.view_pixels) {
+      auto m = RenderMeshViews(scene, atlas.sphere, directions, s, kReferenceSupersampling, renderer);
+      if (!m.ok()) return m.status();
+      auto i = source.Render(directions, s, o.blend, o.reconstruction);
+      if (!i.ok()) return i.status();
+      mesh = std::move(*m);
+      impostor = std::move(*i);
+    }
+    const std::vector<ViewBuffers>& a = s == o.view_pixels ? own_mesh : mesh;
+    const std::vector<ViewBuffers>& b = s == o.view_pixels ? own_impostor : impostor;
+    std::vector<double> iou(directions.size()), psnr(directions.size());
+    ParallelFor(directions.size(), [&](size_t v) {
+      const ViewPixels pa{s, s, a[v].albedo_alpha, {}}, pb{s, s, b[v].albedo_alpha, {}};
+      iou[v] = SilhouetteIou(pa, pb);
+      psnr[v] = AlbedoPsnrSharedDb(pa, pb);
+    });
+    double iou_mean = 0, psnr_mean = 0;
+    for (size_t v = 0; v < directions.size(); ++v) {
+      iou_mean += iou[v] / static_cast<double>(directions.size());
+      psnr_mean += psnr[v] / static_cast<double>(directions.size());
+    }
+    v1::SizeQuality& out = sizes.emplace_back();
+    out.set_pixels(static_cast<uint32_t>(s));
+    out.set_silhouette_iou_mean(static_cast<float>(iou_mean));
+    out.set_albedo_psnr_shared_db_mean(static_cast<float>(psnr_mean));
+    // Judged on the figures as the manifest records them (float), so a
+    // reader re-judging them agrees.
+    out.set_meets(MeetsGoodForTargets(o.good_for_targets, out.silhouette_iou_mean(), out.albedo_psnr_shared_db_mean()));
+    return out.meets();
+  };
+  auto by_size = [](const v1::SizeQuality& x, const v1::SizeQuality& y) { return x.pixels() < y.pixels(); };
+  for (int s : GoodForLadder(o.good_for_top_pixels, kGoodForCoarseStepsPerOctave)) {
+    if (auto met = measure(s); !met.ok()) return met.status();
+  }
+  // Bisect between the last good coarse size and the next one (which
+  // missed), on the fine ladder.
+  const uint32_t good = GoodUpToPixels(sizes);
+  if (good > 0 && good < sizes.back().pixels()) {
+    const uint32_t bad = std::find_if(sizes.begin(), sizes.end(), [](const auto& x) { return !x.meets(); })->pixels();
+    std::vector<int> between;
+    for (int s : GoodForLadder(o.good_for_top_pixels)) {
+      if (s > static_cast<int>(good) && s < static_cast<int>(bad)) between.push_back(s);
+    }
+    while (!between.empty()) {
+      const size_t mid = between.size() / 2;
+      auto met = measure(between[mid]);
+      if (!met.ok()) return met.status();
+      between = *met ? std::vector<int>(between.begin() + mid + 1, between.end())
+                     : std::vector<int>(between.begin(), between.begin() + mid);
+    }
+    std::sort(sizes.begin(), sizes.end(), by_size);
+  }
+  q->set_good_up_to_pixels(GoodUpToPixels(sizes));
+  for (v1::SizeQuality& x : sizes) *q->add_sizes() = std::move(x);
+  return absl::OkStatus();
 }
 
 // Mean and min (or max) of a per-view figure.
@@ -314,7 +388,8 @@ v1::ReconstructionQuality ModeFigures(Reconstruction mode, const std::vector<Vie
   r.set_boundary_error_px_max(static_cast<float>(boundary_max.max));
   r.set_normal_error_deg_mean(
       static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.normal_error_deg_mean; }).mean));
-  r.set_depth_error_mean(static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.depth_error_mean; }).mean));
+  r.set_depth_error_mean(
+      static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.depth_error_mean; }).mean));
   r.set_albedo_psnr_union_db_mean(
       static_cast<float>(Summarise(views, [](const ViewMetrics& m) { return m.albedo_psnr_db; }).mean));
   return r;
@@ -425,6 +500,10 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     return absl::InvalidArgumentError(absl::StrCat("quality pass: view_pixels ", o.view_pixels, " orbit_pixels ",
                                                    o.orbit_pixels, " must be 8..1024"));
   }
+  if (o.good_for_top_pixels != 0 && (o.good_for_top_pixels < 8 || o.good_for_top_pixels > 1024)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("quality pass: good_for_top_pixels ", o.good_for_top_pixels, " must be 0 or 8..1024"));
+  }
   const auto start = Clock::now();
   // Each step's seconds, logged at debug level (the profile of the pass).
   std::string steps;
@@ -509,10 +588,19 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     if (!pop.ok()) return pop.status();
     q.set_pop(static_cast<float>(pop->pops[0]));
     if (plain_too) q.mutable_plain()->set_pop(static_cast<float>(pop->pops[1]));
+    if (pop->antialiased >= 0) q.set_pop_antialiased(static_cast<float>(pop->antialiased));
     result.pop_antialiased_mesh = pop->antialiased_mesh;
     result.pop_antialiased = pop->antialiased;
     result.pop_seconds = std::chrono::duration<double>(Clock::now() - pop_start).count();
     lap("pop");
+  }
+  if (o.good_for_top_pixels > 0) {
+    const auto sizes_start = Clock::now();
+    if (auto s = MeasureSizes(scene, atlas, *source, o, result.directions, *mesh, impostor, renderer, &q); !s.ok()) {
+      return s;
+    }
+    result.sizes_seconds = std::chrono::duration<double>(Clock::now() - sizes_start).count();
+    lap("sizes");
   }
   if (!o.worst_view_png.empty()) {
     if (auto s = WriteSideBySide(o.worst_view_png, (*mesh)[worst], impostor[worst]); !s.ok()) return s;
@@ -554,6 +642,12 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
   options.pop_references = overrides.pop_references;
   options.impostor_views_on = overrides.impostor_views_on;
   options.orbit_pixels = std::min(options.orbit_pixels, options.view_pixels);
+  // Good-for sizes up to twice the pass's size: past the atlas's tiles
+  // (resolution / frames) an impostor is magnified, and that is where it
+  // stops being good enough.
+  options.good_for_top_pixels = overrides.good_for_top_pixels >= 0 ? overrides.good_for_top_pixels
+                                                                     : std::min(1024, 2 * options.view_pixels);
+  options.good_for_targets = GoodForTargets(p);
   if (!QualityPassSupports(layout)) {
     spdlog::info("event=quality_pass_skipped cache_key={} layout={} reason=\"no reference renderer for the layout\"",
                  cache_key, std::string(LayoutName(layout)));
@@ -623,12 +717,14 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
       "event=quality_pass cache_key={} frames={} views={} view_pixels={} blend={} reconstruction={} iou_mean={:.4f} "
       "iou_min={:.4f} shared_psnr_db_mean={:.2f} shared_ssim_mean={:.4f} boundary_px_mean={:.2f} plain_iou_mean={:.4f} "
       "plain_shared_psnr_db_mean={:.2f} normal_deg_mean={:.2f} depth_error_mean={:.4f} pop={:.3f} "
-      "worst_view={} impostor_views={} views_seconds={:.2f} pop_seconds={:.2f} seconds={:.2f}",
+      "pop_antialiased={:.3f} good_up_to_pixels={} worst_view={} impostor_views={} views_seconds={:.2f} "
+      "pop_seconds={:.2f} sizes_seconds={:.2f} seconds={:.2f}",
       cache_key, atlas.frames, q.views(), q.view_pixels(), q.blend(), q.reconstruction(), q.silhouette_iou_mean(),
       q.silhouette_iou_min(), q.albedo_psnr_shared_db_mean(), q.albedo_ssim_shared_mean(), q.boundary_error_px_mean(),
       q.plain().silhouette_iou_mean(), q.plain().albedo_psnr_shared_db_mean(), q.normal_error_deg_mean(),
-      q.depth_error_mean(), q.pop(), q.worst_view(), result->impostor_views_on_device ? "device" : "cpu",
-      result->views_seconds, result->pop_seconds, result->seconds);
+      q.depth_error_mean(), q.pop(), q.pop_antialiased(), q.good_up_to_pixels(), q.worst_view(),
+      result->impostor_views_on_device ? "device" : "cpu", result->views_seconds, result->pop_seconds,
+      result->sizes_seconds, result->seconds);
   if (result->pop_antialiased_mesh >= 0) {
     spdlog::info("event=quality_pass_pop_references cache_key={} pop={:.3f} pop_antialiased_mesh={:.3f} "
                  "pop_antialiased={:.3f}",

@@ -31,13 +31,18 @@
 // A step where the mesh hardly changes (a symmetric object) would make the
 // ratio explode on noise, so the mesh's change is floored at a quarter of its
 // mean change over the orbit and at half an 8-bit level (PopRatio).
-// Pop references (options.pop_references, for bench/quality_table): the same
-// formula applied to smoother renderings, to tell a reconstruction's jumps
-// from the formula's own limits. "Antialiased mesh" is the mesh's orbit
-// supersampled 3 x 3 against its one-sample orbit: a rendering with no
-// reconstruction error at all, that only changes more evenly from step to
-// step. "Antialiased" is the reconstruction against the mesh with both
-// orbits supersampled 3 x 3 (what a game with MSAA or TAA shows).
+// Pop as a player sees it (AtlasQuality.pop_antialiased, issue 43; the figure
+// targets are set on): the same formula with both orbits supersampled 3 x 3,
+// what a game with MSAA or TAA shows. The one-sample figure (`pop`) is kept
+// beside it, but the mesh's own one-sample aliasing can score 4 against its
+// antialiased orbit (WaterBottle), so no rendering could meet a target on it.
+// Pop reference (options.pop_references, for bench/quality_table): that
+// "antialiased mesh" figure, the mesh's orbit supersampled 3 x 3 against its
+// one-sample orbit, to tell a reconstruction's jumps from the formula's limits.
+//
+// Good-for sizes (good_for_size.h): the held-out views drawn again at twice
+// the pass's size and shrunk to a ladder of on-screen sizes; the largest
+// size at which the impostor meets its targets is AtlasQuality.good_up_to_pixels.
 //
 // Held-out directions: a spherical Fibonacci set over the layout's domain
 // (the whole sphere for octahedral and azimuth-elevation, the upper
@@ -130,10 +135,18 @@ struct QualityPassOptions {
   // is what the atlas lacks (its tiles' resolution), the ceiling of the
   // held-out figures. Not for bakes: the manifest's views are held out.
   bool on_frame_directions = false;
-  // Also measure the pop references (top of this file). Not for bakes: one
-  // more mesh orbit at 3 x 3, and the headline reconstruction's orbit at 9
-  // times the pixels.
+  // Pop as a player sees it (AtlasQuality.pop_antialiased): the mesh's
+  // orbit and the headline reconstruction's again, both at 3 x 3 samples.
+  bool pop_antialiased = true;
+  // Also measure the pop references (top of this file). Not for bakes: the
+  // antialiased mesh's orbit against its one-sample orbit.
   bool pop_references = false;
+  // Good-for sizes (good_for_size.h, AtlasQuality.sizes and
+  // good_up_to_pixels): the held-out views drawn again at this size (mesh at
+  // 3 x 3) and shrunk to each size of GoodForLadder; 0 = not measured.
+  // 8..1024 otherwise.
+  int good_for_top_pixels = 0;
+  v1::QualityGate good_for_targets;  // GoodForTargets(the bake's parameters)
   ImpostorViewsOn impostor_views_on = ImpostorViewsOn::kAuto;
 };
 
@@ -143,6 +156,9 @@ struct QualityPassOverrides {
   int view_pixels = 0;  // > 0: held-out views this size instead of min(128, resolution / 8)
   bool on_frame_directions = false;  // QualityPassOptions::on_frame_directions
   bool pop_references = false;       // QualityPassOptions::pop_references
+  // >= 0: QualityPassOptions::good_for_top_pixels (0 = no sizes); -1 = the
+  // bake's rule (twice the pass's view size).
+  int good_for_top_pixels = -1;
   ImpostorViewsOn impostor_views_on = ImpostorViewsOn::kAuto;
 };
 
@@ -155,8 +171,11 @@ struct QualityPassResult {
   double seconds = 0;        // the whole pass
   double views_seconds = 0;  // held-out views: render both sides, measure
   double pop_seconds = 0;    // the orbit
+  double sizes_seconds = 0;  // the good-for sizes
   bool impostor_views_on_device = false;  // who drew them (ImpostorViewsOn)
-  // With options.pop_references and an orbit (else -1): the pop references.
+  // With options.pop_references and an orbit (else -1): the antialiased
+  // mesh's pop reference; with pop_antialiased or pop_references,
+  // quality.pop_antialiased again.
   double pop_antialiased_mesh = -1;
   double pop_antialiased = -1;
 };

@@ -12,7 +12,9 @@
 
 namespace impostor {
 
-// Projected bounding-sphere diameter below which the impostor takes over.
+// Projected bounding-sphere diameter below which the impostor takes over
+// when its quality pass gave no good-for size (quality_views 0, or no size
+// met its targets; lod_bake.cc).
 inline constexpr float kImpostorDiameterPixels = 16.0f;
 
 // `mesh_errors[i]`: geometric error of mesh level i in scene units (0 for

@@ -28,8 +28,11 @@
 // (SwitchDistance). The baker chose threshold[i] = pixel_error / error[i+1]
 // (the next level's geometric error, scene units, projects to the pixel
 // budget, 1 px by default, exactly at the switch) and, for the last mesh
-// level, 16 / (2 * radius) (the impostor takes over when the bounding
-// sphere's diameter covers fewer than 16 px).
+// level, good_up_to_pixels / (2 * radius): the impostor takes over when the
+// bounding sphere's diameter covers fewer pixels than its quality pass found
+// it good for (manifest quality.good_up_to_pixels, issue 43), or fewer than
+// 16 px when the bake measured no such size. SetImpostorSwitchPixels moves
+// that switch to a size of the caller's.
 //
 // HYSTERESIS. With the level drawn last frame, moving to a coarser level
 // happens at the threshold as above (so the error budget always holds);
@@ -84,6 +87,10 @@ struct LodChain {
   std::vector<LodLevelInfo> levels;  // nearest first; the last is the impostor
   std::array<float, 3> center{};     // bounding sphere, scene space
   float radius = 0;                  // scene units
+  // The on-screen size (bounding-sphere diameter, pixels) up to which the
+  // impostor meets its targets (manifest quality.good_up_to_pixels); 0 when
+  // the bake did not measure it.
+  uint32_t good_up_to_pixels = 0;
   std::filesystem::path directory;   // where manifest.json was read
 
   // Absolute path of a level's file.
@@ -141,6 +148,15 @@ int SelectLod(const LodChain& chain, float distance, float fov_y_radians, float 
 absl::Status SelectLods(const LodChain& chain, std::span<const float> distances, float fov_y_radians,
                         float viewport_height_px, std::span<const int> previous_levels, std::span<int> levels,
                         const LodSelectOptions& options = {});
+
+// Moves the switch from the last mesh level to the impostor to where the
+// bounding sphere's diameter covers `diameter_pixels` (e.g. a smaller size
+// than chain.good_up_to_pixels for a hero asset): the last mesh level's
+// threshold becomes diameter_pixels / (2 * radius), and a finer level whose
+// threshold would then be smaller takes it too (it is never drawn, as with
+// the baker's own thresholds). INVALID_ARGUMENT for a size that is not
+// finite and > 0, or a chain without a mesh level or with radius <= 0.
+absl::Status SetImpostorSwitchPixels(LodChain& chain, float diameter_pixels);
 
 // Distance at which `level` gives way to the next one for this camera
 // (+infinity for the last level).

@@ -136,8 +136,10 @@ class IMPOSTOR_OT_bake_selected(bpy.types.Operator):
             self.report({"WARNING"}, w)
         quality = job.result.quality or {}
         iou = quality.get("silhouette_iou_mean")
+        good = quality.get("good_up_to_pixels")  # issue 43; absent before baker 0.2.0-bake6
         s.status = (f"{'cached' if job.result.cached else 'baked'} {job.result.cache_key[:12]}"
-                    + (f", IoU {iou:.3f}" if iou is not None else ""))
+                    + (f", IoU {iou:.3f}" if iou is not None else "")
+                    + (f", good up to {good} px on screen" if good else ""))
         self.report({"INFO"}, f"Impostor: {s.status}; imported {', '.join(o.name for o in objects)}")
         return {"FINISHED"}
 
