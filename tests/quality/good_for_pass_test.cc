@@ -46,7 +46,7 @@ class GoodForPassTest : public testing::SharedRendererTest {
   // The pass's own figures with `view_pixels` views and nothing else.
   static QualityPassOptions Direct(int view_pixels) {
     QualityPassOptions o;
-    o.views = 8;
+    o.views = kGoodForViews;  // the sizes' own views, so both sides draw the same ones
     o.view_pixels = view_pixels;
     o.orbit_steps = 0;
     o.also_plain = false;
@@ -77,10 +77,10 @@ TEST_F(GoodForPassTest, TheRecordedSizeIsWhereADirectMeasurementCrossesTheTarget
     EXPECT_TRUE(s.meets());
   }
   EXPECT_EQ(curve->quality.good_up_to_pixels(), 160u);
-  // The pass's own size is its own views' figures.
-  EXPECT_FLOAT_EQ(sizes[0].pixels(), 32u);
-  EXPECT_FLOAT_EQ(sizes[0].albedo_psnr_shared_db_mean(), curve->quality.albedo_psnr_shared_db_mean());
-  EXPECT_FLOAT_EQ(sizes[0].silhouette_iou_mean(), curve->quality.silhouette_iou_mean());
+  // Where the 64 px tiles are minified (32 and 45 px) the impostor is
+  // filtered as mip levels would be, not taken from the pass's one-sample
+  // views; past them it is the pass's own drawing.
+  EXPECT_EQ(sizes[0].pixels(), 32u);
 
   // The target: half way between the PSNRs at 91 and 128 px (about 1.5 and
   // 2 times the tile size), so the switch falls between them and the pass

@@ -1,6 +1,8 @@
 // The on-screen size an impostor is good for (issue 43): the quality pass
-// draws the held-out views again at a ladder of sizes, each as at its own
-// size (the mesh at 3 x 3 samples, the impostor with one), so a game learns
+// draws held-out views again at a ladder of sizes, each as a game shows it
+// there (the mesh at 3 x 3 samples; the impostor with one sample where its
+// tiles are magnified, filtered as mip levels would be where they are
+// minified), so a game learns
 // the largest size at which this bake still meets its targets: below it,
 // switch from the mesh (or its LOD chain) to the impostor. (Shrinking one
 // large render instead was cheaper but read 1-1.5 dB high against a direct
@@ -35,6 +37,13 @@ inline constexpr int kGoodForSmallestPixels = 32;
 // is within 10 % of where a finer sweep would put the switch.
 inline constexpr int kGoodForStepsPerOctave = 8;
 
+// Held-out views measured at each size (the first of the pass's): the
+// sizes cost several times the pass's own views, and on a CPU device
+// (lavapipe) the pass must stay a fraction of the bake.
+inline constexpr int kGoodForViews = 4;
+// At most this many impostor samples a side per pixel stand in for the mip
+// levels a game samples where the tiles are minified (quality_pass.cc).
+inline constexpr int kGoodForMaxFilter = 4;
 // The pass first measures every half octave (steps_per_octave 2: 32, 45,
 // 64, 91, 128, 181, 256), then bisects between the last good size and the
 // first bad one on the fine ladder.

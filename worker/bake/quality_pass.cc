@@ -282,39 +282,59 @@ absl::StatusOr<PopFigures> MeasurePop(const Scene& scene, const ImpostorAtlas& a
 }
 
 // The good-for sizes (good_for_size.h): every half octave of
-// GoodForLadder(o.good_for_top_pixels), then a bisection on the fine ladder
-// between the last good size and the first bad one. Each size is measured
-// as the pass measures its own: the mesh drawn at that size with
-// kReferenceSupersampling, the impostor with one sample a pixel; the pass's
-// own views are reused at its own size. Silhouette IoU and shared PSNR,
-// means over the views.
+// GoodForLadder(o.good_for_top_pixels) up to the first that misses, then a
+// bisection on the fine ladder between the last good size and it. Each size
+// is drawn as a game shows it there: the mesh at that size with
+// kReferenceSupersampling; the impostor with one sample a pixel where its
+// tiles are magnified, and where they are minified (a game samples mip
+// levels, the reference renderer has none) drawn finer and box filtered,
+// tile / size times (at most kGoodForMaxFilter). kGoodForViews of the
+// held-out views; the pass's own drawings are reused where they are the same. Silhouette IoU and shared PSNR, means over the views.
 absl::Status MeasureSizes(const Scene& scene, const ImpostorAtlas& atlas, const ImpostorViewSource& source,
-                          const QualityPassOptions& o, const std::vector<glm::vec3>& directions,
+                          const QualityPassOptions& o, const std::vector<glm::vec3>& all_directions,
                           const std::vector<ViewBuffers>& own_mesh, const std::vector<ViewBuffers>& own_impostor,
                           AtlasRenderer& renderer, v1::AtlasQuality* q) {
+  // Every (total / n)-th view: the held-out set runs from the horizon up,
+  // so a prefix would see the object from low elevations only.
+  const size_t total = all_directions.size(), n = std::min(total, static_cast<size_t>(kGoodForViews));
+  std::vector<size_t> picked;
+  std::vector<glm::vec3> directions;
+  for (size_t i = 0; i < n; ++i) {
+    picked.push_back(i * total / n);
+    directions.push_back(all_directions[picked.back()]);
+  }
+  const int tile = atlas.cameras.empty() ? 0 : atlas.cameras[0].tile.width;
   std::vector<v1::SizeQuality> sizes;
   auto measure = [&](int s) -> absl::StatusOr<bool> {
+    const int filter = std::clamp((tile + s - 1) / s, 1, kGoodForMaxFilter);
     std::vector<ViewBuffers> mesh, impostor;
-    if (s != o.view_pixels) {
+    const bool own = s == o.view_pixels;
+    if (!own) {
       auto m = RenderMeshViews(scene, atlas.sphere, directions, s, kReferenceSupersampling, renderer);
       if (!m.ok()) return m.status();
-      auto i = source.Render(directions, s, o.blend, o.reconstruction);
-      if (!i.ok()) return i.status();
       mesh = std::move(*m);
+    }
+    if (!own || filter > 1) {
+      auto i = filter > 1
+                   ? RenderImpostorViewsSupersampled(source, directions, s, filter, o.blend, o.reconstruction)
+                   : source.Render(directions, s, o.blend, o.reconstruction);
+      if (!i.ok()) return i.status();
       impostor = std::move(*i);
     }
-    const std::vector<ViewBuffers>& a = s == o.view_pixels ? own_mesh : mesh;
-    const std::vector<ViewBuffers>& b = s == o.view_pixels ? own_impostor : impostor;
-    std::vector<double> iou(directions.size()), psnr(directions.size());
-    ParallelFor(directions.size(), [&](size_t v) {
-      const ViewPixels pa{s, s, a[v].albedo_alpha, {}}, pb{s, s, b[v].albedo_alpha, {}};
+    const std::vector<ViewBuffers>& a = own ? own_mesh : mesh;
+    const std::vector<ViewBuffers>& b = own && filter == 1 ? own_impostor : impostor;
+    std::vector<double> iou(n), psnr(n);
+    ParallelFor(n, [&](size_t v) {
+      const ViewBuffers& mv = own ? a[picked[v]] : a[v];
+      const ViewBuffers& iv = own && filter == 1 ? b[picked[v]] : b[v];
+      const ViewPixels pa{s, s, mv.albedo_alpha, {}}, pb{s, s, iv.albedo_alpha, {}};
       iou[v] = SilhouetteIou(pa, pb);
       psnr[v] = AlbedoPsnrSharedDb(pa, pb);
     });
     double iou_mean = 0, psnr_mean = 0;
-    for (size_t v = 0; v < directions.size(); ++v) {
-      iou_mean += iou[v] / static_cast<double>(directions.size());
-      psnr_mean += psnr[v] / static_cast<double>(directions.size());
+    for (size_t v = 0; v < n; ++v) {
+      iou_mean += iou[v] / static_cast<double>(n);
+      psnr_mean += psnr[v] / static_cast<double>(n);
     }
     v1::SizeQuality& out = sizes.emplace_back();
     out.set_pixels(static_cast<uint32_t>(s));
@@ -326,8 +346,11 @@ absl::Status MeasureSizes(const Scene& scene, const ImpostorAtlas& atlas, const 
     return out.meets();
   };
   auto by_size = [](const v1::SizeQuality& x, const v1::SizeQuality& y) { return x.pixels() < y.pixels(); };
+  // Larger sizes than the first that misses cannot raise good_up_to_pixels.
   for (int s : GoodForLadder(o.good_for_top_pixels, kGoodForCoarseStepsPerOctave)) {
-    if (auto met = measure(s); !met.ok()) return met.status();
+    auto met = measure(s);
+    if (!met.ok()) return met.status();
+    if (!*met) break;
   }
   // Bisect between the last good coarse size and the next one (which
   // missed), on the fine ladder.
