@@ -16,6 +16,7 @@ const repo = resolve(here, '..', '..');
 const pkg = join(repo, 'packages', 'impostor-three');
 const {
   crossFadeDrawsImpostor, crossFadeDrawsMesh, crossFadeFactor, crossFadeThreshold, DEFAULT_CROSS_FADE_BAND,
+  DEFAULT_IMPOSTOR_SWITCH_PIXELS, impostorSwitchScale,
 } = await import(join(pkg, 'src', 'cross_fade.js'));
 
 test('the pattern is the documented one (the C++ test has the same table)', () => {
@@ -78,4 +79,19 @@ test('the package embeds shaders/impostor_crossfade.glsl unchanged', async () =>
   const { impostorCrossFadeGlsl } = await import(join(pkg, 'src', 'shaders', 'impostor_crossfade.glsl.js'));
   assert.ok(impostorCrossFadeGlsl === readFileSync(join(repo, 'shaders', 'impostor_crossfade.glsl'), 'utf8'),
     'stale: run node packages/impostor-three/scripts/embed_runtime.mjs');
+});
+
+// Issue 43: the switch where the bake's good-for size puts it (the C++ SDK's
+// rule: diameter pixels / (2 * radius)), the fixed 16 px without one, and
+// nothing from a radius that is not > 0.
+test('the impostor switch follows the good-for size', () => {
+  assert.equal(impostorSwitchScale(140, 2), 35);
+  assert.equal(impostorSwitchScale(0, 2), DEFAULT_IMPOSTOR_SWITCH_PIXELS / 4);
+  assert.equal(impostorSwitchScale(0, 2, 64), 16);
+  assert.ok(Number.isNaN(impostorSwitchScale(140, 0)));
+  assert.ok(Number.isNaN(impostorSwitchScale(140, -1)));
+  // The fade ends exactly at the switch and starts a band above it.
+  const sw = impostorSwitchScale(140, 2);
+  assert.equal(crossFadeFactor(sw, sw), 1);
+  assert.equal(crossFadeFactor(sw * (1 + DEFAULT_CROSS_FADE_BAND), sw), 0);
 });

@@ -22,6 +22,19 @@ export function crossFadeFactor(pixelsPerUnit, switchScale, band = DEFAULT_CROSS
   return Math.min(Math.max(1 - above, 0), 1);
 }
 
+// The switch from the mesh to the impostor, in pixels per scene unit (the
+// unit of crossFadeFactor and the C++ SDK's thresholds): where the bounding
+// sphere's diameter covers `goodUpToPixels`, the on-screen size the bake's
+// quality pass found the impostor good for (ImpostorAsset.goodUpToPixels,
+// manifest quality.good_up_to_pixels), or `fallbackPixels` when the bake did
+// not measure one (0); NaN for a radius that is not > 0.
+export const DEFAULT_IMPOSTOR_SWITCH_PIXELS = 16;
+export function impostorSwitchScale(goodUpToPixels, radius, fallbackPixels = DEFAULT_IMPOSTOR_SWITCH_PIXELS) {
+  if (!(radius > 0)) return NaN;
+  const pixels = goodUpToPixels > 0 ? goodUpToPixels : fallbackPixels;
+  return pixels / (2 * radius);
+}
+
 // Dither threshold of pixel (x, y) for instance `seed` (an unsigned 32-bit
 // integer): the Bayer level rotated by the top 4 bits of seed * 2654435769,
 // as (level + 0.5) / 16.

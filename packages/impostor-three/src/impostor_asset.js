@@ -26,6 +26,9 @@ export class ImpostorAsset {
     // What the quality pass measured, the material's defaults.
     this.blend = q.blend === 'bilinear4' ? 'bilinear4' : 'triangle3';
     this.reconstruction = 'depth';
+    // The on-screen size below which to draw it instead of the mesh
+    // (impostorSwitchScale); 0 when the bake did not measure one.
+    this.goodUpToPixels = Number.isInteger(q.good_up_to_pixels) && q.good_up_to_pixels > 0 ? q.good_up_to_pixels : 0;
   }
 
   dispose() {

@@ -53,6 +53,10 @@ export const impostorCrossFadeGlsl: string;
 export const DEFAULT_CROSS_FADE_BAND: number;
 /** Fade factor t: 0 at or above switchScale * (1 + band), 1 at or below switchScale, linear between (any on-screen size unit). */
 export function crossFadeFactor(pixelsPerUnit: number, switchScale: number, band?: number): number;
+/** The switch size used when a bake measured no good-for size: 16 px, the C++ SDK's fixed rule. */
+export const DEFAULT_IMPOSTOR_SWITCH_PIXELS: number;
+/** The mesh-to-impostor switch in pixels per scene unit: (goodUpToPixels, else fallbackPixels) / (2 * radius); NaN for radius <= 0. */
+export function impostorSwitchScale(goodUpToPixels: number, radius: number, fallbackPixels?: number): number;
 /** The dither threshold of pixel (x, y) for an instance's seed: one of (level + 0.5) / 16. */
 export function crossFadeThreshold(seed: number, x: number, y: number): number;
 /** Whether the impostor draws pixel (x, y) at fade t (threshold < t). */
@@ -90,6 +94,8 @@ export class ImpostorAsset {
   catalog: { channel: string; catalogSha256: string } | null;
   /** The quality pass's blend: the material's default. */
   blend: BlendMode;
+  /** The on-screen size (bounding-sphere diameter, px) up to which the impostor meets its targets (manifest quality.good_up_to_pixels); 0 when not measured. Switch below it: impostorSwitchScale. */
+  goodUpToPixels: number;
   reconstruction: Reconstruction;
   dispose(): void;
 }

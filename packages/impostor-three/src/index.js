@@ -10,5 +10,6 @@ export { impostorRuntimeGlsl } from './shaders/impostor_runtime.glsl.js';
 export { impostorCrossFadeGlsl } from './shaders/impostor_crossfade.glsl.js';
 export {
   DEFAULT_CROSS_FADE_BAND, crossFadeDrawsImpostor, crossFadeDrawsMesh, crossFadeFactor, crossFadeThreshold,
+  DEFAULT_IMPOSTOR_SWITCH_PIXELS, impostorSwitchScale,
 } from './cross_fade.js';
 export * from './release/index.js';
