@@ -92,6 +92,19 @@ BakeMemoryEstimate EstimateBakeMemory(const v1::BakeParameters& normalised, Bake
   const int64_t quality_copy = s.quality_pass ? maps_texels * kThreeMapsTexel : 0;
   const int64_t quality_upload = s.quality_pass && gpu_views ? maps_texels * kThreeMapsTexel : 0;
   const int64_t quality_staging = s.quality_pass && gpu_views ? maps_texels * kNormalDepthTexel : 0;
+  // The quality pass's mesh views (quality_pass.cc RenderMeshViews): one
+  // render of n views as tiles, ceil(sqrt(n)) a side, each view's pixels x 3
+  // (its supersampling), resolved on the device. The largest of: the
+  // antialiased pop orbit (72 views of min(64, view) px), the held-out views
+  // (16 of `view` px, view = min(128, resolution / 8)) and the good-for
+  // sizes' largest (4 views of twice that; good_for_size.h).
+  const int64_t view = std::clamp<int64_t>(s.resolution / 8, 8, 128);
+  const int64_t orbit_side = 9 * std::min<int64_t>(64, view) * 3;
+  const int64_t held_out_side = 4 * view * 3;
+  const int64_t sizes_side = 2 * std::min<int64_t>(1024, 2 * view) * 3;
+  const int64_t views_side = std::max({orbit_side, held_out_side, sizes_side});
+  const int64_t quality_views =
+      s.quality_pass ? views_side * views_side * (kThreeMapsTexel + kDepthTexel) : 0;
   // Dilation (atlas_dilation.cc): one seed grid (8 bytes a texel) per
   // tile, three maps at once.
   const int64_t dilation = 3 * (s.tile + 2) * (s.tile + 2) * 8;
@@ -103,7 +116,7 @@ BakeMemoryEstimate EstimateBakeMemory(const v1::BakeParameters& normalised, Bake
   const int64_t render_device = targets + (device_is_host ? readback : 0);
   const int64_t render_host = (device_is_host ? targets : 0) + readback + maps;
   int64_t post_host = maps + std::max(dilation, quality_copy + encode + quality_staging);
-  if (device_is_host) post_host += quality_upload;
+  if (device_is_host) post_host += quality_upload + quality_views;
   if (normalised.product() == v1::PRODUCT_SURFELS) {
     // The maps become samples (and are freed); no quality pass, no PNG maps.
     post_host = maps + maps_texels * kSurfelSamplesTexel;
@@ -111,7 +124,7 @@ BakeMemoryEstimate EstimateBakeMemory(const v1::BakeParameters& normalised, Bake
 
   BakeMemoryEstimate out;
   out.host_bytes = std::max(render_host, post_host) + kSmallBuffersBytes;
-  out.device_bytes = std::max(render_device, quality_upload);
+  out.device_bytes = std::max(render_device, quality_upload + quality_views);
   out.largest_allocation_bytes = render_texels * kNormalDepthTexel;
   out.largest_allocation = "normal_depth render target";
   out.largest_allocation_shape = absl::StrCat(s.render, " px square, ", kNormalDepthTexel, " bytes a texel");
