@@ -37,15 +37,19 @@ std::string FramesTried(const nlohmann::json& q) {
   return s;
 }
 
-// "; good up to 140 px on screen" (issue 43), "; good at no measured size
-// (32..256 px)", or "" for manifests without sizes.
+// "; good up to 140 px on screen" (issue 43), "; misses the good-for targets
+// already at 32 px on screen (IoU ..., PSNR ...)", or "" for manifests
+// without sizes.
 std::string GoodForPhrase(const nlohmann::json& q) {
   auto sizes = q.find("sizes");
   if (sizes == q.end() || !sizes->is_array() || sizes->empty()) return "";
   const int good = static_cast<int>(Num(q, "good_up_to_pixels"));
   if (good > 0) return absl::StrFormat("; good up to %d px on screen", good);
-  return absl::StrFormat("; good at no measured size (%d..%d px)", static_cast<int>(Num(sizes->front(), "pixels")),
-                         static_cast<int>(Num(sizes->back(), "pixels")));
+  // The pass stops at the first size that misses: here the smallest.
+  const nlohmann::json& first = sizes->front();
+  return absl::StrFormat("; misses the good-for targets already at %d px on screen (IoU %.3f, PSNR %.1f dB)",
+                         static_cast<int>(Num(first, "pixels")), Num(first, "silhouette_iou_mean"),
+                         Num(first, "albedo_psnr_shared_db_mean"));
 }
 
 }  // namespace
