@@ -9,11 +9,10 @@
 
 #include <gtest/gtest.h>
 
-#include "common/atlas/frame_camera.h"
 #include "tests/gpu/shared_renderer_test.h"
+#include "tests/quality/in_memory_atlas.h"
 #include "worker/bake/good_for_size.h"
 #include "worker/bake/quality_pass.h"
-#include "worker/scene/bounding_sphere.h"
 #include "worker/scene/gltf_loader.h"
 
 namespace impostor {
@@ -27,20 +26,7 @@ class GoodForPassTest : public testing::SharedRendererTest {
  protected:
   // An octahedral atlas of `frames` x `frames` at `resolution`, in memory.
   static absl::StatusOr<ImpostorAtlas> Atlas(const Scene& scene, int frames, int resolution) {
-    ImpostorAtlas atlas;
-    atlas.layout = LayoutKind::kOctahedral;
-    atlas.frames = frames;
-    atlas.resolution = resolution;
-    atlas.sphere = ComputeBoundingSphere(scene);
-    atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, frames, resolution);
-    RenderTimings timings;
-    auto maps = renderer_->Render(scene, atlas.sphere, atlas.cameras, resolution, {}, &timings);
-    if (!maps.ok()) return maps.status();
-    atlas.width = maps->width;
-    atlas.height = maps->height;
-    atlas.albedo_alpha = std::move(maps->albedo_alpha);
-    atlas.normal_depth = std::move(maps->normal_depth);
-    return atlas;
+    return testing::InMemoryOctahedralAtlas(scene, frames, resolution, *renderer_);
   }
 
   // The pass's own figures with `view_pixels` views and nothing else.

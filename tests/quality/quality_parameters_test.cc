@@ -163,7 +163,8 @@ TEST(QualityParametersTest, BadParametersAreRefusedNamingTheField) {
   }
 }
 
-TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
+// The smallest atlas manifest with a quality block (16 views of 128 px).
+v1::Manifest AtlasManifestWithQuality() {
   v1::Manifest m;
   m.set_format_version(kManifestFormatVersion);
   m.set_product(v1::PRODUCT_ATLAS);
@@ -174,6 +175,12 @@ TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
   q->set_blend("triangle3");
   q->set_views(16);
   q->set_view_pixels(128);
+  return m;
+}
+
+TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
+  v1::Manifest m = AtlasManifestWithQuality();
+  v1::AtlasQuality* q = m.mutable_quality();
   q->set_silhouette_iou_min(0.91f);
   q->set_silhouette_iou_mean(0.95f);
   q->set_albedo_psnr_union_db_min(20.5f);
@@ -216,16 +223,8 @@ TEST(QualityManifestJsonTest, QualityBlockAndWarningsRoundTrip) {
 // Issue 43's figures: written when measured, read back exactly, absent from
 // older manifests (0, no sizes), and a damaged list refused naming the entry.
 TEST(QualityManifestJsonTest, GoodForSizesAndAntialiasedPopRoundTripAndBadOnesAreRefused) {
-  v1::Manifest m;
-  m.set_format_version(kManifestFormatVersion);
-  m.set_product(v1::PRODUCT_ATLAS);
-  m.set_layout(v1::LAYOUT_OCTAHEDRAL);
-  for (int i = 0; i < 3; ++i) m.mutable_bounding_sphere()->add_center(0.0f);
-  m.mutable_bounding_sphere()->set_radius(1.0f);
+  v1::Manifest m = AtlasManifestWithQuality();
   v1::AtlasQuality* q = m.mutable_quality();
-  q->set_blend("triangle3");
-  q->set_views(16);
-  q->set_view_pixels(128);
   q->set_pop(4.0f);
   const std::string without = ManifestToJson(m);
   EXPECT_EQ(without.find("good_up_to_pixels"), std::string::npos);

@@ -2,6 +2,7 @@
 // (Mesa lavapipe suffices): the manifest's quality block, the worst-view
 // image, held-out directions, and the auto frame count's ladder.
 #include "tests/gpu/shared_renderer_test.h"
+#include "tests/quality/in_memory_atlas.h"
 #include "worker/bake/quality_pass.h"
 
 #include <cmath>
@@ -64,21 +65,7 @@ class QualityPassTest : public testing::SharedRendererTest {
 
   // A 4 x 4 octahedral atlas of 256 px of `scene`, rendered in memory.
   static absl::StatusOr<ImpostorAtlas> SmallOctahedralAtlas(const Scene& scene) {
-    constexpr int kFrames = 4, kResolution = 256;
-    ImpostorAtlas atlas;
-    atlas.layout = LayoutKind::kOctahedral;
-    atlas.frames = kFrames;
-    atlas.resolution = kResolution;
-    atlas.sphere = ComputeBoundingSphere(scene);
-    atlas.cameras = AtlasCameras(LayoutKind::kOctahedral, kFrames, kResolution);
-    RenderTimings timings;
-    auto maps = renderer_->Render(scene, atlas.sphere, atlas.cameras, kResolution, {}, &timings);
-    if (!maps.ok()) return maps.status();
-    atlas.width = maps->width;
-    atlas.height = maps->height;
-    atlas.albedo_alpha = std::move(maps->albedo_alpha);
-    atlas.normal_depth = std::move(maps->normal_depth);
-    return atlas;
+    return testing::InMemoryOctahedralAtlas(scene, 4, 256, *renderer_);
   }
 };
 
