@@ -42,7 +42,7 @@ TEST(BakeMemoryCheck, OverTheWorkersTotalIsTheJobsFaultAndSaysSo) {
   const absl::Status s = CheckBakeMemory(Normalised(16384, 1, 64), Lavapipe(7'800'000'000, 7'000'000'000));
   EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted);
   EXPECT_EQ(std::string(s.message()),
-            "an atlas of 16384 px at supersampling 1 (frames 64) needs about 17.2 GB of host memory; this worker has "
+            "an atlas of 16384 px at supersampling 1 (frames 64) needs about 17.3 GB of host memory; this worker has "
             "7.8 GB (cgroup memory.max): lower --resolution");
 }
 

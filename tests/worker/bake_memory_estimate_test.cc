@@ -14,6 +14,11 @@ namespace {
 
 constexpr int64_t kMiB = 1 << 20;
 constexpr int64_t kSmallBuffers = 16 * kMiB;
+// The quality pass's largest mesh-view render at 1024 px and above: the
+// antialiased pop orbit, 9 x 9 tiles of 64 px at 3 x 3 samples, three maps
+// (16 bytes a texel) and depth (4). Host memory on lavapipe and integrated
+// GPUs, device memory everywhere.
+constexpr int64_t kQualityViews = int64_t{9 * 64 * 3} * (9 * 64 * 3) * 20;
 
 v1::BakeParameters Normalised(uint32_t resolution, uint32_t supersampling, uint32_t frames = 8) {
   v1::BakeParameters in;
@@ -42,10 +47,11 @@ TEST(BakeMemoryEstimate, EachPhaseAsTheCodeAllocatesIt) {
   v1::BakeParameters ktx2 = Normalised(1024, 1);
   ktx2.set_texture_format(v1::TEXTURE_FORMAT_KTX2);
   const Case cases[] = {
-      // Render phase: targets (albedo 4 + normal_depth 8 + orm 4 + depth 4
-      // bytes at 2048 px) + readback + maps (16 bytes at 1024 px); on the
-      // CPU the targets and readback are host memory.
-      {"lavapipe 1024 px ss 2", Normalised(1024, 2), BakeDevice::kCpu, r2k * 20 + 2 * r1k * 16 + kSmallBuffers,
+      // Post phase on the CPU: maps + the quality pass's copy + the PNG
+      // encoders (2 x the maps) + its mesh views, above the render phase's
+      // targets (albedo 4 + normal_depth 8 + orm 4 + depth 4 bytes at
+      // 2048 px) + readback + maps (16 bytes at 1024 px).
+      {"lavapipe 1024 px ss 2", Normalised(1024, 2), BakeDevice::kCpu, 4 * r1k * 16 + kQualityViews + kSmallBuffers,
        r2k * 20 + r1k * 16},
       // On a GPU with its own memory only the readback and the maps are the
       // host's; the post phase is larger then: maps + the quality pass's
@@ -53,22 +59,24 @@ TEST(BakeMemoryEstimate, EachPhaseAsTheCodeAllocatesIt) {
       {"discrete 1024 px ss 2", Normalised(1024, 2), BakeDevice::kDedicatedGpu,
        r1k * 16 + r1k * 16 + 2 * r1k * 16 + r1k * 8 + kSmallBuffers, r2k * 20},
       // Post phase on lavapipe: no upload for the quality pass.
-      {"lavapipe 4096 px ss 1", Normalised(4096, 1), BakeDevice::kCpu, 4 * r4k * 16 + kSmallBuffers,
+      {"lavapipe 4096 px ss 1", Normalised(4096, 1), BakeDevice::kCpu, 4 * r4k * 16 + kQualityViews + kSmallBuffers,
        r4k * 20 + r4k * 16},
       // An integrated GPU: the targets are host memory, and so is the
-      // quality pass's upload.
+      // quality pass's upload and mesh views; on the device the upload and
+      // the views outweigh the render.
       {"integrated 1024 px ss 1", Normalised(1024, 1), BakeDevice::kIntegratedGpu,
-       r1k * 16 + r1k * 16 + 2 * r1k * 16 + r1k * 8 + r1k * 16 + kSmallBuffers, r1k * 20 + r1k * 16},
+       r1k * 16 + r1k * 16 + 2 * r1k * 16 + r1k * 8 + r1k * 16 + kQualityViews + kSmallBuffers,
+       r1k * 16 + kQualityViews},
       // Emissive: a fifth target and a fourth map (4 bytes each).
-      {"lavapipe 1024 px ss 1 emissive", emissive, BakeDevice::kCpu, r1k * 20 + r1k * 16 + 2 * r1k * 16 + kSmallBuffers,
-       r1k * 24 + r1k * 20},
+      {"lavapipe 1024 px ss 1 emissive", emissive, BakeDevice::kCpu,
+       r1k * 20 + r1k * 16 + 2 * r1k * 16 + kQualityViews + kSmallBuffers, kQualityViews},
       // No quality pass: the encoders alone after the render.
       {"lavapipe 1024 px ss 1 no quality pass", no_quality, BakeDevice::kCpu, r1k * 20 + 2 * r1k * 16 + kSmallBuffers,
        r1k * 20 + r1k * 16},
       // KTX2: mip chains (27 bytes a texel), each level as a PNG (24) and
       // three basisu processes (3 x 27).
-      {"lavapipe 1024 px ss 1 ktx2", ktx2, BakeDevice::kCpu, r1k * 16 + r1k * 16 + r1k * (27 + 24 + 81) + kSmallBuffers,
-       r1k * 20 + r1k * 16},
+      {"lavapipe 1024 px ss 1 ktx2", ktx2, BakeDevice::kCpu,
+       r1k * 16 + r1k * 16 + r1k * (27 + 24 + 81) + kQualityViews + kSmallBuffers, kQualityViews},
   };
   for (const Case& c : cases) {
     const BakeMemoryEstimate e = EstimateBakeMemory(c.parameters, c.device);
