@@ -485,7 +485,7 @@ class Bench:
         key = cold["key"]
 
         warm, inproc = [], []
-        for i in range(n):
+        for i in range(0 if self.a.fetch_only else n):
             order = ["farm", "inproc"] if i % 2 == 0 else ["inproc", "farm"]
             for what in order:
                 if what == "farm":
@@ -506,12 +506,27 @@ class Bench:
         log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, nginx + curl median "
             f"{median(fetch['curl']):.3f} s")
         self.stop_farm()
+        if self.a.fetch_only:
+            print("\n".join(["", "| figure | value | note |", "|---|---|---|"] + self.fetch_rows(fetch)), flush=True)
+            return
 
         iso = self.isolated_load()
         log(f"isolated load: in process {iso['in_process']:.3f} s; "
             + ", ".join(f"{k} / in-process {v:.2f}x" for k, v in iso["ratios"]))
         load1 = os.getloadavg()
         self.report(n, cold, warm, inproc, fetch, iso, load0, load1)
+
+    def fetch_rows(self, fetch):
+        fm, cm = median(fetch["fetch"]), median(fetch["curl"])
+        return [
+            f"| `impostor fetch` of the result (median of {len(fetch['fetch'])}) | {fm:.3f} s "
+            f"({span(fetch['fetch'], 3)}) "
+            f"| {fetch['files']} files, {fetch['mb']:.1f} MB, fresh --out each time; CPU s: CLI "
+            f"{median(fetch['fetch_cpu']):.3f} + server {median(fetch['server_cpu'] or [0]):.3f} |",
+            f"| nginx + curl, same files, one connection (median of {len(fetch['curl'])}) | {cm:.3f} s "
+            f"({span(fetch['curl'], 3)}) | alternating pairs; CPU s: curl {median(fetch['curl_cpu']):.3f} |",
+            f"| **fetch / nginx + curl** | **{fm / cm:.2f}×** | target ≤ 1.25 |",
+        ]
 
     def report(self, n, cold, warm, inproc, fetch, iso, load0, load1):
         e2e = [b["wall"] for b in warm]
@@ -520,7 +535,6 @@ class Bench:
         ratio = median(e2e) / median(ip)
         cpus = [b["cpu"] for b in warm if b["cpu"]]
         ip_cpu = median([r[1]["cpu"] for r in inproc])
-        fm, cm = median(fetch["fetch"]), median(fetch["curl"])
         lines = [
             "",
             f"## e2e_bench: {self.model.name}, {LAYOUT} {FRAMES}×{FRAMES}, {RESOLUTION} px, on {self.device}",
@@ -549,13 +563,7 @@ class Bench:
             f"| isolated / in-process load (`isolated_load_bench`) | **{iso['ratios'][-1][1]:.2f}×** "
             f"({iso['ratios'][-1][0]}; in process {iso['in_process']:.3f} s) | target ≤ 1.15"
             + "".join(f"; {k}: {v:.2f}×" for k, v in iso["ratios"][:-1]) + " |",
-            f"| `impostor fetch` of the result (median of {len(fetch['fetch'])}) | {fm:.3f} s "
-            f"({span(fetch['fetch'], 3)}) "
-            f"| {fetch['files']} files, {fetch['mb']:.1f} MB, fresh --out each time; CPU s: CLI "
-            f"{median(fetch['fetch_cpu']):.3f} + server {median(fetch['server_cpu'] or [0]):.3f} |",
-            f"| nginx + curl, same files, one connection (median of {len(fetch['curl'])}) | {cm:.3f} s "
-            f"({span(fetch['curl'], 3)}) | alternating pairs; CPU s: curl {median(fetch['curl_cpu']):.3f} |",
-            f"| **fetch / nginx + curl** | **{fm / cm:.2f}×** | target ≤ 1.25 |",
+            *self.fetch_rows(fetch),
             "",
             f"Where the warm bakes' time goes: the farm's `/metrics` (impostor_bake_stage_seconds, "
             f"impostor_bake_seconds) summed over the {n} warm bakes, per bake, beside `bake_stages`' recorded stages "
@@ -610,6 +618,7 @@ def main():
     p.add_argument("--nginx", required=True)
     p.add_argument("--warm", type=int, default=3)
     p.add_argument("--fetch-pairs", type=int, default=7)
+    p.add_argument("--fetch-only", action="store_true")
     a = p.parse_args()
     bench = Bench(a)
     step_logs = bench.logs

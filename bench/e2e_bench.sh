@@ -3,7 +3,7 @@
 # when the CLI bakes through a real farm, beside what the same bake costs in
 # process, and where the difference goes.
 #
-#   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N]
+#   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only]
 #
 # 1. Starts build/bin/impostor-server with one local worker on free loopback
 #    ports and a temporary data directory (as deploy/quickstart.sh does, plus
@@ -24,6 +24,7 @@
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
 # 5. The farm's own /metrics stage sums over the warm bakes beside
 #    bake_stages' stages.
+# --fetch-only: the cold bake (for a result to fetch) and step 4 alone.
 # Ends with a markdown table of every figure. A bench, not a test: nothing is
 # asserted, but a step that fails stops it with a message and exit status 1.
 # Everything lives under one mktemp -d, removed (and the server, its worker
@@ -34,17 +35,19 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 
 die() { echo "e2e_bench: $*" >&2; exit 1; }
-usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N]" >&2; exit 2; }
+usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only]" >&2; exit 2; }
 
 build=$root/build
 warm=3
 pairs=7
+fetch_only=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --warm) [[ $# -ge 2 ]] || usage; warm=$2; shift 2 ;;
     --warm=*) warm=${1#*=}; shift ;;
     --fetch-pairs) [[ $# -ge 2 ]] || usage; pairs=$2; shift 2 ;;
     --fetch-pairs=*) pairs=${1#*=}; shift ;;
+    --fetch-only) fetch_only=(--fetch-only); shift ;;
     -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
     -*) echo "e2e_bench: unknown flag $1" >&2; usage ;;
     *) build=$1; shift ;;
@@ -107,7 +110,7 @@ echo "e2e_bench: binaries copied from $build/bin (the newest built $newest)"
 # In the background so that a signal reaches the trap at once (bash runs
 # traps only between commands, and `wait` is one it interrupts).
 python3 "$root/bench/e2e_bench.py" --build "$work" --work "$work" --model "$model" --nginx "$nginx" \
-  --warm "$warm" --fetch-pairs "$pairs" &
+  --warm "$warm" --fetch-pairs "$pairs" "${fetch_only[@]}" &
 echo $! > "$work/pids/python"
 status=0
 wait $! || status=$?

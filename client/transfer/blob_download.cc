@@ -76,11 +76,12 @@ absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, 
 
 absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadBlobToStagedFile(Transport& transport,
                                                                           const v1::Digest& digest,
-                                                                          const std::filesystem::path& path) {
+                                                                          const std::filesystem::path& path,
+                                                                          const CancelSource* cancel) {
   absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
   if (!writer.ok()) return writer.status();
   absl::Status status =
-      DownloadBlob(transport, digest, [&](std::string_view data) { return (*writer)->Append(data); });
+      DownloadBlob(transport, digest, [&](std::string_view data) { return (*writer)->Append(data); }, cancel);
   if (!status.ok()) {
     (*writer)->Abort();
     // Name the file for local verification failures; an RPC's error already

@@ -55,10 +55,12 @@ absl::Status DownloadBlobToFile(Transport& transport, const v1::Digest& digest, 
 
 // DownloadBlob into a temporary file beside `path`, not yet committed: its
 // writeback started, for the caller to commit with others (CommitAll). On
-// any error the temporary file is removed.
+// any error the temporary file is removed; a verification failure
+// (DATA_LOSS) names `path`. `cancel` as for DownloadBlob.
 absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadBlobToStagedFile(Transport& transport,
                                                                           const v1::Digest& digest,
-                                                                          const std::filesystem::path& path);
+                                                                          const std::filesystem::path& path,
+                                                                          const CancelSource* cancel = nullptr);
 
 // DownloadBlob into memory.
 absl::StatusOr<std::string> DownloadBlobToString(Transport& transport, const v1::Digest& digest);

@@ -7,6 +7,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -90,6 +93,14 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   grpc::StatusCode get_job_code = grpc::StatusCode::OK;
   int get_job_calls = 0;
   int upload_calls = 0;
+  // > 0: each ReadBlob waits before its first byte until this many ReadBlob
+  // streams are open at once (a client fetching one file at a time never
+  // gets there: its stream fails ABORTED after 20 s). max_open_reads: the
+  // most streams ever open at once.
+  int reads_must_overlap = 0;
+  int open_reads = 0;
+  int max_open_reads = 0;
+  std::condition_variable reads_changed;
 
   // Takes one failure from `budget` if any is left.
   static bool Fail(int& budget) {
@@ -161,6 +172,25 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
       breaks = break_once.erase(req->digest().hash()) > 0;
       chunk_size = chunk;
     }
+    {
+      std::unique_lock lock(mu);
+      max_open_reads = std::max(max_open_reads, ++open_reads);
+      reads_changed.notify_all();
+      const bool overlapped = reads_changed.wait_for(lock, std::chrono::seconds(20), [&] {
+        return reads_must_overlap == 0 || max_open_reads >= reads_must_overlap;
+      });
+      if (!overlapped) {
+        --open_reads;
+        return {grpc::StatusCode::ABORTED, "the client never had the streams open at once (test)"};
+      }
+    }
+    struct Closed {
+      FakeServer* fake;
+      ~Closed() {
+        std::lock_guard lock(fake->mu);
+        --fake->open_reads;
+      }
+    } closed{this};
     if (req->offset() < 0 || req->offset() > static_cast<int64_t>(bytes.size())) {
       return {grpc::StatusCode::INVALID_ARGUMENT, "offset beyond the end"};
     }

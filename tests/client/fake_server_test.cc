@@ -299,8 +299,9 @@ TEST_F(FakeServerTest, CorruptDownloadIsDataLossAndLeavesNothing) {
   }
 }
 
-// Maps download side by side (at most 4 streams): with more maps than
-// streams every file still arrives whole and in manifest order in `files`,
+// Maps download side by side where the machine has cores to spare
+// (DefaultParallelDownloads; parallel_fetch_test.cc forces it): with more
+// maps than streams every file still arrives whole and in manifest order in `files`,
 // one corrupt map fails the fetch before manifest.json is written, and the
 // next fetch reuses what was verified.
 TEST_F(FakeServerTest, ManyMapsFetchInParallelAndACorruptOneStopsTheManifest) {
