@@ -79,7 +79,7 @@ absl::StatusOr<Principal> Authenticator::Authenticate(const std::string* authori
   }
   // A lost last-used update is not worth refusing a valid call for.
   if (mark_used) (void)store_->MarkUsed(hash, now);
-  return Principal{record.name, record.role};
+  return Principal{record.name, record.role, record.required_tags};
 }
 
 }  // namespace impostor

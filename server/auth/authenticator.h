@@ -1,5 +1,5 @@
 // Turns the "authorization: Bearer <token>" request metadata into a
-// Principal (token name and role), or UNAUTHENTICATED naming why not:
+// Principal (token name, role and default required tags), or UNAUTHENTICATED naming why not:
 // no token, a malformed header or token, an unknown, expired or revoked
 // token. The message never contains the secret.
 //
@@ -19,6 +19,7 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
@@ -31,6 +32,9 @@ namespace impostor {
 struct Principal {
   std::string name;
   Role role = Role::kAdmin;
+  // The token's default required tags (TokenRecord::required_tags), sorted
+  // without repeats; SubmitBake adds them to the request's.
+  std::vector<std::string> required_tags = {};
 };
 
 class Authenticator {

@@ -1,6 +1,7 @@
-// Who is making each call in progress, as the authorisation layer
-// (authorized_services.h) established it, for the few handlers that record
-// identity: SubmitBake (the job's owner) and LeaseJob (the lease holder).
+// Who is making each call in progress (token name, role, default required
+// tags), as the authorisation layer (authorized_services.h) established it,
+// for the few handlers that use identity: SubmitBake (the job's owner and
+// the token's required tags) and LeaseJob (the lease holder).
 // Keyed by the call's ServerContext; an entry lives exactly as long as the
 // handler runs (CallPrincipals::Scope).
 //

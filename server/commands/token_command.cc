@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/time.h"
 #include "common/util/sha256.h"
 #include "server/store/job_store_factory.h"
@@ -26,11 +27,14 @@ namespace {
 // PostgreSQL (the replicas' shared tokens).
 constexpr char kUsage[] =
     "usage: impostor-server token create WHERE --role reader|submitter|worker|admin --name NAME "
-    "[--expires-in 90d]\n"
+    "[--expires-in 90d] [--require-tag TAG]...\n"
     "       impostor-server token list WHERE\n"
     "       impostor-server token revoke WHERE --name NAME\n"
     "WHERE: --data DIR (SQLite, the server's data directory) or --database postgresql://... (the database "
-    "the server replicas share)\n";
+    "the server replicas share)\n"
+    "--require-tag TAG: every bake submitted with the token (submitter or admin) requires a worker started with "
+    "--tags TAG, besides the request's own --require-tag; repeat for several (at most 16, each 1..64 bytes of "
+    "[a-z0-9._-])\n";
 
 int64_t NowMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -99,13 +103,14 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     return 0;
   }
   const std::map<std::string, std::vector<std::string>> allowed = {
-      {"create", {"--data", "--database", "--role", "--name", "--expires-in"}},
+      {"create", {"--data", "--database", "--role", "--name", "--expires-in", "--require-tag"}},
       {"list", {"--data", "--database"}},
       {"revoke", {"--data", "--database", "--name"}},
   };
   const auto spec = allowed.find(verb);
   if (spec == allowed.end()) return UsageError(absl::StrCat("unknown subcommand \"", verb, "\""));
   std::map<std::string, std::string> flags;
+  std::vector<std::string> require_tags;  // --require-tag repeats
   for (size_t i = 1; i < args.size(); ++i) {
     std::string flag = args[i];
     std::optional<std::string> value;
@@ -120,6 +125,10 @@ int RunTokenCommand(const std::vector<std::string>& args) {
     if (!value) {
       if (i + 1 >= args.size()) return UsageError(absl::StrCat(flag, ": missing value"));
       value = args[++i];
+    }
+    if (flag == "--require-tag") {
+      require_tags.push_back(*value);
+      continue;
     }
     if (flags.contains(flag)) return UsageError(absl::StrCat(flag, ": given twice"));
     flags[flag] = *value;
@@ -144,6 +153,7 @@ int RunTokenCommand(const std::vector<std::string>& args) {
 
   std::optional<Role> role;
   std::optional<int64_t> expires_in_ms;
+  std::vector<std::string> required_tags;
   if (verb == "create") {
     if (!flags.contains("--role")) return UsageError("--role: required (reader, submitter, worker or admin)");
     auto r = ParseRole(flags["--role"]);
@@ -154,6 +164,10 @@ int RunTokenCommand(const std::vector<std::string>& args) {
       if (!e.ok()) return UsageError(std::string(e.status().message()));
       expires_in_ms = *e;
     }
+    auto tags = NormalizeTokenRequiredTags(require_tags);
+    if (!tags.ok()) return UsageError(std::string(tags.status().message()));
+    required_tags = *std::move(tags);
+    if (auto s = CheckRequiredTagsFitRole(*role, required_tags); !s.ok()) return UsageError(std::string(s.message()));
   }
   if (verb != "list") {
     if (!flags.contains("--name")) return UsageError("--name: required");
@@ -178,13 +192,18 @@ int RunTokenCommand(const std::vector<std::string>& args) {
                        .role = *role,
                        .secret_hash = TokenHash(secret),
                        .created_ms = now,
-                       .expires_ms = expires_in_ms ? now + *expires_in_ms : 0};
+                       .expires_ms = expires_in_ms ? now + *expires_in_ms : 0,
+                       .required_tags = required_tags};
     if (auto s = store->Insert(record); !s.ok()) return StoreError(s);
     // The only time the secret exists outside the caller's hands.
     std::printf("%s\n", secret.c_str());
-    std::fprintf(stderr, "impostor-server token: created '%s' (role %s, expires %s); the secret above is shown once\n",
+    std::fprintf(stderr,
+                 "impostor-server token: created '%s' (role %s, expires %s%s); the secret above is shown once\n",
                  record.name.c_str(), std::string(RoleName(record.role)).c_str(),
-                 record.expires_ms ? Iso(record.expires_ms).c_str() : "never");
+                 record.expires_ms ? Iso(record.expires_ms).c_str() : "never",
+                 record.required_tags.empty()
+                     ? ""
+                     : absl::StrCat(", its bakes require tags ", absl::StrJoin(record.required_tags, ",")).c_str());
     return 0;
   }
   if (verb == "revoke") {
@@ -195,12 +214,15 @@ int RunTokenCommand(const std::vector<std::string>& args) {
   }
   auto tokens = store->List();
   if (!tokens.ok()) return StoreError(tokens.status());
-  std::printf("%-24s %-9s %-20s %-20s %-20s %s\n", "NAME", "ROLE", "CREATED", "EXPIRES", "LAST_USED", "STATUS");
+  // REQUIRED_TAGS last: scripts that cut the first columns keep working.
+  std::printf("%-24s %-9s %-20s %-20s %-20s %-8s %s\n", "NAME", "ROLE", "CREATED", "EXPIRES", "LAST_USED", "STATUS",
+              "REQUIRED_TAGS");
   for (const TokenRecord& t : *tokens) {
     const char* status = t.revoked_ms ? "revoked" : (t.expires_ms && now >= t.expires_ms ? "expired" : "active");
-    std::printf("%-24s %-9s %-20s %-20s %-20s %s\n", t.name.c_str(), std::string(RoleName(t.role)).c_str(),
+    const std::string tags = t.required_tags.empty() ? "-" : absl::StrJoin(t.required_tags, ",");
+    std::printf("%-24s %-9s %-20s %-20s %-20s %-8s %s\n", t.name.c_str(), std::string(RoleName(t.role)).c_str(),
                 Iso(t.created_ms).c_str(), t.expires_ms ? Iso(t.expires_ms).c_str() : "never",
-                Iso(t.last_used_ms).c_str(), status);
+                Iso(t.last_used_ms).c_str(), status, tags.c_str());
   }
   return 0;
 }

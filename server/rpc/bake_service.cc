@@ -10,6 +10,7 @@
 #include "common/util/utf8.h"
 #include "server/rpc/grpc_status.h"
 #include "server/rpc/services.h"
+#include "server/rpc/submit_tags.h"
 
 namespace impostor {
 namespace {
@@ -79,12 +80,18 @@ class OpenWatch {
 
 grpc::Status BakeServiceImpl::SubmitBake(grpc::ServerContext* context, const v1::SubmitBakeRequest* request,
                                          v1::SubmitBakeResponse* response) {
+  const Principal caller = principals_ ? principals_->Of(context) : Principal{};
   // With tokens, per-client limits and fairness count inside the token:
   // the impostor-client-id label cannot make one token look like another.
-  const std::string owner = principals_ ? principals_->Of(context).name : std::string();
-  // Checked, normalised and keyed here, before the scheduler sees it.
+  const std::string& owner = caller.name;
+  // Checked, normalised and keyed here, before the scheduler sees it; the
+  // token's default tags join the request's (not the key: a cached result
+  // is served whoever asks).
   auto normalized = NormalizeSubmit(*request);
   if (!normalized.ok()) return ToGrpc(normalized.status(), context);
+  auto tags = WithTokenRequiredTags(normalized->required_tags, caller);
+  if (!tags.ok()) return ToGrpc(tags.status(), context);
+  normalized->required_tags = *std::move(tags);
   auto r = scheduler_->Submit(*normalized, owner.empty() ? ClientId(*context) : owner + "/" + ClientId(*context),
                               owner);
   if (!r.ok()) return ToGrpc(r.status(), context);

@@ -2,11 +2,17 @@
 
 #include <openssl/rand.h>
 
+#include <algorithm>
 #include <array>
+#include <cassert>
 #include <cstdlib>
 #include <mutex>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "common/request/worker_fit.h"
 #include "common/util/sha256.h"
 #include "server/store/sqlite/sqlite_open.h"
 
@@ -30,7 +36,21 @@ CREATE TABLE IF NOT EXISTS tokens (
 CREATE UNIQUE INDEX IF NOT EXISTS tokens_live_name ON tokens (name) WHERE revoked_ms = 0;
 )sql";
 
-constexpr const char* kColumns = "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms";
+// Columns added after the first release, each with the statement that adds
+// it to an older tokens.sqlite3 (existing rows get the default). Applied in
+// order at open, each in its own write transaction so that a server and a
+// `token` command opening one old file together add it once.
+struct ColumnMigration {
+  const char* column;
+  const char* sql;
+};
+constexpr ColumnMigration kColumnMigrations[] = {
+    // Issue 44: the token's default required tags, EncodeTokenRequiredTags.
+    {"required_tags", "ALTER TABLE tokens ADD COLUMN required_tags TEXT NOT NULL DEFAULT ''"},
+};
+
+constexpr const char* kColumns =
+    "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms, required_tags";
 
 // Marks the live token named ?1 that expired by ?2 as revoked at its expiry.
 constexpr const char* kRetireExpiredSql =
@@ -54,7 +74,46 @@ absl::StatusOr<TokenRecord> ReadRecord(const Statement& st) {
   r.expires_ms = st.Int(4);
   r.last_used_ms = st.Int(5);
   r.revoked_ms = st.Int(6);
+  auto tags = DecodeTokenRequiredTags(st.Text(7), r.name);
+  if (!tags.ok()) return tags.status();
+  r.required_tags = *std::move(tags);
   return r;
+}
+
+// Adds the kColumnMigrations columns an older file lacks. INTERNAL naming
+// the file and the column on failure.
+absl::Status MigrateColumns(sqlite3* db, const std::filesystem::path& file) {
+  for (const ColumnMigration& m : kColumnMigrations) {
+    char* err = nullptr;
+    auto exec = [&](const char* sql) -> absl::Status {
+      if (sqlite3_exec(db, sql, nullptr, nullptr, &err) == SQLITE_OK) return absl::OkStatus();
+      std::string msg = err ? err : "unknown error";
+      sqlite3_free(err);
+      sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+      return absl::InternalError(absl::StrCat("cannot migrate ", file.string(), " (column ", m.column, "): ", msg));
+    };
+    if (auto s = exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+    bool present = false;
+    {
+      Statement has(db, "SELECT COUNT(*) FROM pragma_table_info('tokens') WHERE name = ?1");
+      if (!has.ok()) {
+        sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+        return has.Error("prepare");
+      }
+      has.Bind(1, std::string(m.column));
+      if (has.Step() != SQLITE_ROW) {
+        absl::Status s = has.Error("read schema");
+        sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+        return s;
+      }
+      present = has.Int(0) > 0;
+    }
+    if (!present) {
+      if (auto s = exec(m.sql); !s.ok()) return s;
+    }
+    if (auto s = exec("COMMIT"); !s.ok()) return s;
+  }
+  return absl::OkStatus();
 }
 
 class SqliteTokenStore final : public TokenStore {
@@ -74,13 +133,15 @@ class SqliteTokenStore final : public TokenStore {
       if (retire.Step() != SQLITE_DONE) return retire.Error("retire expired");
     }
     Statement st(db_,
-                 "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)");
+                 "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms, required_tags) "
+                 "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
     if (!st.ok()) return st.Error("prepare");
     st.Bind(1, r.secret_hash);
     st.Bind(2, r.name);
     st.Bind(3, std::string(RoleName(r.role)));
     st.Bind(4, r.created_ms);
     st.Bind(5, r.expires_ms);
+    st.Bind(6, EncodeTokenRequiredTags(r.required_tags));
     const int rc = st.Step();
     if (rc == SQLITE_CONSTRAINT) {
       return absl::AlreadyExistsError(
@@ -212,6 +273,47 @@ absl::Status ValidateTokenName(std::string_view name) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<std::vector<std::string>> NormalizeTokenRequiredTags(const std::vector<std::string>& tags) {
+  if (static_cast<int>(tags.size()) > kMaxWorkerTags) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--require-tag: ", tags.size(), " tags is over the limit of ", kMaxWorkerTags));
+  }
+  for (const std::string& tag : tags) {
+    if (!IsValidWorkerTag(tag)) {
+      return absl::InvalidArgumentError(absl::StrCat("--require-tag: \"", absl::CHexEscape(tag.substr(0, 80)),
+                                                     "\" is not 1..", kMaxWorkerTagBytes, " bytes of [a-z0-9._-]"));
+    }
+  }
+  std::vector<std::string> out = tags;
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+absl::Status CheckRequiredTagsFitRole(Role role, const std::vector<std::string>& tags) {
+  if (tags.empty() || role == Role::kSubmitter || role == Role::kAdmin) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat("--require-tag: a ", std::string(RoleName(role)),
+                                                 " token submits no bakes; only submitter and admin tokens take "
+                                                 "default required tags"));
+}
+
+std::string EncodeTokenRequiredTags(const std::vector<std::string>& tags) {
+  auto normalized = NormalizeTokenRequiredTags(tags);
+  assert(normalized.ok());  // ValidateTokenRecord ran first
+  return absl::StrJoin(normalized.ok() ? *normalized : tags, ",");
+}
+
+absl::StatusOr<std::vector<std::string>> DecodeTokenRequiredTags(std::string_view column, std::string_view token_name) {
+  std::vector<std::string> tags =
+      absl::StrSplit(absl::string_view(column.data(), column.size()), ',', absl::SkipEmpty());
+  auto normalized = NormalizeTokenRequiredTags(tags);
+  if (!normalized.ok()) {
+    return absl::DataLossError(absl::StrCat("token '", std::string(token_name),
+                                            "': stored required tags do not parse: ", normalized.status().message()));
+  }
+  return normalized;
+}
+
 absl::Status ValidateTokenRecord(const TokenRecord& record) {
   if (auto s = ValidateTokenName(record.name); !s.ok()) return s;
   const int role = static_cast<int>(record.role);
@@ -222,13 +324,19 @@ absl::Status ValidateTokenRecord(const TokenRecord& record) {
   const bool hex = record.secret_hash.size() == 64 &&
                    record.secret_hash.find_first_not_of("0123456789abcdef") == std::string::npos;
   if (!hex) return absl::InvalidArgumentError("secret_hash: expected 64 lowercase hex digits (TokenHash)");
-  return absl::OkStatus();
+  if (auto tags = NormalizeTokenRequiredTags(record.required_tags); !tags.ok()) return tags.status();
+  return CheckRequiredTagsFitRole(record.role, record.required_tags);
 }
 
 absl::StatusOr<std::unique_ptr<TokenStore>> OpenSqliteTokenStore(const std::filesystem::path& data_dir) {
   // `token create` and a running server share the file (WAL).
-  auto db = OpenSqliteDatabase(data_dir / "tokens.sqlite3", kSchema);
+  const std::filesystem::path file = data_dir / "tokens.sqlite3";
+  auto db = OpenSqliteDatabase(file, kSchema);
   if (!db.ok()) return db.status();
+  if (auto s = MigrateColumns(*db, file); !s.ok()) {
+    sqlite3_close(*db);
+    return s;
+  }
   return std::unique_ptr<TokenStore>(new SqliteTokenStore(*db));
 }
 

@@ -49,10 +49,22 @@ std::string TokenHash(std::string_view token);
 // INVALID_ARGUMENT unless `name` is 1..64 characters of [A-Za-z0-9._-].
 absl::Status ValidateTokenName(std::string_view name);
 
+// A token's default required tags (`token create --require-tag`, issue 44):
+// the same rule as a request's required_tags, at most kMaxWorkerTags, each
+// 1..64 bytes of [a-z0-9._-] (common/request/worker_fit.h). Returns them
+// sorted without repeats; INVALID_ARGUMENT naming --require-tag, and the
+// limit, otherwise.
+absl::StatusOr<std::vector<std::string>> NormalizeTokenRequiredTags(const std::vector<std::string>& tags);
+// OK when `tags` is empty or `role` submits bakes (submitter, admin): on a
+// reader's or worker's token they would promise a placement nothing
+// enforces. INVALID_ARGUMENT naming --require-tag and the role otherwise.
+absl::Status CheckRequiredTagsFitRole(Role role, const std::vector<std::string>& tags);
+
 struct TokenRecord;
 // What every engine's Insert checks first: the name (ValidateTokenName), a
-// role of the enum, a 64-hex-digit secret hash. INVALID_ARGUMENT naming the
-// field otherwise.
+// role of the enum, a 64-hex-digit secret hash, required tags that
+// NormalizeTokenRequiredTags accepts and only on a role that submits bakes
+// (submitter, admin). INVALID_ARGUMENT naming the field otherwise.
 absl::Status ValidateTokenRecord(const TokenRecord& record);
 
 struct TokenRecord {
@@ -63,7 +75,18 @@ struct TokenRecord {
   int64_t expires_ms = 0;   // 0 = never
   int64_t last_used_ms = 0; // 0 = never; updated at most about once a minute
   int64_t revoked_ms = 0;   // 0 = live
+  // Tags every bake submitted with this token requires of its worker, on
+  // top of the request's own required_tags (the RPC edge merges them,
+  // server/rpc/submit_tags.h). Engines store them sorted without repeats
+  // (NormalizeTokenRequiredTags) and read them back so.
+  std::vector<std::string> required_tags = {};
 };
+
+// How both engines keep required_tags in one text column: joined with ','
+// (a tag never contains one), "" for none.
+std::string EncodeTokenRequiredTags(const std::vector<std::string>& tags);
+// The inverse; DATA_LOSS naming the token when a stored tag is not one.
+absl::StatusOr<std::vector<std::string>> DecodeTokenRequiredTags(std::string_view column, std::string_view token_name);
 
 // Thread-safety: implementations may be called from any thread.
 class TokenStore {

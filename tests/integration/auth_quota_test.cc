@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -155,6 +156,14 @@ TEST(AuthTokenCommands, TokenFilesBelongToTheDataDirectorysOwner) {
 TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
   const fs::path data = NewTempDir("auth_commands");
   const std::string server = (BinaryDir() / "impostor-server").string();
+  const std::vector<std::string> create_submitter = {"token", "create", "--data=" + data.string(), "--role=submitter",
+                                                     "--name=a"};
+  std::vector<std::string> seventeen_tags = create_submitter;
+  for (int i = 0; i < 17; ++i) seventeen_tags.push_back("--require-tag=t" + std::to_string(i));
+  const auto with = [](std::vector<std::string> args, const std::vector<std::string>& more) {
+    args.insert(args.end(), more.begin(), more.end());
+    return args;
+  };
   struct Case {
     const char* name;
     std::vector<std::string> args;
@@ -177,6 +186,17 @@ TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
       {"flag twice", {"token", "revoke", "--data=" + data.string(), "--name=a", "--name=b"}, 2, "given twice"},
       {"missing value", {"token", "revoke", "--data=" + data.string(), "--name"}, 2, "--name: missing value"},
       {"revoke unknown", {"token", "revoke", "--data=" + data.string(), "--name=nobody"}, 1, "no live token"},
+      // Default required tags (issue 44): a request's rule, under the flag's name.
+      {"upper-case tag", with(create_submitter, {"--require-tag=gpu", "--require-tag=GPU"}), 2,
+       "--require-tag: \"GPU\" is not 1..64 bytes of [a-z0-9._-]"},
+      {"empty tag", with(create_submitter, {"--require-tag="}), 2, "--require-tag: \"\" is not 1..64 bytes"},
+      {"tag without a value", with(create_submitter, {"--require-tag"}), 2, "--require-tag: missing value"},
+      {"17 tags", seventeen_tags, 2, "--require-tag: 17 tags is over the limit of 16"},
+      {"tag on a worker token",
+       {"token", "create", "--data=" + data.string(), "--role=worker", "--name=w", "--require-tag=gpu"}, 2,
+       "--require-tag: a worker token submits no bakes"},
+      {"tag on list", {"token", "list", "--data=" + data.string(), "--require-tag=gpu"}, 2,
+       "unknown argument \"--require-tag\" for 'token list'"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> argv = {server};
@@ -197,6 +217,36 @@ TEST(AuthTokenCommands, BadInputsAreRefusedWithTheFieldNamed) {
       RunTool({server, "token", "create", "--data=" + data.string(), "--role=worker", "--name=node-1"});
   EXPECT_EQ(again.exit_code, 1);
   EXPECT_NE(again.err.find("a live token named 'node-1' exists"), std::string::npos) << again.err;
+  const ToolRun none = RunTool({server, "token", "list", "--data=" + data.string()});
+  ASSERT_EQ(none.exit_code, 0) << none.err;
+  for (const char* refused : {"\na ", "\nw "}) {
+    EXPECT_EQ(none.out.find(refused), std::string::npos) << "a refused create stored a token:\n" << none.out;
+  }
+}
+
+// `token create --require-tag` (repeatable): stored sorted without repeats,
+// said on create, and shown by `token list` as its last column ("-" for
+// none).
+TEST(AuthTokenCommands, RequiredTagsAreStoredAndListed) {
+  const fs::path data = NewTempDir("auth_token_tags");
+  const std::string server = (BinaryDir() / "impostor-server").string();
+  const ToolRun created = RunTool({server, "token", "create", "--data=" + data.string(), "--role=submitter",
+                                   "--name=forest-ci", "--require-tag", "team-forest", "--require-tag=gpu",
+                                   "--require-tag=gpu"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  EXPECT_NE(created.err.find("its bakes require tags gpu,team-forest"), std::string::npos) << created.err;
+  ASSERT_EQ(RunTool({server, "token", "create", "--data=" + data.string(), "--role=worker", "--name=node-1"}).exit_code,
+            0);
+  const ToolRun list = RunTool({server, "token", "list", "--data=" + data.string()});
+  ASSERT_EQ(list.exit_code, 0) << list.err;
+  std::map<std::string, std::string> last_column;
+  std::istringstream lines(list.out);
+  for (std::string line; std::getline(lines, line);) {
+    last_column[line.substr(0, line.find(' '))] = line.substr(line.rfind(' ') + 1);
+  }
+  EXPECT_EQ(last_column["NAME"], "REQUIRED_TAGS") << list.out;
+  EXPECT_EQ(last_column["forest-ci"], "gpu,team-forest") << list.out;
+  EXPECT_EQ(last_column["node-1"], "-") << list.out;
 }
 
 TEST(AuthServerMode, NoneIsRefusedOffLoopbackAndTokenIsTheDefaultThere) {

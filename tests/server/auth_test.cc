@@ -10,6 +10,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -20,6 +21,7 @@
 #include "server/auth/authenticator.h"
 #include "server/store/job_store.h"
 #include "server/commands/token_command.h"
+#include "server/rpc/submit_tags.h"
 #include "server/store/token_quotas.h"
 #include "server/store/token_store.h"
 
@@ -178,6 +180,104 @@ TEST_F(AuthenticatorTest, ValidTokenGivesItsPrincipal) {
   auto listed = store_->List();
   ASSERT_TRUE(listed.ok());
   EXPECT_EQ((*listed)[0].last_used_ms, now_);
+}
+
+// The token's default required tags (issue 44) travel with its principal
+// to SubmitBake; a token without any gives none.
+TEST_F(AuthenticatorTest, ATokensRequiredTagsReachItsPrincipal) {
+  Authenticator auth(store_.get(), 2000, [this] { return now_; });
+  const std::string forest = NewTokenSecret();
+  ASSERT_TRUE(store_
+                  ->Insert({.name = "forest-ci", .role = Role::kSubmitter, .secret_hash = TokenHash(forest),
+                            .created_ms = now_, .required_tags = {"team-forest", "gpu"}})
+                  .ok());
+  const std::string plain = Add("artist", Role::kSubmitter);
+  auto p = Call(auth, "Bearer " + forest);
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->name, "forest-ci");
+  EXPECT_EQ(p->required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
+  auto cached = Call(auth, "Bearer " + forest);
+  ASSERT_TRUE(cached.ok()) << cached.status();
+  EXPECT_EQ(cached->required_tags, p->required_tags) << "from the cache too";
+  auto q = Call(auth, "Bearer " + plain);
+  ASSERT_TRUE(q.ok()) << q.status();
+  EXPECT_TRUE(q->required_tags.empty());
+}
+
+// `token create --require-tag`: the request's rule under the flag's name.
+TEST(TokenRequireTag, SortsDropsRepeatsAndRefusesNamingTheFlagAndTheLimit) {
+  auto ok = NormalizeTokenRequiredTags({"team-forest", "gpu", "team-forest"});
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(*ok, (std::vector<std::string>{"gpu", "team-forest"}));
+  std::vector<std::string> seventeen;
+  for (int i = 0; i < 17; ++i) seventeen.push_back("t" + std::to_string(i));
+  struct Case {
+    const char* name;
+    std::vector<std::string> tags;
+    const char* expected;
+  } cases[] = {
+      {"upper case", {"gpu", "GPU"}, "--require-tag: \"GPU\" is not 1..64 bytes of [a-z0-9._-]"},
+      {"empty", {""}, "--require-tag: \"\" is not 1..64 bytes of [a-z0-9._-]"},
+      {"too long", {std::string(65, 'x')}, "is not 1..64 bytes of [a-z0-9._-]"},
+      {"space", {"team forest"}, "--require-tag: \"team forest\" is not"},
+      {"control byte", {"gpu\n"}, "--require-tag: \"gpu\\n\" is not"},
+      {"17 tags", seventeen, "--require-tag: 17 tags is over the limit of 16"},
+  };
+  for (const Case& c : cases) {
+    auto r = NormalizeTokenRequiredTags(c.tags);
+    ASSERT_FALSE(r.ok()) << c.name;
+    EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << c.name;
+    EXPECT_NE(r.status().message().find(c.expected), std::string::npos) << c.name << ": " << r.status();
+  }
+  seventeen.pop_back();
+  EXPECT_TRUE(NormalizeTokenRequiredTags(seventeen).ok()) << "16 is the limit, not over it";
+  for (Role role : {Role::kReader, Role::kWorker}) {
+    const absl::Status s = CheckRequiredTagsFitRole(role, {"gpu"});
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << RoleName(role);
+    EXPECT_NE(s.message().find("token submits no bakes"), std::string::npos) << s;
+    EXPECT_TRUE(CheckRequiredTagsFitRole(role, {}).ok()) << RoleName(role);
+  }
+  for (Role role : {Role::kSubmitter, Role::kAdmin}) EXPECT_TRUE(CheckRequiredTagsFitRole(role, {"gpu"}).ok());
+}
+
+// SubmitBake's tags: the request's and the token's, as one sorted list
+// without repeats, and never more than 16 together.
+TEST(SubmitTags, TheTokensDefaultsJoinTheRequestsWithinTheLimit) {
+  const Principal forest{.name = "forest-ci", .role = Role::kSubmitter, .required_tags = {"team-forest"}};
+  const Principal plain{.name = "artist", .role = Role::kSubmitter};
+  std::vector<std::string> sixteen;  // r00 .. r15, sorted
+  for (int i = 0; i < 16; ++i) sixteen.push_back("r" + std::to_string(i / 10) + std::to_string(i % 10));
+  const std::vector<std::string> fifteen(sixteen.begin(), sixteen.end() - 1);
+  std::vector<std::string> fifteen_and_forest = fifteen;
+  fifteen_and_forest.push_back("team-forest");
+  struct Case {
+    const char* name;
+    std::vector<std::string> request;
+    Principal caller;
+    std::vector<std::string> expected;
+  } cases[] = {
+      {"token only", {}, forest, {"team-forest"}},
+      {"request only", {"gpu"}, plain, {"gpu"}},
+      {"both", {"gpu", "zone-b"}, forest, {"gpu", "team-forest", "zone-b"}},
+      {"the same tag twice", {"gpu", "team-forest"}, forest, {"gpu", "team-forest"}},
+      {"neither", {}, plain, {}},
+      {"anonymous admin (--auth none)", {"gpu"}, Principal{}, {"gpu"}},
+      {"16 together", fifteen, forest, fifteen_and_forest},
+      {"16 in the request, one of them the token's", sixteen, Principal{.name = "t", .required_tags = {"r00"}},
+       sixteen},
+  };
+  for (const Case& c : cases) {
+    auto merged = WithTokenRequiredTags(c.request, c.caller);
+    ASSERT_TRUE(merged.ok()) << c.name << ": " << merged.status();
+    EXPECT_EQ(*merged, c.expected) << c.name;
+  }
+  auto over = WithTokenRequiredTags(sixteen, forest);
+  ASSERT_FALSE(over.ok());
+  EXPECT_EQ(over.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(over.status().message().find(
+                "required_tags: the request's 16 and token 'forest-ci''s 1 default tags make 17, over the limit of 16"),
+            std::string::npos)
+      << over.status();
 }
 
 TEST_F(AuthenticatorTest, RevocationIsSeenOnceTheTtlPasses) {

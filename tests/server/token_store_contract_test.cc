@@ -3,12 +3,16 @@
 // what sharing the PostgreSQL engine buys (issue 15): two replicas' stores
 // on one database agree about tokens (added on one, honoured by the other;
 // revoked on one, refused by the other once its Authenticator's cache TTL
-// has passed, with a fake clock) and count a token's quota once.
+// has passed, with a fake clock) and count a token's quota once. Also each
+// engine's upgrade of a database from before default required tags.
+#include <sqlite3.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -44,6 +48,13 @@ struct PostgresTokens {
     return OpenTokenStorage({.database_url = url});
   }
 };
+
+// t00 .. t16: one tag over the limit.
+std::vector<std::string> SeventeenTags() {
+  std::vector<std::string> tags;
+  for (int i = 0; i < 17; ++i) tags.push_back(absl::StrCat("t", i / 10, i % 10));
+  return tags;
+}
 
 template <typename Engine>
 class TokenStoreContract : public ::testing::Test {
@@ -146,6 +157,41 @@ TYPED_TEST(TokenStoreContract, EveryRoleRoundTripsAndLastUsedNeverMovesBack) {
   EXPECT_EQ((*found)->last_used_ms, 5000);
 }
 
+// A token's default required tags (issue 44) come back sorted without
+// repeats from FindByHash and List; a token without any has none; 16
+// distinct tags (the limit) fit.
+TYPED_TEST(TokenStoreContract, RequiredTagsComeBackSortedWithoutRepeats) {
+  TokenStore& store = this->tokens();
+  const std::string forest = TokenHash(NewTokenSecret());
+  ASSERT_TRUE(store
+                  .Insert({.name = "forest-ci", .role = Role::kSubmitter, .secret_hash = forest, .created_ms = 1,
+                           .required_tags = {"team-forest", "gpu", "team-forest"}})
+                  .ok());
+  const std::string plain = TokenHash(NewTokenSecret());
+  ASSERT_TRUE(store.Insert({.name = "plain", .role = Role::kSubmitter, .secret_hash = plain, .created_ms = 2}).ok());
+  std::vector<std::string> sixteen = SeventeenTags();
+  sixteen.pop_back();
+  const std::string wide = TokenHash(NewTokenSecret());
+  ASSERT_TRUE(store
+                  .Insert({.name = "wide", .role = Role::kAdmin, .secret_hash = wide, .created_ms = 3,
+                           .required_tags = sixteen})
+                  .ok());
+
+  auto found = store.FindByHash(forest);
+  ASSERT_TRUE(found.ok() && found->has_value()) << found.status();
+  EXPECT_EQ((*found)->required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
+  auto none = store.FindByHash(plain);
+  ASSERT_TRUE(none.ok() && none->has_value()) << none.status();
+  EXPECT_TRUE((*none)->required_tags.empty());
+  auto all = store.List();
+  ASSERT_TRUE(all.ok()) << all.status();
+  ASSERT_EQ(all->size(), 3u);
+  EXPECT_EQ((*all)[0].required_tags, (std::vector<std::string>{"gpu", "team-forest"}));
+  EXPECT_TRUE((*all)[1].required_tags.empty());
+  std::sort(sixteen.begin(), sixteen.end());
+  EXPECT_EQ((*all)[2].required_tags, sixteen);
+}
+
 TYPED_TEST(TokenStoreContract, BadRecordsAreRefusedNamingTheFieldAndNothingIsStored) {
   const std::string hash = TokenHash(NewTokenSecret());
   struct Case {
@@ -162,6 +208,22 @@ TYPED_TEST(TokenStoreContract, BadRecordsAreRefusedNamingTheFieldAndNothingIsSto
       {"negative role", {.name = "r", .role = static_cast<Role>(-1), .secret_hash = hash}, "--role: -1 is not a role"},
       {"secret instead of hash", {.name = "s", .secret_hash = NewTokenSecret()}, "secret_hash: expected 64"},
       {"upper-case hash", {.name = "s", .secret_hash = std::string(64, 'A')}, "secret_hash: expected 64"},
+      {"upper-case tag",
+       {.name = "t", .role = Role::kSubmitter, .secret_hash = hash, .required_tags = {"gpu", "GPU"}},
+       "--require-tag: \"GPU\" is not 1..64 bytes of [a-z0-9._-]"},
+      {"empty tag", {.name = "t", .role = Role::kSubmitter, .secret_hash = hash, .required_tags = {""}},
+       "--require-tag: \"\" is not 1..64 bytes"},
+      {"65-byte tag",
+       {.name = "t", .role = Role::kSubmitter, .secret_hash = hash, .required_tags = {std::string(65, 'a')}},
+       "is not 1..64 bytes"},
+      {"comma in tag", {.name = "t", .role = Role::kAdmin, .secret_hash = hash, .required_tags = {"gpu,cpu"}},
+       "--require-tag: \"gpu,cpu\" is not"},
+      {"17 tags", {.name = "t", .role = Role::kSubmitter, .secret_hash = hash, .required_tags = SeventeenTags()},
+       "--require-tag: 17 tags is over the limit of 16"},
+      {"tags on a worker token", {.name = "w", .role = Role::kWorker, .secret_hash = hash, .required_tags = {"gpu"}},
+       "--require-tag: a worker token submits no bakes"},
+      {"tags on a reader token", {.name = "r", .role = Role::kReader, .secret_hash = hash, .required_tags = {"gpu"}},
+       "--require-tag: a reader token submits no bakes"},
   };
   for (const Case& c : cases) {
     const absl::Status s = this->tokens().Insert(c.record);
@@ -345,6 +407,89 @@ TEST(PostgresTokenSchema, BesideTheJobStoreAndNewerIsRefused) {
   EXPECT_NE(again.status().message().find("token store schema version 99 is newer"), std::string::npos)
       << again.status();
   EXPECT_TRUE(PostgresJobStore::Open({.url = url, .pool_size = 2}).ok()) << "the job store's version is its own";
+}
+
+// A database from before default required tags (issue 44) upgrades at
+// open: its tokens keep working with no tags, and new tokens take tags.
+// PostgreSQL: token schema version 1 (no required_tags column) to the
+// current one.
+TEST(PostgresTokenSchema, Version1GainsRequiredTagsAndKeepsItsTokens) {
+  const std::string url = FreshPostgresDatabase();
+  ASSERT_FALSE(url.empty());
+  ASSERT_TRUE(OpenTokenStorage({.database_url = url}).ok());
+  const std::string db = DatabaseName(url);
+  const std::string old_hash = TokenHash(NewTokenSecret());
+  auto downgraded = SharedPostgres()->Query(
+      db, absl::StrCat("ALTER TABLE tokens DROP COLUMN required_tags; UPDATE token_schema_version SET version = 1; "
+                       "INSERT INTO tokens (secret_hash, name, role, created_ms) VALUES ('",
+                       old_hash, "', 'old-ci', 'submitter', 1000)"));
+  ASSERT_TRUE(downgraded.ok()) << downgraded.status();
+
+  auto reopened = OpenTokenStorage({.database_url = url});
+  ASSERT_TRUE(reopened.ok()) << reopened.status();
+  auto version = SharedPostgres()->Query(db, "SELECT version FROM token_schema_version");
+  ASSERT_TRUE(version.ok()) << version.status();
+  EXPECT_EQ(*version, absl::StrCat(PostgresTokenSchemaVersion(), "\n"));
+  EXPECT_GE(PostgresTokenSchemaVersion(), 2);
+  auto old = reopened->tokens->FindByHash(old_hash);
+  ASSERT_TRUE(old.ok() && old->has_value()) << old.status();
+  EXPECT_EQ((*old)->name, "old-ci");
+  EXPECT_TRUE((*old)->required_tags.empty());
+  const std::string new_hash = TokenHash(NewTokenSecret());
+  ASSERT_TRUE(reopened->tokens
+                  ->Insert({.name = "forest-ci", .role = Role::kSubmitter, .secret_hash = new_hash,
+                            .created_ms = 2000, .required_tags = {"team-forest"}})
+                  .ok());
+  auto tagged = reopened->tokens->FindByHash(new_hash);
+  ASSERT_TRUE(tagged.ok() && tagged->has_value()) << tagged.status();
+  EXPECT_EQ((*tagged)->required_tags, (std::vector<std::string>{"team-forest"}));
+}
+
+// SQLite: a tokens.sqlite3 as the first release wrote it (no required_tags
+// column), opened twice (the second open finds the column).
+TEST(SqliteTokenSchema, AnOlderFileGainsRequiredTagsAndKeepsItsTokens) {
+  const auto dir = std::filesystem::temp_directory_path() / ("token_store_old_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string old_hash = TokenHash(NewTokenSecret());
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((dir / "tokens.sqlite3").c_str(), &db), SQLITE_OK);
+    const std::string sql = absl::StrCat(
+        "CREATE TABLE tokens (secret_hash TEXT PRIMARY KEY, name TEXT NOT NULL, role TEXT NOT NULL, "
+        "created_ms INTEGER NOT NULL, expires_ms INTEGER NOT NULL DEFAULT 0, last_used_ms INTEGER NOT NULL DEFAULT 0, "
+        "revoked_ms INTEGER NOT NULL DEFAULT 0);"
+        "CREATE UNIQUE INDEX tokens_live_name ON tokens (name) WHERE revoked_ms = 0;"
+        "INSERT INTO tokens (secret_hash, name, role, created_ms) VALUES ('",
+        old_hash, "', 'old-ci', 'submitter', 1000);");
+    char* err = nullptr;
+    const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
+    const std::string message = err ? err : "";
+    sqlite3_free(err);
+    sqlite3_close(db);
+    ASSERT_EQ(rc, SQLITE_OK) << message;
+  }
+  const std::string new_hash = TokenHash(NewTokenSecret());
+  {
+    auto opened = OpenTokenStorage({.data_dir = dir.string()});
+    ASSERT_TRUE(opened.ok()) << opened.status();
+    auto old = opened->tokens->FindByHash(old_hash);
+    ASSERT_TRUE(old.ok() && old->has_value()) << old.status();
+    EXPECT_EQ((*old)->name, "old-ci");
+    EXPECT_TRUE((*old)->required_tags.empty());
+    ASSERT_TRUE(opened->tokens
+                    ->Insert({.name = "forest-ci", .role = Role::kSubmitter, .secret_hash = new_hash,
+                              .created_ms = 2000, .required_tags = {"team-forest"}})
+                    .ok());
+  }
+  auto again = OpenTokenStorage({.data_dir = dir.string()});
+  ASSERT_TRUE(again.ok()) << again.status();
+  auto tagged = again->tokens->FindByHash(new_hash);
+  ASSERT_TRUE(tagged.ok() && tagged->has_value()) << tagged.status();
+  EXPECT_EQ((*tagged)->required_tags, (std::vector<std::string>{"team-forest"}));
+  auto all = again->tokens->List();
+  ASSERT_TRUE(all.ok()) << all.status();
+  EXPECT_EQ(all->size(), 2u);
 }
 
 TEST(TokenStoreFactory, BadUrlsNameTheFlagAndHideThePassword) {

@@ -34,9 +34,12 @@ CREATE TABLE quota_events (
 CREATE INDEX quota_events_window ON quota_events (token, kind, at_ms);
 CREATE INDEX quota_events_age ON quota_events (at_ms);
 )sql",
+    // 2 (issue 44): the token's default required tags, EncodeTokenRequiredTags.
+    "ALTER TABLE tokens ADD COLUMN required_tags TEXT NOT NULL DEFAULT ''",
 };
 
-constexpr const char* kColumns = "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms";
+constexpr const char* kColumns =
+    "secret_hash, name, role, created_ms, expires_ms, last_used_ms, revoked_ms, required_tags";
 
 absl::StatusOr<TokenRecord> ReadRecord(const PgRows& rows, int i) {
   TokenRecord r;
@@ -49,6 +52,9 @@ absl::StatusOr<TokenRecord> ReadRecord(const PgRows& rows, int i) {
   r.expires_ms = rows.Int(i, 4);
   r.last_used_ms = rows.Int(i, 5);
   r.revoked_ms = rows.Int(i, 6);
+  auto tags = DecodeTokenRequiredTags(rows.Text(i, 7), r.name);
+  if (!tags.ok()) return tags.status();
+  r.required_tags = *std::move(tags);
   return r;
 }
 
@@ -65,14 +71,15 @@ class PostgresTokenStore final : public TokenStore {
                                PgParams().Text(r.name).Int(r.created_ms));
     if (!retired.ok()) return retired.status();
     auto rows = pool_->Exec("insert token",
-                            "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms) "
-                            "VALUES ($1, $2, $3, $4, $5)",
+                            "INSERT INTO tokens (secret_hash, name, role, created_ms, expires_ms, required_tags) "
+                            "VALUES ($1, $2, $3, $4, $5, $6)",
                             PgParams()
                                 .Text(r.secret_hash)
                                 .Text(r.name)
                                 .Text(std::string(RoleName(r.role)))
                                 .Int(r.created_ms)
-                                .Int(r.expires_ms));
+                                .Int(r.expires_ms)
+                                .Text(EncodeTokenRequiredTags(r.required_tags)));
     if (absl::IsAlreadyExists(rows.status())) {
       return absl::AlreadyExistsError(
           absl::StrCat("--name: a live token named '", r.name, "' exists; revoke it first or pick another name"));
