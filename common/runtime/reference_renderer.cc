@@ -111,35 +111,59 @@ class TileSampler {
 
 // One blended frame's tile as the march and the agreement test read it:
 // per texel the coverage and depth exactly as TileSampler decodes them, side
-// by side in a tile-sized array, so a march step touches one small array
-// instead of two atlas-wide ones. Sample(st)'s alpha and depth are
-// TileSampler::Sample(tile, st)'s, to the bit.
+// by side in a tile-sized array with a one-texel border repeating the edge,
+// so a march step touches one small array instead of two atlas-wide ones and
+// needs no clamping or branch per tap. Sample(st) is TileSampler::Sample(
+// tile, st)'s alpha and depth to the bit: the taps TileSampler skips (zero
+// bilinear weight or zero alpha) add exactly zero here.
 class TileHeights {
  public:
+  struct AlphaDepth {
+    float alpha = 0.0f;  // filtered coverage
+    float depth = 1.0f;  // the covered texels' alpha-weighted depth, 0..1
+  };
+
   TileHeights() = default;
-  TileHeights(const ImpostorAtlas& atlas, const TileRect& tile) : tile_(tile) {
-    texels_.resize(static_cast<size_t>(tile.width) * tile.height);
-    for (int y = 0; y < tile.height; ++y) {
-      for (int x = 0; x < tile.width; ++x) {
+  TileHeights(const ImpostorAtlas& atlas, const TileRect& tile) : tile_(tile), stride_(tile.width + 2) {
+    texels_.resize(static_cast<size_t>(stride_) * (tile.height + 2));
+    for (int py = 0; py < tile.height + 2; ++py) {
+      const int y = std::clamp(py - 1, 0, tile.height - 1);
+      for (int px = 0; px < stride_; ++px) {
+        const int x = std::clamp(px - 1, 0, tile.width - 1);
         const size_t texel = (static_cast<size_t>(tile.y + y) * atlas.width + tile.x + x) * 4;
-        texels_[static_cast<size_t>(y) * tile.width + x] = {
+        texels_[static_cast<size_t>(py) * stride_ + px] = {
             static_cast<float>(atlas.albedo_alpha[texel + 3]) / 255.0f,
             static_cast<float>(atlas.normal_depth[texel + 3]) / 65535.0f};
       }
     }
   }
 
-  TileSample Sample(glm::vec2 st) const {
-    TileSample out;
+  AlphaDepth Sample(glm::vec2 st) const {
+    AlphaDepth out;
+    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
+    // ForEachBilinearTap's arithmetic, step for step.
+    const glm::vec2 pixel = FrameStToPixel(tile_, st);
+    const float fx = pixel.x - static_cast<float>(tile_.x) - 0.5f;
+    const float fy = pixel.y - static_cast<float>(tile_.y) - 0.5f;
+    const float flx = std::floor(fx);
+    const float fly = std::floor(fy);
+    // Border index = clamped index + 1; one past either edge reads the
+    // border, which repeats the edge as the clamp would.
+    const int ix = std::clamp(static_cast<int>(flx), -1, tile_.width - 1) + 1;
+    const int iy = std::clamp(static_cast<int>(fly), -1, tile_.height - 1) + 1;
+    const float ax = fx - flx;
+    const float ay = fy - fly;
+    const Texel* row0 = &texels_[static_cast<size_t>(iy) * stride_ + ix];
+    const Texel* row1 = row0 + stride_;
+    const Texel taps[4] = {row0[0], row0[1], row1[0], row1[1]};
+    const float bilinear[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
     float covered = 0.0f;
     float depth = 0.0f;
-    ForEachBilinearTap(tile_, st, [&](int x, int y, float weight) {
-      const Texel& t = texels_[static_cast<size_t>(y) * tile_.width + x];
-      const float w = weight * t.alpha;
-      if (w <= 0.0f) return;
+    for (int k = 0; k < 4; ++k) {
+      const float w = bilinear[k] * taps[k].alpha;
       covered += w;
-      depth += w * t.depth;
-    });
+      depth += w * taps[k].depth;
+    }
     out.alpha = covered;
     if (covered > 0.0f) out.depth = depth / covered;
     return out;
@@ -150,7 +174,8 @@ class TileHeights {
     float alpha, depth;
   };
   TileRect tile_{};
-  std::vector<Texel> texels_;
+  int stride_ = 0;             // tile.width + 2
+  std::vector<Texel> texels_;  // (tile.height + 2) rows of stride_
 };
 
 // Covered texels of a tile, as a box in tile-pixel coordinates grown by one
@@ -161,6 +186,20 @@ struct CoveredBox {
   bool MayCover(const TileRect& tile, glm::vec2 st) const {
     const glm::vec2 p = FrameStToPixel(tile, st) - glm::vec2(tile.x, tile.y);
     return p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+  }
+  // True when the ray passes the box at every height a march samples
+  // (1 .. -1): then every read of the march is empty and it finds nothing,
+  // so it may be skipped without changing any result. The ray's frame
+  // coordinates are affine in the height; the margin covers their rounding.
+  bool MissedBy(const FrameCamera& frame, glm::vec3 origin, glm::vec3 ray) const {
+    const FramePlaneRay plane(frame, origin, ray);
+    if (!plane.valid()) return false;  // the march says so itself
+    const glm::vec2 tile(frame.tile.x, frame.tile.y);
+    const glm::vec2 a = FrameStToPixel(frame.tile, plane.At(1.0f).st) - tile;
+    const glm::vec2 b = FrameStToPixel(frame.tile, plane.At(-1.0f).st) - tile;
+    constexpr float kMargin = 1.0f / 64.0f;  // px; rounding is ~1e-5 px
+    return std::max(a.x, b.x) < x0 - kMargin || std::min(a.x, b.x) > x1 + kMargin ||
+           std::max(a.y, b.y) < y0 - kMargin || std::min(a.y, b.y) > y1 + kMargin;
   }
 };
 
@@ -226,7 +265,7 @@ void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, cons
       entries, blend.count, ViewRayOrigin(camera, view_st), -camera.direction,
       [&](int i) { return march(i, *entries[i].frame, view_st); },
       [&](int i, glm::vec2 st, float* height) {
-        const TileSample s = heights[i].Sample(st);
+        const TileHeights::AlphaDepth s = heights[i].Sample(st);
         *height = 1.0f - 2.0f * s.depth;
         return s.alpha;
       });
@@ -328,11 +367,12 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
   const bool depth_mode = options.reconstruction == Reconstruction::kDepth;
   const auto march = [&](int i, const FrameCamera& frame, glm::vec2 view_st) {
     const CoveredBox& box = boxes[i];
+    if (box.MissedBy(frame, ViewRayOrigin(camera, view_st), -camera.direction)) return PlaneSample{};
     return ProjectToFrameParallax(
         camera, frame, view_st,
         [&](glm::vec2 st, float* height) {
           if (!box.MayCover(frame.tile, st)) return false;
-          const TileSample s = heights[i].Sample(st);
+          const TileHeights::AlphaDepth s = heights[i].Sample(st);
           if (s.alpha < 0.5f) return false;
           *height = 1.0f - 2.0f * s.depth;
           return true;
