@@ -26,6 +26,7 @@ processes are removed in every case (--keep leaves the files).
 import argparse
 import hashlib
 import json
+import math
 import os
 import shutil
 import signal
@@ -370,6 +371,27 @@ def main():
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+def check_switch_distance(result, release, entry, size):
+    """The add-on's good_up_to_pixels is the manifest's, and its switch
+    distance is where the bounding sphere's diameter covers that many pixels
+    of the views' camera (30 degree fov, `size` px tall), as the C++ SDK's
+    SetImpostorSwitchPixels puts it."""
+    manifest_file = next(f for f in entry["files"] if f["name"] == "manifest.json")
+    with open(os.path.join(release, "v1", "blobs", "sha256", manifest_file["sha256"][:2],
+                           manifest_file["sha256"])) as f:
+        manifest = json.load(f)
+    good = manifest.get("quality", {}).get("good_up_to_pixels", 0)
+    if result.get("good_up_to_pixels") != good:
+        raise Failure(f"first: good_up_to_pixels {result.get('good_up_to_pixels')}, the manifest says {good}")
+    pixels = good if good > 0 else 16
+    radius = manifest["bounding_sphere"]["radius"]
+    want = 2 * radius * int(size) / (2 * math.tan(math.radians(15.0)) * pixels)
+    got = result.get("switch_distance", -1.0)
+    if not abs(got - want) <= 1e-4 * want:
+        raise Failure(f"first: switch_distance {got}, want {want:.6f} ({pixels} px, radius {radius})")
+    log(f"first: good up to {good} px; switch at {got:.4f} (radius {radius:.4f})")
+
+
 def run_test(args, tmp, procs, server_bin, cli, model, xvfb):
     t0 = time.monotonic()
     # A farm, a small bake, a published release.
@@ -428,6 +450,7 @@ def run_test(args, tmp, procs, server_bin, cli, model, xvfb):
         raise Failure("first: the tampered mirror's mismatch was not reported")
     cameras = result["cameras"]
     size = result["size"]
+    check_switch_distance(result, good, entry, size)
     masks = silhouettes(os.path.join(out, "views.png"), cameras, size)
     write_diff(os.path.join(art, "silhouettes.png"), masks)
     ious = check_ious(masks, cameras, "first")

@@ -17,7 +17,9 @@
 #               files: [{name, sha256, verified, source, url}], cameras,
 #               size, views_png, scene_png, forest: {instances, draw_calls
 #               (the forest's share of the frame: depth prepass + colour),
-#               draw_calls_frame}, timings_ms}.
+#               draw_calls_frame}, good_up_to_pixels, switch_distance
+#               (ImpostorAsset.switch_distance for the views' camera and
+#               size), timings_ms}.
 # A refused asset (a blob no mirror served intact, a catalog without the
 # name...) is printed and written to result.json; the frames are still
 # rendered with nothing in the impostor's place, and the exit code is 1.
@@ -67,6 +69,10 @@ func _ready():
 		result.cache_key = asset.cache_key
 		result.catalog_sha256 = asset.catalog_sha256
 		result.files = asset.files
+		# Where a game would switch to the impostor with the views' camera
+		# (30 degree fov) and height (--size).
+		result.good_up_to_pixels = asset.good_up_to_pixels
+		result.switch_distance = asset.switch_distance(30.0, int(opts.size))
 		for f in asset.files:
 			print("impostor example: %s %s verified (%s)" % [f.name, f.sha256, f.source])
 	var reader = GlbMesh.new()

@@ -18,6 +18,9 @@ const BILLBOARD_RING_VIEWS = 8
 const RECONSTRUCTIONS = {"plain": 0, "parallax": 1, "depth": 2}
 const BLENDS = {"triangle3": 0, "bilinear4": 1}
 const SHADER_PATH = "res://addons/impostor/impostor.shader"
+# The switch size when the bake measured no good_up_to_pixels, as the C++
+# SDK (impostor/lod.h) and impostor-three (DEFAULT_IMPOSTOR_SWITCH_PIXELS).
+const DEFAULT_SWITCH_PIXELS = 16
 
 var name = ""
 var cache_key = ""
@@ -37,6 +40,11 @@ var sphere_radius = 1.0
 # What the farm's quality pass measured the bake with: the materials' default.
 var blend = "triangle3"
 var reconstruction = "depth"
+# The on-screen size, in pixels across the bounding sphere's diameter, up to
+# which the quality pass found the impostor good enough to stand in for the
+# mesh (manifest quality.good_up_to_pixels); 0 when the bake measured none.
+# switch_distance() turns it into a camera distance.
+var good_up_to_pixels = 0
 var albedo_texture = null        # ImageTexture
 var normal_depth_texture = null  # ImageTexture
 var orm_texture = null           # ImageTexture or null
@@ -84,6 +92,10 @@ func build_from_manifest(m, bytes):
 	var quality = m.get("quality", {})
 	blend = "bilinear4" if quality is Dictionary and quality.get("blend") == "bilinear4" else "triangle3"
 	reconstruction = "depth"
+	# JSON numbers are floats here; anything but a positive whole number
+	# (absent, a string, 12.5, -3) means "not measured".
+	var good = quality.get("good_up_to_pixels", 0) if quality is Dictionary else 0
+	good_up_to_pixels = int(good) if (good is float or good is int) and good > 0 and good == floor(good) else 0
 	var maps = m.get("maps", [])
 	if not maps is Array:
 		return "%s: manifest.json: maps is not a list" % name
@@ -111,6 +123,21 @@ func build_from_manifest(m, bytes):
 	if albedo_texture == null or normal_depth_texture == null:
 		return "%s: the manifest lists no albedo_alpha and normal_depth maps to draw" % name
 	return ""
+
+
+# The camera distance beyond which to draw the impostor instead of the mesh:
+# where the bounding sphere's diameter (times the node's uniform scale)
+# covers good_up_to_pixels (fallback_pixels when the bake measured none) of
+# a viewport `viewport_height` pixels tall, seen through a perspective
+# camera of vertical field of view `fov_degrees` (Camera.fov, keep_aspect
+# KEEP_HEIGHT). The C++ SDK's SetImpostorSwitchPixels and impostor-three's
+# impostorSwitchScale switch at the same place. -1.0 for arguments out of
+# range (fov outside (0, 180), a height or scale that is not > 0).
+func switch_distance(fov_degrees, viewport_height, node_scale = 1.0, fallback_pixels = DEFAULT_SWITCH_PIXELS):
+	var pixels = good_up_to_pixels if good_up_to_pixels > 0 else fallback_pixels
+	if not (fov_degrees > 0.0 and fov_degrees < 180.0) or not (viewport_height > 0) or not (node_scale > 0.0) or not (pixels > 0):
+		return -1.0
+	return 2.0 * sphere_radius * node_scale * viewport_height / (2.0 * tan(deg2rad(fov_degrees) * 0.5) * pixels)
 
 
 # The dither's rotation for an instance seed (an unsigned 32-bit integer):
