@@ -102,6 +102,11 @@ ABSL_FLAG(int, retry_elsewhere_seconds, 60,
           "A job a worker failed retryably (memory not free, scratch full, device error) is left to other workers "
           "for this many seconds; that worker gets it back sooner only when it has no other job to take and no "
           "other worker could take it (0 = off, 0..3600)");
+ABSL_FLAG(int, prefer_strong_seconds, 30,
+          "A large bake (8192 rendered px a side or more: resolution x supersampling) is not leased to a weaker "
+          "worker (device kind: discrete > integrated, virtual, other > cpu) while a stronger one that could take "
+          "it has asked for work lately; after waiting this many seconds any worker that fits may take it "
+          "(0 = off, 0..3600; each server judges by the workers it hears from)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 // Store cap (issue 24): how long an upload no job or result refers to yet is
@@ -220,6 +225,10 @@ int main(int argc, char** argv) {
   if (retry_elsewhere_s < 0 || retry_elsewhere_s > 3600) {
     return Fail("--retry-elsewhere-seconds: " + std::to_string(retry_elsewhere_s) + " is out of range 0..3600");
   }
+  const int prefer_strong_s = absl::GetFlag(FLAGS_prefer_strong_seconds);
+  if (prefer_strong_s < 0 || prefer_strong_s > 3600) {
+    return Fail("--prefer-strong-seconds: " + std::to_string(prefer_strong_s) + " is out of range 0..3600");
+  }
 
   const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
   const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);
@@ -317,6 +326,7 @@ int main(int argc, char** argv) {
        .worker_pause_ms = int64_t{worker_pause_s} * 1000,
        .retry_elsewhere_ms = int64_t{retry_elsewhere_s} * 1000,
        .unplaceable_timeout_ms = int64_t{unplaceable_timeout_s} * 1000,
+       .prefer_strong_ms = int64_t{prefer_strong_s} * 1000,
        .job_retention_ms = int64_t{job_retention_days} * 24 * 3600 * 1000});
 
   // Identity (issue 14): with --auth token every call passes the

@@ -83,6 +83,18 @@ struct SchedulerOptions {
   // others (the workers that could take it may poll another). Default 1 h;
   // range 1 s .. 30 days.
   int64_t unplaceable_timeout_ms = 3600'000;
+  // Preference (issue 44): a large bake (worker_strength.h: 8192 rendered
+  // px a side or more) is not leased to a worker while a stronger one
+  // (discrete > integrated, virtual, other > cpu) that could take it is
+  // about (polling, or heard from within the lease timeout, and not
+  // paused); the weaker worker gets the next job it may take, or nothing.
+  // Once the bake has been queued this long (since it was created or its
+  // last attempt ended, on the shared clock) any eligible worker may take
+  // it. Workers that report no device kind neither wait nor are waited
+  // for. Which workers are about is each server's own knowledge: a
+  // stronger worker polling another replica holds nothing back here.
+  // Default 30 s; range 0 (off) .. 1 h.
+  int64_t prefer_strong_ms = 30'000;
   // Finished (SUCCEEDED, FAILED, CANCELLED) job records created longer ago
   // than this are deleted by SweepFinishedJobs, so the database stays
   // bounded. Default 7 days; 0 = keep for ever.
@@ -383,6 +395,12 @@ class BakeScheduler {
   // heard from within the lease timeout (or polling now), not paused, and
   // not one that failed `r` lately too.
   bool AnotherWorkerMayTake(const JobRecord& r, const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Preference (options_.prefer_strong_ms): the device kind of the
+  // strongest worker other than `worker_id` that `r` should wait for (about,
+  // not paused, fits `r`, did not fail it lately, and stronger than
+  // `worker_id`); "" when `worker_id` may take `r`.
+  std::string StrongerWorkerFor(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Queue reads LeaseCandidates makes at most, each one skipping the jobs
   // the previous ones found the worker had failed lately.
   static constexpr int kLeaseCandidateRounds = 4;
@@ -439,6 +457,9 @@ class BakeScheduler {
     int polling = 0;  // LeaseJob calls waiting now
     std::optional<v1::WorkerCapabilities> capabilities;  // as last reported
   };
+  // Whether `seen` asked for work lately: polling now, or heard from within
+  // the lease timeout (this server's clock).
+  bool IsAbout(const WorkerSeen& seen) const;
   // Placement (issue 44): whether `r` fits what `worker_id` reported (a
   // worker that reported nothing fits everything).
   bool FitsWorker(const JobRecord& r, const std::string& worker_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

@@ -27,6 +27,7 @@
 #include "server/store/attempt_history.h"
 #include "server/store/database_full.h"
 #include "server/scheduler/scheduler_internal.h"
+#include "server/scheduler/worker_strength.h"
 
 namespace impostor {
 
@@ -164,6 +165,20 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
         continue;
       }
       if (!unplaceable_since_.empty()) unplaceable_since_.erase(r.job.job_id());
+      // Preference: a large bake a stronger worker about could take waits
+      // for it (up to options_.prefer_strong_ms), and this worker reads on
+      // for a job it may take.
+      if (const std::string stronger = StrongerWorkerFor(r, worker_id, now); !stronger.empty()) {
+        skipped.push_back(r.job.job_id());
+        const std::string stage = StrongerWorkerStage(stronger, options_.prefer_strong_ms);
+        if (r.job.stage() != stage) {
+          spdlog::info("event=lease_held_back job={} worker=\"{}\" reason=\"{}\"", r.job.job_id(),
+                       EscapeUntrusted(worker_id), stage);
+          r.job.set_stage(stage);
+          if (auto s = Save(r); !s.ok()) return s;
+        }
+        continue;
+      }
       if (FailedLatelyBy(r, worker_id, now)) {
         skipped.push_back(r.job.job_id());
         held_back.push_back(std::move(r));
@@ -268,6 +283,35 @@ bool BakeScheduler::FailedLatelyBy(const JobRecord& r, const std::string& worker
     }
   }
   return false;
+}
+
+bool BakeScheduler::IsAbout(const WorkerSeen& seen) const {
+  return seen.polling > 0 || options_.now_ms() - seen.last_seen_ms < options_.lease_timeout_ms;
+}
+
+std::string BakeScheduler::StrongerWorkerFor(const JobRecord& r, const std::string& worker_id,
+                                             int64_t shared_now_ms) {
+  if (options_.prefer_strong_ms <= 0 || !IsLargeBake(r.parameters)) return "";
+  const auto asker = workers_.find(worker_id);
+  const int asker_strength = asker == workers_.end() || !asker->second.capabilities
+                                 ? 0
+                                 : WorkerStrength(&*asker->second.capabilities);
+  // Queued since it was created or its last attempt ended: stored times on
+  // the shared clock, so every server on the database agrees on the bound.
+  int64_t queued_since = r.job.created_ms();
+  for (const v1::JobAttempt& a : r.job.attempt_history()) queued_since = std::max(queued_since, a.ended_ms());
+  const int64_t waited = std::max<int64_t>(0, shared_now_ms - queued_since);
+  int strongest = 0;
+  std::string kind;
+  for (const auto& [id, seen] : workers_) {
+    if (id == worker_id || !seen.capabilities || !IsAbout(seen) || IsPaused(id)) continue;
+    const int strength = WorkerStrength(&*seen.capabilities);
+    if (strength <= strongest || !FitsWorker(r, id) || FailedLatelyBy(r, id, shared_now_ms)) continue;
+    strongest = strength;
+    kind = seen.capabilities->device_kind();
+  }
+  if (!HoldForStrongerWorker(r.parameters, asker_strength, strongest, waited, options_.prefer_strong_ms)) return "";
+  return kind;
 }
 
 bool BakeScheduler::AnotherWorkerMayTake(const JobRecord& r, const std::string& worker_id) {
