@@ -29,21 +29,7 @@ absl::Status ValidateRequestId(std::string_view request_id) {
 
 absl::StatusOr<std::vector<std::string>> NormalizeRequiredTags(
     const google::protobuf::RepeatedPtrField<std::string>& tags) {
-  if (tags.size() > kMaxWorkerTags) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("required_tags: ", tags.size(), " tags is over the limit of ", kMaxWorkerTags));
-  }
-  std::vector<std::string> out;
-  for (int i = 0; i < tags.size(); ++i) {
-    if (!IsValidWorkerTag(tags[i])) {
-      return absl::InvalidArgumentError(absl::StrCat("required_tags[", i, "]: \"", absl::CHexEscape(tags[i].substr(0, 80)),
-                                                     "\" is not 1..", kMaxWorkerTagBytes, " bytes of [a-z0-9._-]"));
-    }
-    out.push_back(tags[i]);
-  }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
+  return NormalizeRequiredTagList({tags.begin(), tags.end()}, "required_tags", /*indexed=*/true);
 }
 
 absl::StatusOr<NormalizedBakeRequest> NormalizeLookup(const v1::SubmitBakeRequest& request) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "common/request/bake_memory_estimate.h"
@@ -27,6 +28,24 @@ std::string Amount(const Shortfall& s) { return MemoryAmount(s.need_bytes); }
 
 bool IsValidWorkerTag(const std::string& tag) {
   return !tag.empty() && tag.size() <= kMaxWorkerTagBytes && std::all_of(tag.begin(), tag.end(), IsTagByte);
+}
+
+absl::StatusOr<std::vector<std::string>> NormalizeRequiredTagList(std::vector<std::string> tags, const char* field,
+                                                                  bool indexed) {
+  if (static_cast<int>(tags.size()) > kMaxWorkerTags) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", tags.size(), " tags is over the limit of ", kMaxWorkerTags));
+  }
+  for (size_t i = 0; i < tags.size(); ++i) {
+    if (!IsValidWorkerTag(tags[i])) {
+      return absl::InvalidArgumentError(absl::StrCat(field, indexed ? absl::StrCat("[", i, "]") : "", ": \"",
+                                                     absl::CHexEscape(tags[i].substr(0, 80)), "\" is not 1..",
+                                                     kMaxWorkerTagBytes, " bytes of [a-z0-9._-]"));
+    }
+  }
+  std::sort(tags.begin(), tags.end());
+  tags.erase(std::unique(tags.begin(), tags.end()), tags.end());
+  return tags;
 }
 
 absl::Status ValidateCapabilities(const v1::WorkerCapabilities& caps, const char* field) {

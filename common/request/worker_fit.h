@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
 #include "impostor/v1/worker_service.pb.h"
 
@@ -31,6 +32,14 @@ absl::Status ValidateCapabilities(const v1::WorkerCapabilities& caps, const char
 
 // One tag as --tags and capabilities.tags take it: 1..64 bytes of [a-z0-9._-].
 bool IsValidWorkerTag(const std::string& tag);
+
+// A list of required tags (a request's required_tags, a token's
+// --require-tag): at most kMaxWorkerTags, each IsValidWorkerTag, returned
+// sorted without repeats. INVALID_ARGUMENT under `field`, a bad tag named as
+// field[i] when `indexed` (e.g. "required_tags[2]: \"GPU\" is not 1..64 bytes
+// of [a-z0-9._-]"), as `field` alone otherwise.
+absl::StatusOr<std::vector<std::string>> NormalizeRequiredTagList(std::vector<std::string> tags, const char* field,
+                                                                  bool indexed);
 
 // What a bake lacks on a worker.
 struct Shortfall {

@@ -274,20 +274,7 @@ absl::Status ValidateTokenName(std::string_view name) {
 }
 
 absl::StatusOr<std::vector<std::string>> NormalizeTokenRequiredTags(const std::vector<std::string>& tags) {
-  if (static_cast<int>(tags.size()) > kMaxWorkerTags) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--require-tag: ", tags.size(), " tags is over the limit of ", kMaxWorkerTags));
-  }
-  for (const std::string& tag : tags) {
-    if (!IsValidWorkerTag(tag)) {
-      return absl::InvalidArgumentError(absl::StrCat("--require-tag: \"", absl::CHexEscape(tag.substr(0, 80)),
-                                                     "\" is not 1..", kMaxWorkerTagBytes, " bytes of [a-z0-9._-]"));
-    }
-  }
-  std::vector<std::string> out = tags;
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
+  return NormalizeRequiredTagList(tags, "--require-tag", /*indexed=*/false);
 }
 
 absl::Status CheckRequiredTagsFitRole(Role role, const std::vector<std::string>& tags) {
