@@ -280,6 +280,10 @@ TEST(ServerFlags, UnusableLogLevelAndListenAddressesAreUsageErrors) {
       {"--log-level=loud", "--log-level: \"loud\" is not a log level"},
       // Checked with --auth none too (the default on loopback).
       {"--token-cache-ttl-ms=-1", "--token-cache-ttl-ms: -1 is out of range 0..60000"},
+      // The strongest-worker bound (issue 44; what it does:
+      // tests/server/strong_worker_preference_test.cc).
+      {"--prefer-strong-seconds=-1", "--prefer-strong-seconds: -1 is out of range 0..3600"},
+      {"--prefer-strong-seconds=3601", "--prefer-strong-seconds: 3601 is out of range 0..3600"},
       {"--listen=127.0.0.1:99999", "--listen: \"127.0.0.1:99999\" has a port that is not a number in 0..65535"},
       {"--listen=127.0.0.1", "--listen: \"127.0.0.1\" has no port"},
       {"--listen=" + holder.address(), "--listen: cannot listen on " + holder.address()},
