@@ -107,6 +107,15 @@ ABSL_FLAG(int, prefer_strong_seconds, 30,
           "worker (device kind: discrete > integrated, virtual, other > cpu) while a stronger one that could take "
           "it has asked for work lately; after waiting this many seconds any worker that fits may take it "
           "(0 = off, 0..3600; each server judges by the workers it hears from)");
+// Pools and shares (issue 44; server/scheduler/pool_shares.h).
+ABSL_FLAG(std::vector<std::string>, pools, {},
+          "Comma list of worker pools, each NAME (the workers tagged NAME) or NAME=TAG (the workers tagged TAG), "
+          "e.g. gpu; at most 16, names and tags 1..64 of [a-z0-9._-]");
+ABSL_FLAG(std::vector<std::string>, pool_shares, {},
+          "Comma list of POOL:TEAM=PERCENT: while TEAM (a token name, or a client's impostor-client-id) has work "
+          "queued, at least PERCENT of POOL's workers (rounded up) take its jobs first, e.g. gpu:team-forest=50; "
+          "a minimum, not a cap (1..100 each, at most 100 in one pool; each server judges by the pool's workers "
+          "it hears from)");
 ABSL_FLAG(std::string, port_file, "", "Write the bound port to this file once serving (for scripts)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error");
 // Store cap (issue 24): how long an upload no job or result refers to yet is
@@ -230,6 +239,9 @@ int main(int argc, char** argv) {
     return Fail("--prefer-strong-seconds: " + std::to_string(prefer_strong_s) + " is out of range 0..3600");
   }
 
+  auto pools = impostor::ParsePools(absl::GetFlag(FLAGS_pools), absl::GetFlag(FLAGS_pool_shares));
+  if (!pools.ok()) return Fail(std::string(pools.status().message()));
+
   const int64_t max_pending_jobs = absl::GetFlag(FLAGS_max_pending_jobs);
   const int64_t max_pending_per_client = absl::GetFlag(FLAGS_max_pending_per_client);
   const int64_t max_blob_bytes = absl::GetFlag(FLAGS_max_blob_bytes);
@@ -327,6 +339,7 @@ int main(int argc, char** argv) {
        .retry_elsewhere_ms = int64_t{retry_elsewhere_s} * 1000,
        .unplaceable_timeout_ms = int64_t{unplaceable_timeout_s} * 1000,
        .prefer_strong_ms = int64_t{prefer_strong_s} * 1000,
+       .pools = *pools,
        .job_retention_ms = int64_t{job_retention_days} * 24 * 3600 * 1000});
 
   // Identity (issue 14): with --auth token every call passes the

@@ -25,7 +25,7 @@ inline ProgramHelp ServerHelp() {
                  {"Access control", {"auth", "token_"}},
                  {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "result_touch_"}},
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},
-                 {"Workers", {"local_workers", "worker_", "retry_elsewhere_", "unplaceable_", "prefer_strong_"}},
+                 {"Workers", {"local_workers", "worker_", "retry_elsewhere_", "unplaceable_", "prefer_strong_", "pool"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},
       .footer = "Exit status: 0 after a clean shutdown; 2, with one line on stderr, for an unknown flag or a "
                 "value that does not parse, is out of range or is unusable (naming the flag and what it accepts), "

@@ -17,10 +17,10 @@ function jobRow(j, now, withProgress) {
 }
 
 async function refresh() {
-  const [summary, running, queued, recent, workers, results] = await Promise.all([
+  const [summary, running, queued, recent, workers, results, pools] = await Promise.all([
     getJson('/api/v1/summary'), getJson('/api/v1/jobs?state=running&page_size=100'),
     getJson('/api/v1/jobs?state=queued&page_size=50'), getJson('/api/v1/jobs?page_size=30'),
-    getJson('/api/v1/workers'), getJson('/api/v1/results?page_size=10')]);
+    getJson('/api/v1/workers'), getJson('/api/v1/results?page_size=10'), getJson('/api/v1/pools')]);
   const now = summary.now_ms;
   samples.push([now, summary.jobs_completed]);
   while (samples.length > 2 && now - samples[0][0] > 60000) samples.shift();
@@ -49,6 +49,12 @@ async function refresh() {
     workers.workers.map((w) => [w.worker_id, stateCell(w.state), w.device || '—', capabilities(w.capabilities),
       el('td', {}, ...w.job_ids.map((id) => link(`/jobs/${id}`, shortId(id) + ' '))),
       String(w.jobs_completed), String(w.jobs_failed), w.last_seen_ms ? age(w.last_seen_ms, now) + ' ago' : '—']), 'workers-table'));
+  // Pools and shares (issue 44): shown only on a server with --pools.
+  document.getElementById('pools-section').hidden = pools.pools.length === 0;
+  replace('pools', table(['pool', 'tag', 'workers', 'running', 'share', 'guaranteed', 'team running'],
+    pools.pools.flatMap((p) => (p.shares.length ? p.shares : [null]).map((s) => [p.name, p.tag, String(p.workers),
+      String(p.running), s ? `${s.team} ${s.percent}%` : '—', s ? String(s.guaranteed_workers) : '—',
+      s ? String(s.running) : '—'])), 'pools-table'));
   replace('results', table(['result', 'product', 'layout', 'frames', 'resolution', 'IoU', 'PSNR', 'size', 'baked'],
     results.results.map((r) => [el('td', {}, link(`/results/${r.cache_key}`, shortId(r.cache_key))), r.product, layoutName(r.layout),
       String(r.frames), String(r.resolution), r.silhouette_iou_mean?.toFixed(3) ?? '—', r.albedo_psnr_shared_db_mean?.toFixed(1) ?? '—',

@@ -397,6 +397,12 @@ void HttpFrontend::Route() {
     SendJson(res, WorkersJson(*workers, metrics_));
     return absl::OkStatus();
   });
+  api("/api/v1/pools", {}, [this](const httplib::Request&, const QueryParams&, httplib::Response& res) {
+    auto pools = scheduler_->Pools();
+    if (!pools.ok()) return pools.status();
+    SendJson(res, PoolsJson(*pools));
+    return absl::OkStatus();
+  });
   api("/api/v1/results", {"page_size", "page_token"},
       [this](const httplib::Request&, const QueryParams& params, httplib::Response& res) {
         auto size = ParsePageSize(params);

@@ -106,6 +106,25 @@ nlohmann::json CapabilitiesJson(const std::optional<v1::WorkerCapabilities>& cap
           {"tags", std::vector<std::string>(caps->tags().begin(), caps->tags().end())}};
 }
 
+nlohmann::json PoolsJson(const std::vector<BakeScheduler::PoolInfo>& pools) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& pool : pools) {
+    nlohmann::json shares = nlohmann::json::array();
+    for (const auto& share : pool.shares) {
+      shares.push_back({{"team", share.team},
+                        {"percent", share.percent},
+                        {"guaranteed_workers", share.guaranteed},
+                        {"running", share.running}});
+    }
+    list.push_back({{"name", pool.name},
+                    {"tag", pool.tag},
+                    {"workers", pool.workers},
+                    {"running", pool.running},
+                    {"shares", shares}});
+  }
+  return {{"pools", list}};
+}
+
 nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers, const FarmMetrics& metrics) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& w : workers) {

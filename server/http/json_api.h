@@ -29,6 +29,9 @@ nlohmann::json JobJson(const BakeScheduler::JobListing& listing, bool with_resul
 nlohmann::json JobsPageJson(const std::vector<BakeScheduler::JobListing>& jobs, int page_size,
                             const JobViewer& viewer);
 // {"workers": [...]} with each worker's jobs done and failed.
+// {"pools": [...]}: each pool (--pools) with its workers, running jobs
+// and shares (BakeScheduler::Pools).
+nlohmann::json PoolsJson(const std::vector<BakeScheduler::PoolInfo>& pools);
 nlohmann::json WorkersJson(const std::vector<BakeScheduler::WorkerInfo>& workers, const FarmMetrics& metrics);
 // One result: its manifest plus pinned, created_ms, last_used_ms.
 nlohmann::json ResultJson(const JobStore::StoredResult& result);

@@ -87,6 +87,19 @@ FarmMetrics::FarmMetrics(BakeScheduler* scheduler, const BlobStore* blobs)
           "Workers heard from (not offline) by the device kind they report: discrete, integrated, virtual, cpu, "
           "other, or unreported (issue 44)",
           {"device_kind"})),
+      pool_workers_(registry_.AddGauge("impostor_pool_workers",
+                                       "Workers of each pool (--pools) this server heard from lately, not paused",
+                                       {"pool"})),
+      pool_running_(registry_.AddGauge("impostor_pool_running_jobs", "Running jobs on each pool's workers",
+                                       {"pool"})),
+      pool_share_running_(registry_.AddGauge("impostor_pool_share_running_jobs",
+                                             "Running jobs of each team with a share (--pool-shares) on the pool's "
+                                             "workers",
+                                             {"pool", "team"})),
+      pool_share_guaranteed_(registry_.AddGauge("impostor_pool_share_guaranteed_workers",
+                                                "Workers each share guarantees its team now (percent of the pool's "
+                                                "workers, rounded up)",
+                                                {"pool", "team"})),
       worker_done_(registry_.AddCounter("impostor_worker_jobs_completed_total", "Bakes delivered, per worker",
                                         {"worker"})),
       worker_failed_(registry_.AddCounter("impostor_worker_jobs_failed_total",
@@ -213,6 +226,24 @@ std::string FarmMetrics::Scrape() {
       by_kind[kind] += 1;
     }
     for (const auto& [kind, n] : by_kind) workers_by_kind_.Set({kind}, n);
+  }
+  if (!scheduler_->options().pools.empty()) {
+    auto pools = scheduler_->Pools();
+    if (!pools.ok()) {
+      scrape_errors_.Add({});
+      for (auto* family : {&pool_workers_, &pool_running_, &pool_share_running_, &pool_share_guaranteed_}) {
+        family->Clear();
+      }
+    } else {
+      for (const auto& pool : *pools) {
+        pool_workers_.Set({pool.name}, static_cast<double>(pool.workers));
+        pool_running_.Set({pool.name}, static_cast<double>(pool.running));
+        for (const auto& share : pool.shares) {
+          pool_share_running_.Set({pool.name, share.team}, static_cast<double>(share.running));
+          pool_share_guaranteed_.Set({pool.name, share.team}, static_cast<double>(share.guaranteed));
+        }
+      }
+    }
   }
   return registry_.Render();
 }

@@ -7,8 +7,10 @@
 // Label values are bounded: products and stages are enums, RPC methods are
 // the registered ones ("other" beyond them), status codes are gRPC's 17,
 // and worker ids, which workers choose, are capped at kMaxWorkerLabels
-// distinct values (later ones are counted under worker="_other"). No job
-// id, cache key or client id is ever a label.
+// distinct values (later ones are counted under worker="_other"). Pools
+// and teams are the operator's (--pools, --pool-shares: at most 16 pools of
+// 16 shares). No job id, cache key or client id a request sends is ever a
+// label.
 //
 // Thread-safety: every method may be called from any thread.
 #ifndef IMPOSTOR_SERVER_METRICS_FARM_METRICS_H_
@@ -88,6 +90,10 @@ class FarmMetrics final : public SchedulerObserver {
   metrics::ValueFamily& leases_lost_;
   metrics::ValueFamily& workers_;
   metrics::ValueFamily& workers_by_kind_;
+  metrics::ValueFamily& pool_workers_;
+  metrics::ValueFamily& pool_running_;
+  metrics::ValueFamily& pool_share_running_;
+  metrics::ValueFamily& pool_share_guaranteed_;
   metrics::ValueFamily& worker_done_;
   metrics::ValueFamily& worker_failed_;
   metrics::ValueFamily& store_bytes_;

@@ -30,6 +30,7 @@
 #include "common/request/normalized_bake_request.h"
 #include "server/blobs/blob_store.h"
 #include "server/store/job_store.h"
+#include "server/scheduler/pool_shares.h"
 #include "server/scheduler/result_cache.h"
 #include "server/scheduler/scheduler_observer.h"
 
@@ -95,6 +96,17 @@ struct SchedulerOptions {
   // stronger worker polling another replica holds nothing back here.
   // Default 30 s; range 0 (off) .. 1 h.
   int64_t prefer_strong_ms = 30'000;
+  // Pools and shares (issue 44, pool_shares.h; --pools, --pool-shares):
+  // when a worker of a pool (it reports the pool's tag) asks for work and a
+  // team with a share in that pool runs fewer jobs on the pool's workers
+  // than its guarantee (GuaranteedWorkers of the pool's workers about, not
+  // paused), that team's job goes first, among the jobs at the queue's
+  // highest priority that the worker may take; otherwise the usual order.
+  // Running jobs are read from the job store (every server counts the same
+  // ones); which workers are in a pool is each server's own knowledge (the
+  // tags a worker reported to it), so each server guarantees the shares
+  // over the pool's workers it hears from. Default: no pools.
+  std::vector<WorkerPool> pools;
   // Finished (SUCCEEDED, FAILED, CANCELLED) job records created longer ago
   // than this are deleted by SweepFinishedJobs, so the database stays
   // bounded. Default 7 days; 0 = keep for ever.
@@ -286,6 +298,26 @@ class BakeScheduler {
   // are remembered (the least recently seen idle one is forgotten first).
   absl::StatusOr<std::vector<WorkerInfo>> Workers();
   static constexpr size_t kMaxTrackedWorkers = 1024;
+  // A pool as this server sees it (options().pools), for the dashboard and
+  // metrics: its workers about (polling or heard from within the lease
+  // timeout, not paused), the running jobs those hold, and per share the
+  // team's running jobs there and its guarantee.
+  struct PoolInfo {
+    std::string name;
+    std::string tag;
+    int64_t workers = 0;
+    int64_t running = 0;
+    struct Share {
+      std::string team;
+      int percent = 0;
+      int64_t guaranteed = 0;  // GuaranteedWorkers(percent, workers)
+      int64_t running = 0;
+    };
+    std::vector<Share> shares;
+  };
+  // Every configured pool, in flag order. UNAVAILABLE as Workers().
+  // (bake_scheduler_pools.cc)
+  absl::StatusOr<std::vector<PoolInfo>> Pools();
   static constexpr std::string_view WorkerStateName(int i) {
     constexpr std::string_view kNames[] = {"busy", "paused", "idle", "offline"};
     return kNames[i];
@@ -400,6 +432,19 @@ class BakeScheduler {
   // not paused, fits `r`, did not fail it lately, and stronger than
   // `worker_id`); "" when `worker_id` may take `r`.
   std::string StrongerWorkerFor(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Pool shares (options_.pools): moves to the front of `heads` (sorted
+  // best first) the first job of the team the asking worker's pools owe
+  // most; leaves the order as it is when no share is owed or no owed team
+  // has a job there. (bake_scheduler_pools.cc)
+  absl::Status PreferOwedTeams(std::vector<JobRecord>& heads, const std::string& worker_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Whether `worker_id` reported `pool`'s tag; how many workers about here
+  // did; and each team's running jobs on those workers.
+  bool InPool(const WorkerPool& pool, const std::string& worker_id) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  int64_t PoolWorkersAbout(const WorkerPool& pool) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  std::map<std::string, int64_t> RunningPerTeamInPool(const WorkerPool& pool,
+                                                      const std::vector<JobStore::RunningLease>& running) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Queue reads LeaseCandidates makes at most, each one skipping the jobs
   // the previous ones found the worker had failed lately.

@@ -217,6 +217,8 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
                            r.job.job_id());
   };
   std::sort(heads.begin(), heads.end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
+  // A pool's share owed to a team goes before that order (options_.pools).
+  if (auto s = PreferOwedTeams(heads, worker_id); !s.ok()) return s;
   for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
   return ids;
 }

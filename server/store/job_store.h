@@ -136,6 +136,14 @@ class JobStore {
   virtual absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient(const std::vector<std::string>& skip_job_ids) = 0;
   // RUNNING leaders per client_id (clients with none are absent).
   virtual absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() = 0;
+  // Who holds each RUNNING leader and whose it is (pool shares: every
+  // server on the database counts the same running jobs).
+  struct RunningLease {
+    std::string worker_id;
+    std::string client_id;
+    std::string owner;
+  };
+  virtual absl::StatusOr<std::vector<RunningLease>> RunningLeases() = 0;
   // A QUEUED or RUNNING leader with this cache key.
   virtual absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) = 0;
   // Followers of `leader_job_id` that are still QUEUED or RUNNING.

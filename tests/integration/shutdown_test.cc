@@ -276,6 +276,7 @@ TEST(ServerFlags, UnusableLogLevelAndListenAddressesAreUsageErrors) {
   const struct {
     std::string flag;
     std::string message;
+    std::string also = "";  // a second flag the case needs
   } cases[] = {
       {"--log-level=loud", "--log-level: \"loud\" is not a log level"},
       // Checked with --auth none too (the default on loopback).
@@ -284,15 +285,25 @@ TEST(ServerFlags, UnusableLogLevelAndListenAddressesAreUsageErrors) {
       // tests/server/strong_worker_preference_test.cc).
       {"--prefer-strong-seconds=-1", "--prefer-strong-seconds: -1 is out of range 0..3600"},
       {"--prefer-strong-seconds=3601", "--prefer-strong-seconds: 3601 is out of range 0..3600"},
+      // Pools and shares (issue 44; every rule: tests/server/pool_shares_test.cc).
+      {"--pool-shares=gpu:team-forest=50",
+       "--pool-shares: \"gpu:team-forest=50\" names pool \"gpu\", which --pools does not declare"},
+      {"--pool-shares=gpu:team-forest=0", "--pool-shares: \"gpu:team-forest=0\" has a percent outside 1..100",
+       "--pools=gpu"},
+      {"--pool-shares=gpu:team-forest=101", "--pool-shares: \"gpu:team-forest=101\" has a percent outside 1..100",
+       "--pools=gpu"},
+      {"--pool-shares=gpu:team-forest=60,gpu:team-desert=41",
+       "--pool-shares: \"gpu:team-desert=41\" brings the shares of pool \"gpu\" to 101 %, over 100", "--pools=gpu"},
+      {"--pools=GPU", "--pools: \"GPU\" needs a pool name of 1..64 bytes of [a-z0-9._-]"},
       {"--listen=127.0.0.1:99999", "--listen: \"127.0.0.1:99999\" has a port that is not a number in 0..65535"},
       {"--listen=127.0.0.1", "--listen: \"127.0.0.1\" has no port"},
       {"--listen=" + holder.address(), "--listen: cannot listen on " + holder.address()},
   };
   for (const auto& c : cases) {
-    const testing::ToolRun run = testing::RunTool(
-        {(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0", "--data=" + data.string(),
-         "--local-workers=0", c.flag},
-        std::chrono::seconds(60));
+    std::vector<std::string> args = {(testing::BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                                     "--data=" + data.string(), "--local-workers=0", c.flag};
+    if (!c.also.empty()) args.push_back(c.also);
+    const testing::ToolRun run = testing::RunTool(args, std::chrono::seconds(60));
     EXPECT_EQ(run.exit_code, 2) << c.flag << "\n" << run.err;
     EXPECT_NE(run.err.find(c.message), std::string::npos) << c.flag << ": " << run.err;
     EXPECT_EQ(run.out.find("listening on"), std::string::npos) << c.flag << ": started anyway";

@@ -323,6 +323,15 @@ absl::StatusOr<std::map<std::string, int64_t>> PostgresJobStore::RunningPerClien
   return out;
 }
 
+absl::StatusOr<std::vector<JobStore::RunningLease>> PostgresJobStore::RunningLeases() {
+  auto rows = pool_->Exec("running leases", absl::StrCat("SELECT worker_id, client_id, owner FROM jobs WHERE state = ",
+                                                        kRunning, " AND leader_job_id = ''"));
+  if (!rows.ok()) return rows.status();
+  std::vector<RunningLease> out;
+  for (int i = 0; i < rows->size(); ++i) out.push_back({rows->Text(i, 0), rows->Text(i, 1), rows->Text(i, 2)});
+  return out;
+}
+
 absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne("active with key",
                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE cache_key = $1 AND state IN (", kQueued, ", ",

@@ -378,6 +378,17 @@ absl::StatusOr<std::map<std::string, int64_t>> SqliteJobStore::RunningPerClient(
   return out;
 }
 
+absl::StatusOr<std::vector<JobStore::RunningLease>> SqliteJobStore::RunningLeases() {
+  Statement st(db_, "SELECT worker_id, client_id, owner FROM jobs WHERE state = ?1 AND leader_job_id = ''");
+  if (auto s = st.prepared(); !s.ok()) return s;
+  st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_RUNNING));
+  std::vector<RunningLease> out;
+  int rc;
+  while ((rc = st.Step()) == SQLITE_ROW) out.push_back({st.Text(0), st.Text(1), st.Text(2)});
+  if (rc != SQLITE_DONE) return st.Error("running leases");
+  return out;
+}
+
 absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns,
