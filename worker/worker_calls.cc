@@ -32,6 +32,7 @@
 #include "worker/bearer_token.h"
 #include "worker/input_links.h"
 #include "worker/input_plan.h"
+#include "worker/result_upload.h"
 #include "worker/scratch_file.h"
 #include "worker/scratch_shortage.h"
 #include "worker/scratch_space.h"
@@ -106,32 +107,10 @@ absl::Status FinishInput(const v1::Digest& digest, InputSink& sink) {
   return absl::OkStatus();
 }
 
+// A result file's upload: resumes what an earlier try left on the server,
+// no deadline on the stream, only the stall watchdog (result_upload.h).
 absl::Status UploadFile(v1::AssetService::Stub& assets, const fs::path& path, const v1::Digest& digest) {
-  auto ctx = ContextWithDeadline(std::chrono::seconds(600));
-  v1::UploadBlobResponse response;
-  auto writer = assets.UploadBlob(ctx.get(), &response);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return absl::InternalError(absl::StrCat("cannot open ", path.string()));
-  v1::UploadBlobRequest chunk;
-  *chunk.mutable_digest() = digest;
-  std::string buf(1 << 20, '\0');
-  bool first = true;
-  while (in || first) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    chunk.set_data(buf.data(), static_cast<size_t>(in.gcount()));
-    if (!writer->Write(chunk)) break;
-    chunk.clear_digest();
-    first = false;
-  }
-  writer->WritesDone();
-  absl::Status finished = FromGrpc(writer->Finish(), "UploadBlob");
-  // The server's reason for a refusal (a full store) rides as trailing
-  // metadata; kept on the status so the caller can tell it from the
-  // blob's own fault.
-  if (const std::string reason = ServerErrorReason(*ctx); !finished.ok() && !reason.empty()) {
-    finished = WithErrorReason(std::move(finished), reason);
-  }
-  return finished;
+  return UploadResultFile(assets, path, digest);
 }
 
 // "database_full" or "store_full", the log event of a wait for that reason.

@@ -2,9 +2,9 @@
 // slow the link, and gives up only on a link that stalls. Runs on the
 // caller's thread.
 //
-// No resuming: UploadBlobRequest has no offset and the server keeps nothing
-// of an upload that did not complete (server/rpc/asset_service.cc discards its
-// BlobStore writer), so a broken stream starts over from the first byte.
+// Resumable: the server keeps what a broken stream brought (for a while,
+// within its bounds), and the next stream starts after it (QueryUpload says
+// where), so a cut upload sends only the bytes the server lacks.
 #ifndef IMPOSTOR_CLIENT_TRANSFER_BLOB_UPLOAD_H_
 #define IMPOSTOR_CLIENT_TRANSFER_BLOB_UPLOAD_H_
 
@@ -35,10 +35,15 @@ inline constexpr size_t kUploadChunkBytes = size_t{64} << 10;
 // server's answer does not come within rpc_timeout_seconds per message the
 // link may still hold (DEADLINE_EXCEEDED, "the link stalled", naming the
 // seconds and the bytes sent; Transport::UploadBlob). A cut or broken
-// stream (UNAVAILABLE, DEADLINE_EXCEEDED) starts over from the first byte
-// as RetryPolicy decides: up to max_attempts tries in a row, and through a
-// server outage for up to max_outage_seconds. Progress does not start that
-// count over, as it does for a download: the server kept none of it.
+// stream (UNAVAILABLE, DEADLINE_EXCEEDED) is tried again as RetryPolicy
+// decides: up to max_attempts tries in a row, and through a server outage
+// for up to max_outage_seconds. Each try asks the server how many bytes it
+// kept (AssetService.QueryUpload) and sends only the rest; a try after
+// which the server kept more starts that count over, as a download's
+// progress does. A blob larger than one message asks before its first try
+// too, so an upload given up earlier (a CLI interrupted) resumes as well.
+// A server without QueryUpload, or one that kept nothing, gets the whole
+// blob again.
 //
 // Errors: the server's refusal as it said it (RESOURCE_EXHAUSTED,
 // INVALID_ARGUMENT, ...; see AssetService.UploadBlob); INTERNAL naming the

@@ -575,9 +575,21 @@ absl::StatusOr<v1::PurgeWorkerResultsResponse> Transport::PurgeWorkerResults(
   });
 }
 
+absl::StatusOr<v1::QueryUploadResponse> Transport::QueryUpload(const v1::Digest& digest,
+                                                               const CancelSource* cancel) {
+  v1::QueryUploadRequest request;
+  *request.mutable_digest() = digest;
+  return CallUnary<v1::QueryUploadResponse>(
+      "QueryUpload",
+      [&](const Route& route, auto* ctx, auto* resp) {
+        return v1::AssetService::Stub(route.channel).QueryUpload(ctx, request, resp);
+      },
+      cancel);
+}
+
 absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& digest,
                                                              const ChunkSource& next_chunk,
-                                                             const CancelSource* cancel) {
+                                                             const CancelSource* cancel, int64_t offset) {
   if (cancel != nullptr && cancel->cancelled()) return cancel->error();
   auto call = std::make_unique<UploadCall>(cancel);
   stubs_->AddToken(call->context);
@@ -605,6 +617,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
   if (watch.Await(&tags[0], stall_limit)) {
     v1::UploadBlobRequest& message = call->message;
     *message.mutable_digest() = digest;
+    message.set_offset(offset);
     bool first = true;
     while (true) {
       std::string* data = message.mutable_data();
@@ -626,6 +639,7 @@ absl::StatusOr<v1::UploadBlobResponse> Transport::UploadBlob(const v1::Digest& d
       largest_message = std::max<int64_t>(largest_message, static_cast<int64_t>(message.data().size()));
       first = false;
       message.clear_digest();
+      message.clear_offset();
     }
   }
   // What the link still holds crosses unseen (the server answers once it

@@ -90,9 +90,12 @@ class Transport {
   // (may be null) ends its waits and its retries (RetryPolicy).
   RetryPolicy NewRetryPolicy(const CancelSource* cancel = nullptr);
 
-  // One UploadBlob stream, not retried (the caller restarts from byte 0: the
-  // server only keeps complete blobs). `next_chunk` gives each message's
-  // bytes (blob_upload.h says how large).
+  // One UploadBlob stream, not retried (the caller resumes it: QueryUpload
+  // says from where). `next_chunk` gives each message's bytes (blob_upload.h
+  // says how large), the first one the blob's byte `offset`: 0 uploads from
+  // the start, dropping what the server kept of an earlier try; another
+  // offset resumes the server's kept partial, which must hold exactly that
+  // many bytes (else FAILED_PRECONDITION naming both).
   //
   // No deadline on the whole stream: an upload that keeps moving goes on
   // however slow the link. A stall watchdog cancels it when the link takes
@@ -108,7 +111,12 @@ class Transport {
   // once, wherever it is; the answer is then cancel->error(), and
   // `next_chunk` is not called again.
   absl::StatusOr<v1::UploadBlobResponse> UploadBlob(const v1::Digest& digest, const ChunkSource& next_chunk,
-                                                    const CancelSource* cancel = nullptr);
+                                                    const CancelSource* cancel = nullptr, int64_t offset = 0);
+  // How much of `digest`'s upload the server holds (AssetService.QueryUpload):
+  // the bytes of a kept partial to resume after, or that the blob is stored.
+  // Retried as the other short calls; UNIMPLEMENTED from a server older than
+  // resumable uploads.
+  absl::StatusOr<v1::QueryUploadResponse> QueryUpload(const v1::Digest& digest, const CancelSource* cancel = nullptr);
 
   // One ReadBlob stream from `offset` to the end, not retried (the caller
   // resumes from what it got). `on_chunk` sees every message in order; a

@@ -23,6 +23,8 @@ const std::vector<MethodRule>& AccessRules() {
       {"/impostor.v1.AssetService/ReadBlob", {R, S, W}, ObjectCheck::kReadableBlob},
       {"/impostor.v1.AssetService/FindMissingBlobs", {S, W}},
       {"/impostor.v1.AssetService/UploadBlob", {S, W}, ObjectCheck::kNone, true},
+      // Who may upload may ask how far an upload got.
+      {"/impostor.v1.AssetService/QueryUpload", {S, W}},
       {"/impostor.v1.AssetService/PinResult", {}, ObjectCheck::kNone, true},
       {"/impostor.v1.BakeService/LookupBake", {R, S}},
       {"/impostor.v1.BakeService/SubmitBake", {S}, ObjectCheck::kNone, true},

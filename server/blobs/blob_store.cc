@@ -49,22 +49,52 @@ std::string UniqueSuffix() {
   return absl::StrCat(::getpid(), "-", counter.fetch_add(1));
 }
 
-class FileWriter final : public BlobStore::Writer {
+}  // namespace
+
+// Writes one upload into its temporary file (a fresh one, or a claimed kept
+// partial whose bytes are re-hashed first), registered with the store as a
+// streaming upload until it is committed, kept or destroyed.
+class BlobFileWriter final : public BlobStore::Writer {
  public:
-  FileWriter(BlobDigest digest, fs::path tmp_path, fs::path final_path, int fd,
-             std::function<void(int64_t)> on_published)
-      : digest_(std::move(digest)),
+  BlobFileWriter(BlobStore* store, BlobDigest digest, fs::path tmp_path, fs::path final_path, int fd,
+                 int64_t written, std::shared_ptr<BlobStore::ActiveUpload> active)
+      : store_(store),
+        digest_(std::move(digest)),
+        key_(BlobStore::PartialKey(digest_)),
         tmp_path_(std::move(tmp_path)),
         final_path_(std::move(final_path)),
         fd_(fd),
-        on_published_(std::move(on_published)) {}
+        written_(written),
+        active_(std::move(active)) {}
 
-  ~FileWriter() override {
+  ~BlobFileWriter() override {
     if (fd_ >= 0) ::close(fd_);
-    if (!committed_) {
+    if (!committed_ && !kept_) {
       std::error_code ec;
       fs::remove(tmp_path_, ec);
     }
+    store_->EndActive(key_, active_.get());
+  }
+
+  // Hashes the resumed prefix (the first written_ bytes of the file), so
+  // that Commit verifies the whole blob as for a fresh upload. INTERNAL or
+  // FAILED_PRECONDITION (the file is shorter than it was when kept).
+  absl::Status HashPrefix() {
+    std::vector<char> buf(size_t{1} << 20);
+    int64_t pos = 0;
+    while (pos < written_) {
+      const size_t want = static_cast<size_t>(std::min<int64_t>(written_ - pos, static_cast<int64_t>(buf.size())));
+      const ssize_t n = ::pread(fd_, buf.data(), want, pos);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) return ErrnoError("read", tmp_path_);
+      if (n == 0) {
+        return absl::FailedPreconditionError(absl::StrCat("blob ", digest_.hash, ": the kept partial upload lost bytes (",
+                                                          pos, " of ", written_, " left); start at 0"));
+      }
+      hash_.Update(buf.data(), static_cast<size_t>(n));
+      pos += n;
+    }
+    return absl::OkStatus();
   }
 
   absl::Status Append(std::string_view data) override {
@@ -74,13 +104,14 @@ class FileWriter final : public BlobStore::Writer {
     }
     hash_.Update(data);
     while (!data.empty()) {
-      const ssize_t n = ::write(fd_, data.data(), data.size());
+      const ssize_t n = ::pwrite(fd_, data.data(), data.size(), written_);
       if (n < 0) {
         if (errno == EINTR) continue;
         return ErrnoError("write", tmp_path_);
       }
       data.remove_prefix(static_cast<size_t>(n));
       written_ += n;
+      active_->written = written_;
     }
     return absl::OkStatus();
   }
@@ -104,33 +135,49 @@ class FileWriter final : public BlobStore::Writer {
     if (ec && IsDiskFull(ec.value())) return StoreFullError("create", final_path_.parent_path(), ec.message());
     if (::rename(tmp_path_.c_str(), final_path_.c_str()) != 0) return ErrnoError("rename into", final_path_);
     committed_ = true;
-    on_published_(digest_.size_bytes);
+    store_->AddPublished(digest_.size_bytes);
     if (auto s = SyncDirectory(final_path_.parent_path()); !s.ok()) return s;
     return false;
   }
 
+  int64_t written() const override { return written_; }
+
+  void Keep() override {
+    if (committed_ || kept_) return;
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+    kept_ = true;
+    store_->EndActive(key_, active_.get());
+    store_->KeepPartial(key_, tmp_path_, written_);
+  }
+
+  bool preempted() const override { return active_->preempted; }
+
  private:
+  BlobStore* const store_;
   const BlobDigest digest_;
+  const std::string key_;
   const fs::path tmp_path_;
   const fs::path final_path_;
   int fd_;
   Sha256 hash_;
-  int64_t written_ = 0;
+  int64_t written_;
   bool committed_ = false;
-  std::function<void(int64_t)> on_published_;
+  bool kept_ = false;
+  const std::shared_ptr<BlobStore::ActiveUpload> active_;
 };
 
-}  // namespace
-
-BlobStore::BlobStore(fs::path root, int64_t max_blob_bytes)
+BlobStore::BlobStore(fs::path root, int64_t max_blob_bytes, PartialUploadLimits partial_limits)
     : root_(std::move(root)),
       cas_dir_(root_ / "cas"),
       tmp_dir_(root_ / "tmp"),
       quarantine_dir_(root_ / "quarantine"),
-      max_blob_bytes_(max_blob_bytes) {}
+      max_blob_bytes_(max_blob_bytes),
+      partial_limits_(std::move(partial_limits)) {}
 
-absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root, int64_t max_blob_bytes) {
-  std::unique_ptr<BlobStore> store(new BlobStore(root, max_blob_bytes));
+absl::StatusOr<std::unique_ptr<BlobStore>> BlobStore::Open(const fs::path& root, int64_t max_blob_bytes,
+                                                           PartialUploadLimits partial_limits) {
+  std::unique_ptr<BlobStore> store(new BlobStore(root, max_blob_bytes, std::move(partial_limits)));
   std::error_code ec;
   fs::create_directories(store->cas_dir_, ec);
   if (ec) return absl::InternalError(absl::StrCat("cannot create ", store->cas_dir_.string(), ": ", ec.message()));
@@ -185,17 +232,161 @@ fs::path BlobStore::PathFor(const BlobDigest& digest) const {
   return cas_dir_ / digest.hash.substr(0, 2) / digest.hash;
 }
 
-absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const BlobDigest& digest) {
+absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const BlobDigest& digest, int64_t offset,
+                                                                     std::function<void()> cancel_stream) {
   if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
   if (digest.size_bytes > max_blob_bytes_) {
     return absl::InvalidArgumentError(absl::StrCat("digest.size_bytes: ", digest.size_bytes,
                                                    " is over the blob size limit of ", max_blob_bytes_));
   }
-  const fs::path tmp = tmp_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix(), ".tmp");
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) return ErrnoError("create", tmp);
-  return std::make_unique<FileWriter>(digest, tmp, PathFor(digest), fd,
-                                      [this](int64_t bytes) { AddPublished(bytes); });
+  if (offset < 0 || offset > digest.size_bytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("offset: ", offset, " is outside the blob's 0..", digest.size_bytes, " bytes"));
+  }
+  const std::string key = PartialKey(digest);
+  auto active = std::make_shared<ActiveUpload>();
+  active->cancel_stream = std::move(cancel_stream);
+  active->written = offset;
+  if (offset == 0) {
+    {
+      std::lock_guard lock(partial_mu_);
+      ExpirePartialsLocked();
+      if (auto it = kept_.find(key); it != kept_.end()) DropPartialLocked(it);
+      active_.emplace(key, active);
+    }
+    const fs::path tmp = tmp_dir_ / absl::StrCat(digest.hash, ".", UniqueSuffix(), ".tmp");
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) {
+      absl::Status error = ErrnoError("create", tmp);
+      EndActive(key, active.get());
+      return error;
+    }
+    return std::make_unique<BlobFileWriter>(this, digest, tmp, PathFor(digest), fd, 0, std::move(active));
+  }
+  KeptPartial claimed;
+  {
+    std::unique_lock lock(partial_mu_);
+    ExpirePartialsLocked();
+    if (kept_.find(key) == kept_.end()) {
+      // The upload this one resumes may still be streaming here: its
+      // client's link broke, and this end has not heard yet.
+      std::shared_ptr<ActiveUpload> target;
+      auto [begin, end] = active_.equal_range(key);
+      for (auto it = begin; it != end; ++it) {
+        if (it->second->written == offset) target = it->second;
+      }
+      if (target != nullptr) {
+        auto released = [&] {
+          if (kept_.count(key) != 0) return true;
+          auto [b, e] = active_.equal_range(key);
+          for (auto it = b; it != e; ++it) {
+            if (it->second == target) return false;
+          }
+          return true;
+        };
+        target->preempted = true;
+        if (!partial_changed_.wait_for(lock, std::chrono::seconds(2), released)) {
+          // Blocked in a read on a dead link: end that stream. Its handler
+          // cannot return while it is registered (EndActive takes this
+          // lock), so its context is alive.
+          if (target->cancel_stream) target->cancel_stream();
+          partial_changed_.wait_for(lock, std::chrono::seconds(10), released);
+        }
+      }
+    }
+    auto it = kept_.find(key);
+    const int64_t kept = it == kept_.end() ? 0 : it->second.bytes;
+    if (kept != offset) {
+      return absl::FailedPreconditionError(absl::StrCat("offset: ", offset, " is not the length of the kept partial upload of blob ",
+                                                        digest.hash, " (", kept, " bytes); query again or start at 0"));
+    }
+    claimed = it->second;
+    kept_bytes_ -= claimed.bytes;
+    kept_.erase(it);
+    active_.emplace(key, active);
+  }
+  const int fd = ::open(claimed.path.c_str(), O_RDWR | O_CLOEXEC);  // read: the prefix is re-hashed
+  if (fd < 0) {
+    absl::Status error = ErrnoError("open", claimed.path);
+    std::error_code ec;
+    fs::remove(claimed.path, ec);
+    EndActive(key, active.get());
+    return error;
+  }
+  auto writer = std::make_unique<BlobFileWriter>(this, digest, claimed.path, PathFor(digest), fd, offset,
+                                                 std::move(active));
+  if (absl::Status s = writer->HashPrefix(); !s.ok()) return s;  // the writer drops the file
+  return writer;
+}
+
+absl::StatusOr<int64_t> BlobStore::PartialBytes(const BlobDigest& digest) {
+  if (auto s = ValidateDigest("digest", digest.hash, digest.size_bytes); !s.ok()) return s;
+  const std::string key = PartialKey(digest);
+  std::lock_guard lock(partial_mu_);
+  ExpirePartialsLocked();
+  if (auto it = kept_.find(key); it != kept_.end()) return it->second.bytes;
+  int64_t most = 0;
+  auto [begin, end] = active_.equal_range(key);
+  for (auto it = begin; it != end; ++it) most = std::max<int64_t>(most, it->second->written);
+  return most;
+}
+
+int64_t BlobStore::kept_partial_bytes() {
+  std::lock_guard lock(partial_mu_);
+  ExpirePartialsLocked();
+  return kept_bytes_;
+}
+
+void BlobStore::EndActive(const std::string& key, ActiveUpload* active) {
+  std::lock_guard lock(partial_mu_);
+  auto [begin, end] = active_.equal_range(key);
+  for (auto it = begin; it != end; ++it) {
+    if (it->second.get() == active) {
+      active_.erase(it);
+      partial_changed_.notify_all();
+      return;
+    }
+  }
+}
+
+void BlobStore::KeepPartial(const std::string& key, const fs::path& path, int64_t bytes) {
+  std::lock_guard lock(partial_mu_);
+  ExpirePartialsLocked();
+  partial_changed_.notify_all();
+  std::error_code ec;
+  auto existing = kept_.find(key);
+  if (bytes <= 0 || bytes > partial_limits_.max_total_bytes ||
+      (existing != kept_.end() && existing->second.bytes >= bytes)) {
+    fs::remove(path, ec);
+    return;
+  }
+  if (existing != kept_.end()) DropPartialLocked(existing);
+  while (kept_bytes_ + bytes > partial_limits_.max_total_bytes && !kept_.empty()) {
+    auto oldest = kept_.begin();
+    for (auto it = kept_.begin(); it != kept_.end(); ++it) {
+      if (it->second.kept_at < oldest->second.kept_at) oldest = it;
+    }
+    DropPartialLocked(oldest);
+  }
+  kept_[key] = KeptPartial{path, bytes, partial_limits_.now()};
+  kept_bytes_ += bytes;
+  spdlog::info("event=partial_upload_kept blob={} bytes={} kept_total_bytes={}", key, bytes, kept_bytes_);
+}
+
+void BlobStore::ExpirePartialsLocked() {
+  const Clock::time_point now = partial_limits_.now();
+  for (auto it = kept_.begin(); it != kept_.end();) {
+    auto next = std::next(it);
+    if (now - it->second.kept_at > partial_limits_.max_age) DropPartialLocked(it);
+    it = next;
+  }
+}
+
+void BlobStore::DropPartialLocked(std::map<std::string, KeptPartial>::iterator it) {
+  std::error_code ec;
+  fs::remove(it->second.path, ec);
+  kept_bytes_ -= it->second.bytes;
+  kept_.erase(it);
 }
 
 absl::StatusOr<bool> BlobStore::Put(const BlobDigest& digest, std::string_view bytes) {

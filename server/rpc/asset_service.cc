@@ -34,7 +34,10 @@ grpc::Status AssetServiceImpl::FindMissingBlobs(grpc::ServerContext*, const v1::
 }
 
 // Refusals go out with their error reason: STORE_FULL when the store has no
-// space, which a worker waits out (common/error_reason.h).
+// space, which a worker waits out (common/error_reason.h). A stream that
+// ends before the blob's last byte (the client's link broke, or it gave
+// up) leaves its bytes in the store as a kept partial for QueryUpload and a
+// resume; a refused one (bad bytes, a full disk) leaves nothing.
 grpc::Status AssetServiceImpl::UploadBlob(grpc::ServerContext* context,
                                           grpc::ServerReader<v1::UploadBlobRequest>* reader,
                                           v1::UploadBlobResponse* response) {
@@ -42,16 +45,47 @@ grpc::Status AssetServiceImpl::UploadBlob(grpc::ServerContext* context,
   if (!reader->Read(&chunk)) return ToGrpc(absl::InvalidArgumentError("digest: the stream carried no message"));
   if (!chunk.has_digest()) return ToGrpc(absl::InvalidArgumentError("digest: required in the first message"));
   const BlobDigest digest = ToDigest(chunk.digest());
-  auto writer = blobs_->NewWriter(digest);
+  auto writer = blobs_->NewWriter(digest, chunk.offset(), [context] { context->TryCancel(); });
   if (!writer.ok()) return ToGrpc(writer.status(), context);
+  BlobStore::Writer& out = **writer;
   do {
-    if (auto s = (*writer)->Append(chunk.data()); !s.ok()) return ToGrpc(s, context);
+    if (out.preempted()) {
+      const int64_t kept = out.written();
+      out.Keep();
+      return ToGrpc(absl::UnavailableError(absl::StrCat("blob ", digest.hash, ": another UploadBlob stream resumed this "
+                                                        "upload after its ", kept,
+                                                        " bytes; QueryUpload and resume")),
+                    context);
+    }
+    if (auto s = out.Append(chunk.data()); !s.ok()) return ToGrpc(s, context);
   } while (reader->Read(&chunk));
-  auto present = (*writer)->Commit();
+  if (out.written() < digest.size_bytes) {
+    const int64_t received = out.written();
+    out.Keep();
+    return ToGrpc(absl::InvalidArgumentError(absl::StrCat("blob ", digest.hash, ": the stream ended after ", received,
+                                                          " of its ", digest.size_bytes,
+                                                          " bytes; QueryUpload says how many were kept to resume from")),
+                  context);
+  }
+  auto present = out.Commit();
   if (!present.ok()) return ToGrpc(present.status(), context);
   response->mutable_digest()->set_hash(digest.hash);
   response->mutable_digest()->set_size_bytes(digest.size_bytes);
   response->set_already_present(*present);
+  return grpc::Status::OK;
+}
+
+grpc::Status AssetServiceImpl::QueryUpload(grpc::ServerContext*, const v1::QueryUploadRequest* request,
+                                           v1::QueryUploadResponse* response) {
+  if (!request->has_digest()) return ToGrpc(absl::InvalidArgumentError("digest: required"));
+  const BlobDigest digest = ToDigest(request->digest());
+  auto kept = blobs_->PartialBytes(digest);  // validates the digest
+  if (!kept.ok()) return ToGrpc(kept.status());
+  if (blobs_->Contains(digest)) {
+    response->set_complete(true);
+    return grpc::Status::OK;
+  }
+  response->set_committed_bytes(*kept);
   return grpc::Status::OK;
 }
 

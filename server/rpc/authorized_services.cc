@@ -149,6 +149,13 @@ grpc::Status AuthorizedAssetService::UploadBlob(grpc::ServerContext* context,
       [&] { return response->digest().hash(); });
 }
 
+grpc::Status AuthorizedAssetService::QueryUpload(grpc::ServerContext* context,
+                                                 const v1::QueryUploadRequest* request,
+                                                 v1::QueryUploadResponse* response) {
+  return guard_->Run(context, Method(kAsset, "QueryUpload"), "",
+                     [&](const Principal&) { return inner_->QueryUpload(context, request, response); });
+}
+
 grpc::Status AuthorizedAssetService::ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
                                               grpc::ServerWriter<v1::ReadBlobResponse>* writer) {
   return guard_->Run(context, Method(kAsset, "ReadBlob"), request->digest().hash(),

@@ -84,6 +84,8 @@ class AuthorizedAssetService final : public v1::AssetService::Service {
                                 v1::FindMissingBlobsResponse* response) override;
   grpc::Status UploadBlob(grpc::ServerContext* context, grpc::ServerReader<v1::UploadBlobRequest>* reader,
                           v1::UploadBlobResponse* response) override;
+  grpc::Status QueryUpload(grpc::ServerContext* context, const v1::QueryUploadRequest* request,
+                           v1::QueryUploadResponse* response) override;
   grpc::Status ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
                         grpc::ServerWriter<v1::ReadBlobResponse>* writer) override;
   grpc::Status GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,

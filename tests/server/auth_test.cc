@@ -314,7 +314,8 @@ TEST(AccessPolicy, RoleTable) {
   } rows[] = {
       {a + "GetResult", true, true, false},        {a + "ReadBlob", true, true, true},
       {a + "FindMissingBlobs", false, true, true}, {a + "UploadBlob", false, true, true},
-      {a + "PinResult", false, false, false},      {b + "LookupBake", true, true, false},
+      {a + "QueryUpload", false, true, true},      {a + "PinResult", false, false, false},
+      {b + "LookupBake", true, true, false},
       {b + "SubmitBake", false, true, false},      {b + "WatchJob", false, true, false},
       {b + "GetJob", false, true, false},          {b + "CancelJob", false, true, false},
       {w + "LeaseJob", false, false, true},        {w + "ReportProgress", false, false, true},

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sys/stat.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -185,6 +186,132 @@ TEST_F(BlobStoreTest, OpeningRemovesLeftoverTemporaryFilesButNotYoungOnes) {
   ASSERT_TRUE(reopened.ok()) << reopened.status();
   EXPECT_TRUE(fs::exists(young));
   EXPECT_FALSE(fs::exists(old));
+}
+
+// ---- Kept partial uploads (issue 44) ----
+
+// A store whose partials age by a clock the test moves.
+class PartialUploadTest : public testing::Test {
+ protected:
+  void Open(int64_t max_total_bytes, std::chrono::seconds max_age) {
+    dir_ = fs::temp_directory_path() / ("blob_store_partial_test_" + std::to_string(::getpid()) + "_" +
+                                        testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    BlobStore::PartialUploadLimits limits;
+    limits.max_total_bytes = max_total_bytes;
+    limits.max_age = max_age;
+    limits.now = [this] { return now_; };
+    auto store = BlobStore::Open(dir_, /*max_blob_bytes=*/1 << 20, limits);
+    ASSERT_TRUE(store.ok()) << store.status();
+    store_ = std::move(*store);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  static BlobDigest DigestOf(std::string_view bytes) { return {Sha256Hex(bytes), static_cast<int64_t>(bytes.size())}; }
+
+  // Writes the first `bytes` bytes of `blob` and keeps them, as a broken
+  // stream does.
+  void KeepPrefix(const std::string& blob, int64_t bytes) {
+    auto writer = store_->NewWriter(DigestOf(blob));
+    ASSERT_TRUE(writer.ok()) << writer.status();
+    ASSERT_TRUE((*writer)->Append(std::string_view(blob).substr(0, bytes)).ok());
+    (*writer)->Keep();
+  }
+
+  int64_t Kept(const std::string& blob) {
+    auto bytes = store_->PartialBytes(DigestOf(blob));
+    EXPECT_TRUE(bytes.ok()) << bytes.status();
+    return bytes.ok() ? *bytes : -1;
+  }
+
+  // Files in tmp/: kept partials are files there, and nothing else should be.
+  size_t TmpFiles() const {
+    size_t n = 0;
+    for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir_ / "tmp")) ++n;
+    return n;
+  }
+
+  fs::path dir_;
+  BlobStore::Clock::time_point now_ = BlobStore::Clock::now();
+  std::unique_ptr<BlobStore> store_;
+};
+
+TEST_F(PartialUploadTest, AKeptPartialIsResumedAndVerifiedWhole) {
+  Open(1 << 20, std::chrono::seconds(60));
+  const std::string blob(1000, 'x');
+  KeepPrefix(blob, 400);
+  EXPECT_EQ(Kept(blob), 400);
+  auto writer = store_->NewWriter(DigestOf(blob), 400);
+  ASSERT_TRUE(writer.ok()) << writer.status();
+  EXPECT_EQ((*writer)->written(), 400);
+  EXPECT_EQ(Kept(blob), 400) << "a resume in flight reports its bytes";
+  ASSERT_TRUE((*writer)->Append(std::string_view(blob).substr(400)).ok());
+  auto committed = (*writer)->Commit();
+  ASSERT_TRUE(committed.ok()) << committed.status();
+  EXPECT_EQ(*store_->ReadAll(DigestOf(blob)), blob);
+  writer->reset();
+  EXPECT_EQ(store_->kept_partial_bytes(), 0);
+  EXPECT_EQ(TmpFiles(), 0u);
+}
+
+TEST_F(PartialUploadTest, AKeptPartialIsDroppedOnceOlderThanMaxAge) {
+  Open(1 << 20, std::chrono::seconds(60));
+  const std::string blob(1000, 'a');
+  KeepPrefix(blob, 500);
+  now_ += std::chrono::seconds(60);
+  EXPECT_EQ(Kept(blob), 500) << "at exactly max_age it is still kept";
+  now_ += std::chrono::seconds(1);
+  EXPECT_EQ(Kept(blob), 0);
+  EXPECT_EQ(store_->kept_partial_bytes(), 0);
+  EXPECT_EQ(TmpFiles(), 0u) << "its file is removed";
+  auto resume = store_->NewWriter(DigestOf(blob), 500);
+  EXPECT_EQ(resume.status().code(), absl::StatusCode::kFailedPrecondition) << resume.status();
+}
+
+TEST_F(PartialUploadTest, KeptPartialsStayWithinTheirTotalOldestDroppedFirst) {
+  Open(/*max_total_bytes=*/1000, std::chrono::seconds(3600));
+  const std::string a(900, 'a'), b(900, 'b'), c(900, 'c'), big(2000, 'd');
+  KeepPrefix(a, 400);
+  now_ += std::chrono::seconds(1);
+  KeepPrefix(b, 500);
+  EXPECT_EQ(store_->kept_partial_bytes(), 900);
+  now_ += std::chrono::seconds(1);
+  KeepPrefix(c, 300);  // 1200 > 1000: the oldest (a) goes
+  EXPECT_EQ(Kept(a), 0);
+  EXPECT_EQ(Kept(b), 500);
+  EXPECT_EQ(Kept(c), 300);
+  EXPECT_EQ(store_->kept_partial_bytes(), 800);
+  KeepPrefix(big, 1001);  // larger than the whole bound: not kept, nothing evicted
+  EXPECT_EQ(Kept(big), 0);
+  EXPECT_EQ(store_->kept_partial_bytes(), 800);
+  EXPECT_EQ(TmpFiles(), 2u);
+}
+
+TEST_F(PartialUploadTest, ZeroTotalKeepsNothing) {
+  Open(/*max_total_bytes=*/0, std::chrono::seconds(3600));
+  const std::string blob(100, 'z');
+  KeepPrefix(blob, 50);
+  EXPECT_EQ(Kept(blob), 0);
+  EXPECT_EQ(TmpFiles(), 0u);
+}
+
+// Concurrent uploads of one blob that all break: the longest prefix is
+// kept, once.
+TEST_F(PartialUploadTest, OfConcurrentBrokenUploadsOfOneBlobTheLongestIsKept) {
+  Open(1 << 20, std::chrono::seconds(3600));
+  const std::string blob(1000, 'q');
+  std::vector<std::unique_ptr<BlobStore::Writer>> writers;
+  for (int bytes : {300, 700, 200}) {
+    auto writer = store_->NewWriter(DigestOf(blob));
+    ASSERT_TRUE(writer.ok()) << writer.status();
+    ASSERT_TRUE((*writer)->Append(std::string_view(blob).substr(0, bytes)).ok());
+    writers.push_back(std::move(*writer));
+  }
+  EXPECT_EQ(Kept(blob), 700) << "the most a streaming upload has written";
+  for (auto& writer : writers) writer->Keep();
+  EXPECT_EQ(Kept(blob), 700);
+  EXPECT_EQ(store_->kept_partial_bytes(), 700);
+  EXPECT_EQ(TmpFiles(), 1u);
 }
 
 }  // namespace

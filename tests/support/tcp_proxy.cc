@@ -137,6 +137,11 @@ void TcpProxy::AcceptLoop() {
   }
 }
 
+int64_t TcpProxy::bytes_forwarded(Direction direction) {
+  std::lock_guard lock(mu_);
+  return direction == Direction::kToServer ? forwarded_to_server_ : forwarded_to_client_;
+}
+
 void TcpProxy::Pump(int from, int to, Direction direction) {
   char buffer[16384];
   while (true) {
@@ -159,6 +164,7 @@ void TcpProxy::Pump(int from, int to, Direction direction) {
           lock.unlock();
           if (allowed > 0 && !WriteAll(to, buffer, static_cast<size_t>(allowed))) break;
           lock.lock();
+          (direction == Direction::kToServer ? forwarded_to_server_ : forwarded_to_client_) += allowed;
           if (go_dark_) {
             // The rest of this read, and everything after it, is dropped.
             dark_ = true;
@@ -176,6 +182,8 @@ void TcpProxy::Pump(int from, int to, Direction direction) {
       }
     }
     if (!WriteAll(to, buffer, static_cast<size_t>(n))) break;
+    std::lock_guard lock(mu_);
+    (direction == Direction::kToServer ? forwarded_to_server_ : forwarded_to_client_) += n;
   }
   ::shutdown(from, SHUT_RDWR);
   ::shutdown(to, SHUT_RDWR);

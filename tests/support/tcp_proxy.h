@@ -51,6 +51,9 @@ class TcpProxy {
   // Closes every current connection (both sides) and lifts the freeze; new
   // connections are forwarded again.
   void CutAll();
+  // Bytes forwarded so far in `direction`, over all connections (TCP
+  // payload: HTTP/2 and gRPC framing included).
+  int64_t bytes_forwarded(Direction direction);
 
  private:
   void Arm(int64_t bytes, Direction direction, bool dark);
@@ -71,6 +74,8 @@ class TcpProxy {
   bool go_dark_ = false;  // the pending freeze is a GoDarkAfter
   bool dark_ = false;     // dropping everything until CutAll
   uint64_t generation_ = 0;     // bumped by CutAll; frozen pumps wait for it
+  int64_t forwarded_to_server_ = 0;
+  int64_t forwarded_to_client_ = 0;
   std::vector<int> fds_;        // open sockets of current connections
   std::vector<std::thread> pumps_;
 };
