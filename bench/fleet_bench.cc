@@ -35,6 +35,7 @@
 //
 //   fleet_bench [--players N] [--fetches M] [--assets K] [--rounds R] [--curl-threads T]
 #include <curl/curl.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -62,6 +63,14 @@ namespace {
 
 double Seconds(Clock::time_point from, Clock::time_point to) { return std::chrono::duration<double>(to - from).count(); }
 
+// User + system CPU seconds of this process so far, all threads.
+double ProcessCpuSeconds() {
+  struct rusage u {};
+  ::getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-6;
+}
+
 // One asset a player fetches: the blob URLs it adds to what the player
 // already fetched (a shared blob is fetched once per player, as the SDK's
 // partial files make it).
@@ -73,6 +82,7 @@ struct AssetFetch {
 
 struct Measured {
   double wall_seconds = 0;
+  double cpu_seconds = 0;  // this process's user + system time (nginx not included)
   int64_t files = 0;
   int64_t bytes = 0;
   int errors = 0;
@@ -206,7 +216,7 @@ struct Row {
 void PrintRow(const Row& row) {
   const Measured& m = row.m;
   const double wall = std::max(m.wall_seconds, 1e-9);
-  std::printf("%-12s %8.3f %7lld %9.1f %9.0f %8.1f %9.1f %9.1f %9.1f %9.1f %6d\n", row.label.c_str(), m.wall_seconds,
+  std::printf("%-12s %8.3f %6.2f %7lld %9.1f %9.0f %8.1f %9.1f %9.1f %9.1f %9.1f %6d\n", row.label.c_str(), m.wall_seconds, m.cpu_seconds,
               static_cast<long long>(m.files), static_cast<double>(m.bytes) / 1e6, static_cast<double>(m.files) / wall,
               static_cast<double>(m.bytes) / 1e6 / wall, Percentile(m.file_seconds, 50) * 1e3,
               Percentile(m.file_seconds, 99) * 1e3, Percentile(m.fetch_seconds, 50) * 1e3,
@@ -229,6 +239,7 @@ int main(int argc, char** argv) {
   int max_parallel = 20;
   double zipf = 1.1;
   int curl_threads = 1;
+  std::string only;
   impostor::bench::BenchArgs("fleet_bench",
                              "An SDK fleet fetching by name through an nginx CDN edge, next to curl (libcurl multi) "
                              "fetching the same files through the same edge, same concurrency.")
@@ -238,8 +249,13 @@ int main(int argc, char** argv) {
       .Int("--rounds", &rounds, "rounds of both clients, alternating which goes first (default 3)")
       .Int("--max-parallel", &max_parallel, "CacheOptions::max_parallel_downloads, 1..64 (default 20)")
       .Int("--curl-threads", &curl_threads, "threads of the curl side, each a multi handle (default 1, as the curl CLI)")
+      .Text("--only", &only, "run one client only, sdk or curl (to profile it; no ratio printed)")
       .Real("--zipf", &zipf, "the Zipf exponent s of the names drawn (default 1.1)")
       .ParseOrExit(argc, argv);
+  if (!only.empty() && only != "sdk" && only != "curl") {
+    std::fprintf(stderr, "fleet_bench: --only is sdk or curl, not '%s'\n", only.c_str());
+    return 2;
+  }
   if (players < 1 || fetches < 1 || assets < 1 || rounds < 1 || max_parallel < 1 || max_parallel > 64 ||
       curl_threads < 1) {
     std::fprintf(stderr, "fleet_bench: --players, --fetches, --assets, --rounds, --curl-threads >= 1; --max-parallel 1..64\n");
@@ -347,9 +363,11 @@ int main(int argc, char** argv) {
   for (int r = 0; r < rounds; ++r) {
     for (int turn = 0; turn < 2; ++turn) {
       const bool sdk_turn = (turn == 0) == (r % 2 == 0);
+      if (!only.empty() && only != (sdk_turn ? "sdk" : "curl")) continue;
       const fs::path root = work / absl::StrCat(sdk_turn ? "sdk_" : "curl_", r);
       Row row;
       row.label = absl::StrCat(sdk_turn ? "sdk" : "curl", " r", r + 1);
+      const double cpu_before = ProcessCpuSeconds();
       if (sdk_turn) {
         impostor::testing::FleetOptions options;
         options.root = root;
@@ -379,6 +397,8 @@ int main(int argc, char** argv) {
       } else {
         row.m = RunCurlFleets(curl_plan(root), max_parallel, curl_threads);
       }
+      // Includes closing the players' caches (their threads' exit).
+      row.m.cpu_seconds = ProcessCpuSeconds() - cpu_before;
       if (!row.m.first_error.empty()) std::fprintf(stderr, "fleet_bench: %s: %s\n", row.label.c_str(), row.m.first_error.c_str());
       fs::remove_all(root);
       rows.push_back(std::move(row));
@@ -386,6 +406,11 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (!only.empty()) {
+    for (const Row& row : rows) PrintRow(row);
+    fs::remove_all(work);
+    return 0;
+  }
   const Row& sdk = MedianRow(sdk_rows);
   const Row& curl = MedianRow(curl_rows);
   int distinct_assets = 0;
@@ -395,9 +420,9 @@ int main(int argc, char** argv) {
               "%d transfers at most per player; curl on %d thread(s)\n",
               players, fetches, zipf, assets, distinct_assets, static_cast<long long>(blob_fetches), all_blobs.size(),
               std::min(fetches, max_parallel), curl_threads);
-  std::printf("%-12s %8s %7s %9s %9s %8s %9s %9s %9s %9s %6s\n", "client", "wall s", "files", "MB", "files/s", "MB/s",
+  std::printf("%-12s %8s %6s %7s %9s %9s %8s %9s %9s %9s %9s %6s\n", "client", "wall s", "cpu s", "files", "MB", "files/s", "MB/s",
               "file p50", "file p99", "fetch p50", "fetch p99", "errors");
-  std::printf("%-12s %8s %7s %9s %9s %8s %9s %9s %9s %9s %6s\n", "", "", "", "", "", "", "ms", "ms", "ms", "ms", "");
+  std::printf("%-12s %8s %6s %7s %9s %9s %8s %9s %9s %9s %9s %6s\n", "", "", "", "", "", "", "", "ms", "ms", "ms", "ms", "");
   for (const Row& row : rows) PrintRow(row);
   PrintRow({"sdk median", sdk.m});
   PrintRow({"curl median", curl.m});
