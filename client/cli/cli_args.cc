@@ -654,7 +654,7 @@ Common flags:
                       cache get, admin purge) when a server that answered goes away
                       (killed, restarting, refusing connections), keep
                       retrying with backoff for up to N seconds from the
-                      first failure: uploads start over, a submit is resent
+                      first failure: uploads resume, a submit is resent
                       with the same request id (never a second job), watches
                       resume, downloads resume at the byte reached. Default
                       300 for bake and bake-batch, 30 for the others; 0..86400.

@@ -60,14 +60,17 @@ def mesh_input(files: MeshFiles) -> "pb.MeshInput":
     return mesh
 
 
-def _upload_once(transport: Transport, blob: MeshFile) -> None:
+def _upload_once(transport: Transport, blob: MeshFile, offset: int = 0) -> None:
+    """One UploadBlob stream of `blob` from its byte `offset` (0: the whole
+    blob, dropping what the server kept of an earlier try)."""
     def chunks() -> Iterator[asset_pb.UploadBlobRequest]:
         with open(blob.local_path, "rb") as f:
+            f.seek(offset)
             first = True
             while True:
                 data = f.read(UPLOAD_CHUNK_BYTES)
                 if first:
-                    yield asset_pb.UploadBlobRequest(digest=_digest(blob), data=data)
+                    yield asset_pb.UploadBlobRequest(digest=_digest(blob), data=data, offset=offset)
                     first = False
                 elif data:
                     yield asset_pb.UploadBlobRequest(data=data)
@@ -77,16 +80,52 @@ def _upload_once(transport: Transport, blob: MeshFile) -> None:
     transport.upload_blob(chunks(), blob.size_bytes)
 
 
+def _resume_offset(transport: Transport, blob: MeshFile) -> int:
+    """Where the next stream starts: the bytes the server kept of an earlier
+    try (QueryUpload), -1 when it has the whole blob, 0 when it kept nothing
+    or cannot say (a server older than QueryUpload: UNIMPLEMENTED)."""
+    try:
+        held = transport.unary("QueryUpload", transport.assets.QueryUpload,
+                               asset_pb.QueryUploadRequest(digest=_digest(blob)))
+    except ImpostorError:
+        return 0
+    if held.complete:
+        return -1
+    kept = int(held.committed_bytes)
+    return kept if 0 < kept < blob.size_bytes else 0
+
+
 def _upload_with_retry(transport: Transport, blob: MeshFile) -> None:
-    # The server keeps only complete blobs: every retry starts over.
+    """Uploads `blob`, resuming after what the server kept of a broken try
+    (as the C++ SDK's UploadBlobFile, client/transfer/blob_upload.h): each
+    try but a one-message blob's first asks QueryUpload and sends only the
+    rest; a try after which the server kept more starts the count of
+    failures in a row over."""
     retry = transport.retry_policy()
+    ask = blob.size_bytes > UPLOAD_CHUNK_BYTES
+    resumed_at = 0
+    moved_kept = 0  # FAILED_PRECONDITIONs in a row: the kept partial changed under us
     while True:
+        offset = 0
+        if ask:
+            offset = _resume_offset(transport, blob)
+            if offset < 0:
+                return  # the store has it
+            if offset > resumed_at:
+                retry.made_progress()
+        resumed_at = offset
         try:
-            _upload_once(transport, blob)
+            _upload_once(transport, blob, offset)
             return
         except ImpostorError as e:
+            if e.code == grpc.StatusCode.FAILED_PRECONDITION and offset > 0 and moved_kept < 3:
+                moved_kept += 1
+                ask = True
+                continue
+            moved_kept = 0
             if not retry.should_retry(e):
                 raise
+            ask = True
 
 
 # Upload errors about the blob itself (the server's disk is full, the blob

@@ -610,8 +610,8 @@ class Transport:
 
     def upload_blob(self, requests: Iterator[Any], size_bytes: int) -> Any:
         """One UploadBlob stream of `requests` (the blob's messages, the
-        first with its digest), not retried (the caller starts over from the
-        first byte: the server keeps no part of an upload).
+        first with its digest and offset), not retried (the caller resumes
+        it: QueryUpload says from where).
 
         No deadline on the whole stream: it goes on however slow the link.
         It is cancelled when the link takes no message for

@@ -130,13 +130,14 @@ class Client:
             bytes. After an upload's last message the server's answer may
             take this long per 64 KiB the link may still hold (up to 4 MiB),
             plus once. A download then resumes at its byte offset, an upload
-            starts over (as max_attempts allows). WatchJob has no deadline.
+            after the bytes the server kept (as max_attempts allows).
+            WatchJob has no deadline.
             Default 30, > 0.
         max_attempts: tries in all of a call failing with UNAVAILABLE or
             DEADLINE_EXCEEDED, outside an outage, with backoff 100 ms, 200 ms,
             ... capped at 1 s, minus up to 20% jitter. Default 5, >= 1.
         max_outage_seconds: how long a server that answered once may stay
-            away (UNAVAILABLE) while calls keep retrying: uploads start over,
+            away (UNAVAILABLE) while calls keep retrying: uploads resume,
             SubmitBake resends its request id, WatchJob resumes via GetJob,
             downloads resume at their byte offset. 0 = max_attempts alone.
             Default 300, range 0..86400.

@@ -81,8 +81,9 @@ struct ClientOptions {
   // deadline, however slow the link, only this long at most without
   // progress: no byte arriving, or no 64 KiB message taken by the link for
   // an upload ("the link stalled", DEADLINE_EXCEEDED naming the seconds and
-  // bytes). A download then resumes at the last byte kept; an upload starts
-  // over (the server keeps no part of one). After an upload's last message
+  // bytes). A download then resumes at the last byte kept; an upload
+  // resumes after the bytes the server kept of it (QueryUpload says how
+  // many; a server without it gets the whole blob). After an upload's last message
   // the server's answer may take this long for each 64 KiB the link may
   // still hold (up to 4 MiB), plus once: those bytes cross unseen. WatchJob
   // has no deadline (a bake may take long) but resumes when the stream
@@ -96,7 +97,8 @@ struct ClientOptions {
   // SubmitBake through its request id), after an exponential backoff of
   // 100 ms, 200 ms, 400 ms, ... capped at 1 s, with up to 20% jitter. A
   // download that breaks midway resumes where it stopped; its attempt count
-  // starts over whenever bytes arrived.
+  // starts over whenever bytes arrived, as an upload's does whenever the
+  // server kept more of it.
   // Default: 5. Range: >= 1 (1 = never retry).
   int max_attempts = 5;
 
@@ -106,7 +108,7 @@ struct ClientOptions {
   // (so a restarted server is found within about a second) until the outage,
   // counted from the first failure after the last answer, has lasted this
   // long; then it returns its last error. This covers uploads (a broken
-  // UploadBlob starts over), SubmitBake (same request id, so never a second
+  // UploadBlob resumes after the bytes the server kept), SubmitBake (same request id, so never a second
   // job), WatchJob (resumed with GetJob and a new stream), GetJob, GetResult
   // and downloads (resumed at the byte offset already received, still
   // verified against the digest). Connect itself still fails fast when
