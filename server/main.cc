@@ -86,6 +86,12 @@ ABSL_FLAG(int, max_attempts, 3, "Leases a job gets before it fails for good (1..
 ABSL_FLAG(int64_t, max_pending_jobs, 100000, "Queued or running jobs accepted in total (>= 1)");
 ABSL_FLAG(int64_t, max_pending_per_client, 10000, "Queued or running jobs accepted per client (>= 1)");
 ABSL_FLAG(int64_t, max_blob_bytes, int64_t{2} << 30, "Largest blob (upload or output) accepted, bytes (>= 1)");
+// Issue 44: what a broken upload leaves for its resume (BlobStore).
+ABSL_FLAG(int64_t, partial_upload_max_bytes, int64_t{4} << 30,
+          "Bytes of broken uploads kept, all together, for the client or worker to resume (QueryUpload); the "
+          "oldest go first (0 = keep none, every broken upload starts over; >= 0)");
+ABSL_FLAG(int, partial_upload_max_age_seconds, 3600,
+          "Seconds a broken upload's bytes are kept for a resume (1..604800)");
 ABSL_FLAG(int64_t, store_max_bytes, 0,
           "Store size cap in bytes; least recently used unpinned results are evicted beyond it (0 = no cap)");
 ABSL_FLAG(int, shutdown_grace_seconds, 10,
@@ -249,6 +255,18 @@ int main(int argc, char** argv) {
     return Fail("--max-pending-jobs, --max-pending-per-client and --max-blob-bytes must be >= 1");
   }
 
+  impostor::PartialUploadLimits partial_uploads;
+  partial_uploads.max_total_bytes = absl::GetFlag(FLAGS_partial_upload_max_bytes);
+  if (partial_uploads.max_total_bytes < 0) {
+    return Fail("--partial-upload-max-bytes: " + std::to_string(partial_uploads.max_total_bytes) + " is below 0");
+  }
+  const int partial_max_age_s = absl::GetFlag(FLAGS_partial_upload_max_age_seconds);
+  if (partial_max_age_s < 1 || partial_max_age_s > 604800) {
+    return Fail("--partial-upload-max-age-seconds: " + std::to_string(partial_max_age_s) +
+                " is out of range 1..604800");
+  }
+  partial_uploads.max_age = std::chrono::seconds(partial_max_age_s);
+
   const int64_t eviction_grace_s = absl::GetFlag(FLAGS_store_eviction_grace_seconds);
   if (eviction_grace_s < 0 || eviction_grace_s > 86400) {
     return Fail("--store-eviction-grace-seconds: " + std::to_string(eviction_grace_s) + " is out of range 0..86400");
@@ -300,7 +318,7 @@ int main(int argc, char** argv) {
   }
 
   const std::string blob_dir = absl::GetFlag(FLAGS_blob_dir).empty() ? data : absl::GetFlag(FLAGS_blob_dir);
-  auto blobs = impostor::BlobStore::Open(blob_dir, max_blob_bytes);
+  auto blobs = impostor::BlobStore::Open(blob_dir, max_blob_bytes, partial_uploads);
   if (!blobs.ok()) return Fail(std::string(blobs.status().message()));
   const impostor::JobStoreConfig store_config{
       .database_url = absl::GetFlag(FLAGS_database),

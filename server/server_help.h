@@ -23,7 +23,7 @@ inline ProgramHelp ServerHelp() {
                  "results a worker baked, offline.",
       .groups = {{"Listening", {"listen", "port_file", "http_", "tls_", "keepalive_"}},
                  {"Access control", {"auth", "token_"}},
-                 {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "result_touch_"}},
+                 {"Storage", {"data", "blob_dir", "store_", "max_blob_bytes", "partial_upload_", "result_touch_"}},
                  {"Jobs", {"lease_timeout_s", "max_attempts", "max_pending_", "job_retention_"}},
                  {"Workers", {"local_workers", "worker_", "retry_elsewhere_", "unplaceable_", "prefer_strong_", "pool"}},
                  {"Shutdown and logging", {"shutdown_", "log_"}}},

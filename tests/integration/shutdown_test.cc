@@ -295,6 +295,11 @@ TEST(ServerFlags, UnusableLogLevelAndListenAddressesAreUsageErrors) {
       {"--pool-shares=gpu:team-forest=60,gpu:team-desert=41",
        "--pool-shares: \"gpu:team-desert=41\" brings the shares of pool \"gpu\" to 101 %, over 100", "--pools=gpu"},
       {"--pools=GPU", "--pools: \"GPU\" needs a pool name of 1..64 bytes of [a-z0-9._-]"},
+      // Kept partial uploads (issue 44; what they do: tests/client/upload_resume_test.cc).
+      {"--partial-upload-max-bytes=-1", "--partial-upload-max-bytes: -1 is below 0"},
+      {"--partial-upload-max-age-seconds=0", "--partial-upload-max-age-seconds: 0 is out of range 1..604800"},
+      {"--partial-upload-max-age-seconds=604801",
+       "--partial-upload-max-age-seconds: 604801 is out of range 1..604800"},
       {"--listen=127.0.0.1:99999", "--listen: \"127.0.0.1:99999\" has a port that is not a number in 0..65535"},
       {"--listen=127.0.0.1", "--listen: \"127.0.0.1\" has no port"},
       {"--listen=" + holder.address(), "--listen: cannot listen on " + holder.address()},
