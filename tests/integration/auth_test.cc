@@ -151,6 +151,12 @@ class AuthServer : public ::testing::Test {
       return assets_->FindMissingBlobs(ctx.get(), request, &response);
     }
     if (rpc == "UploadBlob") return Upload(authorization, "matrix upload");
+    if (rpc == "QueryUpload") {
+      v1::QueryUploadRequest request;
+      *request.mutable_digest() = result_blob_;
+      v1::QueryUploadResponse response;
+      return assets_->QueryUpload(ctx.get(), request, &response);
+    }
     if (rpc == "ReadBlob") return Read(authorization, result_blob_);
     if (rpc == "GetResult") return GetResult(authorization, result_key_);
     if (rpc == "PinResult") {
@@ -261,6 +267,8 @@ struct MatrixRow {
 const MatrixRow kMatrix[] = {
     {"FindMissingBlobs", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
     {"UploadBlob", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
+    // Who may upload may ask how far an upload got (issue 44).
+    {"QueryUpload", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
     // A result blob: readers and submitters read results; a worker reads
     // only the inputs of the job it holds.
     {"ReadBlob", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
