@@ -30,7 +30,8 @@ TEST_F(HttpAuth, NothingButHealthAndLoginAnswersWithoutAToken) {
   EXPECT_EQ(http_.Status("/healthz"), 200);
   EXPECT_EQ(http_.Status("/readyz"), 200);
   EXPECT_EQ(http_.Status("/login"), 200);
-  for (const char* path : {"/metrics", "/api/v1/summary", "/api/v1/jobs", "/api/v1/workers", "/api/v1/results"}) {
+  for (const char* path :
+       {"/metrics", "/api/v1/summary", "/api/v1/jobs", "/api/v1/workers", "/api/v1/pools", "/api/v1/results"}) {
     auto res = http_.Get(path);
     ASSERT_TRUE(res) << path;
     EXPECT_EQ(res->status, 401) << path;

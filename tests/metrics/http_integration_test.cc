@@ -166,6 +166,54 @@ TEST(HttpMetrics, CountersMoveByExactlyOneBakeAndOneCacheHit) {
   EXPECT_EQ(Sha256Hex(mesh->body), request.mesh().entry().digest().hash());
 }
 
+// Pools and shares (issue 44): /api/v1/pools and the impostor_pool_*
+// gauges show a pool's workers, its running jobs and a share's team, from a
+// worker tagged gpu that leased team-forest's bake (a LeaseJob by hand, so
+// the job stays running while the test looks).
+TEST(HttpMetrics, PoolsShowTheirWorkersRunningJobsAndShares) {
+  ServerProcess server(/*local_workers=*/0,
+                       {"--http-listen=127.0.0.1:0", "--pools=gpu", "--pool-shares=gpu:team-forest=50"});
+  Http http(HttpPort(server));
+  auto lease = [&] {
+    v1::LeaseJobRequest request;
+    request.set_worker_id("gpu-a");
+    request.set_wait_seconds(0);
+    v1::WorkerCapabilities* caps = request.mutable_capabilities();
+    caps->set_device_kind("discrete");
+    caps->set_baker_version("test");
+    caps->add_tags("gpu");
+    v1::LeaseJobResponse response;
+    const grpc::Status s = server.workers().LeaseJob(ContextWithin().get(), request, &response);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    return response;
+  };
+  auto submitter = ContextWithin();
+  submitter->AddMetadata("impostor-client-id", "team-forest");
+  v1::SubmitBakeResponse submitted;
+  ASSERT_TRUE(server.bake().SubmitBake(submitter.get(), BoxRequest(server), &submitted).ok());
+  ASSERT_TRUE(lease().has_job());
+
+  const nlohmann::json pools = http.Json("/api/v1/pools");
+  ASSERT_EQ(pools["pools"].size(), 1u) << pools.dump();
+  const nlohmann::json& gpu = pools["pools"][0];
+  EXPECT_EQ(gpu["name"], "gpu") << gpu.dump();
+  EXPECT_EQ(gpu["tag"], "gpu") << gpu.dump();
+  EXPECT_EQ(gpu["workers"], 1) << gpu.dump();
+  EXPECT_EQ(gpu["running"], 1) << gpu.dump();
+  ASSERT_EQ(gpu["shares"].size(), 1u) << gpu.dump();
+  EXPECT_EQ(gpu["shares"][0]["team"], "team-forest");
+  EXPECT_EQ(gpu["shares"][0]["percent"], 50);
+  EXPECT_EQ(gpu["shares"][0]["guaranteed_workers"], 1);
+  EXPECT_EQ(gpu["shares"][0]["running"], 1);
+
+  const Exposition m = http.Scrape();
+  EXPECT_EQ(m.Value("impostor_pool_workers", {{"pool", "gpu"}}), 1);
+  EXPECT_EQ(m.Value("impostor_pool_running_jobs", {{"pool", "gpu"}}), 1);
+  EXPECT_EQ(m.Value("impostor_pool_share_running_jobs", {{"pool", "gpu"}, {"team", "team-forest"}}), 1);
+  EXPECT_EQ(m.Value("impostor_pool_share_guaranteed_workers", {{"pool", "gpu"}, {"team", "team-forest"}}), 1);
+  EXPECT_EQ(m.types.at("impostor_pool_workers"), "gauge");
+}
+
 TEST(HttpMetrics, BadPathsAndParametersAreRefusedNamingWhatIsWrong) {
   ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});
   Http http(HttpPort(server));
