@@ -100,8 +100,9 @@ struct SchedulerOptions {
   // when a worker of a pool (it reports the pool's tag) asks for work and a
   // team with a share in that pool runs fewer jobs on the pool's workers
   // than its guarantee (GuaranteedWorkers of the pool's workers about, not
-  // paused), that team's job goes first, among the jobs at the queue's
-  // highest priority that the worker may take; otherwise the usual order.
+  // paused), that team's job goes first, whatever the other jobs'
+  // priorities (its own highest priority first among its jobs the worker
+  // may take); otherwise the usual order.
   // Running jobs are read from the job store (every server counts the same
   // ones); which workers are in a pool is each server's own knowledge (the
   // tags a worker reported to it), so each server guarantees the shares
@@ -433,12 +434,16 @@ class BakeScheduler {
   // `worker_id`); "" when `worker_id` may take `r`.
   std::string StrongerWorkerFor(const JobRecord& r, const std::string& worker_id, int64_t shared_now_ms)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // Pool shares (options_.pools): moves to the front of `heads` (sorted
-  // best first) the first job of the team the asking worker's pools owe
-  // most; leaves the order as it is when no share is owed or no owed team
-  // has a job there. (bake_scheduler_pools.cc)
-  absl::Status PreferOwedTeams(std::vector<JobRecord>& heads, const std::string& worker_id)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Pool shares (options_.pools): puts first in `heads` (sorted best
+  // first, not empty) the job of the team the asking worker's pools owe
+  // most: its first job there, else its queued job of the highest priority
+  // that the worker may take (fits, not held for a stronger worker, not
+  // failed by it lately, not in `skipped`: read from the store, at most
+  // kOwedTeamLookahead). Leaves the order as it is when no share is owed
+  // or no owed team has such a job. (bake_scheduler_pools.cc)
+  absl::Status PreferOwedTeams(std::vector<JobRecord>& heads, const std::string& worker_id,
+                               const std::vector<std::string>& skipped) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  static constexpr int kOwedTeamLookahead = 16;
   // Whether `worker_id` reported `pool`'s tag; how many workers about here
   // did; and each team's running jobs on those workers.
   bool InPool(const WorkerPool& pool, const std::string& worker_id) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

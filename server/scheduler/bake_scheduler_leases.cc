@@ -198,8 +198,11 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
                     EscapeUntrusted(worker_id), held_back.size());
     }
   }
+  // A pool's share owed to a team goes before the order below
+  // (options_.pools), even a higher priority's.
   std::vector<std::string> ids;
   if (heads.size() <= 1) {
+    if (auto s = PreferOwedTeams(heads, worker_id, skipped); !s.ok()) return s;
     for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
     return ids;
   }
@@ -217,8 +220,7 @@ absl::StatusOr<std::vector<std::string>> BakeScheduler::LeaseCandidates(const st
                            r.job.job_id());
   };
   std::sort(heads.begin(), heads.end(), [&](const JobRecord& a, const JobRecord& b) { return rank(a) < rank(b); });
-  // A pool's share owed to a team goes before that order (options_.pools).
-  if (auto s = PreferOwedTeams(heads, worker_id); !s.ok()) return s;
+  if (auto s = PreferOwedTeams(heads, worker_id, skipped); !s.ok()) return s;
   for (const JobRecord& r : heads) ids.push_back(r.job.job_id());
   return ids;
 }
@@ -260,6 +262,11 @@ absl::Status BakeScheduler::JudgePlacement(JobRecord& r) {
   const bool timed_out = !jobs_->SharedWithOtherServers() && now - since >= options_.unplaceable_timeout_ms;
   if (!timed_out) {
     if (r.job.stage() == reason) return absl::OkStatus();
+    // Replicas each know only the workers that poll them, so each would
+    // write its own reason over the other's at every poll (the stage
+    // flipping, a log line and a database write each time): the reason
+    // first written stands until a replica places the job.
+    if (jobs_->SharedWithOtherServers() && waiting_stage) return absl::OkStatus();
     spdlog::info("event=unplaceable job={} reason=\"{}\"", r.job.job_id(), reason);
     r.job.set_stage(reason);
     return Save(r);

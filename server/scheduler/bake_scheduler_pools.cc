@@ -38,8 +38,9 @@ std::map<std::string, int64_t> BakeScheduler::RunningPerTeamInPool(
   return per_team;
 }
 
-absl::Status BakeScheduler::PreferOwedTeams(std::vector<JobRecord>& heads, const std::string& worker_id) {
-  if (options_.pools.empty() || heads.size() <= 1) return absl::OkStatus();
+absl::Status BakeScheduler::PreferOwedTeams(std::vector<JobRecord>& heads, const std::string& worker_id,
+                                            const std::vector<std::string>& skipped) {
+  if (options_.pools.empty() || heads.empty()) return absl::OkStatus();
   std::optional<std::vector<JobStore::RunningLease>> running;  // read once, when a pool has shares
   for (const WorkerPool& pool : options_.pools) {
     if (pool.shares.empty() || !InPool(pool, worker_id)) continue;
@@ -52,13 +53,30 @@ absl::Status BakeScheduler::PreferOwedTeams(std::vector<JobRecord>& heads, const
       const auto first = std::find_if(heads.begin(), heads.end(), [&](const JobRecord& r) {
         return JobOfTeam(r.owner, r.client_id, team);
       });
-      if (first == heads.end()) continue;  // nothing of theirs queued for this worker
-      if (first != heads.begin()) {
-        spdlog::debug("event=pool_share job={} worker=\"{}\" pool={} team=\"{}\"", first->job.job_id(),
-                      EscapeUntrusted(worker_id), pool.name, EscapeUntrusted(team));
+      if (first != heads.end()) {
+        if (first != heads.begin()) {
+          spdlog::debug("event=pool_share job={} worker=\"{}\" pool={} team=\"{}\"", first->job.job_id(),
+                        EscapeUntrusted(worker_id), pool.name, EscapeUntrusted(team));
+        }
+        std::rotate(heads.begin(), first, first + 1);
+        return absl::OkStatus();
       }
-      std::rotate(heads.begin(), first, first + 1);
-      return absl::OkStatus();
+      // None at the queue's highest priority: the team's own best job, if
+      // this worker may take it.
+      auto queued = jobs_->QueuedOfTeam(team, kOwedTeamLookahead);
+      if (!queued.ok()) return queued.status();
+      const int64_t now = SharedNowMs();
+      for (JobRecord& r : *queued) {
+        if (std::find(skipped.begin(), skipped.end(), r.job.job_id()) != skipped.end()) continue;
+        if (!FitsWorker(r, worker_id) || !StrongerWorkerFor(r, worker_id, now).empty() ||
+            FailedLatelyBy(r, worker_id, now)) {
+          continue;
+        }
+        spdlog::debug("event=pool_share job={} worker=\"{}\" pool={} team=\"{}\" priority={}", r.job.job_id(),
+                      EscapeUntrusted(worker_id), pool.name, EscapeUntrusted(team), r.lease_priority);
+        heads.insert(heads.begin(), std::move(r));
+        return absl::OkStatus();
+      }
     }
   }
   return absl::OkStatus();

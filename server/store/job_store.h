@@ -144,6 +144,11 @@ class JobStore {
     std::string owner;
   };
   virtual absl::StatusOr<std::vector<RunningLease>> RunningLeases() = 0;
+  // QUEUED leaders of `team` (its owner or its client_id is `team`), the
+  // highest lease priority first, then the oldest; at most `limit` (pool
+  // shares: a team owed its share gets its job whatever the others'
+  // priorities).
+  virtual absl::StatusOr<std::vector<JobRecord>> QueuedOfTeam(const std::string& team, int limit) = 0;
   // A QUEUED or RUNNING leader with this cache key.
   virtual absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) = 0;
   // Followers of `leader_job_id` that are still QUEUED or RUNNING.

@@ -99,8 +99,9 @@ class PoolShareRun : public ::testing::Test {
     EXPECT_TRUE(blobs_->Put({d.hash(), d.size_bytes()}, bytes).ok());
     return d;
   }
-  void Submit(const Team& team, int i) {
+  void Submit(const Team& team, int i, int32_t priority) {
     v1::SubmitBakeRequest r;
+    r.set_priority(priority);
     r.mutable_mesh()->mutable_entry()->set_path("model.glb");
     *r.mutable_mesh()->mutable_entry()->mutable_digest() = Store(absl::StrCat(team.name, " model ", i));
     r.mutable_parameters()->set_resolution(256);  // small: goes anywhere
@@ -145,14 +146,15 @@ class PoolShareRun : public ::testing::Test {
     int completed = 0;
   };
   // Submits kBakesPerTeam bakes for each team, team-desert's first (so the
-  // usual order would favour it), then runs the pool: kPoolWorkers gpu
+  // usual order would favour it), at `desert_priority` (team-forest's are
+  // at 0), then runs the pool: kPoolWorkers gpu
   // workers per replica, worker i polling replica i % replicas, and one
   // untagged worker outside
   // the pool (its leases are not the pool's). Each step the longest-running
   // bake completes and its worker asks again.
-  Outcome Run() {
-    for (int i = 0; i < kBakesPerTeam; ++i) Submit(kDesert, i);
-    for (int i = 0; i < kBakesPerTeam; ++i) Submit(kForest, i);
+  Outcome Run(int32_t desert_priority = 0) {
+    for (int i = 0; i < kBakesPerTeam; ++i) Submit(kDesert, i, desert_priority);
+    for (int i = 0; i < kBakesPerTeam; ++i) Submit(kForest, i, 0);
     const int replicas = static_cast<int>(replicas_.size());
     struct Held {
       int replica;
@@ -238,6 +240,23 @@ TEST_F(PoolShareRun, TeamForestGetsItsShareAcrossTwoPostgresqlReplicas) {
               out.contested_leases);
 }
 
+// A share is a guarantee: team-desert's bakes at a higher priority do not
+// take team-forest's share (without it, team-forest would get nothing while
+// team-desert has work).
+TEST_F(PoolShareRun, TeamForestGetsItsShareOverTeamDesertsHigherPriority) {
+  Start("sqlite", 1, GpuPool(true));
+  const Outcome out = Run(/*desert_priority=*/5);
+  ExpectShareHolds("desert at priority 5", out.forest_fraction, out.contested_leases, out.completed);
+  std::printf("desert at priority 5: team-forest %.3f of %d contested pool leases\n", out.forest_fraction,
+              out.contested_leases);
+}
+
+TEST_F(PoolShareRun, TeamForestGetsItsShareOverTeamDesertsHigherPriorityOnPostgresql) {
+  Start("postgresql", 1, GpuPool(true));
+  const Outcome out = Run(/*desert_priority=*/5);
+  ExpectShareHolds("postgresql, desert at priority 5", out.forest_fraction, out.contested_leases, out.completed);
+}
+
 // The control: without the share the usual order splits the pool evenly,
 // which is what makes the tests above able to fail.
 TEST_F(PoolShareRun, WithoutTheShareThePoolSplitsEvenly) {
@@ -245,6 +264,12 @@ TEST_F(PoolShareRun, WithoutTheShareThePoolSplitsEvenly) {
   const Outcome out = Run();
   EXPECT_EQ(out.completed, 2 * kBakesPerTeam);
   EXPECT_NEAR(out.forest_fraction, 0.5, kTolerance);
+  Outcome by_priority;
+  TearDown();
+  Start("sqlite", 1, GpuPool(false));
+  team_of_.clear();
+  by_priority = Run(/*desert_priority=*/5);
+  EXPECT_EQ(by_priority.forest_fraction, 0.0) << "priority first: team-desert's bakes all go before";
 }
 
 }  // namespace

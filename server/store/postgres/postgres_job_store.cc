@@ -332,6 +332,14 @@ absl::StatusOr<std::vector<JobStore::RunningLease>> PostgresJobStore::RunningLea
   return out;
 }
 
+absl::StatusOr<std::vector<JobRecord>> PostgresJobStore::QueuedOfTeam(const std::string& team, int limit) {
+  return QueryMany("queued of team",
+                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE state = ", kQueued,
+                                " AND leader_job_id = '' AND (owner = $1 OR client_id = $1) "
+                                "ORDER BY priority DESC, created_ms, seq LIMIT $2"),
+                   PgParams().Text(team).Int(limit));
+}
+
 absl::StatusOr<std::optional<JobRecord>> PostgresJobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne("active with key",
                   absl::StrCat("SELECT ", kJobColumns, " FROM jobs WHERE cache_key = $1 AND state IN (", kQueued, ", ",

@@ -77,6 +77,7 @@ class PostgresJobStore : public JobStore {
   absl::StatusOr<std::vector<JobRecord>> QueueHeadsPerClient(const std::vector<std::string>& skip_job_ids) override;
   absl::StatusOr<std::map<std::string, int64_t>> RunningPerClient() override;
   absl::StatusOr<std::vector<RunningLease>> RunningLeases() override;
+  absl::StatusOr<std::vector<JobRecord>> QueuedOfTeam(const std::string& team, int limit) override;
   absl::StatusOr<std::optional<JobRecord>> ActiveWithKey(const std::string& cache_key) override;
   absl::StatusOr<std::vector<JobRecord>> ActiveFollowers(const std::string& leader_job_id) override;
   absl::StatusOr<int64_t> CountPending(const std::string& client_id) override;

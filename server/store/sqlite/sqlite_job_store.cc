@@ -389,6 +389,18 @@ absl::StatusOr<std::vector<JobStore::RunningLease>> SqliteJobStore::RunningLease
   return out;
 }
 
+absl::StatusOr<std::vector<JobRecord>> SqliteJobStore::QueuedOfTeam(const std::string& team, int limit) {
+  return QueryMany(db_,
+                   absl::StrCat("SELECT ", kJobColumns,
+                                " FROM jobs WHERE state = ?1 AND leader_job_id = '' AND (owner = ?2 OR client_id = ?2) "
+                                "ORDER BY priority DESC, created_ms, rowid LIMIT ?3"),
+                   [&](Statement& st) {
+                     st.Bind(1, static_cast<int64_t>(v1::JOB_STATE_QUEUED));
+                     st.Bind(2, team);
+                     st.Bind(3, static_cast<int64_t>(limit));
+                   });
+}
+
 absl::StatusOr<std::optional<JobRecord>> SqliteJobStore::ActiveWithKey(const std::string& cache_key) {
   return QueryOne(db_,
                   absl::StrCat("SELECT ", kJobColumns,
