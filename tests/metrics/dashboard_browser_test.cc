@@ -137,6 +137,31 @@ TEST_F(DashboardBrowser, OverviewShowsARunningJobThenItsCompletionAndTheResultPa
   EXPECT_NE(attempt.find("succeeded"), std::string::npos) << attempt;
 }
 
+// Pools and shares (issue 44): a server with --pools shows the table, one
+// row per share, with the pool's workers (a gpu-tagged LeaseJob by hand).
+TEST_F(DashboardBrowser, OverviewShowsPoolsAndShares) {
+  ServerProcess server(/*local_workers=*/0,
+                       {"--http-listen=127.0.0.1:0", "--pools=gpu", "--pool-shares=gpu:team-forest=50"});
+  const std::string base = "http://127.0.0.1:" + std::to_string(HttpPort(server));
+  v1::LeaseJobRequest lease;
+  lease.set_worker_id("gpu-a");
+  lease.mutable_capabilities()->set_device_kind("discrete");
+  lease.mutable_capabilities()->set_baker_version("test");
+  lease.mutable_capabilities()->add_tags("gpu");
+  v1::LeaseJobResponse leased;
+  ASSERT_TRUE(server.workers().LeaseJob(testing::ContextWithin().get(), lease, &leased).ok());
+  const PageRun page = RunPage(
+      base + "/", "document.querySelectorAll('[data-testid=pools-table] tr').length === 2",
+      {"--screenshot", (kArtifacts / "overview_pools.png").string(), "--eval",
+       "({hidden: document.getElementById('pools-section').hidden, row: "
+       "document.querySelectorAll('[data-testid=pools-table] tr')[1].textContent})"});
+  EXPECT_EQ(page.exit_code, 0) << page.report.dump();
+  EXPECT_EQ(page.report["console_errors"], nlohmann::json::array()) << page.report.dump();
+  EXPECT_EQ(page.report["value"]["hidden"], false) << page.report.dump();
+  // pool, tag, workers, running, share, guaranteed, team running
+  EXPECT_EQ(page.report["value"]["row"], "gpugpu10team-forest 50%10") << page.report.dump();
+}
+
 // The 3D viewer's impostor lies on the mesh for a perspective camera: an
 // asymmetric asset (DamagedHelmet: visor and hoses differ left and right)
 // from an oblique viewpoint; the mesh's silhouette (three.js, ?mask=1 draws
