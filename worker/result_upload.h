@@ -21,7 +21,12 @@ struct ResultUploadOptions {
   // The stream is cancelled when the link takes no message for this long,
   // and when, after the last message, the server's answer does not come
   // within it once per message the link may still hold, plus once more
-  // (DEADLINE_EXCEEDED saying that the link stalled). > 0.
+  // (DEADLINE_EXCEEDED saying that the link stalled). > 0. A write the
+  // link never took returns only once the connection is given up (gRPC
+  // completes no step of a cancelled call before that): the channel's
+  // keepalive bounds it (the worker's --keepalive-seconds sets
+  // TCP_USER_TIMEOUT), so a dead link ends the call within about the
+  // stall limit or the keepalive timeout, whichever is longer.
   std::chrono::milliseconds stall_limit{std::chrono::seconds(30)};
   // Bytes per UploadBlob message: a message must cross the slowest link
   // well within stall_limit (64 KiB take 5 s at 12 KB/s).

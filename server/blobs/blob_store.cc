@@ -264,18 +264,24 @@ absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const Bl
     return std::make_unique<BlobFileWriter>(this, digest, tmp, PathFor(digest), fd, 0, std::move(active));
   }
   KeptPartial claimed;
+  bool took_over = false;  // the partial is a streaming upload's this one ended
   {
     std::unique_lock lock(partial_mu_);
     ExpirePartialsLocked();
     if (kept_.find(key) == kept_.end()) {
       // The upload this one resumes may still be streaming here: its
-      // client's link broke, and this end has not heard yet.
+      // client's link broke, and this end has not heard yet. It may have
+      // read a few more of the messages that crossed since QueryUpload
+      // answered: its first `offset` bytes are the resume's prefix.
       std::shared_ptr<ActiveUpload> target;
       auto [begin, end] = active_.equal_range(key);
       for (auto it = begin; it != end; ++it) {
-        if (it->second->written == offset) target = it->second;
+        if (it->second->written >= offset && (target == nullptr || it->second->written > target->written)) {
+          target = it->second;
+        }
       }
       if (target != nullptr) {
+        took_over = true;
         auto released = [&] {
           if (kept_.count(key) != 0) return true;
           auto [b, e] = active_.equal_range(key);
@@ -296,7 +302,7 @@ absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const Bl
     }
     auto it = kept_.find(key);
     const int64_t kept = it == kept_.end() ? 0 : it->second.bytes;
-    if (kept != offset) {
+    if (kept != offset && !(took_over && kept > offset)) {
       return absl::FailedPreconditionError(absl::StrCat("offset: ", offset, " is not the length of the kept partial upload of blob ",
                                                         digest.hash, " (", kept, " bytes); query again or start at 0"));
     }
@@ -308,6 +314,14 @@ absl::StatusOr<std::unique_ptr<BlobStore::Writer>> BlobStore::NewWriter(const Bl
   const int fd = ::open(claimed.path.c_str(), O_RDWR | O_CLOEXEC);  // read: the prefix is re-hashed
   if (fd < 0) {
     absl::Status error = ErrnoError("open", claimed.path);
+    std::error_code ec;
+    fs::remove(claimed.path, ec);
+    EndActive(key, active.get());
+    return error;
+  }
+  if (claimed.bytes > offset && ::ftruncate(fd, offset) != 0) {
+    absl::Status error = ErrnoError("truncate", claimed.path);
+    ::close(fd);
     std::error_code ec;
     fs::remove(claimed.path, ec);
     EndActive(key, active.get());

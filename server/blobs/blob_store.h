@@ -97,12 +97,13 @@ class BlobStore {
 
   // A writer for `digest` whose first byte is the blob's byte `offset`:
   // 0 starts afresh (dropping a kept partial of the blob); any other offset
-  // resumes the kept partial, which must hold exactly `offset` bytes. An
-  // upload of the blob still streaming into this store whose writer holds
-  // exactly `offset` bytes (its client's link broke and the server has not
-  // noticed yet) is preempted first: asked to stop (preempted()), and after
-  // two seconds cancelled through `cancel_stream` (the caller's hook to end
-  // that upload's stream; may be empty).
+  // resumes the kept partial, which must hold exactly `offset` bytes. When
+  // none is kept, an upload of the blob still streaming into this store
+  // that has written at least `offset` bytes (its client's link broke and
+  // the server has not noticed yet; QueryUpload reported its progress) is
+  // taken over: asked to stop (preempted()), after two seconds cancelled
+  // through `cancel_stream` (the caller's hook to end that upload's stream;
+  // may be empty), and its first `offset` bytes are resumed.
   // INVALID_ARGUMENT for a malformed digest, one over the size limit, or an
   // offset outside 0..size_bytes; FAILED_PRECONDITION when `offset` is not
   // the kept partial's length (the message names both).

@@ -15,6 +15,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "common/net/keepalive.h"
 #include "common/util/sha256.h"
 #include "server/blobs/blob_store.h"
 #include "server/rpc/services.h"
@@ -144,7 +145,14 @@ TEST_F(ResultUploadTest, AStoppedLinkIsCutByTheStallWatchdogAndItsBytesAreKept) 
   ResultUploadOptions options;
   options.stall_limit = std::chrono::milliseconds(1500);
   testing::TcpProxy proxy(ServerAddress());
-  v1::AssetService::Stub stub(grpc::CreateChannel(proxy.address(), grpc::InsecureChannelCredentials()));
+  // As the worker's channel: keepalive, so that a write the stopped link
+  // never takes returns once the connection is given up (gRPC completes no
+  // step of a cancelled call before that; result_upload.h).
+  constexpr int kKeepaliveSeconds = 3;  // longer than the stall limit: the watchdog ends it
+  grpc::ChannelArguments args;
+  ApplyClientKeepalive(kKeepaliveSeconds, args);
+  v1::AssetService::Stub stub(
+      grpc::CreateCustomChannel(proxy.address(), grpc::InsecureChannelCredentials(), args));
   proxy.FreezeAfter(1 << 20, testing::TcpProxy::Direction::kToServer);
 
   const Clock::time_point start = Clock::now();
@@ -153,7 +161,8 @@ TEST_F(ResultUploadTest, AStoppedLinkIsCutByTheStallWatchdogAndItsBytesAreKept) 
   EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
   EXPECT_NE(status.message().find("the link stalled"), std::string::npos) << status;
   EXPECT_GE(took, 1.5);
-  EXPECT_LT(took, 1.5 + 3) << "the watchdog, not a deadline, ended it";
+  EXPECT_LT(took, 1.5 + kKeepaliveSeconds + KeepaliveTimeoutSeconds(kKeepaliveSeconds) + 3)
+      << "the watchdog and the keepalive, not a deadline, ended it";
   proxy.CutAll();
   const absl::Status resumed = UploadResultFile(stub, path(), digest, options);
   ASSERT_TRUE(resumed.ok()) << resumed;
