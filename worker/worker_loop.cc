@@ -19,6 +19,7 @@
 #include "common/net/connect_error.h"
 #include "common/error_reason.h"
 #include "common/net/keepalive.h"
+#include "common/net/transfer_window.h"
 #include "common/util/log_escape.h"
 #include "common/net/server_list.h"
 #include "common/util/sha256.h"
@@ -95,6 +96,9 @@ WorkerLoop::WorkerLoop(WorkerOptions options, std::unique_ptr<AtlasRenderer> ren
   // Pings while a call is in flight (issue 15): every call has a deadline,
   // but a blob stream's is 10 minutes; a cut link ends it in seconds.
   ApplyClientKeepalive(options_.keepalive_seconds, args);
+  // Meshes and textures download at full speed from the first byte
+  // (transfer_window.h).
+  ApplyClientTransferWindow(args);
   // main checked the list; a bad one here (a test's options) is one target.
   absl::StatusOr<std::vector<std::string>> targets = ParseServerList(options_.server, "WorkerOptions.server");
   channels_ = std::make_unique<FailoverChannel>(

@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/base/local_io_error.h"
+#include "client/cache/prefetched_blobs.h"
 #include "client/transfer/result_fetch.h"
 #include "client/transport/rpc_error.h"
 #include "client/base/sdk_log.h"
@@ -338,7 +339,16 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   InstallPlan plan;
   plan.listing = std::move(*listing);
   plan.listing_source = absl::StrCat("server ", transport.server());
-  plan.sources.push_back({plan.listing_source, FarmBlobReader(transport), /*mirror=*/false});
+  // Small blobs come many to a call, except those a partial file already
+  // holds (an earlier install cut short resumes them from disk).
+  BlobReader reader = PrefetchingFarmReader(
+      transport, plan.listing,
+      [&layout](const v1::Digest& d) {
+        std::error_code ec;
+        return !fs::exists(layout.PartialPath(d.hash(), d.size_bytes()), ec);
+      },
+      cancel);
+  plan.sources.push_back({plan.listing_source, std::move(reader), /*mirror=*/false});
   return InstallFromSources(plan, layout, key, hooks, cancel);
 }
 

@@ -24,6 +24,7 @@
 #include "common/error_reason.h"
 #include "common/net/failover_channel.h"
 #include "common/net/keepalive.h"
+#include "common/net/transfer_window.h"
 #include "common/net/server_list.h"
 #include "common/net/tls_channel.h"
 #include "common/net/tls_files.h"
@@ -342,6 +343,8 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   // A quiet WatchJob over a dead link fails over within keepalive + its
   // timeout (common/net/keepalive.h).
   ApplyClientKeepalive(options.keepalive_seconds, args);
+  // Downloads at full speed from the first byte (transfer_window.h).
+  ApplyClientTransferWindow(args);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kInitialReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kMaxReconnectBackoffMs);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kMinConnectTimeoutMs);
@@ -556,6 +559,16 @@ absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key, 
       "GetResult",
       [&](const Route& route, auto* ctx, auto* resp) {
         return v1::AssetService::Stub(route.channel).GetResult(ctx, request, resp);
+      },
+      cancel);
+}
+
+absl::StatusOr<v1::BatchReadBlobsResponse> Transport::BatchReadBlobs(const v1::BatchReadBlobsRequest& request,
+                                                                    const CancelSource* cancel) {
+  return CallUnary<v1::BatchReadBlobsResponse>(
+      "BatchReadBlobs",
+      [&](const Route& route, auto* ctx, auto* resp) {
+        return v1::AssetService::Stub(route.channel).BatchReadBlobs(ctx, request, resp);
       },
       cancel);
 }

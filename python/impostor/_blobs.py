@@ -26,6 +26,11 @@ from .v1 import types_pb2 as pb
 # kUploadChunkBytes, client/transfer/blob_upload.h).
 UPLOAD_CHUNK_BYTES = 64 << 10
 MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
+# Blobs up to this size are read many to a BatchReadBlobs call, within the
+# server's limits per call (as the C++ SDK, common/net/batch_read.h).
+BATCH_BLOB_MAX_BYTES = 1 << 20
+MAX_BATCH_DIGESTS = 1000
+MAX_BATCH_BYTES = 4 << 20
 
 _Key = Tuple[str, int]
 
@@ -198,6 +203,80 @@ def already_there(path: Path, digest: "pb.Digest") -> bool:
         return digest_file(path)[0] == digest.hash
     except OSError:
         return False
+
+
+def pack_batches(sizes: Sequence[int]) -> List[List[int]]:
+    """Splits blobs of these sizes (each at most BATCH_BLOB_MAX_BYTES) into
+    BatchReadBlobs calls within the server's limits, keeping their order:
+    the indices of each call's blobs."""
+    batches: List[List[int]] = []
+    total = 0
+    for i, size in enumerate(sizes):
+        if not batches or len(batches[-1]) == MAX_BATCH_DIGESTS or total + size > MAX_BATCH_BYTES:
+            batches.append([])
+            total = 0
+        batches[-1].append(i)
+        total += size
+    return batches
+
+
+def read_blob_batch(transport: Transport, digests: Sequence["pb.Digest"], names: Sequence[str]) -> "List[bytes] | None":
+    """The blobs' bytes from one BatchReadBlobs call, each checked against
+    its digest (size and SHA-256), or None from a server older than the call
+    (UNIMPLEMENTED: read them with ReadBlob). `names` (one per digest) go
+    into errors. Raises ImpostorError: a blob's own code (NOT_FOUND,
+    DATA_LOSS, ...) or DATA_LOSS for an answer that does not match, naming
+    the blob; the call's error."""
+    request = asset_pb.BatchReadBlobsRequest(digests=list(digests))
+    try:
+        response = transport.unary("BatchReadBlobs", transport.assets.BatchReadBlobs, request)
+    except ImpostorError as e:
+        if e.code == grpc.StatusCode.UNIMPLEMENTED:
+            return None
+        raise
+    if len(response.blobs) != len(digests):
+        raise ImpostorError(
+            grpc.StatusCode.DATA_LOSS, f"BatchReadBlobs: answered {len(response.blobs)} blobs for {len(digests)} asked"
+        )
+    out: List[bytes] = []
+    for blob, want, name in zip(response.blobs, digests, names):
+        label = f"{name}: BatchReadBlobs {want.hash}/{want.size_bytes}"
+        if blob.digest.hash != want.hash or blob.digest.size_bytes != want.size_bytes:
+            raise ImpostorError(grpc.StatusCode.DATA_LOSS, f"{label}: answered with {blob.digest.hash}")
+        if blob.code != 0:
+            raise ImpostorError(_status_code(blob.code), f"{label}: {blob.message}")
+        if len(blob.data) != want.size_bytes or hashlib.sha256(blob.data).hexdigest() != want.hash:
+            raise ImpostorError(grpc.StatusCode.DATA_LOSS, f"{label}: received bytes do not match")
+        out.append(blob.data)
+    return out
+
+
+def _status_code(number: int) -> grpc.StatusCode:
+    """The grpc.StatusCode of a numeric code (UNKNOWN for one outside the
+    enum)."""
+    for code in grpc.StatusCode:
+        if code.value[0] == number:
+            return code
+    return grpc.StatusCode.UNKNOWN
+
+
+def write_verified_file(path: Path, data: bytes) -> None:
+    """Writes verified bytes to `path` atomically, as download_blob_to_file
+    does (a synced temporary file renamed into place, 0666 less the umask)."""
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+            out.flush()
+            os.fsync(out.fileno())
+        os.chmod(tmp_name, 0o666 & ~_umask())
+        os.replace(tmp_name, path)
+    except BaseException:
+        try:
+            os.unlink(tmp_name)
+        except FileNotFoundError:
+            pass
+        raise
 
 
 def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path) -> None:

@@ -107,6 +107,88 @@ def test_fetch_downloads_then_reuses_files_already_there(client, tree_bake, tmp_
     assert_files_match_manifest(tmp_path / "a", again.manifest)
 
 
+class _CountingTransport:
+    """The client's transport, counting BatchReadBlobs calls and ReadBlob
+    streams; `batch` may replace the BatchReadBlobs answer."""
+
+    def __init__(self, inner, batch=None) -> None:
+        self._inner = inner
+        self._batch = batch
+        self.batch_calls = 0
+        self.streams = 0
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def unary(self, rpc, method, request):
+        if rpc == "BatchReadBlobs":
+            self.batch_calls += 1
+            if self._batch is not None:
+                return self._batch(self._inner, method, request)
+        return self._inner.unary(rpc, method, request)
+
+    def read_blob(self, request, remaining_bytes):
+        self.streams += 1
+        return self._inner.read_blob(request, remaining_bytes)
+
+
+def test_fetch_reads_the_small_files_in_one_batch(client, tree_bake, tmp_path, monkeypatch) -> None:
+    first, _ = tree_bake
+    counting = _CountingTransport(client._transport)
+    monkeypatch.setattr(client, "_transport", counting)
+    fetched = client.fetch(first.cache_key, tmp_path / "batched")
+    assert_files_match_manifest(tmp_path / "batched", fetched.manifest)
+    from impostor._blobs import BATCH_BLOB_MAX_BYTES
+
+    small = [m for m in fetched.manifest["maps"] if m["digest"]["size_bytes"] <= BATCH_BLOB_MAX_BYTES]
+    large = len(fetched.manifest["maps"]) - len(small)
+    assert len(small) > 5, "the quality pass's view images are small"
+    assert counting.batch_calls == 1
+    assert counting.streams == large, "only files over 1 MiB stream"
+
+
+def test_fetch_from_a_server_without_batch_reads_streams_every_file(client, tree_bake, tmp_path, monkeypatch) -> None:
+    first, _ = tree_bake
+
+    def unimplemented(inner, method, request):
+        raise impostor.ImpostorError(grpc.StatusCode.UNIMPLEMENTED, "BatchReadBlobs: unknown method (test)")
+
+    counting = _CountingTransport(client._transport, batch=unimplemented)
+    monkeypatch.setattr(client, "_transport", counting)
+    fetched = client.fetch(first.cache_key, tmp_path / "old_server")
+    assert_files_match_manifest(tmp_path / "old_server", fetched.manifest)
+    assert counting.streams == len(fetched.manifest["maps"]) + 1, "every map and manifest.json"
+
+
+def test_a_forged_blob_in_a_batch_fails_naming_its_file(client, tree_bake, tmp_path, monkeypatch) -> None:
+    first, _ = tree_bake
+    forged_file = []
+
+    def forge(inner, method, request):
+        response = inner.unary("BatchReadBlobs", method, request)
+        blob = response.blobs[len(response.blobs) // 2]
+        blob.data = bytes([blob.data[0] ^ 1]) + blob.data[1:]
+        forged_file.append(blob.digest.hash)
+        return response
+
+    monkeypatch.setattr(client, "_transport", _CountingTransport(client._transport, batch=forge))
+    with pytest.raises(impostor.ImpostorError) as e:
+        client.fetch(first.cache_key, tmp_path / "forged")
+    assert e.value.code == grpc.StatusCode.DATA_LOSS
+    assert forged_file[0] in e.value.message and str(tmp_path / "forged") in e.value.message
+    assert not (tmp_path / "forged" / "manifest.json").exists()
+
+
+def test_pack_batches_keeps_order_and_both_limits() -> None:
+    from impostor._blobs import MAX_BATCH_DIGESTS, pack_batches
+
+    assert pack_batches([3 << 20, 1 << 20, 1, 0]) == [[0, 1], [2, 3]]
+    batches = pack_batches([10] * (MAX_BATCH_DIGESTS * 2 + 1))
+    assert [len(b) for b in batches] == [MAX_BATCH_DIGESTS, MAX_BATCH_DIGESTS, 1]
+    assert batches[2] == [MAX_BATCH_DIGESTS * 2]
+    assert pack_batches([]) == []
+
+
 def test_get_manifest_matches_the_fetched_one(client, tree_bake) -> None:
     first, _ = tree_bake
     assert client.get_manifest(first.cache_key) == first.manifest

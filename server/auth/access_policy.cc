@@ -21,6 +21,8 @@ const std::vector<MethodRule>& AccessRules() {
   static const auto* rules = new std::vector<MethodRule>{
       {"/impostor.v1.AssetService/GetResult", {R, S}},
       {"/impostor.v1.AssetService/ReadBlob", {R, S, W}, ObjectCheck::kReadableBlob},
+      // Each digest is checked under ReadBlob's rule by the service's guard.
+      {"/impostor.v1.AssetService/BatchReadBlobs", {R, S, W}},
       {"/impostor.v1.AssetService/FindMissingBlobs", {S, W}},
       {"/impostor.v1.AssetService/UploadBlob", {S, W}, ObjectCheck::kNone, true},
       // Who may upload may ask how far an upload got.

@@ -60,6 +60,13 @@ class AccessGuard {
                    const std::function<std::string()>& describe = {});
 
  public:
+  // The method rule's object check for one more object of a call that
+  // names many (BatchReadBlobs: each digest under ReadBlob's rule): OK, or
+  // PERMISSION_DENIED whose message starts with `field`, audited as a
+  // refusal of `method` is.
+  absl::Status AuthorizeObject(const Principal& principal, std::string_view method, const std::string& object,
+                               std::string_view field);
+
   // Quotas (token_quotas.h) around SubmitBake and UploadBlob: the check
   // before, the record after a call that succeeded.
   absl::Status CheckSubmitQuota(const Principal& principal);
@@ -88,6 +95,8 @@ class AuthorizedAssetService final : public v1::AssetService::Service {
                            v1::QueryUploadResponse* response) override;
   grpc::Status ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
                         grpc::ServerWriter<v1::ReadBlobResponse>* writer) override;
+  grpc::Status BatchReadBlobs(grpc::ServerContext* context, const v1::BatchReadBlobsRequest* request,
+                              v1::BatchReadBlobsResponse* response) override;
   grpc::Status GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,
                          v1::Manifest* response) override;
   grpc::Status PinResult(grpc::ServerContext* context, const v1::PinResultRequest* request,

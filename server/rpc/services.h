@@ -26,6 +26,8 @@ class AssetServiceImpl final : public v1::AssetService::Service {
                            v1::QueryUploadResponse* response) override;
   grpc::Status ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,
                         grpc::ServerWriter<v1::ReadBlobResponse>* writer) override;
+  grpc::Status BatchReadBlobs(grpc::ServerContext* context, const v1::BatchReadBlobsRequest* request,
+                              v1::BatchReadBlobsResponse* response) override;
   grpc::Status GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,
                          v1::Manifest* response) override;
   grpc::Status PinResult(grpc::ServerContext* context, const v1::PinResultRequest* request,

@@ -38,6 +38,7 @@ using testing::ServerProcess;
 
 constexpr char kReadBlob[] = "/impostor.v1.AssetService/ReadBlob";
 constexpr char kGetResult[] = "/impostor.v1.AssetService/GetResult";
+constexpr char kBatchRead[] = "/impostor.v1.AssetService/BatchReadBlobs";
 
 // Counts the RPCs a cache puts on the wire, by method.
 class RpcCounter {
@@ -129,7 +130,8 @@ TEST(CacheGet, FirstGetDownloadsAndLaterGetsMakeNoRpc) {
   ASSERT_NE(first->map("normal_depth"), nullptr);
   EXPECT_EQ(first->map("normal_depth")->format, "png_rgba16");
   EXPECT_EQ(rpcs.Count(kGetResult), 1);
-  EXPECT_EQ(rpcs.Count(kReadBlob), 4) << "three maps and manifest.json";
+  EXPECT_EQ(rpcs.Count(kBatchRead), 1) << "three maps and manifest.json, all under 1 MiB, in one call";
+  EXPECT_EQ(rpcs.Count(kReadBlob), 0);
   const int after_first = rpcs.Total();
 
   auto second = cache->Get(published.key);
@@ -166,7 +168,8 @@ TEST(CacheGet, OneBlobUnderSeveralNamesIsFetchedOnceAndNothingCountsAsResumed) {
     ASSERT_TRUE(got.ok()) << got.status();
     ExpectBytes(*got, published, "one blob, three names");
   }
-  EXPECT_EQ(rpcs.Count(kReadBlob), 2) << "the shared map blob and manifest.json";
+  EXPECT_EQ(rpcs.Count(kBatchRead), 1) << "the shared map blob and manifest.json, in one call";
+  EXPECT_EQ(rpcs.Count(kReadBlob), 0);
   const sdk::CacheStats stats = cache->Stats();
   EXPECT_EQ(stats.bytes_resumed, 0);
   EXPECT_EQ(stats.bytes_downloaded, size + static_cast<int64_t>(published.files.at("manifest.json").size()));
@@ -308,7 +311,8 @@ TEST(CacheGet, SixtyFourThreadsGettingOneKeyShareOneDownload) {
   }
   ExpectBytes(*results[0], published, "shared download");
   EXPECT_EQ(rpcs.Count(kGetResult), 1);
-  EXPECT_EQ(rpcs.Count(kReadBlob), 4);
+  EXPECT_EQ(rpcs.Count(kReadBlob), 3) << "the three maps over 1 MiB stream";
+  EXPECT_EQ(rpcs.Count(kBatchRead), 1) << "manifest.json";
   EXPECT_EQ(cache->Stats().downloads, 1);
 }
 
@@ -424,6 +428,7 @@ TEST(CacheOffline, CachedKeySucceedsAndMissingKeyFailsFastWithUnavailable) {
   // (how long it takes is bench/ material).
   EXPECT_LE(rpcs.Count(kGetResult), 2) << "offline, a miss must not retry beyond max_attempts";
   EXPECT_EQ(rpcs.Count(kReadBlob), 0);
+  EXPECT_EQ(rpcs.Count(kBatchRead), 0);
 }
 
 TEST(CacheLookup, FindsTheKeyOfABakedMeshWithoutBaking) {
@@ -486,14 +491,14 @@ TEST(CachePrefetch, DownloadsInTheBackgroundAndReportsEachKey) {
   EXPECT_EQ(outcomes[std::string(64, 'b')], absl::StatusCode::kNotFound);
   EXPECT_EQ(outcomes["bad key"], absl::StatusCode::kInvalidArgument);
 
-  const int reads = rpcs.Count(kReadBlob);
-  EXPECT_EQ(reads, 5 * 4);
+  const int reads = rpcs.Count(kReadBlob) + rpcs.Count(kBatchRead);
+  EXPECT_EQ(rpcs.Count(kBatchRead), 5) << "each result's small files in one call";
   for (const PublishedResult& r : results) {
     auto got = cache->Get(r.key);
     ASSERT_TRUE(got.ok()) << got.status();
     EXPECT_FALSE(got->downloaded());
   }
-  EXPECT_EQ(rpcs.Count(kReadBlob), reads) << "prefetched keys are hits";
+  EXPECT_EQ(rpcs.Count(kReadBlob) + rpcs.Count(kBatchRead), reads) << "prefetched keys are hits";
 }
 
 TEST(CacheGet, NotFoundAndBadKeysSayWhy) {

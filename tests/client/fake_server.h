@@ -98,6 +98,11 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   // gets there: its stream fails ABORTED after 20 s). max_open_reads: the
   // most streams ever open at once.
   int reads_must_overlap = 0;
+  // BatchReadBlobs: UNIMPLEMENTED (a server from before the call) unless
+  // batch_reads; served blobs take `corrupt` as ReadBlob does.
+  bool batch_reads = false;
+  int batch_read_calls = 0;
+  int batch_read_blobs = 0;  // blobs asked in all of them
   int open_reads = 0;
   int max_open_reads = 0;
   std::condition_variable reads_changed;
@@ -206,6 +211,28 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
       msg.set_data(bytes.substr(off, chunk_size));
       if (!writer->Write(msg)) return grpc::Status::CANCELLED;
       ++sent;
+    }
+    return grpc::Status::OK;
+  }
+
+  grpc::Status BatchReadBlobs(grpc::ServerContext*, const v1::BatchReadBlobsRequest* req,
+                              v1::BatchReadBlobsResponse* resp) override {
+    std::lock_guard lock(mu);
+    if (!batch_reads) return {grpc::StatusCode::UNIMPLEMENTED, "unknown method (test)"};
+    ++batch_read_calls;
+    for (const v1::Digest& d : req->digests()) {
+      ++batch_read_blobs;
+      auto* blob = resp->add_blobs();
+      *blob->mutable_digest() = d;
+      auto it = blobs.find(d.hash());
+      if (it == blobs.end()) {
+        blob->set_code(static_cast<int>(grpc::StatusCode::NOT_FOUND));
+        blob->set_message("no such blob");
+        continue;
+      }
+      std::string bytes = it->second;
+      if (corrupt.contains(d.hash()) && !bytes.empty()) bytes[bytes.size() / 2] ^= 0x5a;
+      blob->set_data(bytes);
     }
     return grpc::Status::OK;
   }

@@ -158,6 +158,17 @@ class AuthServer : public ::testing::Test {
       return assets_->QueryUpload(ctx.get(), request, &response);
     }
     if (rpc == "ReadBlob") return Read(authorization, result_blob_);
+    if (rpc == "BatchReadBlobs") {
+      v1::BatchReadBlobsRequest request;
+      *request.add_digests() = result_blob_;
+      v1::BatchReadBlobsResponse response;
+      const grpc::Status s = assets_->BatchReadBlobs(ctx.get(), request, &response);
+      // Allowed is allowed whole: the blob's own slot answers it too.
+      if (s.ok() && (response.blobs_size() != 1 || response.blobs(0).code() != 0)) {
+        return grpc::Status(grpc::StatusCode::INTERNAL, "the batch's one blob was not served");
+      }
+      return s;
+    }
     if (rpc == "GetResult") return GetResult(authorization, result_key_);
     if (rpc == "PinResult") {
       v1::PinResultRequest request;
@@ -272,6 +283,8 @@ const MatrixRow kMatrix[] = {
     // A result blob: readers and submitters read results; a worker reads
     // only the inputs of the job it holds.
     {"ReadBlob", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
+    // The same, each digest of a batch under ReadBlob's rule (issue 45).
+    {"BatchReadBlobs", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
     {"GetResult", StatusCode::OK, StatusCode::OK, StatusCode::OK, kDenied},
     {"PinResult", StatusCode::OK, kDenied, kDenied, kDenied},
     {"LookupBake", StatusCode::INVALID_ARGUMENT, StatusCode::INVALID_ARGUMENT, StatusCode::INVALID_ARGUMENT, kDenied},
@@ -297,13 +310,42 @@ TEST_F(AuthServer, RoleByRpcMatrix) {
       const grpc::Status s = Call(row.rpc, Bearer(role));
       EXPECT_EQ(s.error_code(), expected) << row.rpc << " as " << role << ": " << s.error_message();
       if (s.error_code() == kDenied) {
-        EXPECT_NE(s.error_message().find(role == "worker" && std::string(row.rpc) == "ReadBlob" ? "inputs" : "admin"),
+        const bool blob_read = std::string(row.rpc) == "ReadBlob" || std::string(row.rpc) == "BatchReadBlobs";
+        EXPECT_NE(s.error_message().find(role == "worker" && blob_read ? "inputs" : "admin"),
                   std::string::npos)
             << row.rpc << " as " << role << ": " << s.error_message();
         EXPECT_EQ(s.error_message().find(tokens_[role]), std::string::npos) << "secret echoed";
       }
     }
   }
+}
+
+// A batch is refused whole when one digest is not the token's to read, and
+// the refusal names that digest's position: a reader cannot slip an input
+// blob in among result blobs.
+TEST_F(AuthServer, ABatchWithOneBlobTheTokenMayNotReadIsRefusedNamingIt) {
+  MakeObjects();
+  const std::string input = "glTF" + RandomBytes(64, 4242);
+  ASSERT_TRUE(Upload(Bearer("admin"), input).ok());
+  v1::BatchReadBlobsRequest request;
+  *request.add_digests() = result_blob_;
+  *request.add_digests() = DigestOf(input);
+  for (const char* role : {"reader", "submitter"}) {
+    auto ctx = ContextWithAuthorization(Bearer(role));
+    v1::BatchReadBlobsResponse response;
+    const grpc::Status s = assets_->BatchReadBlobs(ctx.get(), request, &response);
+    EXPECT_EQ(s.error_code(), kDenied) << role << ": " << s.error_message();
+    EXPECT_NE(s.error_message().find("digests[1]"), std::string::npos) << role << ": " << s.error_message();
+    EXPECT_NE(s.error_message().find("result blobs only"), std::string::npos) << role << ": " << s.error_message();
+    EXPECT_EQ(response.blobs_size(), 0) << role;
+  }
+  // The admin reads both.
+  auto ctx = ContextWithAuthorization(Bearer("admin"));
+  v1::BatchReadBlobsResponse response;
+  const grpc::Status s = assets_->BatchReadBlobs(ctx.get(), request, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(response.blobs_size(), 2);
+  EXPECT_EQ(response.blobs(1).data(), input);
 }
 
 TEST_F(AuthServer, EveryRpcRefusesBadCredentialsNamingTheReason) {
