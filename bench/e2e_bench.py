@@ -343,19 +343,18 @@ class Bench:
         return [self.bin / "impostor", "fetch", key, "--out", out, "--server", self.grpc, "--token-file", self.token,
                 "--quiet"]
 
-    def fetch_pairs(self, key):
-        www = self.work / "www"
-        # The reference copy: exactly the files `impostor fetch` writes.
-        self.run("fetch", self.fetch_cmd(key, www), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        files = sorted(p.relative_to(www).as_posix() for p in www.rglob("*") if p.is_file())
-        nbytes = sum((www / f).stat().st_size for f in files)
-        if not files:
-            raise BenchError("fetch", "`impostor fetch` wrote no file")
+    def cache_get_cmd(self, key, cache_dir):
+        return [self.bin / "impostor", "cache", "get", key, "--cache-dir", cache_dir, "--server", self.grpc,
+                "--token-file", self.token, "--quiet"]
+
+    def start_nginx(self, www, name, probe):
+        """nginx serving `www` on a free loopback port, answering `probe`
+        (a file under it): (its prefix, base URL, curl's common arguments)."""
         # nginx's workers may run as another user: let them in.
         os.chmod(self.work, 0o711)
         for p in [www, *www.rglob("*")]:
             os.chmod(p, 0o755 if p.is_dir() else 0o644)
-        prefix = self.work / "nginx"
+        prefix = self.work / name
         prefix.mkdir()
         port = free_port()
         conf = prefix / "nginx.conf"
@@ -377,10 +376,10 @@ class Bench:
             time.sleep(0.05)
         else:
             raise BenchError("nginx", f"no pid file; error log:\n{tail(prefix / 'error.log')}")
-        self.note_pid("nginx", pidfile.read_text().strip())
+        self.note_pid(name, pidfile.read_text().strip())
         base = f"http://127.0.0.1:{port}/"
         curl_base = ["curl", "-sf", "--create-dirs"]
-        first = urllib.parse.quote(files[0])
+        first = urllib.parse.quote(probe)
         # nginx binds after forking: wait until it answers.
         for _ in range(100):
             ok = subprocess.run(curl_base + ["-o", "/dev/null", base + first], env=self.env).returncode == 0
@@ -388,7 +387,27 @@ class Bench:
                 break
             time.sleep(0.05)
         else:
-            raise BenchError("nginx", f"{base}{files[0]} never answered; error log:\n{tail(prefix / 'error.log')}")
+            raise BenchError("nginx", f"{base}{probe} never answered; error log:\n{tail(prefix / 'error.log')}")
+        return prefix, base, curl_base
+
+    def stop_nginx(self, prefix, name):
+        pidfile = prefix / "nginx.pid"
+        os.kill(int(pidfile.read_text().strip()), signal.SIGQUIT)
+        for _ in range(100):
+            if not pidfile.exists():
+                break
+            time.sleep(0.05)
+        self.drop_pid(name)
+
+    def fetch_pairs(self, key):
+        www = self.work / "www"
+        # The reference copy: exactly the files `impostor fetch` writes.
+        self.run("fetch", self.fetch_cmd(key, www), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        files = sorted(p.relative_to(www).as_posix() for p in www.rglob("*") if p.is_file())
+        nbytes = sum((www / f).stat().st_size for f in files)
+        if not files:
+            raise BenchError("fetch", "`impostor fetch` wrote no file")
+        prefix, base, curl_base = self.start_nginx(www, "nginx", files[0])
         log(f"fetch: result {key[:12]}…: {len(files)} files, {nbytes / 1e6:.1f} MB; nginx on {base}")
 
         def curl(dest):
@@ -398,14 +417,29 @@ class Bench:
             return cmd
 
         curl_s, fetch_s, curl_cpu, fetch_cpu, server_cpu = [], [], [], [], []
+        cache_s, cache_cpu = [], []
+        # Rotated, so that no client always runs first (or right after another).
+        orders = [["curl", "fetch", "cache"], ["fetch", "cache", "curl"], ["cache", "curl", "fetch"]]
         for i in range(self.a.fetch_pairs):
-            order = ["curl", "fetch"] if i % 2 == 0 else ["fetch", "curl"]
-            for what in order:
+            for what in orders[i % len(orders)]:
                 dest = self.fresh(f"{what}-out")
                 if what == "curl":
                     wall, _, cpu = self.run("curl", curl(dest), stderr=subprocess.PIPE)
                     curl_s.append(wall)
                     curl_cpu.append(cpu)
+                elif what == "cache":
+                    # Cache::Get into a fresh cache directory (`impostor cache
+                    # get`): installed under DEST/entries/KEY.
+                    wall, _, cpu = self.run("impostor cache get", self.cache_get_cmd(key, dest),
+                                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                    cache_s.append(wall)
+                    cache_cpu.append(cpu)
+                    entry = dest / "entries" / key
+                    got = sum(1 for p in entry.rglob("*") if p.is_file() and p.name in files)
+                    if got != len(files):
+                        raise BenchError(what, f"installed {got} of the result's {len(files)} files in {entry}")
+                    subprocess.run(["rm", "-rf", str(dest)])
+                    continue
                 else:
                     # A fresh --out and a fresh cache dir: a real download
                     # every time (fetch from a farm keeps files already in
@@ -423,15 +457,72 @@ class Bench:
                 if got != len(files):
                     raise BenchError(what, f"wrote {got} files, not {len(files)}")
                 subprocess.run(["rm", "-rf", str(dest)])
-        pid = int(pidfile.read_text().strip())
-        os.kill(pid, signal.SIGQUIT)
-        for _ in range(100):
-            if not pidfile.exists():
-                break
-            time.sleep(0.05)
-        self.drop_pid("nginx")
+        self.stop_nginx(prefix, "nginx")
         return {"files": len(files), "mb": nbytes / 1e6, "curl": curl_s, "fetch": fetch_s, "curl_cpu": curl_cpu,
-                "fetch_cpu": fetch_cpu, "server_cpu": server_cpu}
+                "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu}
+
+    # ---- a batch of results: bake-batch of cached assets against curl ---------
+
+    def batch_fetch(self):
+        """`impostor bake-batch` of BATCH_ASSETS requests already baked (every
+        one a cache hit: FindMissingBlobs, SubmitBake, then each result's
+        download), against curl fetching the same files from nginx in one
+        process: what a CI job re-running a batch pays over a plain download."""
+        assets = [{"path": str(self.model), "name": f"frames{f}", "frames": f}
+                  for f in range(4, 4 + self.a.batch_assets)]
+        spec = self.work / "batch.json"
+        spec.write_text(json.dumps({"defaults": {"layout": LAYOUT, "resolution": 256}, "assets": assets}))
+
+        def batch_cmd(out):
+            return [self.bin / "impostor", "bake-batch", spec, "--out", out, "--server", self.grpc, "--token-file",
+                    self.token, "--quiet", "--json"]
+
+        www = self.work / "batch-www"
+        wall, r, _ = self.run("bake-batch", batch_cmd(www), stderr=subprocess.PIPE, timeout=1800)
+        summary = json.loads(r.stdout.strip().splitlines()[-1])
+        if summary.get("succeeded") != len(assets):
+            raise BenchError("bake-batch", f"summary: {summary}")
+        files = sorted(p.relative_to(www).as_posix() for p in www.rglob("*") if p.is_file())
+        nbytes = sum((www / f).stat().st_size for f in files)
+        log(f"batch: {len(assets)} results baked in {wall:.1f} s: {len(files)} files, {nbytes / 1e6:.1f} MB")
+        prefix, base, curl_base = self.start_nginx(www, "nginx-batch", files[0])
+        batch_s, batch_cpu, curl_s, curl_cpu = [], [], [], []
+        for i in range(self.a.fetch_pairs):
+            for what in (["curl", "batch"] if i % 2 == 0 else ["batch", "curl"]):
+                dest = self.fresh(f"batch-{what}")
+                if what == "curl":
+                    cmd = list(curl_base)
+                    for f in files:
+                        cmd += ["-o", str(dest / f), base + urllib.parse.quote(f)]
+                    wall, _, cpu = self.run("curl", cmd, stderr=subprocess.PIPE)
+                    curl_s.append(wall)
+                    curl_cpu.append(cpu)
+                else:
+                    wall, r, cpu = self.run("bake-batch", batch_cmd(dest), stderr=subprocess.PIPE)
+                    summary = json.loads(r.stdout.strip().splitlines()[-1])
+                    if summary.get("cached") != len(assets):
+                        raise BenchError("bake-batch", f"not every asset was a cache hit: {summary}")
+                    batch_s.append(wall)
+                    batch_cpu.append(cpu)
+                got = sum(1 for p in dest.rglob("*") if p.is_file())
+                if got != len(files):
+                    raise BenchError(what, f"wrote {got} files, not {len(files)}")
+                subprocess.run(["rm", "-rf", str(dest)])
+        self.stop_nginx(prefix, "nginx-batch")
+        return {"results": len(assets), "files": len(files), "mb": nbytes / 1e6, "batch": batch_s,
+                "batch_cpu": batch_cpu, "curl": curl_s, "curl_cpu": curl_cpu}
+
+    def batch_rows(self, b):
+        bm, cm = median(b["batch"]), median(b["curl"])
+        return [
+            f"| `impostor bake-batch` of {b['results']} cached requests (median of {len(b['batch'])}) | {bm:.3f} s "
+            f"({span(b['batch'], 3)}) | {b['files']} files, {b['mb']:.1f} MB (DamagedHelmet at {b['results']} frame "
+            f"counts, 256 px); every request a cache hit, each result downloaded; CPU s: CLI "
+            f"{median(b['batch_cpu']):.3f} |",
+            f"| nginx + curl, same files, one process (median of {len(b['curl'])}) | {cm:.3f} s "
+            f"({span(b['curl'], 3)}) | alternating; CPU s: curl {median(b['curl_cpu']):.3f} |",
+            f"| **batch / nginx + curl** | **{bm / cm:.2f}×** | target ≤ 1.25 |",
+        ]
 
     # ---- isolated load ----------------------------------------------------
 
@@ -503,18 +594,24 @@ class Bench:
                         f"{runs[0]['wall']:.2f} s), cpu {runs[1]['cpu']:.2f} s")
 
         fetch = self.fetch_pairs(key)
-        log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, nginx + curl median "
-            f"{median(fetch['curl']):.3f} s")
+        log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, cache get median "
+            f"{median(fetch['cache']):.3f} s, nginx + curl median {median(fetch['curl']):.3f} s")
+        batch = None
+        if self.a.batch_assets > 0:
+            batch = self.batch_fetch()
+            log(f"batch: bake-batch median {median(batch['batch']):.3f} s, nginx + curl median "
+                f"{median(batch['curl']):.3f} s")
         self.stop_farm()
         if self.a.fetch_only:
-            print("\n".join(["", "| figure | value | note |", "|---|---|---|"] + self.fetch_rows(fetch)), flush=True)
+            rows = self.fetch_rows(fetch) + (self.batch_rows(batch) if batch else [])
+            print("\n".join(["", "| figure | value | note |", "|---|---|---|"] + rows), flush=True)
             return
 
         iso = self.isolated_load()
         log(f"isolated load: in process {iso['in_process']:.3f} s; "
             + ", ".join(f"{k} / in-process {v:.2f}x" for k, v in iso["ratios"]))
         load1 = os.getloadavg()
-        self.report(n, cold, warm, inproc, fetch, iso, load0, load1)
+        self.report(n, cold, warm, inproc, fetch, iso, load0, load1, batch)
 
     def fetch_rows(self, fetch):
         fm, cm = median(fetch["fetch"]), median(fetch["curl"])
@@ -526,9 +623,13 @@ class Bench:
             f"| nginx + curl, same files, one connection (median of {len(fetch['curl'])}) | {cm:.3f} s "
             f"({span(fetch['curl'], 3)}) | alternating pairs; CPU s: curl {median(fetch['curl_cpu']):.3f} |",
             f"| **fetch / nginx + curl** | **{fm / cm:.2f}×** | target ≤ 1.25 |",
+            f"| `impostor cache get` (Cache::Get) into a fresh cache (median of {len(fetch['cache'])}) | "
+            f"{median(fetch['cache']):.3f} s ({span(fetch['cache'], 3)}) | same runs; CPU s: CLI "
+            f"{median(fetch['cache_cpu']):.3f} |",
+            f"| **Cache::Get / nginx + curl** | **{median(fetch['cache']) / cm:.2f}×** | target ≤ 1.25 |",
         ]
 
-    def report(self, n, cold, warm, inproc, fetch, iso, load0, load1):
+    def report(self, n, cold, warm, inproc, fetch, iso, load0, load1, batch=None):
         e2e = [b["wall"] for b in warm]
         ip = [r[1]["wall"] for r in inproc]
         ip_first = [r[0]["wall"] for r in inproc]
@@ -564,6 +665,7 @@ class Bench:
             f"({iso['ratios'][-1][0]}; in process {iso['in_process']:.3f} s) | target ≤ 1.15"
             + "".join(f"; {k}: {v:.2f}×" for k, v in iso["ratios"][:-1]) + " |",
             *self.fetch_rows(fetch),
+            *(self.batch_rows(batch) if batch else []),
             "",
             f"Where the warm bakes' time goes: the farm's `/metrics` (impostor_bake_stage_seconds, "
             f"impostor_bake_seconds) summed over the {n} warm bakes, per bake, beside `bake_stages`' recorded stages "
@@ -619,6 +721,7 @@ def main():
     p.add_argument("--warm", type=int, default=3)
     p.add_argument("--fetch-pairs", type=int, default=7)
     p.add_argument("--fetch-only", action="store_true")
+    p.add_argument("--batch-assets", type=int, default=13)
     a = p.parse_args()
     bench = Bench(a)
     step_logs = bench.logs

@@ -3,7 +3,7 @@
 # when the CLI bakes through a real farm, beside what the same bake costs in
 # process, and where the difference goes.
 #
-#   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only]
+#   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only] [--batch-assets N]
 #
 # 1. Starts build/bin/impostor-server with one local worker on free loopback
 #    ports and a temporary data directory (as deploy/quickstart.sh does, plus
@@ -20,8 +20,16 @@
 # 3. build/bin/isolated_load_bench on the same asset (target <= 1.15).
 # 4. `impostor fetch KEY --out DIR` of the result just baked against nginx +
 #    curl serving exactly the same files on one connection, alternating
-#    pairs (default 7), medians and the ratio (target <= 1.25). Installs
+#    rounds (default 7; the order rotates), and `impostor cache get KEY`
+#    (Cache::Get into a fresh cache directory) in the same rounds; medians
+#    and the ratios (target <= 1.25). Installs
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
+#    Then a batch (--batch-assets N, default 13; 0 skips it): `impostor
+#    bake-batch` bakes the same model at N frame counts (256 px, 39 files
+#    each: 507 files for 13), then, every request a cache hit, bake-batch
+#    into a fresh folder against curl fetching the same files from nginx in
+#    one process, alternating rounds: what a CI job re-running a batch pays
+#    over a plain download.
 # 5. The farm's own /metrics stage sums over the warm bakes beside
 #    bake_stages' stages.
 # --fetch-only: the cold bake (for a result to fetch) and step 4 alone.
@@ -35,12 +43,13 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 
 die() { echo "e2e_bench: $*" >&2; exit 1; }
-usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only]" >&2; exit 2; }
+usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only] [--batch-assets N]" >&2; exit 2; }
 
 build=$root/build
 warm=3
 pairs=7
 fetch_only=()
+batch=13
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --warm) [[ $# -ge 2 ]] || usage; warm=$2; shift 2 ;;
@@ -48,6 +57,8 @@ while [[ $# -gt 0 ]]; do
     --fetch-pairs) [[ $# -ge 2 ]] || usage; pairs=$2; shift 2 ;;
     --fetch-pairs=*) pairs=${1#*=}; shift ;;
     --fetch-only) fetch_only=(--fetch-only); shift ;;
+    --batch-assets) [[ $# -ge 2 ]] || usage; batch=$2; shift 2 ;;
+    --batch-assets=*) batch=${1#*=}; shift ;;
     -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
     -*) echo "e2e_bench: unknown flag $1" >&2; usage ;;
     *) build=$1; shift ;;
@@ -55,6 +66,7 @@ while [[ $# -gt 0 ]]; do
 done
 [[ "$warm" =~ ^[1-9][0-9]*$ ]] || die "--warm: '$warm' is not a positive number"
 [[ "$pairs" =~ ^[1-9][0-9]*$ ]] || die "--fetch-pairs: '$pairs' is not a positive number"
+[[ "$batch" =~ ^[0-9]+$ && "$batch" -le 28 ]] || die "--batch-assets: '$batch' is not a number in 0..28 (frames 4..31 at 256 px)"
 [[ -d "$build" ]] || die "no build directory $build"
 build=$(cd "$build" && pwd)
 
@@ -110,7 +122,7 @@ echo "e2e_bench: binaries copied from $build/bin (the newest built $newest)"
 # In the background so that a signal reaches the trap at once (bash runs
 # traps only between commands, and `wait` is one it interrupts).
 python3 "$root/bench/e2e_bench.py" --build "$work" --work "$work" --model "$model" --nginx "$nginx" \
-  --warm "$warm" --fetch-pairs "$pairs" "${fetch_only[@]}" &
+  --warm "$warm" --fetch-pairs "$pairs" --batch-assets "$batch" "${fetch_only[@]}" &
 echo $! > "$work/pids/python"
 status=0
 wait $! || status=$?
