@@ -313,6 +313,7 @@ TEST(AccessPolicy, RoleTable) {
     bool reader, submitter, worker;
   } rows[] = {
       {a + "GetResult", true, true, false},        {a + "ReadBlob", true, true, true},
+      {a + "BatchReadBlobs", true, true, true},
       {a + "FindMissingBlobs", false, true, true}, {a + "UploadBlob", false, true, true},
       {a + "QueryUpload", false, true, true},      {a + "PinResult", false, false, false},
       {b + "LookupBake", true, true, false},
