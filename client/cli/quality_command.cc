@@ -46,10 +46,13 @@ std::string GoodForPhrase(const nlohmann::json& q) {
   const int good = static_cast<int>(Num(q, "good_up_to_pixels"));
   if (good > 0) return absl::StrFormat("; good up to %d px on screen", good);
   // The pass stops at the first size that misses: here the smallest.
+  // The IoU it was judged by: outside the mesh's own edge since bake7.
   const nlohmann::json& first = sizes->front();
-  return absl::StrFormat("; misses the good-for targets already at %d px on screen (IoU %.3f, PSNR %.1f dB)",
-                         static_cast<int>(Num(first, "pixels")), Num(first, "silhouette_iou_mean"),
-                         Num(first, "albedo_psnr_shared_db_mean"));
+  const bool firm = first.contains("silhouette_iou_firm_mean");
+  return absl::StrFormat("; misses the good-for targets already at %d px on screen (IoU %.3f%s, PSNR %.1f dB)",
+                         static_cast<int>(Num(first, "pixels")),
+                         Num(first, firm ? "silhouette_iou_firm_mean" : "silhouette_iou_mean"),
+                         firm ? " outside the mesh's own edge" : "", Num(first, "albedo_psnr_shared_db_mean"));
 }
 
 }  // namespace
@@ -188,9 +191,14 @@ int RunQuality(const CliArgs& args) {
       std::printf("  good for         no measured size: keep the mesh (or more frames, a larger atlas)\n");
     }
     for (const nlohmann::json& s : *sizes) {
-      std::printf("    %4d px         IoU %.4f, PSNR %.2f dB where both cover%s\n", static_cast<int>(Num(s, "pixels")),
-                  Num(s, "silhouette_iou_mean"), Num(s, "albedo_psnr_shared_db_mean"),
-                  s.value("meets", false) ? "" : "  (misses the targets)");
+      // Judged outside the mesh's own antialiased edge since baker bake7.
+      const std::string firm = s.contains("silhouette_iou_firm_mean")
+                                   ? absl::StrFormat(" (%.4f outside the mesh's own edge)",
+                                                     Num(s, "silhouette_iou_firm_mean"))
+                                   : "";
+      std::printf("    %4d px         IoU %.4f%s, PSNR %.2f dB where both cover%s\n",
+                  static_cast<int>(Num(s, "pixels")), Num(s, "silhouette_iou_mean"), firm.c_str(),
+                  Num(s, "albedo_psnr_shared_db_mean"), s.value("meets", false) ? "" : "  (misses the targets)");
     }
   }
   if (q.contains("plain") && q["plain"].is_object()) {

@@ -79,6 +79,13 @@ absl::Status ReadSizesJson(const json& q, v1::AtlasQuality* out) {
     if (meets == s.end() || !meets->is_boolean())
       return absl::InvalidArgumentError(field("meets") + ": missing or not true/false");
     out_size->set_meets(meets->get<bool>());
+    // Absent from manifests before baker 0.2.0-bake7: 0.
+    if (auto firm = s.find("silhouette_iou_firm_mean"); firm != s.end()) {
+      if (!firm->is_number() || !(firm->get<double>() >= 0.0 && firm->get<double>() <= 1.0)) {
+        return absl::InvalidArgumentError(field("silhouette_iou_firm_mean") + ": not a number 0..1");
+      }
+      out_size->set_silhouette_iou_firm_mean(firm->get<float>());
+    }
   }
   auto good = q.find("good_up_to_pixels");
   if (good == q.end() || !good->is_number_unsigned() || good->get<uint64_t>() > 16384) {
@@ -125,10 +132,12 @@ void AddQualityJson(const v1::Manifest& m, json* j) {
     if (q.sizes_size() > 0) {
       json sizes = json::array();
       for (const v1::SizeQuality& s : q.sizes()) {
-        sizes.push_back({{"pixels", s.pixels()},
-                         {"silhouette_iou_mean", s.silhouette_iou_mean()},
-                         {"albedo_psnr_shared_db_mean", s.albedo_psnr_shared_db_mean()},
-                         {"meets", s.meets()}});
+        json size = {{"pixels", s.pixels()},
+                     {"silhouette_iou_mean", s.silhouette_iou_mean()},
+                     {"albedo_psnr_shared_db_mean", s.albedo_psnr_shared_db_mean()},
+                     {"meets", s.meets()}};
+        if (s.silhouette_iou_firm_mean() > 0) size["silhouette_iou_firm_mean"] = s.silhouette_iou_firm_mean();
+        sizes.push_back(std::move(size));
       }
       (*j)["quality"]["sizes"] = std::move(sizes);
       (*j)["quality"]["good_up_to_pixels"] = q.good_up_to_pixels();

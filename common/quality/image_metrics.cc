@@ -373,6 +373,19 @@ double SilhouetteIou(const ViewPixels& a, const ViewPixels& b) {
   return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
 }
 
+double SilhouetteIouOutsideEdge(const ViewPixels& mesh, const ViewPixels& test) {
+  AssertSameSize(mesh, test);
+  int64_t both = 0, either = 0;
+  for (size_t p = 0; p < PixelCount(mesh); ++p) {
+    const uint8_t a = mesh.albedo_alpha[p * 4 + 3];
+    if (a >= 85 && a < 170) continue;  // coverage in [1/3, 2/3): the mesh's own edge
+    const bool ca = Covered(mesh, p), cb = Covered(test, p);
+    both += ca && cb;
+    either += ca || cb;
+  }
+  return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
+}
+
 double AlbedoPsnrDb(const ViewPixels& a, const ViewPixels& b) {
   AssertSameSize(a, b);
   double squared = 0;

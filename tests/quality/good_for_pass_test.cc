@@ -21,6 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path kHelmet = fs::path(IMPOSTOR_TEST_ASSETS_DIR) / "props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+const fs::path kBottle = fs::path(IMPOSTOR_TEST_ASSETS_DIR) / "props_pbr/WaterBottle/glTF/WaterBottle.gltf";
 
 class GoodForPassTest : public testing::SharedRendererTest {
  protected:
@@ -103,6 +104,37 @@ TEST_F(GoodForPassTest, TheRecordedSizeIsWhereADirectMeasurementCrossesTheTarget
   std::printf("direct: %d px %.2f dB, %d px %.2f dB\n", below, psnr_below, above, psnr_above);
   EXPECT_GE(psnr_below, o.good_for_targets.min_psnr_db()) << "direct at " << below << " px";
   EXPECT_LT(psnr_above, o.good_for_targets.min_psnr_db()) << "direct at " << above << " px";
+}
+
+// At 32 px the bottle is a dozen pixels wide and much of its silhouette is
+// the mesh's own antialiased edge, where the mesh's samples and the
+// impostor's filtered texels split pixels near the 0.5 cut either way: the
+// plain IoU there misses 0.95 though the impostor is as good as at 64 px.
+// The good-for sizes judge the IoU outside that edge (issue 43), so the
+// bottle is good at 32 px and up; every size is judged on that figure.
+TEST_F(GoodForPassTest, SmallSizesAreJudgedOutsideTheMeshsOwnEdge) {
+  auto scene = LoadGltfScene(kBottle);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  auto atlas = Atlas(*scene, 12, 2048);  // 170 px tiles, as the table's rows
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  QualityPassOptions o = Direct(64);
+  o.good_for_top_pixels = 64;
+  o.good_for_targets = GoodForTargets(v1::BakeParameters());
+  auto r = MeasureAtlasQuality(*scene, *atlas, "good-for", o, *renderer_);
+  ASSERT_TRUE(r.ok()) << r.status();
+  const auto& sizes = r->quality.sizes();
+  ASSERT_GE(sizes.size(), 2);
+  for (const v1::SizeQuality& s : sizes) {
+    std::printf("%3u px: IoU %.4f, outside the mesh's edge %.4f, PSNR %.2f dB%s\n", s.pixels(),
+                s.silhouette_iou_mean(), s.silhouette_iou_firm_mean(), s.albedo_psnr_shared_db_mean(),
+                s.meets() ? "" : " (misses)");
+    EXPECT_EQ(s.meets(), s.silhouette_iou_firm_mean() >= 0.95f && s.albedo_psnr_shared_db_mean() >= 28.0f)
+        << s.pixels() << " px: judged on the IoU outside the edge";
+  }
+  EXPECT_EQ(sizes[0].pixels(), 32u);
+  EXPECT_LT(sizes[0].silhouette_iou_mean(), 0.95f) << "the plain IoU at 32 px: what the edge costs";
+  EXPECT_TRUE(sizes[0].meets());
+  EXPECT_GE(r->quality.good_up_to_pixels(), 32u);
 }
 
 TEST_F(GoodForPassTest, ATopSizeOutOfRangeIsRefused) {

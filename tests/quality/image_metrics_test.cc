@@ -103,6 +103,40 @@ TEST(ImageMetricsTest, ShiftedSilhouetteGivesKnownIou) {
 
 // A flat shift of d levels in every channel over the same silhouette:
 // PSNR = 20 log10(255 / d).
+// SilhouetteIouOutsideEdge: a 20 x 20 mesh square with a one-pixel ring at
+// alpha 128 (coverage 1/2, inside the uncertain band), against an impostor
+// that covers the square only: SilhouetteIou counts the 84 ring pixels as
+// misses (400 / 484), the IoU outside the edge leaves them out (1). The ring
+// at 200 (firm coverage) counts as before; a miss outside the ring (the
+// impostor 2 pixels short on one side) counts whatever the ring is.
+TEST(ImageMetricsTest, SilhouetteIouOutsideEdgeLeavesOutOnlyTheMeshsUncertainPixels) {
+  auto mesh_with_ring = [](uint8_t ring) {
+    Image im = MakeImage(32, {6, 6, 26, 26}, 10, 10, 10);
+    for (int y = 5; y < 27; ++y) {
+      for (int x = 5; x < 27; ++x) {
+        if (x >= 6 && x < 26 && y >= 6 && y < 26) continue;
+        im.albedo[(static_cast<size_t>(y) * 32 + x) * 4 + 3] = ring;
+      }
+    }
+    return im;
+  };
+  const Image square = MakeImage(32, {6, 6, 26, 26}, 10, 10, 10);
+  const Image short_square = MakeImage(32, {6, 6, 24, 26}, 10, 10, 10);
+  for (auto [ring, plain, outside, outside_short] :
+       {std::tuple{uint8_t{128}, 400.0 / 484.0, 1.0, 360.0 / 400.0},
+        std::tuple{uint8_t{200}, 400.0 / 484.0, 400.0 / 484.0, 360.0 / 484.0},
+        std::tuple{uint8_t{85}, 1.0, 1.0, 360.0 / 400.0},    // 1/3: in the band, and not covered
+        std::tuple{uint8_t{170}, 400.0 / 484.0, 400.0 / 484.0, 360.0 / 484.0},  // 2/3: firm
+        std::tuple{uint8_t{60}, 1.0, 1.0, 360.0 / 400.0}}) {
+    const Image mesh = mesh_with_ring(ring);
+    EXPECT_NEAR(SilhouetteIou(mesh.Pixels(), square.Pixels()), plain, 1e-12) << int(ring);
+    EXPECT_NEAR(SilhouetteIouOutsideEdge(mesh.Pixels(), square.Pixels()), outside, 1e-12) << int(ring);
+    EXPECT_NEAR(SilhouetteIouOutsideEdge(mesh.Pixels(), short_square.Pixels()), outside_short, 1e-12) << int(ring);
+  }
+  const Image empty = MakeImage(16, {0, 0, 0, 0}, 0, 0, 0);
+  EXPECT_EQ(SilhouetteIouOutsideEdge(empty.Pixels(), empty.Pixels()), 1.0);
+}
+
 TEST(ImageMetricsTest, FlatColourShiftGivesKnownPsnr) {
   for (int d : {1, 2, 5, 16, 64}) {
     SCOPED_TRACE(::testing::Message() << "shift=" << d);

@@ -235,13 +235,15 @@ TEST(QualityManifestJsonTest, GoodForSizesAndAntialiasedPopRoundTripAndBadOnesAr
   EXPECT_EQ(old->quality().sizes_size(), 0);
 
   q->set_pop_antialiased(1.25f);
-  for (auto [pixels, iou, psnr, meets] : {std::tuple{32u, 0.99f, 33.5f, true}, std::tuple{140u, 0.97f, 28.25f, true},
-                                          std::tuple{256u, 0.93f, 24.0f, false}}) {
+  for (auto [pixels, iou, psnr, meets, firm] :
+       {std::tuple{32u, 0.91f, 33.5f, true, 0.96875f}, std::tuple{140u, 0.97f, 28.25f, true, 0.975f},
+        std::tuple{256u, 0.93f, 24.0f, false, 0.0f}}) {
     v1::SizeQuality* s = q->add_sizes();
     s->set_pixels(pixels);
     s->set_silhouette_iou_mean(iou);
     s->set_albedo_psnr_shared_db_mean(psnr);
     s->set_meets(meets);
+    s->set_silhouette_iou_firm_mean(firm);  // 0: not recorded, as before bake7
   }
   q->set_good_up_to_pixels(140);
   const std::string text = ManifestToJson(m);
@@ -255,6 +257,10 @@ TEST(QualityManifestJsonTest, GoodForSizesAndAntialiasedPopRoundTripAndBadOnesAr
            std::tuple{"\"pixels\": 140", "\"pixels\": \"140\"", "quality.sizes[1].pixels: missing or not a number"},
            std::tuple{"\"good_up_to_pixels\": 140", "\"good_up_to_pixels\": 1e9", "quality.good_up_to_pixels"},
            std::tuple{"\"pop_antialiased\": 1.25", "\"pop_antialiased\": null", "quality.pop_antialiased"},
+           std::tuple{"\"silhouette_iou_firm_mean\": 0.96875", "\"silhouette_iou_firm_mean\": 1.5",
+                      "quality.sizes[0].silhouette_iou_firm_mean: not a number 0..1"},
+           std::tuple{"\"silhouette_iou_firm_mean\": 0.96875", "\"silhouette_iou_firm_mean\": \"high\"",
+                      "quality.sizes[0].silhouette_iou_firm_mean: not a number 0..1"},
        }) {
     std::string bad = text;
     const size_t at = bad.find(from);

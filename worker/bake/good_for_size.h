@@ -58,7 +58,10 @@ std::vector<int> GoodForLadder(int top, int steps_per_octave = kGoodForStepsPerO
 // The targets this bake is judged by (top of this file).
 v1::QualityGate GoodForTargets(const v1::BakeParameters& parameters);
 
-// Whether one size's figures meet `targets` (unset thresholds pass).
+// Whether one size's figures meet `targets` (unset thresholds pass). The
+// IoU is the one outside the mesh's own edge (SilhouetteIouOutsideEdge,
+// common/quality/image_metrics.h): a silhouette cannot be asked to agree
+// with the mesh's more closely than the mesh's own antialiasing decides.
 bool MeetsGoodForTargets(const v1::QualityGate& targets, double iou_mean, double psnr_shared_db_mean);
 
 // The largest size such that it and every smaller size in `sizes` (smallest
