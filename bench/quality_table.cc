@@ -36,6 +36,9 @@
 #include "common/request/bake_request.h"
 #include "common/manifest/manifest_json.h"
 #include "worker/bake/atlas_bake.h"
+#ifdef IMPOSTOR_BENCH_PROCEDURAL_TREE
+#include "tests/support/procedural_tree.h"
+#endif
 
 namespace {
 
@@ -45,7 +48,7 @@ using impostor::v1::BakeParameters;
 struct Asset {
   const char* name;
   const char* kind;  // "prop" or "vegetation"
-  const char* path;  // relative to the assets directory
+  const char* path;  // relative to the assets directory; nullptr: the procedural tree
 };
 
 // Every textured prop and every plant of MANIFEST.md's (a) and (b) that is
@@ -63,6 +66,12 @@ const Asset kAssets[] = {
     {"GlassVaseFlowers", "vegetation", "vegetation/GlassVaseFlowers/glTF-Binary/GlassVaseFlowers.glb"},
     {"Fox", "prop", "props_pbr/Fox/glTF-Binary/Fox.glb"},
     {"BoxTextured", "prop", "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb"},
+#ifdef IMPOSTOR_BENCH_PROCEDURAL_TREE
+    // Issue 43's tree with thin branches, generated here (tests/support/
+    // procedural_tree.h): twigs about a third of a texel wide at 12 x 12,
+    // 2048 px.
+    {"ProceduralTree (generated)", "vegetation", nullptr},
+#endif
 };
 
 struct Row {
@@ -163,6 +172,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   const fs::path scratch = fs::temp_directory_path() / absl::StrCat("impostor_quality_table_", getpid());
+  const fs::path generated = fs::temp_directory_path() / absl::StrCat("impostor_quality_table_", getpid(), "_assets");
   std::vector<Row> rows;
   const std::atomic<bool> cancelled{false};
   // Written after every row, so a long run leaves a table of what it did.
@@ -314,6 +324,18 @@ int main(int argc, char** argv) {
     configs.push_back({impostor::v1::LAYOUT_AZIMUTH_ELEVATION, 13});
     configs.push_back({impostor::v1::LAYOUT_RING_TOP, 0});
     configs.push_back({impostor::v1::LAYOUT_BILLBOARD, 0});
+    fs::path entry_file = asset.path != nullptr ? assets / asset.path : fs::path();
+#ifdef IMPOSTOR_BENCH_PROCEDURAL_TREE
+    if (asset.path == nullptr) {
+      fs::create_directories(generated);
+      entry_file = generated / "procedural_tree.glb";
+      auto tree = impostor::testing::WriteProceduralTree(entry_file);
+      if (!tree.ok()) {
+        std::fprintf(stderr, "quality_table: %s\n", std::string(tree.status().message()).c_str());
+        return 1;
+      }
+    }
+#endif
     for (const Config& config : configs) {
       const auto layout = config.layout;
       const std::string name(impostor::LayoutJsonName(layout));
@@ -339,9 +361,10 @@ int main(int argc, char** argv) {
         fs::remove_all(scratch);
         fs::create_directories(scratch);
         impostor::AtlasBakeRequest request{
-            .entry_file = assets / asset.path,
+            .entry_file = entry_file,
             .parameters = *p,
-            .cache_key = absl::StrCat(asset.path, " ", row.layout, " ", frames, " ", resolution),
+            .cache_key = absl::StrCat(asset.path != nullptr ? asset.path : "procedural_tree", " ", row.layout, " ",
+                                      frames, " ", resolution),
             .output_dir = scratch,
             .load_limits = {},
             .scene = nullptr,
@@ -404,6 +427,7 @@ int main(int argc, char** argv) {
     }
   }
   fs::remove_all(scratch);
+  fs::remove_all(generated);
 
   if (!write_table(rows, true)) {
     std::fprintf(stderr, "quality_table: cannot write %s\n", out_path.string().c_str());
