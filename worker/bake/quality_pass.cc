@@ -607,6 +607,18 @@ absl::StatusOr<QualityPassResult> MeasureAtlasQuality(const Scene& scene, const 
     *q.mutable_plain() = ModeFigures(Reconstruction::kPlain, result.plain_per_view);
     lap("plain");
   }
+  if (o.pop_references) {
+    auto one_sample = RenderMeshViews(scene, atlas.sphere, result.directions, o.view_pixels, 1, renderer);
+    if (!one_sample.ok()) return one_sample.status();
+    double sum = 0, worst_iou = 1;
+    for (const ViewMetrics& m : CompareAll(*mesh, *one_sample)) {
+      sum += m.iou;
+      worst_iou = std::min(worst_iou, m.iou);
+    }
+    result.one_sample_mesh_iou_mean = sum / o.views;
+    result.one_sample_mesh_iou_min = worst_iou;
+    lap("iou_reference");
+  }
   result.views_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (o.orbit_steps > 0) {
     const auto pop_start = Clock::now();
@@ -755,8 +767,9 @@ absl::Status AddAtlasQuality(const Scene& scene, const BoundingSphere& sphere, c
       result->sizes_seconds, result->seconds);
   if (result->pop_antialiased_mesh >= 0) {
     spdlog::info("event=quality_pass_pop_references cache_key={} pop={:.3f} pop_antialiased_mesh={:.3f} "
-                 "pop_antialiased={:.3f}",
-                 cache_key, q.pop(), result->pop_antialiased_mesh, result->pop_antialiased);
+                 "pop_antialiased={:.3f} one_sample_mesh_iou_mean={:.4f} one_sample_mesh_iou_min={:.4f}",
+                 cache_key, q.pop(), result->pop_antialiased_mesh, result->pop_antialiased,
+                 result->one_sample_mesh_iou_mean, result->one_sample_mesh_iou_min);
   }
   return absl::OkStatus();
 }

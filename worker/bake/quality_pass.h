@@ -39,6 +39,10 @@
 // Pop reference (options.pop_references, for bench/quality_table): that
 // "antialiased mesh" figure, the mesh's orbit supersampled 3 x 3 against its
 // one-sample orbit, to tell a reconstruction's jumps from the formula's limits.
+// IoU reference (the same option): the mesh's held-out views drawn with one
+// sample per pixel, as the impostor's are, against its 3 x 3 views. A
+// silhouette made mostly of edges (a tree of leaves and twigs) loses IoU to
+// sampling alone; this is what the mesh itself scores so.
 //
 // Good-for sizes (good_for_size.h): the held-out views drawn again at twice
 // the pass's size and shrunk to a ladder of on-screen sizes; the largest
@@ -178,6 +182,10 @@ struct QualityPassResult {
   // quality.pop_antialiased again.
   double pop_antialiased_mesh = -1;
   double pop_antialiased = -1;
+  // With options.pop_references (else -1): the IoU reference (top of this
+  // file), mean and worst over the held-out views.
+  double one_sample_mesh_iou_mean = -1;
+  double one_sample_mesh_iou_min = -1;
 };
 
 // `count` held-out view directions (unit, sphere centre -> camera) for an
