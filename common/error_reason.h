@@ -27,10 +27,12 @@ inline constexpr char kClientPendingJobs[] = "CLIENT_PENDING_JOBS";  // this cli
 // RESOURCE_EXHAUSTED from SubmitBake: frees up with time.
 inline constexpr char kFarmPendingJobs[] = "FARM_PENDING_JOBS";        // the whole farm's queue
 inline constexpr char kTokenBakesPerHour[] = "TOKEN_BAKES_PER_HOUR";  // a sliding one-hour window
-// RESOURCE_EXHAUSTED from UploadBlob: a sliding 24-hour window.
+// RESOURCE_EXHAUSTED from UploadBlob and BatchUpdateBlobs: a sliding
+// 24-hour window.
 inline constexpr char kTokenUploadBytesPerDay[] = "TOKEN_UPLOAD_BYTES_PER_DAY";
-// RESOURCE_EXHAUSTED from UploadBlob: the server's blob store has no space
-// (disk or quota full). The farm's state, not the blob's: writes succeed
+// RESOURCE_EXHAUSTED from UploadBlob, and a BatchUpdateBlobs blob's own
+// code (its reason field): the server's blob store has no space (disk or
+// quota full). The farm's state, not the blob's: writes succeed
 // again by themselves once space is freed, so a worker waits and retries
 // its result upload as through an outage (worker/worker_calls.cc).
 inline constexpr char kStoreFull[] = "STORE_FULL";

@@ -5,13 +5,11 @@
 #include "worker/worker_loop.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
 #include <span>
-#include <thread>
 #include <utility>
 
 #include <spdlog/spdlog.h>
@@ -32,6 +30,7 @@
 #include "worker/bearer_token.h"
 #include "worker/input_links.h"
 #include "worker/input_plan.h"
+#include "worker/result_files_upload.h"
 #include "worker/result_upload.h"
 #include "worker/scratch_file.h"
 #include "worker/scratch_shortage.h"
@@ -225,33 +224,20 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
 
 absl::Status WorkerLoop::UploadAll(const std::vector<std::pair<fs::path, v1::Digest>>& files,
                                    const std::string& subject) {
-  // Every file once, kParallelUploads at a time, until one is refused;
-  // then whatever did not go through, one at a time through
-  // UploadThroughOutage's waits for a server or for space (one wait, one
-  // log line, as when every upload went that way).
-  std::vector<char> uploaded(files.size(), 0);
-  std::atomic<size_t> next{0};
-  std::atomic<bool> refused{false};
-  auto upload = [&] {
-    for (size_t i; !refused && (i = next.fetch_add(1)) < files.size();) {
-      const grpc::Status s = CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
-        v1::AssetService::Stub assets(channel);
-        const absl::Status outcome = UploadFile(assets, files[i].first, files[i].second);
-        return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
-      });
-      uploaded[i] = s.ok();
-      if (!s.ok()) refused = true;
-    }
+  std::vector<ResultFile> result_files;
+  for (const auto& [path, digest] : files) result_files.push_back({path, digest});
+  ResultUploadLink link;
+  link.call = [this](const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) {
+    absl::Status outcome;
+    CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
+      v1::AssetService::Stub assets(channel);
+      outcome = rpc(assets);
+      return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+    });
+    return outcome;
   };
-  std::vector<std::thread> threads;
-  for (size_t t = 1; t < std::min<size_t>(kParallelUploads, files.size()); ++t) threads.emplace_back(upload);
-  upload();
-  for (std::thread& t : threads) t.join();
-  for (size_t i = 0; i < files.size(); ++i) {
-    if (uploaded[i]) continue;
-    if (absl::Status s = UploadThroughOutage(files[i].first, files[i].second, subject); !s.ok()) return s;
-  }
-  return absl::OkStatus();
+  link.upload_patiently = [&](const ResultFile& file) { return UploadThroughOutage(file.path, file.digest, subject); };
+  return UploadResultFiles(result_files, link, kParallelUploads);
 }
 
 grpc::Status WorkerLoop::RetryThroughFullServer(std::string_view rpc, const std::string& subject,

@@ -139,11 +139,13 @@ class WorkerLoop {
   // STORE_FULL, so the job is retried, not lost.
   absl::Status UploadThroughOutage(const std::filesystem::path& path, const v1::Digest& digest,
                                    const std::string& subject);
-  // A result's files, kParallelUploads at once: the server syncs each blob
-  // before it answers, and one upload at a time waited for each sync in
-  // turn (a result has ~40 files). A file refused in that pass (an outage,
-  // a full store) and those not yet sent go through UploadThroughOutage one
-  // at a time, in order; its status for the first that fails there.
+  // A result's files (UploadResultFiles, result_files_upload.h): the
+  // small ones many to a BatchUpdateBlobs call, the large ones streamed,
+  // kParallelUploads calls at once (the server syncs each blob before it
+  // answers, and one upload at a time waited for each sync in turn). A file
+  // refused in that pass (an outage, a full store) and those not yet sent
+  // go through UploadThroughOutage one at a time, in order; its status for
+  // the first that fails there.
   static constexpr int kParallelUploads = 4;
   absl::Status UploadAll(const std::vector<std::pair<std::filesystem::path, v1::Digest>>& files,
                          const std::string& subject);

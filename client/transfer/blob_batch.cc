@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/net/batch_read.h"
+#include "common/net/blob_batches.h"
 #include "common/util/sha256.h"
 
 namespace impostor::sdk {
@@ -13,19 +14,10 @@ bool FitsBlobBatch(const v1::Digest& digest) {
 }
 
 std::vector<std::vector<size_t>> PackBlobBatches(const std::vector<v1::Digest>& digests) {
-  std::vector<std::vector<size_t>> batches;
-  int64_t bytes = 0;
-  for (size_t i = 0; i < digests.size(); ++i) {
-    const int64_t size = digests[i].size_bytes();
-    if (batches.empty() || batches.back().size() == static_cast<size_t>(kMaxBatchReadDigests) ||
-        bytes + size > kMaxBatchReadBytes) {
-      batches.emplace_back();
-      bytes = 0;
-    }
-    batches.back().push_back(i);
-    bytes += size;
-  }
-  return batches;
+  std::vector<int64_t> sizes;
+  sizes.reserve(digests.size());
+  for (const v1::Digest& digest : digests) sizes.push_back(digest.size_bytes());
+  return PackBatchesBySize(sizes, kMaxBatchReadDigests, kMaxBatchReadBytes);
 }
 
 absl::Status ReadBlobBatch(Transport& transport, const std::vector<v1::Digest>& digests,

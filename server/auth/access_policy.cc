@@ -25,6 +25,8 @@ const std::vector<MethodRule>& AccessRules() {
       {"/impostor.v1.AssetService/BatchReadBlobs", {R, S, W}},
       {"/impostor.v1.AssetService/FindMissingBlobs", {S, W}},
       {"/impostor.v1.AssetService/UploadBlob", {S, W}, ObjectCheck::kNone, true},
+      // As UploadBlob, with its quota (checked by the service's guard).
+      {"/impostor.v1.AssetService/BatchUpdateBlobs", {S, W}, ObjectCheck::kNone, true},
       // Who may upload may ask how far an upload got.
       {"/impostor.v1.AssetService/QueryUpload", {S, W}},
       {"/impostor.v1.AssetService/PinResult", {}, ObjectCheck::kNone, true},

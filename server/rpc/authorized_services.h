@@ -67,8 +67,9 @@ class AccessGuard {
   absl::Status AuthorizeObject(const Principal& principal, std::string_view method, const std::string& object,
                                std::string_view field);
 
-  // Quotas (token_quotas.h) around SubmitBake and UploadBlob: the check
-  // before, the record after a call that succeeded.
+  // Quotas (token_quotas.h) around SubmitBake, UploadBlob and
+  // BatchUpdateBlobs: the check before, the record after a call that
+  // succeeded.
   absl::Status CheckSubmitQuota(const Principal& principal);
   void RecordBake(const Principal& principal);
   absl::Status CheckUploadQuota(const Principal& principal);
@@ -91,6 +92,8 @@ class AuthorizedAssetService final : public v1::AssetService::Service {
                                 v1::FindMissingBlobsResponse* response) override;
   grpc::Status UploadBlob(grpc::ServerContext* context, grpc::ServerReader<v1::UploadBlobRequest>* reader,
                           v1::UploadBlobResponse* response) override;
+  grpc::Status BatchUpdateBlobs(grpc::ServerContext* context, const v1::BatchUpdateBlobsRequest* request,
+                                v1::BatchUpdateBlobsResponse* response) override;
   grpc::Status QueryUpload(grpc::ServerContext* context, const v1::QueryUploadRequest* request,
                            v1::QueryUploadResponse* response) override;
   grpc::Status ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,

@@ -22,6 +22,8 @@ class AssetServiceImpl final : public v1::AssetService::Service {
                                 v1::FindMissingBlobsResponse* response) override;
   grpc::Status UploadBlob(grpc::ServerContext* context, grpc::ServerReader<v1::UploadBlobRequest>* reader,
                           v1::UploadBlobResponse* response) override;
+  grpc::Status BatchUpdateBlobs(grpc::ServerContext* context, const v1::BatchUpdateBlobsRequest* request,
+                                v1::BatchUpdateBlobsResponse* response) override;
   grpc::Status QueryUpload(grpc::ServerContext* context, const v1::QueryUploadRequest* request,
                            v1::QueryUploadResponse* response) override;
   grpc::Status ReadBlob(grpc::ServerContext* context, const v1::ReadBlobRequest* request,

@@ -151,6 +151,19 @@ class AuthServer : public ::testing::Test {
       return assets_->FindMissingBlobs(ctx.get(), request, &response);
     }
     if (rpc == "UploadBlob") return Upload(authorization, "matrix upload");
+    if (rpc == "BatchUpdateBlobs") {
+      const std::string bytes = "matrix batch upload";
+      v1::BatchUpdateBlobsRequest request;
+      *request.add_requests()->mutable_digest() = DigestOf(bytes);
+      request.mutable_requests(0)->set_data(bytes);
+      v1::BatchUpdateBlobsResponse response;
+      const grpc::Status s = assets_->BatchUpdateBlobs(ctx.get(), request, &response);
+      // Allowed is allowed whole: the blob's own slot is stored too.
+      if (s.ok() && (response.responses_size() != 1 || response.responses(0).code() != 0)) {
+        return grpc::Status(grpc::StatusCode::INTERNAL, "the batch's one blob was not stored");
+      }
+      return s;
+    }
     if (rpc == "QueryUpload") {
       v1::QueryUploadRequest request;
       *request.mutable_digest() = result_blob_;
@@ -278,6 +291,8 @@ struct MatrixRow {
 const MatrixRow kMatrix[] = {
     {"FindMissingBlobs", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
     {"UploadBlob", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
+    // The same roles, the batch of small blobs (issue 45).
+    {"BatchUpdateBlobs", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
     // Who may upload may ask how far an upload got (issue 44).
     {"QueryUpload", StatusCode::OK, kDenied, StatusCode::OK, StatusCode::OK},
     // A result blob: readers and submitters read results; a worker reads

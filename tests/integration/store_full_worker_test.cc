@@ -41,11 +41,12 @@ TEST(StoreFull, AResultUploadWaitsForSpaceAndTheSameAttemptCompletes) {
   testing::FillDisk(filler);
 
   auto worker = testing::StartWorker(server.address(), {"--name=waiter"});
-  // The refusal's message shows in the worker's log either way: on the line
-  // that starts the wait, or on the one that fails the job.
-  ASSERT_TRUE(worker->WaitForLog("No space left on device")) << "the upload was never refused";
+  // The line that starts the wait is the one to wait for: the refusal's
+  // message shows on it, and first on the small files' batch line.
+  ASSERT_TRUE(worker->WaitForLog("event=store_full ")) << "the worker did not say it waits for space";
   ASSERT_EQ(worker->CountInLog("event=job_failed"), 0) << "the job was failed for a full store";
-  ASSERT_EQ(worker->CountInLog("event=store_full "), 1) << "the worker did not say it waits for space";
+  ASSERT_EQ(worker->CountInLog("event=store_full "), 1);
+  ASSERT_GE(worker->CountInLog("No space left on device"), 1) << "the upload was never refused";
   v1::Job waiting;
   {
     v1::GetJobRequest request;

@@ -315,6 +315,7 @@ TEST(AccessPolicy, RoleTable) {
       {a + "GetResult", true, true, false},        {a + "ReadBlob", true, true, true},
       {a + "BatchReadBlobs", true, true, true},
       {a + "FindMissingBlobs", false, true, true}, {a + "UploadBlob", false, true, true},
+      {a + "BatchUpdateBlobs", false, true, true},
       {a + "QueryUpload", false, true, true},      {a + "PinResult", false, false, false},
       {b + "LookupBake", true, true, false},
       {b + "SubmitBake", false, true, false},      {b + "WatchJob", false, true, false},
