@@ -457,7 +457,11 @@ TEST(CacheSharedDir, DestroyingTheCacheCancelsAGetWaitingForAStoppedHolder) {
 // to wait out the retry backoff and the outage budget: 29 s, UNAVAILABLE.)
 TEST(CacheSharedDir, DestroyingTheCacheCancelsAGetRidingOutAnOutage) {
   ServerProcess server(0);
-  const PublishedResult published = PublishResult(server, kMaps, 80);
+  // One map far larger than a batch read takes (client/transfer/blob_batch.h)
+  // and than the stream's receive window (common/net/transfer_window.h): the
+  // result's small blobs arrive in one BatchReadBlobs before any blob starts,
+  // so a result of small maps would be whole in memory when the server dies.
+  const PublishedResult published = PublishResult(server, {int64_t{32} << 20}, 80);
   const fs::path dir = NewTempDir("cache_outage_close");
   Gate started, called, destroyed;
   sdk::DownloadHooks hooks;
