@@ -5,9 +5,7 @@
 namespace impostor::sdk {
 
 DownloadCoordinator::DownloadCoordinator(int threads, int max_background, Work work)
-    : state_(std::make_shared<State>(max_background, std::move(work))) {
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([state = state_] { RunThread(state); });
-}
+    : state_(std::make_shared<State>(max_background, std::move(work))), max_threads_(threads) {}
 
 DownloadCoordinator::~DownloadCoordinator() { Shutdown(); }
 
@@ -26,7 +24,7 @@ void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done, i
     if (!it->second->running) it->second->priority = priority;
     if (urgent && !it->second->urgent) {
       it->second->urgent = true;
-      s.changed.notify_all();
+      s.changed.notify_one();  // it may run now (no background slot needed): one thread suffices
     }
     return;
   }
@@ -38,7 +36,15 @@ void DownloadCoordinator::Join(const std::string& key, bool urgent, Done done, i
   flight->waiters.push_back(std::move(done));
   s.flights[key] = flight;
   s.queue.push_back(flight);
-  s.changed.notify_all();
+  // A thread per flight that wants one, up to the limit: a cache that never
+  // runs more than a few downloads at once keeps only a few threads.
+  if (static_cast<int>(threads_.size()) < max_threads_ &&
+      s.queue.size() + static_cast<size_t>(s.running) > threads_.size()) {
+    threads_.emplace_back([state = state_] { RunThread(state); });
+  }
+  // One new flight needs one thread: waking every idle one would only make
+  // them all queue on `mu` for it.
+  s.changed.notify_one();
 }
 
 std::shared_ptr<DownloadCoordinator::Flight> DownloadCoordinator::State::PopRunnable() {
@@ -58,6 +64,7 @@ std::shared_ptr<DownloadCoordinator::Flight> DownloadCoordinator::State::PopRunn
   std::shared_ptr<Flight> flight = *pick;
   queue.erase(pick);
   flight->running = true;
+  ++running;
   if (!flight->urgent) {
     flight->counts_as_background = true;
     ++running_background;
@@ -80,9 +87,11 @@ void DownloadCoordinator::RunThread(const std::shared_ptr<State>& state) {
     // Under the lock, so a Join either made it into `waiters` or starts a
     // new flight.
     if (auto f = s.flights.find(flight->key); f != s.flights.end() && f->second == flight) s.flights.erase(f);
+    --s.running;
     if (flight->counts_as_background) --s.running_background;
     std::vector<Done> waiters = std::move(flight->waiters);
-    s.changed.notify_all();
+    // No wake-up: what this flight's end lets start (the background slot it
+    // frees) this thread picks itself when it looks for its next flight.
     lock.unlock();
     for (size_t i = 0; i + 1 < waiters.size(); ++i) waiters[i](result);
     if (!waiters.empty()) waiters.back()(std::move(result));
@@ -131,6 +140,7 @@ void DownloadCoordinator::Shutdown() {
   for (auto& flight : cancelled) {
     for (Done& done : flight->waiters) done(absl::CancelledError("the cache is shutting down"));
   }
+  // No Join starts a thread once `shutdown` is set: threads_ holds them all.
   const std::thread::id self = std::this_thread::get_id();
   for (std::thread& t : threads_) {
     if (!t.joinable()) continue;

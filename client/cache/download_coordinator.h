@@ -1,9 +1,11 @@
 // Single-flight, bounded-concurrency scheduling of result downloads: all
 // requests for one key join one flight (one download, one result shared by
-// every waiter); flights for different keys run in parallel on a fixed pool
-// of threads. Urgent flights (a Get someone waits for) run before background
-// ones (Prefetch), and background ones never occupy more than their share of
-// the pool; a background flight that a Get joins becomes urgent. Background
+// every waiter); flights for different keys run in parallel on a pool of
+// threads, started as flights need them (never more than the flights that
+// ran or waited at once, up to the limit) and kept until Shutdown. Urgent
+// flights (a Get someone waits for) run before background ones (Prefetch),
+// and background ones never occupy more than their share of the pool; a
+// background flight that a Get joins becomes urgent. Background
 // flights start in order of priority (higher first; equal ones in the order
 // asked), which a later Join may change while the flight waits, and a
 // background flight no Get waits for can be cancelled, queued or running
@@ -47,8 +49,8 @@ class DownloadCoordinator {
   // (a caller's Stats or CollectGarbage right after Get sees only its own).
   using Done = std::function<void(Result)>;
 
-  // `threads` >= 1 pool threads, of which at most `max_background` run
-  // background flights at once.
+  // At most `threads` >= 1 pool threads (none until the first Join), of
+  // which at most `max_background` run background flights at once.
   DownloadCoordinator(int threads, int max_background, Work work);
   // Shutdown().
   ~DownloadCoordinator();
@@ -98,6 +100,7 @@ class DownloadCoordinator {
     std::condition_variable changed;
     std::map<std::string, std::shared_ptr<Flight>> flights ABSL_GUARDED_BY(mu);  // queued and running
     std::list<std::shared_ptr<Flight>> queue ABSL_GUARDED_BY(mu);                // not started, FIFO
+    int running ABSL_GUARDED_BY(mu) = 0;  // flights started and not ended
     int running_background ABSL_GUARDED_BY(mu) = 0;
     int64_t started ABSL_GUARDED_BY(mu) = 0;
     uint64_t next_order ABSL_GUARDED_BY(mu) = 0;
@@ -110,7 +113,10 @@ class DownloadCoordinator {
   static void RunThread(const std::shared_ptr<State>& state);
 
   const std::shared_ptr<State> state_;
-  std::vector<std::thread> threads_;  // touched by the owner only (constructor, Shutdown)
+  const int max_threads_;
+  // Added by Join under state_->mu while not shut down; Shutdown reads it
+  // once `shutdown` is set (nothing adds to it then).
+  std::vector<std::thread> threads_;
 };
 
 }  // namespace impostor::sdk

@@ -2,10 +2,13 @@
 // its bad inputs, and the single-flight coordinator.
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <future>
 #include <latch>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -169,6 +172,56 @@ TEST(DownloadCoordinator, TheLastWaiterHoldsTheOnlyCopyOfTheResult) {
     done.count_down();
   });
   done.wait();
+  coordinator.Shutdown();
+}
+
+// Threads start as flights need them, and every flight that can run gets
+// one at once: flights one after another run on one thread however large
+// the pool, and four at once run on four. (A fleet of 100 caches held 2,000
+// threads that never ran a flight, and each Join woke every idle one.)
+TEST(DownloadCoordinator, ThreadsStartAsFlightsNeedThem) {
+  std::mutex mu;
+  std::condition_variable changed;
+  std::set<std::thread::id> threads;
+  int waiting = 0;  // flights inside the work, held there until `release`
+  int release = 1;
+  DownloadCoordinator coordinator(8, 8, [&](const std::string& key, CancelSource&) -> DownloadCoordinator::Result {
+    std::unique_lock lock(mu);
+    threads.insert(std::this_thread::get_id());
+    ++waiting;
+    changed.notify_all();
+    // Bounded, so that a missing thread fails the test instead of hanging it.
+    if (!changed.wait_for(lock, std::chrono::seconds(30), [&] { return waiting >= release; })) {
+      return absl::DeadlineExceededError(key);
+    }
+    return absl::NotFoundError(key);
+  });
+  auto join_all = [&](const std::vector<std::string>& keys) {
+    std::vector<std::promise<absl::StatusCode>> answers(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i) {
+      coordinator.Join(keys[i], true, [&answers, i](DownloadCoordinator::Result r) { answers[i].set_value(r.status().code()); });
+    }
+    std::vector<absl::StatusCode> codes;
+    for (auto& a : answers) codes.push_back(a.get_future().get());
+    return codes;
+  };
+  for (const char* key : {"a", "b", "c"}) {
+    {
+      std::lock_guard lock(mu);
+      waiting = 0;
+      release = 1;
+    }
+    EXPECT_EQ(join_all({key}), std::vector<absl::StatusCode>{absl::StatusCode::kNotFound}) << key;
+  }
+  EXPECT_EQ(threads.size(), 1u) << "flights one after another";
+  {
+    std::lock_guard lock(mu);
+    waiting = 0;
+    release = 4;  // each flight waits until all four run
+  }
+  EXPECT_EQ(join_all({"d", "e", "f", "g"}), std::vector<absl::StatusCode>(4, absl::StatusCode::kNotFound))
+      << "four flights did not run at once";
+  EXPECT_EQ(threads.size(), 4u) << "threads for four flights at once";
   coordinator.Shutdown();
 }
 

@@ -129,8 +129,9 @@ struct CacheOptions {
   // Default: 2 GiB. Range: >= 0 (0 keeps nothing that is not in use).
   int64_t max_bytes = int64_t{2} << 30;
 
-  // Results downloaded at once. Concurrent Gets of the same key always share
-  // one download. Default: 20. Range: 1..64.
+  // Results downloaded at once, each on a thread of its own (started when
+  // first needed, so a cache that never downloads holds none). Concurrent
+  // Gets of the same key always share one download. Default: 20. Range: 1..64.
   int max_parallel_downloads = 20;
 
   // Of those, how many Prefetch may occupy, so that a long prefetch list
