@@ -5,17 +5,13 @@
 #include <set>
 #include <string>
 
+#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
-#include "client/transfer/blob_upload.h"
+#include "client/transfer/blob_batch_upload.h"
 #include "common/util/sha256.h"
 
 namespace impostor::sdk {
 namespace {
-
-struct LocalBlob {
-  std::filesystem::path path;
-  v1::Digest digest;
-};
 
 absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
   absl::StatusOr<BlobDigest> digest = DigestFile(path);
@@ -24,6 +20,15 @@ absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
   out.set_hash(digest->hash);
   out.set_size_bytes(digest->size_bytes);
   return out;
+}
+
+// `s` (a refusal of the blob in `path`) saying which file it was, its
+// payloads (the RPC, the server, its error reason) kept.
+absl::Status NamingFile(const absl::Status& s, const std::filesystem::path& path) {
+  absl::Status named(s.code(), absl::StrCat("uploading ", path.string(), ": ", s.message()));
+  s.ForEachPayload(
+      [&named](absl::string_view type_url, const absl::Cord& payload) { named.SetPayload(type_url, payload); });
+  return named;
 }
 
 }  // namespace
@@ -72,25 +77,21 @@ absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& f
   for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
   // Two files with the same content are one blob: upload it once.
   std::set<std::string> done;
+  std::vector<LocalBlob> to_upload;
   for (const LocalBlob& blob : blobs) {
     const std::string key = absl::StrCat(blob.digest.hash(), "/", blob.digest.size_bytes());
-    if (!missing_keys.contains(key) || !done.insert(key).second) continue;
-    if (absl::Status s = UploadBlobFile(transport, blob.path, blob.digest, cancel); !s.ok()) return s;
+    if (missing_keys.contains(key) && done.insert(key).second) to_upload.push_back(blob);
+  }
+  absl::StatusOr<std::vector<absl::Status>> each = UploadBlobFiles(transport, to_upload, cancel);
+  if (!each.ok()) return each.status();
+  for (size_t i = 0; i < to_upload.size(); ++i) {
+    const absl::Status& s = (*each)[i];
+    if (!s.ok()) return NamingFile(s, to_upload[i].path);
     ++out.stats.uploaded;
-    out.stats.bytes_uploaded += blob.digest.size_bytes();
+    out.stats.bytes_uploaded += to_upload[i].digest.size_bytes();
   }
   return out;
 }
-
-namespace {
-
-// An upload error that is about the blob, not about the caller or the link.
-bool IsRefusalOfTheBlob(const absl::Status& s) {
-  return absl::IsResourceExhausted(s) || absl::IsInvalidArgument(s) || absl::IsFailedPrecondition(s) ||
-         absl::IsDataLoss(s) || absl::IsNotFound(s);
-}
-
-}  // namespace
 
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
                                                                       const std::vector<const MeshFiles*>& models,
@@ -135,15 +136,23 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
     if (!missing.ok()) return missing.status();
     for (const v1::Digest& d : missing->missing()) missing_keys.insert(absl::StrCat(d.hash(), "/", d.size_bytes()));
   }
+  std::vector<size_t> to_upload;  // indices into blobs
+  std::vector<LocalBlob> files;
   for (size_t i = 0; i < blobs.size(); ++i) {
     if (!missing_keys.contains(absl::StrCat(blobs[i].digest.hash(), "/", blobs[i].digest.size_bytes()))) continue;
-    if (absl::Status s = UploadBlobFile(transport, blobs[i].path, blobs[i].digest, cancel); !s.ok()) {
+    to_upload.push_back(i);
+    files.push_back(blobs[i]);
+  }
+  // A refusal of the caller or the connection ends the whole batch.
+  absl::StatusOr<std::vector<absl::Status>> each = UploadBlobFiles(transport, files, cancel);
+  if (!each.ok()) return each.status();
+  for (size_t k = 0; k < to_upload.size(); ++k) {
+    const size_t i = to_upload[k];
+    if (const absl::Status& s = (*each)[k]; !s.ok()) {
       // The server refused this blob (its disk is full, it is too large):
-      // the models that need it fail and the rest go on. A refusal of the
-      // caller or the connection ends the whole batch.
-      if (!IsRefusalOfTheBlob(s)) return s;
+      // the models that need it fail and the rest go on.
       for (size_t m : users[i]) {
-        if (out[m].ok()) out[m] = absl::Status(s.code(), absl::StrCat("uploading ", blobs[i].path.string(), ": ", s.message()));
+        if (out[m].ok()) out[m] = NamingFile(s, blobs[i].path);
       }
       continue;
     }

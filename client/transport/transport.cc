@@ -489,14 +489,15 @@ void Transport::NoteAnswer(const Route& route) {
 // decides; a failure that moves calls on to a replica not yet tried is
 // tried there at once, outside that policy (at most once per address).
 template <typename Response, typename Call>
-absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call, const CancelSource* cancel) {
+absl::StatusOr<Response> Transport::CallUnary(std::string_view rpc, Call call, const CancelSource* cancel,
+                                              double timeout_seconds) {
   RetryPolicy retry = NewRetryPolicy(cancel);
   size_t moved_on = 0;
   while (true) {
     if (cancel != nullptr && cancel->cancelled()) return cancel->error();
     grpc::ClientContext context;
     stubs_->AddToken(context);
-    context.set_deadline(DeadlineAfter(options_.rpc_timeout_seconds));
+    context.set_deadline(DeadlineAfter(timeout_seconds > 0 ? timeout_seconds : options_.rpc_timeout_seconds));
     if (!options_.client_id.empty()) context.AddMetadata("impostor-client-id", options_.client_id);
     const Route route = stubs_->channels->Current();
     Response response;
@@ -571,6 +572,21 @@ absl::StatusOr<v1::BatchReadBlobsResponse> Transport::BatchReadBlobs(const v1::B
         return v1::AssetService::Stub(route.channel).BatchReadBlobs(ctx, request, resp);
       },
       cancel);
+}
+
+absl::StatusOr<v1::BatchUpdateBlobsResponse> Transport::BatchUpdateBlobs(const v1::BatchUpdateBlobsRequest& request,
+                                                                        const CancelSource* cancel) {
+  int64_t bytes = 0;
+  for (const v1::BatchUpdateBlobsRequest::Request& blob : request.requests()) {
+    bytes += static_cast<int64_t>(blob.data().size());
+  }
+  const int64_t messages = (bytes + kBatchUpdateMessageBytes - 1) / kBatchUpdateMessageBytes;
+  return CallUnary<v1::BatchUpdateBlobsResponse>(
+      "BatchUpdateBlobs",
+      [&](const Route& route, auto* ctx, auto* resp) {
+        return v1::AssetService::Stub(route.channel).BatchUpdateBlobs(ctx, request, resp);
+      },
+      cancel, options_.rpc_timeout_seconds * static_cast<double>(1 + messages));
 }
 
 absl::StatusOr<v1::LookupBakeResponse> Transport::LookupBake(const v1::SubmitBakeRequest& request) {

@@ -1,5 +1,6 @@
-"""Blob transfer: uploading what the store lacks of some models (as
-client/transfer/mesh_upload.cc) and downloading a blob to a file, resumed at the byte
+"""Blob transfer: uploading what the store lacks of some models, the small
+files many to a BatchUpdateBlobs call (as client/transfer/mesh_upload.cc and
+blob_batch_upload.cc) and downloading a blob to a file, resumed at the byte
 offset after a break and verified against its digest (as
 client/transfer/blob_download.cc)."""
 from __future__ import annotations
@@ -8,7 +9,7 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
-from typing import Dict, Iterator, List, Sequence, Set, Tuple, Union
+from typing import Dict, Iterator, List, Optional, Sequence, Set, Tuple, Union
 
 import grpc
 
@@ -26,8 +27,9 @@ from .v1 import types_pb2 as pb
 # kUploadChunkBytes, client/transfer/blob_upload.h).
 UPLOAD_CHUNK_BYTES = 64 << 10
 MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
-# Blobs up to this size are read many to a BatchReadBlobs call, within the
-# server's limits per call (as the C++ SDK, common/net/batch_read.h).
+# Blobs up to this size are read many to a BatchReadBlobs call and stored
+# many to a BatchUpdateBlobs call, within the server's limits per call (the
+# same for both, as in the C++ SDK: common/net/batch_read.h).
 BATCH_BLOB_MAX_BYTES = 1 << 20
 MAX_BATCH_DIGESTS = 1000
 MAX_BATCH_BYTES = 4 << 20
@@ -145,12 +147,94 @@ _BLOB_REFUSALS = (
 )
 
 
+def _read_whole(path: Path) -> Optional[bytes]:
+    """The file's bytes, or None when it cannot be read (its stream's try
+    then says why, naming it)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError:
+        return None
+
+
+def _send_batch(transport: Transport, blobs: Sequence[MeshFile], batch: Sequence[int], stored: List[bool],
+                refused: List[str]) -> bool:
+    """One BatchUpdateBlobs call of the blobs `batch` (indices into
+    `blobs`): marks stored[i] for each the server holds now, refused[i] with
+    the code of each it refused in its slot. False from a server older than
+    the call (UNIMPLEMENTED); a refusal of the whole request (a quota)
+    leaves its blobs to the stream. Raises ImpostorError: the call's error
+    that ends the upload (not a refusal of a blob)."""
+    sent: List[int] = []
+    request = asset_pb.BatchUpdateBlobsRequest()
+    for i in batch:
+        data = _read_whole(blobs[i].local_path)
+        if data is None:
+            continue
+        request.requests.add(digest=_digest(blobs[i]), data=data)
+        sent.append(i)
+    if not sent:
+        return True
+    try:
+        response = transport.batch_update_blobs(request)
+    except ImpostorError as e:
+        if e.code == grpc.StatusCode.UNIMPLEMENTED:
+            return False
+        if e.code not in _BLOB_REFUSALS:
+            raise
+        return True  # refused whole: each blob's stream gets its own answer
+    if len(response.responses) != len(sent):
+        return True  # an answer amiss says nothing of any blob: the streams ask again
+    for i, answer in zip(sent, response.responses):
+        if answer.digest.hash != blobs[i].hash or answer.digest.size_bytes != blobs[i].size_bytes:
+            continue
+        if answer.code == 0:
+            stored[i] = True
+        else:
+            refused[i] = _status_code(answer.code).name
+    return True
+
+
+def _upload_blob_files(transport: Transport, blobs: Sequence[MeshFile]) -> "List[Optional[ImpostorError]]":
+    """Puts `blobs` (distinct) into the store, as the C++ SDK's
+    UploadBlobFiles (client/transfer/blob_batch_upload.h): those of at most
+    BATCH_BLOB_MAX_BYTES in BatchUpdateBlobs calls (pack_batches), until a
+    server older than the call answers UNIMPLEMENTED; then every blob not
+    stored (the large ones, an older server's, a blob a batch refused: its
+    one retry) through UploadBlob with its retries. Returns each blob's
+    refusal (_BLOB_REFUSALS; its batch's code added when it refused the
+    blob too), or None once stored. Raises ImpostorError for any other
+    error (the caller refused, the link down), which ends the upload."""
+    stored = [False] * len(blobs)
+    refused = [""] * len(blobs)
+    small = [i for i, b in enumerate(blobs) if b.size_bytes <= BATCH_BLOB_MAX_BYTES]
+    for packed in pack_batches([blobs[i].size_bytes for i in small]):
+        if not _send_batch(transport, blobs, [small[k] for k in packed], stored, refused):
+            break
+    out: List[Optional[ImpostorError]] = [None] * len(blobs)
+    for i, blob in enumerate(blobs):
+        if stored[i]:
+            continue
+        try:
+            _upload_with_retry(transport, blob)
+        except ImpostorError as e:
+            if e.code not in _BLOB_REFUSALS:
+                raise
+            out[i] = e
+            if refused[i]:
+                out[i] = ImpostorError(e.code, f"{e.message} (refused in its batch first: {refused[i]})",
+                                       server_message=e.server_message, rpc=e.rpc, server=e.server, reason=e.reason)
+    return out
+
+
 def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> "List[Union[UploadStats, ImpostorError]]":
     """Uploads every distinct blob of `models` the server lacks, once (one
-    FindMissingBlobs per 10,000 blobs). Returns each model's UploadStats (an
-    upload counts for the first model that has the blob), or the error of a
-    blob of it that the server refused (RESOURCE_EXHAUSTED on a full disk,
-    ...): the other models go on, as in the C++ SDK (client/transfer/mesh_upload.h).
+    FindMissingBlobs per 10,000 blobs; the small ones many to a
+    BatchUpdateBlobs call: _upload_blob_files). Returns each model's
+    UploadStats (an upload counts for the first model that has the blob),
+    or the error of a blob of it that the server refused (RESOURCE_EXHAUSTED
+    on a full disk, ...; naming the file): the other models go on, as in the
+    C++ SDK (client/transfer/mesh_upload.h).
     Raises ImpostorError when FindMissingBlobs fails or an upload fails for
     the caller or the connection."""
     blobs: List[MeshFile] = []
@@ -177,18 +261,16 @@ def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> "List[Un
         )
         response = transport.unary("FindMissingBlobs", transport.assets.FindMissingBlobs, request)
         missing.update((d.hash, d.size_bytes) for d in response.missing)
+    to_upload = [k for k, b in enumerate(blobs) if (b.hash, b.size_bytes) in missing]
+    outcomes = _upload_blob_files(transport, [blobs[k] for k in to_upload])
     errors: Dict[int, ImpostorError] = {}
-    for blob, who in zip(blobs, users):
-        if (blob.hash, blob.size_bytes) not in missing:
-            continue
-        try:
-            _upload_with_retry(transport, blob)
-        except ImpostorError as e:
-            if e.code not in _BLOB_REFUSALS:
-                raise
+    for k, e in zip(to_upload, outcomes):
+        blob, who = blobs[k], users[k]
+        if e is not None:
             for m in who:
                 errors.setdefault(m, ImpostorError(e.code, f"uploading {blob.local_path}: {e.message}",
-                                                   server_message=e.server_message, rpc=e.rpc, server=e.server))
+                                                   server_message=e.server_message, rpc=e.rpc, server=e.server,
+                                                   reason=e.reason))
             continue
         stats[who[0]]["uploaded"] += 1
         stats[who[0]]["bytes_uploaded"] += blob.size_bytes

@@ -32,6 +32,10 @@ _MAX_RECEIVE_BYTES = 64 << 20
 # (client/transport/transport.cc's kMaxBytesTheLinkHolds).
 _MAX_BYTES_THE_LINK_HOLDS = 4 << 20
 _MAX_OUTAGE_SECONDS = 86400.0
+# The bytes of a BatchUpdateBlobs request that earn its deadline another
+# rpc_timeout_seconds: UploadBlob's message size (_blobs.UPLOAD_CHUNK_BYTES,
+# as the C++ SDK's Transport::kBatchUpdateMessageBytes).
+_BATCH_UPDATE_MESSAGE_BYTES = 64 << 10
 # gRPC's default reconnect backoff grows to 120 s, so a server back after a
 # restart would go unnoticed for minutes; try every second at most. A private
 # subchannel pool: a fresh channel never inherits a dead server's connection.
@@ -526,12 +530,13 @@ class Transport:
         """One call's RetryPolicy, waiting its backoffs with wait_for_server."""
         return RetryPolicy(self.max_attempts, self.max_outage_seconds, self.monitor, self.wait_for_server)
 
-    def unary(self, rpc: str, method: Callable[..., Any], request: Any) -> Any:
-        """Calls a unary RPC, retried as RetryPolicy decides."""
+    def unary(self, rpc: str, method: Callable[..., Any], request: Any, timeout: Optional[float] = None) -> Any:
+        """Calls a unary RPC, retried as RetryPolicy decides; each attempt's
+        deadline is `timeout` seconds (None: rpc_timeout_seconds)."""
         retry = self.retry_policy()
         while True:
             try:
-                response = method(request, timeout=self.rpc_timeout_seconds, metadata=self._metadata)
+                response = method(request, timeout=timeout or self.rpc_timeout_seconds, metadata=self._metadata)
             except grpc.RpcError as e:
                 error = self.note(e, rpc)
                 if not retry.should_retry(error):
@@ -539,6 +544,18 @@ class Transport:
                 continue
             self.note_answer()
             return response
+
+    def batch_update_blobs(self, request: Any) -> Any:
+        """One AssetService.BatchUpdateBlobs call of `request`, retried as
+        the other unary calls; its deadline is rpc_timeout_seconds for each
+        64 KiB of its data and once more (the time UploadBlob's stall
+        watchdog gives those bytes), so a slow uplink is not cut for being
+        slow. Raises ImpostorError: UNIMPLEMENTED from a server older than
+        the call; the call's error."""
+        data = sum(len(r.data) for r in request.requests)
+        messages = (data + _BATCH_UPDATE_MESSAGE_BYTES - 1) // _BATCH_UPDATE_MESSAGE_BYTES
+        return self.unary("BatchUpdateBlobs", self.assets.BatchUpdateBlobs, request,
+                          timeout=self.rpc_timeout_seconds * (1 + messages))
 
     def watch_job(self, request: Any) -> Iterator[Any]:
         """One WatchJob stream (no deadline: a bake may take long). Raises

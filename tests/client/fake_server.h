@@ -103,6 +103,18 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
   bool batch_reads = false;
   int batch_read_calls = 0;
   int batch_read_blobs = 0;  // blobs asked in all of them
+  // BatchUpdateBlobs: UNIMPLEMENTED (a server from before the call) unless
+  // batch_updates; then batch_update_code (OK: serve it) for the whole call.
+  // A blob is stored as UploadBlob stores it, or refused in its slot:
+  // INVALID_ARGUMENT when its bytes do not match, RESOURCE_EXHAUSTED
+  // (STORE_FULL) when over refuse_uploads_over or in refuse_in_batch.
+  bool batch_updates = false;
+  grpc::StatusCode batch_update_code = grpc::StatusCode::OK;
+  std::set<std::string> refuse_in_batch;  // hashes
+  int batch_update_attempts = 0;          // every call, UNIMPLEMENTED ones too
+  std::vector<std::vector<std::string>> batch_updates_seen;  // per served call: its hashes
+  std::vector<int64_t> batch_update_bytes;                   // per served call: its data bytes
+  std::vector<std::string> batch_uploaded;                   // hashes stored through a batch, in order
   int open_reads = 0;
   int max_open_reads = 0;
   std::condition_variable reads_changed;
@@ -233,6 +245,39 @@ class FakeServer final : public v1::AssetService::Service, public v1::BakeServic
       std::string bytes = it->second;
       if (corrupt.contains(d.hash()) && !bytes.empty()) bytes[bytes.size() / 2] ^= 0x5a;
       blob->set_data(bytes);
+    }
+    return grpc::Status::OK;
+  }
+
+  grpc::Status BatchUpdateBlobs(grpc::ServerContext*, const v1::BatchUpdateBlobsRequest* req,
+                                v1::BatchUpdateBlobsResponse* resp) override {
+    std::lock_guard lock(mu);
+    ++batch_update_attempts;
+    if (!batch_updates) return {grpc::StatusCode::UNIMPLEMENTED, "unknown method (test)"};
+    if (batch_update_code != grpc::StatusCode::OK) return {batch_update_code, "the whole batch refused (test)"};
+    batch_updates_seen.emplace_back();
+    batch_update_bytes.push_back(0);
+    for (const v1::BatchUpdateBlobsRequest::Request& blob : req->requests()) {
+      const v1::Digest& d = blob.digest();
+      batch_updates_seen.back().push_back(d.hash());
+      batch_update_bytes.back() += static_cast<int64_t>(blob.data().size());
+      auto* answer = resp->add_responses();
+      *answer->mutable_digest() = d;
+      if (Sha256Hex(blob.data()) != d.hash() || static_cast<int64_t>(blob.data().size()) != d.size_bytes()) {
+        answer->set_code(static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+        answer->set_message("hash mismatch (test)");
+        continue;
+      }
+      if (refuse_in_batch.contains(d.hash()) ||
+          (refuse_uploads_over > 0 && static_cast<int64_t>(blob.data().size()) > refuse_uploads_over)) {
+        answer->set_code(static_cast<int>(grpc::StatusCode::RESOURCE_EXHAUSTED));
+        answer->set_message("cannot store the blob: No space left on device (test)");
+        answer->set_reason("STORE_FULL");
+        continue;
+      }
+      answer->set_already_present(blobs.contains(d.hash()));
+      blobs[d.hash()] = blob.data();
+      batch_uploaded.push_back(d.hash());
     }
     return grpc::Status::OK;
   }
