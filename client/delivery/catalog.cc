@@ -1,11 +1,12 @@
 #include "client/delivery/catalog.h"
 
+#include <algorithm>
 #include <ctime>
-#include <set>
 
 #include "absl/strings/string_view.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "client/delivery/asset_stream.h"
 #include "client/delivery/release_paths.h"
 #include "common/manifest/manifest_json.h"
 #include "common/util/sha256.h"
@@ -28,10 +29,11 @@ class Reader {
  public:
   explicit Reader(absl::string_view source) : source_(source) {}
 
-  const json* Field(const json& object, absl::string_view key, const std::string& path, json::value_t type) {
+  // `object[key]` when it is of `type` (a path in a refusal is `path` + `key`).
+  json* Field(json& object, absl::string_view key, const std::string& path, json::value_t type) {
     if (!error_.ok()) return nullptr;
     if (!object.is_object()) return Fail(path, "must be an object");
-    auto it = object.find(std::string(key));
+    auto it = object.find(key);
     if (it == object.end()) return Fail(absl::StrCat(path, key), "is missing");
     const bool type_ok = type == json::value_t::number_unsigned
                              ? it->is_number_unsigned() || (it->is_number_integer() && it->get<int64_t>() >= 0)
@@ -39,18 +41,23 @@ class Reader {
     if (!type_ok) return Fail(absl::StrCat(path, key), absl::StrCat("must be ", TypeName(type)));
     return &*it;
   }
-  std::string String(const json& o, absl::string_view key, const std::string& path) {
+  std::string String(json& o, absl::string_view key, const std::string& path) {
     const json* v = Field(o, key, path, json::value_t::string);
     return v == nullptr ? std::string() : v->get<std::string>();
   }
-  int64_t Count(const json& o, absl::string_view key, const std::string& path) {
+  // As String, moving the value out of `o` (which is thrown away after).
+  std::string TakeString(json& o, absl::string_view key, const std::string& path) {
+    json* v = Field(o, key, path, json::value_t::string);
+    return v == nullptr ? std::string() : std::move(v->get_ref<std::string&>());
+  }
+  int64_t Count(json& o, absl::string_view key, const std::string& path) {
     const json* v = Field(o, key, path, json::value_t::number_unsigned);
     return v == nullptr ? 0 : v->get<int64_t>();
   }
-  void Hex(const std::string& value, const std::string& path) {
-    if (error_.ok() && !IsSha256Hex(value)) Fail(path, "must be 64 lowercase hex characters");
+  void Hex(const std::string& value, const std::string& path, absl::string_view key) {
+    if (error_.ok() && !IsSha256Hex(value)) Fail(absl::StrCat(path, key), "must be 64 lowercase hex characters");
   }
-  const json* Fail(const std::string& path, absl::string_view why) {
+  json* Fail(const std::string& path, absl::string_view why) {
     if (error_.ok()) error_ = absl::InvalidArgumentError(absl::StrCat(source_, ": ", path, " ", why));
     return nullptr;
   }
@@ -70,16 +77,18 @@ class Reader {
   absl::Status error_;
 };
 
+absl::Status NotAJsonObject(absl::string_view source, absl::string_view what) {
+  return absl::InvalidArgumentError(
+      absl::StrCat(source, ": not a JSON object (a ", what, " was expected; an HTML error page?)"));
+}
+
 absl::StatusOr<json> ParseJson(absl::string_view text, absl::string_view source, absl::string_view what) {
   json doc = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded() || !doc.is_object()) {
-    return absl::InvalidArgumentError(absl::StrCat(source, ": not a JSON object (a ", what,
-                                                   " was expected; an HTML error page?)"));
-  }
+  if (doc.is_discarded() || !doc.is_object()) return NotAJsonObject(source, what);
   return doc;
 }
 
-absl::Status CheckSchema(Reader& r, const json& doc, absl::string_view schema, int known_version,
+absl::Status CheckSchema(Reader& r, json& doc, absl::string_view schema, int known_version,
                          absl::string_view source, int* version) {
   const std::string name = r.String(doc, "schema", "");
   if (r.error().ok() && name != schema) {
@@ -99,6 +108,68 @@ absl::Status CheckSchema(Reader& r, const json& doc, absl::string_view schema, i
 json FileToJson(const CatalogFile& f) {
   return json{{"name", f.name},     {"semantic", f.semantic}, {"sha256", f.sha256}, {"size_bytes", f.size_bytes},
               {"media_type", f.media_type}, {"width", f.width}, {"height", f.height}, {"format", f.format}};
+}
+
+// One member of a catalog's "assets", checked (its fields named by path in
+// a refusal) and converted; its strings are moved out of `a`.
+absl::StatusOr<CatalogAsset> ParseAsset(const std::string& name, json& a, absl::string_view source) {
+  if (absl::Status s = ValidateAssetName(name, absl::StrCat(source, ": asset name")); !s.ok()) return s;
+  Reader r(source);
+  const std::string path = absl::StrCat("assets[\"", name.substr(0, 80), "\"].");
+  CatalogAsset asset;
+  asset.cache_key = r.TakeString(a, "cache_key", path);
+  r.Hex(asset.cache_key, path, "cache_key");
+  asset.product = r.TakeString(a, "product", path);
+  asset.layout = r.TakeString(a, "layout", path);
+  asset.frames = static_cast<uint32_t>(r.Count(a, "frames", path));
+  asset.resolution = static_cast<uint32_t>(r.Count(a, "resolution", path));
+  if (a.is_object() && a.contains("baker_version")) asset.baker_version = r.TakeString(a, "baker_version", path);
+  if (json* manifest = r.Field(a, "manifest", path, json::value_t::object); manifest != nullptr) {
+    const std::string mpath = path + "manifest.";
+    asset.manifest_sha256 = r.TakeString(*manifest, "sha256", mpath);
+    r.Hex(asset.manifest_sha256, mpath, "sha256");
+    asset.manifest_size_bytes = r.Count(*manifest, "size_bytes", mpath);
+  }
+  json* files = r.Field(a, "files", path, json::value_t::array);
+  if (files != nullptr && files->size() > kMaxFilesPerAsset) {
+    r.Fail(path + "files", absl::StrCat("lists ", files->size(), " files; the limit is ", kMaxFilesPerAsset));
+  }
+  bool has_manifest = false;
+  for (size_t i = 0; files != nullptr && i < files->size() && r.error().ok(); ++i) {
+    const std::string fpath = absl::StrCat(path, "files[", i, "].");
+    json& f = (*files)[i];
+    CatalogFile file;
+    file.name = r.TakeString(f, "name", fpath);
+    file.semantic = r.TakeString(f, "semantic", fpath);
+    file.sha256 = r.TakeString(f, "sha256", fpath);
+    r.Hex(file.sha256, fpath, "sha256");
+    file.size_bytes = r.Count(f, "size_bytes", fpath);
+    if (!r.error().ok()) break;
+    file.media_type = f.contains("media_type") ? r.TakeString(f, "media_type", fpath) : MediaTypeForFile(file.name);
+    if (f.contains("width")) file.width = static_cast<uint32_t>(r.Count(f, "width", fpath));
+    if (f.contains("height")) file.height = static_cast<uint32_t>(r.Count(f, "height", fpath));
+    if (f.contains("format")) file.format = r.TakeString(f, "format", fpath);
+    if (!r.error().ok()) break;
+    if (file.name.empty() || file.name.size() > kMaxFileNameLength || file.name == "." || file.name == ".." ||
+        file.name.find_first_of(std::string("/\\\0", 3)) != std::string::npos || file.name.front() == '.') {
+      r.Fail(fpath + "name", "must be a plain file name (no path, not hidden, at most 255 characters)");
+      break;
+    }
+    if (std::any_of(asset.files.begin(), asset.files.end(), [&](const CatalogFile& g) { return g.name == file.name; })) {
+      r.Fail(fpath + "name", absl::StrCat("\"", file.name, "\" is listed twice"));
+      break;
+    }
+    if (file.name == kManifestName) {
+      has_manifest = true;
+      if (file.sha256 != asset.manifest_sha256 || file.size_bytes != asset.manifest_size_bytes) {
+        r.Fail(fpath + "sha256", "differs from the asset's manifest digest");
+      }
+    }
+    asset.files.push_back(std::move(file));
+  }
+  if (r.error().ok() && !has_manifest) r.Fail(path + "files", "must list manifest.json");
+  if (!r.error().ok()) return r.error();
+  return asset;
 }
 
 }  // namespace
@@ -135,79 +206,36 @@ std::string CatalogToJson(const Catalog& catalog) {
 }
 
 absl::StatusOr<Catalog> ParseCatalog(absl::string_view text, absl::string_view source) {
-  absl::StatusOr<json> doc = ParseJson(text, source, "catalog");
-  if (!doc.ok()) return doc.status();
-  Reader r(source);
+  // Each asset is checked and converted as soon as the parser has it (its
+  // document dropped right after); the first refusal is kept, and reported
+  // after the schema's, which the text may hold after the assets.
   Catalog catalog;
-  if (absl::Status s = CheckSchema(r, *doc, "impostor-catalog", kCatalogSchemaVersion, source,
+  absl::Status asset_error;
+  json doc;
+  const bool parsed = ParseWithStreamedAssets(text, &doc, [&](std::string name, json value) {
+    if (!asset_error.ok()) return;
+    absl::StatusOr<CatalogAsset> asset = ParseAsset(name, value, source);
+    if (!asset.ok()) {
+      asset_error = asset.status();
+      return;
+    }
+    if (!catalog.assets.try_emplace(std::move(name), std::move(*asset)).second) {  // name kept when not moved
+      asset_error = absl::InvalidArgumentError(
+          absl::StrCat(source, ": assets[\"", name.substr(0, 80), "\"] is listed twice"));
+    }
+  });
+  if (!parsed || !doc.is_object()) return NotAJsonObject(source, "catalog");
+  Reader r(source);
+  if (absl::Status s = CheckSchema(r, doc, "impostor-catalog", kCatalogSchemaVersion, source,
                                    &catalog.schema_version);
       !s.ok()) {
     return s;
   }
-  catalog.created_at = r.String(*doc, "created_at", "");
-  catalog.baker_version = r.String(*doc, "baker_version", "");
-  const json* assets = r.Field(*doc, "assets", "", json::value_t::object);
-  if (assets != nullptr) {
-    for (const auto& [name, a] : assets->items()) {
-      const std::string path = absl::StrCat("assets[\"", name.substr(0, 80), "\"].");
-      if (absl::Status s = ValidateAssetName(name, absl::StrCat(source, ": asset name")); !s.ok()) return s;
-      CatalogAsset asset;
-      asset.cache_key = r.String(a, "cache_key", path);
-      r.Hex(asset.cache_key, path + "cache_key");
-      asset.product = r.String(a, "product", path);
-      asset.layout = r.String(a, "layout", path);
-      asset.frames = static_cast<uint32_t>(r.Count(a, "frames", path));
-      asset.resolution = static_cast<uint32_t>(r.Count(a, "resolution", path));
-      if (a.contains("baker_version")) asset.baker_version = r.String(a, "baker_version", path);
-      const json* manifest = r.Field(a, "manifest", path, json::value_t::object);
-      if (manifest != nullptr) {
-        asset.manifest_sha256 = r.String(*manifest, "sha256", path + "manifest.");
-        r.Hex(asset.manifest_sha256, path + "manifest.sha256");
-        asset.manifest_size_bytes = r.Count(*manifest, "size_bytes", path + "manifest.");
-      }
-      const json* files = r.Field(a, "files", path, json::value_t::array);
-      if (files != nullptr && files->size() > kMaxFilesPerAsset) {
-        r.Fail(path + "files", absl::StrCat("lists ", files->size(), " files; the limit is ", kMaxFilesPerAsset));
-      }
-      bool has_manifest = false;
-      std::set<std::string> names;
-      for (size_t i = 0; files != nullptr && i < files->size() && r.error().ok(); ++i) {
-        const std::string fpath = absl::StrCat(path, "files[", i, "].");
-        const json& f = (*files)[i];
-        CatalogFile file;
-        file.name = r.String(f, "name", fpath);
-        file.semantic = r.String(f, "semantic", fpath);
-        file.sha256 = r.String(f, "sha256", fpath);
-        r.Hex(file.sha256, fpath + "sha256");
-        file.size_bytes = r.Count(f, "size_bytes", fpath);
-        file.media_type = f.contains("media_type") ? r.String(f, "media_type", fpath) : MediaTypeForFile(file.name);
-        if (f.contains("width")) file.width = static_cast<uint32_t>(r.Count(f, "width", fpath));
-        if (f.contains("height")) file.height = static_cast<uint32_t>(r.Count(f, "height", fpath));
-        if (f.contains("format")) file.format = r.String(f, "format", fpath);
-        if (!r.error().ok()) break;
-        if (file.name.empty() || file.name.size() > kMaxFileNameLength || file.name == "." || file.name == ".." ||
-            file.name.find_first_of(std::string("/\\\0", 3)) != std::string::npos || file.name.front() == '.') {
-          r.Fail(fpath + "name", "must be a plain file name (no path, not hidden, at most 255 characters)");
-          break;
-        }
-        if (!names.insert(file.name).second) {
-          r.Fail(fpath + "name", absl::StrCat("\"", file.name, "\" is listed twice"));
-          break;
-        }
-        if (file.name == kManifestName) {
-          has_manifest = true;
-          if (file.sha256 != asset.manifest_sha256 || file.size_bytes != asset.manifest_size_bytes) {
-            r.Fail(fpath + "sha256", "differs from the asset's manifest digest");
-          }
-        }
-        asset.files.push_back(std::move(file));
-      }
-      if (r.error().ok() && !has_manifest) r.Fail(path + "files", "must list manifest.json");
-      if (!r.error().ok()) return r.error();
-      catalog.assets.emplace(name, std::move(asset));
-    }
-  }
+  catalog.created_at = r.String(doc, "created_at", "");
+  catalog.baker_version = r.String(doc, "baker_version", "");
+  (void)r.Field(doc, "assets", "", json::value_t::object);
   if (!r.error().ok()) return r.error();
+  if (!asset_error.ok()) return asset_error;
   return catalog;
 }
 
@@ -236,15 +264,19 @@ absl::StatusOr<ChannelPointer> ParseChannel(absl::string_view text, absl::string
     return s;
   }
   channel.channel = r.String(*doc, "channel", "");
-  const json* catalog = r.Field(*doc, "catalog", "", json::value_t::object);
+  json* catalog = r.Field(*doc, "catalog", "", json::value_t::object);
   if (catalog != nullptr) {
     channel.catalog_sha256 = r.String(*catalog, "sha256", "catalog.");
-    r.Hex(channel.catalog_sha256, "catalog.sha256");
+    r.Hex(channel.catalog_sha256, "catalog.", "sha256");
     channel.catalog_size_bytes = r.Count(*catalog, "size_bytes", "catalog.");
+    if (r.error().ok() && channel.catalog_size_bytes > kMaxCatalogBytes) {
+      r.Fail("catalog.size_bytes", absl::StrCat(channel.catalog_size_bytes, " is over the limit of ",
+                                                kMaxCatalogBytes, " bytes"));
+    }
   }
   if (doc->contains("published_at")) channel.published_at = r.String(*doc, "published_at", "");
   if (doc->contains("signature")) {
-    const json* sig = r.Field(*doc, "signature", "", json::value_t::object);
+    json* sig = r.Field(*doc, "signature", "", json::value_t::object);
     if (sig != nullptr) {
       CatalogSignature s;
       s.algorithm = r.String(*sig, "algorithm", "signature.");

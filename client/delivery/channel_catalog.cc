@@ -93,8 +93,10 @@ void ChannelCatalog::SaveToDisk(const Fetched& fetched) {
 
 absl::StatusOr<std::shared_ptr<const Catalog>> ChannelCatalog::CheckCatalog(const ChannelPointer& pointer,
                                                                             const std::string& text,
-                                                                            const std::string& source) const {
-  if (static_cast<int64_t>(text.size()) != pointer.catalog_size_bytes || Sha256Hex(text) != pointer.catalog_sha256) {
+                                                                            const std::string& source,
+                                                                            bool digest_checked) const {
+  if (static_cast<int64_t>(text.size()) != pointer.catalog_size_bytes ||
+      (!digest_checked && Sha256Hex(text) != pointer.catalog_sha256)) {
     return absl::DataLossError(absl::StrCat(source, ": does not match catalog ", pointer.catalog_sha256));
   }
   if (options_.public_key.has_value()) {
@@ -153,7 +155,8 @@ absl::StatusOr<std::optional<ChannelCatalog::Fetched>> ChannelCatalog::FetchFrom
       failures.push_back(std::string(text.status().message()));
       continue;
     }
-    absl::StatusOr<std::shared_ptr<const Catalog>> catalog = CheckCatalog(fetched.pointer, *text, catalog_url);
+    absl::StatusOr<std::shared_ptr<const Catalog>> catalog =
+        CheckCatalog(fetched.pointer, *text, catalog_url, /*digest_checked=*/true);
     if (!catalog.ok()) {
       if (absl::IsPermissionDenied(catalog.status())) return catalog.status();
       failures.push_back(std::string(catalog.status().message()));

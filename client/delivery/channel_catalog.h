@@ -84,8 +84,11 @@ class ChannelCatalog {
   };
   absl::StatusOr<std::optional<Fetched>> FetchFrom(const std::string& mirror, const std::string& etag)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The catalog `text` for `pointer`: its digest (unless `digest_checked`:
+  // ReadVerifiedToString hashed it as it came), its signature, its parse.
   absl::StatusOr<std::shared_ptr<const Catalog>> CheckCatalog(const ChannelPointer& pointer, const std::string& text,
-                                                              const std::string& source) const;
+                                                              const std::string& source,
+                                                              bool digest_checked = false) const;
   void LoadFromDisk() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   void SaveToDisk(const Fetched& fetched) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 

@@ -256,6 +256,11 @@ absl::StatusOr<PublishReport> Publish(sdk::Transport& transport, const std::vect
     catalog.created_at = Rfc3339Utc(*created);
     catalog_text = CatalogToJson(catalog);
   }
+  if (static_cast<int64_t>(catalog_text.size()) > kMaxCatalogBytes) {
+    return absl::InvalidArgumentError(absl::StrCat("the catalog would take ", catalog_text.size(),
+                                                   " bytes, over the limit of ", kMaxCatalogBytes,
+                                                   " that readers accept: split the release into channels"));
+  }
   report.catalog_sha256 = Sha256Hex(catalog_text);
   report.catalog_size_bytes = static_cast<int64_t>(catalog_text.size());
   report.catalog_path = CatalogPath(report.catalog_sha256);

@@ -19,6 +19,7 @@
 #include "client/delivery/publisher.h"
 #include "client/delivery/release_paths.h"
 #include "common/util/sha256.h"
+#include "nlohmann/json.hpp"
 
 namespace impostor::delivery {
 namespace {
@@ -191,6 +192,24 @@ TEST(Catalog, RefusesBadDocuments) {
        "size_bytes must be a whole number"},
       {"no manifest", with("\"manifest.json\"", "\"other.json\""), absl::StatusCode::kInvalidArgument,
        "must list manifest.json"},
+      // The assets come before "schema" in the text; a reader that does not
+      // know the schema says so, not what it makes of the assets.
+      {"newer version, bad asset",
+       [&] {
+         std::string both = with("\"cache_key\":\"" + kHexA, "\"cache_key\":\"XYZ");
+         return both.replace(both.find("\"schema_version\":1"), 18, "\"schema_version\":7");
+       }(),
+       absl::StatusCode::kFailedPrecondition, "newer than this reader's"},
+      {"asset twice",
+       with("\"assets\":{", "\"assets\":{\"trees/oak\":" + nlohmann::json::parse(good)["assets"]["trees/oak"].dump() + ","),
+       absl::StatusCode::kInvalidArgument,
+       "assets[\"trees/oak\"] is listed twice"},
+      {"asset not an object", with("\"assets\":{", "\"assets\":{\"rocks/a\":7,"), absl::StatusCode::kInvalidArgument,
+       "assets[\"rocks/a\"]. must be an object"},
+      {"assets not an object", "{\"schema\":\"impostor-catalog\",\"schema_version\":1,\"created_at\":\"x\","
+                               "\"baker_version\":\"\",\"assets\":[]}",
+       absl::StatusCode::kInvalidArgument, "assets must be an object"},
+      {"cut short", good.substr(0, good.size() / 2), absl::StatusCode::kInvalidArgument, "not a JSON object"},
   };
   for (const Case& c : cases) {
     absl::StatusOr<Catalog> parsed = ParseCatalog(c.text, "mirror-x");
@@ -215,6 +234,16 @@ TEST(Channel, RoundTripAndRefusals) {
   EXPECT_EQ(ParseChannel(ChannelToJson(p), "c").status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(ParseChannel("{\"schema\":\"impostor-channel\",\"schema_version\":1}", "c").status().code(),
             absl::StatusCode::kInvalidArgument);
+  // A catalog a reader would have to hold whole: refused before a byte of it is fetched.
+  p.channel = "nightly";
+  p.catalog_size_bytes = kMaxCatalogBytes;
+  EXPECT_TRUE(ParseChannel(ChannelToJson(p), "c").ok()) << "the limit itself is accepted";
+  p.catalog_size_bytes = kMaxCatalogBytes + 1;
+  absl::StatusOr<ChannelPointer> huge = ParseChannel(ChannelToJson(p), "c");
+  EXPECT_EQ(huge.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(huge.status().message().find("catalog.size_bytes 268435457 is over the limit of 268435456 bytes"),
+            absl::string_view::npos)
+      << huge.status();
 }
 
 // Ed25519 keys made by the openssl CLI, as an operator makes them.
