@@ -1,7 +1,9 @@
 // Puts a model's files into the server's blob store: hashes every file, asks
-// once which blobs the server lacks and uploads only those (each as
-// UploadBlobFile does: no overall deadline, only a stalled link ends a
-// stream). Called by Client::SubmitBake on the caller's thread.
+// once which blobs the server lacks and uploads only those, as
+// UploadBlobFiles does (blob_batch_upload.h): the small ones many to a
+// BatchUpdateBlobs call, the large ones streamed (no overall deadline, only
+// a stalled link ends a stream). Called by Client::SubmitBake on the
+// caller's thread.
 #ifndef IMPOSTOR_CLIENT_TRANSFER_MESH_UPLOAD_H_
 #define IMPOSTOR_CLIENT_TRANSFER_MESH_UPLOAD_H_
 
@@ -38,7 +40,8 @@ inline constexpr size_t kMaxFindMissingDigests = 10'000;
 // large), gets its own error in the result and the others go on; the call
 // fails as a whole only when FindMissingBlobs does or an upload fails for
 // the caller or the link (UNAVAILABLE; DEADLINE_EXCEEDED: the link stalled;
-// CANCELLED; UNAUTHENTICATED; PERMISSION_DENIED).
+// CANCELLED; UNAUTHENTICATED; PERMISSION_DENIED). A refusal names the file
+// ("uploading <path>: ..."), here and in UploadMesh.
 absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport& transport,
                                                                       const std::vector<const MeshFiles*>& models,
                                                                       const CancelSource* cancel = nullptr);
