@@ -13,8 +13,8 @@
 // rest_s = the bake's time outside load, render, readback and encode
 // (cutout, dilation, the part of the quality pass the encoding did not
 // cover, the manifest). --keep-result copies the last asset's
-// fetched result (maps + manifest.json) to DIR (bench/compare_blender.sh
-// renders its views).
+// fetched result (maps + manifest.json) to DIR, to look at or to render
+// its views elsewhere.
 //
 // Figures on a shared machine are noisy: compare ratios within one run.
 #include <signal.h>

@@ -15,6 +15,9 @@ Everything is timed in one run on this machine:
    curl serving exactly the same files, alternating pairs.
 5. The farm's /metrics stage sums over the warm bakes beside bake_stages'
    stages, so the difference between the two is attributed.
+6. With --blender (bench/compare_blender.sh): Blender 3.4 Cycles rendering
+   the last warm bake's own views (bench/blender_views.py), timed from
+   process start to exit, against the warm end-to-end median.
 
 Nothing is asserted; any step that fails stops the bench with
 "e2e_bench: FAILED (step): reason" and exit status 1. Every file goes under
@@ -43,6 +46,8 @@ STAGES = ["download", "load", "render", "readback", "encode", "store"]
 # Worker token name of --local-workers on a server with its own SQLite store
 # (LocalWorkerTokenName in server/commands/token_command.cc).
 LOCAL_WORKER_TOKEN = "local-workers"
+# Cycles samples per pixel of the Blender comparison (bench/blender_views.py).
+BLENDER_SAMPLES = 16
 
 
 class BenchError(Exception):
@@ -93,6 +98,18 @@ def proc_cpu(pid, with_children):
     if with_children:
         ticks += int(fields[13]) + int(fields[14])
     return ticks / os.sysconf("SC_CLK_TCK")
+
+
+def blender_env(env):
+    """`env` for Debian's Blender: its embedded Python takes its prefix from
+    the first `python3` on PATH, so a pyenv or virtualenv Python running this
+    bench (which puts its own bin first) would hand it a standard library
+    without Debian's numpy, which its glTF importer needs."""
+    out = {k: v for k, v in env.items() if not k.startswith("PYENV") and k != "VIRTUAL_ENV"}
+    keep = [d for d in env.get("PATH", "").split(os.pathsep)
+            if "/.pyenv/" not in d and not (env.get("VIRTUAL_ENV") and d.startswith(env["VIRTUAL_ENV"]))]
+    out["PATH"] = os.pathsep.join(keep)
+    return out
 
 
 def free_port():
@@ -336,6 +353,64 @@ class Bench:
         m = re.search(r"^bake_stages: .* on (.+)$", r.stdout, re.M)
         self.device = m.group(1) if m else "?"
         return runs
+
+    # ---- Blender Cycles on the same views ---------------------------------
+
+    def blender(self, result_dir):
+        """Blender 3.4 Cycles (CPU, 16 samples) renders the views the bake
+        rendered, at the pixels the bake rendered them (tile size times
+        supersampling), read from the result's manifest.json by
+        bench/blender_views.py. Timed from process start to exit; with
+        --blender-views N only N views are rendered and the render time is
+        scaled to all of them (process start and import as measured)."""
+        manifest_path = Path(result_dir) / "manifest.json"
+        try:
+            manifest = json.loads(manifest_path.read_text())
+        except (OSError, ValueError) as e:
+            raise BenchError("blender", f"cannot read the bake's {manifest_path}: {e}")
+        pixels = int(manifest["tile_size"]) * int(manifest.get("supersampling", 2))
+        views = len(manifest["views"])
+        out = self.fresh("blender")
+        out.mkdir(parents=True)
+        limit = self.a.blender_views
+        script = Path(__file__).resolve().parent / "blender_views.py"
+        cmd = ["blender", "-b", "--factory-startup", "--python-exit-code", "1", "--python", script, "--",
+               self.model, manifest_path, str(pixels), str(BLENDER_SAMPLES), out, str(limit)]
+        t0 = time.perf_counter()
+        # Listed in WORK/pids, so the script's trap stops a render of many
+        # minutes when the bench is interrupted.
+        proc = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                env=blender_env(self.env))
+        self.note_pid("blender", proc.pid)
+        try:
+            stdout, _ = proc.communicate(timeout=3600)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise BenchError("blender", "blender ran past 3600 s")
+        finally:
+            self.drop_pid("blender")
+        wall = time.perf_counter() - t0
+        (self.logs / "blender.log").write_text(stdout)
+        if proc.returncode != 0:
+            raise BenchError("blender", f"blender exited {proc.returncode}:\n{stdout[-1500:]}")
+        m = re.search(r"^blender_views: .* render_s ([\d.]+)$", stdout, re.M)
+        rendered = len(list(Path(out).glob("view_*.png")))
+        expected = min(limit, views) if limit > 0 else views
+        if m is None or rendered != expected:
+            raise BenchError("blender", f"blender wrote {rendered} of {expected} views:\n{stdout[-1500:]}")
+        render_s = float(m.group(1))
+        seconds, how = wall, "process start to exit"
+        if rendered < views:
+            seconds = wall - render_s + render_s * views / rendered
+            how = f"extrapolated from {rendered} of {views} views ({render_s / rendered:.2f} s a view)"
+        return {"seconds": seconds, "how": how, "views": views, "pixels": pixels}
+
+    def blender_rows(self, b, e2e_warm):
+        return [
+            f"| Blender 3.4 Cycles, CPU, {BLENDER_SAMPLES} samples, the same {b['views']} views at {b['pixels']} px | "
+            f"{b['seconds']:.2f} s | {b['how']}; after the warm bakes, on the last one's manifest |",
+            f"| **Blender / end to end** (warm) | **{b['seconds'] / e2e_warm:.1f}×** | target ≥ 30 |",
+        ]
 
     # ---- fetch against nginx + curl ---------------------------------------
 
@@ -593,9 +668,17 @@ class Bench:
                     log(f"in process {i + 1}/{n}: {runs[1]['wall']:.2f} s (first bake of the process "
                         f"{runs[0]['wall']:.2f} s), cpu {runs[1]['cpu']:.2f} s")
 
-        fetch = self.fetch_pairs(key)
-        log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, cache get median "
-            f"{median(fetch['cache']):.3f} s, nginx + curl median {median(fetch['curl']):.3f} s")
+        blender = None
+        if self.a.blender and warm:
+            blender = self.blender(warm[-1]["out"])
+            log(f"blender: {blender['views']} views at {blender['pixels']} px in {blender['seconds']:.2f} s "
+                f"({blender['how']}): {blender['seconds'] / median([b['wall'] for b in warm]):.1f}x the warm "
+                f"end-to-end median")
+        fetch = None
+        if self.a.fetch_pairs > 0:
+            fetch = self.fetch_pairs(key)
+            log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, cache get median "
+                f"{median(fetch['cache']):.3f} s, nginx + curl median {median(fetch['curl']):.3f} s")
         batch = None
         if self.a.batch_assets > 0:
             batch = self.batch_fetch()
@@ -603,7 +686,7 @@ class Bench:
                 f"{median(batch['curl']):.3f} s")
         self.stop_farm()
         if self.a.fetch_only:
-            rows = self.fetch_rows(fetch) + (self.batch_rows(batch) if batch else [])
+            rows = (self.fetch_rows(fetch) if fetch else []) + (self.batch_rows(batch) if batch else [])
             print("\n".join(["", "| figure | value | note |", "|---|---|---|"] + rows), flush=True)
             return
 
@@ -611,7 +694,7 @@ class Bench:
         log(f"isolated load: in process {iso['in_process']:.3f} s; "
             + ", ".join(f"{k} / in-process {v:.2f}x" for k, v in iso["ratios"]))
         load1 = os.getloadavg()
-        self.report(n, cold, warm, inproc, fetch, iso, load0, load1, batch)
+        self.report(n, cold, warm, inproc, fetch, iso, load0, load1, batch, blender)
 
     def fetch_rows(self, fetch):
         fm, cm = median(fetch["fetch"]), median(fetch["curl"])
@@ -629,7 +712,7 @@ class Bench:
             f"| **Cache::Get / nginx + curl** | **{median(fetch['cache']) / cm:.2f}×** | target ≤ 1.25 |",
         ]
 
-    def report(self, n, cold, warm, inproc, fetch, iso, load0, load1, batch=None):
+    def report(self, n, cold, warm, inproc, fetch, iso, load0, load1, batch=None, blender=None):
         e2e = [b["wall"] for b in warm]
         ip = [r[1]["wall"] for r in inproc]
         ip_first = [r[0]["wall"] for r in inproc]
@@ -664,7 +747,8 @@ class Bench:
             f"| isolated / in-process load (`isolated_load_bench`) | **{iso['ratios'][-1][1]:.2f}×** "
             f"({iso['ratios'][-1][0]}; in process {iso['in_process']:.3f} s) | target ≤ 1.15"
             + "".join(f"; {k}: {v:.2f}×" for k, v in iso["ratios"][:-1]) + " |",
-            *self.fetch_rows(fetch),
+            *(self.blender_rows(blender, median(e2e)) if blender else []),
+            *(self.fetch_rows(fetch) if fetch else []),
             *(self.batch_rows(batch) if batch else []),
             "",
             f"Where the warm bakes' time goes: the farm's `/metrics` (impostor_bake_stage_seconds, "
@@ -722,6 +806,8 @@ def main():
     p.add_argument("--fetch-pairs", type=int, default=7)
     p.add_argument("--fetch-only", action="store_true")
     p.add_argument("--batch-assets", type=int, default=13)
+    p.add_argument("--blender", action="store_true")
+    p.add_argument("--blender-views", type=int, default=0)
     a = p.parse_args()
     bench = Bench(a)
     step_logs = bench.logs

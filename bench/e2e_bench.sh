@@ -4,6 +4,7 @@
 # process, and where the difference goes.
 #
 #   bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only] [--batch-assets N]
+#                           [--blender [--blender-views N]]
 #
 # 1. Starts build/bin/impostor-server with one local worker on free loopback
 #    ports and a temporary data directory (as deploy/quickstart.sh does, plus
@@ -32,7 +33,14 @@
 #    over a plain download.
 # 5. The farm's own /metrics stage sums over the warm bakes beside
 #    bake_stages' stages.
-# --fetch-only: the cold bake (for a result to fetch) and step 4 alone.
+# --fetch-only: the cold bake (for a result to fetch) and step 4 alone;
+# --fetch-pairs 0 skips step 4.
+# --blender (bench/compare_blender.sh runs this): after the warm bakes,
+# Blender 3.4 Cycles (CPU, 16 samples) renders the last warm bake's own views
+# at the bake's pixels (bench/blender_views.py), timed from process start to
+# exit, and the table gains Blender / end to end (warm), issue 45's "30x
+# Blender" figure. --blender-views N renders N of them and scales the render
+# time to all (a quick estimate; the process start and import as measured).
 # Ends with a markdown table of every figure. A bench, not a test: nothing is
 # asserted, but a step that fails stops it with a message and exit status 1.
 # Everything lives under one mktemp -d, removed (and the server, its worker
@@ -43,13 +51,15 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 
 die() { echo "e2e_bench: $*" >&2; exit 1; }
-usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only] [--batch-assets N]" >&2; exit 2; }
+usage() { echo "usage: bash bench/e2e_bench.sh [BUILD_DIR] [--warm N] [--fetch-pairs N] [--fetch-only] [--batch-assets N] [--blender [--blender-views N]]" >&2; exit 2; }
 
 build=$root/build
 warm=3
 pairs=7
 fetch_only=()
 batch=13
+blender=()
+blender_views=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --warm) [[ $# -ge 2 ]] || usage; warm=$2; shift 2 ;;
@@ -59,13 +69,21 @@ while [[ $# -gt 0 ]]; do
     --fetch-only) fetch_only=(--fetch-only); shift ;;
     --batch-assets) [[ $# -ge 2 ]] || usage; batch=$2; shift 2 ;;
     --batch-assets=*) batch=${1#*=}; shift ;;
+    --blender) blender=(--blender); shift ;;
+    --blender-views) [[ $# -ge 2 ]] || usage; blender_views=$2; shift 2 ;;
+    --blender-views=*) blender_views=${1#*=}; shift ;;
     -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
     -*) echo "e2e_bench: unknown flag $1" >&2; usage ;;
     *) build=$1; shift ;;
   esac
 done
 [[ "$warm" =~ ^[1-9][0-9]*$ ]] || die "--warm: '$warm' is not a positive number"
-[[ "$pairs" =~ ^[1-9][0-9]*$ ]] || die "--fetch-pairs: '$pairs' is not a positive number"
+[[ "$pairs" =~ ^[0-9]+$ ]] || die "--fetch-pairs: '$pairs' is not a number"
+[[ "$pairs" -gt 0 || ${#fetch_only[@]} -eq 0 ]] || die "--fetch-only needs --fetch-pairs of at least 1"
+[[ "$blender_views" =~ ^[0-9]+$ ]] || die "--blender-views: '$blender_views' is not a number"
+if [[ ${#blender[@]} -gt 0 ]]; then
+  command -v blender >/dev/null || die "--blender: blender is not installed (apt-get install blender)"
+fi
 [[ "$batch" =~ ^[0-9]+$ && "$batch" -le 28 ]] || die "--batch-assets: '$batch' is not a number in 0..28 (frames 4..31 at 256 px)"
 [[ -d "$build" ]] || die "no build directory $build"
 build=$(cd "$build" && pwd)
@@ -96,7 +114,7 @@ alive() { local st; st=$(sed 's/^.*) //' "/proc/$1/stat" 2>/dev/null) && [[ ${st
 # shellcheck disable=SC2317
 cleanup() {
   local rc=$? f pid
-  for f in python server worker nginx; do
+  for f in python blender server worker nginx; do
     [[ -f "$work/pids/$f" ]] || continue
     pid=$(cat "$work/pids/$f")
     [[ "$pid" =~ ^[0-9]+$ ]] || continue
@@ -122,7 +140,8 @@ echo "e2e_bench: binaries copied from $build/bin (the newest built $newest)"
 # In the background so that a signal reaches the trap at once (bash runs
 # traps only between commands, and `wait` is one it interrupts).
 python3 "$root/bench/e2e_bench.py" --build "$work" --work "$work" --model "$model" --nginx "$nginx" \
-  --warm "$warm" --fetch-pairs "$pairs" --batch-assets "$batch" "${fetch_only[@]}" &
+  --warm "$warm" --fetch-pairs "$pairs" --batch-assets "$batch" "${fetch_only[@]}" "${blender[@]}" \
+  --blender-views "$blender_views" &
 echo $! > "$work/pids/python"
 status=0
 wait $! || status=$?
