@@ -175,6 +175,7 @@ struct QualityPassResult {
   double seconds = 0;        // the whole pass
   double views_seconds = 0;  // held-out views: render both sides, measure
   double pop_seconds = 0;    // the orbit
+  double pop_antialiased_seconds = 0;  // of which the 3 x 3 orbits (pop_antialiased)
   double sizes_seconds = 0;  // the good-for sizes
   bool impostor_views_on_device = false;  // who drew them (ImpostorViewsOn)
   // With options.pop_references and an orbit (else -1): the antialiased
