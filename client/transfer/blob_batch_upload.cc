@@ -18,7 +18,7 @@ namespace {
 static_assert(Transport::kBatchUpdateMessageBytes == static_cast<int64_t>(kUploadChunkBytes));
 
 bool FitsBlobUpdate(const v1::Digest& digest) {
-  return digest.size_bytes() >= 0 && digest.size_bytes() <= kBatchUpdateBlobMaxBytes;
+  return digest.size_bytes() >= 0 && digest.size_bytes() <= kUploadBatchMaxBytes;
 }
 
 // The whole file, or nothing when it cannot be read: the stream's try then
@@ -105,7 +105,7 @@ absl::StatusOr<std::vector<absl::Status>> UploadBlobFiles(Transport& transport, 
     small.push_back(i);
     small_sizes.push_back(blobs[i].digest.size_bytes());
   }
-  for (const std::vector<size_t>& packed : PackBatchesBySize(small_sizes, kMaxBatchUpdateBlobs, kMaxBatchUpdateBytes)) {
+  for (const std::vector<size_t>& packed : PackBatchesBySize(small_sizes, kMaxBatchUpdateBlobs, kUploadBatchMaxBytes)) {
     if (cancel != nullptr && cancel->cancelled()) return cancel->error();
     std::vector<size_t> batch;
     for (size_t k : packed) batch.push_back(small[k]);

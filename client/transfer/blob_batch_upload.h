@@ -6,16 +6,28 @@
 #ifndef IMPOSTOR_CLIENT_TRANSFER_BLOB_BATCH_UPLOAD_H_
 #define IMPOSTOR_CLIENT_TRANSFER_BLOB_BATCH_UPLOAD_H_
 
+#include <cstdint>
 #include <filesystem>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/transfer/blob_upload.h"
 #include "client/transport/retry.h"
 #include "client/transport/transport.h"
 #include "impostor/v1/types.pb.h"
 
 namespace impostor::sdk {
+
+// An SDK's BatchUpdateBlobs call carries at most one UploadBlob message's
+// bytes (kUploadChunkBytes), blobs of at most that many each: the uplink may
+// be an artist's slow one, and a call must cross it as soon as one message of
+// a stream would. A 1 MiB call took 53 s at 20 KB/s, and the connection's
+// keepalive gave up on it, its ping waiting behind the call's bytes
+// (python/tests/test_slow_link.py). The worker, on a farm's own network,
+// batches blobs of up to 1 MiB in calls of up to 4 MiB
+// (worker/result_files_upload.h).
+inline constexpr int64_t kUploadBatchMaxBytes = static_cast<int64_t>(kUploadChunkBytes);
 
 // A local file and the digest its bytes hash to.
 struct LocalBlob {
@@ -30,10 +42,10 @@ struct LocalBlob {
 bool IsRefusalOfTheBlob(const absl::Status& s);
 
 // Puts every blob of `blobs` (distinct digests) into the server's store.
-//  1. Those of at most kBatchUpdateBlobMaxBytes go in BatchUpdateBlobs calls
-//     packed within the call's limits (PackBatchesBySize, common/net/
-//     batch_read.h), in order. A server older than the call (UNIMPLEMENTED)
-//     gets no further batch.
+//  1. Those of at most kUploadBatchMaxBytes go in BatchUpdateBlobs calls of
+//     at most kUploadBatchMaxBytes and kMaxBatchUpdateBlobs blobs
+//     (PackBatchesBySize), in order. A server older than the call
+//     (UNIMPLEMENTED) gets no further batch.
 //  2. Every blob not stored by then, in order, through UploadBlobFile (with
 //     its retries, resume and outage waits): the large ones, those of an
 //     older server, those of a batch the server refused whole (a quota:

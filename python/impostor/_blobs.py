@@ -33,6 +33,13 @@ MAX_FIND_MISSING_DIGESTS = 10000  # per FindMissingBlobs, the server's limit
 BATCH_BLOB_MAX_BYTES = 1 << 20
 MAX_BATCH_DIGESTS = 1000
 MAX_BATCH_BYTES = 4 << 20
+# An upload's BatchUpdateBlobs call carries at most one UploadBlob message's
+# bytes, blobs of at most that many each: the uplink may be an artist's slow
+# one, and a call must cross it as soon as one message of a stream would. A
+# 1 MiB call took 53 s at 20 KB/s, and the connection's keepalive gave up on
+# it (its ping waited behind the call's bytes): tests/test_slow_link.py. As
+# the C++ SDK's kUploadBatchMaxBytes (client/transfer/blob_batch_upload.h).
+UPLOAD_BATCH_MAX_BYTES = UPLOAD_CHUNK_BYTES
 
 _Key = Tuple[str, int]
 
@@ -198,7 +205,8 @@ def _send_batch(transport: Transport, blobs: Sequence[MeshFile], batch: Sequence
 def _upload_blob_files(transport: Transport, blobs: Sequence[MeshFile]) -> "List[Optional[ImpostorError]]":
     """Puts `blobs` (distinct) into the store, as the C++ SDK's
     UploadBlobFiles (client/transfer/blob_batch_upload.h): those of at most
-    BATCH_BLOB_MAX_BYTES in BatchUpdateBlobs calls (pack_batches), until a
+    UPLOAD_BATCH_MAX_BYTES in BatchUpdateBlobs calls of at most that many
+    bytes (pack_batches), until a
     server older than the call answers UNIMPLEMENTED; then every blob not
     stored (the large ones, an older server's, a blob a batch refused: its
     one retry) through UploadBlob with its retries. Returns each blob's
@@ -207,8 +215,8 @@ def _upload_blob_files(transport: Transport, blobs: Sequence[MeshFile]) -> "List
     error (the caller refused, the link down), which ends the upload."""
     stored = [False] * len(blobs)
     refused = [""] * len(blobs)
-    small = [i for i, b in enumerate(blobs) if b.size_bytes <= BATCH_BLOB_MAX_BYTES]
-    for packed in pack_batches([blobs[i].size_bytes for i in small]):
+    small = [i for i, b in enumerate(blobs) if b.size_bytes <= UPLOAD_BATCH_MAX_BYTES]
+    for packed in pack_batches([blobs[i].size_bytes for i in small], max_bytes=UPLOAD_BATCH_MAX_BYTES):
         if not _send_batch(transport, blobs, [small[k] for k in packed], stored, refused):
             break
     out: List[Optional[ImpostorError]] = [None] * len(blobs)
@@ -287,14 +295,15 @@ def already_there(path: Path, digest: "pb.Digest") -> bool:
         return False
 
 
-def pack_batches(sizes: Sequence[int]) -> List[List[int]]:
-    """Splits blobs of these sizes (each at most BATCH_BLOB_MAX_BYTES) into
-    BatchReadBlobs calls within the server's limits, keeping their order:
-    the indices of each call's blobs."""
+def pack_batches(sizes: Sequence[int], max_bytes: int = MAX_BATCH_BYTES) -> List[List[int]]:
+    """Splits blobs of these sizes (each at most max_bytes) into batch calls
+    of at most MAX_BATCH_DIGESTS blobs and max_bytes bytes (by default the
+    server's limits), keeping their order: the indices of each call's
+    blobs."""
     batches: List[List[int]] = []
     total = 0
     for i, size in enumerate(sizes):
-        if not batches or len(batches[-1]) == MAX_BATCH_DIGESTS or total + size > MAX_BATCH_BYTES:
+        if not batches or len(batches[-1]) == MAX_BATCH_DIGESTS or total + size > max_bytes:
             batches.append([])
             total = 0
         batches[-1].append(i)

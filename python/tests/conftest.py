@@ -3,11 +3,13 @@ tests of a session, a throwaway PKI, and helpers to check downloaded files."""
 from __future__ import annotations
 
 import hashlib
+import json
+import os
 import subprocess
 import sys
 import threading
 from pathlib import Path
-from typing import Any, Iterator, List, Union
+from typing import Any, Dict, Iterator, List, Sequence, Union
 
 import pytest
 
@@ -62,6 +64,34 @@ class BakeInBackground:
 
 def sha256_file(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def write_triangle_gltf(folder: Path, buffer_bytes: int, image_sizes: Sequence[int] = ()) -> Path:
+    """A valid glTF, one triangle in a .bin of `buffer_bytes` (the rest
+    random) and an image file of each of `image_sizes` random bytes, so that
+    no server has them yet. Returns the .gltf's path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    triangle = b"".join(v.to_bytes(4, "little") for v in
+                        (0, 0, 0, 0x3F800000, 0, 0, 0, 0x3F800000, 0))  # floats 0/1
+    (folder / "mesh.bin").write_bytes(triangle + os.urandom(buffer_bytes - len(triangle)))
+    for i, size in enumerate(image_sizes):
+        (folder / f"tex_{i}.png").write_bytes(os.urandom(size))
+    gltf: Dict[str, Any] = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "buffers": [{"uri": "mesh.bin", "byteLength": buffer_bytes}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(triangle)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+    }
+    if image_sizes:
+        gltf["images"] = [{"uri": f"tex_{i}.png"} for i in range(len(image_sizes))]
+    path = folder / "mesh.gltf"
+    path.write_text(json.dumps(gltf))
+    return path
 
 
 def openssl(*args: str, cwd: Path) -> None:

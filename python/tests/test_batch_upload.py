@@ -8,8 +8,6 @@ caller ends the upload."""
 from __future__ import annotations
 
 import hashlib
-import json
-import os
 from concurrent import futures
 from pathlib import Path
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Set
@@ -18,6 +16,7 @@ import grpc
 import pytest
 
 import impostor
+from conftest import write_triangle_gltf
 from farm_process import FarmServer
 from impostor.v1 import asset_service_pb2 as asset_pb
 from impostor.v1 import asset_service_pb2_grpc as asset_grpc
@@ -31,26 +30,7 @@ MIB = 1 << 20
 def write_model(folder: Path, image_sizes: Sequence[int]) -> Path:
     """A glTF (one triangle in a 4 KiB .bin) with an image of each size,
     random bytes, so that no server has them yet."""
-    folder.mkdir(parents=True, exist_ok=True)
-    triangle = b"".join(v.to_bytes(4, "little") for v in (0, 0, 0, 0x3F800000, 0, 0, 0, 0x3F800000, 0))
-    (folder / "mesh.bin").write_bytes(triangle + os.urandom(4 * KIB - len(triangle)))
-    for i, size in enumerate(image_sizes):
-        (folder / f"tex_{i}.png").write_bytes(os.urandom(size))
-    gltf = {
-        "asset": {"version": "2.0"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
-        "buffers": [{"uri": "mesh.bin", "byteLength": 4 * KIB}],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(triangle)}],
-        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                       "min": [0, 0, 0], "max": [1, 1, 0]}],
-        "images": [{"uri": f"tex_{i}.png"} for i in range(len(image_sizes))],
-    }
-    path = folder / "mesh.gltf"
-    path.write_text(json.dumps(gltf))
-    return path
+    return write_triangle_gltf(folder, 4 * KIB, image_sizes)
 
 
 def model_bytes(entry: Path) -> int:
@@ -88,7 +68,7 @@ def server(tmp_path: Path) -> Iterator[FarmServer]:
 
 def test_a_models_small_files_go_in_one_call_and_the_large_one_streams(server: FarmServer, tmp_path: Path,
                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
-    entry = write_model(tmp_path / "model", [100 * KIB] * 6 + [2 * MIB])
+    entry = write_model(tmp_path / "model", [8 * KIB] * 6 + [2 * MIB])
     with impostor.Client(server.address) as c:
         counting = _CountingTransport(c._transport)
         monkeypatch.setattr(c, "_transport", counting)
@@ -186,6 +166,26 @@ def test_an_older_server_gets_every_file_through_upload_blob(tmp_path: Path) -> 
     assert submitted.upload.uploaded == 6 and submitted.upload.bytes_uploaded == model_bytes(entry)
     assert len(stand_in.streamed) == 6, "every file streamed"
     assert stand_in.submits == 1
+
+
+def test_a_call_carries_at_most_one_upload_messages_bytes(tmp_path: Path) -> None:
+    """Calls of at most UPLOAD_BATCH_MAX_BYTES (64 KiB: a slow uplink must
+    carry one as soon as a stream's message); a file larger than that
+    streams, even one a server would take in a batch."""
+    from impostor import _blobs
+    stand_in = _StandIn()
+    entry = write_model(tmp_path / "model", [20 * KIB] * 9 + [_blobs.UPLOAD_BATCH_MAX_BYTES + 1])
+    sizes = {sha256_of(p): p.stat().st_size for p in entry.parent.iterdir()}
+    try:
+        with impostor.Client(stand_in.address) as c:
+            submitted = c.submit(entry)
+    finally:
+        stand_in.stop()
+    assert submitted.upload.uploaded == 12 and submitted.upload.bytes_uploaded == model_bytes(entry)
+    assert len(stand_in.batch_calls) == 4, stand_in.batch_calls
+    for call in stand_in.batch_calls:
+        assert sum(sizes[h] for h in call) <= _blobs.UPLOAD_BATCH_MAX_BYTES
+    assert stand_in.streamed == [sha256_of(entry.parent / "tex_9.png")], "the one over the limit streams"
 
 
 def test_a_blob_refused_in_its_batch_is_streamed_once_more(tmp_path: Path) -> None:

@@ -17,8 +17,6 @@ event is an Event or a join.
 """
 from __future__ import annotations
 
-import json
-import os
 import threading
 import time
 from pathlib import Path
@@ -30,7 +28,7 @@ import pytest
 import impostor
 from impostor import _blobs
 from impostor.v1 import types_pb2 as pb
-from conftest import sha256_file
+from conftest import sha256_file, write_triangle_gltf
 from farm_process import FarmServer
 from throttled_link import ThrottledLink
 
@@ -44,29 +42,6 @@ STEP_DEADLINE_S = 300
 def old_deadline_seconds(rpc_timeout_seconds: float, size_bytes: int) -> float:
     """The deadline blob streams had: rpc_timeout_seconds + 1 s per 256 KiB."""
     return rpc_timeout_seconds + size_bytes / (256 * KIB)
-
-
-def write_mesh(folder: Path, buffer_bytes: int) -> Path:
-    """A valid glTF (one triangle) whose .bin buffer is `buffer_bytes` long,
-    the rest random, so that no server has it yet."""
-    folder.mkdir(parents=True, exist_ok=True)
-    triangle = b"".join(v.to_bytes(4, "little") for v in
-                        (0, 0, 0, 0x3F800000, 0, 0, 0, 0x3F800000, 0))  # floats 0/1
-    (folder / "mesh.bin").write_bytes(triangle + os.urandom(buffer_bytes - len(triangle)))
-    gltf = {
-        "asset": {"version": "2.0"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
-        "buffers": [{"uri": "mesh.bin", "byteLength": buffer_bytes}],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(triangle)}],
-        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                       "min": [0, 0, 0], "max": [1, 1, 0]}],
-    }
-    path = folder / "mesh.gltf"
-    path.write_text(json.dumps(gltf))
-    return path
 
 
 @pytest.fixture
@@ -92,7 +67,7 @@ def test_a_slow_uplink_that_keeps_moving_uploads_a_mesh_in_one_stream(server: Fa
     every stream after 9 s and gave up after max_attempts of them."""
     rate = 20_000
     rpc_timeout = 5.0
-    model = write_mesh(tmp_path / "mesh", MIB)
+    model = write_triangle_gltf(tmp_path / "mesh", MIB)
     with ThrottledLink(server.address, up_bytes_per_second=rate) as link:
         with impostor.Client(link.address, rpc_timeout_seconds=rpc_timeout) as client:
             outcome, took = submit_timed(client, model)
@@ -117,7 +92,7 @@ def test_a_stopped_uplink_ends_the_upload_after_rpc_timeout_naming_seconds_and_b
     blob (2 s + 64 s here)."""
     rpc_timeout = 2.0
     size = 16 * MIB
-    model = write_mesh(tmp_path / "mesh", size)
+    model = write_triangle_gltf(tmp_path / "mesh", size)
     with ThrottledLink(server.address) as link:
         link.stop_after_upload_bytes(300_000)
         with impostor.Client(link.address, rpc_timeout_seconds=rpc_timeout, max_attempts=1,
@@ -137,7 +112,7 @@ def test_close_ends_an_upload_on_a_stopped_link_promptly(server: FarmServer, tmp
     """Client.close() from another thread (the way to give a call up) ends an
     upload stuck on a stopped link at once, long before the watchdog (30 s),
     with CANCELLED, and it is not started over."""
-    model = write_mesh(tmp_path / "mesh", 16 * MIB)
+    model = write_triangle_gltf(tmp_path / "mesh", 16 * MIB)
     with ThrottledLink(server.address) as link:
         link.stop_after_upload_bytes(300_000)
         client = impostor.Client(link.address, rpc_timeout_seconds=30)
@@ -167,7 +142,7 @@ def test_close_ends_an_upload_on_a_stopped_link_promptly(server: FarmServer, tmp
 def test_a_fast_link_uploads_as_before(server: FarmServer, tmp_path: Path) -> None:
     """Through the proxy at full speed, with a watchdog far shorter than the
     upload would take at 20 KB/s: 8 MiB in one stream, promptly."""
-    model = write_mesh(tmp_path / "mesh", 8 * MIB)
+    model = write_triangle_gltf(tmp_path / "mesh", 8 * MIB)
     with ThrottledLink(server.address) as link:
         with impostor.Client(link.address, rpc_timeout_seconds=2) as client:
             outcome, took = submit_timed(client, model)
@@ -181,7 +156,7 @@ def test_a_fast_link_uploads_as_before(server: FarmServer, tmp_path: Path) -> No
 def uploaded_blob(server: FarmServer, tmp_path: Path, size: int) -> "tuple[pb.Digest, Path]":
     """A blob of `size` random bytes put in the server's store directly (no
     proxy): its digest and the local file."""
-    model = write_mesh(tmp_path / "source", size)
+    model = write_triangle_gltf(tmp_path / "source", size)
     with impostor.Client(server.address) as client:
         client.submit(model)
     blob = model.parent / "mesh.bin"

@@ -64,11 +64,11 @@ class BlobBatchUploadTest : public FakeServerTest {
     return model;
   }
 
-  // The sizes of a model's files at most kBatchUpdateBlobMaxBytes, and of the rest.
+  // The sizes of a model's files at most kUploadBatchMaxBytes, and of the rest.
   static void Split(const MeshFiles& model, int* small, int* large) {
     *small = *large = 0;
     auto count = [&](const fs::path& p) {
-      ++(static_cast<int64_t>(fs::file_size(p)) <= kBatchUpdateBlobMaxBytes ? *small : *large);
+      ++(static_cast<int64_t>(fs::file_size(p)) <= kUploadBatchMaxBytes ? *small : *large);
     };
     count(model.entry);
     for (const MeshFile& f : model.files) count(f.local_path);
@@ -80,7 +80,7 @@ TEST_F(BlobBatchUploadTest, SubmitSendsTheSmallFilesInOneCallAndStreamsTheLargeO
   ASSERT_TRUE(files.ok()) << files.status();
   int small = 0, large = 0;
   Split(*files, &small, &large);
-  ASSERT_GE(small, 2) << "the .gltf, the .bin and the emissive map";
+  ASSERT_GE(small, 2) << "the .gltf and the emissive map (59 KB)";
   ASSERT_GE(large, 1);
   int64_t total = static_cast<int64_t>(fs::file_size(files->entry));
   for (const MeshFile& f : files->files) total += static_cast<int64_t>(fs::file_size(f.local_path));
@@ -97,26 +97,29 @@ TEST_F(BlobBatchUploadTest, SubmitSendsTheSmallFilesInOneCallAndStreamsTheLargeO
   EXPECT_EQ(fake_.upload_calls, large);
 }
 
-TEST_F(BlobBatchUploadTest, SmallFilesOverOneCallsBytesGoInSeveralWithinTheLimits) {
-  // 12 files of 700 KiB: 5 to a 4 MiB call; two files of the same bytes
-  // are one blob, sent once.
+TEST_F(BlobBatchUploadTest, SmallFilesOverOneCallsBytesGoInSeveralOfOneMessageEach) {
+  // 12 files of 20 KiB: 3 to a call of at most kUploadBatchMaxBytes (one
+  // upload message, what a slow uplink must carry within the stall time;
+  // the first call also takes the .gltf); two files of the same bytes are
+  // one blob, sent once; a file one byte over the limit streams.
   std::vector<fs::path> paths = {Write("model.gltf", 900, 0)};
-  for (int i = 0; i < 12; ++i) paths.push_back(Write("tex_" + std::to_string(i) + ".png", 700 << 10, i + 1));
-  paths.push_back(Write("copy_of_tex_0.png", 700 << 10, 1));
+  for (int i = 0; i < 12; ++i) paths.push_back(Write("tex_" + std::to_string(i) + ".png", 20 << 10, i + 1));
+  paths.push_back(Write("copy_of_tex_0.png", 20 << 10, 1));
+  paths.push_back(Write("large.png", static_cast<size_t>(kUploadBatchMaxBytes) + 1, 99));
   const MeshFiles model = Model(paths);
   auto transport = ConnectTransport();
   ASSERT_NE(transport, nullptr);
   absl::StatusOr<UploadedMesh> uploaded = UploadMesh(*transport, model);
   ASSERT_TRUE(uploaded.ok()) << uploaded.status();
-  EXPECT_EQ(uploaded->stats.files, 14);
-  EXPECT_EQ(uploaded->stats.uploaded, 13);
-  EXPECT_EQ(uploaded->stats.bytes_uploaded, 900 + 12 * (700 << 10));
+  EXPECT_EQ(uploaded->stats.files, 15);
+  EXPECT_EQ(uploaded->stats.uploaded, 14);
+  EXPECT_EQ(uploaded->stats.bytes_uploaded, 900 + 12 * (20 << 10) + kUploadBatchMaxBytes + 1);
   std::lock_guard lock(fake_.mu);
-  EXPECT_EQ(fake_.batch_updates_seen.size(), 3u);
-  for (int64_t bytes : fake_.batch_update_bytes) EXPECT_LE(bytes, kMaxBatchUpdateBytes);
+  EXPECT_EQ(fake_.batch_updates_seen.size(), 4u);
+  for (int64_t bytes : fake_.batch_update_bytes) EXPECT_LE(bytes, kUploadBatchMaxBytes);
   EXPECT_EQ(fake_.batch_uploaded.size(), 13u);
   EXPECT_EQ(std::set<std::string>(fake_.batch_uploaded.begin(), fake_.batch_uploaded.end()).size(), 13u);
-  EXPECT_TRUE(fake_.uploaded.empty()) << "nothing streamed";
+  EXPECT_EQ(fake_.uploaded.size(), 1u) << "only the file over the limit streams";
 }
 
 TEST_F(BlobBatchUploadTest, AnOlderServerGetsEveryFileThroughUploadBlobAndIsAskedOnce) {
@@ -125,15 +128,15 @@ TEST_F(BlobBatchUploadTest, AnOlderServerGetsEveryFileThroughUploadBlobAndIsAske
     fake_.batch_updates = false;
   }
   std::vector<fs::path> paths = {Write("model.gltf", 900, 0)};
-  for (int i = 0; i < 12; ++i) paths.push_back(Write("tex_" + std::to_string(i) + ".png", 700 << 10, i + 1));
+  for (int i = 0; i < 12; ++i) paths.push_back(Write("tex_" + std::to_string(i) + ".png", 20 << 10, i + 1));
   auto transport = ConnectTransport();
   ASSERT_NE(transport, nullptr);
   absl::StatusOr<UploadedMesh> uploaded = UploadMesh(*transport, Model(paths));
   ASSERT_TRUE(uploaded.ok()) << uploaded.status();
   EXPECT_EQ(uploaded->stats.uploaded, 13);
-  EXPECT_EQ(uploaded->stats.bytes_uploaded, 900 + 12 * (700 << 10));
+  EXPECT_EQ(uploaded->stats.bytes_uploaded, 900 + 12 * (20 << 10));
   std::lock_guard lock(fake_.mu);
-  EXPECT_EQ(fake_.batch_update_attempts, 1) << "no second batch after UNIMPLEMENTED (three were packed)";
+  EXPECT_EQ(fake_.batch_update_attempts, 1) << "no second batch after UNIMPLEMENTED (four were packed)";
   EXPECT_EQ(fake_.uploaded.size(), 13u);
 }
 
@@ -160,8 +163,10 @@ TEST_F(BlobBatchUploadTest, ABlobRefusedInItsBatchIsStreamedOnceMoreAndTheSubmit
 // model is submitted, and its stats count what it uploaded.
 TEST_F(BlobBatchUploadTest, ABlobRefusedTwiceFailsOnlyTheModelsThatUseIt) {
   const fs::path box = kAssets / "props_pbr/Box/glTF-Binary/Box.glb";
-  const fs::path duck = kAssets / "props_pbr/Duck/glTF-Binary/Duck.glb";
+  // Both small enough for a batch (Duck.glb, 120 KB, streams).
+  const fs::path duck = kAssets / "props_pbr/BoxTextured/glTF-Binary/BoxTextured.glb";
   ASSERT_LT(fs::file_size(box), fs::file_size(duck));
+  ASSERT_LE(static_cast<int64_t>(fs::file_size(box) + fs::file_size(duck)), kUploadBatchMaxBytes);
   {
     std::lock_guard lock(fake_.mu);
     fake_.refuse_uploads_over = static_cast<int64_t>(fs::file_size(box));
@@ -173,7 +178,7 @@ TEST_F(BlobBatchUploadTest, ABlobRefusedTwiceFailsOnlyTheModelsThatUseIt) {
   for (size_t i : {0u, 2u}) {
     const absl::Status& s = (*r)[i].status;
     EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
-    EXPECT_NE(s.message().find("Duck.glb"), std::string::npos) << s;
+    EXPECT_NE(s.message().find("BoxTextured.glb"), std::string::npos) << s;
     EXPECT_NE(s.message().find("refused in its batch first: RESOURCE_EXHAUSTED"), std::string::npos) << s;
   }
   ASSERT_TRUE((*r)[1].status.ok()) << (*r)[1].status;
