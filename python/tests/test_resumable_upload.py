@@ -23,7 +23,8 @@ from impostor.v1 import asset_service_pb2 as asset_pb
 from impostor.v1 import asset_service_pb2_grpc as asset_grpc
 from impostor.v1 import types_pb2 as pb
 from farm_process import FarmServer
-from test_slow_link import KIB, MIB, write_mesh
+from conftest import write_triangle_gltf
+from test_slow_link import KIB, MIB
 from throttled_link import ThrottledLink
 
 CHUNK = 64 * KIB  # impostor._blobs.UPLOAD_CHUNK_BYTES
@@ -65,7 +66,7 @@ def test_an_upload_cut_at_half_resumes_sending_at_most_the_rest_plus_one_message
     once the server has read half, the link is closed (the server sees the
     connection go). The next submit sends only the rest."""
     size = 4 * MIB
-    model = write_mesh(tmp_path / "mesh", size)
+    model = write_triangle_gltf(tmp_path / "mesh", size)
     bin_digest = _digest((model.parent / "mesh.bin").read_bytes())
     half = size // 2
     with ThrottledLink(server.address) as link:
