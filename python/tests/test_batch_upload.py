@@ -155,14 +155,19 @@ def sha256_of(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def submit_through(stand_in: _StandIn, entry: Path) -> impostor.SubmitResult:
+    """Submits `entry` to the stand-in, which is stopped after, whatever happens."""
+    try:
+        with impostor.Client(stand_in.address) as c:
+            return c.submit(entry)
+    finally:
+        stand_in.stop()
+
+
 def test_an_older_server_gets_every_file_through_upload_blob(tmp_path: Path) -> None:
     stand_in = _StandIn(batches=False)
     entry = write_model(tmp_path / "model", [10 * KIB] * 4)
-    try:
-        with impostor.Client(stand_in.address) as c:
-            submitted = c.submit(entry)
-    finally:
-        stand_in.stop()
+    submitted = submit_through(stand_in, entry)
     assert submitted.upload.uploaded == 6 and submitted.upload.bytes_uploaded == model_bytes(entry)
     assert len(stand_in.streamed) == 6, "every file streamed"
     assert stand_in.submits == 1
@@ -176,11 +181,7 @@ def test_a_call_carries_at_most_one_upload_messages_bytes(tmp_path: Path) -> Non
     stand_in = _StandIn()
     entry = write_model(tmp_path / "model", [20 * KIB] * 9 + [_blobs.UPLOAD_BATCH_MAX_BYTES + 1])
     sizes = {sha256_of(p): p.stat().st_size for p in entry.parent.iterdir()}
-    try:
-        with impostor.Client(stand_in.address) as c:
-            submitted = c.submit(entry)
-    finally:
-        stand_in.stop()
+    submitted = submit_through(stand_in, entry)
     assert submitted.upload.uploaded == 12 and submitted.upload.bytes_uploaded == model_bytes(entry)
     assert len(stand_in.batch_calls) == 4, stand_in.batch_calls
     for call in stand_in.batch_calls:
@@ -193,11 +194,7 @@ def test_a_blob_refused_in_its_batch_is_streamed_once_more(tmp_path: Path) -> No
     entry = write_model(tmp_path / "model", [10 * KIB] * 4)
     refused = sha256_of(entry.parent / "tex_2.png")
     stand_in.refuse_in_batch.add(refused)
-    try:
-        with impostor.Client(stand_in.address) as c:
-            submitted = c.submit(entry)
-    finally:
-        stand_in.stop()
+    submitted = submit_through(stand_in, entry)
     assert len(stand_in.batch_calls) == 1 and len(stand_in.batch_calls[0]) == 6
     assert stand_in.streamed == [refused], "the refused blob alone, once"
     assert submitted.upload.uploaded == 6 and submitted.upload.bytes_uploaded == model_bytes(entry)
@@ -246,9 +243,5 @@ def test_a_quota_refusal_of_the_whole_call_leaves_each_blob_to_its_stream(tmp_pa
     stand_in = _StandIn()
     stand_in.batch_code = grpc.StatusCode.RESOURCE_EXHAUSTED
     entry = write_model(tmp_path / "model", [10 * KIB])
-    try:
-        with impostor.Client(stand_in.address) as c:
-            submitted = c.submit(entry)
-    finally:
-        stand_in.stop()
+    submitted = submit_through(stand_in, entry)
     assert len(stand_in.streamed) == 3 and submitted.upload.uploaded == 3
