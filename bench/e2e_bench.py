@@ -16,7 +16,7 @@ Everything is timed in one run on this machine:
 5. The farm's /metrics stage sums over the warm bakes beside bake_stages'
    stages, so the difference between the two is attributed.
 6. With --blender (bench/compare_blender.sh): Blender 3.4 Cycles rendering
-   the last warm bake's own views (bench/blender_views.py), timed from
+   the last warm bake's own views (e2e_blender.py, bench/blender_views.py), timed from
    process start to exit, against the warm end-to-end median.
 
 Nothing is asserted; any step that fails stops the bench with
@@ -39,6 +39,9 @@ import urllib.parse
 import urllib.request
 from pathlib import Path
 
+import e2e_blender
+from e2e_errors import BenchError
+
 LAYOUT, FRAMES, RESOLUTION = "hemi-octahedral", 12, 2048
 # Stages the worker reports in BakeTimings and /metrics exports as
 # impostor_bake_stage_seconds{stage=...} (server/metrics/farm_metrics.cc).
@@ -46,13 +49,6 @@ STAGES = ["download", "load", "render", "readback", "encode", "store"]
 # Worker token name of --local-workers on a server with its own SQLite store
 # (LocalWorkerTokenName in server/commands/token_command.cc).
 LOCAL_WORKER_TOKEN = "local-workers"
-# Cycles samples per pixel of the Blender comparison (bench/blender_views.py).
-BLENDER_SAMPLES = 16
-
-
-class BenchError(Exception):
-    def __init__(self, step, message):
-        super().__init__(f"{step}: {message}")
 
 
 LOADS = []
@@ -98,18 +94,6 @@ def proc_cpu(pid, with_children):
     if with_children:
         ticks += int(fields[13]) + int(fields[14])
     return ticks / os.sysconf("SC_CLK_TCK")
-
-
-def blender_env(env):
-    """`env` for Debian's Blender: its embedded Python takes its prefix from
-    the first `python3` on PATH, so a pyenv or virtualenv Python running this
-    bench (which puts its own bin first) would hand it a standard library
-    without Debian's numpy, which its glTF importer needs."""
-    out = {k: v for k, v in env.items() if not k.startswith("PYENV") and k != "VIRTUAL_ENV"}
-    keep = [d for d in env.get("PATH", "").split(os.pathsep)
-            if "/.pyenv/" not in d and not (env.get("VIRTUAL_ENV") and d.startswith(env["VIRTUAL_ENV"]))]
-    out["PATH"] = os.pathsep.join(keep)
-    return out
 
 
 def free_port():
@@ -353,64 +337,6 @@ class Bench:
         m = re.search(r"^bake_stages: .* on (.+)$", r.stdout, re.M)
         self.device = m.group(1) if m else "?"
         return runs
-
-    # ---- Blender Cycles on the same views ---------------------------------
-
-    def blender(self, result_dir):
-        """Blender 3.4 Cycles (CPU, 16 samples) renders the views the bake
-        rendered, at the pixels the bake rendered them (tile size times
-        supersampling), read from the result's manifest.json by
-        bench/blender_views.py. Timed from process start to exit; with
-        --blender-views N only N views are rendered and the render time is
-        scaled to all of them (process start and import as measured)."""
-        manifest_path = Path(result_dir) / "manifest.json"
-        try:
-            manifest = json.loads(manifest_path.read_text())
-        except (OSError, ValueError) as e:
-            raise BenchError("blender", f"cannot read the bake's {manifest_path}: {e}")
-        pixels = int(manifest["tile_size"]) * int(manifest.get("supersampling", 2))
-        views = len(manifest["views"])
-        out = self.fresh("blender")
-        out.mkdir(parents=True)
-        limit = self.a.blender_views
-        script = Path(__file__).resolve().parent / "blender_views.py"
-        cmd = ["blender", "-b", "--factory-startup", "--python-exit-code", "1", "--python", script, "--",
-               self.model, manifest_path, str(pixels), str(BLENDER_SAMPLES), out, str(limit)]
-        t0 = time.perf_counter()
-        # Listed in WORK/pids, so the script's trap stops a render of many
-        # minutes when the bench is interrupted.
-        proc = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                env=blender_env(self.env))
-        self.note_pid("blender", proc.pid)
-        try:
-            stdout, _ = proc.communicate(timeout=3600)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            raise BenchError("blender", "blender ran past 3600 s")
-        finally:
-            self.drop_pid("blender")
-        wall = time.perf_counter() - t0
-        (self.logs / "blender.log").write_text(stdout)
-        if proc.returncode != 0:
-            raise BenchError("blender", f"blender exited {proc.returncode}:\n{stdout[-1500:]}")
-        m = re.search(r"^blender_views: .* render_s ([\d.]+)$", stdout, re.M)
-        rendered = len(list(Path(out).glob("view_*.png")))
-        expected = min(limit, views) if limit > 0 else views
-        if m is None or rendered != expected:
-            raise BenchError("blender", f"blender wrote {rendered} of {expected} views:\n{stdout[-1500:]}")
-        render_s = float(m.group(1))
-        seconds, how = wall, "process start to exit"
-        if rendered < views:
-            seconds = wall - render_s + render_s * views / rendered
-            how = f"extrapolated from {rendered} of {views} views ({render_s / rendered:.2f} s a view)"
-        return {"seconds": seconds, "how": how, "views": views, "pixels": pixels}
-
-    def blender_rows(self, b, e2e_warm):
-        return [
-            f"| Blender 3.4 Cycles, CPU, {BLENDER_SAMPLES} samples, the same {b['views']} views at {b['pixels']} px | "
-            f"{b['seconds']:.2f} s | {b['how']}; after the warm bakes, on the last one's manifest |",
-            f"| **Blender / end to end** (warm) | **{b['seconds'] / e2e_warm:.1f}×** | target ≥ 30 |",
-        ]
 
     # ---- fetch against nginx + curl ---------------------------------------
 
@@ -670,7 +596,7 @@ class Bench:
 
         blender = None
         if self.a.blender and warm:
-            blender = self.blender(warm[-1]["out"])
+            blender = e2e_blender.render_views(self, warm[-1]["out"])
             log(f"blender: {blender['views']} views at {blender['pixels']} px in {blender['seconds']:.2f} s "
                 f"({blender['how']}): {blender['seconds'] / median([b['wall'] for b in warm]):.1f}x the warm "
                 f"end-to-end median")
@@ -747,7 +673,7 @@ class Bench:
             f"| isolated / in-process load (`isolated_load_bench`) | **{iso['ratios'][-1][1]:.2f}×** "
             f"({iso['ratios'][-1][0]}; in process {iso['in_process']:.3f} s) | target ≤ 1.15"
             + "".join(f"; {k}: {v:.2f}×" for k, v in iso["ratios"][:-1]) + " |",
-            *(self.blender_rows(blender, median(e2e)) if blender else []),
+            *(e2e_blender.rows(blender, median(e2e)) if blender else []),
             *(self.fetch_rows(fetch) if fetch else []),
             *(self.batch_rows(batch) if batch else []),
             "",
