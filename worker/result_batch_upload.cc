@@ -48,6 +48,7 @@ absl::Status UploadResultBatch(v1::AssetService::Stub& assets, const std::vector
   const int64_t messages = (bytes + chunk - 1) / chunk;
   grpc::ClientContext ctx;
   ctx.set_deadline(std::chrono::system_clock::now() + options.stall_limit * (1 + messages));
+  const UploadCancel::Call registered(options.cancel, &ctx);
   v1::BatchUpdateBlobsResponse response;
   const grpc::Status s = assets.BatchUpdateBlobs(&ctx, request, &response);
   if (!s.ok()) {

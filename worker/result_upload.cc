@@ -92,6 +92,7 @@ double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).coun
 int64_t ResumeOffset(v1::AssetService::Stub& assets, const v1::Digest& digest, const ResultUploadOptions& options) {
   grpc::ClientContext ctx;
   ctx.set_deadline(std::chrono::system_clock::now() + options.query_timeout);
+  const UploadCancel::Call registered(options.cancel, &ctx);
   v1::QueryUploadRequest request;
   *request.mutable_digest() = digest;
   v1::QueryUploadResponse response;
@@ -110,6 +111,7 @@ absl::Status UploadFrom(v1::AssetService::Stub& assets, const std::filesystem::p
     return absl::InternalError(absl::StrCat("cannot seek to byte ", offset, " of ", path.string()));
   }
   grpc::ClientContext ctx;  // no deadline: the watchdog bounds each step
+  const UploadCancel::Call registered(options.cancel, &ctx);
   v1::UploadBlobResponse response;
   StallWatchdog watchdog(&ctx, options.stall_limit);
   auto writer = assets.UploadBlob(&ctx, &response);

@@ -14,6 +14,7 @@
 
 #include "absl/status/status.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
+#include "worker/upload_cancel.h"
 
 namespace impostor {
 
@@ -33,6 +34,8 @@ struct ResultUploadOptions {
   size_t chunk_bytes = size_t{64} << 10;
   // Deadline of the QueryUpload asked before the stream.
   std::chrono::milliseconds query_timeout{std::chrono::seconds(30)};
+  // Lets another thread cancel the calls (upload_cancel.h); null: none can.
+  UploadCancel* cancel = nullptr;
 };
 
 // Uploads the file at `path`, whose bytes hash to `digest`. A blob larger

@@ -222,20 +222,22 @@ absl::Status WorkerLoop::UploadThroughOutage(const fs::path& path, const v1::Dig
   return outcome;
 }
 
+absl::Status WorkerLoop::CallAssets(const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) {
+  absl::Status outcome;
+  CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
+    v1::AssetService::Stub assets(channel);
+    outcome = rpc(assets);
+    return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
+  });
+  return outcome;
+}
+
 absl::Status WorkerLoop::UploadAll(const std::vector<std::pair<fs::path, v1::Digest>>& files,
                                    const std::string& subject) {
   std::vector<ResultFile> result_files;
   for (const auto& [path, digest] : files) result_files.push_back({path, digest});
   ResultUploadLink link;
-  link.call = [this](const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) {
-    absl::Status outcome;
-    CallServer([&](const std::shared_ptr<grpc::Channel>& channel) {
-      v1::AssetService::Stub assets(channel);
-      outcome = rpc(assets);
-      return grpc::Status(static_cast<grpc::StatusCode>(outcome.code()), std::string(outcome.message()));
-    });
-    return outcome;
-  };
+  link.call = [this](const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) { return CallAssets(rpc); };
   link.upload_patiently = [&](const ResultFile& file) { return UploadThroughOutage(file.path, file.digest, subject); };
   return UploadResultFiles(result_files, link, kParallelUploads);
 }

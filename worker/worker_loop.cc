@@ -29,6 +29,7 @@
 #include "worker/bake/bake_outputs.h"
 #include "worker/bake_memory_check.h"
 #include "worker/bearer_token.h"
+#include "worker/early_result_upload.h"
 #include "worker/input_links.h"
 #include "worker/input_plan.h"
 #include "worker/scratch_file.h"
@@ -328,6 +329,9 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   // shortage later is measured against (scratch_shortage.h).
   const absl::StatusOr<ScratchSpace> scratch_at_start = MeasureScratch(options_.scratch_dir);
   int64_t inputs_need = -1;
+  // The atlas maps go up while the quality pass still runs (their upload
+  // after the bake then finds them stored).
+  EarlyResultUpload early_upload([this](const auto& rpc) { return CallAssets(rpc); }, cancelled);
 
   absl::StatusOr<AtlasBakeOutput> result = [&]() -> absl::StatusOr<AtlasBakeOutput> {
     if (auto s = ValidateMeshInput(job.mesh()); !s.ok()) return s;
@@ -365,7 +369,10 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
                              .cache_key = job.cache_key(),
                              .output_dir = output_dir,
                              .load_limits = options_.load_limits,
-                             .scene = std::make_shared<const Scene>(*std::move(scene))};
+                             .scene = std::make_shared<const Scene>(*std::move(scene)),
+                             .map_written = [&](const fs::path& file, const BlobDigest& digest) {
+                               if (!lease_lost) early_upload.Offer(file, digest);
+                             }};
     auto out = [&]() -> absl::StatusOr<AtlasBakeOutput> {
       switch (job.parameters().product()) {
         case v1::PRODUCT_SURFELS: return BakeSurfels(request, *renderer_, progress, cancelled);
@@ -385,6 +392,7 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
     return WriteManifest(output_dir, std::move(out->manifest));
   }();
 
+  const int early_files = early_upload.Finish();
   absl::Status outcome = result.status();
   // The maps and manifest.json into the server's store (again, for a
   // CompleteJob that found one gone: the store may evict between the
@@ -397,7 +405,8 @@ int64_t WorkerLoop::ProcessJob(const v1::LeasedJob& job) {
   };
   if (result.ok() && !lease_lost) {
     progress("upload", 0.96);
-    spdlog::info("event=job_upload job={} files={}", job.job_id(), result->manifest.maps_size() + 1);
+    spdlog::info("event=job_upload job={} files={} stored_during_bake={}", job.job_id(),
+                 result->manifest.maps_size() + 1, early_files);
     const auto t = Clock::now();
     outcome = upload_result();
     result->manifest.mutable_timings()->set_store_seconds(std::chrono::duration<double>(Clock::now() - t).count());

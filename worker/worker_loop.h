@@ -147,6 +147,8 @@ class WorkerLoop {
   // go through UploadThroughOutage one at a time, in order; its status for
   // the first that fails there.
   static constexpr int kParallelUploads = 4;
+  // One attempt of `rpc` on the current server, through CallServer.
+  absl::Status CallAssets(const std::function<absl::Status(v1::AssetService::Stub&)>& rpc);
   absl::Status UploadAll(const std::vector<std::pair<std::filesystem::path, v1::Digest>>& files,
                          const std::string& subject);
   // Hands a lease back to the server (retrying through an outage and a full

@@ -1,19 +1,24 @@
 // The bake encodes its maps on worker threads while the quality pass
 // renders (worker/bake/atlas_bake.cc). The overlap must not change a byte:
 // the same bake with AtlasBakeRequest::serial_encode (encode first, then the
-// quality pass) writes identical files, digests and manifest map lists.
+// quality pass) writes identical files, digests and manifest map lists. Each
+// map is handed to the worker's early upload once, final.
 #include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <functional>
 #include <map>
+#include <mutex>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "common/request/bake_request.h"
+#include "common/util/sha256.h"
 #include "tests/gpu/shared_renderer_test.h"
 #include "worker/bake/atlas_bake.h"
 
@@ -39,7 +44,9 @@ std::string ReadAll(const fs::path& path) {
 
 class EncodeOverlapTest : public testing::SharedRendererTest {
  protected:
-  static absl::StatusOr<AtlasBakeOutput> Bake(const v1::BakeParameters& in, const fs::path& dir, bool serial) {
+  static absl::StatusOr<AtlasBakeOutput> Bake(
+      const v1::BakeParameters& in, const fs::path& dir, bool serial,
+      std::function<void(const fs::path&, const BlobDigest&)> map_written = nullptr) {
     auto p = NormalizeParameters(in);
     if (!p.ok()) return p.status();
     const std::atomic<bool> cancelled{false};
@@ -48,7 +55,8 @@ class EncodeOverlapTest : public testing::SharedRendererTest {
                              .cache_key = "overlap-test",
                              .output_dir = dir,
                              .load_limits = {},
-                             .serial_encode = serial};
+                             .serial_encode = serial,
+                             .map_written = std::move(map_written)};
     return BakeAtlas(request, *renderer_, [](std::string_view, double) {}, cancelled);
   }
 
@@ -108,6 +116,48 @@ TEST_F(EncodeOverlapTest, OverlappedEncodingWritesTheSameBytesAsSerial) {
   EXPECT_GE(files, 6);
   fs::remove_all(serial_dir);
   fs::remove_all(overlap_dir);
+}
+
+// The worker uploads each map as soon as the bake hands it over
+// (AtlasBakeRequest::map_written, worker/early_result_upload.h): every
+// encoded map exactly once, with the digest the manifest then records and
+// the bytes the file finally holds, also when --array rewrites the maps as
+// strips after the atlases were written.
+TEST_F(EncodeOverlapTest, EachMapIsHandedOverOnceWithItsFinalDigest) {
+  if (!fs::exists(kHelmet)) GTEST_SKIP() << "asset missing: " << kHelmet;
+  for (const bool array : {false, true}) {
+    SCOPED_TRACE(array ? "--array" : "atlas");
+    const fs::path dir = ScratchDir(array ? "handed_array" : "handed");
+    std::mutex mu;
+    std::map<std::string, std::vector<BlobDigest>> handed;
+    v1::BakeParameters params = Params();
+    params.set_texture_array(array);
+    auto out = Bake(params, dir, /*serial=*/false, [&](const fs::path& file, const BlobDigest& digest) {
+      std::lock_guard lock(mu);
+      handed[file.filename().string()].push_back(digest);
+    });
+    ASSERT_TRUE(out.ok()) << out.status();
+    int maps = 0;
+    for (const v1::MapFile& m : out->manifest.maps()) {
+      const bool encoded_map = m.semantic() == "albedo_alpha" || m.semantic() == "normal_depth" ||
+                               m.semantic() == "orm" || m.semantic() == "emissive";
+      if (!encoded_map) {
+        EXPECT_FALSE(handed.contains(m.file())) << m.file() << " is not a map the bake hands over";
+        continue;
+      }
+      ++maps;
+      ASSERT_EQ(handed[m.file()].size(), 1u) << m.file();
+      const BlobDigest& d = handed[m.file()].front();
+      EXPECT_EQ(d.hash, m.digest().hash()) << m.file();
+      EXPECT_EQ(d.size_bytes, m.digest().size_bytes()) << m.file();
+      auto on_disk = DigestFile(dir / m.file());
+      ASSERT_TRUE(on_disk.ok()) << on_disk.status();
+      EXPECT_EQ(*on_disk, d) << m.file() << " changed after it was handed over";
+    }
+    EXPECT_EQ(maps, 4) << "albedo_alpha, normal_depth, orm, emissive";
+    EXPECT_EQ(handed.size(), 4u);
+    fs::remove_all(dir);
+  }
 }
 
 TEST_F(EncodeOverlapTest, AnOutputDirThatCannotBeWrittenFailsCleanly) {

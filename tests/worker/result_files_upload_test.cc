@@ -22,8 +22,7 @@
 
 #include "common/net/batch_read.h"
 #include "common/util/sha256.h"
-#include "server/blobs/blob_store.h"
-#include "server/rpc/services.h"
+#include "tests/worker/in_process_assets.h"
 #include "worker/result_files_upload.h"
 
 namespace impostor {
@@ -86,31 +85,21 @@ class ResultFilesUploadTest : public ::testing::Test {
             ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_ / "result");
-    auto store = BlobStore::Open(dir_ / "store");
-    ASSERT_TRUE(store.ok()) << store.status();
-    store_ = std::move(*store);
-    service_ = std::make_unique<AssetServiceImpl>(store_.get(), /*scheduler=*/nullptr);
-    counting_ = std::make_unique<CountingAssets>(service_.get());
-    grpc::ServerBuilder builder;
-    int port = 0;
-    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
-    builder.SetMaxReceiveMessageSize(16 << 20);  // as server/main.cc: a full batch and its digests
-    builder.RegisterService(counting_.get());
-    server_ = builder.BuildAndStart();
-    ASSERT_NE(server_, nullptr);
-    stub_ = std::make_unique<v1::AssetService::Stub>(
-        grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
-    link_.call = [this](const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) { return rpc(*stub_); };
+    ASSERT_NO_FATAL_FAILURE(assets_.Start(dir_, [this](v1::AssetService::Service* real) {
+      auto counting = std::make_unique<CountingAssets>(real);
+      counting_ = counting.get();
+      return counting;
+    }));
+    link_.call = [this](const std::function<absl::Status(v1::AssetService::Stub&)>& rpc) {
+      return rpc(assets_.stub());
+    };
     link_.upload_patiently = [this](const ResultFile& file) {
       ++patient_uploads_;
-      return UploadResultFile(*stub_, file.path, file.digest);
+      return UploadResultFile(assets_.stub(), file.path, file.digest);
     };
   }
 
-  void TearDown() override {
-    if (server_ != nullptr) server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
-    fs::remove_all(dir_);
-  }
+  void TearDown() override { fs::remove_all(dir_); }
 
   // A result file `name` of `size` patterned bytes.
   ResultFile Write(const std::string& name, size_t size, uint32_t seed) {
@@ -134,18 +123,15 @@ class ResultFilesUploadTest : public ::testing::Test {
     files.push_back(Write("manifest.json", 4'000, 51));
     return files;
   }
-  bool Stored(const ResultFile& f) const { return store_->Contains({f.digest.hash(), f.digest.size_bytes()}); }
+  bool Stored(const ResultFile& f) { return assets_.store().Contains({f.digest.hash(), f.digest.size_bytes()}); }
   std::vector<int> BatchSizes() {
     std::lock_guard lock(counting_->mu);
     return counting_->batch_sizes;
   }
 
   fs::path dir_;
-  std::unique_ptr<BlobStore> store_;
-  std::unique_ptr<AssetServiceImpl> service_;
-  std::unique_ptr<CountingAssets> counting_;
-  std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<v1::AssetService::Stub> stub_;
+  testing::InProcessAssets assets_;
+  CountingAssets* counting_ = nullptr;  // owned by assets_
   ResultUploadLink link_;
   std::atomic<int> patient_uploads_{0};
 };

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <fstream>
 #include <future>
+#include <map>
 #include <optional>
 
 #include <spdlog/spdlog.h>
@@ -57,10 +58,14 @@ const std::vector<std::string> kEmissiveChannels = {
     "R: emissive red (texture x emissiveFactor x KHR_materials_emissive_strength, unlit), sRGB, clamped to 1",
     "G: emissive green, sRGB", "B: emissive blue, sRGB", "A: coverage, as albedo_alpha.A"};
 
+// `known`: digests taken when the maps were written (MapWritten); any
+// other file is hashed here.
 absl::Status AddMap(const std::filesystem::path& dir, const std::string& semantic, const std::string& format,
-                    const std::vector<std::string>& channels, int size, v1::Manifest* manifest) {
+                    const std::vector<std::string>& channels, int size, v1::Manifest* manifest,
+                    const std::map<std::string, BlobDigest>& known = {}) {
   const std::string file = semantic + ".png";
-  auto digest = DigestFile(dir / file);
+  const auto it = known.find(file);
+  auto digest = it != known.end() ? absl::StatusOr<BlobDigest>(it->second) : DigestFile(dir / file);
   if (!digest.ok()) return digest.status();
   v1::MapFile* map = manifest->add_maps();
   map->set_semantic(semantic);
@@ -72,6 +77,15 @@ absl::Status AddMap(const std::filesystem::path& dir, const std::string& semanti
   map->set_format(format);
   for (const auto& c : channels) map->add_channels(c);
   return absl::OkStatus();
+}
+
+// A map file whose bytes are final: hashed once (AddMap reuses the
+// digest) and handed to request.map_written, so the worker can upload it
+// while the quality pass still runs.
+absl::StatusOr<BlobDigest> MapWritten(const std::filesystem::path& file, const AtlasBakeRequest& request) {
+  absl::StatusOr<BlobDigest> digest = DigestFile(file);
+  if (digest.ok() && request.map_written) request.map_written(file, *digest);
+  return digest;
 }
 
 }  // namespace
@@ -175,22 +189,43 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
   struct Encoded {
     std::vector<v1::MapFile> ktx2_maps;
     ContactSheetInfo sheet;
+    std::map<std::string, BlobDigest> png_digests;  // by file name, as MapWritten took them
     double seconds = 0;
   };
+  // --array rewrites the PNG maps as strips after the contact sheet: they
+  // are final only then.
+  const bool maps_final_when_written = !p.texture_array();
   auto encode = [&]() -> absl::StatusOr<Encoded> {
     const auto encode_start = Clock::now();
     Encoded out;
+    // Writes one PNG map and, once final, hashes it on the same thread.
+    auto write_png = [&](const std::string& file, auto write) -> absl::StatusOr<BlobDigest> {
+      if (absl::Status s = write(dir / file); !s.ok()) return s;
+      if (!maps_final_when_written) return BlobDigest{};
+      return MapWritten(dir / file, request);
+    };
     if (png) {
       auto albedo_png = std::async(std::launch::async, [&] {
-        return WritePngRgba8(dir / "albedo_alpha.png", atlas->albedo_alpha, w, h);
+        return write_png("albedo_alpha.png",
+                         [&](const std::filesystem::path& f) { return WritePngRgba8(f, atlas->albedo_alpha, w, h); });
       });
-      auto orm_png = std::async(std::launch::async, [&] { return WritePngRgba8(dir / "orm.png", atlas->orm, w, h); });
-      absl::Status normal_png = WritePngRgba16(dir / "normal_depth.png", atlas->normal_depth, w, h);
-      for (absl::Status s : {albedo_png.get(), orm_png.get(), normal_png}) {
-        if (!s.ok()) return s;
-      }
+      auto orm_png = std::async(std::launch::async, [&] {
+        return write_png("orm.png", [&](const std::filesystem::path& f) { return WritePngRgba8(f, atlas->orm, w, h); });
+      });
+      absl::StatusOr<BlobDigest> normal_png = write_png(
+          "normal_depth.png", [&](const std::filesystem::path& f) { return WritePngRgba16(f, atlas->normal_depth, w, h); });
+      std::vector<std::pair<std::string, absl::StatusOr<BlobDigest>>> written;
+      written.emplace_back("albedo_alpha.png", albedo_png.get());
+      written.emplace_back("orm.png", orm_png.get());
+      written.emplace_back("normal_depth.png", std::move(normal_png));
       if (p.emissive()) {
-        if (auto s = WritePngRgba8(dir / "emissive.png", atlas->emissive, w, h); !s.ok()) return s;
+        written.emplace_back("emissive.png", write_png("emissive.png", [&](const std::filesystem::path& f) {
+                               return WritePngRgba8(f, atlas->emissive, w, h);
+                             }));
+      }
+      for (auto& [file, digest] : written) {
+        if (!digest.ok()) return digest.status();
+        if (maps_final_when_written) out.png_digests[file] = *digest;
       }
     } else {
       auto written = WriteKtx2Maps(dir, {.width = w,
@@ -206,6 +241,11 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
                                          .cancelled = &cancelled});
       if (!written.ok()) return written.status();
       out.ktx2_maps = std::move(*written);
+      if (request.map_written && maps_final_when_written) {
+        for (const v1::MapFile& map : out.ktx2_maps) {
+          request.map_written(dir / map.file(), {map.digest().hash(), map.digest().size_bytes()});
+        }
+      }
     }
     // The maps side by side for a person's first look (contact_sheet.h).
     auto sheet = WriteContactSheet(dir / "contact_sheet.png",
@@ -218,6 +258,14 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     // --array: the maps as texture arrays (layer strips) instead of atlases.
     if (p.texture_array()) {
       if (auto s = WriteTextureArrays(dir, *atlas, tiles, p.emissive()); !s.ok()) return s;
+      if (png) {
+        for (const char* file : {"albedo_alpha.png", "normal_depth.png", "orm.png", "emissive.png"}) {
+          if (std::string_view(file) == "emissive.png" && !p.emissive()) continue;
+          auto digest = MapWritten(dir / file, request);
+          if (!digest.ok()) return digest.status();
+          out.png_digests[file] = *digest;
+        }
+      }
     }
     out.seconds = SecondsSince(encode_start);
     return out;
@@ -282,14 +330,14 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     *manifest.add_maps() = std::move(map);
   }
   if (png) {
-    if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest); !s.ok()) return s;
-    if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest); !s.ok()) {
+    if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest, encoded->png_digests); !s.ok()) return s;
+    if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest, encoded->png_digests); !s.ok()) {
       return s;
     }
-    if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest); !s.ok()) return s;
+    if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest, encoded->png_digests); !s.ok()) return s;
   }
   if (p.emissive() && png) {
-    if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest); !s.ok()) {
+    if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest, encoded->png_digests); !s.ok()) {
       return s;
     }
   }

@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "impostor/v1/types.pb.h"
+#include "common/util/sha256.h"
 #include "worker/bake/quality_pass.h"
 #include "worker/gpu/atlas_renderer.h"
 #include "worker/scene/gltf_loader.h"
@@ -39,6 +40,13 @@ struct AtlasBakeRequest {
   // Measuring tools only (bench/quality_table): changes to the quality
   // pass's rules; the manifest records the view size used.
   QualityPassOverrides quality_overrides = {};
+  // Called once for each map file (albedo_alpha, normal_depth, orm,
+  // emissive; PNG or KTX2) as soon as its bytes are final, with their
+  // digest, while the bake goes on (the quality pass runs for seconds after
+  // the maps are written): the worker starts uploading them then
+  // (early_result_upload.h). Called from the encoders' threads, several at
+  // once; must return quickly. Null: not called.
+  std::function<void(const std::filesystem::path& file, const BlobDigest& digest)> map_written;
 };
 
 struct AtlasBakeOutput {
