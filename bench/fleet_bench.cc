@@ -78,6 +78,9 @@ struct AssetFetch {
   int player = 0;
   std::vector<std::string> urls;
   std::vector<fs::path> outs;
+  // The player's channel file and catalog, fetched first as the SDK does
+  // before it can resolve a name; not counted among the files and fetches.
+  bool index = false;
 };
 
 struct Measured {
@@ -163,12 +166,14 @@ Measured RunCurlFleet(const std::vector<std::vector<AssetFetch>>& per_player, in
           m.first_error = absl::StrCat(lane->fetch->urls[lane->next - 1], ": ", curl_easy_strerror(msg->data.result),
                                        " HTTP ", status);
         }
-      } else {
+      } else if (!lane->fetch->index) {
         m.files += 1;
         m.bytes += size;
         m.file_seconds.push_back(Seconds(lane->file_start, now));
       }
-      if (lane->next == lane->fetch->urls.size()) m.fetch_seconds.push_back(Seconds(start, now));
+      if (lane->next == lane->fetch->urls.size() && !lane->fetch->index) {
+        m.fetch_seconds.push_back(Seconds(start, now));
+      }
       curl_multi_remove_handle(multi, lane->easy);
       if (!start_next(*lane)) active -= 1;
     }
@@ -315,6 +320,15 @@ int main(int argc, char** argv) {
       char dir[32];
       std::snprintf(dir, sizeof(dir), "player_%03zu", p);
       fs::create_directories(root / dir);
+      // Each player is a game that starts knowing only the channel's name:
+      // like the SDK, it reads the channel file and the catalog it names
+      // first (curl does not parse them; it is handed the blob URLs).
+      AssetFetch index;
+      index.player = static_cast<int>(p);
+      index.index = true;
+      index.urls = {edge_url + "/v1/channels/" + spec.channel + ".json", edge_url + release->catalog_path};
+      index.outs = {root / dir / "channel.json", root / dir / "catalog.json"};
+      plan[p].push_back(std::move(index));
       for (const auto& [name, paths] : player_assets[p]) {
         AssetFetch f;
         f.player = static_cast<int>(p);
