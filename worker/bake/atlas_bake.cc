@@ -212,8 +212,9 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
       auto orm_png = std::async(std::launch::async, [&] {
         return write_png("orm.png", [&](const std::filesystem::path& f) { return WritePngRgba8(f, atlas->orm, w, h); });
       });
-      absl::StatusOr<BlobDigest> normal_png = write_png(
-          "normal_depth.png", [&](const std::filesystem::path& f) { return WritePngRgba16(f, atlas->normal_depth, w, h); });
+      absl::StatusOr<BlobDigest> normal_png = write_png("normal_depth.png", [&](const std::filesystem::path& f) {
+        return WritePngRgba16(f, atlas->normal_depth, w, h);
+      });
       std::vector<std::pair<std::string, absl::StatusOr<BlobDigest>>> written;
       written.emplace_back("albedo_alpha.png", albedo_png.get());
       written.emplace_back("orm.png", orm_png.get());
@@ -330,15 +331,19 @@ absl::StatusOr<AtlasBakeOutput> BakeAtlas(const AtlasBakeRequest& request, Atlas
     *manifest.add_maps() = std::move(map);
   }
   if (png) {
-    if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest, encoded->png_digests); !s.ok()) return s;
-    if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest, encoded->png_digests); !s.ok()) {
+    const auto& known = encoded->png_digests;
+    if (auto s = AddMap(dir, "albedo_alpha", "png_rgba8", kAlbedoChannels, resolution, &manifest, known); !s.ok()) {
       return s;
     }
-    if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest, encoded->png_digests); !s.ok()) return s;
-  }
-  if (p.emissive() && png) {
-    if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest, encoded->png_digests); !s.ok()) {
+    if (auto s = AddMap(dir, "normal_depth", "png_rgba16", kNormalDepthChannels, resolution, &manifest, known);
+        !s.ok()) {
       return s;
+    }
+    if (auto s = AddMap(dir, "orm", "png_rgba8", kOrmChannels, resolution, &manifest, known); !s.ok()) return s;
+    if (p.emissive()) {
+      if (auto s = AddMap(dir, "emissive", "png_rgba8", kEmissiveChannels, resolution, &manifest, known); !s.ok()) {
+        return s;
+      }
     }
   }
   if (p.texture_array()) {
