@@ -34,9 +34,14 @@ absl::Status NamingFile(const absl::Status& s, const std::filesystem::path& path
 }  // namespace
 
 absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files) {
+  FileDigestMemo memo;
+  return HashMesh(files, memo);
+}
+
+absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files, FileDigestMemo& memo) {
   v1::MeshInput mesh;
-  auto add = [](const std::filesystem::path& path, v1::InputFile* input, const std::string& name) -> absl::Status {
-    absl::StatusOr<v1::Digest> digest = HashFile(path);
+  auto add = [&memo](const std::filesystem::path& path, v1::InputFile* input, const std::string& name) -> absl::Status {
+    absl::StatusOr<v1::Digest> digest = memo.Get(path);
     if (!digest.ok()) return digest.status();
     input->set_path(name);
     *input->mutable_digest() = *digest;
@@ -102,8 +107,9 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
   std::vector<LocalBlob> blobs;
   std::vector<std::vector<size_t>> users;  // per blob: the models that have it, first first
   std::map<std::string, size_t> blob_of;    // "hash/size" -> index in blobs
+  FileDigestMemo memo;  // a model baked under several settings is hashed once
   for (size_t m = 0; m < models.size(); ++m) {
-    absl::StatusOr<v1::MeshInput> mesh = HashMesh(*models[m]);
+    absl::StatusOr<v1::MeshInput> mesh = HashMesh(*models[m], memo);
     if (!mesh.ok()) {
       out.push_back(mesh.status());
       continue;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "client/transfer/file_digest_memo.h"
 #include "client/transfer/mesh_files.h"
 #include "client/transport/retry.h"
 #include "client/transport/transport.h"
@@ -50,6 +51,9 @@ absl::StatusOr<std::vector<absl::StatusOr<UploadedMesh>>> UploadMeshes(Transport
 // uploaded nowhere: what LookupBake needs. NOT_FOUND / INTERNAL naming the
 // file on read errors.
 absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files);
+// The same, each file's digest taken from `memo` when it was hashed there
+// already and has not changed since (UploadMeshes: one memo for the batch).
+absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files, FileDigestMemo& memo);
 
 }  // namespace impostor::sdk
 
