@@ -8,19 +8,9 @@
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "client/transfer/blob_batch_upload.h"
-#include "common/util/sha256.h"
 
 namespace impostor::sdk {
 namespace {
-
-absl::StatusOr<v1::Digest> HashFile(const std::filesystem::path& path) {
-  absl::StatusOr<BlobDigest> digest = DigestFile(path);
-  if (!digest.ok()) return digest.status();
-  v1::Digest out;
-  out.set_hash(digest->hash);
-  out.set_size_bytes(digest->size_bytes);
-  return out;
-}
 
 // `s` (a refusal of the blob in `path`) saying which file it was, its
 // payloads (the RPC, the server, its error reason) kept.
@@ -56,22 +46,17 @@ absl::StatusOr<v1::MeshInput> HashMesh(const MeshFiles& files, FileDigestMemo& m
 
 absl::StatusOr<UploadedMesh> UploadMesh(Transport& transport, const MeshFiles& files, const CancelSource* cancel) {
   UploadedMesh out;
+  absl::StatusOr<v1::MeshInput> mesh = HashMesh(files);
+  if (!mesh.ok()) return mesh.status();
+  out.mesh = std::move(*mesh);
   std::vector<LocalBlob> blobs;
-  auto add = [&](const std::filesystem::path& path, v1::InputFile* input, const std::string& name)
-      -> absl::Status {
-    absl::StatusOr<v1::Digest> digest = HashFile(path);
-    if (!digest.ok()) return digest.status();
-    input->set_path(name);
-    *input->mutable_digest() = *digest;
-    blobs.push_back(LocalBlob{path, *digest});
+  auto add = [&](const v1::InputFile& input, const std::filesystem::path& path) {
+    blobs.push_back(LocalBlob{path, input.digest()});
     ++out.stats.files;
-    out.stats.bytes_total += digest->size_bytes();
-    return absl::OkStatus();
+    out.stats.bytes_total += input.digest().size_bytes();
   };
-  if (absl::Status s = add(files.entry, out.mesh.mutable_entry(), files.entry_name); !s.ok()) return s;
-  for (const MeshFile& file : files.files) {
-    if (absl::Status s = add(file.local_path, out.mesh.add_files(), file.relative_path); !s.ok()) return s;
-  }
+  add(out.mesh.entry(), files.entry);
+  for (int i = 0; i < out.mesh.files_size(); ++i) add(out.mesh.files(i), files.files[i].local_path);
 
   v1::FindMissingBlobsRequest request;
   for (const LocalBlob& blob : blobs) *request.add_digests() = blob.digest;
