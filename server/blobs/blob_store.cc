@@ -148,8 +148,7 @@ class BlobFileWriter final : public BlobStore::Writer {
     if (fd_ >= 0) ::close(fd_);
     fd_ = -1;
     kept_ = true;
-    store_->EndActive(key_, active_.get());
-    store_->KeepPartial(key_, tmp_path_, written_);
+    store_->KeepPartialAndEnd(key_, tmp_path_, written_, active_.get());
   }
 
   bool preempted() const override { return active_->preempted; }
@@ -354,6 +353,10 @@ int64_t BlobStore::kept_partial_bytes() {
 
 void BlobStore::EndActive(const std::string& key, ActiveUpload* active) {
   std::lock_guard lock(partial_mu_);
+  EndActiveLocked(key, active);
+}
+
+void BlobStore::EndActiveLocked(const std::string& key, ActiveUpload* active) {
   auto [begin, end] = active_.equal_range(key);
   for (auto it = begin; it != end; ++it) {
     if (it->second.get() == active) {
@@ -364,8 +367,10 @@ void BlobStore::EndActive(const std::string& key, ActiveUpload* active) {
   }
 }
 
-void BlobStore::KeepPartial(const std::string& key, const fs::path& path, int64_t bytes) {
+void BlobStore::KeepPartialAndEnd(const std::string& key, const fs::path& path, int64_t bytes,
+                                  ActiveUpload* active) {
   std::lock_guard lock(partial_mu_);
+  EndActiveLocked(key, active);
   ExpirePartialsLocked();
   partial_changed_.notify_all();
   std::error_code ec;

@@ -184,7 +184,12 @@ class BlobStore {
   // Called by writers: register while streaming; hand over (keep) or drop
   // the file when done.
   void EndActive(const std::string& key, ActiveUpload* active);
-  void KeepPartial(const std::string& key, const std::filesystem::path& path, int64_t bytes);
+  // Keeps `path` as the partial of `key` and ends `active`, under one hold
+  // of partial_mu_: a resume waiting on `active` must see the partial when
+  // it sees the upload gone, or it refuses an offset it could have resumed.
+  void KeepPartialAndEnd(const std::string& key, const std::filesystem::path& path, int64_t bytes,
+                         ActiveUpload* active);
+  void EndActiveLocked(const std::string& key, ActiveUpload* active) ABSL_EXCLUSIVE_LOCKS_REQUIRED(partial_mu_);
   // Drops kept partials past max_age. Needs partial_mu_.
   void ExpirePartialsLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(partial_mu_);
   void DropPartialLocked(std::map<std::string, KeptPartial>::iterator it) ABSL_EXCLUSIVE_LOCKS_REQUIRED(partial_mu_);
