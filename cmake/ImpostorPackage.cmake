@@ -104,6 +104,9 @@ set(CPACK_DEBIAN_CLI_DESCRIPTION "impostor bake farm: the `impostor` command-lin
 
 set(CPACK_DEBIAN_LIB_PACKAGE_NAME ${IMPOSTOR_LIB_PACKAGE})
 set(CPACK_DEBIAN_LIB_PACKAGE_SECTION libs)
+# libcurl is opened with dlopen when a download from a mirror first needs it
+# (client/delivery/curl_library.h), so dpkg-shlibdeps cannot see it.
+set(CPACK_DEBIAN_LIB_PACKAGE_DEPENDS "libcurl4")
 set(CPACK_DEBIAN_LIB_DESCRIPTION
   "impostor bake farm SDK: shared libraries (libimpostor: client, cache, C API; libimpostor_runtime)")
 # DEBIAN/shlibs, so packages linking these libraries get the dependency from

@@ -1,9 +1,6 @@
 #include "client/delivery/http_get.h"
 
-#include <curl/curl.h>
-
 #include <cmath>
-#include <mutex>
 
 #include "absl/strings/string_view.h"
 #include "absl/strings/ascii.h"
@@ -11,6 +8,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
+#include "client/delivery/curl_library.h"
 
 namespace impostor::delivery {
 namespace {
@@ -19,15 +17,12 @@ namespace {
 // with the handle, so a thread fetching many files from one mirror reuses
 // its connection.
 struct ThreadHandle {
-  ThreadHandle() {
-    static std::once_flag once;
-    std::call_once(once, [] { curl_global_init(CURL_GLOBAL_DEFAULT); });
-    curl = curl_easy_init();
-  }
+  explicit ThreadHandle(const CurlLibrary* lib) : lib(lib), curl(lib->easy_init()) {}
   ~ThreadHandle() {
-    if (curl != nullptr) curl_easy_cleanup(curl);
+    if (curl != nullptr) lib->easy_cleanup(curl);
   }
-  CURL* curl = nullptr;
+  const CurlLibrary* lib;
+  CURL* curl;
 };
 
 struct Transfer {
@@ -99,53 +94,56 @@ int OnProgress(void* user, curl_off_t, curl_off_t, curl_off_t, curl_off_t) {
 absl::StatusOr<HttpGetResult> HttpGet(const std::string& url, const HttpGetOptions& options,
                                       const std::function<absl::Status(std::string_view)>& sink,
                                       int64_t* partial_bytes) {
-  thread_local ThreadHandle handle;
+  absl::StatusOr<const CurlLibrary*> loaded = Curl();
+  if (!loaded.ok()) return loaded.status();
+  const CurlLibrary& lib = **loaded;
+  thread_local ThreadHandle handle(&lib);
   if (handle.curl == nullptr) return absl::InternalError("libcurl: cannot create a handle");
   if (options.cancel != nullptr && options.cancel->cancelled()) return options.cancel->error();
   CURL* curl = handle.curl;
-  curl_easy_reset(curl);
+  lib.easy_reset(curl);
   Transfer t{&options, &sink, {}, 0, absl::OkStatus()};
   const long stall_ms = static_cast<long>(std::ceil(options.stall_seconds * 1000));
-  curl_easy_setopt(curl, CURLOPT_URL, url.c_str());
-  curl_easy_setopt(curl, CURLOPT_NOSIGNAL, 1L);
-  curl_easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 1L);
-  curl_easy_setopt(curl, CURLOPT_MAXREDIRS, 5L);
-  curl_easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
-  curl_easy_setopt(curl, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
-  curl_easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS, stall_ms);
+  lib.easy_setopt(curl, CURLOPT_URL, url.c_str());
+  lib.easy_setopt(curl, CURLOPT_NOSIGNAL, 1L);
+  lib.easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 1L);
+  lib.easy_setopt(curl, CURLOPT_MAXREDIRS, 5L);
+  lib.easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
+  lib.easy_setopt(curl, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
+  lib.easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS, stall_ms);
   // A transfer that moves less than one byte a second for the stall time
   // has stalled (curl counts whole seconds).
-  curl_easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
-  curl_easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, std::max(1L, (stall_ms + 999) / 1000));
-  curl_easy_setopt(curl, CURLOPT_HEADERFUNCTION, &OnHeader);
-  curl_easy_setopt(curl, CURLOPT_HEADERDATA, &t);
-  curl_easy_setopt(curl, CURLOPT_WRITEFUNCTION, &OnBody);
-  curl_easy_setopt(curl, CURLOPT_WRITEDATA, &t);
-  curl_easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
-  curl_easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, &OnProgress);
-  curl_easy_setopt(curl, CURLOPT_XFERINFODATA, &t);
-  curl_easy_setopt(curl, CURLOPT_USERAGENT, "impostor-sdk/1");
-  if (!options.ca_file.empty()) curl_easy_setopt(curl, CURLOPT_CAINFO, options.ca_file.c_str());
+  lib.easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
+  lib.easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, std::max(1L, (stall_ms + 999) / 1000));
+  lib.easy_setopt(curl, CURLOPT_HEADERFUNCTION, &OnHeader);
+  lib.easy_setopt(curl, CURLOPT_HEADERDATA, &t);
+  lib.easy_setopt(curl, CURLOPT_WRITEFUNCTION, &OnBody);
+  lib.easy_setopt(curl, CURLOPT_WRITEDATA, &t);
+  lib.easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
+  lib.easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, &OnProgress);
+  lib.easy_setopt(curl, CURLOPT_XFERINFODATA, &t);
+  lib.easy_setopt(curl, CURLOPT_USERAGENT, "impostor-sdk/1");
+  if (!options.ca_file.empty()) lib.easy_setopt(curl, CURLOPT_CAINFO, options.ca_file.c_str());
   std::string range;
   if (options.offset > 0) {
     range = absl::StrCat(options.offset, "-");
-    curl_easy_setopt(curl, CURLOPT_RANGE, range.c_str());
+    lib.easy_setopt(curl, CURLOPT_RANGE, range.c_str());
   }
   curl_slist* headers = nullptr;
   if (!options.if_none_match.empty()) {
-    headers = curl_slist_append(headers, absl::StrCat("If-None-Match: ", options.if_none_match).c_str());
-    curl_easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
+    headers = lib.slist_append(headers, absl::StrCat("If-None-Match: ", options.if_none_match).c_str());
+    lib.easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
   }
-  const CURLcode code = curl_easy_perform(curl);
-  curl_slist_free_all(headers);
+  const CURLcode code = lib.easy_perform(curl);
+  lib.slist_free_all(headers);
   if (partial_bytes != nullptr) *partial_bytes = t.result.body_bytes;
   long status = 0;
-  curl_easy_getinfo(curl, CURLINFO_RESPONSE_CODE, &status);
+  lib.easy_getinfo(curl, CURLINFO_RESPONSE_CODE, &status);
   t.result.status = status;
   if (code == CURLE_OK) return t.result;
   if (code == CURLE_WRITE_ERROR && !t.sink_error.ok()) return t.sink_error;
   if (code == CURLE_ABORTED_BY_CALLBACK && options.cancel != nullptr) return options.cancel->error();
-  const std::string what = absl::StrCat(url, ": ", curl_easy_strerror(code));
+  const std::string what = absl::StrCat(url, ": ", lib.easy_strerror(code));
   switch (code) {
     case CURLE_OPERATION_TIMEDOUT:
       return absl::DeadlineExceededError(absl::StrCat(what, " (no byte for ", options.stall_seconds,
