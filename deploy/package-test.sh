@@ -84,6 +84,9 @@ grep -q "^libimpostor 0\.[0-9]* $LIB_PACKAGE " <<<"$shlibs" || fail "no shlibs l
 for p in impostor-cli libimpostor-dev; do
   dpkg-query -W -f='${Depends}' "$p" | grep -q "$LIB_PACKAGE (= " || fail "$p does not depend on $LIB_PACKAGE"
 done
+# libcurl is opened with dlopen (client/delivery/curl_library.h): shlibdeps
+# cannot see it, so the package names it.
+grep -qE "(^|, )libcurl4( |,|$)" <<<"$(dpkg-query -W -f='${Depends}' "$LIB_PACKAGE")" || fail "$LIB_PACKAGE does not depend on libcurl4"
 grep -q "ldconfig" <<<"$(dpkg-query --control-show "$LIB_PACKAGE" postinst)" || fail "$LIB_PACKAGE postinst runs no ldconfig"
 
 version=$(/usr/bin/impostor-server --version)
