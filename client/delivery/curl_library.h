@@ -35,7 +35,7 @@ struct CurlLibrary {
   decltype(&curl_slist_free_all) slist_free_all = nullptr;
 };
 
-// Debian's libcurl4 (OpenSSL flavour) and libcurl3-gnutls both provide it.
+// The SONAME of Debian's libcurl4 (the OpenSSL flavour the SDK is built with).
 inline constexpr const char kCurlSoname[] = "libcurl.so.4";
 
 // The process's libcurl: loaded and initialised (curl_global_init) on the
