@@ -179,60 +179,90 @@ float OthersInsideShare(const std::array<DepthEntry, 4>& entries, int count, int
 
 }  // namespace depth_internal
 
+// How many points a batch surface reader (ReconstructDepthBatched) gets at
+// once: the other candidates, at most 3.
+inline constexpr int kMaxSurfaceBatch = 4;
+
 // `march` and `surface` are any callables of DepthMarch's and DepthSurface's
 // signatures (a template, so the reference renderer's lambdas inline).
-template <typename March, typename Surface>
-DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
-                            glm::vec3 ray_unit, const March& march, const Surface& surface) {
+// `surface_batch(entry, n, st, alpha, height)` reads entry's surface at
+// st[0..n) (n <= kMaxSurfaceBatch) as n calls of `surface` would: a reader
+// that evaluates several points at once (the reference renderer's, in SIMD
+// lanes) takes the agreement test's reads of one frame in one call.
+template <typename March, typename Surface, typename SurfaceBatch>
+DepthPixel ReconstructDepthBatched(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
+                                   glm::vec3 ray_unit, const March& march, const Surface& surface,
+                                   const SurfaceBatch& surface_batch) {
   DepthPixel out;
   count = std::clamp(count, 0, 4);
   std::array<PlaneSample, 4> hits;
   std::array<float, 4> hit_alpha{};
+  std::array<float, 4> hit_height{};
   std::array<float, 4> lambda{};
+  std::array<glm::vec3, 4> points{};
   for (int i = 0; i < count; ++i) {
     if (!(entries[i].weight > 0.0f)) continue;
     hits[i] = march(i);
     if (!hits[i].valid) continue;
-    float height = 0.0f;
-    hit_alpha[i] = surface(i, hits[i].st, &height);
+    hit_alpha[i] = surface(i, hits[i].st, &hit_height[i]);
     if (!(hit_alpha[i] > 0.0f)) {
       hits[i].valid = false;
       continue;
     }
-    const glm::vec3 point = FramePoint(*entries[i].frame, hits[i]);
+    points[i] = FramePoint(*entries[i].frame, hits[i]);
     const float confirmed =
-        height - hits[i].height > kExtrusionDepth
-            ? ExtrusionConfirmation(depth_internal::OthersInsideShare(entries, count, i, point, surface))
+        hit_height[i] - hits[i].height > kExtrusionDepth
+            ? ExtrusionConfirmation(depth_internal::OthersInsideShare(entries, count, i, points[i], surface))
             : 1.0f;
     if (!(confirmed > 0.0f)) {
       hits[i].valid = false;
       continue;
     }
     out.coverage += entries[i].weight * hit_alpha[i] * confirmed;
-    lambda[i] = RayDistance(origin, ray_unit, point);
+    lambda[i] = RayDistance(origin, ray_unit, points[i]);
   }
   if (out.coverage < 0.5f) return out;
   // Every hit is a candidate for P; each frame votes for it by w * a * g.
+  // A frame samples its own hit as it is (no reprojection rounding): that
+  // read is the march's hit read above. Each frame's reads of the other
+  // candidates go to surface_batch together.
   std::array<std::array<DepthSampleAt, 4>, 4> votes;
   std::array<float, 4> support{};
-  float most = 0.0f;
-  for (int c = 0; c < count; ++c) {
-    if (!hits[c].valid) continue;
-    const glm::vec3 point = FramePoint(*entries[c].frame, hits[c]);
-    for (int j = 0; j < count; ++j) {
-      if (!(entries[j].weight > 0.0f)) continue;
-      // A frame samples its own hit as it is (no reprojection rounding).
-      const PlaneSample at = j == c ? hits[j] : ProjectPointToFrame(*entries[j].frame, point);
-      float height = 0.0f;
-      const float alpha = surface(j, at.st, &height);
+  for (int j = 0; j < count; ++j) {
+    if (!(entries[j].weight > 0.0f)) continue;
+    std::array<int, kMaxSurfaceBatch> others{};
+    std::array<PlaneSample, kMaxSurfaceBatch> at;
+    std::array<glm::vec2, kMaxSurfaceBatch> st{};
+    int n = 0;
+    for (int c = 0; c < count; ++c) {
+      if (!hits[c].valid || c == j) continue;
+      others[n] = c;
+      at[n] = ProjectPointToFrame(*entries[j].frame, points[c]);
+      st[n] = at[n].st;
+      ++n;
+    }
+    std::array<float, kMaxSurfaceBatch> alpha{}, height{};
+    if (n > 0) surface_batch(j, n, st.data(), alpha.data(), height.data());
+    // Candidates in order, this frame's own (when it is one) in its place.
+    int next = 0;
+    for (int c = 0; c < count; ++c) {
+      if (!hits[c].valid) continue;
+      const bool own = c == j;
+      const PlaneSample& p = own ? hits[j] : at[next];
+      const float a = own ? hit_alpha[j] : alpha[next];
+      const float h = own ? hit_height[j] : height[next];
+      if (!own) ++next;
       DepthSampleAt& v = votes[c][j];
-      v.st = at.st;
-      if (!(alpha > 0.0f)) continue;
-      v.weight = entries[j].weight * alpha * DepthAgreement(height, at.height);
+      v.st = p.st;
+      if (!(a > 0.0f)) continue;
+      v.weight = entries[j].weight * a * DepthAgreement(h, p.height);
       v.used = v.weight > 0.0f;
       support[c] += v.weight;
     }
-    most = std::max(most, support[c]);
+  }
+  float most = 0.0f;
+  for (int c = 0; c < count; ++c) {
+    if (hits[c].valid) most = std::max(most, support[c]);
   }
   // The deepest candidate with at least kSupportShare of the most support.
   int best = -1;
@@ -251,6 +281,16 @@ DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count,
     out.samples[j] = {true, hits[j].st, entries[j].weight * hit_alpha[j]};
   }
   return out;
+}
+
+// ReconstructDepthBatched with the agreement test's reads one at a time.
+template <typename March, typename Surface>
+DepthPixel ReconstructDepth(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
+                            glm::vec3 ray_unit, const March& march, const Surface& surface) {
+  return ReconstructDepthBatched(entries, count, origin, ray_unit, march, surface,
+                                 [&](int entry, int n, const glm::vec2* st, float* alpha, float* height) {
+                                   for (int k = 0; k < n; ++k) alpha[k] = surface(entry, st[k], &height[k]);
+                                 });
 }
 
 }  // namespace impostor

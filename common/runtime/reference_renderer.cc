@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 
 #include "common/runtime/depth_reconstruction.h"
+#include "common/runtime/tile_heights.h"
 #include "common/runtime/virtual_plane.h"
 
 namespace impostor {
@@ -109,74 +110,6 @@ class TileSampler {
   const std::array<float, 256>& srgb_;
 };
 
-// One blended frame's tile as the march and the agreement test read it:
-// per texel the coverage and depth exactly as TileSampler decodes them, side
-// by side in a tile-sized array with a one-texel border repeating the edge,
-// so a march step touches one small array instead of two atlas-wide ones and
-// needs no clamping or branch per tap. Sample(st) is TileSampler::Sample(
-// tile, st)'s alpha and depth to the bit: the taps TileSampler skips (zero
-// bilinear weight or zero alpha) add exactly zero here.
-class TileHeights {
- public:
-  struct AlphaDepth {
-    float alpha = 0.0f;  // filtered coverage
-    float depth = 1.0f;  // the covered texels' alpha-weighted depth, 0..1
-  };
-
-  TileHeights() = default;
-  TileHeights(const ImpostorAtlas& atlas, const TileRect& tile) : tile_(tile), stride_(tile.width + 2) {
-    texels_.resize(static_cast<size_t>(stride_) * (tile.height + 2));
-    for (int py = 0; py < tile.height + 2; ++py) {
-      const int y = std::clamp(py - 1, 0, tile.height - 1);
-      for (int px = 0; px < stride_; ++px) {
-        const int x = std::clamp(px - 1, 0, tile.width - 1);
-        const size_t texel = (static_cast<size_t>(tile.y + y) * atlas.width + tile.x + x) * 4;
-        texels_[static_cast<size_t>(py) * stride_ + px] = {
-            static_cast<float>(atlas.albedo_alpha[texel + 3]) / 255.0f,
-            static_cast<float>(atlas.normal_depth[texel + 3]) / 65535.0f};
-      }
-    }
-  }
-
-  AlphaDepth Sample(glm::vec2 st) const {
-    AlphaDepth out;
-    if (!(std::abs(st.x) <= 1.0f && std::abs(st.y) <= 1.0f)) return out;
-    // ForEachBilinearTap's arithmetic, step for step.
-    const glm::vec2 pixel = FrameStToPixel(tile_, st);
-    const float fx = pixel.x - static_cast<float>(tile_.x) - 0.5f;
-    const float fy = pixel.y - static_cast<float>(tile_.y) - 0.5f;
-    const float flx = std::floor(fx);
-    const float fly = std::floor(fy);
-    // Border index = clamped index + 1; one past either edge reads the
-    // border, which repeats the edge as the clamp would.
-    const int ix = std::clamp(static_cast<int>(flx), -1, tile_.width - 1) + 1;
-    const int iy = std::clamp(static_cast<int>(fly), -1, tile_.height - 1) + 1;
-    const float ax = fx - flx;
-    const float ay = fy - fly;
-    const Texel* row0 = &texels_[static_cast<size_t>(iy) * stride_ + ix];
-    const Texel* row1 = row0 + stride_;
-    const Texel taps[4] = {row0[0], row0[1], row1[0], row1[1]};
-    const float bilinear[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-    float covered = 0.0f;
-    float depth = 0.0f;
-    for (int k = 0; k < 4; ++k) {
-      const float w = bilinear[k] * taps[k].alpha;
-      covered += w;
-      depth += w * taps[k].depth;
-    }
-    out.alpha = covered;
-    if (covered > 0.0f) out.depth = depth / covered;
-    return out;
-  }
-
- private:
-  struct Texel {
-    float alpha, depth;
-  };
-  TileRect tile_{};
-  int stride_ = 0;             // tile.width + 2
-  std::vector<Texel> texels_;  // (tile.height + 2) rows of stride_
-};
 
 // Covered texels of a tile, as a box in tile-pixel coordinates grown by one
 // texel: a bilinear sample outside it reads four empty texels, so the
@@ -187,6 +120,8 @@ struct CoveredBox {
     const glm::vec2 p = FrameStToPixel(tile, st) - glm::vec2(tile.x, tile.y);
     return p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
   }
+  // MayCover for kLanes points given in tile pixel coordinates.
+  IntLanes MayCoverLanes(FloatLanes x, FloatLanes y) const { return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1); }
   // True when the ray passes the box at every height a march samples
   // (1 .. -1): then every read of the march is empty and it finds nothing,
   // so it may be skipped without changing any result. The ray's frame
@@ -261,13 +196,24 @@ void ShadeDepthPixel(const ImpostorAtlas& atlas, const FrameCamera& camera, cons
   for (int i = 0; i < blend.count; ++i) {
     entries[i] = {&atlas.cameras[blend.entries[i].index], blend.entries[i].weight};
   }
-  const DepthPixel depth = ReconstructDepth(
+  const DepthPixel depth = ReconstructDepthBatched(
       entries, blend.count, ViewRayOrigin(camera, view_st), -camera.direction,
       [&](int i) { return march(i, *entries[i].frame, view_st); },
       [&](int i, glm::vec2 st, float* height) {
         const TileHeights::AlphaDepth s = heights[i].Sample(st);
         *height = 1.0f - 2.0f * s.depth;
         return s.alpha;
+      },
+      [&](int i, int n, const glm::vec2* st, float* alpha, float* height) {
+        static_assert(kMaxSurfaceBatch <= kLanes);
+        FloatLanes s, t, a, d, x, y;
+        for (int l = 0; l < kLanes; ++l) {
+          s[l] = st[std::min(l, n - 1)].x;
+          t[l] = st[std::min(l, n - 1)].y;
+        }
+        heights[i].SampleLanes(s, t, &a, &d, &x, &y);
+        const FloatLanes h = 1.0f - 2.0f * d;
+        for (int l = 0; l < n; ++l) alpha[l] = a[l], height[l] = h[l];
       });
   px->alpha = depth.coverage;
   if (px->alpha < 0.5f) return;
@@ -367,15 +313,29 @@ ViewImages RenderImpostorView(const ImpostorAtlas& atlas, const FrameCamera& cam
   const bool depth_mode = options.reconstruction == Reconstruction::kDepth;
   const auto march = [&](int i, const FrameCamera& frame, glm::vec2 view_st) {
     const CoveredBox& box = boxes[i];
-    if (box.MissedBy(frame, ViewRayOrigin(camera, view_st), -camera.direction)) return PlaneSample{};
-    return ProjectToFrameParallax(
-        camera, frame, view_st,
+    const glm::vec3 origin = ViewRayOrigin(camera, view_st);
+    if (box.MissedBy(frame, origin, -camera.direction)) return PlaneSample{};
+    // ProjectToFrameParallax, reading the march's steps kLanes at a time.
+    return MarchFrameHeightField(
+        FramePlaneRay(frame, origin, -camera.direction),
         [&](glm::vec2 st, float* height) {
           if (!box.MayCover(frame.tile, st)) return false;
           const TileHeights::AlphaDepth s = heights[i].Sample(st);
           if (s.alpha < 0.5f) return false;
           *height = 1.0f - 2.0f * s.depth;
           return true;
+        },
+        [&](const FramePlaneRay& plane, const float* at, int n, CoarseStep* steps) {
+          n = std::min(n, kLanes);
+          FloatLanes h;
+          for (int l = 0; l < kLanes; ++l) h[l] = at[std::min(l, n - 1)];
+          FloatLanes s, t, alpha, depth, x, y;
+          plane.StAt(h, &s, &t);
+          heights[i].SampleLanes(s, t, &alpha, &depth, &x, &y);
+          const IntLanes covered = box.MayCoverLanes(x, y) & (alpha >= 0.5f);
+          const FloatLanes surface = 1.0f - 2.0f * depth;
+          for (int l = 0; l < n; ++l) steps[l] = {covered[l] != 0, surface[l]};
+          return n;
         },
         /*refine_crossings=*/depth_mode);
   };

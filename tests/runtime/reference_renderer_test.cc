@@ -3,7 +3,11 @@
 // pixels like the bake, and between frames stays close to the true object.
 #include "common/runtime/reference_renderer.h"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
+#include <random>
 #include <limits>
 #include <string>
 #include <vector>
@@ -346,6 +350,119 @@ TEST(DepthReconstruction, AHitDeepInItsFramesExtrusionNeedsTheOtherFrames) {
     EXPECT_NEAR(pixel.coverage, c.coverage, 1e-6f);
     EXPECT_EQ(pixel.samples[0].used, c.coverage >= 0.5f);
   }
+}
+
+// The agreement test's votes as they were written before the reads were
+// batched (each candidate against every frame, each read on its own, the
+// frame's own hit read again): the oracle for the batched form.
+DepthPixel VotesOneReadAtATime(const std::array<DepthEntry, 4>& entries, int count, glm::vec3 origin,
+                               glm::vec3 ray_unit, const DepthMarch& march, const DepthSurface& surface) {
+  DepthPixel out;
+  std::array<PlaneSample, 4> hits;
+  std::array<float, 4> hit_alpha{}, lambda{};
+  for (int i = 0; i < count; ++i) {
+    if (!(entries[i].weight > 0.0f)) continue;
+    hits[i] = march(i);
+    if (!hits[i].valid) continue;
+    float height = 0.0f;
+    hit_alpha[i] = surface(i, hits[i].st, &height);
+    if (!(hit_alpha[i] > 0.0f)) {
+      hits[i].valid = false;
+      continue;
+    }
+    const glm::vec3 point = FramePoint(*entries[i].frame, hits[i]);
+    const float confirmed =
+        height - hits[i].height > kExtrusionDepth
+            ? ExtrusionConfirmation(depth_internal::OthersInsideShare(entries, count, i, point, surface))
+            : 1.0f;
+    if (!(confirmed > 0.0f)) {
+      hits[i].valid = false;
+      continue;
+    }
+    out.coverage += entries[i].weight * hit_alpha[i] * confirmed;
+    lambda[i] = RayDistance(origin, ray_unit, point);
+  }
+  if (out.coverage < 0.5f) return out;
+  std::array<std::array<DepthSampleAt, 4>, 4> votes;
+  std::array<float, 4> support{};
+  float most = 0.0f;
+  for (int c = 0; c < count; ++c) {
+    if (!hits[c].valid) continue;
+    const glm::vec3 point = FramePoint(*entries[c].frame, hits[c]);
+    for (int j = 0; j < count; ++j) {
+      if (!(entries[j].weight > 0.0f)) continue;
+      const PlaneSample at = j == c ? hits[j] : ProjectPointToFrame(*entries[j].frame, point);
+      float height = 0.0f;
+      const float alpha = surface(j, at.st, &height);
+      DepthSampleAt& v = votes[c][j];
+      v.st = at.st;
+      if (!(alpha > 0.0f)) continue;
+      v.weight = entries[j].weight * alpha * DepthAgreement(height, at.height);
+      v.used = v.weight > 0.0f;
+      support[c] += v.weight;
+    }
+    most = std::max(most, support[c]);
+  }
+  int best = -1;
+  for (int c = 0; c < count; ++c) {
+    if (!hits[c].valid || !(support[c] >= kSupportShare * most)) continue;
+    if (best < 0 || lambda[c] > lambda[best]) best = c;
+  }
+  if (best >= 0 && support[best] > 0.0f) {
+    out.samples = votes[best];
+    return out;
+  }
+  for (int j = 0; j < count; ++j) {
+    if (hits[j].valid) out.samples[j] = {true, hits[j].st, entries[j].weight * hit_alpha[j]};
+  }
+  return out;
+}
+
+// ReconstructDepth and ReconstructDepthBatched (its reads of each frame
+// taken together, the frame's own hit read once) give what the oracle
+// above gives, to the bit, over random frames, weights, march hits and a
+// surface of bumps and holes.
+TEST(DepthReconstruction, BatchedReadsVoteAsOneAtATime) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), weight(0.0f, 1.0f);
+  int covered = 0, dropped = 0;
+  for (int r = 0; r < 20000; ++r) {
+    const glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)));
+    std::array<FrameCamera, 4> frames;
+    std::array<DepthEntry, 4> entries;
+    const int count = 2 + r % 3;
+    for (int i = 0; i < count; ++i) {
+      frames[i] = CameraForDirection(glm::normalize(d + 0.5f * glm::vec3(unit(rng), unit(rng), unit(rng))));
+      entries[i] = {&frames[i], r % 7 == i ? 0.0f : weight(rng)};
+    }
+    std::array<PlaneSample, 4> hits;
+    for (int i = 0; i < count; ++i) hits[i] = {weight(rng) < 0.8f, {0.3f * unit(rng), 0.3f * unit(rng)}, 0.5f * unit(rng)};
+    const DepthMarch march = [&](int i) { return hits[i]; };
+    const DepthSurface surface = [](int i, glm::vec2 st, float* height) {
+      *height = 0.4f * std::sin(6.0f * st.x + static_cast<float>(i)) * std::cos(4.0f * st.y);
+      return std::clamp(1.5f - 4.0f * (st.x * st.x + st.y * st.y), 0.0f, 1.0f);
+    };
+    const glm::vec3 origin = 3.0f * d;
+    const DepthPixel want = VotesOneReadAtATime(entries, count, origin, -d, march, surface);
+    const DepthPixel plain = ReconstructDepth(entries, count, origin, -d, march, surface);
+    const DepthPixel batched = ReconstructDepthBatched(
+        entries, count, origin, -d, march, surface,
+        [&](int i, int n, const glm::vec2* st, float* alpha, float* height) {
+          for (int k = n - 1; k >= 0; --k) alpha[k] = surface(i, st[k], &height[k]);  // any order
+        });
+    for (const DepthPixel* got : {&plain, &batched}) {
+      ASSERT_EQ(got->coverage, want.coverage) << "case " << r;
+      for (int j = 0; j < 4; ++j) {
+        ASSERT_EQ(got->samples[j].used, want.samples[j].used) << "case " << r << " frame " << j;
+        ASSERT_EQ(got->samples[j].st, want.samples[j].st) << "case " << r << " frame " << j;
+        ASSERT_EQ(got->samples[j].weight, want.samples[j].weight) << "case " << r << " frame " << j;
+      }
+    }
+    if (want.coverage >= 0.5f) ++covered;
+    for (int j = 0; j < count; ++j) dropped += want.coverage >= 0.5f && entries[j].weight > 0.0f && !want.samples[j].used;
+  }
+  EXPECT_GT(covered, 2000);
+  EXPECT_GT(dropped, 500) << "frames must drop out of some pixels";
 }
 
 TEST(DepthReconstruction, ExtrusionConfirmationRampsOverTheOtherFramesShare) {

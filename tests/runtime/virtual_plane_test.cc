@@ -2,7 +2,11 @@
 // points on the plane, and parallax that finds a surface at a known height.
 #include "common/runtime/virtual_plane.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <iterator>
+#include <random>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
@@ -11,6 +15,13 @@
 
 namespace impostor {
 namespace {
+
+// The coarse steps' heights, to tell a crossing's finer reads from them.
+const std::array<float, kParallaxSteps + 1> kCoarse = [] {
+  std::array<float, kParallaxSteps + 1> h{};
+  for (int i = 0; i <= kParallaxSteps; ++i) h[i] = CoarseStepHeight(i);
+  return h;
+}();
 
 TEST(VirtualPlane, FrameCameraSeesItsOwnTileUnchanged) {
   for (const FrameCamera& frame : AtlasCameras(LayoutKind::kOctahedral, 6, 384)) {
@@ -104,6 +115,56 @@ TEST(VirtualPlane, SilhouetteCrossingsAreSampledFinerWhenAsked) {
   ASSERT_TRUE(fine.valid);
   EXPECT_GE(u(fine.st), 0.3f);
   EXPECT_LE(u(fine.st), 0.8f);
+}
+
+// MarchFrameHeightField with a reader that takes up to 2, 3, 4 or 8
+// heights a call (as the reference renderer's SIMD reader takes 4) finds
+// what the one-at-a-time march finds, to the bit, with and without the finer
+// sampling of silhouette crossings: over random rays through a height field
+// of bumps and holes, so that coarse hits, crossings found and missed, and
+// misses all occur.
+TEST(VirtualPlane, BatchedReadsMarchAsOneAtATime) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const auto reader = [](glm::vec2 st, float* height) {
+    const float bumps = 0.6f * std::sin(7.0f * st.x) * std::cos(5.0f * st.y);
+    if (bumps < -0.25f || st.x * st.x + st.y * st.y > 0.8f) return false;  // holes and the outline
+    *height = bumps;
+    return true;
+  };
+  int hits = 0, misses = 0, fine_reads = 0, differs_when_refined = 0;
+  for (int r = 0; r < 4000; ++r) {
+    const glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)));
+    const FrameCamera frame = CameraForDirection(d);
+    const FrameCamera view = CameraForDirection(glm::normalize(d + 0.6f * glm::vec3(unit(rng), unit(rng), unit(rng))));
+    const glm::vec3 origin = ViewRayOrigin(view, {unit(rng), unit(rng)});
+    const FramePlaneRay plane(frame, origin, -view.direction);
+    for (bool refine : {false, true}) {
+      const PlaneSample want = IntersectFrameHeightField(frame, origin, -view.direction, reader, refine);
+      (want.valid ? hits : misses) += 1;
+      if (refine && want.valid != IntersectFrameHeightField(frame, origin, -view.direction, reader).valid) {
+        ++differs_when_refined;
+      }
+      for (int width : {2, 3, 4, kMaxCoarseBatch}) {
+        const auto batch = [&](const FramePlaneRay& p, const float* heights, int n, CoarseStep* steps) {
+          const int m = std::min(n, width);
+          for (int k = 0; k < m; ++k) {
+            if (std::find(std::begin(kCoarse), std::end(kCoarse), heights[k]) == std::end(kCoarse)) ++fine_reads;
+            steps[k].covered = reader(p.At(heights[k]).st, &steps[k].surface);
+          }
+          return m;
+        };
+        const PlaneSample got = MarchFrameHeightField(plane, reader, batch, refine);
+        ASSERT_EQ(got.valid, want.valid) << "ray " << r << " width " << width << " refine " << refine;
+        ASSERT_EQ(got.st, want.st) << "ray " << r << " width " << width << " refine " << refine;
+        ASSERT_EQ(got.height, want.height) << "ray " << r << " width " << width << " refine " << refine;
+      }
+    }
+  }
+  EXPECT_GT(hits, 1000);
+  EXPECT_GT(misses, 1000);
+  EXPECT_GT(fine_reads, 1000) << "crossings must be sampled finer";
+  EXPECT_GT(differs_when_refined, 10) << "the finer sampling must change some rays";
 }
 
 TEST(VirtualPlane, FramesFacingAwayAreInvalid) {
