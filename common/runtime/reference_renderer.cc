@@ -110,7 +110,6 @@ class TileSampler {
   const std::array<float, 256>& srgb_;
 };
 
-
 // Covered texels of a tile, as a box in tile-pixel coordinates grown by one
 // texel: a bilinear sample outside it reads four empty texels, so the
 // parallax march may skip it without changing any result.

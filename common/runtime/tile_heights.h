@@ -33,9 +33,10 @@ inline IntLanes BroadcastLanes(int32_t v) { return IntLanes{} + v; }
 inline FloatLanes AbsLanes(FloatLanes v) { return v < 0.0f ? -v : v; }
 
 // One blended frame's tile as the march and the agreement test read it:
-// per texel the coverage and depth exactly as TileSampler decodes them, side
-// by side in a tile-sized array with a one-texel border repeating the edge,
-// so a march step touches one small array instead of two atlas-wide ones and
+// per texel the coverage and depth exactly as TileSampler (the reference
+// renderer's full sampler, reference_renderer.cc) decodes them, side by side
+// in a tile-sized array with a one-texel border repeating the edge, so a
+// march step touches one small array instead of two atlas-wide ones and
 // needs no clamping or branch per tap. Sample(st) is TileSampler::Sample(
 // tile, st)'s alpha and depth to the bit: the taps TileSampler skips (zero
 // bilinear weight or zero alpha) add exactly zero here.
@@ -151,6 +152,9 @@ class TileHeights {
   struct Texel {
     float alpha, depth;
   };
+  // SampleLanes loads two neighbouring texels as one FloatLanes and
+  // transposes four of them.
+  static_assert(kLanes == 4 && 2 * sizeof(Texel) == sizeof(FloatLanes));
   TileRect tile_{};
   int stride_ = 0;             // tile.width + 2
   std::vector<Texel> texels_;  // (tile.height + 2) rows of stride_
