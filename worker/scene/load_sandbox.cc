@@ -1,5 +1,6 @@
 #include "worker/scene/load_sandbox.h"
 
+#include <malloc.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -140,6 +141,16 @@ Report LoadOne(const std::filesystem::path& entry_file, const GltfLoadLimits& li
   // No core files for a bomb.
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
+  // Keep the decoders' freed buffers for the next load, as this process is
+  // kept for: by default glibc hands each buffer above its mmap threshold (a
+  // decoded 2048² map is 16 MiB) back to the kernel and trims the heap's
+  // top, and the next load faults it all in again. On a VM that was 0.15 s
+  // of a reused DamagedHelmet load (0.40 -> 0.25 s, docs/explanation/
+  // figures.md). What stays is bounded: above kMaxIdleResidentBytes the
+  // sandbox is replaced. Buffers over 32 MiB (glibc's highest threshold)
+  // still come and go by mmap.
+  ::mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  ::mallopt(M_TRIM_THRESHOLD, static_cast<int>(LoadSandbox::kMaxIdleResidentBytes));
   for (;;) {
     Request request{};
     char path[PATH_MAX];
