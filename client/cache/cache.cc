@@ -8,10 +8,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <mutex>
 #include <optional>
-#include <sstream>
 #include <system_error>
 #include <unordered_map>
 #include <unordered_set>
@@ -41,6 +39,7 @@
 #include "client/transfer/mesh_upload.h"
 #include "client/transfer/result_fetch.h"
 #include "client/base/sdk_log.h"
+#include "client/base/small_file.h"
 #include "common/net/keepalive.h"
 #include "common/net/server_list.h"
 #include "common/net/tls_files.h"
@@ -66,14 +65,6 @@ absl::Status InvalidKey(const std::string& key) {
   return absl::InvalidArgumentError(
       absl::StrCat("cache key \"", key.substr(0, 80), "\": expected 64 lowercase hex characters",
                    " (asset names need CacheOptions.mirrors and channel)"));
-}
-
-absl::StatusOr<std::string> ReadText(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot open"));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 }  // namespace
@@ -487,7 +478,7 @@ class Cache::Impl {
           CachedFile{f.semantic, dir / f.name, f.sha256, f.size_bytes, f.width, f.height, f.format});
       view->size_bytes += f.size_bytes;
     }
-    absl::StatusOr<std::string> text = ReadText(view->manifest_path);
+    absl::StatusOr<std::string> text = ReadSmallFile(view->manifest_path, kMaxManifestBytes);
     if (!text.ok()) return text.status();
     view->manifest_json = std::move(*text);
     ManifestSummary summary = SummarizeManifest(view->manifest_json);

@@ -16,6 +16,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/base/local_io_error.h"
+#include "client/base/small_file.h"
 #include "common/util/sha256.h"
 
 namespace impostor::sdk {
@@ -163,14 +164,13 @@ absl::StatusOr<EntryRecord> EntryRecordFromJson(std::string_view json) {
 
 absl::StatusOr<EntryRecord> ReadEntryRecord(const fs::path& dir) {
   const fs::path path = dir / kEntryRecordName;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    if (errno == ENOENT || errno == ENOTDIR) return absl::NotFoundError(absl::StrCat(path.string(), ": absent"));
-    return LocalIoError("cannot read", path, errno);
+  absl::StatusOr<std::string> text = ReadSmallFile(path, kMaxEntryRecordBytes);
+  if (!text.ok()) {
+    // Over the limit: not a record of ours.
+    if (absl::IsOutOfRange(text.status())) return absl::InvalidArgumentError(text.status().message());
+    return text.status();
   }
-  std::stringstream text;
-  text << in.rdbuf();
-  absl::StatusOr<EntryRecord> record = EntryRecordFromJson(text.str());
+  absl::StatusOr<EntryRecord> record = EntryRecordFromJson(*text);
   if (!record.ok()) return absl::InvalidArgumentError(absl::StrCat(path.string(), ": ", record.status().message()));
   return record;
 }

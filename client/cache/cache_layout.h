@@ -45,6 +45,12 @@ struct EntryRecord {
 };
 
 inline constexpr char kEntryRecordName[] = ".entry";
+// An entry record larger than this is not one this library wrote (a
+// result's record is a few KiB): it is treated as unreadable.
+inline constexpr int64_t kMaxEntryRecordBytes = int64_t{16} << 20;
+// A result's manifest.json, read into memory for every entry's view; its
+// digest was checked when it was installed.
+inline constexpr int64_t kMaxManifestBytes = int64_t{256} << 20;
 
 class CacheLayout {
  public:

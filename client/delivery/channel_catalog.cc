@@ -1,13 +1,12 @@
 #include "client/delivery/channel_catalog.h"
 
-#include <fstream>
-#include <sstream>
 
 #include "absl/strings/string_view.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/base/atomic_file.h"
+#include "client/base/small_file.h"
 #include "client/delivery/http_get.h"
 #include "client/delivery/mirror_blob.h"
 #include "client/delivery/release_paths.h"
@@ -22,12 +21,12 @@ namespace fs = std::filesystem;
 // A channel file is a few hundred bytes; anything far larger is not one.
 constexpr int64_t kMaxChannelFileBytes = 64 * 1024;
 
-std::optional<std::string> ReadSmallFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+// What was kept on disk; nullopt when absent or unreadable (the channel is
+// then fetched as on a first start).
+std::optional<std::string> ReadKept(const fs::path& path, int64_t max_bytes) {
+  absl::StatusOr<std::string> text = sdk::ReadSmallFile(path, max_bytes);
+  if (!text.ok()) return std::nullopt;
+  return std::move(*text);
 }
 
 absl::Status WriteAtomically(const fs::path& path, std::string_view text) {
@@ -61,7 +60,7 @@ absl::StatusOr<std::unique_ptr<ChannelCatalog>> ChannelCatalog::Open(ChannelCata
 
 void ChannelCatalog::LoadFromDisk() {
   const fs::path channel_file = options_.state_dir / "channels" / (options_.channel + ".json");
-  std::optional<std::string> channel_text = ReadSmallFile(channel_file);
+  std::optional<std::string> channel_text = ReadKept(channel_file, kMaxChannelFileBytes);
   if (!channel_text.has_value()) return;
   absl::StatusOr<ChannelPointer> pointer = ParseChannel(*channel_text, channel_file.string());
   if (!pointer.ok()) {
@@ -69,7 +68,7 @@ void ChannelCatalog::LoadFromDisk() {
     return;
   }
   const fs::path catalog_file = options_.state_dir / "catalogs" / pointer->catalog_sha256;
-  std::optional<std::string> catalog_text = ReadSmallFile(catalog_file);
+  std::optional<std::string> catalog_text = ReadKept(catalog_file, kMaxCatalogBytes);
   if (!catalog_text.has_value()) return;
   absl::StatusOr<std::shared_ptr<const Catalog>> catalog = CheckCatalog(*pointer, *catalog_text, catalog_file.string());
   if (!catalog.ok()) {

@@ -13,18 +13,6 @@
 namespace impostor::delivery {
 namespace {
 
-// One easy handle per thread: curl keeps its connections (and DNS answers)
-// with the handle, so a thread fetching many files from one mirror reuses
-// its connection.
-struct ThreadHandle {
-  explicit ThreadHandle(const CurlLibrary* lib) : lib(lib), curl(lib->easy_init()) {}
-  ~ThreadHandle() {
-    if (curl != nullptr) lib->easy_cleanup(curl);
-  }
-  const CurlLibrary* lib;
-  CURL* curl;
-};
-
 struct Transfer {
   const HttpGetOptions* options;
   const std::function<absl::Status(std::string_view)>* sink;
@@ -89,6 +77,43 @@ int OnProgress(void* user, curl_off_t, curl_off_t, curl_off_t, curl_off_t) {
   return t->options->cancel != nullptr && t->options->cancel->cancelled() ? 1 : 0;
 }
 
+// One easy handle per thread: curl keeps its connections (and DNS answers)
+// with the handle, so a thread fetching many files from one mirror reuses
+// its connection. The options every transfer shares are set once per
+// handle rather than reset and set again for each file (curl_easy_reset
+// frees and rebuilds all of the handle's settings).
+struct ThreadHandle {
+  explicit ThreadHandle(const CurlLibrary* lib) : lib(lib), curl(lib->easy_init()) {}
+  ~ThreadHandle() {
+    if (curl != nullptr) lib->easy_cleanup(curl);
+  }
+  const CurlLibrary* lib;
+  CURL* curl;
+  bool configured = false;
+  std::string ca_file;  // what CURLOPT_CAINFO was set to ("" = the system's)
+};
+
+// The options that are the same for every transfer, and the CA bundle
+// (which changes only when one thread serves caches of different settings).
+void Configure(ThreadHandle& handle, const std::string& ca_file) {
+  const CurlLibrary& lib = *handle.lib;
+  CURL* curl = handle.curl;
+  lib.easy_reset(curl);
+  lib.easy_setopt(curl, CURLOPT_NOSIGNAL, 1L);
+  lib.easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 1L);
+  lib.easy_setopt(curl, CURLOPT_MAXREDIRS, 5L);
+  lib.easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
+  lib.easy_setopt(curl, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
+  lib.easy_setopt(curl, CURLOPT_HEADERFUNCTION, &OnHeader);
+  lib.easy_setopt(curl, CURLOPT_WRITEFUNCTION, &OnBody);
+  lib.easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
+  lib.easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, &OnProgress);
+  lib.easy_setopt(curl, CURLOPT_USERAGENT, "impostor-sdk/1");
+  if (!ca_file.empty()) lib.easy_setopt(curl, CURLOPT_CAINFO, ca_file.c_str());
+  handle.configured = true;
+  handle.ca_file = ca_file;
+}
+
 }  // namespace
 
 absl::StatusOr<HttpGetResult> HttpGet(const std::string& url, const HttpGetOptions& options,
@@ -100,41 +125,32 @@ absl::StatusOr<HttpGetResult> HttpGet(const std::string& url, const HttpGetOptio
   thread_local ThreadHandle handle(&lib);
   if (handle.curl == nullptr) return absl::InternalError("libcurl: cannot create a handle");
   if (options.cancel != nullptr && options.cancel->cancelled()) return options.cancel->error();
+  if (!handle.configured || handle.ca_file != options.ca_file) Configure(handle, options.ca_file);
   CURL* curl = handle.curl;
-  lib.easy_reset(curl);
   Transfer t{&options, &sink, {}, 0, absl::OkStatus()};
   const long stall_ms = static_cast<long>(std::ceil(options.stall_seconds * 1000));
+  // Every option that differs between transfers is set for each one,
+  // cleared ones included (no Range, no If-None-Match).
   lib.easy_setopt(curl, CURLOPT_URL, url.c_str());
-  lib.easy_setopt(curl, CURLOPT_NOSIGNAL, 1L);
-  lib.easy_setopt(curl, CURLOPT_FOLLOWLOCATION, 1L);
-  lib.easy_setopt(curl, CURLOPT_MAXREDIRS, 5L);
-  lib.easy_setopt(curl, CURLOPT_PROTOCOLS_STR, "http,https");
-  lib.easy_setopt(curl, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
   lib.easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS, stall_ms);
   // A transfer that moves less than one byte a second for the stall time
   // has stalled (curl counts whole seconds).
   lib.easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
   lib.easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, std::max(1L, (stall_ms + 999) / 1000));
-  lib.easy_setopt(curl, CURLOPT_HEADERFUNCTION, &OnHeader);
   lib.easy_setopt(curl, CURLOPT_HEADERDATA, &t);
-  lib.easy_setopt(curl, CURLOPT_WRITEFUNCTION, &OnBody);
   lib.easy_setopt(curl, CURLOPT_WRITEDATA, &t);
-  lib.easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
-  lib.easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, &OnProgress);
   lib.easy_setopt(curl, CURLOPT_XFERINFODATA, &t);
-  lib.easy_setopt(curl, CURLOPT_USERAGENT, "impostor-sdk/1");
-  if (!options.ca_file.empty()) lib.easy_setopt(curl, CURLOPT_CAINFO, options.ca_file.c_str());
   std::string range;
-  if (options.offset > 0) {
-    range = absl::StrCat(options.offset, "-");
-    lib.easy_setopt(curl, CURLOPT_RANGE, range.c_str());
-  }
+  if (options.offset > 0) range = absl::StrCat(options.offset, "-");
+  lib.easy_setopt(curl, CURLOPT_RANGE, range.empty() ? nullptr : range.c_str());
   curl_slist* headers = nullptr;
   if (!options.if_none_match.empty()) {
     headers = lib.slist_append(headers, absl::StrCat("If-None-Match: ", options.if_none_match).c_str());
-    lib.easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
   }
+  lib.easy_setopt(curl, CURLOPT_HTTPHEADER, headers);
   const CURLcode code = lib.easy_perform(curl);
+  // The handle keeps no pointer to this call's header list.
+  lib.easy_setopt(curl, CURLOPT_HTTPHEADER, static_cast<curl_slist*>(nullptr));
   lib.slist_free_all(headers);
   if (partial_bytes != nullptr) *partial_bytes = t.result.body_bytes;
   long status = 0;

@@ -1,8 +1,13 @@
 // Pure pieces of the cache: LRU accounting, the `.entry` record format and
-// its bad inputs, and the single-flight coordinator.
+// its bad inputs, reading small files, and the single-flight coordinator.
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <future>
 #include <latch>
 #include <memory>
@@ -12,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "client/base/small_file.h"
 #include "client/cache/cache_layout.h"
 #include "client/cache/cached_result_rep.h"
 #include "client/cache/download_coordinator.h"
@@ -89,6 +95,67 @@ TEST(EntryRecord, BadRecordsAreRefusedByName) {
     }
     EXPECT_EQ(EntryRecordFromJson(json).status().code(), absl::StatusCode::kInvalidArgument) << c.name;
   }
+}
+
+// A fresh folder under the test's temporary directory, removed with
+// everything in it when the test ends.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    std::string pattern = (std::filesystem::path(::testing::TempDir()) / "small-file-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) != nullptr) path_ = pattern;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
+  }
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path Write(const std::string& name, const std::string& bytes) const {
+    const std::filesystem::path p = path_ / name;
+    std::ofstream(p, std::ios::binary) << bytes;
+    return p;
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+TEST(SmallFile, ReadsWholeFilesUpToTheLimit) {
+  ScratchDir dir;
+  ASSERT_FALSE(dir.path().empty());
+  std::string bytes(100000, '\0');
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<char>(i * 31 + 7);
+  EXPECT_EQ(ReadSmallFile(dir.Write("big", bytes), 100000).value(), bytes);  // exactly the limit
+  EXPECT_EQ(ReadSmallFile(dir.Write("empty", ""), 0).value(), "");
+  EXPECT_EQ(ReadSmallFile(dir.Write("text", "hello"), 1 << 20).value(), "hello");
+}
+
+TEST(SmallFile, RefusesWhatIsMissingTooLargeOrNotAFile) {
+  ScratchDir dir;
+  ASSERT_FALSE(dir.path().empty());
+  const std::filesystem::path file = dir.Write("file", std::string(100, 'x'));
+  EXPECT_EQ(ReadSmallFile(dir.path() / "absent", 10).status().code(), absl::StatusCode::kNotFound);
+  // A file where a folder should be (ENOTDIR) is absent as well.
+  EXPECT_EQ(ReadSmallFile(file / "below", 10).status().code(), absl::StatusCode::kNotFound);
+  const absl::Status too_large = ReadSmallFile(file, 99).status();
+  EXPECT_EQ(too_large.code(), absl::StatusCode::kOutOfRange);
+  EXPECT_NE(too_large.message().find("100 bytes is over the limit of 99 bytes"), std::string::npos) << too_large;
+  EXPECT_NE(too_large.message().find(file.string()), std::string::npos) << too_large;
+  const absl::Status folder = ReadSmallFile(dir.path(), 1 << 20).status();
+  EXPECT_EQ(folder.code(), absl::StatusCode::kInternal) << folder;
+  EXPECT_NE(folder.message().find(dir.path().string()), std::string::npos) << folder;
+}
+
+TEST(EntryRecord, AnAbsentRecordIsNotFoundAndAnOversizedOneIsRefused) {
+  ScratchDir dir;
+  ASSERT_FALSE(dir.path().empty());
+  EXPECT_EQ(ReadEntryRecord(dir.path()).status().code(), absl::StatusCode::kNotFound);
+  dir.Write(kEntryRecordName, EntryRecordToJson(SampleRecord()));
+  EXPECT_EQ(ReadEntryRecord(dir.path()).value().key, SampleRecord().key);
+  ASSERT_EQ(::truncate((dir.path() / kEntryRecordName).c_str(), kMaxEntryRecordBytes + 1), 0);
+  const absl::Status oversized = ReadEntryRecord(dir.path()).status();
+  EXPECT_EQ(oversized.code(), absl::StatusCode::kInvalidArgument) << oversized;
+  EXPECT_NE(oversized.message().find("over the limit"), std::string::npos) << oversized;
 }
 
 TEST(ManifestSummary, ReadsProductAndViewCount) {
