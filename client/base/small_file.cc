@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 
 #include "absl/strings/str_cat.h"
@@ -29,17 +30,16 @@ absl::StatusOr<std::string> ReadSmallFile(const std::filesystem::path& path, int
     return absl::OutOfRangeError(
         absl::StrCat(path.string(), ": ", st.st_size, " bytes is over the limit of ", max_bytes, " bytes"));
   }
-  // One byte more than fstat said: a file that grew meanwhile shows as such
-  // (read on to its end, within the limit) rather than being cut short.
+  // One byte more than fstat said, up to one past the limit: a file that
+  // grew meanwhile is read on to its end rather than cut short, and one
+  // that grew past the limit shows as such.
+  const size_t cap = static_cast<size_t>(max_bytes) + 1;
   std::string text(static_cast<size_t>(st.st_size) + 1, '\0');
   size_t have = 0;
   while (true) {
     if (have == text.size()) {
-      if (static_cast<int64_t>(text.size()) > max_bytes) {
-        return absl::OutOfRangeError(
-            absl::StrCat(path.string(), ": grew past the limit of ", max_bytes, " bytes while read"));
-      }
-      text.resize(text.size() * 2);
+      if (text.size() >= cap) break;
+      text.resize(std::min(text.size() * 2, cap));
     }
     const ssize_t n = ::read(fd, text.data() + have, text.size() - have);
     if (n < 0 && errno == EINTR) continue;
@@ -47,7 +47,7 @@ absl::StatusOr<std::string> ReadSmallFile(const std::filesystem::path& path, int
     if (n == 0) break;
     have += static_cast<size_t>(n);
   }
-  if (static_cast<int64_t>(have) > max_bytes) {
+  if (have >= cap) {
     return absl::OutOfRangeError(
         absl::StrCat(path.string(), ": grew past the limit of ", max_bytes, " bytes while read"));
   }

@@ -1,6 +1,5 @@
 #include "client/delivery/channel_catalog.h"
 
-
 #include "absl/strings/string_view.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
