@@ -75,12 +75,13 @@ absl::Status WriteAll(int fd, std::string_view data, const fs::path& path) {
 }
 
 // True when `path` names the file open as `fd` (it was not deleted or
-// replaced meanwhile); fills `identity` with the open file's.
-bool SameFile(int fd, const fs::path& path, FileIdentity* identity) {
-  struct stat open_file, named;
-  if (::fstat(fd, &open_file) != 0) return false;
-  if (identity != nullptr) *identity = {open_file.st_dev, open_file.st_ino};
-  return ::lstat(path.c_str(), &named) == 0 && named.st_dev == open_file.st_dev && named.st_ino == open_file.st_ino;
+// replaced meanwhile); fills `identity` with the open file's, and
+// `open_file` with its fstat (what the callers would otherwise ask again).
+bool SameFile(int fd, const fs::path& path, FileIdentity* identity, struct stat* open_file) {
+  struct stat named;
+  if (::fstat(fd, open_file) != 0) return false;
+  if (identity != nullptr) *identity = {open_file->st_dev, open_file->st_ino};
+  return ::lstat(path.c_str(), &named) == 0 && named.st_dev == open_file->st_dev && named.st_ino == open_file->st_ino;
 }
 
 // flock(LOCK_EX | LOCK_NB): 0, or the errno.
@@ -216,17 +217,19 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
   // A holder that finished an install (or hit a full disk), or garbage
   // collection, may have deleted the name while we waited: the file we
   // locked is then no partial any more.
-  if (!SameFile(file.get(), partial, &outcome.identity)) {
+  struct stat st;
+  if (!SameFile(file.get(), partial, &outcome.identity, &st)) {
     return absl::AbortedError(absl::StrCat(partial.string(), ": deleted while waiting for it"));
   }
 
   const int fd = file.get();
   const int64_t size = digest.size_bytes();
   // Two passes at most: resume from what is there, and if those bytes were
-  // bad, once more from zero.
+  // bad, once more from zero. The first pass sizes the file from SameFile's
+  // fstat (taken under the lock); a fresh partial is read and written from
+  // offset 0, where open left it (HashPrefix reads with pread).
   for (int pass = 0; pass < 2; ++pass) {
-    struct stat st;
-    if (::fstat(fd, &st) != 0) return LocalIoError("cannot stat", partial, errno);
+    if (pass > 0 && ::fstat(fd, &st) != 0) return LocalIoError("cannot stat", partial, errno);
     int64_t have = st.st_size;
     if (have > size) {
       if (::ftruncate(fd, 0) != 0) return LocalIoError("cannot truncate", partial, errno);
@@ -234,7 +237,9 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
     }
     Sha256 hash;
     if (absl::Status s = HashPrefix(fd, have, hash, partial); !s.ok()) return s;
-    if (::lseek(fd, have, SEEK_SET) < 0) return LocalIoError("cannot seek", partial, errno);
+    if (!(pass == 0 && have == 0) && ::lseek(fd, have, SEEK_SET) < 0) {
+      return LocalIoError("cannot seek", partial, errno);
+    }
     if (hooks.on_blob_start) hooks.on_blob_start(digest.hash(), have);
     absl::Status status;
     if (have == size) {
@@ -292,14 +297,17 @@ int64_t RemovePartialIfUnused(const fs::path& path, const FileIdentity* identity
   struct stat st;
   // Young files are not even locked: that would make a download that wants
   // the lock right then wait a moment, or an install's cleanup skip them.
-  if (::lstat(path.c_str(), &st) != 0 || !old_enough(st)) return -1;
+  // (An install's cleanup, min_age 0, goes straight to the lock: one look
+  // fewer per blob.)
+  if (min_age_seconds > 0 && (::lstat(path.c_str(), &st) != 0 || !old_enough(st))) return -1;
   Fd file(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW));
   if (file.get() < 0) return -1;
   if (TryLockExclusive(file.get()) != 0) return -1;  // a download is using it
   FileIdentity locked;
-  if (!SameFile(file.get(), path, &locked)) return -1;  // deleted or replaced meanwhile
+  // Deleted or replaced meanwhile; st is now the locked file's own.
+  if (!SameFile(file.get(), path, &locked, &st)) return -1;
   if (identity != nullptr && (identity->dev != locked.dev || identity->ino != locked.ino)) return -1;
-  if (::fstat(file.get(), &st) != 0 || !old_enough(st)) return -1;  // written since we looked
+  if (!old_enough(st)) return -1;  // written since we looked
   if (::unlink(path.c_str()) != 0) return -1;
   return static_cast<int64_t>(st.st_size);
 }

@@ -179,6 +179,28 @@ TEST(ManifestSummary, TellsTextureArraysFromAtlasesByTheirMapsShape) {
   EXPECT_FALSE(SummarizeManifest(R"({"tile_size": 64, "views": [{}], "maps": "x"})").texture_array);
 }
 
+TEST(ManifestSummary, ReadsFieldsInAnyOrderAndALaterDuplicateWins) {
+  // The maps before tile_size and views; views whose elements nest.
+  const ManifestSummary strip = SummarizeManifest(
+      R"({"maps": [7, {"semantic": "albedo_alpha", "extra": {"width": 1}, "width": 64, "height": 128}],)"
+      R"( "views": [{"a": [1, {"b": 2}]}, [3]], "tile_size": 64, "product": "atlas"})");
+  EXPECT_EQ(strip.view_count, 2u);
+  EXPECT_TRUE(strip.texture_array);
+  // A key given twice counts with its last value, as in a parsed document.
+  const ManifestSummary twice = SummarizeManifest(
+      R"({"product": "cards", "views": [{}, {}], "product": 7, "views": {"a": 1}, "tile_size": 64,)"
+      R"( "tile_size": -64})");
+  EXPECT_EQ(twice.product, "atlas");
+  EXPECT_EQ(twice.view_count, 0u);
+  EXPECT_FALSE(SummarizeManifest(R"({"tile_size": 64, "views": [{}, {}],)"
+                                 R"( "maps": [{"semantic": "albedo_alpha", "width": 64, "height": 128}], "maps": []})")
+                   .texture_array);
+  // A document cut short says nothing, whatever came before the cut.
+  const ManifestSummary cut = SummarizeManifest(R"({"product": "cards", "views": [{}, {})");
+  EXPECT_EQ(cut.product, "atlas");
+  EXPECT_EQ(cut.view_count, 0u);
+}
+
 TEST(ManifestSummary, MissingOrMistypedFieldsKeepTheDefaults) {
   // Manifests older than products are atlases.
   EXPECT_EQ(SummarizeManifest(R"({"views": [{}]})").product, "atlas");
