@@ -29,7 +29,7 @@ class SummaryReader : public nlohmann::json_sax<nlohmann::json> {
     if (tile_size_ && maps_are_array_ && out.view_count > 1) {
       const uint64_t t = *tile_size_;
       for (const Map& map : maps_) {
-        if (map.is_object && map.semantic == "albedo_alpha") {
+        if (map.semantic == "albedo_alpha") {
           out.texture_array = map.width == t && map.height == t * out.view_count;
         }
       }
@@ -61,8 +61,8 @@ class SummaryReader : public nlohmann::json_sax<nlohmann::json> {
   bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
 
  private:
+  // An element of "maps" (one that is no object keeps no semantic).
   struct Map {
-    bool is_object = false;
     std::string semantic;
     uint64_t width = 0;
     uint64_t height = 0;
@@ -74,7 +74,7 @@ class SummaryReader : public nlohmann::json_sax<nlohmann::json> {
   // Every value, where it starts. A top-level key given twice counts with
   // its last value, as in a parsed document: what an earlier one set goes.
   // An element of "views" is counted, one of "maps" gets its record.
-  bool Value(bool object = false) {
+  bool Value() {
     if (depth_ == 1) {
       if (key_ == "product") product_.reset();
       if (key_ == "tile_size") tile_size_.reset();
@@ -86,7 +86,7 @@ class SummaryReader : public nlohmann::json_sax<nlohmann::json> {
     } else if (depth_ == 2 && in_views_) {
       *views_ += 1;
     } else if (depth_ == 2 && in_maps_) {
-      maps_.push_back(Map{object, "", 0, 0});
+      maps_.emplace_back();
     }
     return true;
   }
@@ -99,7 +99,7 @@ class SummaryReader : public nlohmann::json_sax<nlohmann::json> {
   }
   bool Open(bool object) {
     if (depth_ == 0) top_is_object_ = object;
-    Value(object);
+    Value();
     if (depth_ == 1 && !object) {
       in_views_ = key_ == "views";
       in_maps_ = key_ == "maps";
