@@ -248,6 +248,13 @@ void HttpFrontend::Route() {
   // waiting on a busy scheduler (up to BakeScheduler::kViewLockWaitMs) must
   // not leave /healthz and /readyz without a thread.
   s.new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
+  // No Nagle: the library writes a response's headers and its body (each
+  // chunk of a streamed blob) in separate sends, and on a kept-alive
+  // connection the second waited for the client's delayed ACK: 40 ms for
+  // every request after a connection's first (a game's HTTP client, or
+  // libcurl fetching a release's files one after another on one connection).
+  // Inherited by every accepted connection.
+  s.set_tcp_nodelay(true);
   s.set_socket_options([](socket_t sock) {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
