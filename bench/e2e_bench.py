@@ -12,7 +12,8 @@ Everything is timed in one run on this machine:
    other processes on a shared machine hits both sides alike.
 3. build/bin/isolated_load_bench on MODEL: isolated against in-process load.
 4. `impostor fetch KEY --out DIR` of the result just baked against nginx +
-   curl serving exactly the same files, alternating pairs.
+   curl serving exactly the same files, alternating rounds with Cache::Get
+   and curl against the farm's own HTTP front end.
 5. The farm's /metrics stage sums over the warm bakes beside bake_stages'
    stages, so the difference between the two is attributed.
 6. With --blender (bench/compare_blender.sh): Blender 3.4 Cycles rendering
@@ -417,10 +418,27 @@ class Bench:
                 cmd += ["-o", str(dest / f), base + urllib.parse.quote(f)]
             return cmd
 
+        # The same curl against the farm's own HTTP front end (what a browser
+        # or a game without the SDK pays fetching a result from the farm):
+        # the token goes in a header file, not on the command line.
+        headers = self.work / "farm-headers.txt"
+        if not headers.exists():
+            fd = os.open(headers, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            os.write(fd, f"Authorization: Bearer {self.token_secret}\n".encode())
+            os.close(fd)
+        farm_base = f"http://{self.http}/api/v1/results/{key}/files/"
+
+        def farm_curl(dest):
+            cmd = list(curl_base) + ["-H", f"@{headers}"]
+            for f in files:
+                cmd += ["-o", str(dest / f), farm_base + urllib.parse.quote(f)]
+            return cmd
+
         curl_s, fetch_s, curl_cpu, fetch_cpu, server_cpu = [], [], [], [], []
-        cache_s, cache_cpu = [], []
+        cache_s, cache_cpu, farm_s = [], [], []
         # Rotated, so that no client always runs first (or right after another).
-        orders = [["curl", "fetch", "cache"], ["fetch", "cache", "curl"], ["cache", "curl", "fetch"]]
+        clients = ["curl", "fetch", "cache", "farm-http"]
+        orders = [clients[k:] + clients[:k] for k in range(len(clients))]
         for i in range(self.a.fetch_pairs):
             for what in orders[i % len(orders)]:
                 dest = self.fresh(f"{what}-out")
@@ -428,6 +446,9 @@ class Bench:
                     wall, _, cpu = self.run("curl", curl(dest), stderr=subprocess.PIPE)
                     curl_s.append(wall)
                     curl_cpu.append(cpu)
+                elif what == "farm-http":
+                    wall, _, _ = self.run("curl from the farm", farm_curl(dest), stderr=subprocess.PIPE)
+                    farm_s.append(wall)
                 elif what == "cache":
                     # Cache::Get into a fresh cache directory (`impostor cache
                     # get`): installed under DEST/entries/KEY.
@@ -460,7 +481,8 @@ class Bench:
                 subprocess.run(["rm", "-rf", str(dest)])
         self.stop_nginx(prefix, "nginx")
         return {"files": len(files), "mb": nbytes / 1e6, "curl": curl_s, "fetch": fetch_s, "curl_cpu": curl_cpu,
-                "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu}
+                "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu,
+                "farm_http": farm_s}
 
     # ---- a batch of results: bake-batch of cached assets against curl ---------
 
@@ -604,7 +626,8 @@ class Bench:
         if self.a.fetch_pairs > 0:
             fetch = self.fetch_pairs(key)
             log(f"fetch: impostor fetch median {median(fetch['fetch']):.3f} s, cache get median "
-                f"{median(fetch['cache']):.3f} s, nginx + curl median {median(fetch['curl']):.3f} s")
+                f"{median(fetch['cache']):.3f} s, nginx + curl median {median(fetch['curl']):.3f} s, "
+                f"curl from the farm's HTTP median {median(fetch['farm_http']):.3f} s")
         batch = None
         if self.a.batch_assets > 0:
             batch = self.batch_fetch()
@@ -636,6 +659,9 @@ class Bench:
             f"{median(fetch['cache']):.3f} s ({span(fetch['cache'], 3)}) | same runs; CPU s: CLI "
             f"{median(fetch['cache_cpu']):.3f} |",
             f"| **Cache::Get / nginx + curl** | **{median(fetch['cache']) / cm:.2f}×** | target ≤ 1.25 |",
+            f"| curl from the farm's HTTP front end (median of {len(fetch['farm_http'])}) | "
+            f"{median(fetch['farm_http']):.3f} s ({span(fetch['farm_http'], 3)}) | same files, one connection, "
+            f"`/api/v1/results/KEY/files/NAME` with a token; {median(fetch['farm_http']) / cm:.2f}× nginx |",
         ]
 
     def report(self, n, cold, warm, inproc, fetch, iso, load0, load1, batch=None, blender=None):

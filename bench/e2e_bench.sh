@@ -22,8 +22,9 @@
 # 4. `impostor fetch KEY --out DIR` of the result just baked against nginx +
 #    curl serving exactly the same files on one connection, alternating
 #    rounds (default 7; the order rotates), and `impostor cache get KEY`
-#    (Cache::Get into a fresh cache directory) in the same rounds; medians
-#    and the ratios (target <= 1.25). Installs
+#    (Cache::Get into a fresh cache directory) and the same curl against
+#    the farm's own HTTP front end (/api/v1/results/KEY/files/NAME) in the
+#    same rounds; medians and the ratios (target <= 1.25). Installs
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
 #    Then a batch (--batch-assets N, default 13; 0 skips it): `impostor
 #    bake-batch` bakes the same model at N frame counts (256 px, 39 files
