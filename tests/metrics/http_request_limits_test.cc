@@ -2,12 +2,15 @@
 // a request line without an end, sent by anyone who can reach the port, is
 // cut off after a few hundred kilobytes instead of growing the server until
 // it dies, and a request body over the API's largest is refused with 413
-// before it is read.
+// before it is read; requests pipelined on one connection are each
+// answered.
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <sys/time.h>
+#include <cstring>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -67,6 +70,37 @@ TEST(HttpRequestLimits, ABodyOverTheLimitIsRefusedWith413) {
   ASSERT_TRUE(res) << "no answer";
   EXPECT_EQ(res->status, 413);
   EXPECT_EQ(http.Status("/healthz"), 200);
+}
+
+// The server reads a connection 4 KiB at a time (bounded_http_server.cc):
+// a request that arrived together with the one before it is already in the
+// server's buffer, not in the socket, and must be answered all the same,
+// not left waiting for bytes that will never come.
+TEST(HttpRequestLimits, PipelinedRequestsOnOneConnectionAreEachAnswered) {
+  ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});
+  const int sock = ConnectTo(HttpPort(server));
+  ASSERT_GE(sock, 0);
+  timeval timeout{.tv_sec = 30, .tv_usec = 0};  // a missing answer fails the test, never hangs it
+  ASSERT_EQ(::setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout), 0);
+  const std::string one = "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  const std::string three = one + one + "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+  ASSERT_EQ(::send(sock, three.data(), three.size(), MSG_NOSIGNAL), static_cast<ssize_t>(three.size()));
+  std::string answers;
+  char buf[4096];
+  while (true) {
+    const ssize_t n = ::recv(sock, buf, sizeof buf, 0);
+    if (n <= 0) {
+      EXPECT_EQ(n, 0) << "recv: " << std::strerror(errno);
+      break;
+    }
+    answers.append(buf, static_cast<size_t>(n));
+  }
+  ::close(sock);
+  size_t ok = 0;
+  for (size_t at = answers.find("HTTP/1.1 200"); at != std::string::npos; at = answers.find("HTTP/1.1 200", at + 1)) {
+    ++ok;
+  }
+  EXPECT_EQ(ok, 3u) << answers;
 }
 
 }  // namespace
