@@ -422,10 +422,9 @@ class Bench:
         # or a game without the SDK pays fetching a result from the farm):
         # the token goes in a header file, not on the command line.
         headers = self.work / "farm-headers.txt"
-        if not headers.exists():
-            fd = os.open(headers, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-            os.write(fd, f"Authorization: Bearer {self.token_secret}\n".encode())
-            os.close(fd)
+        fd = os.open(headers, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        os.write(fd, f"Authorization: Bearer {self.token_secret}\n".encode())
+        os.close(fd)
         farm_base = f"http://{self.http}/api/v1/results/{key}/files/"
 
         def farm_curl(dest):

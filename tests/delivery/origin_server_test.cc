@@ -38,6 +38,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::BinaryDir;
+using testing::ConnectTo;
 using testing::CreateToken;
 using testing::HttpPort;
 using testing::RunTool;
@@ -441,13 +442,8 @@ std::optional<bool> AcceptedNoDelay(pid_t pid, int server_port, int client_port)
 // without). Asserted on the accepted socket itself, not by a clock.
 TEST_F(OriginTest, ConnectionsSendWithoutNaglesDelay) {
   const int port = origin_.port();
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  ASSERT_GE(fd, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0) << std::strerror(errno);
+  const int fd = ConnectTo(port);
+  ASSERT_GE(fd, 0) << std::strerror(errno);
   // An answer means the server has accepted the connection.
   const std::string request = "GET " + Url(TempReleaseTree::ChannelPath("nightly")) +
                               " HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";

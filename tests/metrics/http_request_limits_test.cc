@@ -4,12 +4,11 @@
 // it dies, and a request body over the API's largest is refused with 413
 // before it is read; requests pipelined on one connection are each
 // answered.
-#include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <cerrno>
-#include <sys/time.h>
 #include <cstring>
 #include <string>
 
@@ -21,22 +20,10 @@
 namespace impostor {
 namespace {
 
+using testing::ConnectTo;
 using testing::HttpPort;
 using testing::HttpTestClient;
 using testing::ServerProcess;
-
-int ConnectTo(int port) {
-  const int sock = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(sock);
-    return -1;
-  }
-  return sock;
-}
 
 TEST(HttpRequestLimits, ARequestLineWithoutEndIsCutOffAndTheServerLives) {
   ServerProcess server(/*local_workers=*/0, {"--http-listen=127.0.0.1:0"});

@@ -3,6 +3,11 @@
 #ifndef IMPOSTOR_TESTS_METRICS_HTTP_TEST_CLIENT_H_
 #define IMPOSTOR_TESTS_METRICS_HTTP_TEST_CLIENT_H_
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <httplib.h>
 
 #include <string>
@@ -12,6 +17,22 @@
 #include "tests/support/server_process.h"
 
 namespace impostor::testing {
+
+// A plain TCP connection to 127.0.0.1:`port` (for bytes no HTTP client
+// would send); -1 when it cannot connect.
+inline int ConnectTo(int port) {
+  const int sock = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (sock < 0) return -1;
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(sock);
+    return -1;
+  }
+  return sock;
+}
 
 // The HTTP port the server printed after its gRPC line; 0 after failing the
 // test when there is none.
