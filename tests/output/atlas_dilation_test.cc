@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace impostor {
@@ -140,6 +141,53 @@ TEST(AtlasDilationTest, Uint16NormalDepthUsesAlbedoCoverage) {
     }
   }
   EXPECT_EQ(At(nd, 12, 3)[0], 7);  // tile 1 has no coverage: RGB left alone
+}
+
+// An atlas's tiles are filled side by side on the machine's cores: the
+// result must be what filling them one at a time gives, texel for texel,
+// for RGBA8 and for RGBA16 read through a separate coverage map.
+TEST(AtlasDilationTest, TilesFilledSideBySideMatchOneAtATime) {
+  constexpr int kSide = 12, kGrid = 6, kSize = kSide * kGrid;
+  std::vector<TileRect> tiles;
+  for (int ty = 0; ty < kGrid; ++ty) {
+    for (int tx = 0; tx < kGrid; ++tx) tiles.push_back({tx * kSide, ty * kSide, kSide, kSide});
+  }
+  std::vector<uint8_t> rgba(kSize * kSize * 4, 0);
+  std::vector<uint16_t> rgba16(kSize * kSize * 4, 0);
+  uint32_t x = 12345;
+  for (size_t i = 0; i < rgba.size(); i += 4) {
+    x = x * 1664525 + 1013904223;
+    const bool covered = (x >> 28) < 3;  // about one texel in five
+    for (int c = 0; c < 3; ++c) rgba[i + c] = static_cast<uint8_t>(x >> (8 * c));
+    rgba[i + 3] = covered ? 255 : 0;
+    for (int c = 0; c < 4; ++c) rgba16[i + c] = static_cast<uint16_t>(x >> (4 * c));
+  }
+  std::vector<uint8_t> expected = rgba;
+  std::vector<uint16_t> expected16 = rgba16;
+  for (const TileRect& tile : tiles) {
+    ASSERT_TRUE(DilateRgba8(expected, kSize, kSize, std::span<const TileRect>(&tile, 1)).ok());
+    ASSERT_TRUE(DilateRgba16(expected16, rgba, kSize, kSize, std::span<const TileRect>(&tile, 1)).ok());
+  }
+  std::vector<uint16_t> got16 = rgba16;
+  ASSERT_TRUE(DilateRgba16(got16, rgba, kSize, kSize, tiles).ok());
+  ASSERT_TRUE(DilateRgba8(rgba, kSize, kSize, tiles).ok());
+  EXPECT_EQ(rgba, expected);
+  EXPECT_EQ(got16, expected16);
+}
+
+// Tiles that overlap (never an atlas's, but a caller's list may) are filled
+// one after another in the order given, as before: the later tile's fill
+// wins where both fill a texel.
+TEST(AtlasDilationTest, OverlappingTilesAreFilledInOrder) {
+  std::vector<uint8_t> img(kW * kH * 4, 0);
+  Set<uint8_t>(img, 0, 0, 255, 0, 0, 255);   // red, in both tiles
+  Set<uint8_t>(img, 15, 7, 0, 0, 255, 255);  // blue, in the wide tile only
+  const std::vector<TileRect> overlapping = {{0, 0, 8, 8}, {0, 0, 16, 8}};
+  ASSERT_TRUE(DilateRgba8(img, kW, kH, overlapping).ok());
+  // (7, 7) is nearer blue within the wide tile, filled last.
+  EXPECT_EQ(At(img, 7, 7)[2], 255);
+  EXPECT_EQ(At(img, 7, 7)[0], 0);
+  EXPECT_EQ(At(img, 1, 0)[0], 255);
 }
 
 TEST(AtlasDilationTest, TilesOutsideTheImageAreRefused) {

@@ -1,11 +1,14 @@
 #include "worker/output/contact_sheet.h"
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "tests/output/png_stream.h"
 #include "worker/output/map_writer.h"
 
 namespace impostor {
@@ -59,6 +62,30 @@ TEST(ContactSheet, PanelsShowTheMapsAndAreLabelled) {
     for (int x = 0; x < png->width; ++x) bright += png->pixels8[(static_cast<size_t>(y) * png->width + x) * png->channels] > 128;
   EXPECT_GT(bright, 20);
   std::filesystem::remove(path);
+}
+
+// The sheet is deflated as the maps are (map_writer.h: zlib level 3, the Up
+// filter on every row), not at libpng's level 6 with its per-row filter
+// search, which made its write the slowest step of a GPU bake's encoding.
+TEST(ContactSheet, IsDeflatedLikeTheMaps) {
+  static_assert(kPngCompressionLevel == 3 && kPngRowFilter == 0x20, "level 3, PNG_FILTER_UP");
+  const int size = 128;
+  std::vector<uint8_t> albedo(size * size * 4), orm(size * size * 4);
+  std::vector<uint16_t> normal(size * size * 4);
+  for (size_t i = 0; i < albedo.size(); ++i) albedo[i] = orm[i] = static_cast<uint8_t>(i * 131 % 251);
+  for (size_t i = 0; i < normal.size(); ++i) normal[i] = static_cast<uint16_t>(i * 7919);
+  const auto path = std::filesystem::temp_directory_path() / ("contact_sheet_deflate_" + std::to_string(::getpid()) + ".png");
+  auto info = WriteContactSheet(path, {size, size, albedo, normal, orm, {}}, 64);
+  ASSERT_TRUE(info.ok()) << info.status();
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::filesystem::remove(path);
+  const std::string stream = testing::IdatStream(bytes);
+  ASSERT_GE(stream.size(), 2u);
+  EXPECT_EQ(static_cast<uint8_t>(stream[1]) >> 6, 1) << "FLEVEL of zlib levels 2..5 (libpng's default 6 is 2)";
+  const std::vector<uint8_t> filters = testing::RowFilterTypes(bytes, static_cast<size_t>(info->width) * 3, info->height);
+  ASSERT_EQ(filters.size(), static_cast<size_t>(info->height)) << "the IDAT stream does not inflate to RGB8 rows";
+  for (int y = 0; y < info->height; ++y) EXPECT_EQ(filters[y], 2) << "row " << y;
 }
 
 TEST(ContactSheet, BadInputIsRefused) {

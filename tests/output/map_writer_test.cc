@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include <zlib.h>
+#include "tests/output/png_stream.h"
 
 namespace impostor {
 namespace {
@@ -115,24 +115,9 @@ TEST_F(MapWriterTest, EveryRowIsUpFiltered) {
   for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<uint16_t>(i * 7919);
   const fs::path path = Scratch("up.png");
   ASSERT_TRUE(WritePngRgba16(path, pixels, w, h).ok());
-  const std::string bytes = Bytes(path);
-  // The IDAT chunks' data, concatenated, is one zlib stream.
-  std::string stream;
-  for (size_t at = 8; at + 12 <= bytes.size();) {
-    const auto u8 = [&](size_t i) { return static_cast<uint32_t>(static_cast<uint8_t>(bytes[i])); };
-    const uint32_t length = u8(at) << 24 | u8(at + 1) << 16 | u8(at + 2) << 8 | u8(at + 3);
-    if (bytes.compare(at + 4, 4, "IDAT") == 0) stream += bytes.substr(at + 8, length);
-    at += 12 + length;
-  }
-  ASSERT_FALSE(stream.empty());
-  const size_t row_bytes = 1 + static_cast<size_t>(w) * 8;
-  std::vector<uint8_t> raw(row_bytes * h);
-  uLongf raw_size = static_cast<uLongf>(raw.size());
-  ASSERT_EQ(uncompress(raw.data(), &raw_size, reinterpret_cast<const Bytef*>(stream.data()),
-                       static_cast<uLong>(stream.size())),
-            Z_OK);
-  ASSERT_EQ(raw_size, raw.size());
-  for (int y = 0; y < h; ++y) EXPECT_EQ(raw[y * row_bytes], 2) << "row " << y;
+  const std::vector<uint8_t> filters = testing::RowFilterTypes(Bytes(path), static_cast<size_t>(w) * 8, h);
+  ASSERT_EQ(filters.size(), static_cast<size_t>(h)) << "the IDAT stream does not inflate to the rows";
+  for (int y = 0; y < h; ++y) EXPECT_EQ(filters[y], 2) << "row " << y;
   const absl::StatusOr<PngImage> read = ReadPng(path);
   ASSERT_TRUE(read.ok()) << read.status();
   EXPECT_EQ(read->pixels16, pixels);
