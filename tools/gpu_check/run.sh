@@ -3,12 +3,17 @@
 # creates the folders the binaries were built to expect and, where the
 # host lacks them, installs the glvnd libraries):
 #
-#   OUT=/tmp/results bash run.sh
+#   OUT=/tmp/results bash run.sh [e2e]
 #
 # A 15 s probe first: without a usable Vulkan device it prints the loader's
 # errors and stops, instead of leaving the benches to wait for a worker.
-# Then the benches (timings) one by one, then the GPU suites side by side.
+# Then the end-to-end bench (bench/e2e_bench.sh: the CLI against a farm with
+# one local worker, beside the in-process bake, and fetches beside nginx +
+# curl) and the fleet bench on the host's cores; with `e2e` that is all
+# (about a minute on an H200). Otherwise the other benches (timings) one by
+# one, then the GPU suites side by side.
 set -u
+only=${1:-all}
 here=$(cd "$(dirname "$0")" && pwd)
 OUT=${OUT:-$here/results}
 mkdir -p "$OUT"
@@ -19,6 +24,8 @@ rm -rf "$root" && mkdir -p "$root" "$ASSETS_DIR" "$(dirname "$BUILD_BIN")"
 tar xJf "$here/pack.tar.xz" -C "$root"
 tar xf "$here/assets.tar" -C "$ASSETS_DIR"
 [ -e "$BUILD_BIN" ] || ln -s "$root/pack/bin" "$BUILD_BIN"
+# The fleet bench starts nginx from Debian's path.
+[ -e /usr/sbin/nginx ] || ln -s "$root/pack/bin/nginx" /usr/sbin/nginx
 for f in "$here"/glvnd/*; do
   ldconfig -p | grep -q "$(basename "$f")" || cp "$f" /usr/lib/x86_64-linux-gnu/
 done
@@ -28,7 +35,7 @@ if [ -z "${VK_DRIVER_FILES:-}" ]; then
   icd=$(ls /usr/local/nvidia/share/vulkan/icd.d/*.json 2>/dev/null | head -1)
   [ -n "$icd" ] && export VK_DRIVER_FILES=$icd VK_ICD_FILENAMES=$icd
 fi
-export LD_LIBRARY_PATH=$root/pack/lib
+export LD_LIBRARY_PATH=$root/pack/lib PATH=$root/pack/bin:$PATH
 bin=$root/pack/bin
 asset=$ASSETS_DIR/props_pbr/DamagedHelmet/glTF-Binary/DamagedHelmet.glb
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null
@@ -40,6 +47,9 @@ if ! timeout 15 "$bin/gpu_tests" --gtest_filter=AtlasRendererTest.ReportsAVulkan
 fi
 grep -m1 "using device" "$OUT/probe.txt"
 cd /tmp
+MODEL=$asset TMPDIR=/tmp timeout 300 bash "$here/bench/e2e_bench.sh" "$root/pack" --warm 3 --fetch-pairs 5 --batch-assets 0
+TMPDIR=/dev/shm timeout 150 "$bin/fleet_bench" --rounds 3 2>&1 | tail -4
+[ "$only" = e2e ] && exit 0
 suites=()
 timeout 60 "$bin/bake_bench" --fetches 1 "$asset" 2>&1 | grep -v '^\[20\|^20' | tail -4
 timeout 30 "$bin/bake_stages" "$asset" 2>&1 | grep -v '^\[20' | tail -4
