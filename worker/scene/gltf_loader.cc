@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "worker/scene/gltf_sandbox.h"
 #include "worker/scene/gltf_scene_builder.h"
+#include "worker/scene/image_predecode.h"
 #include "worker/scene/load_budget.h"
 
 namespace impostor {
@@ -219,9 +220,16 @@ absl::StatusOr<Scene> ParseAndBuild(const ParseInput& in, const GltfLoadLimits& 
   if (!warn.empty()) spdlog::debug("gltf: {}: tinygltf: {}", in.name, OneLine(warn));
   if (absl::Status s = CheckRequiredExtensions(model); !s.ok()) return s;
   // Declared counts against the limits before anything is read per element.
-  if (absl::Status s = gltf_internal::CheckLoadBudget(model, limits); !s.ok()) return s;
+  absl::StatusOr<gltf_internal::LoadCost> cost = gltf_internal::CheckLoadBudget(model, limits);
+  if (!cost.ok()) return cost.status();
+  // The textures decoded side by side first, when the budget has room for
+  // all the decodes at once (image_predecode.h).
+  gltf_internal::PredecodedImages predecoded;
+  if (gltf_internal::FitsDecodingAtOnce(*cost, limits)) {
+    predecoded = gltf_internal::PredecodeImages(model, cost->decodable_images, limits);
+  }
 
-  absl::StatusOr<Scene> scene = gltf_internal::BuildScene(model, limits);
+  absl::StatusOr<Scene> scene = gltf_internal::BuildScene(model, limits, &predecoded);
   if (scene.ok()) {
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -79,8 +79,8 @@ std::optional<TextureTransformExt> TextureTransform(const tinygltf::ExtensionMap
 }  // namespace
 
 MaterialTable::MaterialTable(const tinygltf::Model& model, const GltfLoadLimits& limits,
-                             Scene* scene)
-    : model_(model), limits_(limits), scene_(scene) {}
+                             Scene* scene, PredecodedImages* predecoded)
+    : model_(model), limits_(limits), scene_(scene), predecoded_(predecoded) {}
 
 absl::StatusOr<int> MaterialTable::Use(int gltf_index) {
   if (gltf_index < -1 ||
@@ -249,8 +249,7 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, bool srgb, int materi
   if (auto it = textures_.find(key); it != textures_.end()) return it->second;
 
   const tinygltf::Image& image = model_.images[tex.source];
-  const std::string image_what =
-      absl::StrCat("image[", tex.source, "] '", image.name.empty() ? image.uri : image.name, "'");
+  const std::string image_what = ImageWhat(model_, tex.source);
   SceneTexture out;
   out.srgb = srgb;
   out.wrap_s = wrap_s;
@@ -277,9 +276,16 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, bool srgb, int materi
       }
       return absl::InvalidArgumentError(absl::StrCat(image_what, " has no image data"));
     }
-    absl::StatusOr<DecodedImage> decoded =
-        DecodeImageRgba8(image.image, limits_.max_texture_dimension,
-                         limits_.max_texture_bytes - texture_bytes_, image_what);
+    // Decoded beforehand, side by side (image_predecode.h), or now.
+    absl::StatusOr<DecodedImage> decoded = absl::UnknownError("not decoded");
+    if (auto it = predecoded_ != nullptr ? predecoded_->find(tex.source) : PredecodedImages::iterator();
+        predecoded_ != nullptr && it != predecoded_->end()) {
+      decoded = std::move(it->second);
+      predecoded_->erase(it);
+    } else {
+      decoded = DecodeImageRgba8(image.image, limits_.max_texture_dimension,
+                                 limits_.max_texture_bytes - texture_bytes_, image_what);
+    }
     if (decoded.status().code() == absl::StatusCode::kUnimplemented) {
       // e.g. a KTX2 image named as `source` (KHR_texture_basisu not marked
       // required): bake with the material factors alone rather than refuse.

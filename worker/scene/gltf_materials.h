@@ -14,6 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "worker/scene/gltf_loader.h"
+#include "worker/scene/image_predecode.h"
 #include "worker/scene/scene.h"
 
 namespace impostor::gltf_internal {
@@ -23,7 +24,10 @@ class MaterialTable {
  public:
   // `model` and `scene` must outlive the table; materials/textures are
   // appended to `scene`.
-  MaterialTable(const tinygltf::Model& model, const GltfLoadLimits& limits, Scene* scene);
+  // Images in `predecoded` (may be null; must outlive the table) are taken
+  // from it rather than decoded.
+  MaterialTable(const tinygltf::Model& model, const GltfLoadLimits& limits, Scene* scene,
+                PredecodedImages* predecoded = nullptr);
 
   // Index into scene->materials for glTF material `gltf_index` (-1 = the
   // glTF default material: white, metallic 1, roughness 1), converting it
@@ -58,6 +62,7 @@ class MaterialTable {
   std::map<std::tuple<int, int, int, bool>, int> textures_;
   std::map<int, int> decoded_;  // image -> a scene texture holding its pixels
   uint64_t texture_bytes_ = 0;
+  PredecodedImages* predecoded_;
 };
 
 }  // namespace impostor::gltf_internal

@@ -84,10 +84,10 @@ std::vector<uint32_t> Triangulate(int mode, const std::vector<uint32_t>& v) {
 
 class Builder {
  public:
-  Builder(const tinygltf::Model& model, const GltfLoadLimits& limits)
+  Builder(const tinygltf::Model& model, const GltfLoadLimits& limits, PredecodedImages* predecoded)
       : model_(model),
         limits_(limits),
-        materials_(model, limits, &scene_),
+        materials_(model, limits, &scene_, predecoded),
         max_vertices_(limits.max_triangles * 3) {}
 
   absl::StatusOr<Scene> Build() {
@@ -687,8 +687,9 @@ class Builder {
 
 }  // namespace
 
-absl::StatusOr<Scene> BuildScene(const tinygltf::Model& model, const GltfLoadLimits& limits) {
-  return Builder(model, limits).Build();
+absl::StatusOr<Scene> BuildScene(const tinygltf::Model& model, const GltfLoadLimits& limits,
+                                 PredecodedImages* predecoded) {
+  return Builder(model, limits, predecoded).Build();
 }
 
 }  // namespace impostor::gltf_internal

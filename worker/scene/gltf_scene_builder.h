@@ -8,12 +8,16 @@
 
 #include "absl/status/statusor.h"
 #include "worker/scene/gltf_loader.h"
+#include "worker/scene/image_predecode.h"
 #include "worker/scene/scene.h"
 
 namespace impostor::gltf_internal {
 
 // Builds the Scene of `model`'s default scene. Errors as LoadGltfScene.
-absl::StatusOr<Scene> BuildScene(const tinygltf::Model& model, const GltfLoadLimits& limits);
+// Images in `predecoded` (may be null) are taken from it instead of being
+// decoded when first used (image_predecode.h).
+absl::StatusOr<Scene> BuildScene(const tinygltf::Model& model, const GltfLoadLimits& limits,
+                                 PredecodedImages* predecoded = nullptr);
 
 }  // namespace impostor::gltf_internal
 

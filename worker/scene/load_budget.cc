@@ -226,6 +226,8 @@ class CostWalk {
       const uint64_t decoded = Mul(Mul(header->width, header->height), 4);
       cost_.texture_bytes = Add(cost_.texture_bytes, decoded);
       cost_.texture_peak_bytes = std::max(cost_.texture_peak_bytes, PeakDecodeBytes(*header));
+      cost_.texture_peak_sum_bytes = Add(cost_.texture_peak_sum_bytes, PeakDecodeBytes(*header));
+      if (image.as_is) cost_.decodable_images.push_back(i);
       if (limits_ && cost_.texture_bytes > limits_->max_texture_bytes) {
         return Exhausted(absl::StrCat("image[", i, "] '", model_.images[i].name, "' is ",
                                       header->width, "x", header->height, " = ", decoded,
@@ -277,8 +279,10 @@ LoadCost ComputeLoadCost(const tinygltf::Model& model) {
   return walk.cost();
 }
 
-absl::Status CheckLoadBudget(const tinygltf::Model& model, const GltfLoadLimits& limits) {
-  return CostWalk(model, &limits).Run();
+absl::StatusOr<LoadCost> CheckLoadBudget(const tinygltf::Model& model, const GltfLoadLimits& limits) {
+  CostWalk walk(model, &limits);
+  if (absl::Status s = walk.Run(); !s.ok()) return s;
+  return walk.cost();
 }
 
 }  // namespace impostor::gltf_internal

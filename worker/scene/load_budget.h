@@ -22,6 +22,8 @@
 #include <cstdint>
 
 #include "absl/status/status.h"
+#include <vector>
+
 #include "absl/status/statusor.h"
 #include "worker/scene/gltf_loader.h"
 
@@ -37,6 +39,8 @@ struct LoadCost {
   uint64_t attribute_elements = 0;  // every attribute's count, per distinct primitive
   uint64_t texture_bytes = 0;       // distinct images' width x height x 4 (decoded RGBA8)
   uint64_t texture_peak_bytes = 0;  // largest single decode's peak (PeakDecodeBytes)
+  uint64_t texture_peak_sum_bytes = 0;  // every decode's peak, summed: all of them at once
+  std::vector<int> decodable_images;    // the images counted above (a PNG or JPEG header), ascending
   uint64_t total_bytes = 0;         // estimate of the heap the whole load holds at its peak
 };
 
@@ -49,7 +53,8 @@ LoadCost ComputeLoadCost(const tinygltf::Model& model);
 // the count, what it multiplies to and the limit, e.g. "node 0 'grass'
 // EXT_mesh_gpu_instancing declares 60000000 instances x 1 primitives =
 // 60000000 draws, over GltfLoadLimits::max_draws = 1000000".
-absl::Status CheckLoadBudget(const tinygltf::Model& model, const GltfLoadLimits& limits);
+// Returns the cost when every bound holds.
+absl::StatusOr<LoadCost> CheckLoadBudget(const tinygltf::Model& model, const GltfLoadLimits& limits);
 
 }  // namespace impostor::gltf_internal
 

@@ -68,17 +68,24 @@ struct Mapping {
 TexelBuffer TexelArena::Copy(std::span<const uint8_t> bytes) {
   if (bytes.empty()) return TexelBuffer();
   const uint64_t page = PageSize();
-  const uint64_t offset = end_;
   const uint64_t length = (bytes.size() + page - 1) / page * page;
-  // A recycled memfd (TakeTexelFd) is already long enough, its pages there
-  // to be overwritten: it only ever grows.
-  if (size_ < 0) {
-    struct stat st {};
-    size_ = ::fstat(fd_, &st) == 0 ? st.st_size : 0;
-  }
-  if (static_cast<uint64_t>(size_) < offset + length) {
-    if (::ftruncate(fd_, static_cast<off_t>(offset + length)) != 0) throw std::bad_alloc();
-    size_ = static_cast<off_t>(offset + length);
+  uint64_t offset;
+  {
+    // The region is this call's from here on; mapping and copying it need
+    // no lock.
+    std::lock_guard lock(mu_);
+    offset = end_;
+    // A recycled memfd (TakeTexelFd) is already long enough, its pages
+    // there to be overwritten: it only ever grows.
+    if (size_ < 0) {
+      struct stat st {};
+      size_ = ::fstat(fd_, &st) == 0 ? st.st_size : 0;
+    }
+    if (static_cast<uint64_t>(size_) < offset + length) {
+      if (::ftruncate(fd_, static_cast<off_t>(offset + length)) != 0) throw std::bad_alloc();
+      size_ = static_cast<off_t>(offset + length);
+    }
+    end_ = offset + length;
   }
   // Populated at once: the decoder's copy then writes into pages that are
   // there, instead of taking a fault per page.
@@ -89,7 +96,6 @@ TexelBuffer TexelArena::Copy(std::span<const uint8_t> bytes) {
   mapping->address = address;
   mapping->length = length;
   std::memcpy(address, bytes.data(), bytes.size());
-  end_ = offset + length;
   TexelBuffer buffer(std::shared_ptr<const void>(mapping, address),
                      std::span(static_cast<const uint8_t*>(address), bytes.size()));
   buffer.arena_ = this;

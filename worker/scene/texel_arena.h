@@ -9,8 +9,9 @@
 // (page-aligned), so the child's RLIMIT_AS counts the texels as it counted
 // their heap copy, and the worker later maps the whole file read-only.
 //
-// Thread-safety: an arena is used by one thread (the loader is
-// single-threaded); the installed arena is per thread.
+// Thread-safety: Copy may be called from several threads at once (the
+// loader decodes a load's textures side by side, image_predecode.h, each
+// thread with the arena installed); the installed arena is per thread.
 #ifndef IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
 #define IMPOSTOR_WORKER_SCENE_TEXEL_ARENA_H_
 
@@ -18,8 +19,10 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <span>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "worker/scene/texel_buffer.h"
 
@@ -37,8 +40,9 @@ class TexelArena {
 
  private:
   int fd_;
-  uint64_t end_ = 0;  // page-aligned end of what is allocated
-  off_t size_ = -1;   // the memfd's size, once looked at
+  std::mutex mu_;  // the region each Copy takes, and the memfd's growth
+  uint64_t end_ ABSL_GUARDED_BY(mu_) = 0;  // page-aligned end of what is allocated
+  off_t size_ ABSL_GUARDED_BY(mu_) = -1;   // the memfd's size, once looked at
 };
 
 // Installs `arena` for TexelBuffer::CopyOf on this thread while in scope.

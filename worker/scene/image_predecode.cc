@@ -1,0 +1,47 @@
+#include "worker/scene/image_predecode.h"
+
+#include <optional>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "common/util/parallel_for.h"
+#include "worker/scene/texel_arena.h"
+
+namespace impostor::gltf_internal {
+
+bool FitsDecodingAtOnce(const LoadCost& cost, const GltfLoadLimits& limits) {
+  if (cost.decodable_images.size() < 2) return false;  // nothing to overlap
+  const uint64_t texels_and_peaks = cost.texture_bytes + cost.texture_peak_sum_bytes;
+  if (texels_and_peaks < cost.texture_bytes || texels_and_peaks > limits.max_texture_bytes) return false;
+  // total_bytes counts the largest single peak; all of them instead.
+  const uint64_t total = cost.total_bytes - cost.texture_peak_bytes + cost.texture_peak_sum_bytes;
+  return total >= cost.total_bytes - cost.texture_peak_bytes && total <= limits.max_load_bytes;
+}
+
+PredecodedImages PredecodeImages(const tinygltf::Model& model, const std::vector<int>& images,
+                                 const GltfLoadLimits& limits) {
+  std::vector<std::optional<absl::StatusOr<DecodedImage>>> decoded(images.size());
+  TexelArena* const arena = CurrentTexelArena();
+  try {
+    ParallelFor(images.size(), [&](size_t i) {
+      const ScopedTexelArena in_arena(arena);
+      const tinygltf::Image& image = model.images[static_cast<size_t>(images[i])];
+      decoded[i] = DecodeImageRgba8(image.image, limits.max_texture_dimension, limits.max_texture_bytes,
+                                    ImageWhat(model, images[i]));
+    });
+  } catch (const std::system_error&) {
+    // No thread for some of them (RLIMIT_AS): those are decoded in use order.
+  }
+  PredecodedImages out;
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (decoded[i].has_value()) out.emplace(images[i], std::move(*decoded[i]));
+  }
+  return out;
+}
+
+std::string ImageWhat(const tinygltf::Model& model, int index) {
+  const tinygltf::Image& image = model.images[static_cast<size_t>(index)];
+  return absl::StrCat("image[", index, "] '", image.name.empty() ? image.uri : image.name, "'");
+}
+
+}  // namespace impostor::gltf_internal
