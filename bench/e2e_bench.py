@@ -577,11 +577,16 @@ class Bench:
     def main(self):
         n = self.a.warm
         load0 = os.getloadavg()
-        rev = subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "rev-parse", "--short",
-                              "HEAD"], capture_output=True, text=True).stdout.strip() or "?"
-        dirty = subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "status", "--porcelain",
-                                "--untracked-files=no", "--", "server", "worker", "client", "common", "proto"],
-                               capture_output=True, text=True).stdout.split("\n")
+        # A copy of the bench bundled with its binaries (tools/gpu_check)
+        # says which commit they were built from: the folder it runs from is
+        # not that checkout.
+        rev = os.environ.get("E2E_BENCH_COMMIT") or subprocess.run(
+            ["git", "-C", str(Path(__file__).resolve().parent.parent), "rev-parse", "--short", "HEAD"],
+            capture_output=True, text=True).stdout.strip() or "?"
+        dirty = [] if os.environ.get("E2E_BENCH_COMMIT") else subprocess.run(
+            ["git", "-C", str(Path(__file__).resolve().parent.parent), "status", "--porcelain",
+             "--untracked-files=no", "--", "server", "worker", "client", "common", "proto"],
+            capture_output=True, text=True).stdout.split("\n")
         dirty = [l for l in dirty if l.strip()]
         if dirty:
             rev += f" + {len(dirty)} uncommitted source files the binaries may hold"

@@ -41,7 +41,12 @@ else
     highpoly/TransmissionTest \
     edge_cases/khronos edge_cases/missing_textures/BoxTextured_png_removed)
 fi
-printf 'BUILD_BIN=%q\nASSETS_DIR=%q\n' "$build/bin" "$assets" > "$out/paths.env"
+# The commit the binaries come from, for the benches' headers (plus a mark
+# when sources differ from it).
+commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo "?")
+[ -n "$(git -C "$here" status --porcelain --untracked-files=no -- server worker client common proto 2>/dev/null)" ] &&
+  commit="$commit + uncommitted sources"
+printf 'BUILD_BIN=%q\nASSETS_DIR=%q\nCOMMIT=%q\n' "$build/bin" "$assets" "$commit" > "$out/paths.env"
 cp "$here/run.sh" "$out/"
 # bench/e2e_bench.sh and its Python, run from the bundle (run.sh's e2e step).
 mkdir -p "$out/bench"

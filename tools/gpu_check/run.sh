@@ -47,7 +47,7 @@ if ! timeout 15 "$bin/gpu_tests" --gtest_filter=AtlasRendererTest.ReportsAVulkan
 fi
 grep -m1 "using device" "$OUT/probe.txt"
 cd /tmp
-MODEL=$asset TMPDIR=/tmp timeout 300 bash "$here/bench/e2e_bench.sh" "$root/pack" --warm 3 --fetch-pairs 5 --batch-assets 0
+E2E_BENCH_COMMIT=${COMMIT:-?} MODEL=$asset TMPDIR=/tmp timeout 300 bash "$here/bench/e2e_bench.sh" "$root/pack" --warm 3 --fetch-pairs 5 --batch-assets 0
 TMPDIR=/dev/shm timeout 150 "$bin/fleet_bench" --rounds 3 2>&1 | tail -4
 [ "$only" = e2e ] && exit 0
 suites=()
