@@ -41,10 +41,11 @@ using PredecodedImages = std::map<int, absl::StatusOr<DecodedImage>>;
 // within max_load_bytes.
 bool FitsDecodingAtOnce(const LoadCost& cost, const GltfLoadLimits& limits);
 
-// Decodes `images` on up to 16 threads, into the texel arena installed on
-// the calling thread (texel_arena.h) when there is one. An image a thread
-// could not be started for (the address-space limit) is left out: the
-// material table decodes it when it is used, as before.
+// Decodes `images` on up to 16 threads, the calling thread among them,
+// into the texel arena installed on the calling thread (texel_arena.h)
+// when there is one. An image a thread could not be started for (the
+// address-space limit) is left out: the material table decodes it when it
+// is used, as before.
 PredecodedImages PredecodeImages(const tinygltf::Model& model, const std::vector<int>& images,
                                  const GltfLoadLimits& limits);
 
