@@ -277,15 +277,12 @@ absl::StatusOr<int> MaterialTable::UseTexture(int texture, bool srgb, int materi
       return absl::InvalidArgumentError(absl::StrCat(image_what, " has no image data"));
     }
     // Decoded beforehand, side by side (image_predecode.h), or now.
-    absl::StatusOr<DecodedImage> decoded = absl::UnknownError("not decoded");
-    if (auto it = predecoded_ != nullptr ? predecoded_->find(tex.source) : PredecodedImages::iterator();
-        predecoded_ != nullptr && it != predecoded_->end()) {
-      decoded = std::move(it->second);
-      predecoded_->erase(it);
-    } else {
-      decoded = DecodeImageRgba8(image.image, limits_.max_texture_dimension,
-                                 limits_.max_texture_bytes - texture_bytes_, image_what);
-    }
+    PredecodedImages::node_type predecoded =
+        predecoded_ != nullptr ? predecoded_->extract(tex.source) : PredecodedImages::node_type();
+    absl::StatusOr<DecodedImage> decoded =
+        !predecoded.empty() ? std::move(predecoded.mapped())
+                            : DecodeImageRgba8(image.image, limits_.max_texture_dimension,
+                                               limits_.max_texture_bytes - texture_bytes_, image_what);
     if (decoded.status().code() == absl::StatusCode::kUnimplemented) {
       // e.g. a KTX2 image named as `source` (KHR_texture_basisu not marked
       // required): bake with the material factors alone rather than refuse.

@@ -13,11 +13,13 @@ namespace impostor::gltf_internal {
 
 bool FitsDecodingAtOnce(const LoadCost& cost, const GltfLoadLimits& limits) {
   if (cost.decodable_images.size() < 2) return false;  // nothing to overlap
+  // (Each sum is checked for wrapping: the costs saturate at 2^64 - 1.)
   const uint64_t texels_and_peaks = cost.texture_bytes + cost.texture_peak_sum_bytes;
   if (texels_and_peaks < cost.texture_bytes || texels_and_peaks > limits.max_texture_bytes) return false;
   // total_bytes counts the largest single peak; all of them instead.
-  const uint64_t total = cost.total_bytes - cost.texture_peak_bytes + cost.texture_peak_sum_bytes;
-  return total >= cost.total_bytes - cost.texture_peak_bytes && total <= limits.max_load_bytes;
+  const uint64_t without_peak = cost.total_bytes - cost.texture_peak_bytes;
+  const uint64_t total = without_peak + cost.texture_peak_sum_bytes;
+  return total >= without_peak && total <= limits.max_load_bytes;
 }
 
 PredecodedImages PredecodeImages(const tinygltf::Model& model, const std::vector<int>& images,
