@@ -341,13 +341,18 @@ class Bench:
 
     # ---- fetch against nginx + curl ---------------------------------------
 
-    def fetch_cmd(self, key, out):
-        return [self.bin / "impostor", "fetch", key, "--out", out, "--server", self.grpc, "--token-file", self.token,
-                "--quiet"]
+    def farm_http_flag(self, http):
+        # With: the large files from the farm's HTTP front end; without:
+        # everything over gRPC ("none" also overrides $IMPOSTOR_FARM_HTTP).
+        return ["--farm-http", f"http://{self.http}" if http else "none"]
 
-    def cache_get_cmd(self, key, cache_dir):
+    def fetch_cmd(self, key, out, http=False):
+        return [self.bin / "impostor", "fetch", key, "--out", out, "--server", self.grpc, "--token-file", self.token,
+                "--quiet", *self.farm_http_flag(http)]
+
+    def cache_get_cmd(self, key, cache_dir, http=False):
         return [self.bin / "impostor", "cache", "get", key, "--cache-dir", cache_dir, "--server", self.grpc,
-                "--token-file", self.token, "--quiet"]
+                "--token-file", self.token, "--quiet", *self.farm_http_flag(http)]
 
     def start_nginx(self, www, name, probe):
         """nginx serving `www` on a free loopback port, answering `probe`
@@ -435,8 +440,9 @@ class Bench:
 
         curl_s, fetch_s, curl_cpu, fetch_cpu, server_cpu = [], [], [], [], []
         cache_s, cache_cpu, farm_s = [], [], []
+        http_s, http_cpu, http_server_cpu, cache_http_s, cache_http_cpu = [], [], [], [], []
         # Rotated, so that no client always runs first (or right after another).
-        clients = ["curl", "fetch", "cache", "farm-http"]
+        clients = ["curl", "fetch", "cache", "farm-http", "fetch-http", "cache-http"]
         orders = [clients[k:] + clients[:k] for k in range(len(clients))]
         for i in range(self.a.fetch_pairs):
             for what in orders[i % len(orders)]:
@@ -448,13 +454,15 @@ class Bench:
                 elif what == "farm-http":
                     wall, _, _ = self.run("curl from the farm", farm_curl(dest), stderr=subprocess.PIPE)
                     farm_s.append(wall)
-                elif what == "cache":
+                elif what in ("cache", "cache-http"):
                     # Cache::Get into a fresh cache directory (`impostor cache
                     # get`): installed under DEST/entries/KEY.
-                    wall, _, cpu = self.run("impostor cache get", self.cache_get_cmd(key, dest),
+                    wall, r, cpu = self.run("impostor cache get", self.cache_get_cmd(key, dest, what == "cache-http"),
                                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-                    cache_s.append(wall)
-                    cache_cpu.append(cpu)
+                    if "farm_http_fallback" in r.stderr or "blob_source_failed" in r.stderr:
+                        raise BenchError(what, f"fell back to gRPC:\n{r.stderr[-1500:]}")
+                    (cache_s if what == "cache" else cache_http_s).append(wall)
+                    (cache_cpu if what == "cache" else cache_http_cpu).append(cpu)
                     entry = dest / "entries" / key
                     got = sum(1 for p in entry.rglob("*") if p.is_file() and p.name in files)
                     if got != len(files):
@@ -466,14 +474,17 @@ class Bench:
                     # every time (fetch from a farm keeps files already in
                     # DIR; the cache dir is for --mirror fetches, set anyway).
                     env = dict(self.env, IMPOSTOR_CACHE_DIR=str(self.fresh("fetch-cache")))
+                    http = what == "fetch-http"
                     server0 = proc_cpu(self.server.pid, False)
-                    wall, _, cpu = self.run("impostor fetch", self.fetch_cmd(key, dest), env=env,
+                    wall, r, cpu = self.run("impostor fetch", self.fetch_cmd(key, dest, http), env=env,
                                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
                     server1 = proc_cpu(self.server.pid, False)
-                    fetch_s.append(wall)
-                    fetch_cpu.append(cpu)
+                    if "farm_http_fallback" in r.stderr:
+                        raise BenchError(what, f"fell back to gRPC:\n{r.stderr[-1500:]}")
+                    (http_s if http else fetch_s).append(wall)
+                    (http_cpu if http else fetch_cpu).append(cpu)
                     if server0 is not None and server1 is not None:
-                        server_cpu.append(server1 - server0)
+                        (http_server_cpu if http else server_cpu).append(server1 - server0)
                 got = sum(1 for p in dest.rglob("*") if p.is_file())
                 if got != len(files):
                     raise BenchError(what, f"wrote {got} files, not {len(files)}")
@@ -481,7 +492,8 @@ class Bench:
         self.stop_nginx(prefix, "nginx")
         return {"files": len(files), "mb": nbytes / 1e6, "curl": curl_s, "fetch": fetch_s, "curl_cpu": curl_cpu,
                 "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu,
-                "farm_http": farm_s}
+                "farm_http": farm_s, "fetch_http": http_s, "fetch_http_cpu": http_cpu,
+                "http_server_cpu": http_server_cpu, "cache_http": cache_http_s, "cache_http_cpu": cache_http_cpu}
 
     # ---- a batch of results: bake-batch of cached assets against curl ---------
 
@@ -495,9 +507,9 @@ class Bench:
         spec = self.work / "batch.json"
         spec.write_text(json.dumps({"defaults": {"layout": LAYOUT, "resolution": 256}, "assets": assets}))
 
-        def batch_cmd(out):
+        def batch_cmd(out, http=False):
             return [self.bin / "impostor", "bake-batch", spec, "--out", out, "--server", self.grpc, "--token-file",
-                    self.token, "--quiet", "--json"]
+                    self.token, "--quiet", "--json", *self.farm_http_flag(http)]
 
         www = self.work / "batch-www"
         wall, r, _ = self.run("bake-batch", batch_cmd(www), stderr=subprocess.PIPE, timeout=1800)
@@ -508,9 +520,10 @@ class Bench:
         nbytes = sum((www / f).stat().st_size for f in files)
         log(f"batch: {len(assets)} results baked in {wall:.1f} s: {len(files)} files, {nbytes / 1e6:.1f} MB")
         prefix, base, curl_base = self.start_nginx(www, "nginx-batch", files[0])
-        batch_s, batch_cpu, curl_s, curl_cpu = [], [], [], []
+        batch_s, batch_cpu, curl_s, curl_cpu, http_s, http_cpu = [], [], [], [], [], []
+        clients = ["curl", "batch", "batch-http"]
         for i in range(self.a.fetch_pairs):
-            for what in (["curl", "batch"] if i % 2 == 0 else ["batch", "curl"]):
+            for what in clients[i % 3:] + clients[:i % 3]:
                 dest = self.fresh(f"batch-{what}")
                 if what == "curl":
                     cmd = list(curl_base)
@@ -520,19 +533,23 @@ class Bench:
                     curl_s.append(wall)
                     curl_cpu.append(cpu)
                 else:
-                    wall, r, cpu = self.run("bake-batch", batch_cmd(dest), stderr=subprocess.PIPE)
+                    http = what == "batch-http"
+                    wall, r, cpu = self.run("bake-batch", batch_cmd(dest, http), stderr=subprocess.PIPE)
                     summary = json.loads(r.stdout.strip().splitlines()[-1])
                     if summary.get("cached") != len(assets):
                         raise BenchError("bake-batch", f"not every asset was a cache hit: {summary}")
-                    batch_s.append(wall)
-                    batch_cpu.append(cpu)
+                    if "farm_http_fallback" in r.stderr:
+                        raise BenchError(what, f"fell back to gRPC:\n{r.stderr[-1500:]}")
+                    (http_s if http else batch_s).append(wall)
+                    (http_cpu if http else batch_cpu).append(cpu)
                 got = sum(1 for p in dest.rglob("*") if p.is_file())
                 if got != len(files):
                     raise BenchError(what, f"wrote {got} files, not {len(files)}")
                 subprocess.run(["rm", "-rf", str(dest)])
         self.stop_nginx(prefix, "nginx-batch")
         return {"results": len(assets), "files": len(files), "mb": nbytes / 1e6, "batch": batch_s,
-                "batch_cpu": batch_cpu, "curl": curl_s, "curl_cpu": curl_cpu}
+                "batch_cpu": batch_cpu, "curl": curl_s, "curl_cpu": curl_cpu, "batch_http": http_s,
+                "batch_http_cpu": http_cpu}
 
     def batch_rows(self, b):
         bm, cm = median(b["batch"]), median(b["curl"])
@@ -544,6 +561,10 @@ class Bench:
             f"| nginx + curl, same files, one process (median of {len(b['curl'])}) | {cm:.3f} s "
             f"({span(b['curl'], 3)}) | alternating; CPU s: curl {median(b['curl_cpu']):.3f} |",
             f"| **batch / nginx + curl** | **{bm / cm:.2f}×** | target ≤ 1.25 |",
+            f"| `impostor bake-batch --farm-http` (median of {len(b['batch_http'])}) | "
+            f"{median(b['batch_http']):.3f} s ({span(b['batch_http'], 3)}) | large files from the farm's HTTP "
+            f"front end; CPU s: CLI {median(b['batch_http_cpu']):.3f} |",
+            f"| **batch --farm-http / nginx + curl** | **{median(b['batch_http']) / cm:.2f}×** | target ≤ 1.25 |",
         ]
 
     # ---- isolated load ----------------------------------------------------
@@ -663,6 +684,16 @@ class Bench:
             f"{median(fetch['cache']):.3f} s ({span(fetch['cache'], 3)}) | same runs; CPU s: CLI "
             f"{median(fetch['cache_cpu']):.3f} |",
             f"| **Cache::Get / nginx + curl** | **{median(fetch['cache']) / cm:.2f}×** | target ≤ 1.25 |",
+            f"| `impostor fetch --farm-http` (median of {len(fetch['fetch_http'])}) | "
+            f"{median(fetch['fetch_http']):.3f} s ({span(fetch['fetch_http'], 3)}) | large files from the farm's "
+            f"HTTP front end, small ones in one BatchReadBlobs; CPU s: CLI {median(fetch['fetch_http_cpu']):.3f} + "
+            f"server {median(fetch['http_server_cpu'] or [0]):.3f} |",
+            f"| **fetch --farm-http / nginx + curl** | **{median(fetch['fetch_http']) / cm:.2f}×** | target ≤ 1.25 |",
+            f"| `impostor cache get --farm-http` (median of {len(fetch['cache_http'])}) | "
+            f"{median(fetch['cache_http']):.3f} s ({span(fetch['cache_http'], 3)}) | CPU s: CLI "
+            f"{median(fetch['cache_http_cpu']):.3f} |",
+            f"| **Cache::Get --farm-http / nginx + curl** | **{median(fetch['cache_http']) / cm:.2f}×** | "
+            f"target ≤ 1.25 |",
             f"| curl from the farm's HTTP front end (median of {len(fetch['farm_http'])}) | "
             f"{median(fetch['farm_http']):.3f} s ({span(fetch['farm_http'], 3)}) | same files, one connection, "
             f"`/api/v1/results/KEY/files/NAME` with a token; {median(fetch['farm_http']) / cm:.2f}× nginx |",

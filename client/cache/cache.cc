@@ -31,7 +31,7 @@
 #include "client/delivery/catalog.h"
 #include "client/delivery/catalog_signature.h"
 #include "client/delivery/channel_catalog.h"
-#include "client/delivery/mirror_blob.h"
+#include "client/transfer/http_blob_read.h"
 #include "client/delivery/release_paths.h"
 #include "client/transfer/blob_download.h"
 #include "client/transport/job_convert.h"
@@ -604,7 +604,7 @@ class Cache::Impl {
     plan.listing = delivery::ManifestFromAsset(*asset);
     plan.listing_source = absl::StrCat("channel ", options_.channel, "'s catalog");
     for (const std::string& mirror : options_.mirrors) {
-      delivery::MirrorReadOptions read{options_.rpc_timeout_seconds, options_.max_attempts, nullptr,
+      HttpReadOptions read{options_.rpc_timeout_seconds, options_.max_attempts, nullptr,
                                        options_.mirror_ca_file};
       plan.sources.push_back(
           {absl::StrCat("mirror ", mirror),
@@ -612,7 +612,7 @@ class Cache::Impl {
                           const std::function<absl::Status(std::string_view)>& sink,
                           const CancelSource* c) mutable -> absl::Status {
              read.cancel = c;
-             return delivery::ReadVerified(delivery::JoinUrl(mirror, delivery::BlobPath(digest.hash())),
+             return ReadVerified(delivery::JoinUrl(mirror, delivery::BlobPath(digest.hash())),
                                            digest.hash(), digest.size_bytes(), offset, hash, sink, read);
            },
            /*mirror=*/true});

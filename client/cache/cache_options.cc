@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/delivery/catalog_signature.h"
 #include "client/delivery/release_paths.h"
+#include "client/transport/farm_http_url.h"
 #include "common/net/keepalive.h"
 #include "common/net/server_list.h"
 #include "common/net/tls_files.h"
@@ -79,6 +80,11 @@ absl::Status ValidateOptions(const CacheOptions& o) {
         {.ca = "CacheOptions.tls_ca_file", .cert = "CacheOptions.tls_cert_file", .key = "CacheOptions.tls_key_file"});
     if (!tls.ok()) return tls.status();
   }
+  if (!o.farm_http.empty() && o.farm_http != "none") {
+    if (absl::Status s = ValidateFarmHttpUrl(o.farm_http, !o.tls_ca_file.empty()); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("CacheOptions.farm_http: ", s.message()));
+    }
+  }
   return absl::OkStatus();
 }
 
@@ -97,6 +103,7 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   c.tls_server_name = o.tls_server_name;
   c.token_file = o.token_file;
   c.token = o.token;
+  c.farm_http = o.farm_http;
   return c;
 }
 

@@ -137,6 +137,9 @@ impostor_status impostor_cache_open_ext(const impostor_cache_options* options, c
       if (ext->catalog_public_key_file != nullptr) o.catalog_public_key_file = ext->catalog_public_key_file;
       if (ext->mirror_ca_file != nullptr) o.mirror_ca_file = ext->mirror_ca_file;
     }
+    if (ext->size >= offsetof(impostor_cache_options_ext, farm_http) + sizeof(const char*)) {
+      if (ext->farm_http != nullptr) o.farm_http = ext->farm_http;
+    }
   }
   if (options->server != nullptr) {
     o.server = options->server;

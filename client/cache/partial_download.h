@@ -81,7 +81,7 @@ struct BlobOutcome {
 // to `sink` and `hash` (which has seen bytes [0, offset)) and checks the
 // whole blob's SHA-256 at the end (DATA_LOSS, the sink having seen bad
 // bytes). The farm's is ResumeBlobDownload (FarmBlobReader); a release
-// mirror's is delivery::ReadVerified.
+// mirror's is ReadVerified (transfer/http_blob_read.h).
 using BlobReader = std::function<absl::Status(const v1::Digest& digest, int64_t offset, Sha256& hash,
                                               const std::function<absl::Status(std::string_view)>& sink,
                                               const CancelSource* cancel)>;

@@ -14,7 +14,9 @@
 namespace impostor::sdk {
 
 BlobReader PrefetchingFarmReader(Transport& transport, const v1::Manifest& listing,
-                                 const std::function<bool(const v1::Digest&)>& wanted, const CancelSource* cancel) {
+                                 const std::function<bool(const v1::Digest&)>& wanted, const CancelSource* cancel,
+                                 BlobReader stream) {
+  if (!stream) stream = FarmBlobReader(transport);
   std::vector<v1::Digest> small;
   std::set<std::string> seen;
   int64_t bytes = 0;
@@ -45,13 +47,13 @@ BlobReader PrefetchingFarmReader(Transport& transport, const v1::Manifest& listi
       break;
     }
   }
-  return [&transport, held](const v1::Digest& digest, int64_t offset, Sha256& hash,
-                            const std::function<absl::Status(std::string_view)>& sink,
-                            const CancelSource* c) -> absl::Status {
+  return [stream = std::move(stream), held](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                            const std::function<absl::Status(std::string_view)>& sink,
+                                            const CancelSource* c) -> absl::Status {
     auto it = held->find(digest.hash());
     if (it == held->end() || static_cast<int64_t>(it->second.size()) != digest.size_bytes() || offset < 0 ||
         offset > digest.size_bytes()) {
-      return ResumeBlobDownload(transport, digest, offset, hash, sink, c);
+      return stream(digest, offset, hash, sink, c);
     }
     const std::string_view rest = std::string_view(it->second).substr(static_cast<size_t>(offset));
     hash.Update(rest);

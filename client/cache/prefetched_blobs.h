@@ -23,12 +23,13 @@ inline constexpr int64_t kMaxPrefetchBytes = int64_t{16} << 20;
 // Reads the small blobs of `listing` for which `wanted` is true (e.g. no
 // partial file of theirs exists yet) in batches, verified, and returns a
 // reader that serves those from memory and every other blob (or all, when
-// the server predates BatchReadBlobs or a batch failed) with
-// ResumeBlobDownload. A blob a batch could not give is left to that
-// stream, whose error then names it as before. `transport` must outlive the
-// reader.
+// the server predates BatchReadBlobs or a batch failed) with `stream`, by
+// default ResumeBlobDownload (FarmBlobReader). A blob a batch could not
+// give is left to that stream, whose error then names it as before.
+// `transport` must outlive the reader.
 BlobReader PrefetchingFarmReader(Transport& transport, const v1::Manifest& listing,
-                                 const std::function<bool(const v1::Digest&)>& wanted, const CancelSource* cancel);
+                                 const std::function<bool(const v1::Digest&)>& wanted, const CancelSource* cancel,
+                                 BlobReader stream = nullptr);
 
 }  // namespace impostor::sdk
 

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <system_error>
 #include <utility>
@@ -20,6 +21,7 @@
 #include "absl/strings/str_join.h"
 #include "client/base/local_io_error.h"
 #include "client/cache/prefetched_blobs.h"
+#include "client/transfer/farm_http_fetch.h"
 #include "client/transfer/result_fetch.h"
 #include "client/transport/rpc_error.h"
 #include "client/base/sdk_log.h"
@@ -341,14 +343,32 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   plan.listing_source = absl::StrCat("server ", transport.server());
   // Small blobs come many to a call, except those a partial file already
   // holds (an earlier install cut short resumes them from disk).
-  BlobReader reader = PrefetchingFarmReader(
-      transport, plan.listing,
-      [&layout](const v1::Digest& d) {
-        std::error_code ec;
-        return !fs::exists(layout.PartialPath(d.hash(), d.size_bytes()), ec);
-      },
-      cancel);
-  plan.sources.push_back({plan.listing_source, std::move(reader), /*mirror=*/false});
+  auto not_partial = [&layout](const v1::Digest& d) {
+    std::error_code ec;
+    return !fs::exists(layout.PartialPath(d.hash(), d.size_bytes()), ec);
+  };
+  if (transport.farm_http().empty()) {
+    plan.sources.push_back({plan.listing_source, PrefetchingFarmReader(transport, plan.listing, not_partial, cancel),
+                            /*mirror=*/false});
+    return InstallFromSources(plan, layout, key, hooks, cancel);
+  }
+  // The farm's HTTP front end streams the rest (farm_http_fetch.h), and
+  // ReadBlob is the source of last resort for a blob it cannot give
+  // intact, resuming from the verified bytes on disk.
+  auto names = std::make_shared<std::map<std::string, std::string>>();  // hash -> a file name of it
+  for (const v1::MapFile& map : plan.listing.maps()) names->emplace(map.digest().hash(), map.file());
+  names->emplace(plan.listing.manifest_json().hash(), kManifestFileName);
+  BlobReader over_http = [&transport, names, key](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                                   const std::function<absl::Status(std::string_view)>& sink,
+                                                   const CancelSource* c) -> absl::Status {
+    auto it = names->find(digest.hash());
+    if (it == names->end()) return absl::NotFoundError(absl::StrCat("blob ", digest.hash(), " is no file of ", key));
+    return ReadResultFileOverHttp(transport, key, it->second, digest, offset, hash, sink, c);
+  };
+  plan.sources.push_back({absl::StrCat("farm HTTP ", transport.farm_http()),
+                          PrefetchingFarmReader(transport, plan.listing, not_partial, cancel, std::move(over_http)),
+                          /*mirror=*/false});
+  plan.sources.push_back({plan.listing_source, FarmBlobReader(transport), /*mirror=*/false});
   return InstallFromSources(plan, layout, key, hooks, cancel);
 }
 

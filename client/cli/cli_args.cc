@@ -167,6 +167,14 @@ absl::StatusOr<CliArgs> ParseCliArgs(const std::vector<std::string>& args, const
       out.token_file = *value;
       continue;
     }
+    // The farm's HTTP front end (issue 45): every command that talks to the
+    // server; the SDK checks the URL (ClientOptions::farm_http).
+    if (flag == "--farm-http" && spec.value_flags.contains("--server")) {
+      if (!value.has_value() && i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) value = args[++i];
+      if (!value.has_value() || value->empty()) return Usage("--farm-http: missing value");
+      out.farm_http = *value;
+      continue;
+    }
     // Keepalive (issue 15): every command that talks to the server.
     if (flag == "--keepalive-seconds" && spec.value_flags.contains("--server")) {
       if (!value.has_value() && i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) value = args[++i];
@@ -678,6 +686,11 @@ Common flags:
   --token-file FILE   (every command that takes --server) the bearer token for a
                       server with tokens (`impostor-server token create`); the
                       file wins over $IMPOSTOR_TOKEN
+  --farm-http URL     (every command that takes --server) the farm's HTTP front
+                      end (its --http-listen, or an https:// proxy before it):
+                      results' large files are downloaded from there, verified,
+                      and over gRPC when it cannot give them intact; "none"
+                      turns $IMPOSTOR_FARM_HTTP off. With --tls-ca, https only
   --keepalive-seconds N  (every command that takes --server) while a call is
                       in flight, ping the server after N quiet seconds and
                       give the connection up when no answer comes within
@@ -709,6 +722,7 @@ Environment:
   SOURCE_DATE_EPOCH   publish: the new catalog's created_at (reproducible releases)
   IMPOSTOR_CACHE_DIR  default for --cache-dir
   IMPOSTOR_TOKEN      the bearer token when --token-file is not given
+  IMPOSTOR_FARM_HTTP  default for --farm-http
   IMPOSTOR_LOG        spdlog level for diagnostics on stderr (e.g. debug; default off)
 )";
 }
@@ -721,7 +735,8 @@ std::vector<std::string> AllFlags() {
     // Accepted by every command that takes --server (parsed before the
     // per-command table, see ParseCliArgs).
     if (spec.value_flags.contains("--server")) {
-      flags.insert({"--tls-ca", "--tls-cert", "--tls-key", "--tls-server-name", "--token-file", "--keepalive-seconds"});
+      flags.insert({"--tls-ca", "--tls-cert", "--tls-key", "--tls-server-name", "--token-file", "--keepalive-seconds",
+                    "--farm-http"});
     }
   }
   return {flags.begin(), flags.end()};

@@ -59,6 +59,10 @@ struct CliArgs {
   // --token-file FILE (commands that talk to the server): the bearer token
   // (issue 14); unset = $IMPOSTOR_TOKEN, else none. Read by the SDK.
   std::string token_file;
+  // --farm-http URL (commands that talk to the server): the farm's HTTP
+  // front end for results' large files (issue 45); unset =
+  // $IMPOSTOR_FARM_HTTP, else none. Checked by the SDK.
+  std::string farm_http;
   // --max-outage-seconds (commands that talk to the server): how long to
   // keep retrying while the server is away, 0..86400 (checked here); unset =
   // the command's default (kBakeOutageSeconds or kInteractiveOutageSeconds).

@@ -32,6 +32,7 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
   options.server = args.server;
   options.client_id = args.client_id;
   options.token_file = args.token_file;
+  options.farm_http = args.farm_http;
   options.max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options.on_connection_change = PrintEvents(args);
   if (args.keepalive_seconds) options.keepalive_seconds = *args.keepalive_seconds;
@@ -46,6 +47,7 @@ sdk::ClientOptions ClientOptionsFor(const CliArgs& args, double default_outage_s
 void ApplyConnectionOptions(const CliArgs& args, double default_outage_seconds, sdk::CacheOptions* options) {
   options->server = args.server;
   options->token_file = args.token_file;
+  options->farm_http = args.farm_http;
   options->max_outage_seconds = args.max_outage_seconds.value_or(default_outage_seconds);
   options->on_connection_change = PrintEvents(args);
   if (args.keepalive_seconds) options->keepalive_seconds = *args.keepalive_seconds;

@@ -6,8 +6,8 @@
 #include "absl/strings/str_join.h"
 #include "client/base/atomic_file.h"
 #include "client/base/small_file.h"
-#include "client/delivery/http_get.h"
-#include "client/delivery/mirror_blob.h"
+#include "client/transport/http_get.h"
+#include "client/transfer/http_blob_read.h"
 #include "client/delivery/release_paths.h"
 #include "client/base/sdk_log.h"
 #include "common/util/sha256.h"
@@ -16,6 +16,11 @@ namespace impostor::delivery {
 namespace {
 
 namespace fs = std::filesystem;
+using sdk::HttpGet;
+using sdk::HttpGetOptions;
+using sdk::HttpGetResult;
+using sdk::HttpReadOptions;
+using sdk::ReadVerifiedToString;
 
 // A channel file is a few hundred bytes; anything far larger is not one.
 constexpr int64_t kMaxChannelFileBytes = 64 * 1024;
@@ -145,7 +150,7 @@ absl::StatusOr<std::optional<ChannelCatalog::Fetched>> ChannelCatalog::FetchFrom
   std::vector<std::string> failures;
   for (const std::string& m : order) {
     const std::string catalog_url = JoinUrl(m, CatalogPath(fetched.pointer.catalog_sha256));
-    MirrorReadOptions read{options_.stall_seconds, options_.max_attempts, options_.cancel, options_.ca_file};
+    HttpReadOptions read{options_.stall_seconds, options_.max_attempts, options_.cancel, options_.ca_file};
     absl::StatusOr<std::string> text =
         ReadVerifiedToString(catalog_url, fetched.pointer.catalog_sha256, fetched.pointer.catalog_size_bytes, read);
     if (!text.ok()) {

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/transfer/blob_batch.h"
 #include "client/transfer/blob_download.h"
+#include "client/transfer/farm_http_fetch.h"
 #include "client/transfer/parallel_downloads.h"
 #include "common/request/bake_request.h"
 #include "common/util/sha256.h"
@@ -113,7 +114,9 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return wanted[a].digest.size_bytes() > wanted[b].digest.size_bytes();
   });
-  // Small files go many to a call (BatchReadBlobs: blob_batch.h), after
+  // Large files stream from the farm's HTTP front end when there is one
+  // (farm_http_fetch.h), else over ReadBlob. Small files go many to a call
+  // (BatchReadBlobs: blob_batch.h), after
   // the large ones' streams: one round trip for a result's 36 view images
   // and its manifest instead of one each. A server that predates the call
   // answers UNIMPLEMENTED; the files of such batches are then streamed one
@@ -134,8 +137,8 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   std::vector<size_t> unbatched;  // files of batches the server could not answer
   std::vector<std::unique_ptr<AtomicFileWriter>> downloaded(wanted.size());
   auto stream_file = [&](size_t i, const CancelSource& cancel) {
-    absl::StatusOr<std::unique_ptr<AtomicFileWriter>> staged =
-        DownloadBlobToStagedFile(transport, wanted[i].digest, wanted[i].path, &cancel);
+    absl::StatusOr<std::unique_ptr<AtomicFileWriter>> staged = DownloadResultFileToStagedFile(
+        transport, cache_key, wanted[i].path.filename().string(), wanted[i].digest, wanted[i].path, &cancel);
     if (!staged.ok()) return staged.status();
     downloaded[i] = std::move(*staged);
     return absl::OkStatus();

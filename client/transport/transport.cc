@@ -16,7 +16,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/match.h"
 #include "client/transport/connection_monitor.h"
+#include "client/transport/farm_http_url.h"
 #include "client/transport/retry.h"
 #include "client/transport/rpc_error.h"
 #include "client/base/sdk_log.h"
@@ -219,6 +221,24 @@ absl::Status ValidateOptions(const ClientOptions& o) {
   return absl::OkStatus();
 }
 
+// ClientOptions::farm_http, else $IMPOSTOR_FARM_HTTP, checked: "" when none.
+absl::StatusOr<std::string> ResolveFarmHttp(const ClientOptions& o) {
+  std::string url = o.farm_http;
+  std::string field = "ClientOptions.farm_http";
+  if (url.empty()) {
+    const char* env = std::getenv(kFarmHttpEnvVar);
+    if (env == nullptr || *env == '\0') return std::string();
+    url = env;
+    field = absl::StrCat("$", kFarmHttpEnvVar);
+  }
+  if (url == "none") return std::string();
+  if (absl::Status s = ValidateFarmHttpUrl(url, !o.tls_ca_file.empty()); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": ", s.message()));
+  }
+  while (absl::EndsWith(url, "/")) url.pop_back();
+  return url;
+}
+
 const char* StateName(grpc_connectivity_state state) {
   switch (state) {
     case GRPC_CHANNEL_IDLE: return "IDLE";
@@ -325,6 +345,8 @@ struct Transport::Stubs {
   std::unique_ptr<FailoverChannel> channels;
   // Identity (issue 14): "Bearer <token>", or empty for no token.
   std::string authorization;
+  // The farm's HTTP front end (ClientOptions::farm_http), "" when none.
+  std::string farm_http;
   void AddToken(grpc::ClientContext& context) const {
     if (!authorization.empty()) context.AddMetadata("authorization", authorization);
   }
@@ -334,6 +356,9 @@ Transport::Transport(ClientOptions options, std::unique_ptr<Stubs> stubs)
     : options_(std::move(options)), stubs_(std::move(stubs)) {}
 
 Transport::~Transport() = default;
+
+const std::string& Transport::authorization() const { return stubs_->authorization; }
+const std::string& Transport::farm_http() const { return stubs_->farm_http; }
 
 absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options,
                                                               const TransportHooks& hooks) {
@@ -365,6 +390,9 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   auto token = ResolveToken(options.token_file, options.token, std::getenv(kTokenEnvVar));
   if (!token.ok()) return token.status();
   if (!token->empty()) stubs->authorization = "Bearer " + *token;
+  absl::StatusOr<std::string> farm_http = ResolveFarmHttp(options);
+  if (!farm_http.ok()) return farm_http.status();
+  stubs->farm_http = std::move(*farm_http);
   // Each address gets channels of its own (failover_channel.h): a replaced
   // channel must not inherit a dead connection from a shared pool.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);

@@ -53,6 +53,12 @@ class Transport {
   const ClientOptions& options() const { return options_; }
   // ClientOptions::server: one address or a comma list of replicas.
   const std::string& server() const { return options_.server; }
+  // The Authorization value every call carries ("Bearer <token>"), "" for
+  // no token: the farm's HTTP front end takes the same.
+  const std::string& authorization() const;
+  // The farm's HTTP front end (ClientOptions::farm_http or
+  // $IMPOSTOR_FARM_HTTP, checked, without a trailing "/"), "" when none.
+  const std::string& farm_http() const;
 
   // Unary RPCs: deadline rpc_timeout_seconds, retried as RetryPolicy
   // decides (max_attempts, and through outages up to max_outage_seconds).

@@ -1,6 +1,6 @@
 // libcurl is loaded when the first mirror download needs it
-// (client/delivery/curl_library.h), not when a program using the SDK starts.
-#include "client/delivery/curl_library.h"
+// (client/transport/curl_library.h), not when a program using the SDK starts.
+#include "client/transport/curl_library.h"
 
 #include <dlfcn.h>
 
@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 namespace {
 
 using ::testing::HasSubstr;
@@ -59,4 +59,4 @@ TEST(CurlLibraryTest, ALibraryWithoutCurlsFunctionsIsAClearError) {
 }
 
 }  // namespace
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk

@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
-#include "client/delivery/http_get.h"
+#include "client/transport/http_get.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 namespace {
 
 constexpr char kBody[] = "0123456789";
@@ -111,4 +111,4 @@ TEST(HttpGet, EachCallSendsOnlyItsOwnRangeAndValidator) {
 }
 
 }  // namespace
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk

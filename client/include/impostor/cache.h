@@ -208,6 +208,12 @@ struct CacheOptions {
   // wins, then the token, then $IMPOSTOR_TOKEN). Default: empty.
   std::string token_file;
   std::string token;
+  // The farm's HTTP front end, as ClientOptions::farm_http: a miss then
+  // downloads the result's large files from it (verified, resumed from the
+  // partial file), and over gRPC those it cannot give intact. Empty =
+  // $IMPOSTOR_FARM_HTTP, else none; "none" = none. Open checks it
+  // (INVALID_ARGUMENT naming this field). Default: empty.
+  std::string farm_http;
 };
 
 // One file of a cached result.

@@ -178,6 +178,24 @@ struct ClientOptions {
   // Default: empty.
   std::string token_file;
   std::string token;
+  // The farm's HTTP front end (the server's --http-listen, or a TLS proxy
+  // in front of it), e.g. "http://bake.example.com:8080" or
+  // "https://bake.example.com" (issue 45): fetching a result then
+  // downloads its large files from /api/v1/results/KEY/files/NAME there
+  // with libcurl, the token above as a bearer header, verified against
+  // their digests as they stream; its small files still come many to one
+  // BatchReadBlobs call, and the listing from GetResult. gRPC relays a
+  // large file in 64 KiB messages at about a third of the speed plain HTTP
+  // moves it. A file the front end cannot give intact (unreachable, 404, a
+  // stall of rpc_timeout_seconds, bytes that do not verify) is downloaded
+  // over gRPC instead, and nothing unverified is installed. https:// is
+  // checked against tls_ca_file when set, else the system's roots. With
+  // tls_ca_file set only https:// is accepted, as the token would cross
+  // the network in clear. Empty = the IMPOSTOR_FARM_HTTP environment
+  // variable, and none when that is unset; "none" = none. Anything but an
+  // http:// or https:// URL of at most 2,048 printable characters is
+  // INVALID_ARGUMENT from Connect naming this field. Default: empty.
+  std::string farm_http;
 };
 
 // What to bake. Zero and empty values mean "the server's default", which the

@@ -172,6 +172,12 @@ typedef struct impostor_cache_options_ext {
   double catalog_refresh_seconds;
   const char* catalog_public_key_file;
   const char* mirror_ca_file;
+  /* The farm's HTTP front end (CacheOptions::farm_http): a miss downloads a
+   * result's large files from it, verified, and over gRPC what it cannot
+   * give intact. "http://bake.example.com:8080" or an https:// proxy; NULL
+   * = $IMPOSTOR_FARM_HTTP, else none; "none" = none. Added after
+   * mirror_ca_file: read only when `size` covers it. */
+  const char* farm_http;
 } impostor_cache_options_ext;
 
 IMPOSTOR_C_EXPORT void impostor_cache_options_ext_init(impostor_cache_options_ext* ext);

@@ -1,15 +1,15 @@
-#include "client/delivery/mirror_blob.h"
+#include "client/transfer/http_blob_read.h"
 
 #include "absl/strings/string_view.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "client/delivery/http_get.h"
+#include "client/transport/http_get.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 
 absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int64_t size_bytes, int64_t offset,
                           Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
-                          const MirrorReadOptions& options) {
+                          const HttpReadOptions& options) {
   if (offset < 0 || offset > size_bytes) {
     return absl::InvalidArgumentError(absl::StrCat(url, ": offset ", offset, " outside 0..", size_bytes));
   }
@@ -23,6 +23,7 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
     get.offset = have;
     get.cancel = options.cancel;
     get.ca_file = options.ca_file;
+    get.authorization = options.authorization;
     int64_t received = 0;
     absl::StatusOr<HttpGetResult> got = HttpGet(
         url, get,
@@ -100,7 +101,7 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
 }
 
 absl::StatusOr<std::string> ReadVerifiedToString(const std::string& url, absl::string_view sha256,
-                                                 int64_t size_bytes, const MirrorReadOptions& options) {
+                                                 int64_t size_bytes, const HttpReadOptions& options) {
   std::string out;
   Sha256 hash;
   absl::Status s = ReadVerified(url, sha256, size_bytes, 0, hash,
@@ -113,4 +114,4 @@ absl::StatusOr<std::string> ReadVerifiedToString(const std::string& url, absl::s
   return out;
 }
 
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk

@@ -1,4 +1,4 @@
-#include "client/delivery/curl_library.h"
+#include "client/transport/curl_library.h"
 
 #include <dlfcn.h>
 
@@ -6,13 +6,13 @@
 
 #include "absl/strings/str_cat.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 namespace {
 
 absl::Status LoadError(const char* soname, const char* what) {
   const char* reason = dlerror();
   return absl::FailedPreconditionError(absl::StrCat(
-      "downloads from mirrors need libcurl (", soname, "; Debian package libcurl4): ", what,
+      "HTTP downloads (mirrors, a farm's HTTP front end) need libcurl (", soname, "; Debian package libcurl4): ", what,
       reason != nullptr ? absl::StrCat(": ", reason) : std::string()));
 }
 
@@ -54,7 +54,7 @@ absl::StatusOr<const CurlLibrary*> Curl() {
     auto* result = new absl::StatusOr<CurlLibrary>(LoadCurlLibrary(kCurlSoname));
     if (result->ok() && (*result)->global_init(CURL_GLOBAL_DEFAULT) != CURLE_OK) {
       *result = absl::FailedPreconditionError(
-          absl::StrCat("downloads from mirrors need libcurl (", kCurlSoname, "): curl_global_init failed"));
+          absl::StrCat("HTTP downloads (mirrors, a farm's HTTP front end) need libcurl (", kCurlSoname, "): curl_global_init failed"));
     }
     return result;
   }();
@@ -62,4 +62,4 @@ absl::StatusOr<const CurlLibrary*> Curl() {
   return &**loaded;
 }
 
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk

@@ -1,13 +1,14 @@
 // One HTTP(S) GET through libcurl, streaming the body to a callback: what
 // the SDK uses to read release trees from mirrors (CDN edges, static hosts,
-// the farm's own /releases/). Connections are kept alive per thread (one
+// the farm's own /releases/) and result files from the farm's HTTP front
+// end. Connections are kept alive per thread (one
 // curl handle per calling thread), so many small files over one mirror do
 // not pay a handshake each.
 //
 // Thread-safety: any thread may call HttpGet; each call uses its thread's
 // handle.
-#ifndef IMPOSTOR_CLIENT_DELIVERY_HTTP_GET_H_
-#define IMPOSTOR_CLIENT_DELIVERY_HTTP_GET_H_
+#ifndef IMPOSTOR_CLIENT_TRANSPORT_HTTP_GET_H_
+#define IMPOSTOR_CLIENT_TRANSPORT_HTTP_GET_H_
 
 #include <cstdint>
 #include <functional>
@@ -17,7 +18,7 @@
 #include "absl/status/statusor.h"
 #include "client/transport/retry.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 
 struct HttpGetOptions {
   // Fail when no byte arrives for this long (the link stalled):
@@ -34,6 +35,9 @@ struct HttpGetOptions {
   const sdk::CancelSource* cancel = nullptr;
   // CA bundle for HTTPS (empty = the system's).
   std::string ca_file;
+  // The Authorization header's value ("Bearer <token>"), empty = none.
+  // libcurl does not send it on to another host after a redirect.
+  std::string authorization;
 };
 
 struct HttpGetResult {
@@ -57,6 +61,6 @@ absl::StatusOr<HttpGetResult> HttpGet(const std::string& url, const HttpGetOptio
                                       const std::function<absl::Status(std::string_view)>& sink,
                                       int64_t* partial_bytes = nullptr);
 
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk
 
-#endif  // IMPOSTOR_CLIENT_DELIVERY_HTTP_GET_H_
+#endif  // IMPOSTOR_CLIENT_TRANSPORT_HTTP_GET_H_

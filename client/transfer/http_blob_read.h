@@ -1,12 +1,13 @@
-// Reads one content-addressed file (a blob or a catalog) from one mirror,
-// verifying it against its digest as it streams: the transfer behind the
-// SDK's mirror downloads. A cut transfer is resumed on the same mirror with
+// Reads one content-addressed file over HTTP(S) (a release mirror's blob or
+// catalog, or a result file from the farm's own HTTP front end), verifying
+// it against its digest as it streams: the transfer behind the SDK's mirror
+// downloads and its fetches of farm results over HTTP. A cut transfer is resumed on the same mirror with
 // a Range request while bytes keep arriving; anything that proves the mirror
 // wrong (a byte too many, an error page, a body that hashes wrong) is
 // DATA_LOSS, which makes the caller move on to its next source. Runs on the
 // caller's thread.
-#ifndef IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
-#define IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
+#ifndef IMPOSTOR_CLIENT_TRANSFER_HTTP_BLOB_READ_H_
+#define IMPOSTOR_CLIENT_TRANSFER_HTTP_BLOB_READ_H_
 
 #include <cstdint>
 #include <functional>
@@ -18,15 +19,18 @@
 #include "client/transport/retry.h"
 #include "common/util/sha256.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 
-struct MirrorReadOptions {
+struct HttpReadOptions {
   // No byte for this long: the link stalled (DEADLINE_EXCEEDED).
   double stall_seconds = 30;
   // Transfers in a row that bring no byte before giving up on this mirror.
   int max_attempts = 3;
   const sdk::CancelSource* cancel = nullptr;  // may be null
   std::string ca_file;                        // HTTPS trust; empty = system
+  // Sent as the Authorization header when not empty ("Bearer <token>": the
+  // farm's own front end; mirrors need none).
+  std::string authorization;
 };
 
 // Feeds bytes [offset, size_bytes) of the file at `url` to `sink` and
@@ -39,12 +43,12 @@ struct MirrorReadOptions {
 // the sink's error. Messages name the URL and the digest.
 absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int64_t size_bytes, int64_t offset,
                           Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
-                          const MirrorReadOptions& options);
+                          const HttpReadOptions& options);
 
 // ReadVerified of a small file into memory.
 absl::StatusOr<std::string> ReadVerifiedToString(const std::string& url, absl::string_view sha256,
-                                                 int64_t size_bytes, const MirrorReadOptions& options);
+                                                 int64_t size_bytes, const HttpReadOptions& options);
 
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk
 
-#endif  // IMPOSTOR_CLIENT_DELIVERY_MIRROR_BLOB_H_
+#endif  // IMPOSTOR_CLIENT_TRANSFER_HTTP_BLOB_READ_H_

@@ -1,5 +1,6 @@
-// libcurl, loaded when the first mirror download needs it rather than when
-// a program starts.
+// libcurl, loaded when the first HTTP download (a mirror's, or a farm
+// result's over the farm's HTTP front end) needs it rather than when a
+// program starts.
 //
 // Why: libcurl and the 27 libraries it pulls in (GnuTLS, Kerberos, LDAP,
 // SSH, RTMP, ...) cost every `impostor` run about 15 ms of CPU at start-up
@@ -12,14 +13,14 @@
 //
 // The declarations and constants still come from <curl/curl.h>; only the
 // functions are looked up at run time, each by its exported name.
-#ifndef IMPOSTOR_CLIENT_DELIVERY_CURL_LIBRARY_H_
-#define IMPOSTOR_CLIENT_DELIVERY_CURL_LIBRARY_H_
+#ifndef IMPOSTOR_CLIENT_TRANSPORT_CURL_LIBRARY_H_
+#define IMPOSTOR_CLIENT_TRANSPORT_CURL_LIBRARY_H_
 
 #include <curl/curl.h>
 
 #include "absl/status/statusor.h"
 
-namespace impostor::delivery {
+namespace impostor::sdk {
 
 // The libcurl functions the SDK calls.
 struct CurlLibrary {
@@ -49,6 +50,6 @@ absl::StatusOr<const CurlLibrary*> Curl();
 // exist); the handle is kept open for the process's life.
 absl::StatusOr<CurlLibrary> LoadCurlLibrary(const char* soname);
 
-}  // namespace impostor::delivery
+}  // namespace impostor::sdk
 
-#endif  // IMPOSTOR_CLIENT_DELIVERY_CURL_LIBRARY_H_
+#endif  // IMPOSTOR_CLIENT_TRANSPORT_CURL_LIBRARY_H_

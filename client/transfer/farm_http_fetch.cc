@@ -1,0 +1,74 @@
+#include "client/transfer/farm_http_fetch.h"
+
+#include "absl/strings/str_cat.h"
+#include "client/base/sdk_log.h"
+#include "client/transfer/blob_download.h"
+#include "client/transport/farm_http_url.h"
+
+namespace impostor::sdk {
+namespace {
+
+constexpr size_t kWriteBytes = size_t{256} << 10;
+
+}  // namespace
+
+HttpReadOptions FarmHttpReadOptions(const Transport& transport, const CancelSource* cancel) {
+  HttpReadOptions read;
+  read.stall_seconds = transport.options().rpc_timeout_seconds;
+  read.max_attempts = transport.options().max_attempts;
+  read.cancel = cancel;
+  read.ca_file = transport.options().tls_ca_file;
+  read.authorization = transport.authorization();
+  return read;
+}
+
+absl::Status ReadResultFileOverHttp(const Transport& transport, const std::string& cache_key,
+                                    const std::string& file_name, const v1::Digest& digest, int64_t offset,
+                                    Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
+                                    const CancelSource* cancel) {
+  if (transport.farm_http().empty()) {
+    return absl::FailedPreconditionError("no farm HTTP front end is configured (ClientOptions.farm_http)");
+  }
+  return ReadVerified(ResultFileUrl(transport.farm_http(), cache_key, file_name), digest.hash(),
+                      digest.size_bytes(), offset, hash, sink, FarmHttpReadOptions(transport, cancel));
+}
+
+absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadResultFileToStagedFile(
+    Transport& transport, const std::string& cache_key, const std::string& file_name, const v1::Digest& digest,
+    const std::filesystem::path& path, const CancelSource* cancel) {
+  if (!transport.farm_http().empty()) {
+    absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
+    if (!writer.ok()) return writer.status();
+    bool local_error = false;  // the file's own write failed: no other road helps
+    // libcurl hands the body on in pieces of 16 KiB at most
+    // (CURL_MAX_WRITE_SIZE); they are written kWriteBytes at a time, not
+    // one write(2) each.
+    std::string pending;
+    auto flush = [&]() -> absl::Status {
+      absl::Status s = (*writer)->Append(pending);
+      pending.clear();
+      local_error = !s.ok();
+      return s;
+    };
+    Sha256 hash;
+    absl::Status read = ReadResultFileOverHttp(
+        transport, cache_key, file_name, digest, 0, hash,
+        [&](std::string_view data) {
+          pending.append(data);
+          return pending.size() >= kWriteBytes ? flush() : absl::OkStatus();
+        },
+        cancel);
+    if (read.ok()) read = flush();
+    if (read.ok()) {
+      (*writer)->StartWriteback();
+      return writer;
+    }
+    (*writer)->Abort();
+    if (local_error || absl::IsCancelled(read)) return read;
+    SdkLog().warn("event=farm_http_fallback key={} file={} reason=\"{}\" note=\"fetching it over gRPC\"", cache_key,
+                  file_name, std::string(read.message()));
+  }
+  return DownloadBlobToStagedFile(transport, digest, path, cancel);
+}
+
+}  // namespace impostor::sdk

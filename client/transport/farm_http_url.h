@@ -1,0 +1,34 @@
+// Where a farm's HTTP front end is (ClientOptions::farm_http) and the URL of
+// a result's file on it: the second road for a result's bytes beside gRPC
+// (issue 45; client/transfer/farm_http_fetch.h uses it).
+#ifndef IMPOSTOR_CLIENT_TRANSPORT_FARM_HTTP_URL_H_
+#define IMPOSTOR_CLIENT_TRANSPORT_FARM_HTTP_URL_H_
+
+#include <string>
+#include "absl/strings/string_view.h"
+
+#include "absl/status/status.h"
+
+namespace impostor::sdk {
+
+// Read when ClientOptions::farm_http is empty.
+inline constexpr char kFarmHttpEnvVar[] = "IMPOSTOR_FARM_HTTP";
+
+// The longest farm_http accepted.
+inline constexpr size_t kMaxFarmHttpUrlBytes = 2048;
+
+// INVALID_ARGUMENT unless `url` is an http:// or https:// URL with a host,
+// at most kMaxFarmHttpUrlBytes of printable ASCII, without a query or a
+// fragment; with `tls` (the gRPC channel is TLS) only https:// is
+// accepted, as a bearer token would cross the network in clear. The
+// message names the limit or the part that is wrong, not the field.
+absl::Status ValidateFarmHttpUrl(absl::string_view url, bool tls);
+
+// BASE/api/v1/results/KEY/files/NAME, NAME percent-encoded but for
+// RFC 3986's unreserved characters (a result's file names are plain names;
+// CheckManifestFiles).
+std::string ResultFileUrl(absl::string_view base, absl::string_view cache_key, absl::string_view file_name);
+
+}  // namespace impostor::sdk
+
+#endif  // IMPOSTOR_CLIENT_TRANSPORT_FARM_HTTP_URL_H_

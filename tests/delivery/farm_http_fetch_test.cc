@@ -1,0 +1,332 @@
+// A farm result's large files over the farm's HTTP front end
+// (ClientOptions::farm_http, client/transfer/farm_http_fetch.h), without a
+// GPU: results put into a real impostor-server with --http-listen
+// (tests/support/published_result.h), fetched with FetchResultFiles, the
+// cache and the CLI. Which road each file took is counted on the wire: the
+// ReadBlob RPCs the transport started, and the requests an in-process front
+// end that misbehaves on purpose (fault_mirror.h) answered. Every bad answer
+// moves the file to gRPC, and nothing unverified is installed.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "client/cache/cache_testing.h"
+#include "client/transfer/result_fetch.h"
+#include "client/transport/farm_http_url.h"
+#include "client/transport/transport.h"
+#include "common/util/sha256.h"
+#include "impostor/cache.h"
+#include "impostor/impostor_c.h"
+#include "tests/delivery/fault_mirror.h"
+#include "tests/metrics/http_test_client.h"
+#include "tests/support/published_result.h"
+#include "tests/support/server_process.h"
+
+namespace impostor::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr char kReadBlob[] = "/impostor.v1.AssetService/ReadBlob";
+// Two maps over BatchReadBlobs' 1 MiB per blob (streamed: the front end's
+// files) and one under it (batched over gRPC with manifest.json).
+const std::vector<int64_t> kMapSizes = {1'500'000, 1'200'000, 300'000};
+const char* const kLargeFiles[] = {"albedo_alpha.png", "normal_depth.png"};
+
+// What the SDK logs goes to stderr; a test's own assertions do not read it.
+class FarmHttpTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    server_ = std::make_unique<ServerProcess>(0, std::vector<std::string>{"--http-listen", "127.0.0.1:0"});
+    http_url_ = "http://127.0.0.1:" + std::to_string(HttpPort(*server_));
+    dir_ = NewTempDir(std::string("farm_http_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    result_ = PublishResult(*server_, kMapSizes, 41);
+  }
+  void TearDown() override {
+    const fs::path data = server_->data_dir();
+    server_.reset();
+    fs::remove_all(data);
+    fs::remove_all(dir_);
+  }
+
+  sdk::ClientOptions Options(const std::string& farm_http) {
+    sdk::ClientOptions o;
+    o.server = server_->address();
+    o.connect_timeout_seconds = 10;
+    o.rpc_timeout_seconds = 1;  // a stalled front end is left after ~1 s a try
+    o.max_attempts = 2;
+    o.max_outage_seconds = 0;
+    o.farm_http = farm_http;
+    return o;
+  }
+
+  // FetchResultFiles into a fresh folder through a transport whose RPCs
+  // are counted; returns the ReadBlob streams it started (-1 on failure).
+  int FetchCountingReadBlobs(const std::string& farm_http, const std::string& token = "") {
+    sdk::ClientOptions o = Options(farm_http);
+    o.token = token;
+    auto read_blobs = std::make_shared<std::atomic<int>>(0);
+    sdk::TransportHooks hooks;
+    hooks.on_rpc = [read_blobs](const std::string& method) {
+      if (method == kReadBlob) read_blobs->fetch_add(1);
+    };
+    absl::StatusOr<std::unique_ptr<sdk::Transport>> transport = sdk::Transport::Connect(o, hooks);
+    EXPECT_TRUE(transport.ok()) << transport.status();
+    if (!transport.ok()) return -1;
+    const fs::path out = dir_ / ("out" + std::to_string(++fetches_));
+    absl::StatusOr<sdk::FetchResult> fetched = sdk::FetchResultFiles(**transport, result_.key, out, 1);
+    EXPECT_TRUE(fetched.ok()) << fetched.status();
+    if (!fetched.ok()) return -1;
+    ExpectFilesAre(out);
+    return read_blobs->load();
+  }
+
+  // `dir` holds exactly the result's maps and its manifest, byte for byte.
+  void ExpectFilesAre(const fs::path& dir) {
+    for (const auto& [name, bytes] : result_.files) {
+      EXPECT_EQ(ReadFileBytes(dir / name), bytes) << name << " differs from what the farm holds";
+    }
+    int files = 0;
+    for (const auto& e : fs::directory_iterator(dir)) files += e.is_regular_file() ? 1 : 0;
+    EXPECT_EQ(files, static_cast<int>(result_.files.size())) << "stray or missing files in " << dir;
+  }
+
+  // A front end in the test's hands: the large files under the URL shape
+  // the SDK asks for, below the FaultMirror's /v1/ root.
+  std::string MirrorFilePath(const std::string& name) const {
+    return "v1/farm/api/v1/results/" + result_.key + "/files/" + name;
+  }
+  std::unique_ptr<FaultMirror> StartFaultyFrontEnd() {
+    for (const auto& [name, bytes] : result_.files) {
+      const fs::path path = dir_ / "front" / MirrorFilePath(name);
+      fs::create_directories(path.parent_path());
+      WriteFileBytes(path, bytes);
+    }
+    return std::make_unique<FaultMirror>(dir_ / "front");
+  }
+
+  static void WriteFileBytes(const fs::path& path, const std::string& bytes) {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr) << path;
+    ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
+    std::fclose(f);
+  }
+
+  std::unique_ptr<ServerProcess> server_;
+  std::string http_url_;
+  fs::path dir_;
+  PublishedResult result_;
+  int fetches_ = 0;
+};
+
+TEST_F(FarmHttpTest, FetchTakesTheLargeFilesFromTheFrontEndAndTheSmallOnesInOneBatch) {
+  // Without a front end both large files stream over ReadBlob: the count
+  // below is not zero for want of counting.
+  EXPECT_EQ(FetchCountingReadBlobs("none"), 2);
+  EXPECT_EQ(FetchCountingReadBlobs(http_url_), 0);
+  EXPECT_EQ(FetchCountingReadBlobs(http_url_ + "/"), 0) << "a trailing slash on the base URL";
+}
+
+TEST_F(FarmHttpTest, EveryBadFrontEndAnswerMovesTheFileToGrpcAndNothingBadIsInstalled) {
+  std::unique_ptr<FaultMirror> front = StartFaultyFrontEnd();
+  const std::string base = front->url() + "/v1/farm";
+  struct Case {
+    Fault albedo, normal;
+  };
+  for (const Case& c : {Case{Fault::kFlipByte, Fault::kHtml200}, Case{Fault::kTruncate, Fault::kNotFound},
+                        Case{Fault::kStall, Fault::kNone}}) {
+    SCOPED_TRACE(::testing::Message() << "faults " << static_cast<int>(c.albedo) << ", " << static_cast<int>(c.normal));
+    front->SetFault(MirrorFilePath("albedo_alpha.png"), c.albedo);
+    front->SetFault(MirrorFilePath("normal_depth.png"), c.normal);
+    const int before = front->Requests(MirrorFilePath("normal_depth.png"));
+    EXPECT_EQ(FetchCountingReadBlobs(base), c.normal == Fault::kNone ? 1 : 2);
+    EXPECT_GT(front->Requests(MirrorFilePath("normal_depth.png")), before) << "the front end was asked first";
+  }
+  EXPECT_EQ(front->Requests(MirrorFilePath("orm.png")), 0) << "a small file came over HTTP, not in the batch";
+  EXPECT_EQ(front->Requests(MirrorFilePath("manifest.json")), 0);
+}
+
+TEST_F(FarmHttpTest, AFrontEndThatIsDownOrRefusesTheTokenLeavesTheFilesToGrpc) {
+  // Nothing listens on port 1.
+  EXPECT_EQ(FetchCountingReadBlobs("http://127.0.0.1:1"), 2);
+
+  // A front end that wants the farm's token as a bearer header, as the
+  // farm's own does with --auth token.
+  httplib::Server front;
+  std::atomic<int> refused{0};
+  front.Get(R"(/api/v1/results/([0-9a-f]{64})/files/([^/]+))", [&](const httplib::Request& req,
+                                                                  httplib::Response& res) {
+    if (req.get_header_value("Authorization") != "Bearer the-farm-token") {
+      refused.fetch_add(1);
+      res.status = 401;
+      res.set_content("{\"error\":\"unauthenticated\"}", "application/json");
+      return;
+    }
+    auto it = result_.files.find(req.matches[2]);
+    if (req.matches[1] != result_.key || it == result_.files.end()) {
+      res.status = 404;
+      return;
+    }
+    res.set_content(it->second, "image/png");
+  });
+  front.set_keep_alive_timeout(1);  // stop() waits for idle connections
+  const int port = front.bind_to_any_port("127.0.0.1");
+  std::thread serving([&] { front.listen_after_bind(); });
+  const std::string base = "http://127.0.0.1:" + std::to_string(port);
+  EXPECT_EQ(FetchCountingReadBlobs(base, "the-farm-token"), 0);
+  EXPECT_EQ(refused.load(), 0);
+  EXPECT_EQ(FetchCountingReadBlobs(base, "another-token"), 2);
+  EXPECT_EQ(refused.load(), 2) << "each large file was asked once with the wrong token, then taken over gRPC";
+  front.stop();
+  serving.join();
+}
+
+TEST_F(FarmHttpTest, CacheGetInstallsFromTheFrontEndAndFallsBackOnABadByte) {
+  std::unique_ptr<FaultMirror> front = StartFaultyFrontEnd();
+  for (const bool flip : {false, true}) {
+    SCOPED_TRACE(flip ? "a flipped byte in the front end's albedo" : "a good front end");
+    front->SetFault(MirrorFilePath("albedo_alpha.png"), flip ? Fault::kFlipByte : Fault::kNone);
+    sdk::CacheOptions o;
+    o.server = server_->address();
+    o.dir = dir_ / (flip ? "cache-flip" : "cache");
+    o.rpc_timeout_seconds = 1;
+    o.max_attempts = 2;
+    o.max_outage_seconds = 0;
+    o.farm_http = front->url() + "/v1/farm";
+    auto read_blobs = std::make_shared<std::atomic<int>>(0);
+    sdk::CacheTestHooks hooks;
+    hooks.transport.on_rpc = [read_blobs](const std::string& method) {
+      if (method == kReadBlob) read_blobs->fetch_add(1);
+    };
+    const int asked_before = front->TotalRequests();
+    absl::StatusOr<std::unique_ptr<sdk::Cache>> cache = sdk::CacheFactory::Open(o, hooks);
+    ASSERT_TRUE(cache.ok()) << cache.status();
+    absl::StatusOr<sdk::CachedResult> got = (*cache)->Get(result_.key);
+    ASSERT_TRUE(got.ok()) << got.status();
+    for (const sdk::CachedFile& f : got->files()) {
+      const std::string bytes = ReadFileBytes(f.path);
+      EXPECT_EQ(Sha256Hex(bytes), f.sha256) << f.path;
+      EXPECT_EQ(bytes, result_.files.at(f.path.filename().string())) << f.path;
+    }
+    EXPECT_EQ(read_blobs->load(), flip ? 1 : 0) << "only the file the front end spoiled came over ReadBlob";
+    EXPECT_EQ(front->TotalRequests() - asked_before, 2) << "the two large files, each asked once";
+  }
+}
+
+TEST_F(FarmHttpTest, TheCliFetchesOverTheFrontEndAndRefusesABadUrlNamingIt) {
+  const fs::path out = dir_ / "cli";
+  ToolRun run = RunTool({(BinaryDir() / "impostor").string(), "fetch", result_.key, "--server", server_->address(),
+                         "--farm-http", http_url_, "--out", out.string(), "--quiet"},
+                        std::chrono::seconds(120));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ExpectFilesAre(out);
+  EXPECT_EQ(run.err.find("farm_http_fallback"), std::string::npos) << run.err;
+
+  run = RunTool({(BinaryDir() / "impostor").string(), "fetch", result_.key, "--server", server_->address(),
+                 "--farm-http", "ftp://127.0.0.1/x", "--out", (dir_ / "cli-bad").string()},
+                std::chrono::seconds(60));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("farm_http"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("is not an http:// or https:// URL"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(dir_ / "cli-bad" / "manifest.json"));
+
+  run = RunTool({(BinaryDir() / "impostor").string(), "fetch", result_.key, "--server", server_->address(),
+                 "--farm-http"},
+                std::chrono::seconds(60));
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--farm-http: missing value"), std::string::npos) << run.err;
+
+  // $IMPOSTOR_FARM_HTTP when the flag is not given, named when it is bad.
+  run = RunTool({"/usr/bin/env", "IMPOSTOR_FARM_HTTP=http://", (BinaryDir() / "impostor").string(), "fetch",
+                 result_.key, "--server", server_->address(), "--out", (dir_ / "cli-env").string()},
+                std::chrono::seconds(60));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("$IMPOSTOR_FARM_HTTP: \"http://\" names no host"), std::string::npos) << run.err;
+}
+
+TEST_F(FarmHttpTest, BadFarmHttpOptionsAreRefusedNamingTheFieldAndTheLimit) {
+  struct Bad {
+    std::string url, says;
+  };
+  const std::vector<Bad> bad = {
+      {"ftp://farm/", "is not an http:// or https:// URL"},
+      {"farm:8080", "is not an http:// or https:// URL"},
+      {"http://", "names no host"},
+      {"http:///api", "names no host"},
+      {"http://farm:8080/x?y=1", "has a query or a fragment"},
+      {"http://user:secret@farm:8080", "carries credentials"},
+      {"http://farm 8080", "a space, a control or a non-ASCII character"},
+      {"http://farm/\x7f", "a space, a control or a non-ASCII character"},
+      {"http://farm/" + std::string(2100, 'a'), "over the limit of 2048"},
+  };
+  for (const Bad& b : bad) {
+    absl::StatusOr<std::unique_ptr<sdk::Transport>> t = sdk::Transport::Connect(Options(b.url));
+    ASSERT_FALSE(t.ok()) << b.url;
+    EXPECT_EQ(t.status().code(), absl::StatusCode::kInvalidArgument) << b.url;
+    EXPECT_NE(t.status().message().find("ClientOptions.farm_http: "), std::string::npos) << t.status();
+    EXPECT_NE(t.status().message().find(b.says), std::string::npos) << t.status();
+
+    sdk::CacheOptions c;
+    c.server = server_->address();
+    c.dir = dir_ / "cache-bad";
+    c.farm_http = b.url;
+    absl::StatusOr<std::unique_ptr<sdk::Cache>> cache = sdk::Cache::Open(c);
+    ASSERT_FALSE(cache.ok()) << b.url;
+    EXPECT_EQ(cache.status().code(), absl::StatusCode::kInvalidArgument) << b.url;
+    EXPECT_NE(cache.status().message().find("CacheOptions.farm_http: "), std::string::npos) << cache.status();
+  }
+  // A TLS farm's token must not cross in clear; https is fine.
+  EXPECT_NE(sdk::ValidateFarmHttpUrl("http://farm:8080", /*tls=*/true).message().find("plaintext"),
+            absl::string_view::npos);
+  EXPECT_TRUE(sdk::ValidateFarmHttpUrl("https://farm.example/impostor", /*tls=*/true).ok());
+  // "none" turns the environment's front end off.
+  EXPECT_EQ(FetchCountingReadBlobs("none"), 2);
+}
+
+TEST_F(FarmHttpTest, TheCApiTakesTheFrontEndAndRefusesABadOne) {
+  std::unique_ptr<FaultMirror> front = StartFaultyFrontEnd();
+  const std::string base = front->url() + "/v1/farm";
+  const std::string server = server_->address();
+  const std::string dir = (dir_ / "c-cache").string();
+  impostor_cache_options o;
+  impostor_cache_options_init(&o);
+  o.server = server.c_str();
+  o.dir = dir.c_str();
+  o.rpc_timeout_seconds = 1;
+  impostor_cache_options_ext ext;
+  impostor_cache_options_ext_init(&ext);
+  EXPECT_EQ(ext.farm_http, nullptr) << "init leaves it to $IMPOSTOR_FARM_HTTP";
+  ext.farm_http = base.c_str();
+  impostor_cache* cache = nullptr;
+  ASSERT_EQ(impostor_cache_open_ext(&o, &ext, &cache), IMPOSTOR_OK) << impostor_last_error();
+  impostor_result* got = nullptr;
+  ASSERT_EQ(impostor_cache_get(cache, result_.key.c_str(), &got), IMPOSTOR_OK) << impostor_last_error();
+  EXPECT_EQ(ReadFileBytes(impostor_result_map_path(got, "normal_depth")), result_.files.at("normal_depth.png"));
+  impostor_result_release(got);
+  impostor_cache_close(cache);
+  EXPECT_EQ(front->Requests(MirrorFilePath("albedo_alpha.png")), 1);
+  EXPECT_EQ(front->Requests(MirrorFilePath("normal_depth.png")), 1);
+
+  ext.farm_http = "http://farm:8080/?token=x";
+  EXPECT_EQ(impostor_cache_open_ext(&o, &ext, &cache), IMPOSTOR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(impostor_last_error()).find("CacheOptions.farm_http: "), std::string::npos)
+      << impostor_last_error();
+}
+
+TEST(FarmHttpUrl, ResultFileUrlsEscapeEverythingButUnreservedCharacters) {
+  const std::string key(64, 'a');
+  EXPECT_EQ(sdk::ResultFileUrl("http://farm:8080", key, "albedo_alpha.png"),
+            "http://farm:8080/api/v1/results/" + key + "/files/albedo_alpha.png");
+  EXPECT_EQ(sdk::ResultFileUrl("https://farm/impostor/", key, "a b%#?é.png"),
+            "https://farm/impostor/api/v1/results/" + key + "/files/a%20b%25%23%3F%C3%A9.png");
+}
+
+}  // namespace
+}  // namespace impostor::testing
