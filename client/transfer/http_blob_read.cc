@@ -6,6 +6,12 @@
 #include "client/transport/http_get.h"
 
 namespace impostor::sdk {
+namespace {
+
+constexpr int64_t kLargeReadBytes = int64_t{1} << 20;
+constexpr long kLargeReceiveBuffer = 256L << 10;
+
+}  // namespace
 
 absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int64_t size_bytes, int64_t offset,
                           Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
@@ -24,6 +30,9 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
     get.cancel = options.cancel;
     get.ca_file = options.ca_file;
     get.authorization = options.authorization;
+    // Large reads for a large file only: small ones are most of a game's
+    // (a handle keeps its buffer).
+    if (size_bytes - have >= kLargeReadBytes) get.receive_buffer_bytes = kLargeReceiveBuffer;
     int64_t received = 0;
     absl::StatusOr<HttpGetResult> got = HttpGet(
         url, get,

@@ -13,8 +13,6 @@
 namespace impostor::sdk {
 namespace {
 
-constexpr long kReceiveBufferBytes = 256L << 10;
-
 struct Transfer {
   const HttpGetOptions* options;
   const std::function<absl::Status(std::string_view)>* sink;
@@ -93,6 +91,7 @@ struct ThreadHandle {
   CURL* curl;
   bool configured = false;
   std::string ca_file;  // what CURLOPT_CAINFO was set to ("" = the system's)
+  long buffer_bytes = CURL_MAX_WRITE_SIZE;  // CURLOPT_BUFFERSIZE (libcurl's default)
 };
 
 // The options that are the same for every transfer, and the CA bundle
@@ -111,13 +110,10 @@ void Configure(ThreadHandle& handle, const std::string& ca_file) {
   lib.easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
   lib.easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, &OnProgress);
   lib.easy_setopt(curl, CURLOPT_USERAGENT, "impostor-sdk/1");
-  // Reads of 256 KiB rather than libcurl's 16 KiB: a 15 MB map in ~60
-  // recv calls, not ~900 (the body still reaches OnBody in pieces of 16 KiB
-  // at most; sinks that write files gather them).
-  lib.easy_setopt(curl, CURLOPT_BUFFERSIZE, kReceiveBufferBytes);
   if (!ca_file.empty()) lib.easy_setopt(curl, CURLOPT_CAINFO, ca_file.c_str());
   handle.configured = true;
   handle.ca_file = ca_file;
+  handle.buffer_bytes = CURL_MAX_WRITE_SIZE;  // easy_reset restored the default
 }
 
 }  // namespace
@@ -146,6 +142,14 @@ absl::StatusOr<HttpGetResult> HttpGet(const std::string& url, const HttpGetOptio
   lib.easy_setopt(curl, CURLOPT_HEADERDATA, &t);
   lib.easy_setopt(curl, CURLOPT_WRITEDATA, &t);
   lib.easy_setopt(curl, CURLOPT_XFERINFODATA, &t);
+  // libcurl's own 16 KiB unless asked (each handle keeps its buffer, and a
+  // fleet of players holds a handle per download thread); set only when it
+  // changes.
+  const long buffer = options.receive_buffer_bytes > 0 ? options.receive_buffer_bytes : long{CURL_MAX_WRITE_SIZE};
+  if (buffer != handle.buffer_bytes) {
+    lib.easy_setopt(curl, CURLOPT_BUFFERSIZE, buffer);
+    handle.buffer_bytes = buffer;
+  }
   std::string range;
   if (options.offset > 0) range = absl::StrCat(options.offset, "-");
   lib.easy_setopt(curl, CURLOPT_RANGE, range.empty() ? nullptr : range.c_str());
