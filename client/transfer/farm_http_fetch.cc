@@ -8,7 +8,7 @@
 namespace impostor::sdk {
 namespace {
 
-constexpr size_t kWriteBytes = size_t{256} << 10;
+constexpr size_t kSinkBytes = size_t{256} << 10;
 
 }  // namespace
 
@@ -29,8 +29,30 @@ absl::Status ReadResultFileOverHttp(const Transport& transport, const std::strin
   if (transport.farm_http().empty()) {
     return absl::FailedPreconditionError("no farm HTTP front end is configured (ClientOptions.farm_http)");
   }
-  return ReadVerified(ResultFileUrl(transport.farm_http(), cache_key, file_name), digest.hash(),
-                      digest.size_bytes(), offset, hash, sink, FarmHttpReadOptions(transport, cancel));
+  // libcurl hands the body on in pieces of 16 KiB at most
+  // (CURL_MAX_WRITE_SIZE): they go on to `sink` in pieces of kSinkBytes or more, so a
+  // file is written in ~60 write(2) calls, not ~900. Whatever is held goes
+  // on before returning, whatever the outcome: the sink has then seen every
+  // byte `hash` has (the caller's resume point and its bad-bytes rule).
+  std::string held;
+  absl::Status sink_error;
+  auto pass_on = [&]() -> absl::Status {
+    if (held.empty()) return absl::OkStatus();
+    absl::Status s = sink(held);
+    held.clear();
+    if (!s.ok()) sink_error = s;
+    return s;
+  };
+  absl::Status read = ReadVerified(ResultFileUrl(transport.farm_http(), cache_key, file_name), digest.hash(),
+                                   digest.size_bytes(), offset, hash,
+                                   [&](std::string_view data) -> absl::Status {
+                                     held.append(data);
+                                     return held.size() >= kSinkBytes ? pass_on() : absl::OkStatus();
+                                   },
+                                   FarmHttpReadOptions(transport, cancel));
+  if (!sink_error.ok()) return sink_error;
+  if (absl::Status s = pass_on(); !s.ok()) return s;
+  return read;
 }
 
 absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadResultFileToStagedFile(
@@ -40,25 +62,15 @@ absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadResultFileToStagedFile
     absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
     if (!writer.ok()) return writer.status();
     bool local_error = false;  // the file's own write failed: no other road helps
-    // libcurl hands the body on in pieces of 16 KiB at most
-    // (CURL_MAX_WRITE_SIZE); they are written kWriteBytes at a time, not
-    // one write(2) each.
-    std::string pending;
-    auto flush = [&]() -> absl::Status {
-      absl::Status s = (*writer)->Append(pending);
-      pending.clear();
-      local_error = !s.ok();
-      return s;
-    };
     Sha256 hash;
-    absl::Status read = ReadResultFileOverHttp(
+    const absl::Status read = ReadResultFileOverHttp(
         transport, cache_key, file_name, digest, 0, hash,
         [&](std::string_view data) {
-          pending.append(data);
-          return pending.size() >= kWriteBytes ? flush() : absl::OkStatus();
+          absl::Status s = (*writer)->Append(data);
+          local_error = !s.ok();
+          return s;
         },
         cancel);
-    if (read.ok()) read = flush();
     if (read.ok()) {
       (*writer)->StartWriteback();
       return writer;

@@ -34,7 +34,9 @@ HttpReadOptions FarmHttpReadOptions(const Transport& transport, const CancelSour
 
 // Feeds bytes [offset, size) of file `file_name` of result `cache_key` from
 // the front end to `sink` and `hash` (which has seen bytes [0, offset)),
-// then checks the whole file's SHA-256 against `digest`. Errors as
+// then checks the whole file's SHA-256 against `digest`. `sink` gets the
+// bytes in pieces of at least 256 KiB (but the last), and on return has seen
+// every byte `hash` has, whatever the outcome. Errors as
 // ReadVerified (transfer/http_blob_read.h): NOT_FOUND, UNAVAILABLE (an HTTP
 // error status too: 401 for a token the front end refuses),
 // DEADLINE_EXCEEDED, DATA_LOSS (the sink has then seen bad bytes), or the

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "client/cache/cache_testing.h"
+#include "client/transfer/farm_http_fetch.h"
 #include "client/transfer/result_fetch.h"
 #include "client/transport/farm_http_url.h"
 #include "client/transport/transport.h"
@@ -132,6 +133,51 @@ TEST_F(FarmHttpTest, FetchTakesTheLargeFilesFromTheFrontEndAndTheSmallOnesInOneB
   EXPECT_EQ(FetchCountingReadBlobs("none"), 2);
   EXPECT_EQ(FetchCountingReadBlobs(http_url_), 0);
   EXPECT_EQ(FetchCountingReadBlobs(http_url_ + "/"), 0) << "a trailing slash on the base URL";
+}
+
+TEST_F(FarmHttpTest, AFileReachesItsSinkInPiecesOfAtLeast256KiBFromTheOffsetAsked) {
+  absl::StatusOr<std::unique_ptr<sdk::Transport>> transport = sdk::Transport::Connect(Options(http_url_));
+  ASSERT_TRUE(transport.ok()) << transport.status();
+  const std::string& bytes = result_.files.at("albedo_alpha.png");
+  v1::Digest digest;
+  digest.set_hash(Sha256Hex(bytes));
+  digest.set_size_bytes(static_cast<int64_t>(bytes.size()));
+  for (const int64_t offset : {int64_t{0}, int64_t{700'001}}) {
+    SCOPED_TRACE(offset);
+    Sha256 hash;
+    hash.Update(std::string_view(bytes).substr(0, static_cast<size_t>(offset)));
+    std::string got;
+    std::vector<size_t> pieces;
+    const absl::Status read = sdk::ReadResultFileOverHttp(**transport, result_.key, "albedo_alpha.png", digest, offset,
+                                                          hash, [&](std::string_view data) {
+                                                            pieces.push_back(data.size());
+                                                            got.append(data);
+                                                            return absl::OkStatus();
+                                                          },
+                                                          nullptr);
+    ASSERT_TRUE(read.ok()) << read;
+    EXPECT_EQ(got, bytes.substr(static_cast<size_t>(offset)));
+    ASSERT_FALSE(pieces.empty());
+    // Each piece but the last is 256 KiB and at most one of libcurl's
+    // pieces (16 KiB) more; ~6 in all rather than ~90.
+    for (size_t i = 0; i + 1 < pieces.size(); ++i) {
+      EXPECT_GE(pieces[i], size_t{256} << 10) << "piece " << i;
+      EXPECT_LE(pieces[i], (size_t{256} << 10) + (size_t{16} << 10)) << "piece " << i;
+    }
+    EXPECT_LE(pieces.size(), got.size() / (size_t{256} << 10) + 1);
+  }
+  // A wrong digest: DATA_LOSS, after the sink saw every byte the hash did.
+  digest.set_hash(std::string(64, '0'));
+  Sha256 hash;
+  size_t seen = 0;
+  const absl::Status bad = sdk::ReadResultFileOverHttp(**transport, result_.key, "albedo_alpha.png", digest, 0, hash,
+                                                       [&](std::string_view data) {
+                                                         seen += data.size();
+                                                         return absl::OkStatus();
+                                                       },
+                                                       nullptr);
+  EXPECT_EQ(bad.code(), absl::StatusCode::kDataLoss) << bad;
+  EXPECT_EQ(seen, bytes.size());
 }
 
 TEST_F(FarmHttpTest, EveryBadFrontEndAnswerMovesTheFileToGrpcAndNothingBadIsInstalled) {
