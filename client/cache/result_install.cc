@@ -347,7 +347,7 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
     std::error_code ec;
     return !fs::exists(layout.PartialPath(d.hash(), d.size_bytes()), ec);
   };
-  if (transport.farm_http().empty()) {
+  if (!UsesFarmHttp(transport)) {
     plan.sources.push_back({plan.listing_source, PrefetchingFarmReader(transport, plan.listing, not_partial, cancel),
                             /*mirror=*/false});
     return InstallFromSources(plan, layout, key, hooks, cancel);

@@ -15,11 +15,15 @@ constexpr size_t kSinkBytes = size_t{256} << 10;
 HttpReadOptions FarmHttpReadOptions(const Transport& transport, const CancelSource* cancel) {
   HttpReadOptions read;
   read.stall_seconds = transport.options().rpc_timeout_seconds;
-  read.max_attempts = transport.options().max_attempts;
+  read.max_attempts = 1;
   read.cancel = cancel;
   read.ca_file = transport.options().tls_ca_file;
   read.authorization = transport.authorization();
   return read;
+}
+
+bool UsesFarmHttp(const Transport& transport) {
+  return !transport.farm_http().empty() && !transport.farm_http_record().given_up.load();
 }
 
 absl::Status ReadResultFileOverHttp(const Transport& transport, const std::string& cache_key,
@@ -28,6 +32,12 @@ absl::Status ReadResultFileOverHttp(const Transport& transport, const std::strin
                                     const CancelSource* cancel) {
   if (transport.farm_http().empty()) {
     return absl::FailedPreconditionError("no farm HTTP front end is configured (ClientOptions.farm_http)");
+  }
+  Transport::FarmHttpRecord& record = transport.farm_http_record();
+  if (record.given_up.load()) {
+    return absl::FailedPreconditionError(absl::StrCat("the farm's HTTP front end ", transport.farm_http(),
+                                                      " was given up after ", kFarmHttpFailuresToGiveUp,
+                                                      " files in a row it could not give"));
   }
   // libcurl hands the body on in pieces of 16 KiB at most
   // (CURL_MAX_WRITE_SIZE): they go on to `sink` in pieces of kSinkBytes or more, so a
@@ -52,13 +62,21 @@ absl::Status ReadResultFileOverHttp(const Transport& transport, const std::strin
                                    FarmHttpReadOptions(transport, cancel));
   if (!sink_error.ok()) return sink_error;
   if (absl::Status s = pass_on(); !s.ok()) return s;
+  if (read.ok()) {
+    record.failures_in_a_row.store(0);
+  } else if (!absl::IsCancelled(read) && record.failures_in_a_row.fetch_add(1) + 1 >= kFarmHttpFailuresToGiveUp &&
+             !record.given_up.exchange(true)) {
+    SdkLog().warn("event=farm_http_given_up url={} failures_in_a_row={} last=\"{}\" note=\"every further file "
+                  "of this client goes over gRPC\"",
+                  transport.farm_http(), kFarmHttpFailuresToGiveUp, std::string(read.message()));
+  }
   return read;
 }
 
 absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadResultFileToStagedFile(
     Transport& transport, const std::string& cache_key, const std::string& file_name, const v1::Digest& digest,
     const std::filesystem::path& path, const CancelSource* cancel) {
-  if (!transport.farm_http().empty()) {
+  if (UsesFarmHttp(transport)) {
     absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(path);
     if (!writer.ok()) return writer.status();
     bool local_error = false;  // the file's own write failed: no other road helps

@@ -27,10 +27,20 @@
 
 namespace impostor::sdk {
 
-// How the front end is read: a stall is rpc_timeout_seconds without a byte,
-// max_attempts transfers in a row without progress give up, https:// trusts
+// How the front end is read: a stall is rpc_timeout_seconds without a byte;
+// a transfer that brings nothing gives the file up at once (gRPC is one step
+// away), one cut after bringing bytes is resumed; https:// trusts
 // tls_ca_file when set, and the request carries the transport's token.
 HttpReadOptions FarmHttpReadOptions(const Transport& transport, const CancelSource* cancel);
+
+// Files in a row the front end could not give (any failure but a
+// cancellation or the sink's own) after which the transport stops asking it:
+// a misconfigured URL or token then costs three warnings, not two for each
+// result of a 5,000-asset batch. A file it gives resets the count.
+inline constexpr int kFarmHttpFailuresToGiveUp = 3;
+
+// True while the transport has a front end it has not given up on.
+bool UsesFarmHttp(const Transport& transport);
 
 // Feeds bytes [offset, size) of file `file_name` of result `cache_key` from
 // the front end to `sink` and `hash` (which has seen bytes [0, offset)),
@@ -40,7 +50,8 @@ HttpReadOptions FarmHttpReadOptions(const Transport& transport, const CancelSour
 // ReadVerified (transfer/http_blob_read.h): NOT_FOUND, UNAVAILABLE (an HTTP
 // error status too: 401 for a token the front end refuses),
 // DEADLINE_EXCEEDED, DATA_LOSS (the sink has then seen bad bytes), or the
-// sink's. FAILED_PRECONDITION when the transport has no front end.
+// sink's. FAILED_PRECONDITION when the transport has no front end or gave
+// it up (kFarmHttpFailuresToGiveUp; one warning line says so).
 absl::Status ReadResultFileOverHttp(const Transport& transport, const std::string& cache_key,
                                     const std::string& file_name, const v1::Digest& digest, int64_t offset,
                                     Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,

@@ -50,11 +50,11 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
         nullptr);
     if (got.ok()) {
       if (got->status == 404 || got->status == 410) {
-        return absl::NotFoundError(absl::StrCat(url, ": HTTP ", got->status, " (the mirror has no blob ", sha256, ")"));
+        return absl::NotFoundError(absl::StrCat(url, ": HTTP ", got->status, " (the server has no blob ", sha256, ")"));
       }
       if (got->status == 416) {
         return absl::DataLossError(absl::StrCat(url, ": HTTP 416 for bytes ", have, "- of blob ", sha256,
-                                                ": the mirror's file is shorter than the digest's ", size_bytes,
+                                                ": the served file is shorter than the digest's ", size_bytes,
                                                 " bytes"));
       }
       if (got->status != 200 && got->status != 206) {
@@ -69,13 +69,13 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
       }
       if (got->status == 206 && got->range_start != have - received) {
         return absl::DataLossError(absl::StrCat(url, ": asked for bytes from ", have - received,
-                                                ", the mirror sent them from ", got->range_start));
+                                                ", the server sent them from ", got->range_start));
       }
       if (got->status == 200 && have - received > 0) {
         // The whole file came although we asked for a range, and was fed
         // on as if it followed our bytes: the caller starts over from zero
         // (a mirror that ignores Range still serves whole files).
-        return absl::DataLossError(absl::StrCat(url, ": the mirror ignored the Range request (HTTP 200 for bytes ",
+        return absl::DataLossError(absl::StrCat(url, ": the server ignored the Range request (HTTP 200 for bytes ",
                                                 have - received, "-); fetching from zero"));
       }
       if (have < size_bytes) {
@@ -96,7 +96,7 @@ absl::Status ReadVerified(const std::string& url, absl::string_view sha256, int6
     fruitless = received > 0 ? 0 : fruitless + 1;
     if (fruitless >= options.max_attempts) {
       if (absl::IsUnavailable(last) && last.message().find("the body ended") != absl::string_view::npos) {
-        return absl::DataLossError(absl::StrCat(last.message(), " (truncated on the mirror)"));
+        return absl::DataLossError(absl::StrCat(last.message(), " (truncated on the server)"));
       }
       return last;
     }

@@ -347,6 +347,7 @@ struct Transport::Stubs {
   std::string authorization;
   // The farm's HTTP front end (ClientOptions::farm_http), "" when none.
   std::string farm_http;
+  mutable FarmHttpRecord farm_http_record;
   void AddToken(grpc::ClientContext& context) const {
     if (!authorization.empty()) context.AddMetadata("authorization", authorization);
   }
@@ -359,6 +360,7 @@ Transport::~Transport() = default;
 
 const std::string& Transport::authorization() const { return stubs_->authorization; }
 const std::string& Transport::farm_http() const { return stubs_->farm_http; }
+Transport::FarmHttpRecord& Transport::farm_http_record() const { return stubs_->farm_http_record; }
 
 absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options,
                                                               const TransportHooks& hooks) {

@@ -8,6 +8,7 @@
 #ifndef IMPOSTOR_CLIENT_TRANSPORT_TRANSPORT_H_
 #define IMPOSTOR_CLIENT_TRANSPORT_TRANSPORT_H_
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -59,6 +60,13 @@ class Transport {
   // The farm's HTTP front end (ClientOptions::farm_http or
   // $IMPOSTOR_FARM_HTTP, checked, without a trailing "/"), "" when none.
   const std::string& farm_http() const;
+  // How the front end has fared, kept by client/transfer/farm_http_fetch.h:
+  // its failures in a row, and whether this transport gave it up.
+  struct FarmHttpRecord {
+    std::atomic<int> failures_in_a_row{0};
+    std::atomic<bool> given_up{false};
+  };
+  FarmHttpRecord& farm_http_record() const;
 
   // Unary RPCs: deadline rpc_timeout_seconds, retried as RetryPolicy
   // decides (max_attempts, and through outages up to max_outage_seconds).

@@ -199,6 +199,41 @@ TEST_F(FarmHttpTest, EveryBadFrontEndAnswerMovesTheFileToGrpcAndNothingBadIsInst
   EXPECT_EQ(front->Requests(MirrorFilePath("manifest.json")), 0);
 }
 
+// One transport fetching the result again and again (a batch's downloads):
+// a front end that fails every file is given up after three in a row; one
+// that gives a file now and then is kept.
+TEST_F(FarmHttpTest, AFrontEndThatFailsThreeFilesInARowIsGivenUpAndOneThatGivesSomeIsKept) {
+  std::unique_ptr<FaultMirror> front = StartFaultyFrontEnd();
+  for (const bool albedo_good : {false, true}) {
+    SCOPED_TRACE(albedo_good ? "albedo served, normal 404" : "both 404");
+    front->SetFault(MirrorFilePath("albedo_alpha.png"), albedo_good ? Fault::kNone : Fault::kNotFound);
+    front->SetFault(MirrorFilePath("normal_depth.png"), Fault::kNotFound);
+    auto read_blobs = std::make_shared<std::atomic<int>>(0);
+    sdk::TransportHooks hooks;
+    hooks.on_rpc = [read_blobs](const std::string& method) {
+      if (method == kReadBlob) read_blobs->fetch_add(1);
+    };
+    absl::StatusOr<std::unique_ptr<sdk::Transport>> transport =
+        sdk::Transport::Connect(Options(front->url() + "/v1/farm"), hooks);
+    ASSERT_TRUE(transport.ok()) << transport.status();
+    const int asked_before = front->TotalRequests();
+    for (int i = 0; i < 4; ++i) {
+      const fs::path out = dir_ / ("again" + std::to_string(++fetches_));
+      absl::StatusOr<sdk::FetchResult> fetched = sdk::FetchResultFiles(**transport, result_.key, out, 1);
+      ASSERT_TRUE(fetched.ok()) << fetched.status();
+      ExpectFilesAre(out);
+    }
+    if (albedo_good) {
+      EXPECT_EQ(front->TotalRequests() - asked_before, 8) << "every large file of the 4 fetches was asked";
+      EXPECT_EQ(read_blobs->load(), 4) << "only the 404s came over ReadBlob";
+    } else {
+      EXPECT_EQ(front->TotalRequests() - asked_before, sdk::kFarmHttpFailuresToGiveUp);
+      EXPECT_EQ(read_blobs->load(), 8);
+      EXPECT_FALSE(sdk::UsesFarmHttp(**transport));
+    }
+  }
+}
+
 TEST_F(FarmHttpTest, AFrontEndThatIsDownOrRefusesTheTokenLeavesTheFilesToGrpc) {
   // Nothing listens on port 1.
   EXPECT_EQ(FetchCountingReadBlobs("http://127.0.0.1:1"), 2);
