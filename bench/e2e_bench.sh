@@ -24,14 +24,16 @@
 #    rounds (default 7; the order rotates), and `impostor cache get KEY`
 #    (Cache::Get into a fresh cache directory) and the same curl against
 #    the farm's own HTTP front end (/api/v1/results/KEY/files/NAME) in the
-#    same rounds; medians and the ratios (target <= 1.25). Installs
+#    same rounds, and `impostor fetch` and `cache get` again with
+#    --farm-http (the result's large files from the farm's HTTP front end;
+#    bench/e2e_fetch.py); medians and the ratios (target <= 1.25). Installs
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
 #    Then a batch (--batch-assets N, default 13; 0 skips it): `impostor
 #    bake-batch` bakes the same model at N frame counts (256 px, 39 files
 #    each: 507 files for 13), then, every request a cache hit, bake-batch
 #    into a fresh folder against curl fetching the same files from nginx in
-#    one process, alternating rounds: what a CI job re-running a batch pays
-#    over a plain download.
+#    one process, alternating rounds (and bake-batch --farm-http): what a CI
+#    job re-running a batch pays over a plain download.
 # 5. The farm's own /metrics stage sums over the warm bakes beside
 #    bake_stages' stages.
 # --fetch-only: the cold bake (for a result to fetch) and step 4 alone;

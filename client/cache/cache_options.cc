@@ -80,10 +80,10 @@ absl::Status ValidateOptions(const CacheOptions& o) {
         {.ca = "CacheOptions.tls_ca_file", .cert = "CacheOptions.tls_cert_file", .key = "CacheOptions.tls_key_file"});
     if (!tls.ok()) return tls.status();
   }
-  if (!o.farm_http.empty() && o.farm_http != "none") {
-    if (absl::Status s = ValidateFarmHttpUrl(o.farm_http, !o.tls_ca_file.empty()); !s.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat("CacheOptions.farm_http: ", s.message()));
-    }
+  // $IMPOSTOR_FARM_HTTP is the transport's to read, at the first miss.
+  if (auto farm_http = ResolveFarmHttp(o.farm_http, "CacheOptions.farm_http", nullptr, !o.tls_ca_file.empty());
+      !farm_http.ok()) {
+    return farm_http.status();
   }
   return absl::OkStatus();
 }

@@ -41,6 +41,23 @@ absl::Status ValidateFarmHttpUrl(absl::string_view url, bool tls) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<std::string> ResolveFarmHttp(absl::string_view configured, absl::string_view field, const char* env,
+                                            bool tls) {
+  std::string url(configured);
+  std::string named(field);
+  if (url.empty()) {
+    if (env == nullptr || *env == '\0') return std::string();
+    url = env;
+    named = absl::StrCat("$", kFarmHttpEnvVar);
+  }
+  if (url == "none") return std::string();
+  if (absl::Status s = ValidateFarmHttpUrl(url, tls); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(named, ": ", s.message()));
+  }
+  while (absl::EndsWith(url, "/")) url.pop_back();
+  return url;
+}
+
 std::string ResultFileUrl(absl::string_view base, absl::string_view cache_key, absl::string_view file_name) {
   std::string url(base);
   while (!url.empty() && url.back() == '/') url.pop_back();

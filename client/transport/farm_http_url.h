@@ -8,6 +8,7 @@
 #include "absl/strings/string_view.h"
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 
 namespace impostor::sdk {
 
@@ -23,6 +24,14 @@ inline constexpr size_t kMaxFarmHttpUrlBytes = 2048;
 // accepted, as a bearer token would cross the network in clear. The
 // message names the limit or the part that is wrong, not the field.
 absl::Status ValidateFarmHttpUrl(absl::string_view url, bool tls);
+
+// The front end to use: `configured` (the options' field, named `field` in
+// errors), else `env` ($IMPOSTOR_FARM_HTTP; null or empty = not set), checked
+// with ValidateFarmHttpUrl and without a trailing "/"; "" when neither is
+// given or the one given is "none". INVALID_ARGUMENT naming the field (or
+// the variable) and what is wrong.
+absl::StatusOr<std::string> ResolveFarmHttp(absl::string_view configured, absl::string_view field, const char* env,
+                                            bool tls);
 
 // BASE/api/v1/results/KEY/files/NAME, NAME percent-encoded but for
 // RFC 3986's unreserved characters (a result's file names are plain names;

@@ -16,7 +16,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
-#include "absl/strings/match.h"
+#include "client/transport/client_options_check.h"
 #include "client/transport/connection_monitor.h"
 #include "client/transport/farm_http_url.h"
 #include "client/transport/retry.h"
@@ -54,8 +54,6 @@ constexpr auto kCancelPollInterval = std::chrono::milliseconds(50);
 constexpr int kInitialReconnectBackoffMs = 200;
 constexpr int kMaxReconnectBackoffMs = 1000;
 constexpr int kMinConnectTimeoutMs = 1000;
-// The largest outage budget accepted: a day.
-constexpr double kMaxOutageSeconds = 86400;
 
 std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
   return std::chrono::system_clock::now() +
@@ -199,46 +197,6 @@ absl::Status ToStatus(const grpc::Status& status, std::string_view rpc, const st
                       status.error_message(), reason);
 }
 
-absl::Status ValidateOptions(const ClientOptions& o) {
-  // !(x > 0) also catches NaN.
-  if (auto targets = ParseServerList(o.server, "ClientOptions.server"); !targets.ok()) return targets.status();
-  if (!(o.rpc_timeout_seconds > 0) || std::isinf(o.rpc_timeout_seconds)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("ClientOptions.rpc_timeout_seconds: must be > 0, got ", o.rpc_timeout_seconds));
-  }
-  if (auto s = ValidateKeepaliveSeconds("ClientOptions.keepalive_seconds", o.keepalive_seconds); !s.ok()) return s;
-  if (!(o.connect_timeout_seconds > 0) || std::isinf(o.connect_timeout_seconds)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("ClientOptions.connect_timeout_seconds: must be > 0, got ", o.connect_timeout_seconds));
-  }
-  if (o.max_attempts < 1) {
-    return absl::InvalidArgumentError(absl::StrCat("ClientOptions.max_attempts: must be >= 1, got ", o.max_attempts));
-  }
-  if (!(o.max_outage_seconds >= 0 && o.max_outage_seconds <= kMaxOutageSeconds)) {
-    return absl::InvalidArgumentError(absl::StrCat("ClientOptions.max_outage_seconds: must be in 0..",
-                                                   kMaxOutageSeconds, ", got ", o.max_outage_seconds));
-  }
-  return absl::OkStatus();
-}
-
-// ClientOptions::farm_http, else $IMPOSTOR_FARM_HTTP, checked: "" when none.
-absl::StatusOr<std::string> ResolveFarmHttp(const ClientOptions& o) {
-  std::string url = o.farm_http;
-  std::string field = "ClientOptions.farm_http";
-  if (url.empty()) {
-    const char* env = std::getenv(kFarmHttpEnvVar);
-    if (env == nullptr || *env == '\0') return std::string();
-    url = env;
-    field = absl::StrCat("$", kFarmHttpEnvVar);
-  }
-  if (url == "none") return std::string();
-  if (absl::Status s = ValidateFarmHttpUrl(url, !o.tls_ca_file.empty()); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", s.message()));
-  }
-  while (absl::EndsWith(url, "/")) url.pop_back();
-  return url;
-}
-
 const char* StateName(grpc_connectivity_state state) {
   switch (state) {
     case GRPC_CHANNEL_IDLE: return "IDLE";
@@ -364,7 +322,7 @@ Transport::FarmHttpRecord& Transport::farm_http_record() const { return stubs_->
 
 absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options,
                                                               const TransportHooks& hooks) {
-  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  if (absl::Status s = CheckClientOptions(options); !s.ok()) return s;
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(kMaxReceiveBytes);
   // A quiet WatchJob over a dead link fails over within keepalive + its
@@ -392,7 +350,8 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   auto token = ResolveToken(options.token_file, options.token, std::getenv(kTokenEnvVar));
   if (!token.ok()) return token.status();
   if (!token->empty()) stubs->authorization = "Bearer " + *token;
-  absl::StatusOr<std::string> farm_http = ResolveFarmHttp(options);
+  absl::StatusOr<std::string> farm_http = ResolveFarmHttp(options.farm_http, "ClientOptions.farm_http",
+                                                          std::getenv(kFarmHttpEnvVar), !options.tls_ca_file.empty());
   if (!farm_http.ok()) return farm_http.status();
   stubs->farm_http = std::move(*farm_http);
   // Each address gets channels of its own (failover_channel.h): a replaced

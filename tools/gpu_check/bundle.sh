@@ -51,5 +51,5 @@ cp "$here/run.sh" "$out/"
 # bench/e2e_bench.sh and its Python, run from the bundle (run.sh's e2e step).
 mkdir -p "$out/bench"
 cp "$here/../../bench/e2e_bench.sh" "$here/../../bench/e2e_bench.py" "$here/../../bench/e2e_blender.py" \
-  "$here/../../bench/e2e_errors.py" "$out/bench/"
+  "$here/../../bench/e2e_errors.py" "$here/../../bench/e2e_fetch.py" "$here/../../bench/e2e_util.py" "$out/bench/"
 du -sh "$out"
