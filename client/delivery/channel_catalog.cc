@@ -150,7 +150,11 @@ absl::StatusOr<std::optional<ChannelCatalog::Fetched>> ChannelCatalog::FetchFrom
   std::vector<std::string> failures;
   for (const std::string& m : order) {
     const std::string catalog_url = JoinUrl(m, CatalogPath(fetched.pointer.catalog_sha256));
-    HttpReadOptions read{options_.stall_seconds, options_.max_attempts, options_.cancel, options_.ca_file};
+    HttpReadOptions read;
+    read.stall_seconds = options_.stall_seconds;
+    read.max_attempts = options_.max_attempts;
+    read.cancel = options_.cancel;
+    read.ca_file = options_.ca_file;
     absl::StatusOr<std::string> text =
         ReadVerifiedToString(catalog_url, fetched.pointer.catalog_sha256, fetched.pointer.catalog_size_bytes, read);
     if (!text.ok()) {
