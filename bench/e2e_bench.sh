@@ -26,7 +26,9 @@
 #    the farm's own HTTP front end (/api/v1/results/KEY/files/NAME) in the
 #    same rounds, and `impostor fetch` and `cache get` again with
 #    --farm-http (the result's large files from the farm's HTTP front end;
-#    bench/e2e_fetch.py); medians and the ratios (target <= 1.25). Installs
+#    bench/e2e_fetch.py); medians and the ratios (target <= 1.25); and
+#    `impostor --version` against `curl --version`, 20 of each alternated
+#    (what every CLI run pays before its first byte). Installs
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
 #    Then a batch (--batch-assets N, default 13; 0 skips it): `impostor
 #    bake-batch` bakes the same model at N frame counts (256 px, 39 files

@@ -166,10 +166,25 @@ class FetchSteps:
                     raise BenchError(what, f"wrote {got} files, not {len(files)}")
                 subprocess.run(["rm", "-rf", str(dest)])
         self.stop_nginx(prefix, "nginx")
-        return {"files": len(files), "mb": nbytes / 1e6, "curl": curl_s, "fetch": fetch_s, "curl_cpu": curl_cpu,
+        start = self.start_up(curl_base[0])
+        return {"start": start, "files": len(files), "mb": nbytes / 1e6, "curl": curl_s, "fetch": fetch_s,
+                "curl_cpu": curl_cpu,
                 "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu,
                 "farm_http": farm_s, "fetch_http": http_s, "fetch_http_cpu": http_cpu,
                 "http_server_cpu": http_server_cpu, "cache_http": cache_http_s, "cache_http_cpu": cache_http_cpu}
+
+    def start_up(self, curl, runs=20):
+        """`impostor --version` against `curl --version`, alternated: what
+        every CLI run pays before its first byte (mapping and relocating its
+        shared libraries; curl's include libcurl's)."""
+        times = {"impostor": [], "curl": []}
+        cpus = {"impostor": [], "curl": []}
+        for _ in range(runs):
+            for what, cmd in (("impostor", [self.bin / "impostor", "--version"]), ("curl", [curl, "--version"])):
+                wall, _, cpu = self.run(f"{what} --version", cmd, stdout=subprocess.DEVNULL)
+                times[what].append(wall)
+                cpus[what].append(cpu)
+        return {"times": times, "cpus": cpus}
 
     # ---- a batch of results: bake-batch of cached assets against curl ---------
 
@@ -245,7 +260,12 @@ class FetchSteps:
 
     def fetch_rows(self, fetch):
         fm, cm = median(fetch["fetch"]), median(fetch["curl"])
+        st = fetch["start"]
         return [
+            f"| `impostor --version` / `curl --version` (medians of {len(st['times']['impostor'])}, alternated) | "
+            f"{median(st['times']['impostor']) * 1e3:.1f} / {median(st['times']['curl']) * 1e3:.1f} ms | every "
+            f"CLI run's start; CPU {median(st['cpus']['impostor']) * 1e3:.1f} / "
+            f"{median(st['cpus']['curl']) * 1e3:.1f} ms |",
             f"| `impostor fetch` of the result (median of {len(fetch['fetch'])}) | {fm:.3f} s "
             f"({span(fetch['fetch'], 3)}) "
             f"| {fetch['files']} files, {fetch['mb']:.1f} MB, fresh --out each time; CPU s: CLI "
