@@ -291,6 +291,9 @@ int main(int argc, char** argv) {
                                        .reload_seconds = absl::GetFlag(FLAGS_tls_reload_seconds)};
   auto listen_credentials = impostor::MakeServerCredentials(tls);
   if (!listen_credentials.ok()) return Fail(std::string(listen_credentials.status().message()));
+  // The HTTP front end as clients reach it, sent with GetResult answers.
+  auto advertised_http = impostor::AdvertisedHttpFromFlags(!tls.cert_file.empty());
+  if (!advertised_http.ok()) return Fail(std::string(advertised_http.status().message()));
   auto auth_mode =
       impostor::ResolveAuthMode(absl::GetFlag(FLAGS_auth), absl::GetFlag(FLAGS_listen), absl::GetFlag(FLAGS_http_listen));
   if (!auth_mode.ok()) return Fail(std::string(auth_mode.status().message()));
@@ -393,8 +396,9 @@ int main(int argc, char** argv) {
   // (--http-listen, off by default; server/http/http_frontend.h). Null when off.
   auto http = impostor::HttpFrontend::StartFromFlags(&scheduler, blobs->get(), authenticator.get());
   if (!http.ok()) return Fail(std::string(http.status().message()));
+  if (!advertised_http->empty()) spdlog::info("event=http_advertised url={}", *advertised_http);
 
-  impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler);
+  impostor::AssetServiceImpl asset_service(blobs->get(), &scheduler, *advertised_http);
   impostor::BakeServiceImpl bake_service(&scheduler, &principals);
   impostor::WorkerServiceImpl worker_service(&scheduler, &principals);
   impostor::AuthorizedAssetService authorized_assets(&access_guard, &asset_service);

@@ -604,8 +604,10 @@ class Cache::Impl {
     plan.listing = delivery::ManifestFromAsset(*asset);
     plan.listing_source = absl::StrCat("channel ", options_.channel, "'s catalog");
     for (const std::string& mirror : options_.mirrors) {
-      HttpReadOptions read{options_.rpc_timeout_seconds, options_.max_attempts, nullptr,
-                                       options_.mirror_ca_file};
+      HttpReadOptions read;
+      read.stall_seconds = options_.rpc_timeout_seconds;
+      read.max_attempts = options_.max_attempts;
+      read.ca_file = options_.mirror_ca_file;
       plan.sources.push_back(
           {absl::StrCat("mirror ", mirror),
            [mirror, read](const v1::Digest& digest, int64_t offset, Sha256& hash,

@@ -689,8 +689,10 @@ Common flags:
   --farm-http URL     (every command that takes --server) the farm's HTTP front
                       end (its --http-listen, or an https:// proxy before it):
                       results' large files are downloaded from there, verified,
-                      and over gRPC when it cannot give them intact; "none"
-                      turns $IMPOSTOR_FARM_HTTP off. With --tls-ca, https only
+                      and over gRPC when it cannot give them intact. Default:
+                      $IMPOSTOR_FARM_HTTP, else what the farm advertises
+                      (impostor-server --http-advertise); "none" turns both
+                      off. With --tls-ca, https only
   --keepalive-seconds N  (every command that takes --server) while a call is
                       in flight, ping the server after N quiet seconds and
                       give the connection up when no answer comes within

@@ -1,5 +1,7 @@
 #include "client/transport/farm_http_url.h"
 
+#include "common/net/farm_http_base.h"
+
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -7,39 +9,6 @@
 #include "absl/strings/strip.h"
 
 namespace impostor::sdk {
-
-absl::Status ValidateFarmHttpUrl(absl::string_view url, bool tls) {
-  if (url.size() > kMaxFarmHttpUrlBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("the URL is ", url.size(), " bytes, over the limit of ", kMaxFarmHttpUrlBytes));
-  }
-  for (unsigned char c : url) {
-    if (c <= 0x20 || c >= 0x7f) {
-      return absl::InvalidArgumentError("the URL holds a space, a control or a non-ASCII character");
-    }
-  }
-  absl::string_view rest = url;
-  const bool https = absl::ConsumePrefix(&rest, "https://");
-  if (!https && !absl::ConsumePrefix(&rest, "http://")) {
-    return absl::InvalidArgumentError(absl::StrCat("\"", url, "\" is not an http:// or https:// URL"));
-  }
-  if (rest.empty() || rest.front() == '/' || rest.front() == ':') {
-    return absl::InvalidArgumentError(absl::StrCat("\"", url, "\" names no host"));
-  }
-  if (rest.find_first_of("?#") != absl::string_view::npos) {
-    return absl::InvalidArgumentError(absl::StrCat("\"", url, "\" has a query or a fragment; give the base URL"));
-  }
-  if (rest.find('@') != absl::string_view::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("\"", url, "\" carries credentials; the token goes in the Authorization header"));
-  }
-  if (tls && !https) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "\"", url, "\" is plaintext while the farm's gRPC is TLS: the token would cross the network in clear; "
-                   "give an https:// URL (a TLS proxy in front of --http-listen)"));
-  }
-  return absl::OkStatus();
-}
 
 absl::StatusOr<std::string> ResolveFarmHttp(absl::string_view configured, absl::string_view field, const char* env,
                                             bool tls) {
@@ -51,9 +20,21 @@ absl::StatusOr<std::string> ResolveFarmHttp(absl::string_view configured, absl::
     named = absl::StrCat("$", kFarmHttpEnvVar);
   }
   if (url == "none") return std::string();
-  if (absl::Status s = ValidateFarmHttpUrl(url, tls); !s.ok()) {
+  if (absl::Status s = ValidateFarmHttpBase(url, tls); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(named, ": ", s.message()));
   }
+  while (absl::EndsWith(url, "/")) url.pop_back();
+  return url;
+}
+
+bool FarmHttpTurnedOff(absl::string_view configured, const char* env) {
+  if (!configured.empty()) return configured == "none";
+  return env != nullptr && absl::string_view(env) == "none";
+}
+
+absl::StatusOr<std::string> AdvertisedFarmHttp(absl::string_view value, bool tls) {
+  if (absl::Status s = ValidateFarmHttpBase(value, tls); !s.ok()) return s;
+  std::string url(value);
   while (absl::EndsWith(url, "/")) url.pop_back();
   return url;
 }

@@ -9,29 +9,31 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "common/net/farm_http_base.h"
 
 namespace impostor::sdk {
 
 // Read when ClientOptions::farm_http is empty.
 inline constexpr char kFarmHttpEnvVar[] = "IMPOSTOR_FARM_HTTP";
 
-// The longest farm_http accepted.
-inline constexpr size_t kMaxFarmHttpUrlBytes = 2048;
-
-// INVALID_ARGUMENT unless `url` is an http:// or https:// URL with a host,
-// at most kMaxFarmHttpUrlBytes of printable ASCII, without a query or a
-// fragment; with `tls` (the gRPC channel is TLS) only https:// is
-// accepted, as a bearer token would cross the network in clear. The
-// message names the limit or the part that is wrong, not the field.
-absl::Status ValidateFarmHttpUrl(absl::string_view url, bool tls);
-
 // The front end to use: `configured` (the options' field, named `field` in
 // errors), else `env` ($IMPOSTOR_FARM_HTTP; null or empty = not set), checked
-// with ValidateFarmHttpUrl and without a trailing "/"; "" when neither is
-// given or the one given is "none". INVALID_ARGUMENT naming the field (or
-// the variable) and what is wrong.
+// with ValidateFarmHttpBase (common/net/farm_http_base.h) and without a
+// trailing "/"; "" when neither is given or the one given is "none".
+// INVALID_ARGUMENT naming the field (or the variable) and what is wrong.
 absl::StatusOr<std::string> ResolveFarmHttp(absl::string_view configured, absl::string_view field, const char* env,
                                             bool tls);
+
+// True when the front end is turned off: `configured`, or `env` when
+// `configured` is empty, is "none". Then a front end the farm advertises is
+// not used either.
+bool FarmHttpTurnedOff(absl::string_view configured, const char* env);
+
+// The front end a farm advertises (the value of kFarmHttpMetadataKey on a
+// GetResult answer: impostor-server --http-advertise), checked as a
+// configured one (`tls`: the client's gRPC is TLS) and without a trailing
+// "/"; INVALID_ARGUMENT saying why it cannot be used.
+absl::StatusOr<std::string> AdvertisedFarmHttp(absl::string_view value, bool tls);
 
 // BASE/api/v1/results/KEY/files/NAME, NAME percent-encoded but for
 // RFC 3986's unreserved characters (a result's file names are plain names;

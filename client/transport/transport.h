@@ -57,9 +57,11 @@ class Transport {
   // The Authorization value every call carries ("Bearer <token>"), "" for
   // no token: the farm's HTTP front end takes the same.
   const std::string& authorization() const;
-  // The farm's HTTP front end (ClientOptions::farm_http or
-  // $IMPOSTOR_FARM_HTTP, checked, without a trailing "/"), "" when none.
-  const std::string& farm_http() const;
+  // The farm's HTTP front end, without a trailing "/": ClientOptions::farm_http
+  // or $IMPOSTOR_FARM_HTTP, else the one the farm advertised on the last
+  // GetResult answer (impostor-server --http-advertise; usable with this
+  // transport's TLS setting); "" when none, or when "none" turned it off.
+  std::string farm_http() const;
   // How the front end has fared, kept by client/transfer/farm_http_fetch.h:
   // its failures in a row, and whether this transport gave it up.
   struct FarmHttpRecord {

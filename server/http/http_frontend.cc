@@ -18,6 +18,7 @@
 #include "server/http/login_page.h"
 #include "server/http/json_api.h"
 #include "server/http/release_response.h"
+#include "common/net/farm_http_base.h"
 #include "server/metrics/rpc_metrics_interceptor.h"
 
 #ifndef IMPOSTOR_WEB_DIR
@@ -34,6 +35,12 @@ ABSL_FLAG(std::string, http_static_dir, "",
 ABSL_FLAG(std::string, http_releases, "",
           "DIR of a release tree (written by `impostor publish`: the directory that holds v1/) to serve as plain "
           "files under /releases/, so http://HOST:PORT/releases is a mirror base URL; needs --http-listen");
+// Issue 45: clients fetch a result's large files from the front end.
+ABSL_FLAG(std::string, http_advertise, "",
+          "The HTTP front end's base URL as clients reach it (e.g. https://farm.example.com, a TLS proxy in front of "
+          "--http-listen): sent with every GetResult answer, so the SDK and the CLI fetch a result's large files "
+          "from BASE/api/v1/results/KEY/files/NAME with their token instead of over gRPC, unless told "
+          "--farm-http none; needs --http-listen; https:// only when gRPC is TLS (empty = not advertised)");
 ABSL_FLAG(bool, http_releases_require_token, false,
           "With --http-releases and --auth token: /releases/ needs a reader, submitter or admin token, as the API "
           "does (off: open to all, as its files are named by their 256-bit digests)");
@@ -117,6 +124,20 @@ std::filesystem::path StaticDirFromFlag() {
 }
 
 }  // namespace
+
+absl::StatusOr<std::string> AdvertisedHttpFromFlags(bool grpc_tls) {
+  std::string url = absl::GetFlag(FLAGS_http_advertise);
+  if (url.empty()) return std::string();
+  if (absl::GetFlag(FLAGS_http_listen).empty()) {
+    return absl::InvalidArgumentError(
+        "--http-advertise: needs --http-listen (it names the HTTP front end as clients reach it)");
+  }
+  if (absl::Status s = ValidateFarmHttpBase(url, grpc_tls); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("--http-advertise: ", s.message()));
+  }
+  while (!url.empty() && url.back() == '/') url.pop_back();
+  return url;
+}
 
 absl::StatusOr<std::unique_ptr<HttpFrontend>> HttpFrontend::StartFromFlags(BakeScheduler* scheduler,
                                                                            BlobStore* blobs,

@@ -48,6 +48,13 @@ struct Request;
 
 namespace impostor {
 
+// --http-advertise: the front end's base URL as clients reach it (without a
+// trailing "/"), which the farm sends with every GetResult answer
+// (common/net/farm_http_base.h's kFarmHttpMetadataKey); "" when not given.
+// INVALID_ARGUMENT naming the flag without --http-listen, for a malformed
+// URL, and for an http:// one when the farm's gRPC is TLS (`grpc_tls`).
+absl::StatusOr<std::string> AdvertisedHttpFromFlags(bool grpc_tls);
+
 class HttpFrontend {
  public:
   struct Options {

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/net/farm_http_base.h"
 #include "common/util/sha256.h"
 #include "server/rpc/batch_read_request.h"
 #include "server/rpc/batch_update_request.h"
@@ -191,11 +192,16 @@ grpc::Status AssetServiceImpl::BatchReadBlobs(grpc::ServerContext* context, cons
   return grpc::Status::OK;
 }
 
-grpc::Status AssetServiceImpl::GetResult(grpc::ServerContext*, const v1::GetResultRequest* request,
+grpc::Status AssetServiceImpl::GetResult(grpc::ServerContext* context, const v1::GetResultRequest* request,
                                          v1::Manifest* response) {
   auto m = scheduler_->GetResult(request->cache_key());
   if (!m.ok()) return ToGrpc(m.status());
   *response = std::move(*m);
+  // Where the result's files can be read over HTTP (--http-advertise): the
+  // client takes the large ones from there.
+  if (!advertised_http_.empty() && context != nullptr) {
+    context->AddInitialMetadata(kFarmHttpMetadataKey, advertised_http_);
+  }
   return grpc::Status::OK;
 }
 

@@ -5,6 +5,9 @@
 #ifndef IMPOSTOR_SERVER_RPC_SERVICES_H_
 #define IMPOSTOR_SERVER_RPC_SERVICES_H_
 
+#include <string>
+#include <utility>
+
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
 #include "impostor/v1/worker_service.grpc.pb.h"
@@ -16,7 +19,10 @@ namespace impostor {
 
 class AssetServiceImpl final : public v1::AssetService::Service {
  public:
-  AssetServiceImpl(BlobStore* blobs, BakeScheduler* scheduler) : blobs_(blobs), scheduler_(scheduler) {}
+  // `advertised_http`: the farm's HTTP front end as clients reach it
+  // (--http-advertise), sent with every GetResult answer; "" = none.
+  AssetServiceImpl(BlobStore* blobs, BakeScheduler* scheduler, std::string advertised_http = "")
+      : blobs_(blobs), scheduler_(scheduler), advertised_http_(std::move(advertised_http)) {}
 
   grpc::Status FindMissingBlobs(grpc::ServerContext* context, const v1::FindMissingBlobsRequest* request,
                                 v1::FindMissingBlobsResponse* response) override;
@@ -38,6 +44,7 @@ class AssetServiceImpl final : public v1::AssetService::Service {
  private:
   BlobStore* const blobs_;
   BakeScheduler* const scheduler_;
+  const std::string advertised_http_;
 };
 
 class BakeServiceImpl final : public v1::BakeService::Service {

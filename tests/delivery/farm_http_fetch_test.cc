@@ -70,9 +70,11 @@ class FarmHttpTest : public ::testing::Test {
 
   // FetchResultFiles into a fresh folder through a transport whose RPCs
   // are counted; returns the ReadBlob streams it started (-1 on failure).
-  int FetchCountingReadBlobs(const std::string& farm_http, const std::string& token = "") {
+  int FetchCountingReadBlobs(const std::string& farm_http, const std::string& token = "",
+                             const std::string& server = "") {
     sdk::ClientOptions o = Options(farm_http);
     o.token = token;
+    if (!server.empty()) o.server = server;
     auto read_blobs = std::make_shared<std::atomic<int>>(0);
     sdk::TransportHooks hooks;
     hooks.on_rpc = [read_blobs](const std::string& method) {
@@ -364,9 +366,9 @@ TEST_F(FarmHttpTest, BadFarmHttpOptionsAreRefusedNamingTheFieldAndTheLimit) {
     EXPECT_NE(cache.status().message().find("CacheOptions.farm_http: "), std::string::npos) << cache.status();
   }
   // A TLS farm's token must not cross in clear; https is fine.
-  EXPECT_NE(sdk::ValidateFarmHttpUrl("http://farm:8080", /*tls=*/true).message().find("plaintext"),
+  EXPECT_NE(ValidateFarmHttpBase("http://farm:8080", /*tls=*/true).message().find("plaintext"),
             absl::string_view::npos);
-  EXPECT_TRUE(sdk::ValidateFarmHttpUrl("https://farm.example/impostor", /*tls=*/true).ok());
+  EXPECT_TRUE(ValidateFarmHttpBase("https://farm.example/impostor", /*tls=*/true).ok());
   // "none" turns the environment's front end off.
   EXPECT_EQ(FetchCountingReadBlobs("none"), 2);
 }
@@ -399,6 +401,111 @@ TEST_F(FarmHttpTest, TheCApiTakesTheFrontEndAndRefusesABadOne) {
   EXPECT_EQ(impostor_cache_open_ext(&o, &ext, &cache), IMPOSTOR_INVALID_ARGUMENT);
   EXPECT_NE(std::string(impostor_last_error()).find("CacheOptions.farm_http: "), std::string::npos)
       << impostor_last_error();
+}
+
+// impostor-server --http-advertise: the farm names its front end on every
+// GetResult answer, and a client told nothing about it (no farm_http, no
+// $IMPOSTOR_FARM_HTTP) takes the large files from there; "none" keeps them
+// on gRPC. The advertised front end is the test's own (a FaultMirror
+// holding the same result), so which road each file took shows in its
+// request counts and in the ReadBlob streams.
+TEST_F(FarmHttpTest, AFrontEndTheFarmAdvertisesIsUsedUnlessTurnedOff) {
+  ::unsetenv(sdk::kFarmHttpEnvVar);
+  std::unique_ptr<FaultMirror> front = StartFaultyFrontEnd();
+  const std::string base = front->url() + "/v1/farm";
+  ServerProcess advertising(0, {"--http-listen", "127.0.0.1:0", "--http-advertise=" + base + "/"});
+  const PublishedResult same = PublishResult(advertising, kMapSizes, 41);
+  ASSERT_EQ(same.key, result_.key) << "the same seed makes the same result on both farms";
+  ASSERT_EQ(same.files, result_.files);
+
+  EXPECT_EQ(FetchCountingReadBlobs("", "", advertising.address()), 0) << "the large files came over HTTP";
+  EXPECT_EQ(front->Requests(MirrorFilePath("albedo_alpha.png")), 1);
+  EXPECT_EQ(front->Requests(MirrorFilePath("normal_depth.png")), 1);
+
+  EXPECT_EQ(FetchCountingReadBlobs("none", "", advertising.address()), 2) << "none: both over ReadBlob";
+  ::setenv(sdk::kFarmHttpEnvVar, "none", 1);
+  EXPECT_EQ(FetchCountingReadBlobs("", "", advertising.address()), 2) << "$IMPOSTOR_FARM_HTTP=none too";
+  ::unsetenv(sdk::kFarmHttpEnvVar);
+  EXPECT_EQ(front->TotalRequests(), 2) << "nothing more asked of the front end once turned off";
+
+  // A farm that advertises nothing: gRPC, as before.
+  EXPECT_EQ(FetchCountingReadBlobs(""), 2);
+
+  // The cache learns it from the same answer.
+  sdk::CacheOptions o;
+  o.server = advertising.address();
+  o.dir = dir_ / "cache";
+  o.rpc_timeout_seconds = 1;
+  o.max_attempts = 2;
+  o.max_outage_seconds = 0;
+  auto read_blobs = std::make_shared<std::atomic<int>>(0);
+  sdk::CacheTestHooks hooks;
+  hooks.transport.on_rpc = [read_blobs](const std::string& method) {
+    if (method == kReadBlob) read_blobs->fetch_add(1);
+  };
+  absl::StatusOr<std::unique_ptr<sdk::Cache>> cache = sdk::CacheFactory::Open(o, hooks);
+  ASSERT_TRUE(cache.ok()) << cache.status();
+  absl::StatusOr<sdk::CachedResult> got = (*cache)->Get(result_.key);
+  ASSERT_TRUE(got.ok()) << got.status();
+  for (const sdk::CachedFile& f : got->files()) {
+    EXPECT_EQ(ReadFileBytes(f.path), result_.files.at(f.path.filename().string())) << f.path;
+  }
+  EXPECT_EQ(read_blobs->load(), 0);
+  EXPECT_EQ(front->TotalRequests(), 4) << "the cache asked the front end for the two large files";
+  cache->reset();
+  const fs::path data = advertising.data_dir();
+  fs::remove_all(data);
+}
+
+TEST(FarmHttpAdvertise, BadValuesStopTheStartNamingTheFlag) {
+  const fs::path dir = NewTempDir("farm_http_advertise_flags");
+  struct Case {
+    std::string what;
+    std::vector<std::string> args;
+    std::vector<std::string> says;
+  };
+  const std::vector<Case> cases = {
+      {"no --http-listen", {"--http-advertise=http://farm:8080"}, {"--http-advertise", "needs --http-listen"}},
+      {"not http", {"--http-listen=127.0.0.1:0", "--http-advertise=ftp://farm"}, {"--http-advertise", "http://"}},
+      {"no host", {"--http-listen=127.0.0.1:0", "--http-advertise=https://"}, {"--http-advertise", "names no host"}},
+      {"a query", {"--http-listen=127.0.0.1:0", "--http-advertise=http://farm/?token=x"},
+       {"--http-advertise", "query"}},
+      {"credentials", {"--http-listen=127.0.0.1:0", "--http-advertise=http://user:pw@farm"},
+       {"--http-advertise", "credentials"}},
+      {"too long", {"--http-listen=127.0.0.1:0", "--http-advertise=http://farm/" + std::string(2100, 'a')},
+       {"--http-advertise", "over the limit of 2048"}},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> argv = {(BinaryDir() / "impostor-server").string(), "--listen=127.0.0.1:0",
+                                     "--data=" + (dir / "data").string()};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const ToolRun run = RunTool(argv, std::chrono::seconds(60));
+    EXPECT_EQ(run.exit_code, 2) << c.what << ": " << run.err;
+    for (const std::string& text : c.says) {
+      EXPECT_NE(run.err.find(text), std::string::npos) << c.what << ": stderr does not say " << text << ":\n"
+                                                       << run.err;
+    }
+    EXPECT_EQ(run.out.find("listening on"), std::string::npos) << c.what;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(FarmHttpUrl, AnAdvertisedFrontEndIsCheckedAsAConfiguredOne) {
+  absl::StatusOr<std::string> ok = sdk::AdvertisedFarmHttp("https://farm.example/impostor/", /*tls=*/true);
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(*ok, "https://farm.example/impostor");
+  absl::StatusOr<std::string> plain = sdk::AdvertisedFarmHttp("http://farm:8080", /*tls=*/true);
+  EXPECT_EQ(plain.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(plain.status().message().find("plaintext"), absl::string_view::npos) << plain.status();
+  EXPECT_TRUE(sdk::AdvertisedFarmHttp("http://farm:8080", /*tls=*/false).ok());
+  for (const char* bad : {"", "farm:8080", "ftp://farm", "http://farm/?a=b", "http://u@farm", "http://fa rm"}) {
+    EXPECT_EQ(sdk::AdvertisedFarmHttp(bad, false).status().code(), absl::StatusCode::kInvalidArgument) << bad;
+  }
+  EXPECT_TRUE(sdk::FarmHttpTurnedOff("none", nullptr));
+  EXPECT_TRUE(sdk::FarmHttpTurnedOff("", "none"));
+  EXPECT_FALSE(sdk::FarmHttpTurnedOff("", nullptr));
+  EXPECT_FALSE(sdk::FarmHttpTurnedOff("", ""));
+  EXPECT_FALSE(sdk::FarmHttpTurnedOff("http://farm", "none")) << "the option wins over the variable";
 }
 
 TEST(FarmHttpUrl, ResultFileUrlsEscapeEverythingButUnreservedCharacters) {

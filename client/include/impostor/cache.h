@@ -211,8 +211,9 @@ struct CacheOptions {
   // The farm's HTTP front end, as ClientOptions::farm_http: a miss then
   // downloads the result's large files from it (verified, resumed from the
   // partial file), and over gRPC those it cannot give intact. Empty =
-  // $IMPOSTOR_FARM_HTTP, else none; "none" = none. Open checks it
-  // (INVALID_ARGUMENT naming this field). Default: empty.
+  // $IMPOSTOR_FARM_HTTP, else the one the farm advertises (impostor-server
+  // --http-advertise); "none" = none. Open checks it (INVALID_ARGUMENT
+  // naming this field). Default: empty.
   std::string farm_http;
 };
 

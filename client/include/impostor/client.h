@@ -192,7 +192,10 @@ struct ClientOptions {
   // checked against tls_ca_file when set, else the system's roots. With
   // tls_ca_file set only https:// is accepted, as the token would cross
   // the network in clear. Empty = the IMPOSTOR_FARM_HTTP environment
-  // variable, and none when that is unset; "none" = none. Anything but an
+  // variable, and when that is unset the front end the farm advertises on
+  // its GetResult answers (impostor-server --http-advertise; one warning,
+  // and gRPC, when this client cannot use it, e.g. http:// with
+  // tls_ca_file); "none" = none, advertised or not. Anything but an
   // http:// or https:// URL of at most 2,048 printable characters is
   // INVALID_ARGUMENT from Connect naming this field. Default: empty.
   std::string farm_http;
