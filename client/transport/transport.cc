@@ -5,7 +5,6 @@
 #include <cstdlib>
 #include <cmath>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <thread>
 #include <utility>
@@ -15,11 +14,11 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/support/client_interceptor.h>
 
-#include "absl/base/thread_annotations.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/transport/client_options_check.h"
 #include "client/transport/connection_monitor.h"
+#include "client/transport/farm_http_choice.h"
 #include "client/transport/farm_http_url.h"
 #include "client/transport/retry.h"
 #include "client/transport/rpc_error.h"
@@ -34,7 +33,6 @@
 #include "common/net/tls_files.h"
 #include "common/net/tls_peer_check.h"
 #include "common/net/token_source.h"
-#include "common/util/log_escape.h"
 #include "impostor/v1/admin_service.grpc.pb.h"
 #include "impostor/v1/asset_service.grpc.pb.h"
 #include "impostor/v1/bake_service.grpc.pb.h"
@@ -306,43 +304,11 @@ struct Transport::Stubs {
   std::unique_ptr<FailoverChannel> channels;
   // Identity (issue 14): "Bearer <token>", or empty for no token.
   std::string authorization;
-  // The farm's HTTP front end (ClientOptions::farm_http), "" when none.
-  std::string farm_http;
-  // ClientOptions::farm_http or $IMPOSTOR_FARM_HTTP is "none": no front end,
-  // not even one the farm advertises.
-  bool farm_http_off = false;
-  bool tls = false;
+  // The farm's HTTP front end: given, or advertised by the farm.
+  std::unique_ptr<FarmHttpChoice> farm_http;
   mutable FarmHttpRecord farm_http_record;
-  // What the farm advertised on its last GetResult answer, checked.
-  mutable std::mutex advertised_mu;
-  std::string advertised_farm_http ABSL_GUARDED_BY(advertised_mu);
-  std::string refused_advertisement ABSL_GUARDED_BY(advertised_mu);  // warned about once
   void AddToken(grpc::ClientContext& context) const {
     if (!authorization.empty()) context.AddMetadata("authorization", authorization);
-  }
-  // Takes the front end a GetResult answer names, if any; one warning for
-  // an advertisement this client cannot use (the farm's operator can fix it).
-  void LearnFarmHttp(const grpc::ClientContext& context) {
-    if (!farm_http.empty() || farm_http_off) return;
-    const auto& metadata = context.GetServerInitialMetadata();
-    const auto it = metadata.find(kFarmHttpMetadataKey);
-    if (it == metadata.end()) return;
-    const absl::string_view value(it->second.data(), it->second.size());
-    absl::StatusOr<std::string> url = AdvertisedFarmHttp(value, tls);
-    std::lock_guard lock(advertised_mu);
-    if (url.ok()) {
-      if (*url != advertised_farm_http) {
-        SdkLog().debug("event=farm_http_advertised url={}", *url);
-        advertised_farm_http = std::move(*url);
-      }
-      return;
-    }
-    const std::string shown = EscapeUntrusted(std::string_view(value.data(), value.size()), 200);
-    if (shown != refused_advertisement) {
-      SdkLog().warn("event=farm_http_advertisement_refused url=\"{}\" why=\"{}\" note=\"results come over gRPC\"",
-                    shown, EscapeUntrusted(std::string_view(url.status().message().data(), url.status().message().size())));
-      refused_advertisement = shown;
-    }
   }
 };
 
@@ -352,11 +318,7 @@ Transport::Transport(ClientOptions options, std::unique_ptr<Stubs> stubs)
 Transport::~Transport() = default;
 
 const std::string& Transport::authorization() const { return stubs_->authorization; }
-std::string Transport::farm_http() const {
-  if (!stubs_->farm_http.empty() || stubs_->farm_http_off) return stubs_->farm_http;
-  std::lock_guard lock(stubs_->advertised_mu);
-  return stubs_->advertised_farm_http;
-}
+std::string Transport::farm_http() const { return stubs_->farm_http->Current(); }
 Transport::FarmHttpRecord& Transport::farm_http_record() const { return stubs_->farm_http_record; }
 
 absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOptions& options,
@@ -392,9 +354,9 @@ absl::StatusOr<std::unique_ptr<Transport>> Transport::Connect(const ClientOption
   absl::StatusOr<std::string> farm_http = ResolveFarmHttp(options.farm_http, "ClientOptions.farm_http",
                                                           std::getenv(kFarmHttpEnvVar), !options.tls_ca_file.empty());
   if (!farm_http.ok()) return farm_http.status();
-  stubs->farm_http = std::move(*farm_http);
-  stubs->farm_http_off = FarmHttpTurnedOff(options.farm_http, std::getenv(kFarmHttpEnvVar));
-  stubs->tls = !options.tls_ca_file.empty();
+  stubs->farm_http = std::make_unique<FarmHttpChoice>(
+      std::move(*farm_http), FarmHttpTurnedOff(options.farm_http, std::getenv(kFarmHttpEnvVar)),
+      !options.tls_ca_file.empty());
   // Each address gets channels of its own (failover_channel.h): a replaced
   // channel must not inherit a dead connection from a shared pool.
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
@@ -590,7 +552,11 @@ absl::StatusOr<v1::Manifest> Transport::GetResult(const std::string& cache_key, 
       "GetResult",
       [&](const Route& route, auto* ctx, auto* resp) {
         grpc::Status status = v1::AssetService::Stub(route.channel).GetResult(ctx, request, resp);
-        if (status.ok()) stubs_->LearnFarmHttp(*ctx);
+        if (status.ok()) {
+          const auto& metadata = ctx->GetServerInitialMetadata();
+          const auto it = metadata.find(kFarmHttpMetadataKey);
+          if (it != metadata.end()) stubs_->farm_http->Learn(absl::string_view(it->second.data(), it->second.size()));
+        }
         return status;
       },
       cancel);
