@@ -155,7 +155,7 @@ class FetchSteps:
                     wall, r, cpu = self.run("impostor fetch", self.fetch_cmd(key, dest, http), env=env,
                                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
                     server1 = proc_cpu(self.server.pid, False)
-                    if "farm_http_fallback" in r.stderr:
+                    if "farm_http_fallback" in r.stderr or "farm_http_fetch_fallback" in r.stderr:
                         raise BenchError(what, f"fell back to gRPC:\n{r.stderr[-1500:]}")
                     (http_s if http else fetch_s).append(wall)
                     (http_cpu if http else fetch_cpu).append(cpu)
@@ -278,8 +278,8 @@ class FetchSteps:
             f"{median(fetch['cache_cpu']):.3f} |",
             f"| **Cache::Get / nginx + curl** | **{median(fetch['cache']) / cm:.2f}×** | target ≤ 1.25 |",
             f"| `impostor fetch --farm-http` (median of {len(fetch['fetch_http'])}) | "
-            f"{median(fetch['fetch_http']):.3f} s ({span(fetch['fetch_http'], 3)}) | large files from the farm's "
-            f"HTTP front end, small ones in one BatchReadBlobs; CPU s: CLI {median(fetch['fetch_http_cpu']):.3f} + "
+            f"{median(fetch['fetch_http']):.3f} s ({span(fetch['fetch_http'], 3)}) | the listing and every file "
+            f"from the farm's HTTP front end, no gRPC; CPU s: CLI {median(fetch['fetch_http_cpu']):.3f} + "
             f"server {median(fetch['http_server_cpu'] or [0]):.3f} |",
             f"| **fetch --farm-http / nginx + curl** | **{median(fetch['fetch_http']) / cm:.2f}×** | target ≤ 1.25 |",
             f"| `impostor cache get --farm-http` (median of {len(fetch['cache_http'])}) | "

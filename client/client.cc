@@ -2,11 +2,14 @@
 // (mesh_files, mesh_upload, result_fetch, transport) on the caller's thread.
 #include "impostor/client.h"
 
+#include <optional>
 #include <random>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "client/transfer/blob_download.h"
+#include "client/transfer/farm_http_result_fetch.h"
+#include "client/transfer/parallel_downloads.h"
 #include "client/transport/job_convert.h"
 #include "client/transfer/mesh_files.h"
 #include "client/transfer/mesh_upload.h"
@@ -247,6 +250,36 @@ absl::StatusOr<JobUpdate> Client::CancelJob(const std::string& job_id) {
 
 absl::StatusOr<FetchResult> Client::Fetch(const std::string& cache_key, const std::filesystem::path& out_dir) {
   return FetchResultFiles(impl_->transport(), cache_key, out_dir);
+}
+
+absl::StatusOr<FetchResult> FetchFromFarm(const ClientOptions& options, const std::string& cache_key,
+                                          const std::filesystem::path& out_dir) {
+  absl::StatusOr<std::optional<FarmHttpEndpoint>> front_end = ConfiguredFarmHttp(options);
+  if (!front_end.ok()) return front_end.status();
+  ClientOptions over_grpc = options;
+  if (front_end->has_value()) {
+    absl::StatusOr<FetchResult> fetched =
+        FetchResultFilesOverHttp(**front_end, cache_key, out_dir, DefaultParallelDownloads());
+    // The disk's own trouble, or a cancel, would be the same over gRPC.
+    if (fetched.ok() || fetched.status().code() == absl::StatusCode::kInternal ||
+        fetched.status().code() == absl::StatusCode::kResourceExhausted || absl::IsCancelled(fetched.status())) {
+      return fetched;
+    }
+    // A result that is not there is for gRPC to say, and a front end older
+    // than the listing says the same but still serves the large files: no
+    // warning, and the front end stays in.
+    if (absl::IsNotFound(fetched.status())) {
+      SdkLog().debug("event=farm_http_fetch_not_found key={} reason=\"{}\"", cache_key,
+                     std::string(fetched.status().message()));
+    } else {
+      SdkLog().warn("event=farm_http_fetch_fallback key={} reason=\"{}\" note=\"fetching the result over gRPC\"",
+                    cache_key, std::string(fetched.status().message()));
+      over_grpc.farm_http = "none";
+    }
+  }
+  absl::StatusOr<std::unique_ptr<Client>> client = Client::Connect(over_grpc);
+  if (!client.ok()) return client.status();
+  return (*client)->Fetch(cache_key, out_dir);
 }
 
 absl::StatusOr<std::string> Client::GetManifestJson(const std::string& cache_key) {

@@ -75,7 +75,8 @@ class Cache::Impl {
       : options_(options),
         layout_(options.dir),
         hooks_(hooks),
-        transport_(TransportOptions(options), hooks.transport, options.offline_retry_seconds) {}
+        transport_(TransportOptions(options), hooks.transport, options.offline_retry_seconds),
+        farm_http_(FarmHttpOf(options)) {}
 
   ~Impl() {
     cancel_.Cancel();
@@ -596,6 +597,13 @@ class Cache::Impl {
         return absl::NotFoundError(absl::StrCat(key, ": not in channel ", options_.channel,
                                                 "'s catalog, and no farm is configured (CacheOptions.server)"));
       }
+      // The farm's HTTP front end alone when one is named; gRPC connects
+      // only for what it cannot give.
+      if (farm_http_.has_value()) {
+        auto over_http = InstallOverFarmHttp(*farm_http_, farm_reader, absl::StrCat("server ", options_.server),
+                                             layout_, key, hooks_.download, cancel);
+        if (over_http.has_value()) return *std::move(over_http);
+      }
       absl::StatusOr<Transport*> transport = transport_.Get();
       if (!transport.ok()) return transport.status();
       return DownloadAndInstall(**transport, layout_, key, hooks_.download, cancel);
@@ -713,6 +721,7 @@ class Cache::Impl {
   const CacheLayout layout_;
   const CacheTestHooks hooks_;
   LazyTransport transport_;
+  const std::optional<FarmHttpEndpoint> farm_http_;  // named in the options (not advertised)
   // The release channel (CacheOptions::channel); null without one.
   std::unique_ptr<delivery::ChannelCatalog> catalog_;
   // Cancel() ends every download at once: backoff waits, a partial held by

@@ -107,4 +107,10 @@ ClientOptions TransportOptions(const CacheOptions& o) {
   return c;
 }
 
+std::optional<FarmHttpEndpoint> FarmHttpOf(const CacheOptions& options) {
+  if (options.server.empty()) return std::nullopt;
+  absl::StatusOr<std::optional<FarmHttpEndpoint>> front_end = ConfiguredFarmHttp(TransportOptions(options));
+  return front_end.ok() ? *front_end : std::nullopt;
+}
+
 }  // namespace impostor::sdk

@@ -4,7 +4,10 @@
 #ifndef IMPOSTOR_CLIENT_CACHE_CACHE_OPTIONS_H_
 #define IMPOSTOR_CLIENT_CACHE_CACHE_OPTIONS_H_
 
+#include <optional>
+
 #include "absl/status/status.h"
+#include "client/transfer/farm_http_result_fetch.h"
 #include "impostor/cache.h"
 #include "impostor/client.h"
 
@@ -15,6 +18,12 @@ absl::Status ValidateOptions(const CacheOptions& o);
 
 // The farm connection's settings (server, deadlines, TLS, token).
 ClientOptions TransportOptions(const CacheOptions& o);
+
+// The farm's HTTP front end the options name (farm_http or
+// $IMPOSTOR_FARM_HTTP, with a farm server), for installs over HTTP alone
+// (result_install.h); nullopt for none, and for bad options, which the
+// farm's transport refuses when it connects.
+std::optional<FarmHttpEndpoint> FarmHttpOf(const CacheOptions& o);
 
 }  // namespace impostor::sdk
 

@@ -372,6 +372,51 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   return InstallFromSources(plan, layout, key, hooks, cancel);
 }
 
+InstallPlan FarmHttpInstallPlan(const FarmHttpEndpoint& front_end, v1::Manifest listing, BlobReader farm,
+                                std::string farm_name) {
+  InstallPlan plan;
+  plan.listing = std::move(listing);
+  plan.listing_source = absl::StrCat("farm HTTP ", front_end.base);
+  auto names = std::make_shared<std::map<std::string, std::string>>();  // hash -> a file name of it
+  for (const v1::MapFile& map : plan.listing.maps()) names->emplace(map.digest().hash(), map.file());
+  names->emplace(plan.listing.manifest_json().hash(), kManifestFileName);
+  const std::string key = plan.listing.cache_key();
+  BlobReader over_http = [front_end, names, key](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                                  const std::function<absl::Status(std::string_view)>& sink,
+                                                  const CancelSource* c) -> absl::Status {
+    auto it = names->find(digest.hash());
+    if (it == names->end()) return absl::NotFoundError(absl::StrCat("blob ", digest.hash(), " is no file of ", key));
+    HttpReadOptions read = front_end.read;
+    read.cancel = c;
+    return ReadFrontEndFile(front_end.base, read, key, it->second, digest, offset, hash, sink);
+  };
+  plan.sources.push_back({plan.listing_source, std::move(over_http), /*mirror=*/false});
+  plan.sources.push_back({std::move(farm_name), std::move(farm), /*mirror=*/false});
+  return plan;
+}
+
+std::optional<absl::StatusOr<InstallOutcome>> InstallOverFarmHttp(const FarmHttpEndpoint& front_end, BlobReader farm,
+                                                                  std::string farm_name, const CacheLayout& layout,
+                                                                  const std::string& key, const DownloadHooks& hooks,
+                                                                  const CancelSource* cancel) {
+  FarmHttpEndpoint asking = front_end;
+  asking.read.cancel = cancel;
+  absl::StatusOr<v1::Manifest> listing = GetResultOverHttp(asking, key);
+  if (listing.ok()) {
+    return InstallFromSources(FarmHttpInstallPlan(front_end, std::move(*listing), std::move(farm), std::move(farm_name)),
+                              layout, key, hooks, cancel);
+  }
+  if (absl::IsCancelled(listing.status())) return listing.status();
+  if (absl::IsNotFound(listing.status())) {
+    SdkLog().debug("event=farm_http_listing_not_found key={} reason=\"{}\"", key,
+                   std::string(listing.status().message()));
+  } else {
+    SdkLog().warn("event=farm_http_listing_failed key={} reason=\"{}\" note=\"asking the farm over gRPC\"", key,
+                  std::string(listing.status().message()));
+  }
+  return std::nullopt;
+}
+
 absl::StatusOr<InstallOutcome> InstallFromSources(const InstallPlan& plan, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
                                                   const CancelSource* cancel) {

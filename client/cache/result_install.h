@@ -15,12 +15,14 @@
 #include <atomic>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
 #include "client/cache/cache_layout.h"
 #include "client/cache/entry_lock.h"
 #include "client/cache/partial_download.h"
+#include "client/transfer/farm_http_result_fetch.h"
 #include "client/transport/transport.h"
 
 namespace impostor::sdk {
@@ -81,6 +83,24 @@ absl::StatusOr<InstallOutcome> InstallFromSources(const InstallPlan& plan, const
 absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const CacheLayout& layout,
                                                   const std::string& key, const DownloadHooks& hooks,
                                                   const CancelSource* cancel);
+
+// The plan for a result whose listing came from the farm's HTTP front end
+// (GetResultOverHttp, already checked): every file from the front end, one
+// request each, and for a blob it cannot give intact `farm` (named
+// `farm_name`: the farm over gRPC, which the caller connects only when it
+// is asked), resuming from the front end's verified bytes.
+InstallPlan FarmHttpInstallPlan(const FarmHttpEndpoint& front_end, v1::Manifest listing, BlobReader farm,
+                                std::string farm_name);
+
+// The listing from the front end (GetResultOverHttp) and the install of
+// FarmHttpInstallPlan: a result installed with no gRPC channel opened when
+// the front end gives it all. nullopt when the front end could not give the
+// listing (one warning says why, but for a NOT_FOUND: the farm over gRPC
+// says whether the result is there), for the caller to go to the farm.
+std::optional<absl::StatusOr<InstallOutcome>> InstallOverFarmHttp(const FarmHttpEndpoint& front_end, BlobReader farm,
+                                                                  std::string farm_name, const CacheLayout& layout,
+                                                                  const std::string& key, const DownloadHooks& hooks,
+                                                                  const CancelSource* cancel);
 
 // Deletes the staging directory `dir` (an install's, see cache_layout.md)
 // unless an install is using it (its lock is held) or it is younger than

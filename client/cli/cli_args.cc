@@ -689,7 +689,9 @@ Common flags:
   --farm-http URL     (every command that takes --server) the farm's HTTP front
                       end (its --http-listen, or an https:// proxy before it):
                       results' large files are downloaded from there, verified,
-                      and over gRPC when it cannot give them intact. Default:
+                      and over gRPC when it cannot give them intact; `fetch`
+                      and `cache get` take the listing and every file from
+                      it, with no gRPC unless it fails them. Default:
                       $IMPOSTOR_FARM_HTTP, else what the farm advertises
                       (impostor-server --http-advertise); "none" turns both
                       off. With --tls-ca, https only

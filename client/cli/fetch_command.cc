@@ -24,11 +24,18 @@ int RunFetch(const CliArgs& args) {
     return code == kExitOk ? code : Fail(code, error);
   };
 
-  absl::StatusOr<std::unique_ptr<sdk::Client>> client =
-      sdk::Client::Connect(ClientOptionsFor(args, kInteractiveOutageSeconds));
-  if (!client.ok()) return finish(kExitServer, Describe(client.status()));
-  absl::StatusOr<sdk::FetchResult> fetched = (*client)->Fetch(args.target, args.out);
-  if (!fetched.ok()) return finish(ExitCodeFor(fetched.status()), Describe(fetched.status()));
+  // Over the farm's HTTP front end alone when one is named (no gRPC
+  // channel), else, or when it cannot give the result, over gRPC.
+  absl::StatusOr<sdk::FetchResult> fetched =
+      sdk::FetchFromFarm(ClientOptionsFor(args, kInteractiveOutageSeconds), args.target, args.out);
+  if (!fetched.ok()) {
+    // Options the SDK refuses (before any connection) exit 3, as a
+    // connection that fails does.
+    if (absl::IsInvalidArgument(fetched.status()) && !sdk::GetRpcErrorInfo(fetched.status())) {
+      return finish(kExitServer, Describe(fetched.status()));
+    }
+    return finish(ExitCodeFor(fetched.status()), Describe(fetched.status()));
+  }
 
   report["manifest"] = fetched->manifest_path.string();
   for (const auto& f : fetched->files) report["files"].push_back(f.string());

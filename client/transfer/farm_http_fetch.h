@@ -5,7 +5,8 @@
 // few context switches (docs/explanation/figures.md measured ~300 MB/s on
 // two cores); the front end serves the same bytes as plain HTTP responses
 // at nginx's pace. The listing (GetResult) and the small files (one
-// BatchReadBlobs call) stay on gRPC. Runs on the caller's thread.
+// BatchReadBlobs call) stay on gRPC here; farm_http_result_fetch.h takes
+// them over HTTP too, without a transport. Runs on the caller's thread.
 #ifndef IMPOSTOR_CLIENT_TRANSFER_FARM_HTTP_FETCH_H_
 #define IMPOSTOR_CLIENT_TRANSFER_FARM_HTTP_FETCH_H_
 
@@ -56,6 +57,21 @@ absl::Status ReadResultFileOverHttp(const Transport& transport, const std::strin
                                     const std::string& file_name, const v1::Digest& digest, int64_t offset,
                                     Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
                                     const CancelSource* cancel);
+
+// ReadResultFileOverHttp from front end `base` (no trailing "/") read with
+// `read`, without a transport's bookkeeping: the same errors but
+// FAILED_PRECONDITION. For a fetch over HTTP alone (farm_http_result_fetch.h).
+absl::Status ReadFrontEndFile(const std::string& base, const HttpReadOptions& read, const std::string& cache_key,
+                             const std::string& file_name, const v1::Digest& digest, int64_t offset, Sha256& hash,
+                             const std::function<absl::Status(std::string_view)>& sink);
+
+// The whole of a result's file from front end `base` into a temporary file
+// beside `path` (AtomicFileWriter, its writeback started), verified; on
+// error nothing is left and `*local_error` says whether the local file
+// failed (no other road helps then) rather than the front end.
+absl::StatusOr<std::unique_ptr<AtomicFileWriter>> DownloadFrontEndFileToStagedFile(
+    const std::string& base, const HttpReadOptions& read, const std::string& cache_key, const std::string& file_name,
+    const v1::Digest& digest, const std::filesystem::path& path, bool* local_error);
 
 // DownloadBlobToStagedFile (blob_download.h) of a result's file: from the
 // front end when the transport has one, and over gRPC when it has none or

@@ -69,7 +69,27 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
     return absl::InternalError(absl::StrCat("server ", transport.server(), " sent a bad result for ", cache_key,
                                             ": ", s.message()));
   }
+  // Large files stream from the farm's HTTP front end when there is one
+  // (farm_http_fetch.h), else over ReadBlob. Small files go many to a call
+  // (BatchReadBlobs: blob_batch.h): one round trip for a result's 36 view
+  // images and its manifest instead of one each.
+  ResultFileRoads roads;
+  roads.stream = [&](const std::string& file_name, const v1::Digest& digest, const fs::path& path,
+                     const CancelSource& cancel) {
+    return DownloadResultFileToStagedFile(transport, cache_key, file_name, digest, path, &cancel);
+  };
+  roads.batch = [&](const std::vector<v1::Digest>& digests,
+                    const std::function<absl::Status(size_t, std::string_view)>& on_blob, size_t* failed,
+                    const CancelSource& cancel) { return ReadBlobBatch(transport, digests, on_blob, failed, &cancel); };
+  absl::StatusOr<FetchResult> result = InstallResultFiles(*manifest, out_dir, parallel, roads);
+  if (result.ok()) result->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
 
+absl::StatusOr<FetchResult> InstallResultFiles(const v1::Manifest& manifest, const fs::path& out_dir, int parallel,
+                                               const ResultFileRoads& roads) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::string& cache_key = manifest.cache_key();
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) {
@@ -79,17 +99,17 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
 
   // Maps first, manifest.json last: a manifest on disk means its maps are.
   std::vector<Wanted> wanted;
-  for (const v1::MapFile& map : manifest->maps()) wanted.push_back({out_dir / map.file(), map.digest()});
-  wanted.push_back({out_dir / kManifestFileName, manifest->manifest_json()});
+  for (const v1::MapFile& map : manifest.maps()) wanted.push_back({out_dir / map.file(), map.digest()});
+  wanted.push_back({out_dir / kManifestFileName, manifest.manifest_json()});
 
   FetchResult result;
   result.dir = out_dir;
   result.manifest_path = out_dir / kManifestFileName;
-  result.warnings.assign(manifest->warnings().begin(), manifest->warnings().end());
+  result.warnings.assign(manifest.warnings().begin(), manifest.warnings().end());
   // A manifest.json from another result goes first: replacing maps beside
   // it would leave a manifest that does not describe them if this fetch
   // then fails half-way (a CI job re-fetching into the same folder).
-  if (!AlreadyThere(result.manifest_path, manifest->manifest_json())) {
+  if (!AlreadyThere(result.manifest_path, manifest.manifest_json())) {
     fs::remove(result.manifest_path, ec);
     if (ec) {
       return absl::InternalError(absl::StrCat("cannot remove the previous ", result.manifest_path.string(),
@@ -114,18 +134,15 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return wanted[a].digest.size_bytes() > wanted[b].digest.size_bytes();
   });
-  // Large files stream from the farm's HTTP front end when there is one
-  // (farm_http_fetch.h), else over ReadBlob. Small files go many to a call
-  // (BatchReadBlobs: blob_batch.h), after
-  // the large ones' streams: one round trip for a result's 36 view images
-  // and its manifest instead of one each. A server that predates the call
-  // answers UNIMPLEMENTED; the files of such batches are then streamed one
-  // each, side by side, as before.
+  // Small files go many to a call when the roads have one (roads.batch),
+  // after the large ones' streams. A server that predates the call answers
+  // UNIMPLEMENTED; the files of such batches are then streamed one each,
+  // side by side, as before.
   std::vector<size_t> streamed;
   std::vector<v1::Digest> small;
   std::vector<size_t> small_files;  // index into wanted of each of small
   for (size_t i : order) {
-    if (FitsBlobBatch(wanted[i].digest)) {
+    if (roads.batch && FitsBlobBatch(wanted[i].digest)) {
       small.push_back(wanted[i].digest);
       small_files.push_back(i);
     } else {
@@ -137,8 +154,8 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
   std::vector<size_t> unbatched;  // files of batches the server could not answer
   std::vector<std::unique_ptr<AtomicFileWriter>> downloaded(wanted.size());
   auto stream_file = [&](size_t i, const CancelSource& cancel) {
-    absl::StatusOr<std::unique_ptr<AtomicFileWriter>> staged = DownloadResultFileToStagedFile(
-        transport, cache_key, wanted[i].path.filename().string(), wanted[i].digest, wanted[i].path, &cancel);
+    absl::StatusOr<std::unique_ptr<AtomicFileWriter>> staged =
+        roads.stream(wanted[i].path.filename().string(), wanted[i].digest, wanted[i].path, cancel);
     if (!staged.ok()) return staged.status();
     downloaded[i] = std::move(*staged);
     return absl::OkStatus();
@@ -147,8 +164,8 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
     std::vector<v1::Digest> digests;
     for (size_t k : batch) digests.push_back(small[k]);
     size_t failed = batch.size();  // set to the blob a blob's own error names
-    const absl::Status read = ReadBlobBatch(
-        transport, digests,
+    const absl::Status read = roads.batch(
+        digests,
         [&](size_t k, std::string_view bytes) -> absl::Status {
           const Wanted& file = wanted[small_files[batch[k]]];
           absl::StatusOr<std::unique_ptr<AtomicFileWriter>> writer = AtomicFileWriter::Create(file.path);
@@ -158,7 +175,7 @@ absl::StatusOr<FetchResult> FetchResultFiles(Transport& transport, const std::st
           downloaded[small_files[batch[k]]] = std::move(*writer);
           return absl::OkStatus();
         },
-        &failed, &cancel);
+        &failed, cancel);
     if (absl::IsUnimplemented(read)) {
       std::lock_guard lock(unbatched_mu);
       for (size_t k : batch) unbatched.push_back(small_files[k]);

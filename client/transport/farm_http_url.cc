@@ -39,6 +39,13 @@ absl::StatusOr<std::string> AdvertisedFarmHttp(absl::string_view value, bool tls
   return url;
 }
 
+std::string ResultManifestUrl(absl::string_view base, absl::string_view cache_key) {
+  std::string url(base);
+  while (!url.empty() && url.back() == '/') url.pop_back();
+  absl::StrAppend(&url, "/api/v1/results/", cache_key, "/manifest");
+  return url;
+}
+
 std::string ResultFileUrl(absl::string_view base, absl::string_view cache_key, absl::string_view file_name) {
   std::string url(base);
   while (!url.empty() && url.back() == '/') url.pop_back();

@@ -35,6 +35,10 @@ bool FarmHttpTurnedOff(absl::string_view configured, const char* env);
 // "/"; INVALID_ARGUMENT saying why it cannot be used.
 absl::StatusOr<std::string> AdvertisedFarmHttp(absl::string_view value, bool tls);
 
+// BASE/api/v1/results/KEY/manifest: the result's listing (an
+// impostor.v1.Manifest, kResultManifestMediaType).
+std::string ResultManifestUrl(absl::string_view base, absl::string_view cache_key);
+
 // BASE/api/v1/results/KEY/files/NAME, NAME percent-encoded but for
 // RFC 3986's unreserved characters (a result's file names are plain names;
 // CheckManifestFiles).

@@ -1,5 +1,6 @@
 #include "client/transport/http_get.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/string_view.h"
@@ -34,6 +35,8 @@ size_t OnHeader(char* data, size_t size, size_t count, void* user) {
     t->result.etag.clear();
     t->result.content_type.clear();
     t->result.range_start = 0;
+    t->result.repr_digest.clear();
+    t->result.error_body.clear();
     return size * count;
   }
   const size_t colon = line.find(':');
@@ -42,6 +45,7 @@ size_t OnHeader(char* data, size_t size, size_t count, void* user) {
   absl::string_view value = absl::StripAsciiWhitespace(line.substr(colon + 1));
   if (name == "etag") t->result.etag = std::string(value);
   if (name == "content-type") t->result.content_type = std::string(value);
+  if (name == "repr-digest") t->result.repr_digest = std::string(value);
   if (name == "content-range") {
     // "bytes START-END/TOTAL"
     absl::string_view v = value;
@@ -57,8 +61,13 @@ size_t OnHeader(char* data, size_t size, size_t count, void* user) {
 size_t OnBody(char* data, size_t size, size_t count, void* user) {
   auto* t = static_cast<Transfer*>(user);
   const size_t n = size * count;
-  // Only a file's bytes reach the sink: an error page's body is dropped.
-  if (t->header_status != 200 && t->header_status != 206) return n;
+  // Only a file's bytes reach the sink: an error page's body is kept up to
+  // a few KiB for the caller's message.
+  if (t->header_status != 200 && t->header_status != 206) {
+    std::string& kept = t->result.error_body;
+    kept.append(data, std::min(n, HttpGetResult::kErrorBodyBytes - std::min(kept.size(), HttpGetResult::kErrorBodyBytes)));
+    return n;
+  }
   if (t->result.body_bytes + static_cast<int64_t>(n) > t->options->max_body_bytes) {
     t->sink_error = absl::DataLossError(absl::StrCat("the body is longer than the ", t->options->max_body_bytes,
                                                      " bytes expected"));

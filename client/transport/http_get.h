@@ -52,6 +52,13 @@ struct HttpGetResult {
   // Content-Range); 0 for a 200.
   int64_t range_start = 0;
   int64_t body_bytes = 0;    // delivered to the sink
+  // The Repr-Digest header as sent (RFC 9530, e.g. "sha-256=:BASE64:"), ""
+  // when absent.
+  std::string repr_digest;
+  // The first kErrorBodyBytes of the body of a response other than 200 or
+  // 206 (the server's explanation), which the sink never sees.
+  std::string error_body;
+  static constexpr size_t kErrorBodyBytes = 4096;
 };
 
 // GETs `url`, feeding the body (of any status) to `sink`; a non-OK status

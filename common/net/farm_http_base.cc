@@ -1,10 +1,26 @@
 #include "common/net/farm_http_base.h"
 
+#include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "common/util/sha256.h"
 
 namespace impostor {
+
+std::string ReprDigestSha256(std::string_view body) {
+  return absl::StrCat("sha-256=:", absl::Base64Escape(absl::HexStringToBytes(Sha256Hex(body))), ":");
+}
+
+std::string_view ReprDigestSha256Member(std::string_view header) {
+  for (absl::string_view member : absl::StrSplit(absl::string_view(header.data(), header.size()), ',')) {
+    member = absl::StripAsciiWhitespace(member);
+    if (absl::StartsWith(member, "sha-256=")) return std::string_view(member.data(), member.size());
+  }
+  return {};
+}
 
 absl::Status ValidateFarmHttpBase(absl::string_view url, bool tls) {
   if (url.size() > kMaxFarmHttpUrlBytes) {

@@ -455,6 +455,20 @@ void HttpFrontend::Route() {
     SendJson(res, ResultJson(*result));
     return absl::OkStatus();
   });
+  // A result's listing as gRPC's GetResult answers it (impostor.v1.Manifest,
+  // binary): with it and the files below a client fetches a result over
+  // HTTP alone, never opening a gRPC channel. A use, as GetResult is: it
+  // verifies the blobs are there and moves the result up the LRU.
+  api(R"(/api/v1/results/([^/]+)/manifest)", {},
+      [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {
+        absl::StatusOr<v1::Manifest> manifest = scheduler_->GetResult(req.matches[1]);
+        if (!manifest.ok()) return manifest.status();
+        std::string body = manifest->SerializeAsString();
+        res.set_header("Cache-Control", "no-store");
+        res.set_header(kReprDigestHeader, ReprDigestSha256(body));
+        res.set_content(std::move(body), kResultManifestMediaType);
+        return absl::OkStatus();
+      });
   // A result's files: manifest.json, its maps, and the product's own files.
   api(R"(/api/v1/results/([^/]+)/files/([^/]+))", {},
       [this](const httplib::Request& req, const QueryParams&, httplib::Response& res) {

@@ -25,6 +25,7 @@
 #include "common/util/sha256.h"
 #include "impostor/cache.h"
 #include "impostor/impostor_c.h"
+#include "tests/delivery/farm_http_fixture.h"
 #include "tests/delivery/fault_mirror.h"
 #include "tests/metrics/http_test_client.h"
 #include "tests/support/published_result.h"
@@ -34,100 +35,6 @@ namespace impostor::testing {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr char kReadBlob[] = "/impostor.v1.AssetService/ReadBlob";
-// Two maps over BatchReadBlobs' 1 MiB per blob (streamed: the front end's
-// files) and one under it (batched over gRPC with manifest.json).
-const std::vector<int64_t> kMapSizes = {1'500'000, 1'200'000, 300'000};
-const char* const kLargeFiles[] = {"albedo_alpha.png", "normal_depth.png"};
-
-// What the SDK logs goes to stderr; a test's own assertions do not read it.
-class FarmHttpTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    server_ = std::make_unique<ServerProcess>(0, std::vector<std::string>{"--http-listen", "127.0.0.1:0"});
-    http_url_ = "http://127.0.0.1:" + std::to_string(HttpPort(*server_));
-    dir_ = NewTempDir(std::string("farm_http_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    result_ = PublishResult(*server_, kMapSizes, 41);
-  }
-  void TearDown() override {
-    const fs::path data = server_->data_dir();
-    server_.reset();
-    fs::remove_all(data);
-    fs::remove_all(dir_);
-  }
-
-  sdk::ClientOptions Options(const std::string& farm_http) {
-    sdk::ClientOptions o;
-    o.server = server_->address();
-    o.connect_timeout_seconds = 10;
-    o.rpc_timeout_seconds = 1;  // a stalled front end is left after ~1 s a try
-    o.max_attempts = 2;
-    o.max_outage_seconds = 0;
-    o.farm_http = farm_http;
-    return o;
-  }
-
-  // FetchResultFiles into a fresh folder through a transport whose RPCs
-  // are counted; returns the ReadBlob streams it started (-1 on failure).
-  int FetchCountingReadBlobs(const std::string& farm_http, const std::string& token = "",
-                             const std::string& server = "") {
-    sdk::ClientOptions o = Options(farm_http);
-    o.token = token;
-    if (!server.empty()) o.server = server;
-    auto read_blobs = std::make_shared<std::atomic<int>>(0);
-    sdk::TransportHooks hooks;
-    hooks.on_rpc = [read_blobs](const std::string& method) {
-      if (method == kReadBlob) read_blobs->fetch_add(1);
-    };
-    absl::StatusOr<std::unique_ptr<sdk::Transport>> transport = sdk::Transport::Connect(o, hooks);
-    EXPECT_TRUE(transport.ok()) << transport.status();
-    if (!transport.ok()) return -1;
-    const fs::path out = dir_ / ("out" + std::to_string(++fetches_));
-    absl::StatusOr<sdk::FetchResult> fetched = sdk::FetchResultFiles(**transport, result_.key, out, 1);
-    EXPECT_TRUE(fetched.ok()) << fetched.status();
-    if (!fetched.ok()) return -1;
-    ExpectFilesAre(out);
-    return read_blobs->load();
-  }
-
-  // `dir` holds exactly the result's maps and its manifest, byte for byte.
-  void ExpectFilesAre(const fs::path& dir) {
-    for (const auto& [name, bytes] : result_.files) {
-      EXPECT_EQ(ReadFileBytes(dir / name), bytes) << name << " differs from what the farm holds";
-    }
-    int files = 0;
-    for (const auto& e : fs::directory_iterator(dir)) files += e.is_regular_file() ? 1 : 0;
-    EXPECT_EQ(files, static_cast<int>(result_.files.size())) << "stray or missing files in " << dir;
-  }
-
-  // A front end in the test's hands: the large files under the URL shape
-  // the SDK asks for, below the FaultMirror's /v1/ root.
-  std::string MirrorFilePath(const std::string& name) const {
-    return "v1/farm/api/v1/results/" + result_.key + "/files/" + name;
-  }
-  std::unique_ptr<FaultMirror> StartFaultyFrontEnd() {
-    for (const auto& [name, bytes] : result_.files) {
-      const fs::path path = dir_ / "front" / MirrorFilePath(name);
-      fs::create_directories(path.parent_path());
-      WriteFileBytes(path, bytes);
-    }
-    return std::make_unique<FaultMirror>(dir_ / "front");
-  }
-
-  static void WriteFileBytes(const fs::path& path, const std::string& bytes) {
-    FILE* f = std::fopen(path.c_str(), "wb");
-    ASSERT_NE(f, nullptr) << path;
-    ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
-    std::fclose(f);
-  }
-
-  std::unique_ptr<ServerProcess> server_;
-  std::string http_url_;
-  fs::path dir_;
-  PublishedResult result_;
-  int fetches_ = 0;
-};
 
 TEST_F(FarmHttpTest, FetchTakesTheLargeFilesFromTheFrontEndAndTheSmallOnesInOneBatch) {
   // Without a front end both large files stream over ReadBlob: the count
@@ -299,7 +206,10 @@ TEST_F(FarmHttpTest, CacheGetInstallsFromTheFrontEndAndFallsBackOnABadByte) {
       EXPECT_EQ(bytes, result_.files.at(f.path.filename().string())) << f.path;
     }
     EXPECT_EQ(read_blobs->load(), flip ? 1 : 0) << "only the file the front end spoiled came over ReadBlob";
-    EXPECT_EQ(front->TotalRequests() - asked_before, 2) << "the two large files, each asked once";
+    // Over HTTP alone (result_install.h's InstallOverFarmHttp): the
+    // listing and every file, each asked once.
+    EXPECT_EQ(front->TotalRequests() - asked_before, 1 + static_cast<int>(result_.files.size()));
+    EXPECT_EQ(front->Requests(MirrorListingPath()), flip ? 2 : 1);
   }
 }
 

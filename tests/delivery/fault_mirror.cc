@@ -6,6 +6,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "absl/strings/match.h"
+#include "common/net/farm_http_base.h"
+
 namespace impostor::testing {
 namespace {
 
@@ -38,6 +41,10 @@ FaultMirror::FaultMirror(std::filesystem::path root) : root_(std::move(root)), s
     }
     bool found = false;
     std::string bytes = ReadAll(root_ / path, &found);
+    // A farm result's listing (.../results/KEY/manifest), as the farm sends
+    // it: its digest of the bytes before any fault spoils them.
+    const bool listing = absl::EndsWith(path, "/manifest");
+    if (listing && found) res.set_header(kReprDigestHeader, ReprDigestSha256(bytes));
     switch (fault) {
       case Fault::kNotFound: found = false; break;
       case Fault::kFlipByte:
@@ -64,8 +71,9 @@ FaultMirror::FaultMirror(std::filesystem::path root) : root_(std::move(root)), s
     }
     res.set_header("ETag", "\"" + std::to_string(std::hash<std::string>{}(bytes)) + "\"");
     // cpp-httplib answers Range requests on set_content (206, Content-Range).
-    res.set_content(bytes, path.find("channels/") != std::string::npos ? "application/json"
-                                                                        : "application/octet-stream");
+    res.set_content(bytes, listing                                       ? kResultManifestMediaType
+                           : path.find("channels/") != std::string::npos ? "application/json"
+                                                                         : "application/octet-stream");
   });
   // Stop() waits for idle keep-alive connections to time out, and an SDK
   // thread keeps its connection open: 1 s instead of the library's 5.

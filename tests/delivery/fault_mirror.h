@@ -3,7 +3,9 @@
 // a flipped byte, an HTML page with status 200, a truncated body, a 404, or
 // stall (send nothing until the test ends). Counts the requests per path,
 // so a test can tell which source gave each file. Range requests are
-// answered as a static host does (206 from the asked offset).
+// answered as a static host does (206 from the asked offset). A path
+// ending in "/manifest" is a farm result's listing: sent as the farm sends
+// it (its media type, a Repr-Digest of the file's unspoiled bytes).
 //
 // Threads: the server answers on its own pool; every method may be called
 // from any thread. The destructor stops the server (stalled handlers end).

@@ -213,7 +213,11 @@ struct CacheOptions {
   // partial file), and over gRPC those it cannot give intact. Empty =
   // $IMPOSTOR_FARM_HTTP, else the one the farm advertises (impostor-server
   // --http-advertise); "none" = none. Open checks it (INVALID_ARGUMENT
-  // naming this field). Default: empty.
+  // naming this field). Given here or in the variable, a miss of a result
+  // the catalog does not list reads the listing from it too
+  // (/api/v1/results/KEY/manifest) and every file, so no gRPC channel is
+  // opened unless the front end cannot give a file (or the listing: the
+  // farm is then asked over gRPC as without it). Default: empty.
   std::string farm_http;
 };
 

@@ -197,7 +197,10 @@ struct ClientOptions {
   // and gRPC, when this client cannot use it, e.g. http:// with
   // tls_ca_file); "none" = none, advertised or not. Anything but an
   // http:// or https:// URL of at most 2,048 printable characters is
-  // INVALID_ARGUMENT from Connect naming this field. Default: empty.
+  // INVALID_ARGUMENT from Connect naming this field. FetchFromFarm (below)
+  // with a front end given here or in the variable (not advertised) takes
+  // the listing and every file from it and opens no gRPC channel. Default:
+  // empty.
   std::string farm_http;
 };
 
@@ -528,6 +531,19 @@ class Client {
   explicit Client(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
+
+// Client::Connect and Fetch in one call, for a process that only fetches
+// (`impostor fetch`): when `options` name the farm's HTTP front end
+// (ClientOptions::farm_http or $IMPOSTOR_FARM_HTTP, not "none"), the
+// result's listing and every file come from it, each verified as it
+// streams, and no gRPC channel is opened; the process then pays what an
+// HTTP client pays. When the front end cannot give the result (not there,
+// a refused token, a bad byte, a front end that predates the listing), one
+// warning line says why and the whole result is fetched over gRPC instead,
+// with the front end left out. A local failure (the disk, out_dir) is
+// returned as is. Errors: Connect's and Fetch's.
+absl::StatusOr<FetchResult> FetchFromFarm(const ClientOptions& options, const std::string& cache_key,
+                                          const std::filesystem::path& out_dir);
 
 }  // namespace impostor::sdk
 
