@@ -16,6 +16,7 @@
 #include "client/transfer/result_fetch.h"
 #include "client/transport/retry.h"
 #include "client/transport/rpc_error.h"
+#include "client/base/local_io_error.h"
 #include "client/base/sdk_log.h"
 #include "client/transport/transport.h"
 #include "common/error_reason.h"
@@ -261,8 +262,7 @@ absl::StatusOr<FetchResult> FetchFromFarm(const ClientOptions& options, const st
     absl::StatusOr<FetchResult> fetched =
         FetchResultFilesOverHttp(**front_end, cache_key, out_dir, DefaultParallelDownloads());
     // The disk's own trouble, or a cancel, would be the same over gRPC.
-    if (fetched.ok() || fetched.status().code() == absl::StatusCode::kInternal ||
-        fetched.status().code() == absl::StatusCode::kResourceExhausted || absl::IsCancelled(fetched.status())) {
+    if (fetched.ok() || IsLocalFailure(fetched.status()) || absl::IsCancelled(fetched.status())) {
       return fetched;
     }
     // A result that is not there is for gRPC to say, and a front end older

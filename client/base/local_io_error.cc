@@ -19,4 +19,8 @@ bool IsLocalDiskFull(const absl::Status& status) {
   return status.code() == absl::StatusCode::kResourceExhausted && !GetRpcErrorInfo(status).has_value();
 }
 
+bool IsLocalFailure(const absl::Status& status) {
+  return IsLocalDiskFull(status) || (absl::IsInternal(status) && !GetRpcErrorInfo(status).has_value());
+}
+
 }  // namespace impostor::sdk

@@ -19,6 +19,11 @@ absl::Status LocalIoError(std::string_view what, const std::filesystem::path& pa
 // True for a LocalIoError of a full disk (not a server's RESOURCE_EXHAUSTED).
 bool IsLocalDiskFull(const absl::Status& status);
 
+// True for a failure of this machine's own files (a LocalIoError, or an
+// INTERNAL that no server sent): the same whichever source the bytes come
+// from, so no other source is tried for it.
+bool IsLocalFailure(const absl::Status& status);
+
 }  // namespace impostor::sdk
 
 #endif  // IMPOSTOR_CLIENT_BASE_LOCAL_IO_ERROR_H_

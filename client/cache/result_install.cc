@@ -196,9 +196,26 @@ absl::StatusOr<v1::Manifest> FarmListing(Transport& transport, const std::string
 // Whether a failure of one source should stop the install rather than move
 // on to the next source: cancellation and local disk trouble are the same
 // whichever source is asked.
-bool StopsInstall(const absl::Status& status) {
-  return absl::IsCancelled(status) || IsLocalDiskFull(status) ||
-         (absl::IsInternal(status) && !GetRpcErrorInfo(status).has_value());
+bool StopsInstall(const absl::Status& status) { return absl::IsCancelled(status) || IsLocalFailure(status); }
+
+// How a front end is asked for one of a result's files: by its name.
+using FileReader = std::function<absl::Status(const std::string& file_name, const v1::Digest& digest, int64_t offset,
+                                              Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
+                                              const CancelSource* cancel)>;
+
+// A BlobReader over `read_file` for the blobs of `listing`: a blob is asked
+// for under a file name it has there (one blob may have several).
+BlobReader ReaderByFileName(const v1::Manifest& listing, FileReader read_file) {
+  auto names = std::make_shared<std::map<std::string, std::string>>();  // hash -> a file name of it
+  for (const v1::MapFile& map : listing.maps()) names->emplace(map.digest().hash(), map.file());
+  names->emplace(listing.manifest_json().hash(), kManifestFileName);
+  return [names, key = listing.cache_key(), read_file = std::move(read_file)](
+             const v1::Digest& digest, int64_t offset, Sha256& hash,
+             const std::function<absl::Status(std::string_view)>& sink, const CancelSource* c) -> absl::Status {
+    auto it = names->find(digest.hash());
+    if (it == names->end()) return absl::NotFoundError(absl::StrCat("blob ", digest.hash(), " is no file of ", key));
+    return read_file(it->second, digest, offset, hash, sink, c);
+  };
 }
 
 // InstallFromSources; `used` gets the shared partial files linked from, for
@@ -355,16 +372,12 @@ absl::StatusOr<InstallOutcome> DownloadAndInstall(Transport& transport, const Ca
   // The farm's HTTP front end streams the rest (farm_http_fetch.h), and
   // ReadBlob is the source of last resort for a blob it cannot give
   // intact, resuming from the verified bytes on disk.
-  auto names = std::make_shared<std::map<std::string, std::string>>();  // hash -> a file name of it
-  for (const v1::MapFile& map : plan.listing.maps()) names->emplace(map.digest().hash(), map.file());
-  names->emplace(plan.listing.manifest_json().hash(), kManifestFileName);
-  BlobReader over_http = [&transport, names, key](const v1::Digest& digest, int64_t offset, Sha256& hash,
-                                                   const std::function<absl::Status(std::string_view)>& sink,
-                                                   const CancelSource* c) -> absl::Status {
-    auto it = names->find(digest.hash());
-    if (it == names->end()) return absl::NotFoundError(absl::StrCat("blob ", digest.hash(), " is no file of ", key));
-    return ReadResultFileOverHttp(transport, key, it->second, digest, offset, hash, sink, c);
-  };
+  BlobReader over_http = ReaderByFileName(
+      plan.listing, [&transport, key](const std::string& file_name, const v1::Digest& digest, int64_t offset,
+                                      Sha256& hash, const std::function<absl::Status(std::string_view)>& sink,
+                                      const CancelSource* c) {
+        return ReadResultFileOverHttp(transport, key, file_name, digest, offset, hash, sink, c);
+      });
   plan.sources.push_back({absl::StrCat("farm HTTP ", transport.farm_http()),
                           PrefetchingFarmReader(transport, plan.listing, not_partial, cancel, std::move(over_http)),
                           /*mirror=*/false});
@@ -377,19 +390,14 @@ InstallPlan FarmHttpInstallPlan(const FarmHttpEndpoint& front_end, v1::Manifest 
   InstallPlan plan;
   plan.listing = std::move(listing);
   plan.listing_source = absl::StrCat("farm HTTP ", front_end.base);
-  auto names = std::make_shared<std::map<std::string, std::string>>();  // hash -> a file name of it
-  for (const v1::MapFile& map : plan.listing.maps()) names->emplace(map.digest().hash(), map.file());
-  names->emplace(plan.listing.manifest_json().hash(), kManifestFileName);
-  const std::string key = plan.listing.cache_key();
-  BlobReader over_http = [front_end, names, key](const v1::Digest& digest, int64_t offset, Sha256& hash,
-                                                  const std::function<absl::Status(std::string_view)>& sink,
-                                                  const CancelSource* c) -> absl::Status {
-    auto it = names->find(digest.hash());
-    if (it == names->end()) return absl::NotFoundError(absl::StrCat("blob ", digest.hash(), " is no file of ", key));
-    HttpReadOptions read = front_end.read;
-    read.cancel = c;
-    return ReadFrontEndFile(front_end.base, read, key, it->second, digest, offset, hash, sink);
-  };
+  BlobReader over_http = ReaderByFileName(
+      plan.listing, [front_end, key = plan.listing.cache_key()](
+                        const std::string& file_name, const v1::Digest& digest, int64_t offset, Sha256& hash,
+                        const std::function<absl::Status(std::string_view)>& sink, const CancelSource* c) {
+        HttpReadOptions read = front_end.read;
+        read.cancel = c;
+        return ReadFrontEndFile(front_end.base, read, key, file_name, digest, offset, hash, sink);
+      });
   plan.sources.push_back({plan.listing_source, std::move(over_http), /*mirror=*/false});
   plan.sources.push_back({std::move(farm_name), std::move(farm), /*mirror=*/false});
   return plan;
