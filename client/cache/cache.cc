@@ -362,7 +362,10 @@ class Cache::Impl {
 
   // The pinned, checked local copy of `key`, or nullopt when there is none
   // (a damaged one is removed first). Errors only for unexpected local I/O.
-  absl::StatusOr<std::optional<CachedResult>> TryLocal(const std::string& key, bool downloaded = false) {
+  // `installed`: this process has just installed the entry and recorded
+  // its files' identities, which need no second look.
+  absl::StatusOr<std::optional<CachedResult>> TryLocal(const std::string& key, bool downloaded = false,
+                                                       bool installed = false) {
     const fs::path dir = layout_.EntryDir(key);
     bool known;
     {
@@ -424,7 +427,9 @@ class Cache::Impl {
                (options_.hit_verification == HitVerification::kDigestOncePerProcess && !it->second.verified);
       view = it->second.view;
     }
-    absl::Status check = CheckEntryFiles(dir, record, digest ? FileCheck::kDigest : FileCheck::kMetadata);
+    absl::Status check = installed && !digest ? absl::OkStatus()
+                                              : CheckEntryFiles(dir, record, digest ? FileCheck::kDigest
+                                                                                    : FileCheck::kMetadata);
     if (check.code() == absl::StatusCode::kNotFound || check.code() == absl::StatusCode::kDataLoss) {
       // A file gone from an installed entry is damage too (something deleted
       // part of it): counted and said, not silently fetched again.
@@ -543,7 +548,7 @@ class Cache::Impl {
         node.pin = pin;
       }
     }
-    absl::StatusOr<std::optional<CachedResult>> result = TryLocal(key, downloaded);
+    absl::StatusOr<std::optional<CachedResult>> result = TryLocal(key, downloaded, !installed->raced);
     pin.reset();  // `result` holds it now
     if (!result.ok()) return result.status();
     if (!result->has_value()) {

@@ -26,21 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Closes the descriptor (and so drops its flock) on every path out.
-class Fd {
- public:
-  explicit Fd(int fd) : fd_(fd) {}
-  ~Fd() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
-
 absl::Status Cancelled() { return absl::CancelledError("the cache is shutting down"); }
 
 bool IsCancelled(const CancelSource* cancel) { return cancel != nullptr && cancel->cancelled(); }
@@ -173,7 +158,7 @@ absl::StatusOr<BlobOutcome> FetchPrivately(const BlobReader& reader, const v1::D
                                            const std::vector<fs::path>& links, const DownloadHooks& hooks,
                                            const CancelSource* cancel) {
   const fs::path& target = links.front();
-  Fd file(::open(target.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  UniqueFd file(::open(target.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
   if (file.get() < 0) return LocalIoError("cannot create", target, errno);
   BlobOutcome outcome;
   outcome.shared = false;
@@ -186,6 +171,7 @@ absl::StatusOr<BlobOutcome> FetchPrivately(const BlobReader& reader, const v1::D
     return status;
   }
   if (absl::Status s = LinkAll(target, links, 1); !s.ok()) return s;
+  outcome.file = std::move(file);
   return outcome;
 }
 
@@ -203,7 +189,7 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
                                       const CancelSource* cancel) {
   if (links.empty()) return absl::InternalError(absl::StrCat(partial.string(), ": nothing to link it to"));
   if (IsCancelled(cancel)) return Cancelled();
-  Fd file(::open(partial.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
+  UniqueFd file(::open(partial.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
   if (file.get() < 0) return LocalIoError("cannot open", partial, errno);
   absl::StatusOr<Locked> locked = LockPartial(file.get(), partial, digest.hash(), hooks, cancel);
   if (!locked.ok()) return locked.status();
@@ -257,6 +243,10 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
       // directory's as well, whatever becomes of the partial's name.
       if (absl::Status s = LinkAll(partial, links, 0); !s.ok()) return s;
       if (have < size) outcome.bytes_resumed += have;
+      // Unlocked for other downloads of the blob, kept open for the
+      // install (BlobOutcome::file).
+      if (::flock(fd, LOCK_UN) != 0) return LocalIoError("cannot unlock", partial, errno);
+      outcome.file = std::move(file);
       return outcome;
     }
     // A digest mismatch of our own check (not an RPC's DATA_LOSS) with
@@ -300,7 +290,7 @@ int64_t RemovePartialIfUnused(const fs::path& path, const FileIdentity* identity
   // (An install's cleanup, min_age 0, goes straight to the lock: one look
   // fewer per blob.)
   if (min_age_seconds > 0 && (::lstat(path.c_str(), &st) != 0 || !old_enough(st))) return -1;
-  Fd file(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW));
+  UniqueFd file(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW));
   if (file.get() < 0) return -1;
   if (TryLockExclusive(file.get()) != 0) return -1;  // a download is using it
   FileIdentity locked;
@@ -310,6 +300,14 @@ int64_t RemovePartialIfUnused(const fs::path& path, const FileIdentity* identity
   if (!old_enough(st)) return -1;  // written since we looked
   if (::unlink(path.c_str()) != 0) return -1;
   return static_cast<int64_t>(st.st_size);
+}
+
+bool RemoveOpenPartialIfUnused(const fs::path& path, UniqueFd file, const FileIdentity& identity) {
+  // The lock, if taken, goes when `file` closes on return.
+  if (!file.valid() || TryLockExclusive(file.get()) != 0) return false;  // a download is using it
+  struct stat named;
+  return ::lstat(path.c_str(), &named) == 0 && named.st_dev == identity.dev && named.st_ino == identity.ino &&
+         ::unlink(path.c_str()) == 0;
 }
 
 }  // namespace impostor::sdk

@@ -27,6 +27,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/base/unique_fd.h"
 #include "client/transport/transport.h"
 #include "common/util/sha256.h"
 #include "impostor/v1/types.pb.h"
@@ -75,6 +76,11 @@ struct BlobOutcome {
   // blob fetched into the staging directory instead.
   bool shared = true;
   FileIdentity identity;
+  // The blob's file (the shared partial, or links[0] when not shared), left
+  // open and unlocked: the install syncs it and removes the partial's name
+  // through it, instead of opening the file by name twice more (a fleet of
+  // small fetches is made of such calls).
+  UniqueFd file;
 };
 
 // Where a blob's bytes come from: feeds bytes [offset, size) of `digest`
@@ -112,6 +118,12 @@ absl::StatusOr<BlobOutcome> FetchBlob(const BlobReader& reader, const v1::Digest
 // `min_age_seconds` ago. Returns its size when deleted, -1 otherwise.
 int64_t RemovePartialIfUnused(const std::filesystem::path& path, const FileIdentity* identity,
                               double min_age_seconds = 0);
+
+// RemovePartialIfUnused for the partial file a download kept open as
+// `file` (BlobOutcome::file; `identity` its FileIdentity): locked through
+// it rather than opened again, deleted when its name still holds it, and
+// closed. True when deleted.
+bool RemoveOpenPartialIfUnused(const std::filesystem::path& path, UniqueFd file, const FileIdentity& identity);
 
 }  // namespace impostor::sdk
 

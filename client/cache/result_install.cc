@@ -37,6 +37,13 @@ namespace fs = std::filesystem;
 // before we could pin it, before the install gives up.
 constexpr int kMaxRetries = 8;
 
+// How many of a result's blob files an install keeps open from their
+// download to its sync and cleanup (BlobOutcome::file); the rest are opened
+// again by name. A release's asset has a handful of files; a farm result
+// with its quality pass has ~40, and a game runs up to
+// max_parallel_downloads installs at once under a limit of open files.
+constexpr size_t kMaxFilesKeptOpen = 8;
+
 double AgeSeconds(const struct stat& st) {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() -
          (static_cast<double>(st.st_mtim.tv_sec) + st.st_mtim.tv_nsec * 1e-9);
@@ -85,6 +92,7 @@ class Staging {
 struct UsedPartial {
   fs::path path;
   FileIdentity identity;
+  UniqueFd file;  // kept open since its download, or not (kMaxFilesKeptOpen)
 };
 
 struct Pinned {
@@ -111,23 +119,39 @@ absl::StatusOr<Pinned> PinInstalled(const CacheLayout& layout, const std::string
   return Pinned{std::move(*record), std::move(*lock)};
 }
 
-void RemoveUsedPartials(const std::vector<UsedPartial>& used) {
-  for (const UsedPartial& u : used) (void)RemovePartialIfUnused(u.path, &u.identity);
+// Gives up `used` (closing what it kept open).
+void RemoveUsedPartials(std::vector<UsedPartial>& used) {
+  for (UsedPartial& u : used) {
+    if (u.file.valid()) {
+      (void)RemoveOpenPartialIfUnused(u.path, std::move(u.file), u.identity);
+    } else {
+      (void)RemovePartialIfUnused(u.path, &u.identity);
+    }
+  }
+  used.clear();
 }
+
+// A blob file staged for a result: its first name in the staging directory,
+// and the descriptor its download kept open (-1: opened by name).
+struct StagedFile {
+  fs::path path;
+  int fd = -1;
+};
 
 // Waits until every file staged for a result is on disk. The downloads
 // started their writeback as each blob finished, so this mostly waits for
 // what is in flight, and the files' syncs share one journal commit: one per
 // result, where a sync per file cost one commit each (what a fetch of many
 // small files paid, on a loaded disk most of all).
-absl::Status SyncStagedFiles(const std::vector<fs::path>& files) {
-  for (const fs::path& path : files) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return LocalIoError("cannot open", path, errno);
-    const int rc = ::fdatasync(fd);
-    const int err = errno;
-    ::close(fd);
-    if (rc != 0) return LocalIoError("cannot sync", path, err);
+absl::Status SyncStagedFiles(const std::vector<StagedFile>& files) {
+  for (const StagedFile& file : files) {
+    if (file.fd >= 0) {
+      if (::fdatasync(file.fd) != 0) return LocalIoError("cannot sync", file.path, errno);
+      continue;
+    }
+    const UniqueFd fd(::open(file.path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!fd.valid()) return LocalIoError("cannot open", file.path, errno);
+    if (::fdatasync(fd.get()) != 0) return LocalIoError("cannot sync", file.path, errno);
   }
   return absl::OkStatus();
 }
@@ -253,6 +277,8 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     v1::Digest digest;
     fs::path partial;
     std::vector<fs::path> links;
+    UniqueFd own_file;  // kept open, when not shared (FetchPrivately's)
+    int fd = -1;        // kept open: own_file, or its UsedPartial's
   };
   std::vector<Blob> blobs;
   for (const EntryFile& f : outcome.record.files) {
@@ -267,7 +293,8 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     }
     it->links.push_back(staged / f.name);
   }
-  for (const Blob& blob : blobs) {
+  size_t kept_open = 0;
+  for (Blob& blob : blobs) {
     absl::StatusOr<BlobOutcome> got = absl::UnknownError("not fetched");
     std::vector<std::string> failures;
     for (const ResultSource& source : plan.sources) {
@@ -306,11 +333,21 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     }
     outcome.bytes_downloaded += got->bytes_downloaded;
     outcome.bytes_resumed += got->bytes_resumed;
-    if (got->shared) used.push_back({blob.partial, got->identity});
+    if (kept_open < kMaxFilesKeptOpen && got->file.valid()) {
+      blob.fd = got->file.get();
+      ++kept_open;
+    } else {
+      got->file.Reset();
+    }
+    if (got->shared) {
+      used.push_back({blob.partial, got->identity, std::move(got->file)});
+    } else {
+      blob.own_file = std::move(got->file);
+    }
   }
 
-  std::vector<fs::path> staged_files;
-  for (const Blob& blob : blobs) staged_files.push_back(blob.links.front());
+  std::vector<StagedFile> staged_files;
+  for (const Blob& blob : blobs) staged_files.push_back({blob.links.front(), blob.fd});
   if (absl::Status s = SyncStagedFiles(staged_files); !s.ok()) return s;
   if (absl::Status s = RecordFileIdentities(staged, outcome.record); !s.ok()) return s;
   if (absl::Status s = WriteSynced(staged / kEntryRecordName, EntryRecordToJson(outcome.record)); !s.ok()) return s;

@@ -1,5 +1,8 @@
 // Pure pieces of the cache: LRU accounting, the `.entry` record format and
-// its bad inputs, reading small files, and the single-flight coordinator.
+// its bad inputs, reading small files, the single-flight coordinator, and a
+// partial file's download and cleanup through the descriptor it keeps.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -23,7 +26,9 @@
 #include "client/cache/download_coordinator.h"
 #include "client/cache/lru_index.h"
 #include "client/cache/manifest_summary.h"
+#include "client/cache/partial_download.h"
 #include "client/cache/work_queue.h"
+#include "common/util/sha256.h"
 
 namespace impostor::sdk {
 namespace {
@@ -360,6 +365,70 @@ TEST(WorkQueue, ATaskMayDrainAndDestroyTheQueue) {
   ASSERT_EQ(done.wait_for(std::chrono::seconds(30)), std::future_status::ready);
   EXPECT_EQ(second_runs.load(), 1) << "a task queued behind the draining one was lost or run twice";
   EXPECT_EQ(queue, nullptr);
+}
+
+// A reader serving `bytes` and checking the whole blob's digest, as a
+// mirror's or the farm's does.
+BlobReader ReaderOf(std::string bytes) {
+  return [bytes = std::move(bytes)](const v1::Digest& digest, int64_t offset, Sha256& hash,
+                                    const std::function<absl::Status(std::string_view)>& sink,
+                                    const CancelSource*) -> absl::Status {
+    const std::string_view rest = std::string_view(bytes).substr(static_cast<size_t>(offset));
+    hash.Update(rest);
+    if (absl::Status s = sink(rest); !s.ok()) return s;
+    return hash.FinishHex() == digest.hash() ? absl::OkStatus() : absl::DataLossError("digest mismatch");
+  };
+}
+
+// FetchBlob leaves the blob's file open and unlocked (BlobOutcome::file):
+// the install syncs it and removes the partial through it. That removal
+// leaves a partial another download holds, and a name that now holds
+// another file, alone.
+TEST(PartialDownload, TheKeptFileIsUnlockedAndRemovesOnlyItsOwnUnheldPartial) {
+  std::string pattern = (std::filesystem::temp_directory_path() / "partial_kept_open.XXXXXX").string();
+  ASSERT_NE(::mkdtemp(pattern.data()), nullptr);
+  const std::filesystem::path dir = pattern;
+  const std::string bytes(70000, 'x');
+  v1::Digest digest;
+  digest.set_hash(Sha256Hex(bytes));
+  digest.set_size_bytes(static_cast<int64_t>(bytes.size()));
+  const std::filesystem::path partial = dir / "blob.part";
+  auto fetch = [&](const std::string& link) {
+    return FetchBlob(ReaderOf(bytes), digest, partial, {dir / link}, DownloadHooks{}, nullptr);
+  };
+
+  absl::StatusOr<BlobOutcome> first = fetch("a");
+  ASSERT_TRUE(first.ok()) << first.status();
+  ASSERT_TRUE(first->file.valid());
+  EXPECT_TRUE(first->shared);
+  EXPECT_EQ(std::filesystem::file_size(dir / "a"), bytes.size());
+  {
+    // Another download of the blob may lock the partial at once.
+    const UniqueFd other(::open(partial.c_str(), O_RDONLY | O_CLOEXEC));
+    ASSERT_TRUE(other.valid());
+    EXPECT_EQ(::flock(other.get(), LOCK_EX | LOCK_NB), 0) << "the kept file still holds the partial's lock";
+    // ...and while it does, the cleanup leaves the partial to it.
+    EXPECT_FALSE(RemoveOpenPartialIfUnused(partial, std::move(first->file), first->identity));
+    EXPECT_TRUE(std::filesystem::exists(partial));
+  }
+
+  // The partial's name now holds another file: not removed.
+  absl::StatusOr<BlobOutcome> third = fetch("c");
+  ASSERT_TRUE(third.ok()) << third.status();
+  std::filesystem::rename(dir / "c", dir / "c.kept");
+  std::filesystem::remove(partial);
+  std::ofstream(partial) << "another file";
+  EXPECT_FALSE(RemoveOpenPartialIfUnused(partial, std::move(third->file), third->identity));
+  EXPECT_TRUE(std::filesystem::exists(partial));
+
+  // Unheld and still its own: removed, the linked copy kept.
+  std::filesystem::remove(partial);
+  absl::StatusOr<BlobOutcome> fourth = fetch("d");
+  ASSERT_TRUE(fourth.ok()) << fourth.status();
+  EXPECT_TRUE(RemoveOpenPartialIfUnused(partial, std::move(fourth->file), fourth->identity));
+  EXPECT_FALSE(std::filesystem::exists(partial));
+  EXPECT_EQ(std::filesystem::file_size(dir / "d"), bytes.size());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
