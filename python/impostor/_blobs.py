@@ -1,19 +1,19 @@
 """Blob transfer: uploading what the store lacks of some models, the small
 files many to a BatchUpdateBlobs call (as client/transfer/mesh_upload.cc and
-blob_batch_upload.cc) and downloading a blob to a file, resumed at the byte
-offset after a break and verified against its digest (as
-client/transfer/blob_download.cc)."""
+blob_batch_upload.cc) and downloading a blob into a staged file
+(_result_install), resumed at the byte offset after a break and verified
+against its digest (as client/transfer/blob_download.cc): a result's gRPC
+road."""
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from pathlib import Path
 from typing import Dict, Iterator, List, Optional, Sequence, Set, Tuple, Union
 
 import grpc
 
-from ._mesh_files import MeshFile, MeshFiles, digest_file
+from ._mesh_files import MeshFile, MeshFiles
+from ._result_install import StagedFile, Staging
 from ._transport import Transport
 from .errors import ImpostorError
 from .results import UploadStats
@@ -42,22 +42,6 @@ MAX_BATCH_BYTES = 4 << 20
 UPLOAD_BATCH_MAX_BYTES = UPLOAD_CHUNK_BYTES
 
 _Key = Tuple[str, int]
-
-
-def _umask() -> int:
-    """The process's umask: from /proc (Linux), which reads it without
-    changing it; else by setting it and back, which another thread could
-    race with."""
-    try:
-        with open("/proc/self/status") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError, IndexError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
 
 
 def _digest(f: MeshFile) -> "pb.Digest":
@@ -285,16 +269,6 @@ def upload_meshes(transport: Transport, models: Sequence[MeshFiles]) -> "List[Un
     return [errors[m] if m in errors else UploadStats(**s) for m, s in enumerate(stats)]
 
 
-def already_there(path: Path, digest: "pb.Digest") -> bool:
-    """True when `path` already holds exactly the blob `digest`."""
-    try:
-        if not path.is_file() or path.stat().st_size != digest.size_bytes:
-            return False  # cheap check first
-        return digest_file(path)[0] == digest.hash
-    except OSError:
-        return False
-
-
 def pack_batches(sizes: Sequence[int], max_bytes: int = MAX_BATCH_BYTES) -> List[List[int]]:
     """Splits blobs of these sizes (each at most max_bytes) into batch calls
     of at most MAX_BATCH_DIGESTS blobs and max_bytes bytes (by default the
@@ -351,87 +325,84 @@ def _status_code(number: int) -> grpc.StatusCode:
     return grpc.StatusCode.UNKNOWN
 
 
-def write_verified_file(path: Path, data: bytes) -> None:
-    """Writes verified bytes to `path` atomically, as download_blob_to_file
-    does (a synced temporary file renamed into place, 0666 less the umask)."""
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as out:
-            out.write(data)
-            out.flush()
-            os.fsync(out.fileno())
-        os.chmod(tmp_name, 0o666 & ~_umask())
-        os.replace(tmp_name, path)
-    except BaseException:
-        try:
-            os.unlink(tmp_name)
-        except FileNotFoundError:
-            pass
-        raise
-
-
-def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path) -> None:
-    """Writes the blob to `path` atomically (a temporary file renamed into
-    place once every byte arrived and matched the digest). A broken stream is
-    resumed where it stopped; bytes arriving start the failure count over.
-    Raises ImpostorError: DATA_LOSS when the bytes do not match the digest,
-    or the RPC's error."""
+def download_blob_to_staged(transport: Transport, digest: "pb.Digest", staged: StagedFile) -> None:
+    """Streams the blob into `staged` (_result_install.StagedFile), verified
+    against its digest; install_result (or download_blob_to_file) renames
+    it into place. A broken stream is resumed where it stopped; bytes
+    arriving start the failure count over. Raises ImpostorError: DATA_LOSS
+    when the bytes do not match the digest, INTERNAL for a local write
+    error (never retried), or the RPC's error."""
     name = f"{digest.hash}/{digest.size_bytes}"
     sha = hashlib.sha256()
     received = 0
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as out:
-            retry = transport.retry_policy()
-            while True:
-                start = received
-                try:
-                    request = asset_pb.ReadBlobRequest(digest=digest, offset=received)
-                    for chunk in transport.read_blob(request, digest.size_bytes - received):
-                        if chunk.offset != received:
-                            raise ImpostorError(
-                                grpc.StatusCode.DATA_LOSS,
-                                f"ReadBlob {name}: chunk at offset {chunk.offset}, expected {received}",
-                            )
-                        if len(chunk.data) > digest.size_bytes - received:
-                            raise ImpostorError(
-                                grpc.StatusCode.DATA_LOSS,
-                                f"ReadBlob {name}: server sent more than the blob's {digest.size_bytes} bytes",
-                            )
-                        sha.update(chunk.data)
-                        out.write(chunk.data)
-                        received += len(chunk.data)
-                    if received == digest.size_bytes:
-                        break
-                    # Ended OK but short: treated like a broken stream.
-                    error = ImpostorError(
-                        grpc.StatusCode.UNAVAILABLE,
-                        f"ReadBlob {name}: stream ended after {received} of {digest.size_bytes} bytes",
-                    )
-                except ImpostorError as e:
-                    if e.code == grpc.StatusCode.DATA_LOSS and e.rpc is None:
-                        raise
-                    error = e
-                if received > start:
-                    retry.made_progress()
-                if not retry.should_retry(error):
-                    raise error
-            out.flush()
-            os.fsync(out.fileno())
-        if sha.hexdigest() != digest.hash:
-            raise ImpostorError(
-                grpc.StatusCode.DATA_LOSS, f"{path}: ReadBlob {name}: received bytes hash to {sha.hexdigest()}"
-            )
-        # mkstemp makes 0600; a fetched result is a plain file (0666 less the
-        # umask), as the CLI writes it, so others sharing the folder read it.
-        os.chmod(tmp_name, 0o666 & ~_umask())
-        os.replace(tmp_name, path)
-    except BaseException:
+    retry = transport.retry_policy()
+    while True:
+        start = received
         try:
-            os.unlink(tmp_name)
-        except FileNotFoundError:
-            pass
-        raise
+            request = asset_pb.ReadBlobRequest(digest=digest, offset=received)
+            for chunk in transport.read_blob(request, digest.size_bytes - received):
+                if chunk.offset != received:
+                    raise ImpostorError(
+                        grpc.StatusCode.DATA_LOSS,
+                        f"ReadBlob {name}: chunk at offset {chunk.offset}, expected {received}",
+                    )
+                if len(chunk.data) > digest.size_bytes - received:
+                    raise ImpostorError(
+                        grpc.StatusCode.DATA_LOSS,
+                        f"ReadBlob {name}: server sent more than the blob's {digest.size_bytes} bytes",
+                    )
+                sha.update(chunk.data)
+                staged.write(chunk.data)
+                received += len(chunk.data)
+            if received == digest.size_bytes:
+                break
+            # Ended OK but short: treated like a broken stream.
+            error = ImpostorError(
+                grpc.StatusCode.UNAVAILABLE,
+                f"ReadBlob {name}: stream ended after {received} of {digest.size_bytes} bytes",
+            )
+        except ImpostorError as e:
+            if e.rpc is None:
+                raise  # ours (bytes that cannot be the blob's, a local write error), not the stream's
+            error = e
+        if received > start:
+            retry.made_progress()
+        if not retry.should_retry(error):
+            raise error
+    if sha.hexdigest() != digest.hash:
+        raise ImpostorError(
+            grpc.StatusCode.DATA_LOSS, f"{staged.path}: ReadBlob {name}: received bytes hash to {sha.hexdigest()}"
+        )
+
+
+def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path) -> None:
+    """Writes the blob to `path` atomically (a temporary file beside it,
+    synced and renamed into place once every byte arrived and matched the
+    digest): download_blob_to_staged for one file."""
+    staged = StagedFile(path)
+    try:
+        download_blob_to_staged(transport, digest, staged)
+        staged.commit()
+    finally:
+        staged.abort()  # a no-op once committed
+
+
+def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb.Digest"]], staging: Staging) -> None:
+    """install_result's gRPC road: small files many to a BatchReadBlobs call
+    (one round trip for a result's view images and manifest); the rest, and
+    everything from a server older than the call, one ReadBlob stream each."""
+    small = [(path, digest) for _, path, digest in missing if digest.size_bytes <= BATCH_BLOB_MAX_BYTES]
+    staged: Set[Path] = set()
+    for batch in pack_batches([digest.size_bytes for _, digest in small]):
+        got = read_blob_batch(transport, [small[i][1] for i in batch], [str(small[i][0]) for i in batch])
+        if got is None:
+            break
+        for i, data in zip(batch, got):
+            staging.stage(small[i][0]).write(data)  # verified by read_blob_batch
+            staged.add(small[i][0])
+    for _, path, digest in missing:
+        if path not in staged:
+            download_blob_to_staged(transport, digest, staging.stage(path))
 
 
 def download_blob_to_bytes(transport: Transport, digest: "pb.Digest") -> bytes:

@@ -1,17 +1,20 @@
 """HTTP(S) reads from one mirror, for impostor.release: a small mutable file
 (the channel file, revalidated with If-None-Match) and a file by digest,
 verified while it streams and resumed with a Range request after a cut.
+The farm's HTTP front end is read with the same reader (_farm_http: a
+result's listing with get_whole, its files with read_verified).
 """
 from __future__ import annotations
 
 import hashlib
 import http.client
+import json
 import re
 import socket
 import urllib.error
 import urllib.parse
 import urllib.request
-from typing import IO, Any, BinaryIO, Dict, Optional, Tuple
+from typing import IO, Any, Dict, Optional, Protocol, Tuple
 
 import grpc
 
@@ -19,6 +22,9 @@ from ._release_catalog import _Failure, _invalid
 
 _CHUNK_BYTES = 64 << 10
 _USER_AGENT = "impostor-python (release client)"
+
+# The most bytes of an error answer's body read for the server's message.
+_MAX_ERROR_BODY_BYTES = 64 << 10
 
 _CONTENT_RANGE = re.compile(r"\s*bytes\s+(\d+)-(\d+)/(\d+|\*)\s*\Z")
 
@@ -29,8 +35,20 @@ _Code = grpc.StatusCode
 # Redirects and responses
 
 
+def _origin(url: str) -> Tuple[str, str, Optional[int]]:
+    parts = urllib.parse.urlsplit(url)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    return parts.scheme.lower(), (parts.hostname or "").lower(), port
+
+
 class _Redirects(urllib.request.HTTPRedirectHandler):
-    """Follows redirects to http(s) only (urllib would also follow ftp)."""
+    """Follows redirects to http(s) only (urllib would also follow ftp), and
+    sends no Authorization header to another origin than the one it was
+    meant for (urllib would: a farm token must not reach a host a redirect
+    names, as curl does not send it either)."""
 
     def redirect_request(
         self,
@@ -43,7 +61,37 @@ class _Redirects(urllib.request.HTTPRedirectHandler):
     ) -> Optional[urllib.request.Request]:
         if urllib.parse.urlsplit(newurl).scheme not in ("http", "https"):
             raise urllib.error.HTTPError(newurl, code, f"{msg}: redirect to a non-HTTP URL", headers, fp)
-        return super().redirect_request(req, fp, code, msg, headers, newurl)
+        new = super().redirect_request(req, fp, code, msg, headers, newurl)
+        if new is not None and _origin(newurl) != _origin(req.full_url):
+            for name in list(new.headers):
+                if name.lower() == "authorization":
+                    del new.headers[name]
+        return new
+
+
+class _Sink(Protocol):
+    """Where read_verified puts the bytes: a file opened for writing, or
+    _result_install.StagedFile."""
+
+    def seek(self, offset: int, whence: int = 0) -> int: ...
+
+    def truncate(self, size: Optional[int] = None) -> int: ...
+
+    def write(self, data: bytes) -> int: ...
+
+
+def _server_message(error: urllib.error.HTTPError) -> str:
+    """The farm's own words in an error answer ({"error": {"message": ...}},
+    docs/http_api.md), or "" for a body that is not its JSON (a proxy's
+    page)."""
+    try:
+        body = error.read(_MAX_ERROR_BODY_BYTES)
+        parsed = json.loads(body)
+    except Exception:  # any body at all: a page, bytes, a cut answer
+        return ""
+    inner = parsed.get("error") if isinstance(parsed, dict) else None
+    message = inner.get("message") if isinstance(inner, dict) else None
+    return message[:500] if isinstance(message, str) else ""
 
 
 def _range_start(value: Optional[str]) -> Optional[int]:
@@ -68,19 +116,27 @@ def _is_cut(error: BaseException) -> bool:
 class _MirrorReader:
     """Reads release files over HTTP(S) with one urllib opener: a mirror that
     sends no byte for `timeout` seconds has stalled, and `max_attempts`
-    transfers in a row that bring nothing give up on it. Keeps nothing
+    transfers in a row that bring nothing give up on it. `headers` go with
+    every request (the farm's "Authorization: Bearer TOKEN"). Keeps nothing
     between calls: several threads may read through one at once.
     """
 
-    def __init__(self, opener: urllib.request.OpenerDirector, timeout: float, max_attempts: int) -> None:
+    def __init__(
+        self,
+        opener: urllib.request.OpenerDirector,
+        timeout: float,
+        max_attempts: int,
+        *,
+        headers: Optional[Dict[str, str]] = None,
+        user_agent: str = _USER_AGENT,
+    ) -> None:
         self._opener = opener
         self._timeout = timeout
         self._max_attempts = max_attempts
+        self._headers = {"User-Agent": user_agent, "Accept-Encoding": "identity", **(headers or {})}
 
     def _open(self, url: str, headers: Dict[str, str]) -> Any:
-        request = urllib.request.Request(
-            url, headers={"User-Agent": _USER_AGENT, "Accept-Encoding": "identity", **headers}
-        )
+        request = urllib.request.Request(url, headers={**self._headers, **headers})
         return self._opener.open(request, timeout=self._timeout)
 
     def _connect_failure(self, url: str, error: urllib.error.URLError) -> _Failure:
@@ -131,7 +187,48 @@ class _MirrorReader:
                 last = f"{url}: the connection broke: {e!r}"
         raise _Failure(_Code.UNAVAILABLE, last)
 
-    def read_verified(self, url: str, sha256: str, size: int, sink: BinaryIO, what: str) -> None:
+    def get_whole(self, url: str, limit: int, what: str) -> Tuple[bytes, Any]:
+        """The body of a 200 answer to one GET (no retry: the caller has
+        another road), read whole, and the answer's headers (an
+        email.message.Message: .get(name) ignores case). Raises _Failure:
+        NOT_FOUND (404, 410), UNAVAILABLE (refused, another status, a body
+        cut short of its Content-Length, a broken connection),
+        DEADLINE_EXCEEDED (no byte for timeout seconds), DATA_LOSS (more
+        than `limit` bytes). Messages name the URL and, for an error
+        status, the server's own message when it sent one."""
+        try:
+            with self._open(url, {}) as response:
+                if response.status != 200:
+                    raise _Failure(_Code.UNAVAILABLE, f"{url}: HTTP {response.status} for {what}")
+                data = bytearray()
+                while True:
+                    chunk = _read_some(response)
+                    if not chunk:
+                        break
+                    data += chunk
+                    if len(data) > limit:
+                        raise _Failure(_Code.DATA_LOSS, f"{url}: more than {limit} bytes: not {what}")
+                announced = response.headers.get("Content-Length")
+                if announced is not None and announced.strip().isdigit() and int(announced) != len(data):
+                    raise _Failure(
+                        _Code.UNAVAILABLE, f"{url}: the body of {what} ended after {len(data)} of {int(announced)} bytes"
+                    )
+                return bytes(data), response.headers
+        except _Failure:
+            raise
+        except urllib.error.HTTPError as e:
+            said = _server_message(e)
+            e.close()
+            why = f"{url}: HTTP {e.code}{': ' + said if said else ''}"
+            raise _Failure(_Code.NOT_FOUND if e.code in (404, 410) else _Code.UNAVAILABLE, why) from None
+        except urllib.error.URLError as e:
+            raise self._connect_failure(url, e) from None
+        except socket.timeout:
+            raise _Failure(_Code.DEADLINE_EXCEEDED, f"{url}: no byte for {self._timeout:g} s (stalled)") from None
+        except (http.client.HTTPException, OSError) as e:
+            raise _Failure(_Code.UNAVAILABLE, f"{url}: the connection broke: {e!r}") from None
+
+    def read_verified(self, url: str, sha256: str, size: int, sink: _Sink, what: str) -> None:
         """Bytes [0, size) of `url` into `sink` (emptied first), checked
         against `sha256` as they stream. A transfer cut after some bytes is
         resumed with a Range request; `max_attempts` transfers in a row that

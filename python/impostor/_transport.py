@@ -116,6 +116,53 @@ def parse_server_list(server: str) -> List[str]:
     return entries
 
 
+def check_options(
+    server: str,
+    *,
+    tls_ca: Optional["str | os.PathLike[str]"],
+    tls_cert: Optional["str | os.PathLike[str]"],
+    tls_key: Optional["str | os.PathLike[str]"],
+    rpc_timeout_seconds: float,
+    max_attempts: int,
+    max_outage_seconds: float,
+    connect_timeout_seconds: float,
+    keepalive_seconds: int,
+    read_files: bool = True,
+) -> List[str]:
+    """The checks of Transport's options, without connecting: the addresses
+    of `server` (parse_server_list), or INVALID_ARGUMENT naming the option
+    out of range. `read_files`: also read the TLS files (Transport reads
+    them itself), INVALID_ARGUMENT naming the unreadable one. A Client
+    with a farm HTTP front end checks its options so before it connects at
+    its first gRPC call."""
+
+    def invalid(message: str) -> ImpostorError:
+        return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
+
+    targets = parse_server_list(server or "")
+    if not rpc_timeout_seconds > 0:
+        raise invalid(f"rpc_timeout_seconds: must be > 0, got {rpc_timeout_seconds}")
+    if not connect_timeout_seconds > 0:
+        raise invalid(f"connect_timeout_seconds: must be > 0, got {connect_timeout_seconds}")
+    if max_attempts < 1:
+        raise invalid(f"max_attempts: must be >= 1, got {max_attempts}")
+    if isinstance(keepalive_seconds, bool) or not isinstance(keepalive_seconds, int) or not (
+        1 <= keepalive_seconds <= _MAX_KEEPALIVE_SECONDS
+    ):
+        raise invalid(
+            f"keepalive_seconds: {keepalive_seconds!r} is not a whole number of seconds in 1..{_MAX_KEEPALIVE_SECONDS}"
+        )
+    if not 0 <= max_outage_seconds <= _MAX_OUTAGE_SECONDS:
+        raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {max_outage_seconds}")
+    if (tls_cert is None) != (tls_key is None):
+        raise invalid("tls_cert and tls_key: give both (client certificate for mTLS) or neither")
+    if read_files:
+        for path, what in ((tls_ca, "tls_ca"), (tls_key, "tls_key"), (tls_cert, "tls_cert")):
+            if path is not None:
+                _read_bytes(path, what)
+    return targets
+
+
 def _health_check(channel: grpc.Channel) -> Any:
     """`channel`'s gRPC health check of the whole server (impostor-server
     serves grpc.health.v1 without a token), raw bytes in and out."""
@@ -284,26 +331,18 @@ class Transport:
         on_connection_change: Optional[Callable[[ConnectionEvent], None]],
         keepalive_seconds: int = 20,
     ) -> None:
-        def invalid(message: str) -> ImpostorError:
-            return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
-
-        targets = parse_server_list(server or "")
-        if not rpc_timeout_seconds > 0:
-            raise invalid(f"rpc_timeout_seconds: must be > 0, got {rpc_timeout_seconds}")
-        if not connect_timeout_seconds > 0:
-            raise invalid(f"connect_timeout_seconds: must be > 0, got {connect_timeout_seconds}")
-        if max_attempts < 1:
-            raise invalid(f"max_attempts: must be >= 1, got {max_attempts}")
-        if isinstance(keepalive_seconds, bool) or not isinstance(keepalive_seconds, int) or not (
-            1 <= keepalive_seconds <= _MAX_KEEPALIVE_SECONDS
-        ):
-            raise invalid(
-                f"keepalive_seconds: {keepalive_seconds!r} is not a whole number of seconds in 1..{_MAX_KEEPALIVE_SECONDS}"
-            )
-        if not 0 <= max_outage_seconds <= _MAX_OUTAGE_SECONDS:
-            raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {max_outage_seconds}")
-        if (tls_cert is None) != (tls_key is None):
-            raise invalid("tls_cert and tls_key: give both (client certificate for mTLS) or neither")
+        targets = check_options(
+            server,
+            tls_ca=tls_ca,
+            tls_cert=tls_cert,
+            tls_key=tls_key,
+            rpc_timeout_seconds=rpc_timeout_seconds,
+            max_attempts=max_attempts,
+            max_outage_seconds=max_outage_seconds,
+            connect_timeout_seconds=connect_timeout_seconds,
+            keepalive_seconds=keepalive_seconds,
+            read_files=False,
+        )
         self.server = server
         self.rpc_timeout_seconds = rpc_timeout_seconds
         self.max_attempts = max_attempts

@@ -10,30 +10,25 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import os
 import secrets
 import tempfile
+import threading
 import time
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 from google.protobuf import json_format
 
-from ._blobs import (
-    BATCH_BLOB_MAX_BYTES,
-    already_there,
-    download_blob_to_bytes,
-    download_blob_to_file,
-    mesh_input,
-    pack_batches,
-    read_blob_batch,
-    upload_meshes,
-    write_verified_file,
-)
+from ._blobs import download_blob_to_bytes, mesh_input, stage_over_grpc, upload_meshes
+from ._farm_http import FrontEnd, FrontEndFailure, resolve_farm_http
 from ._mesh_files import MeshFiles, collect_mesh_files
+from ._result_install import MANIFEST_FILE_NAME as MANIFEST_FILE_NAME  # this module's name as before
+from ._result_install import install_result, manifest_problem
 from ._retry import ConnectionEvent
-from ._transport import Transport, resolve_token
+from ._transport import Transport, check_options, resolve_token
 from .errors import ImpostorError, status_code_from_int
 from .results import BakeResult, BatchSubmission, FetchResult, JobUpdate, LookupResult, SubmitResult
 from .settings import BakeSettings
@@ -46,7 +41,7 @@ ProgressCallback = Callable[[JobUpdate], None]
 #: A batch item: a model path, or (path, settings as a dict of bake settings).
 BatchItem = Union[PathLike, Tuple[PathLike, Mapping[str, Any]]]
 
-MANIFEST_FILE_NAME = "manifest.json"
+_log = logging.getLogger(__name__)
 
 _STATE_NAMES = {
     pb.JOB_STATE_QUEUED: "queued",
@@ -93,22 +88,10 @@ def _submit_result(response: "bake_pb.SubmitBakeResponse", upload: Any) -> Submi
 
 def _check_manifest_files(manifest: "pb.Manifest", server: str, cache_key: str) -> None:
     """A server's manifest names only distinct plain files with valid digests
-    (a result must never write outside its folder)."""
-    names: Set[str] = {MANIFEST_FILE_NAME}
-    problems: List[str] = []
-    digests = [("manifest_json", manifest.manifest_json)]
-    for i, m in enumerate(manifest.maps):
-        if not m.file or "/" in m.file or "\\" in m.file or m.file in (".", "..") or m.file in names:
-            problems.append(f'maps[{i}].file: "{m.file}" is not a distinct plain file name')
-        names.add(m.file)
-        digests.append((f"maps[{i}].digest", m.digest))
-    for field, d in digests:
-        if len(d.hash) != 64 or any(c not in "0123456789abcdef" for c in d.hash) or d.size_bytes < 0:
-            problems.append(f"{field}: malformed digest")
-    if problems:
-        raise ImpostorError(
-            grpc.StatusCode.INTERNAL, f"server {server} sent a bad result for {cache_key}: {problems[0]}"
-        )
+    (a result must never write outside its folder): manifest_problem."""
+    problem = manifest_problem(manifest)
+    if problem is not None:
+        raise ImpostorError(grpc.StatusCode.INTERNAL, f"server {server} sent a bad result for {cache_key}: {problem}")
 
 
 class Client:
@@ -161,10 +144,26 @@ class Client:
             this many quiet seconds and give the connection up when no answer
             comes within min(this, 10) s, so a watch over a link that died
             without a reset moves on in seconds. Default 20, whole 1..7200.
+        farm_http: the farm's HTTP front end, "http(s)://host[:port][/prefix]"
+            (its --http-listen, or an https:// proxy before it; the C++
+            SDK's ClientOptions::farm_http): fetch() (and bake()'s download)
+            then take the result's listing and every file from it, verified,
+            with the token as a bearer header and tls_ca for https://, and
+            no gRPC at all; when it cannot give the result (refused, an
+            error status, a spoiled listing or file, a stall of
+            rpc_timeout_seconds) one warning is logged (logger
+            "impostor.client", event=farm_http_fetch_fallback) and the whole
+            result comes over gRPC. Default: $IMPOSTOR_FARM_HTTP; "none"
+            turns both off. With tls_ca or tls_cert only https:// is
+            accepted. With a front end, the gRPC connection is made at the
+            first call that needs it (connect_timeout_seconds then), not by
+            the constructor: a fetch over the front end needs none.
 
     Raises:
-        ImpostorError: UNAVAILABLE when no server answers;
-            INVALID_ARGUMENT for out-of-range options or unreadable files.
+        ImpostorError: UNAVAILABLE when no server answers (without a front
+            end); INVALID_ARGUMENT for out-of-range options, unreadable
+            files or a malformed farm_http (naming it, or
+            $IMPOSTOR_FARM_HTTP).
     """
 
     def __init__(
@@ -183,10 +182,10 @@ class Client:
         client_id: str = "",
         on_connection_change: Optional[Callable[[ConnectionEvent], None]] = None,
         keepalive_seconds: int = 20,
+        farm_http: Optional[str] = None,
     ) -> None:
-        self._transport = Transport(
-            server,
-            token=resolve_token(token, os.path.expanduser(token_file) if token_file else None),
+        resolved_token = resolve_token(token, os.path.expanduser(token_file) if token_file else None)
+        options: Dict[str, Any] = dict(
             tls_ca=tls_ca,
             tls_cert=tls_cert,
             tls_key=tls_key,
@@ -194,18 +193,59 @@ class Client:
             max_attempts=max_attempts,
             max_outage_seconds=max_outage_seconds,
             connect_timeout_seconds=connect_timeout_seconds,
-            client_id=client_id,
-            on_connection_change=on_connection_change,
             keepalive_seconds=keepalive_seconds,
         )
+        self._server = server
+        self._lock = threading.Lock()
+        self._closed = False
+        self._transport: Optional[Transport] = None
+        base = resolve_farm_http(farm_http, tls=tls_ca is not None or tls_cert is not None)
+        self._front_end: Optional[FrontEnd] = None
+        if base:
+            check_options(server, **options)
+            self._front_end = FrontEnd(
+                base, token=resolved_token, ca_file=tls_ca, timeout_seconds=float(rpc_timeout_seconds)
+            )
+        self._connect: Callable[[], Transport] = lambda: Transport(
+            server,
+            token=resolved_token,
+            client_id=client_id,
+            on_connection_change=on_connection_change,
+            **options,
+        )
+        if self._front_end is None:
+            self._transport = self._connect()
 
     @property
     def server(self) -> str:
-        return self._transport.server
+        return self._server
+
+    @property
+    def farm_http(self) -> str:
+        """The farm's HTTP front end fetch() reads from ("" when none)."""
+        return self._front_end.base if self._front_end is not None else ""
+
+    def _grpc(self) -> Transport:
+        """The gRPC transport, connected at the first call that needs it when
+        the Client has a front end (a failed connect is tried again by the
+        next call). CANCELLED once the Client is closed."""
+        transport = self._transport
+        if transport is not None:
+            return transport
+        with self._lock:
+            if self._closed:
+                raise ImpostorError(grpc.StatusCode.CANCELLED, f"the Client of {self._server} is closed")
+            if self._transport is None:
+                self._transport = self._connect()
+            return self._transport
 
     def close(self) -> None:
         """Closes the channel; calls in flight fail with CANCELLED."""
-        self._transport.close()
+        with self._lock:
+            self._closed = True
+            transport = self._transport
+        if transport is not None:
+            transport.close()
 
     def __enter__(self) -> "Client":
         return self
@@ -220,7 +260,7 @@ class Client:
         settings.apply_scheduling(request)
         # The same id on every retry: a retried submit never makes a second job.
         request.request_id = secrets.token_hex(16)
-        t = self._transport
+        t = self._grpc()
         for reuploads in range(_REUPLOADS_PER_SUBMIT + 1):
             try:
                 return _submit_result(t.unary("SubmitBake", t.bake.SubmitBake, request), upload)
@@ -256,7 +296,7 @@ class Client:
         parsed = BakeSettings.from_kwargs(settings)
         parsed.validate()  # settings errors before any upload
         files = collect_mesh_files(model, parsed.follow_symlinks)
-        (upload,) = upload_meshes(self._transport, [files])
+        (upload,) = upload_meshes(self._grpc(), [files])
         if isinstance(upload, ImpostorError):
             raise upload
         return self._submit_one(files, parsed, upload)
@@ -297,7 +337,7 @@ class Client:
                 out[i] = BatchSubmission(error=e)
                 prepared.append(None)
         ready = [(i, p) for i, p in enumerate(prepared) if p is not None]
-        stats = upload_meshes(self._transport, [p[0] for _, p in ready])
+        stats = upload_meshes(self._grpc(), [p[0] for _, p in ready])
         upload_of = {i: s for (i, _), s in zip(ready, stats)}
         stopped = False
         for i, p in enumerate(prepared):
@@ -323,12 +363,12 @@ class Client:
 
     def get_job(self, job_id: str) -> JobUpdate:
         """The job's current state. Raises ImpostorError (NOT_FOUND, ...)."""
-        t = self._transport
+        t = self._grpc()
         return _job_update(t.unary("GetJob", t.bake.GetJob, bake_pb.GetJobRequest(job_id=job_id)))
 
     def cancel(self, job_id: str) -> JobUpdate:
         """Cancels a queued or running job; returns its state afterwards."""
-        t = self._transport
+        t = self._grpc()
         return _job_update(t.unary("CancelJob", t.bake.CancelJob, bake_pb.CancelJobRequest(job_id=job_id)))
 
     def watch(self, job_id: str, progress: Optional[ProgressCallback] = None) -> JobUpdate:
@@ -347,7 +387,7 @@ class Client:
             if progress is not None:
                 progress(update)
 
-        t = self._transport
+        t = self._grpc()
         retry = t.retry_policy()
         while True:
             got_any = False
@@ -378,7 +418,7 @@ class Client:
     # -- results -----------------------------------------------------------
 
     def _get_result(self, cache_key: str) -> "pb.Manifest":
-        t = self._transport
+        t = self._grpc()
         manifest: pb.Manifest = t.unary("GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key))
         return manifest
 
@@ -387,7 +427,7 @@ class Client:
         without downloading its maps. Raises ImpostorError (NOT_FOUND, ...)."""
         manifest = self._get_result(cache_key)
         _check_manifest_files(manifest, self.server, cache_key)
-        parsed: Dict[str, Any] = json.loads(download_blob_to_bytes(self._transport, manifest.manifest_json))
+        parsed: Dict[str, Any] = json.loads(download_blob_to_bytes(self._grpc(), manifest.manifest_json))
         return parsed
 
     def fetch(self, cache_key: str, out_dir: PathLike) -> FetchResult:
@@ -395,60 +435,66 @@ class Client:
         if needed): every file the manifest lists (map images, .glb levels,
         point buffers), then manifest.json last, so a manifest.json on disk
         means its files are complete. Each file is verified against its
-        digest and written atomically; files already there with the right
-        digest are kept.
+        digest into a temporary file beside its name; once all are there
+        they are synced and renamed in, and when any fails none is. Files
+        already there with the right digest are kept; a manifest.json there
+        of another result is removed first.
+
+        With a farm HTTP front end (farm_http) the listing and every file
+        come from it and no gRPC connection is made; when it cannot give
+        the result, one warning is logged and the whole result comes over
+        gRPC (a 404 listing, a farm older than the route: without a
+        warning). Local trouble (out_dir, a full disk) is raised as it is.
 
         Raises:
             ImpostorError: NOT_FOUND (nothing baked under the key),
                 INVALID_ARGUMENT (malformed key), DATA_LOSS (bytes do not
                 match), INTERNAL (a bad manifest or a local disk error).
+                When the front end failed too, the message ends with what
+                it could not give.
         """
         start = time.monotonic()
+        out = Path(out_dir)
+        front_end_failure: Optional[FrontEndFailure] = None
+        if self._front_end is not None:
+            if self._closed:
+                raise ImpostorError(grpc.StatusCode.CANCELLED, f"the Client of {self._server} is closed")
+            try:
+                return self._front_end.fetch(cache_key, out, start)
+            except FrontEndFailure as f:
+                if f.quiet:
+                    # No such result, or a farm older than the listing, or a
+                    # key the front end was not asked about: gRPC says.
+                    _log.debug('event=farm_http_fetch_not_found key=%s reason="%s"', cache_key[:80], f.message)
+                else:
+                    _log.warning(
+                        'event=farm_http_fetch_fallback key=%s reason="%s" note="fetching the result over gRPC"',
+                        cache_key[:80], f.message,
+                    )
+                    front_end_failure = f
+        try:
+            return self._fetch_over_grpc(cache_key, out, start)
+        except ImpostorError as e:
+            if front_end_failure is None:
+                raise
+            raise ImpostorError(
+                e.code,
+                f"{e.message} (the farm's HTTP front end could not give the result either: "
+                f"{front_end_failure.code.name}: {front_end_failure.message})",
+                server_message=e.server_message,
+                rpc=e.rpc,
+                server=e.server,
+                job_id=e.job_id,
+                cache_key=e.cache_key,
+                reason=e.reason,
+            ) from None
+
+    def _fetch_over_grpc(self, cache_key: str, out: Path, start: float) -> FetchResult:
         manifest = self._get_result(cache_key)
         _check_manifest_files(manifest, self.server, cache_key)
-        out = Path(out_dir)
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise ImpostorError(grpc.StatusCode.INTERNAL, f"cannot create directory {out}: {e.strerror}") from None
-        wanted = [(out / m.file, m.digest) for m in manifest.maps]
-        wanted.append((out / MANIFEST_FILE_NAME, manifest.manifest_json))
-        downloaded = reused = 0
-        missing = [(path, digest) for path, digest in wanted if not already_there(path, digest)]
-        missing_paths = {path for path, _ in missing}
-        # Small files come many to a BatchReadBlobs call (one round trip for a
-        # result's view images and manifest); the rest, and everything from a
-        # server older than the call, stream one file each.
-        small = [(path, digest) for path, digest in missing if digest.size_bytes <= BATCH_BLOB_MAX_BYTES]
-        batched: Dict[Path, bytes] = {}
-        for batch in pack_batches([digest.size_bytes for _, digest in small]):
-            got = read_blob_batch(
-                self._transport, [small[i][1] for i in batch], [str(small[i][0]) for i in batch]
-            )
-            if got is None:
-                break
-            batched.update({small[i][0]: data for i, data in zip(batch, got)})
-        for path, digest in wanted:
-            if path not in missing_paths:
-                reused += digest.size_bytes
-                continue
-            try:
-                if path in batched:
-                    write_verified_file(path, batched[path])
-                else:
-                    download_blob_to_file(self._transport, digest, path)
-            except OSError as e:
-                raise ImpostorError(grpc.StatusCode.INTERNAL, f"cannot write {path}: {e.strerror}") from None
-            downloaded += digest.size_bytes
-        return FetchResult(
-            dir=out,
-            manifest_path=out / MANIFEST_FILE_NAME,
-            files=[p for p, _ in wanted],
-            manifest=json.loads((out / MANIFEST_FILE_NAME).read_text()),
-            bytes_downloaded=downloaded,
-            bytes_reused=reused,
-            warnings=list(manifest.warnings),
-            seconds=time.monotonic() - start,
+        transport = self._grpc()
+        return install_result(
+            manifest, out, lambda missing, staging: stage_over_grpc(transport, missing, staging), start
         )
 
     def lookup(self, model: PathLike, **settings: Any) -> LookupResult:
@@ -458,7 +504,7 @@ class Client:
         files = collect_mesh_files(model, parsed.follow_symlinks)
         request = bake_pb.SubmitBakeRequest(mesh=mesh_input(files), parameters=parsed.to_parameters())
         parsed.apply_scheduling(request)
-        t = self._transport
+        t = self._grpc()
         response = t.unary("LookupBake", t.bake.LookupBake, request)
         manifest = (
             json_format.MessageToDict(response.result, preserving_proto_field_name=True) if response.found else None

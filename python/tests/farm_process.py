@@ -3,7 +3,9 @@ restarted on the same address and data folder, killed with SIGKILL.
 
 Readiness is an event, never a sleep: the server prints "impostor-server
 listening on HOST:PORT" on stdout once its port is bound (the same moment it
-writes --port-file), and a reader thread hands that line over. Each server
+writes --port-file), and a reader thread hands that line over; with
+`http_listen` (--http-listen) it then prints "impostor-server http listening
+on HOST:PORT" for its HTTP front end (docs/http_api.md), waited for too. Each server
 runs in its own session, so teardown also ends local workers a SIGKILLed
 server left behind.
 
@@ -52,6 +54,7 @@ class FarmServer:
         local_workers: int = 1,
         extra_args: Sequence[str] = (),
         env: Optional[Dict[str, str]] = None,
+        http_listen: Optional[str] = None,
     ) -> None:
         self.data_dir = data_dir
         self.local_workers = local_workers
@@ -62,6 +65,9 @@ class FarmServer:
         self.tmp_dir.mkdir(parents=True, exist_ok=True)
         self.listen = "127.0.0.1:0"
         self.address = ""
+        # --http-listen (HOST:PORT, port 0 = any); None: no HTTP front end.
+        self.http_listen = http_listen
+        self.http_address = ""  # HOST:PORT the front end listens on
         self.log_path = data_dir.parent / f"{data_dir.name}.server.log"
         self._process: Optional[subprocess.Popen[bytes]] = None
         self._sessions: List[int] = []  # process groups to end at stop()
@@ -76,6 +82,7 @@ class FarmServer:
             f"--local-workers={self.local_workers}",
             f"--port-file={port_file}",
             "--log-level=info",
+            *([f"--http-listen={self.http_listen}"] if self.http_listen is not None else []),
             *self.extra_args,
         ]
         log = open(self.log_path, "ab")
@@ -104,15 +111,28 @@ class FarmServer:
             if line is None:
                 raise RuntimeError(f"impostor-server exited ({self._process.wait()}) before listening; "
                                    f"log: {self.log_path}\n{self.log_tail()}")
+            if "http listening on" in line:
+                # Printed after the gRPC line (server/main.cc).
+                self.http_address = line.strip().rsplit(" ", 1)[-1]
+                break
             if "listening on" in line:
                 self.address = line.strip().rsplit(" ", 1)[-1]
-                break
-        # Restarts keep the address clients know.
+                if self.http_listen is None:
+                    break
+        # Restarts keep the addresses clients know.
         self.listen = self.address
+        if self.http_listen is not None:
+            self.http_listen = self.http_address
 
     @property
     def port(self) -> int:
         return int(self.address.rsplit(":", 1)[1])
+
+    @property
+    def http_url(self) -> str:
+        """The HTTP front end's base URL, http://HOST:PORT (with http_listen)."""
+        assert self.http_address, "started without http_listen"
+        return f"http://{self.http_address}"
 
     def kill9(self) -> None:
         """SIGKILL to the server alone (its local workers live on, orphaned)."""
