@@ -131,7 +131,9 @@ struct CacheOptions {
 
   // Results downloaded at once, each on a thread of its own (started when
   // first needed, so a cache that never downloads holds none). Concurrent
-  // Gets of the same key always share one download. Default: 20. Range: 1..64.
+  // Gets of the same key always share one download. Each download holds up
+  // to 10 files open (a socket, its staging directory and up to 8 of the
+  // result's files until they are synced). Default: 20. Range: 1..64.
   int max_parallel_downloads = 20;
 
   // Of those, how many Prefetch may occupy, so that a long prefetch list
