@@ -105,6 +105,24 @@ def _read_some(response: Any) -> bytes:
     return bytes(data)
 
 
+def _read_body(response: Any, limit: int, too_long: _Failure) -> Tuple[bytes, Optional[int]]:
+    """A small answer's whole body, raising `too_long` past `limit` bytes,
+    and the Content-Length it announced when the body ended short of it
+    (else None)."""
+    data = bytearray()
+    while True:
+        chunk = _read_some(response)
+        if not chunk:
+            break
+        data += chunk
+        if len(data) > limit:
+            raise too_long
+    announced = response.headers.get("Content-Length")
+    if announced is not None and announced.strip().isdigit() and int(announced) != len(data):
+        return bytes(data), int(announced)
+    return bytes(data), None
+
+
 def _is_cut(error: BaseException) -> bool:
     """A connection that broke after it was made (worth resuming on the
     same mirror), as opposed to one refused or never made."""
@@ -154,20 +172,14 @@ class _MirrorReader:
                 with self._open(url, headers) as response:
                     if response.status != 200:
                         raise _Failure(_Code.UNAVAILABLE, f"{url}: HTTP {response.status}")
-                    data = bytearray()
-                    while True:
-                        chunk = _read_some(response)
-                        if not chunk:
-                            break
-                        data += chunk
-                        if len(data) > limit:
-                            raise _invalid(url, f"more than {limit} bytes: not a channel file")
-                    announced = response.headers.get("Content-Length")
-                    if announced is not None and announced.strip().isdigit() and int(announced) != len(data):
-                        last = f"{url}: the body ended after {len(data)} of {int(announced)} bytes"
+                    data, announced = _read_body(
+                        response, limit, _invalid(url, f"more than {limit} bytes: not a channel file")
+                    )
+                    if announced is not None:
+                        last = f"{url}: the body ended after {len(data)} of {announced} bytes"
                         continue
                     tag = response.headers.get("ETag")
-                    return bytes(data), (tag if isinstance(tag, str) else None)
+                    return data, (tag if isinstance(tag, str) else None)
             except _Failure:
                 raise
             except urllib.error.HTTPError as e:
@@ -200,20 +212,14 @@ class _MirrorReader:
             with self._open(url, {}) as response:
                 if response.status != 200:
                     raise _Failure(_Code.UNAVAILABLE, f"{url}: HTTP {response.status} for {what}")
-                data = bytearray()
-                while True:
-                    chunk = _read_some(response)
-                    if not chunk:
-                        break
-                    data += chunk
-                    if len(data) > limit:
-                        raise _Failure(_Code.DATA_LOSS, f"{url}: more than {limit} bytes: not {what}")
-                announced = response.headers.get("Content-Length")
-                if announced is not None and announced.strip().isdigit() and int(announced) != len(data):
+                data, announced = _read_body(
+                    response, limit, _Failure(_Code.DATA_LOSS, f"{url}: more than {limit} bytes: not {what}")
+                )
+                if announced is not None:
                     raise _Failure(
-                        _Code.UNAVAILABLE, f"{url}: the body of {what} ended after {len(data)} of {int(announced)} bytes"
+                        _Code.UNAVAILABLE, f"{url}: the body of {what} ended after {len(data)} of {announced} bytes"
                     )
-                return bytes(data), response.headers
+                return data, response.headers
         except _Failure:
             raise
         except urllib.error.HTTPError as e:
