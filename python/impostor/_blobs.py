@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Dict, Iterator, List, Optional, Sequence, Set, Tuple, Union
+from typing import Callable, Dict, Iterator, List, Optional, Sequence, Set, Tuple, Union
 
 import grpc
 
@@ -387,10 +387,23 @@ def download_blob_to_file(transport: Transport, digest: "pb.Digest", path: Path)
         staged.abort()  # a no-op once committed
 
 
-def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb.Digest"]], staging: Staging) -> None:
+#: How a file that goes in no BatchReadBlobs batch is staged:
+#: stream(name, path, digest, staging). Default: one ReadBlob stream
+#: (download_blob_to_staged); the Client's, a front end the farm advertises
+#: first (_farm_http.AdvertisedFrontEnd).
+Stream = Callable[[str, Path, "pb.Digest", Staging], None]
+
+
+def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb.Digest"]], staging: Staging,
+                    stream: Optional[Stream] = None) -> None:
     """install_result's gRPC road: small files many to a BatchReadBlobs call
     (one round trip for a result's view images and manifest); the rest, and
-    everything from a server older than the call, one ReadBlob stream each."""
+    everything from a server older than the call, one `stream` each (by
+    default a ReadBlob stream)."""
+    def over_read_blob(name: str, path: Path, digest: "pb.Digest", staging: Staging) -> None:
+        download_blob_to_staged(transport, digest, staging.stage(path))
+
+    one_each = stream if stream is not None else over_read_blob
     small = [(path, digest) for _, path, digest in missing if digest.size_bytes <= BATCH_BLOB_MAX_BYTES]
     staged: Set[Path] = set()
     for batch in pack_batches([digest.size_bytes for _, digest in small]):
@@ -400,9 +413,9 @@ def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb
         for i, data in zip(batch, got):
             staging.stage(small[i][0]).write(data)  # verified by read_blob_batch
             staged.add(small[i][0])
-    for _, path, digest in missing:
+    for name, path, digest in missing:
         if path not in staged:
-            download_blob_to_staged(transport, digest, staging.stage(path))
+            one_each(name, path, digest, staging)
 
 
 def download_blob_to_bytes(transport: Transport, digest: "pb.Digest") -> bytes:

@@ -1,11 +1,21 @@
-"""A farm result over the farm's HTTP front end alone (impostor-server
---http-listen, docs/http_api.md), no gRPC: its listing from
-BASE/api/v1/results/KEY/manifest (the impostor.v1.Manifest gRPC's GetResult
-answers, binary, checked against its Repr-Digest header before it is read)
-and every file from BASE/api/v1/results/KEY/files/NAME, verified as it
-streams, installed as the gRPC road installs (_result_install). The Python
-twin of client/transfer/farm_http_result_fetch.cc; Client.fetch falls back
-to gRPC when this fails (FrontEndFailure).
+"""A farm result over the farm's HTTP front end (impostor-server
+--http-listen, docs/http_api.md), two ways:
+
+- a front end the Client was given (farm_http, $IMPOSTOR_FARM_HTTP): the
+  whole result from it, no gRPC: its listing from
+  BASE/api/v1/results/KEY/manifest (the impostor.v1.Manifest gRPC's
+  GetResult answers, binary, checked against its Repr-Digest header before
+  it is read) and every file from BASE/api/v1/results/KEY/files/NAME,
+  verified as it streams, installed as the gRPC road installs
+  (_result_install). The Python twin of
+  client/transfer/farm_http_result_fetch.cc; Client.fetch falls back to
+  gRPC when this fails (FrontEndFailure).
+- a front end the farm advertises (impostor-server --http-advertise, the
+  initial metadata FARM_HTTP_METADATA_KEY of its GetResult answers) to a
+  Client given none and not told "none": the gRPC road's large files (those
+  no BatchReadBlobs batch carries) from it, each falling back to ReadBlob
+  alone (AdvertisedFrontEnd; the twin of client/transport/farm_http_choice.cc
+  and client/transfer/farm_http_fetch.cc).
 
 The HTTP reads are _release_http's (the release mirrors' reader): only the
 standard library.
@@ -14,26 +24,36 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import logging
 import os
 import re
 import ssl
+import threading
 import urllib.parse
 import urllib.request
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import grpc
 from google.protobuf.message import DecodeError
 
 from ._release_catalog import _Failure
 from ._release_http import _MirrorReader, _Redirects
-from ._result_install import Staging, install_result, manifest_problem
+from ._result_install import StagedFile, Staging, install_result, manifest_problem
 from .errors import ImpostorError
 from .results import FetchResult
 from .v1 import types_pb2 as pb
 
 #: Read when Client's farm_http is not given (the C++ SDK's kFarmHttpEnvVar).
 FARM_HTTP_ENV_VAR = "IMPOSTOR_FARM_HTTP"
+#: The GetResult answer's initial metadata naming the front end the farm
+#: advertises (common/net/farm_http_base.h's kFarmHttpMetadataKey).
+FARM_HTTP_METADATA_KEY = "impostor-farm-http"
+#: Files in a row an advertised front end could not give after which a
+#: Client stops asking it (the C++ SDK's kFarmHttpFailuresToGiveUp): a
+#: misconfigured URL or token then costs three warnings, not one per file of
+#: a batch of results. A file it gives starts the count over.
+FARM_HTTP_FAILURES_TO_GIVE_UP = 3
 # The longest base URL accepted (common/net/farm_http_base.h).
 MAX_FARM_HTTP_URL_BYTES = 2048
 # The listing's media type and the most bytes of it read (a result lists a
@@ -44,6 +64,8 @@ REPR_DIGEST_HEADER = "Repr-Digest"
 
 _KEY = re.compile(r"[0-9a-f]{64}\Z")
 _USER_AGENT = "impostor-python (farm client)"
+# The Client's warnings (Client.fetch logs the others there too).
+_log = logging.getLogger("impostor.client")
 
 
 class FrontEndFailure(Exception):
@@ -108,6 +130,15 @@ def resolve_farm_http(configured: Optional[str], tls: bool) -> str:
     if why is not None:
         raise ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, f"{named}: {why}")
     return url.rstrip("/")
+
+
+def farm_http_turned_off(configured: Optional[str]) -> bool:
+    """Whether the front end is turned off: `configured` (Client's
+    farm_http), or $IMPOSTOR_FARM_HTTP when it is not given, is "none"
+    (FarmHttpTurnedOff in the C++ SDK). Then a front end the farm
+    advertises is not used either."""
+    value = configured or os.environ.get(FARM_HTTP_ENV_VAR, "")
+    return value == "none"
 
 
 def repr_digest_sha256(body: bytes) -> str:
@@ -201,14 +232,22 @@ class FrontEnd:
         FrontEndFailure naming the URL and the digest; a local write error
         is ImpostorError INTERNAL (StagedFile), raised as it is."""
         for name, path, digest in missing:
-            url = self.file_url(cache_key, name)
-            try:
-                self._reader.read_verified(
-                    url, digest.hash, digest.size_bytes, staging.stage(path),
-                    f"{name} (sha256 {digest.hash}, {digest.size_bytes} bytes)",
-                )
-            except _Failure as f:
-                raise FrontEndFailure(f.code, f.message) from None
+            self.read_file(cache_key, name, digest, staging.stage(path))
+
+    def read_file(self, cache_key: str, name: str, digest: "pb.Digest", staged: StagedFile) -> None:
+        """File `name` of result `cache_key` into `staged` (emptied first),
+        SHA-256 and size checked as it streams: one request (a cut after
+        some bytes is resumed with a Range request once). Raises
+        FrontEndFailure naming the URL and the digest (`staged` then holds
+        what came); a local write error is ImpostorError INTERNAL
+        (StagedFile), raised as it is."""
+        try:
+            self._reader.read_verified(
+                self.file_url(cache_key, name), digest.hash, digest.size_bytes, staged,
+                f"{name} (sha256 {digest.hash}, {digest.size_bytes} bytes)",
+            )
+        except _Failure as f:
+            raise FrontEndFailure(f.code, f.message) from None
 
     def fetch(self, cache_key: str, out_dir: Path, start: float) -> FetchResult:
         """The whole result over the front end (FetchResultFilesOverHttp).
@@ -226,3 +265,110 @@ class FrontEnd:
         manifest = self.get_result(cache_key)
         return install_result(manifest, out_dir, lambda missing, staging: self.stage_files(cache_key, missing, staging),
                               start)
+
+
+def _shown(value: str, limit: int = 200) -> str:
+    """An untrusted value for a log line: at most `limit` characters, quotes,
+    backslashes and anything unprintable escaped (EscapeUntrusted)."""
+    return value[:limit].encode("unicode_escape").decode("ascii").replace('"', '\\"')
+
+
+class AdvertisedFrontEnd:
+    """The front end a farm advertises, for a Client given none and not told
+    "none" (the C++ SDK's FarmHttpChoice and its transport's record of
+    failures): learn() takes the value of each GetResult answer's
+    FARM_HTTP_METADATA_KEY, checked as a configured one (_check_base: with
+    `tls`, the Client's gRPC is TLS, only https://); stage() reads a large
+    file from it, and over gRPC when it cannot give it. After
+    FARM_HTTP_FAILURES_TO_GIVE_UP files in a row it could not give, it is
+    given up for the Client's life. The token goes as a bearer header and
+    `ca_file` is trusted for https://, as for a configured one.
+
+    Thread-safe: a Client's fetches may run side by side."""
+
+    def __init__(self, *, tls: bool, token: Optional[str], ca_file: Optional["str | os.PathLike[str]"],
+                 timeout_seconds: float) -> None:
+        self._tls = tls
+        self._token = token
+        self._ca_file = ca_file
+        self._timeout_seconds = timeout_seconds
+        self._lock = threading.Lock()
+        self._front_end: Optional[FrontEnd] = None  # guarded by _lock
+        self._refused = ""  # the last value warned about; guarded by _lock
+        self._failures_in_a_row = 0  # guarded by _lock
+        self._given_up = False  # guarded by _lock
+
+    def learn(self, advertised: str) -> None:
+        """The value a GetResult answer advertised: used from now on when it
+        checks out (a value already in use changes nothing); else one
+        warning (event=farm_http_advertisement_refused) per value refused,
+        and the front end in use, if any, stays."""
+        why = _check_base(advertised, self._tls)
+        base = advertised.rstrip("/")
+        front_end: Optional[FrontEnd] = None
+        if why is None:
+            with self._lock:
+                if self._front_end is not None and self._front_end.base == base:
+                    return
+            try:
+                front_end = FrontEnd(base, token=self._token, ca_file=self._ca_file,
+                                     timeout_seconds=self._timeout_seconds)
+            except ImpostorError as e:
+                why = e.message
+        with self._lock:
+            if front_end is not None:
+                _log.debug("event=farm_http_advertised url=%s", base)
+                self._front_end = front_end
+                return
+            # The farm's operator can fix it; the results come over gRPC meanwhile.
+            shown = _shown(advertised)
+            if shown == self._refused:
+                return
+            self._refused = shown
+        _log.warning('event=farm_http_advertisement_refused url="%s" why="%s" note="results come over gRPC"',
+                     shown, _shown(why or "", 500))
+
+    def current(self) -> Optional[FrontEnd]:
+        """The front end to read from now: None when none was advertised (or
+        none that checked out) or it was given up."""
+        with self._lock:
+            return None if self._given_up else self._front_end
+
+    def _note(self, front_end: FrontEnd, failure: Optional[FrontEndFailure]) -> None:
+        """Counts a file the front end gave (None: the count starts over) or
+        could not give; the FARM_HTTP_FAILURES_TO_GIVE_UP-th in a row gives
+        it up, with one warning."""
+        with self._lock:
+            if failure is None:
+                self._failures_in_a_row = 0
+                return
+            self._failures_in_a_row += 1
+            if self._failures_in_a_row < FARM_HTTP_FAILURES_TO_GIVE_UP or self._given_up:
+                return
+            self._given_up = True
+        _log.warning('event=farm_http_given_up url=%s failures_in_a_row=%d last="%s" '
+                     'note="every further file of this client goes over gRPC"',
+                     front_end.base, FARM_HTTP_FAILURES_TO_GIVE_UP, _shown(failure.message, 500))
+
+    def stage(self, cache_key: str, name: str, path: Path, digest: "pb.Digest", staging: Staging,
+              over_grpc: Callable[[StagedFile], None]) -> None:
+        """_blobs.stage_over_grpc's road for a file no batch carries: into a
+        file staged for `path`, from the front end when there is one in use,
+        verified; when it cannot give the file (an error status, spoiled
+        bytes, a stall), one warning (event=farm_http_fallback) and
+        over_grpc(the same staged file, emptied): ReadBlob. A local write
+        error (ImpostorError INTERNAL) is raised as it is, never retried."""
+        staged = staging.stage(path)
+        front_end = self.current()
+        if front_end is not None:
+            try:
+                front_end.read_file(cache_key, name, digest, staged)
+                self._note(front_end, None)
+                return
+            except FrontEndFailure as f:
+                self._note(front_end, f)
+                _log.warning('event=farm_http_fallback key=%s file=%s reason="%s" note="fetching it over gRPC"',
+                             cache_key[:80], name, _shown(f.message, 500))
+            staged.seek(0)
+            staged.truncate()
+        over_grpc(staged)

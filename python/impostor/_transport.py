@@ -295,6 +295,28 @@ class _Route:
         self.assets = asset_service_pb2_grpc.AssetServiceStub(channel)  # type: ignore[no-untyped-call]
 
 
+class _CurrentMethod:
+    """One RPC of the current address's stub, looked up when it is called
+    (a retry after a failover goes to the new address): called as gRPC's
+    multi-callable is, or through its with_call (the answer and its call,
+    whose initial_metadata() the server sent)."""
+
+    def __init__(self, transport: "Transport", service: str, method: str) -> None:
+        self._transport = transport
+        self._service = service
+        self._method = method
+
+    def _current(self) -> Any:
+        route = self._transport._route_for_call()
+        return getattr(getattr(route, self._service), self._method)
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self._current()(*args, **kwargs)
+
+    def with_call(self, *args: Any, **kwargs: Any) -> Any:
+        return self._current().with_call(*args, **kwargs)
+
+
 class _CurrentStub:
     """Looks the method up on the current address's stub when it is called,
     so a retry after a failover goes to the new address."""
@@ -303,12 +325,8 @@ class _CurrentStub:
         self._transport = transport
         self._service = service
 
-    def __getattr__(self, method: str) -> Callable[..., Any]:
-        def call(*args: Any, **kwargs: Any) -> Any:
-            route = self._transport._route_for_call()
-            return getattr(getattr(route, self._service), method)(*args, **kwargs)
-
-        return call
+    def __getattr__(self, method: str) -> _CurrentMethod:
+        return _CurrentMethod(self._transport, self._service, method)
 
 
 class Transport:
@@ -572,10 +590,28 @@ class Transport:
     def unary(self, rpc: str, method: Callable[..., Any], request: Any, timeout: Optional[float] = None) -> Any:
         """Calls a unary RPC, retried as RetryPolicy decides; each attempt's
         deadline is `timeout` seconds (None: rpc_timeout_seconds)."""
+        return self._retried(rpc, lambda seconds: method(request, timeout=seconds, metadata=self._metadata), timeout)
+
+    def unary_with_initial_metadata(
+        self, rpc: str, method: Any, request: Any, timeout: Optional[float] = None
+    ) -> Tuple[Any, List[Tuple[str, str]]]:
+        """unary(), and the initial metadata the server sent with the answer
+        of the attempt that succeeded: (key, value) pairs in order, the
+        text ones only (a "-bin" key's bytes are left out). `method` is a
+        stub's method (self.assets.GetResult): its with_call is used."""
+        response, call = self._retried(
+            rpc, lambda seconds: method.with_call(request, timeout=seconds, metadata=self._metadata), timeout
+        )
+        metadata = [(str(key), value) for key, value in (call.initial_metadata() or ()) if isinstance(value, str)]
+        return response, metadata
+
+    def _retried(self, rpc: str, attempt: Callable[[float], Any], timeout: Optional[float]) -> Any:
+        """attempt(deadline seconds) until it answers, retried as RetryPolicy
+        decides: unary()'s loop."""
         retry = self.retry_policy()
         while True:
             try:
-                response = method(request, timeout=timeout or self.rpc_timeout_seconds, metadata=self._metadata)
+                response = attempt(timeout or self.rpc_timeout_seconds)
             except grpc.RpcError as e:
                 error = self.note(e, rpc)
                 if not retry.should_retry(error):

@@ -22,11 +22,18 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import grpc
 from google.protobuf import json_format
 
-from ._blobs import download_blob_to_bytes, mesh_input, stage_over_grpc, upload_meshes
-from ._farm_http import FrontEnd, FrontEndFailure, resolve_farm_http
+from ._blobs import download_blob_to_bytes, download_blob_to_staged, mesh_input, stage_over_grpc, upload_meshes
+from ._farm_http import (
+    FARM_HTTP_METADATA_KEY,
+    AdvertisedFrontEnd,
+    FrontEnd,
+    FrontEndFailure,
+    farm_http_turned_off,
+    resolve_farm_http,
+)
 from ._mesh_files import MeshFiles, collect_mesh_files
 from ._result_install import MANIFEST_FILE_NAME as MANIFEST_FILE_NAME  # this module's name as before
-from ._result_install import install_result, manifest_problem
+from ._result_install import Staging, install_result, manifest_problem
 from ._retry import ConnectionEvent
 from ._transport import Transport, check_options, resolve_token
 from .errors import ImpostorError, status_code_from_int
@@ -158,6 +165,17 @@ class Client:
             accepted. With a front end, the gRPC connection is made at the
             first call that needs it (connect_timeout_seconds then), not by
             the constructor: a fetch over the front end needs none.
+            Without one (and unless "none" turned it off), a front end the
+            farm advertises (impostor-server --http-advertise, named on its
+            GetResult answers) is used as the C++ SDK uses it: the listing
+            and the small files stay on gRPC (BatchReadBlobs) and each large
+            file (over 1 MiB, one ReadBlob stream each otherwise) comes from
+            it, verified, with the same token, tls_ca and https:// rule. An
+            advertisement that breaks these rules is refused with one
+            warning (event=farm_http_advertisement_refused); a file the
+            front end cannot give comes over ReadBlob after one warning
+            (event=farm_http_fallback), and after 3 such files in a row the
+            front end is given up for this Client (event=farm_http_given_up).
 
     Raises:
         ImpostorError: UNAVAILABLE when no server answers (without a front
@@ -199,12 +217,19 @@ class Client:
         self._lock = threading.Lock()
         self._closed = False
         self._transport: Optional[Transport] = None
-        base = resolve_farm_http(farm_http, tls=tls_ca is not None or tls_cert is not None)
+        tls = tls_ca is not None or tls_cert is not None
+        base = resolve_farm_http(farm_http, tls=tls)
         self._front_end: Optional[FrontEnd] = None
+        # The front end the farm advertises, when none is given nor turned off.
+        self._advertised: Optional[AdvertisedFrontEnd] = None
         if base:
             check_options(server, **options)
             self._front_end = FrontEnd(
                 base, token=resolved_token, ca_file=tls_ca, timeout_seconds=float(rpc_timeout_seconds)
+            )
+        elif not farm_http_turned_off(farm_http):
+            self._advertised = AdvertisedFrontEnd(
+                tls=tls, token=resolved_token, ca_file=tls_ca, timeout_seconds=float(rpc_timeout_seconds)
             )
         self._connect: Callable[[], Transport] = lambda: Transport(
             server,
@@ -222,7 +247,9 @@ class Client:
 
     @property
     def farm_http(self) -> str:
-        """The farm's HTTP front end fetch() reads from ("" when none)."""
+        """The farm's HTTP front end fetch() reads from, as given (farm_http
+        or $IMPOSTOR_FARM_HTTP); "" when none was (one the farm advertises
+        is not shown here)."""
         return self._front_end.base if self._front_end is not None else ""
 
     def _grpc(self) -> Transport:
@@ -418,8 +445,16 @@ class Client:
     # -- results -----------------------------------------------------------
 
     def _get_result(self, cache_key: str) -> "pb.Manifest":
+        """GetResult's answer; the front end it advertises is learned."""
         t = self._grpc()
-        manifest: pb.Manifest = t.unary("GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key))
+        manifest: pb.Manifest
+        manifest, metadata = t.unary_with_initial_metadata(
+            "GetResult", t.assets.GetResult, asset_pb.GetResultRequest(cache_key=cache_key)
+        )
+        if self._advertised is not None:
+            advertised = next((value for key, value in metadata if key == FARM_HTTP_METADATA_KEY), None)
+            if advertised is not None:
+                self._advertised.learn(advertised)
         return manifest
 
     def get_manifest(self, cache_key: str) -> Dict[str, Any]:
@@ -444,7 +479,10 @@ class Client:
         come from it and no gRPC connection is made; when it cannot give
         the result, one warning is logged and the whole result comes over
         gRPC (a 404 listing, a farm older than the route: without a
-        warning). Local trouble (out_dir, a full disk) is raised as it is.
+        warning). Without one, the large files come from the front end the
+        farm advertises, if any (see Client's farm_http), each over
+        ReadBlob when it cannot give it. Local trouble (out_dir, a full
+        disk) is raised as it is.
 
         Raises:
             ImpostorError: NOT_FOUND (nothing baked under the key),
@@ -493,8 +531,19 @@ class Client:
         manifest = self._get_result(cache_key)
         _check_manifest_files(manifest, self.server, cache_key)
         transport = self._grpc()
+        advertised = self._advertised
+
+        def from_advertised(name: str, path: Path, digest: "pb.Digest", staging: Staging) -> None:
+            # A large file: from the front end the farm advertises while there
+            # is one in use (asked per file: one given up half-way leaves the
+            # rest to ReadBlob), else, or when it cannot give it, ReadBlob.
+            assert advertised is not None
+            advertised.stage(cache_key, name, path, digest, staging,
+                             lambda staged: download_blob_to_staged(transport, digest, staged))
+
+        stream = from_advertised if advertised is not None else None
         return install_result(
-            manifest, out, lambda missing, staging: stage_over_grpc(transport, missing, staging), start
+            manifest, out, lambda missing, staging: stage_over_grpc(transport, missing, staging, stream), start
         )
 
     def lookup(self, model: PathLike, **settings: Any) -> LookupResult:

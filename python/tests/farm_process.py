@@ -5,7 +5,9 @@ Readiness is an event, never a sleep: the server prints "impostor-server
 listening on HOST:PORT" on stdout once its port is bound (the same moment it
 writes --port-file), and a reader thread hands that line over; with
 `http_listen` (--http-listen) it then prints "impostor-server http listening
-on HOST:PORT" for its HTTP front end (docs/http_api.md), waited for too. Each server
+on HOST:PORT" for its HTTP front end (docs/http_api.md), waited for too;
+`http_advertise` (--http-advertise, with http_listen) is the base URL its
+GetResult answers name as its front end. Each server
 runs in its own session, so teardown also ends local workers a SIGKILLed
 server left behind.
 
@@ -55,6 +57,7 @@ class FarmServer:
         extra_args: Sequence[str] = (),
         env: Optional[Dict[str, str]] = None,
         http_listen: Optional[str] = None,
+        http_advertise: Optional[str] = None,
     ) -> None:
         self.data_dir = data_dir
         self.local_workers = local_workers
@@ -68,6 +71,8 @@ class FarmServer:
         # --http-listen (HOST:PORT, port 0 = any); None: no HTTP front end.
         self.http_listen = http_listen
         self.http_address = ""  # HOST:PORT the front end listens on
+        # --http-advertise (a base URL, known before the start); None: none.
+        self.http_advertise = http_advertise
         self.log_path = data_dir.parent / f"{data_dir.name}.server.log"
         self._process: Optional[subprocess.Popen[bytes]] = None
         self._sessions: List[int] = []  # process groups to end at stop()
@@ -83,6 +88,7 @@ class FarmServer:
             f"--port-file={port_file}",
             "--log-level=info",
             *([f"--http-listen={self.http_listen}"] if self.http_listen is not None else []),
+            *([f"--http-advertise={self.http_advertise}"] if self.http_advertise is not None else []),
             *self.extra_args,
         ]
         log = open(self.log_path, "ab")

@@ -5,7 +5,13 @@ for byte what gRPC gives, with no gRPC server reachable; a front end that
 spoils the listing or a file (a fault-injecting proxy in front of the real
 one) falls back to gRPC with one warning and the exact result, or, with no
 gRPC either, fails naming the problem with nothing of the result installed;
-local failures are not retried over gRPC; bad farm_http values."""
+local failures are not retried over gRPC; bad farm_http values.
+
+The farm also advertises a front end (--http-advertise: a counting proxy in
+front of its own): a Client given none takes the large files from it and
+the rest over gRPC, a file it cannot give over ReadBlob, and gives it up
+after 3 such files in a row; "none" ignores it; a refused advertisement is
+one warning and gRPC."""
 from __future__ import annotations
 
 import base64
@@ -18,6 +24,7 @@ import os
 import socket
 import threading
 import urllib.error
+import urllib.parse
 import urllib.request
 from pathlib import Path
 from typing import Callable, Dict, Iterator, List, Optional, Tuple
@@ -27,6 +34,7 @@ import pytest
 
 import impostor
 from farm_process import FarmServer
+from impostor import _blobs, _farm_http
 from impostor.v1 import types_pb2 as pb
 
 TREE = "vegetation/TreeLowPoly_RicardoSanchez/scene.gltf"
@@ -34,6 +42,10 @@ TREE = "vegetation/TreeLowPoly_RicardoSanchez/scene.gltf"
 # and the quality pass's view images make many small files.
 SETTINGS = dict(frames=4, resolution=256, quality_views=4)
 LOGGER = "impostor.client"
+# The advertised front end's tests count a file over this many bytes as
+# large (no BatchReadBlobs batch carries it), in place of 1 MiB: the quick
+# bake's maps are smaller than that.
+LARGE = 64 << 10
 
 # A fault: (path, status, headers, body) -> the same, as the proxy sends it.
 Answer = Tuple[int, Dict[str, str], bytes]
@@ -49,8 +61,20 @@ class Baked:
 
 
 @pytest.fixture(scope="module")
-def http_farm(tmp_path_factory: pytest.TempPathFactory) -> Iterator[FarmServer]:
-    server = FarmServer(tmp_path_factory.mktemp("http_farm") / "data", http_listen="127.0.0.1:0")
+def advertised_proxy() -> Iterator["FaultyFrontEnd"]:
+    """The front end the farm advertises: a proxy in front of its own,
+    started first (its URL goes on the farm's command line); its upstream
+    is set once the farm listens."""
+    proxy = FaultyFrontEnd("")
+    yield proxy
+    proxy.close()
+
+
+@pytest.fixture(scope="module")
+def http_farm(tmp_path_factory: pytest.TempPathFactory, advertised_proxy: "FaultyFrontEnd") -> Iterator[FarmServer]:
+    server = FarmServer(tmp_path_factory.mktemp("http_farm") / "data", http_listen="127.0.0.1:0",
+                        http_advertise=advertised_proxy.url + "/")
+    advertised_proxy.upstream = server.http_url
     yield server
     server.stop()
 
@@ -82,7 +106,7 @@ class FaultyFrontEnd:
     through `fault` when set, and records each request's path and headers."""
 
     def __init__(self, upstream: str) -> None:
-        self.upstream = upstream
+        self.upstream = upstream  # read at each request
         self.fault: Optional[Fault] = None
         self.requests: List[Tuple[str, Dict[str, str]]] = []
         proxy = self
@@ -92,7 +116,7 @@ class FaultyFrontEnd:
                 proxy.requests.append((self.path, dict(self.headers.items())))
                 forwarded = {k: v for k, v in self.headers.items() if k.lower() in ("range", "authorization")}
                 try:
-                    with urllib.request.urlopen(urllib.request.Request(upstream + self.path, headers=forwarded),
+                    with urllib.request.urlopen(urllib.request.Request(proxy.upstream + self.path, headers=forwarded),
                                                 timeout=30) as r:
                         status, headers, body = r.status, dict(r.headers.items()), r.read()
                 except urllib.error.HTTPError as e:
@@ -360,11 +384,9 @@ def test_a_local_failure_is_not_retried_over_grpc(
     assert not fallback_warnings(caplog)
 
 
-def test_a_full_disk_while_a_file_streams_is_raised_as_it_is(
-        http_farm: FarmServer, baked: Baked, dead_address: str, tmp_path: Path,
-        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A write that fails under the HTTP read is the disk's failure, not a
-    broken connection: no retry, no gRPC, nothing installed."""
+def fill_the_disk_under(monkeypatch: pytest.MonkeyPatch, file_name: str) -> None:
+    """Every write into the file staged for `file_name` fails as on a full
+    disk (ENOSPC)."""
     from impostor import _result_install
 
     class FullDisk:
@@ -381,10 +403,18 @@ def test_a_full_disk_while_a_file_streams_is_raised_as_it_is(
 
     def staged_on_a_full_disk(self: "_result_install.StagedFile", path: Path) -> None:
         init(self, path)
-        if path.name == baked.last_map:
+        if path.name == file_name:
             self._file = FullDisk(self._file)  # type: ignore[assignment]
 
     monkeypatch.setattr(_result_install.StagedFile, "__init__", staged_on_a_full_disk)
+
+
+def test_a_full_disk_while_a_file_streams_is_raised_as_it_is(
+        http_farm: FarmServer, baked: Baked, dead_address: str, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A write that fails under the HTTP read is the disk's failure, not a
+    broken connection: no retry, no gRPC, nothing installed."""
+    fill_the_disk_under(monkeypatch, baked.last_map)
     caplog.set_level(logging.DEBUG, logger=LOGGER)
     with impostor.Client(dead_address, farm_http=http_farm.http_url) as c:
         with pytest.raises(impostor.ImpostorError) as caught:
@@ -461,3 +491,225 @@ def test_bad_client_options_are_refused_before_any_connection(dead_address: str,
     with pytest.raises(impostor.ImpostorError) as unreadable:
         impostor.Client(dead_address, farm_http="https://127.0.0.1:1", tls_ca=tmp_path / "missing.pem")
     assert unreadable.value.code == grpc.StatusCode.INVALID_ARGUMENT and "tls_ca" in unreadable.value.message
+
+
+# -- the front end the farm advertises (--http-advertise) ----------------------
+
+
+@pytest.fixture
+def advertised(advertised_proxy: FaultyFrontEnd, monkeypatch: pytest.MonkeyPatch) -> FaultyFrontEnd:
+    """The advertised proxy, without fault or requests; files over LARGE
+    bytes are the large ones."""
+    advertised_proxy.fault = None
+    advertised_proxy.requests.clear()
+    monkeypatch.setattr(_blobs, "BATCH_BLOB_MAX_BYTES", LARGE)
+    return advertised_proxy
+
+
+def large_files(baked: Baked) -> List[str]:
+    names = [name for name, body in baked.files.items() if len(body) > LARGE]
+    assert names, "the quick bake has files over LARGE bytes"
+    return names
+
+
+def file_requests(front: FaultyFrontEnd) -> List[str]:
+    """The names of the files asked of `front`, in order (nothing else is
+    expected: any other request shows as itself)."""
+    out = []
+    for path, _ in front.requests:
+        prefix, _, name = path.rpartition("/files/")
+        out.append(urllib.parse.unquote(name) if prefix else path)
+    return out
+
+
+def warnings_of(caplog: pytest.LogCaptureFixture, event: str) -> List[str]:
+    return [r.getMessage() for r in caplog.records
+            if r.name == LOGGER and r.levelno == logging.WARNING and f"event={event}" in r.getMessage()]
+
+
+class GrpcWatch:
+    """The Client's transport, counting its ReadBlob streams; `advertise`
+    (when set) replaces the front end GetResult's answers name."""
+
+    def __init__(self, inner: object, advertise: Optional[str] = None) -> None:
+        self._inner = inner
+        self._advertise = advertise
+        self.streams = 0
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._inner, name)
+
+    def read_blob(self, request: object, remaining_bytes: int) -> object:
+        self.streams += 1
+        return self._inner.read_blob(request, remaining_bytes)  # type: ignore[attr-defined]
+
+    def unary_with_initial_metadata(self, rpc: str, method: object, request: object,
+                                    timeout: Optional[float] = None) -> object:
+        response, metadata = self._inner.unary_with_initial_metadata(  # type: ignore[attr-defined]
+            rpc, method, request, timeout)
+        if self._advertise is not None:
+            key = _farm_http.FARM_HTTP_METADATA_KEY
+            metadata = [(k, v) for k, v in metadata if k != key] + [(key, self._advertise)]
+        return response, metadata
+
+
+def watched(client: impostor.Client, advertise: Optional[str] = None) -> GrpcWatch:
+    watch = GrpcWatch(client._transport, advertise)
+    client._transport = watch  # type: ignore[assignment]
+    return watch
+
+
+def test_the_large_files_come_from_the_front_end_the_farm_advertises(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    with impostor.Client(http_farm.address, token="s3cret-token") as c:
+        assert c.farm_http == "", "none given"
+        grpc_side = watched(c)
+        fetched = c.fetch(baked.key, tmp_path / "out")
+    assert files_in(tmp_path / "out") == baked.files, "byte for byte"
+    assert fetched.manifest == baked.manifest
+    assert sorted(file_requests(advertised)) == sorted(large_files(baked)), "each large file once, nothing else"
+    assert all(h.get("Authorization") == "Bearer s3cret-token" for _, h in advertised.requests)
+    assert grpc_side.streams == 0, "no ReadBlob: the small files came in batches"
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+
+
+def test_a_spoiled_large_file_from_the_advertised_front_end_comes_over_read_blob(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture) -> None:
+    spoiled = large_files(baked)[0]
+    advertised.fault = flip_a_byte_of(spoiled)
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    with impostor.Client(http_farm.address) as c:
+        grpc_side = watched(c)
+        c.fetch(baked.key, tmp_path / "out")
+    assert files_in(tmp_path / "out") == baked.files, "the exact result"
+    assert sorted(file_requests(advertised)) == sorted(large_files(baked))
+    assert grpc_side.streams == 1, "the spoiled file alone over ReadBlob"
+    (warning,) = warnings_of(caplog, "farm_http_fallback")
+    assert spoiled in warning and baked.key in warning and "the bytes hash to" in warning, warning
+    assert not warnings_of(caplog, "farm_http_given_up")
+
+
+@pytest.mark.parametrize("where", ["argument", "env"])
+def test_none_ignores_the_advertised_front_end(
+        where: str, http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    if where == "env":
+        monkeypatch.setenv("IMPOSTOR_FARM_HTTP", "none")
+    with impostor.Client(http_farm.address, **({"farm_http": "none"} if where == "argument" else {})) as c:
+        grpc_side = watched(c)
+        c.fetch(baked.key, tmp_path / "out")
+    assert files_in(tmp_path / "out") == baked.files
+    assert advertised.requests == [], "the front end was not asked"
+    assert grpc_side.streams == len(large_files(baked)), "the large files over ReadBlob"
+
+
+def test_a_configured_front_end_takes_no_advertised_one(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, front: FaultyFrontEnd, baked: Baked,
+        tmp_path: Path) -> None:
+    """Given one, the whole result comes from it; when it cannot give it, the
+    whole result over gRPC, as before: the advertised one is never asked."""
+    with impostor.Client(http_farm.address, farm_http=front.url) as c:
+        c.fetch(baked.key, tmp_path / "given")
+        front.fault = on_listing(lambda s, h, b: (500, h, b"no"))
+        c.fetch(baked.key, tmp_path / "fell_back")
+    assert files_in(tmp_path / "given") == baked.files and files_in(tmp_path / "fell_back") == baked.files
+    assert advertised.requests == []
+
+
+def test_a_refused_advertisement_warns_once_and_results_come_over_grpc(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture) -> None:
+    """An advertisement a client must not use (the farm checks its own flag
+    as the client does, so a GetResult answer is rewritten here): one
+    warning for the Client, every result over gRPC."""
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    with impostor.Client(http_farm.address) as c:
+        grpc_side = watched(c, advertise="http://user:secret@127.0.0.1:1")
+        c.fetch(baked.key, tmp_path / "one")
+        c.fetch(baked.key, tmp_path / "two")
+    assert files_in(tmp_path / "one") == baked.files and files_in(tmp_path / "two") == baked.files
+    assert grpc_side.streams == 2 * len(large_files(baked))
+    assert advertised.requests == []
+    (warning,) = warnings_of(caplog, "farm_http_advertisement_refused")
+    assert "carries credentials" in warning and "user:secret@127.0.0.1:1" in warning, warning
+
+
+def test_an_advertisement_is_checked_as_a_configured_front_end(caplog: pytest.LogCaptureFixture) -> None:
+    """With TLS gRPC only https://; one warning per value refused; a refused
+    value leaves the front end in use as it was."""
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    choice = _farm_http.AdvertisedFrontEnd(tls=True, token=None, ca_file=None, timeout_seconds=5)
+    choice.learn("http://farm.example:8080")
+    choice.learn("http://farm.example:8080")
+    assert choice.current() is None
+    (warning,) = warnings_of(caplog, "farm_http_advertisement_refused")
+    assert "plaintext" in warning and "https://" in warning, warning
+    choice.learn("https://farm.example/impostor/")
+    current = choice.current()
+    assert current is not None and current.base == "https://farm.example/impostor"
+    choice.learn("ftp://farm.example")
+    assert choice.current() is current
+    assert len(warnings_of(caplog, "farm_http_advertisement_refused")) == 2
+    plain = _farm_http.AdvertisedFrontEnd(tls=False, token=None, ca_file=None, timeout_seconds=5)
+    plain.learn("http://farm.example:8080")
+    assert plain.current() is not None and plain.current().base == "http://farm.example:8080"  # type: ignore
+
+
+def test_the_advertised_front_end_is_given_up_after_3_files_in_a_row(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture) -> None:
+    """Files asked of it fail, fail, pass, fail, fail, fail: the pass starts
+    the count over, the sixth request is the third failure in a row, and
+    nothing more is asked; every result is exact, over ReadBlob where the
+    front end did not give a file."""
+    failing = {0, 1, 3, 4, 5}
+    asked = [0]
+    lock = threading.Lock()
+
+    def fault(path: str, status: int, headers: Dict[str, str], body: bytes) -> Answer:
+        with lock:
+            n = asked[0]
+            asked[0] += 1
+        if n in failing:
+            return 503, {"Content-Type": "application/json"}, b'{"error":{"code":503,"message":"busy (test)"}}'
+        return status, headers, body
+
+    advertised.fault = fault
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    large = len(large_files(baked))
+    with impostor.Client(http_farm.address) as c:
+        grpc_side = watched(c)
+        fetches = 0
+        while not warnings_of(caplog, "farm_http_given_up"):
+            assert fetches < 6, "given up by the sixth file"
+            c.fetch(baked.key, tmp_path / f"out{fetches}")
+            assert files_in(tmp_path / f"out{fetches}") == baked.files
+            fetches += 1
+        assert len(advertised.requests) == 6
+        c.fetch(baked.key, tmp_path / "after")
+    assert files_in(tmp_path / "after") == baked.files
+    assert len(advertised.requests) == 6, "nothing asked once given up"
+    assert grpc_side.streams == (fetches + 1) * large - 1, "all but the one file the front end gave"
+    assert len(warnings_of(caplog, "farm_http_fallback")) == 5
+    (given_up,) = warnings_of(caplog, "farm_http_given_up")
+    assert advertised.url in given_up and "failures_in_a_row=3" in given_up and "HTTP 503" in given_up
+
+
+def test_a_full_disk_under_the_advertised_front_end_is_raised_as_it_is(
+        http_farm: FarmServer, advertised: FaultyFrontEnd, baked: Baked, tmp_path: Path,
+        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    victim = large_files(baked)[0]
+    fill_the_disk_under(monkeypatch, victim)
+    caplog.set_level(logging.DEBUG, logger=LOGGER)
+    with impostor.Client(http_farm.address) as c:
+        grpc_side = watched(c)
+        with pytest.raises(impostor.ImpostorError) as caught:
+            c.fetch(baked.key, tmp_path / "out")
+    assert caught.value.code == grpc.StatusCode.INTERNAL and caught.value.rpc is None, caught.value
+    assert victim in caught.value.message and "free space" in caught.value.message, caught.value
+    assert victim in file_requests(advertised) and grpc_side.streams == 0, "not tried again over ReadBlob"
+    assert files_in(tmp_path / "out") == {}, "nothing renamed in, no temporary left"
+    assert not warnings_of(caplog, "farm_http_fallback")
