@@ -26,7 +26,9 @@
 #    the farm's own HTTP front end (/api/v1/results/KEY/files/NAME) in the
 #    same rounds, and `impostor fetch` and `cache get` again with
 #    --farm-http (the result's large files from the farm's HTTP front end;
-#    bench/e2e_fetch.py); medians and the ratios (target <= 1.25); and
+#    bench/e2e_fetch.py), and the Python client's Client.fetch over gRPC and
+#    with farm_http when build/python holds it (bench/e2e_pyfetch.py: the
+#    fetch alone, and its process); medians and the ratios (target <= 1.25); and
 #    `impostor --version` against `curl --version`, 20 of each alternated
 #    (what every CLI run pays before its first byte). Installs
 #    Debian's nginx-light when no nginx is found, as bench/fetch_bench.sh.
@@ -139,6 +141,8 @@ mkdir "$work/bin" "$work/pids"
 for b in impostor-server impostor-worker impostor bake_stages isolated_load_bench; do
   cp -p "$build/bin/$b" "$work/bin/$b"
 done
+# The Python client, when built (bench/e2e_pyfetch.py times its fetch).
+if [[ -d "$build/python/impostor" ]]; then cp -rp "$build/python" "$work/python"; fi
 newest=$(stat -c '%y' "$work"/bin/* | cut -c1-19 | sort | tail -n 1)
 echo "e2e_bench: binaries copied from $build/bin (the newest built $newest)"
 

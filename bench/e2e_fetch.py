@@ -1,4 +1,5 @@
-"""Step 4 of bench/e2e_bench.sh: `impostor fetch`, `impostor cache get` and
+"""Step 4 of bench/e2e_bench.sh: `impostor fetch`, `impostor cache get`, the Python
+client's `Client.fetch` (when built) and
 `impostor bake-batch` of real results, each over gRPC alone and with the
 farm's HTTP front end (--farm-http), against nginx + curl serving the same
 files, in rotated rounds. Mixed into e2e_bench.py's Bench (it uses the
@@ -9,6 +10,7 @@ import signal
 import subprocess
 import time
 import urllib.parse
+from pathlib import Path
 
 from e2e_errors import BenchError
 from e2e_util import LAYOUT, free_port, log, median, proc_cpu, span, tail
@@ -29,6 +31,26 @@ class FetchSteps:
     def cache_get_cmd(self, key, cache_dir, http=False):
         return [self.bin / "impostor", "cache", "get", key, "--cache-dir", cache_dir, "--server", self.grpc,
                 "--token-file", self.token, "--quiet", *self.farm_http_flag(http)]
+
+    def python_client(self):
+        """(interpreter, env) that import the built Python client
+        (BUILD/python, copied by e2e_bench.sh), or None: its rows are then
+        left out. Debian's /usr/bin/python3 first, as CTest runs it (it has
+        python3-grpcio)."""
+        package = self.build / "python"
+        if not (package / "impostor").is_dir():
+            return None
+        interpreter = "/usr/bin/python3" if Path("/usr/bin/python3").exists() else "python3"
+        env = dict(self.env, PYTHONPATH=str(package), PYTHONDONTWRITEBYTECODE="1")
+        probe = subprocess.run([interpreter, "-c", "import impostor"], env=env, capture_output=True, text=True)
+        if probe.returncode != 0:
+            log(f"fetch: the Python client's rows left out (import impostor: {probe.stderr.strip()[-200:]})")
+            return None
+        return interpreter, env
+
+    def python_fetch_cmd(self, interpreter, key, out, http):
+        return [interpreter, Path(__file__).resolve().parent / "e2e_pyfetch.py", key, out, self.grpc, self.token,
+                f"http://{self.http}" if http else "none"]
 
     def start_nginx(self, www, name, probe):
         """nginx serving `www` on a free loopback port, answering `probe`
@@ -118,7 +140,11 @@ class FetchSteps:
         cache_s, cache_cpu, farm_s = [], [], []
         http_s, http_cpu, http_server_cpu, cache_http_s, cache_http_cpu = [], [], [], [], []
         # Rotated, so that no client always runs first (or right after another).
+        py_s, py_wall, py_http_s, py_http_wall = [], [], [], []
         clients = ["curl", "fetch", "cache", "farm-http", "fetch-http", "cache-http"]
+        python = self.python_client()
+        if python is not None:
+            clients += ["py", "py-http"]
         orders = [clients[k:] + clients[:k] for k in range(len(clients))]
         for i in range(self.a.fetch_pairs):
             for what in orders[i % len(orders)]:
@@ -127,6 +153,17 @@ class FetchSteps:
                     wall, _, cpu = self.run("curl", curl(dest), stderr=subprocess.PIPE)
                     curl_s.append(wall)
                     curl_cpu.append(cpu)
+                elif what in ("py", "py-http"):
+                    # impostor.Client.fetch (farm_http="none" / the front end):
+                    # the process's wall, and the fetch alone as it reports it.
+                    interpreter, env = python
+                    wall, r, _ = self.run("Python Client.fetch",
+                                          self.python_fetch_cmd(interpreter, key, dest, what == "py-http"), env=env,
+                                          stderr=subprocess.PIPE)
+                    if "farm_http_fetch_fallback" in r.stderr:
+                        raise BenchError(what, f"fell back to gRPC:\n{r.stderr[-1500:]}")
+                    (py_wall if what == "py" else py_http_wall).append(wall)
+                    (py_s if what == "py" else py_http_s).append(json.loads(r.stdout.strip().splitlines()[-1])["seconds"])
                 elif what == "farm-http":
                     wall, _, _ = self.run("curl from the farm", farm_curl(dest), stderr=subprocess.PIPE)
                     farm_s.append(wall)
@@ -171,7 +208,8 @@ class FetchSteps:
                 "curl_cpu": curl_cpu,
                 "fetch_cpu": fetch_cpu, "server_cpu": server_cpu, "cache": cache_s, "cache_cpu": cache_cpu,
                 "farm_http": farm_s, "fetch_http": http_s, "fetch_http_cpu": http_cpu,
-                "http_server_cpu": http_server_cpu, "cache_http": cache_http_s, "cache_http_cpu": cache_http_cpu}
+                "http_server_cpu": http_server_cpu, "cache_http": cache_http_s, "cache_http_cpu": cache_http_cpu,
+                "py": py_s, "py_wall": py_wall, "py_http": py_http_s, "py_http_wall": py_http_wall}
 
     def start_up(self, curl, runs=20):
         """`impostor --version` against `curl --version`, alternated: what
@@ -290,4 +328,19 @@ class FetchSteps:
             f"| curl from the farm's HTTP front end (median of {len(fetch['farm_http'])}) | "
             f"{median(fetch['farm_http']):.3f} s ({span(fetch['farm_http'], 3)}) | same files, one connection, "
             f"`/api/v1/results/KEY/files/NAME` with a token; {median(fetch['farm_http']) / cm:.2f}× nginx |",
+            *self.python_rows(fetch, cm),
+        ]
+
+    def python_rows(self, fetch, cm):
+        """The Python client's rows, when it ran (python_client)."""
+        if not fetch.get("py"):
+            return []
+        return [
+            f"| Python `Client.fetch` over gRPC (median of {len(fetch['py'])}) | {median(fetch['py']):.3f} s "
+            f"({span(fetch['py'], 3)}) | the fetch alone ({median(fetch['py']) / cm:.2f}× nginx + curl); the "
+            f"process, interpreter and imports included, {median(fetch['py_wall']):.3f} s |",
+            f"| Python `Client.fetch` with `farm_http` (median of {len(fetch['py_http'])}) | "
+            f"{median(fetch['py_http']):.3f} s ({span(fetch['py_http'], 3)}) | the listing and every file from the "
+            f"front end ({median(fetch['py_http']) / cm:.2f}× nginx + curl); the process "
+            f"{median(fetch['py_http_wall']):.3f} s |",
         ]
