@@ -11,6 +11,7 @@ since the last answer. Retries, resumed watches and resumed downloads thus
 land on a live replica."""
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 import time
@@ -116,19 +117,22 @@ def parse_server_list(server: str) -> List[str]:
     return entries
 
 
-def check_options(
-    server: str,
-    *,
-    tls_ca: Optional["str | os.PathLike[str]"],
-    tls_cert: Optional["str | os.PathLike[str]"],
-    tls_key: Optional["str | os.PathLike[str]"],
-    rpc_timeout_seconds: float,
-    max_attempts: int,
-    max_outage_seconds: float,
-    connect_timeout_seconds: float,
-    keepalive_seconds: int,
-    read_files: bool = True,
-) -> List[str]:
+@dataclasses.dataclass(frozen=True)
+class TransportOptions:
+    """A Transport's options, as the Client takes them (client.py says what
+    each means): checked by check_options."""
+
+    tls_ca: Optional["str | os.PathLike[str]"] = None
+    tls_cert: Optional["str | os.PathLike[str]"] = None
+    tls_key: Optional["str | os.PathLike[str]"] = None
+    rpc_timeout_seconds: float = 30.0
+    max_attempts: int = 5
+    max_outage_seconds: float = 300.0
+    connect_timeout_seconds: float = 10.0
+    keepalive_seconds: int = 20
+
+
+def check_options(server: str, options: TransportOptions, *, read_files: bool = True) -> List[str]:
     """The checks of Transport's options, without connecting: the addresses
     of `server` (parse_server_list), or INVALID_ARGUMENT naming the option
     out of range. `read_files`: also read the TLS files (Transport reads
@@ -140,24 +144,24 @@ def check_options(
         return ImpostorError(grpc.StatusCode.INVALID_ARGUMENT, message)
 
     targets = parse_server_list(server or "")
-    if not rpc_timeout_seconds > 0:
-        raise invalid(f"rpc_timeout_seconds: must be > 0, got {rpc_timeout_seconds}")
-    if not connect_timeout_seconds > 0:
-        raise invalid(f"connect_timeout_seconds: must be > 0, got {connect_timeout_seconds}")
-    if max_attempts < 1:
-        raise invalid(f"max_attempts: must be >= 1, got {max_attempts}")
-    if isinstance(keepalive_seconds, bool) or not isinstance(keepalive_seconds, int) or not (
-        1 <= keepalive_seconds <= _MAX_KEEPALIVE_SECONDS
+    if not options.rpc_timeout_seconds > 0:
+        raise invalid(f"rpc_timeout_seconds: must be > 0, got {options.rpc_timeout_seconds}")
+    if not options.connect_timeout_seconds > 0:
+        raise invalid(f"connect_timeout_seconds: must be > 0, got {options.connect_timeout_seconds}")
+    if options.max_attempts < 1:
+        raise invalid(f"max_attempts: must be >= 1, got {options.max_attempts}")
+    if isinstance(options.keepalive_seconds, bool) or not isinstance(options.keepalive_seconds, int) or not (
+        1 <= options.keepalive_seconds <= _MAX_KEEPALIVE_SECONDS
     ):
         raise invalid(
-            f"keepalive_seconds: {keepalive_seconds!r} is not a whole number of seconds in 1..{_MAX_KEEPALIVE_SECONDS}"
+            f"keepalive_seconds: {options.keepalive_seconds!r} is not a whole number of seconds in 1..{_MAX_KEEPALIVE_SECONDS}"
         )
-    if not 0 <= max_outage_seconds <= _MAX_OUTAGE_SECONDS:
-        raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {max_outage_seconds}")
-    if (tls_cert is None) != (tls_key is None):
+    if not 0 <= options.max_outage_seconds <= _MAX_OUTAGE_SECONDS:
+        raise invalid(f"max_outage_seconds: must be in 0..{_MAX_OUTAGE_SECONDS:g}, got {options.max_outage_seconds}")
+    if (options.tls_cert is None) != (options.tls_key is None):
         raise invalid("tls_cert and tls_key: give both (client certificate for mTLS) or neither")
     if read_files:
-        for path, what in ((tls_ca, "tls_ca"), (tls_key, "tls_key"), (tls_cert, "tls_cert")):
+        for path, what in ((options.tls_ca, "tls_ca"), (options.tls_key, "tls_key"), (options.tls_cert, "tls_cert")):
             if path is not None:
                 _read_bytes(path, what)
     return targets
@@ -336,31 +340,17 @@ class Transport:
     def __init__(
         self,
         server: str,
+        options: TransportOptions,
         *,
         token: Optional[str],
-        tls_ca: Optional["str | os.PathLike[str]"],
-        tls_cert: Optional["str | os.PathLike[str]"],
-        tls_key: Optional["str | os.PathLike[str]"],
-        rpc_timeout_seconds: float,
-        max_attempts: int,
-        max_outage_seconds: float,
-        connect_timeout_seconds: float,
         client_id: str,
         on_connection_change: Optional[Callable[[ConnectionEvent], None]],
-        keepalive_seconds: int = 20,
     ) -> None:
-        targets = check_options(
-            server,
-            tls_ca=tls_ca,
-            tls_cert=tls_cert,
-            tls_key=tls_key,
-            rpc_timeout_seconds=rpc_timeout_seconds,
-            max_attempts=max_attempts,
-            max_outage_seconds=max_outage_seconds,
-            connect_timeout_seconds=connect_timeout_seconds,
-            keepalive_seconds=keepalive_seconds,
-            read_files=False,
-        )
+        targets = check_options(server, options, read_files=False)
+        tls_ca, tls_cert, tls_key = options.tls_ca, options.tls_cert, options.tls_key
+        rpc_timeout_seconds, max_attempts = options.rpc_timeout_seconds, options.max_attempts
+        max_outage_seconds, keepalive_seconds = options.max_outage_seconds, options.keepalive_seconds
+        connect_timeout_seconds = options.connect_timeout_seconds
         self.server = server
         self.rpc_timeout_seconds = rpc_timeout_seconds
         self.max_attempts = max_attempts
@@ -384,13 +374,13 @@ class Transport:
                 private_key=_read_bytes(tls_key, "tls_key") if tls_key is not None else None,
                 certificate_chain=_read_bytes(tls_cert, "tls_cert") if tls_cert is not None else None,
             )
-        options = _CHANNEL_OPTIONS + keepalive_options(keepalive_seconds)
+        channel_options = _CHANNEL_OPTIONS + keepalive_options(keepalive_seconds)
         self._routes: List[_Route] = []
         for target in targets:
             channel = (
-                grpc.secure_channel(target, credentials, options=options)
+                grpc.secure_channel(target, credentials, options=channel_options)
                 if credentials is not None
-                else grpc.insecure_channel(target, options=options)
+                else grpc.insecure_channel(target, options=channel_options)
             )
             self._routes.append(_Route(target, channel))
         self._lock = threading.Lock()

@@ -35,7 +35,7 @@ from ._mesh_files import MeshFiles, collect_mesh_files
 from ._result_install import MANIFEST_FILE_NAME as MANIFEST_FILE_NAME  # this module's name as before
 from ._result_install import Staging, install_result, manifest_problem
 from ._retry import ConnectionEvent
-from ._transport import Transport, check_options, resolve_token
+from ._transport import Transport, TransportOptions, check_options, resolve_token
 from .errors import ImpostorError, status_code_from_int
 from .results import BakeResult, BatchSubmission, FetchResult, JobUpdate, LookupResult, SubmitResult
 from .settings import BakeSettings
@@ -203,7 +203,7 @@ class Client:
         farm_http: Optional[str] = None,
     ) -> None:
         resolved_token = resolve_token(token, os.path.expanduser(token_file) if token_file else None)
-        options: Dict[str, Any] = dict(
+        options = TransportOptions(
             tls_ca=tls_ca,
             tls_cert=tls_cert,
             tls_key=tls_key,
@@ -223,7 +223,7 @@ class Client:
         # The front end the farm advertises, when none is given nor turned off.
         self._advertised: Optional[AdvertisedFrontEnd] = None
         if base:
-            check_options(server, **options)
+            check_options(server, options)
             self._front_end = FrontEnd(
                 base, token=resolved_token, ca_file=tls_ca, timeout_seconds=float(rpc_timeout_seconds)
             )
@@ -232,11 +232,7 @@ class Client:
                 tls=tls, token=resolved_token, ca_file=tls_ca, timeout_seconds=float(rpc_timeout_seconds)
             )
         self._connect: Callable[[], Transport] = lambda: Transport(
-            server,
-            token=resolved_token,
-            client_id=client_id,
-            on_connection_change=on_connection_change,
-            **options,
+            server, options, token=resolved_token, client_id=client_id, on_connection_change=on_connection_change
         )
         if self._front_end is None:
             self._transport = self._connect()
