@@ -39,6 +39,9 @@ class AtomicFileWriter {
   void Abort();
 
   const std::filesystem::path& temp_path() const { return temp_path_; }
+  // The temporary file's descriptor (-1 once committed or aborted): for an
+  // early sync (early_sync.h), which keeps its own duplicate.
+  int fd() const { return fd_; }
 
  private:
   AtomicFileWriter(std::filesystem::path destination, std::filesystem::path temp_path, int fd);

@@ -19,6 +19,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "client/base/early_sync.h"
 #include "client/base/local_io_error.h"
 #include "client/cache/prefetched_blobs.h"
 #include "client/transfer/farm_http_fetch.h"
@@ -294,6 +295,9 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     it->links.push_back(staged / f.name);
   }
   size_t kept_open = 0;
+  // The large blobs' flush starts as each is complete, while the rest
+  // download (early_sync.h); SyncStagedFiles then finds little left.
+  EarlySync early_sync;
   for (Blob& blob : blobs) {
     absl::StatusOr<BlobOutcome> got = absl::UnknownError("not fetched");
     std::vector<std::string> failures;
@@ -333,6 +337,7 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     }
     outcome.bytes_downloaded += got->bytes_downloaded;
     outcome.bytes_resumed += got->bytes_resumed;
+    early_sync.Add(got->file.get(), blob.digest.size_bytes(), blob.links.front());
     if (kept_open < kMaxFilesKeptOpen && got->file.valid()) {
       blob.fd = got->file.get();
       ++kept_open;
@@ -346,6 +351,7 @@ absl::StatusOr<InstallOutcome> Install(const InstallPlan& plan, const CacheLayou
     }
   }
 
+  if (absl::Status s = early_sync.Finish(); !s.ok()) return s;
   std::vector<StagedFile> staged_files;
   for (const Blob& blob : blobs) staged_files.push_back({blob.links.front(), blob.fd});
   if (absl::Status s = SyncStagedFiles(staged_files); !s.ok()) return s;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "client/base/early_sync.h"
 #include "client/transfer/blob_batch.h"
 #include "client/transfer/blob_download.h"
 #include "client/transfer/farm_http_fetch.h"
@@ -152,11 +153,15 @@ absl::StatusOr<FetchResult> InstallResultFiles(const v1::Manifest& manifest, con
   const std::vector<std::vector<size_t>> batches = PackBlobBatches(small);
   std::mutex unbatched_mu;
   std::vector<size_t> unbatched;  // files of batches the server could not answer
+  // The large files' flush starts as each is complete, while the rest
+  // download (early_sync.h); CommitAll then finds little left to wait for.
+  EarlySync early_sync;
   std::vector<std::unique_ptr<AtomicFileWriter>> downloaded(wanted.size());
   auto stream_file = [&](size_t i, const CancelSource& cancel) {
     absl::StatusOr<std::unique_ptr<AtomicFileWriter>> staged =
         roads.stream(wanted[i].path.filename().string(), wanted[i].digest, wanted[i].path, cancel);
     if (!staged.ok()) return staged.status();
+    early_sync.Add((*staged)->fd(), wanted[i].digest.size_bytes(), wanted[i].path);
     downloaded[i] = std::move(*staged);
     return absl::OkStatus();
   };
@@ -200,6 +205,7 @@ absl::StatusOr<FetchResult> InstallResultFiles(const v1::Manifest& manifest, con
                                   [&](size_t n, const CancelSource& cancel) { return stream_file(unbatched[n], cancel); });
   }
   if (!status.ok()) return status;
+  if (absl::Status s = early_sync.Finish(); !s.ok()) return s;
   std::vector<std::unique_ptr<AtomicFileWriter>> staged;
   for (std::unique_ptr<AtomicFileWriter>& file : downloaded) {
     if (file != nullptr) staged.push_back(std::move(file));
