@@ -396,14 +396,20 @@ Stream = Callable[[str, Path, "pb.Digest", Staging], None]
 
 def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb.Digest"]], staging: Staging,
                     stream: Optional[Stream] = None) -> None:
-    """install_result's gRPC road: small files many to a BatchReadBlobs call
-    (one round trip for a result's view images and manifest); the rest, and
-    everything from a server older than the call, one `stream` each (by
-    default a ReadBlob stream)."""
+    """install_result's gRPC road: the large files first, one `stream` each
+    (by default a ReadBlob stream); then the small ones many to a
+    BatchReadBlobs call (one round trip for a result's view images and
+    manifest), or one stream each from a server older than the call."""
     def over_read_blob(name: str, path: Path, digest: "pb.Digest", staging: Staging) -> None:
         download_blob_to_staged(transport, digest, staging.stage(path))
 
     one_each = stream if stream is not None else over_read_blob
+    # The large files first, largest first: each is complete once the next
+    # is staged, and its flush to disk then overlaps the rest of the fetch
+    # (_result_install.EarlySync); the last file staged is a small one.
+    for name, path, digest in sorted((f for f in missing if f[2].size_bytes > BATCH_BLOB_MAX_BYTES),
+                                     key=lambda f: -f[2].size_bytes):
+        one_each(name, path, digest, staging)
     small = [(path, digest) for _, path, digest in missing if digest.size_bytes <= BATCH_BLOB_MAX_BYTES]
     staged: Set[Path] = set()
     for batch in pack_batches([digest.size_bytes for _, digest in small]):
@@ -414,8 +420,8 @@ def stage_over_grpc(transport: Transport, missing: Sequence[Tuple[str, Path, "pb
             staging.stage(small[i][0]).write(data)  # verified by read_blob_batch
             staged.add(small[i][0])
     for name, path, digest in missing:
-        if path not in staged:
-            one_each(name, path, digest, staging)
+        if path not in staged and digest.size_bytes <= BATCH_BLOB_MAX_BYTES:
+            one_each(name, path, digest, staging)  # a server older than BatchReadBlobs
 
 
 def download_blob_to_bytes(transport: Transport, digest: "pb.Digest") -> bytes:

@@ -231,7 +231,9 @@ class FrontEnd:
         its staged file, SHA-256 and size checked as it streams. Raises
         FrontEndFailure naming the URL and the digest; a local write error
         is ImpostorError INTERNAL (StagedFile), raised as it is."""
-        for name, path, digest in missing:
+        # Largest first: each is complete once the next is staged, and its
+        # flush to disk then overlaps the rest (_result_install.EarlySync).
+        for name, path, digest in sorted(missing, key=lambda f: -f[2].size_bytes):
             self.read_file(cache_key, name, digest, staging.stage(path))
 
     def read_file(self, cache_key: str, name: str, digest: "pb.Digest", staged: StagedFile) -> None:
