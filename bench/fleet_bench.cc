@@ -367,13 +367,20 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "fleet_bench: warming the edge failed: %s\n", w.first_error.c_str());
       return 1;
     }
-    fs::remove_all(work / "warm");
   }
 
   const auto blob_sizes = release->BlobSizes();
   std::vector<Row> rows;
   std::vector<const Row*> sdk_rows, curl_rows;
   rows.reserve(static_cast<size_t>(2 * rounds));
+  // Every round's files (and the warm-up's) stay until the end. Deleted
+  // between rounds, they made the next round's client pay for them: on an
+  // ext4 without a journal (this project's VMs) creating an inode steps
+  // over every inode of its group deleted in the last minute, one lookup
+  // each (ext4's recently_deleted(), which a journal makes unnecessary), so
+  // a round that followed the deletion of the previous one's ~6,000 files
+  // spent about a third of its CPU there (2026-12-05: curl ran 2.0x and
+  // the SDK 1.6x as fast once the files stayed).
   for (int r = 0; r < rounds; ++r) {
     for (int turn = 0; turn < 2; ++turn) {
       const bool sdk_turn = (turn == 0) == (r % 2 == 0);
@@ -414,7 +421,6 @@ int main(int argc, char** argv) {
       // Includes closing the players' caches (their threads' exit).
       row.m.cpu_seconds = ProcessCpuSeconds() - cpu_before;
       if (!row.m.first_error.empty()) std::fprintf(stderr, "fleet_bench: %s: %s\n", row.label.c_str(), row.m.first_error.c_str());
-      fs::remove_all(root);
       rows.push_back(std::move(row));
       (sdk_turn ? sdk_rows : curl_rows).push_back(&rows.back());
     }
